@@ -1,0 +1,43 @@
+# The two commands a newcomer needs: `make run` and `make test`.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+# Re-install whenever pyproject.toml changes.
+STAMP_RUN  := $(VENV)/.stamp-run
+STAMP_DEV  := $(VENV)/.stamp-dev
+
+.PHONY: run test test-fast bench clean venv
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+
+$(STAMP_RUN): pyproject.toml | $(PY)
+	$(PY) -m pip install -q -e .
+	touch $@
+
+$(STAMP_DEV): pyproject.toml | $(PY)
+	$(PY) -m pip install -q -e '.[dev]'
+	touch $(STAMP_RUN) $@
+
+venv: $(STAMP_RUN)
+
+## make run: set everything up and start the commander with the simulated robot
+run: $(STAMP_RUN)
+	$(VENV)/bin/parolkit gui --sim
+
+## make test: set everything up and run every test (unit, integration, browser)
+test: $(STAMP_DEV)
+	./scripts/ensure-chromium.sh
+	$(PY) -m pytest -q
+
+## make test-fast: unit tests only
+test-fast: $(STAMP_DEV)
+	$(PY) -m pytest -q tests/unit
+
+## make bench: run every benchmark script and print its figures
+bench: $(STAMP_DEV)
+	for b in bench/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+
+clean:
+	rm -rf $(VENV) build *.egg-info src/*.egg-info .pytest_cache

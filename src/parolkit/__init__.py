@@ -1,0 +1,27 @@
+"""parolkit: an open-source control stack for the PAROL6 robot arm.
+
+Importing the package is cheap (no numpy): the sub-packages load what they need.
+The object API for scripts is ``parolkit.Robot`` / ``parolkit.AsyncRobot`` (loaded lazily).
+"""
+
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+__all__ = ["__version__", "Robot", "AsyncRobot"]
+
+
+def __getattr__(name: str):
+    if name == "Robot":
+        from parolkit.client.robot import Robot
+
+        return Robot
+    if name == "AsyncRobot":
+        from parolkit.client.async_robot import AsyncRobot
+
+        return AsyncRobot
+    if name == "robot_api":
+        import importlib
+
+        return importlib.import_module("parolkit.client.robot_api")
+    raise AttributeError(f"module 'parolkit' has no attribute {name!r}")

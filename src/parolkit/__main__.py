@@ -1,0 +1,7 @@
+"""``python -m parolkit`` is the ``parolkit`` command."""
+
+import sys
+
+from parolkit.cli import main
+
+sys.exit(main())

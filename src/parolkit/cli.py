@@ -1,0 +1,80 @@
+"""The ``parolkit`` command.
+
+Each sub-command lives in the module that owns it; this file only dispatches.  A module in
+:data:`SUBCOMMANDS` provides ``register(subparsers) -> argparse.ArgumentParser`` and the
+parser it returns has ``func(args) -> int`` set as a default.  Modules are imported only when
+needed, so ``parolkit serve`` does not pay for the GUI's imports.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from parolkit import __version__
+
+#: sub-command name -> (module, one-line help)
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "serve": ("parolkit.controller.cli", "run the headless controller (UDP server + 100 Hz loop)"),
+    "board-sim": ("parolkit.board.cli", "emulate a PAROL6 control board on a pseudo-terminal"),
+    "board-test": ("parolkit.board.testtool", "exercise one board function at a time"),
+    "gui": ("parolkit.gui.cli", "start the browser commander"),
+    "run": ("parolkit.script.cli", "run an RBTscript program"),
+    "check": ("parolkit.script.cli", "check RBTscript programs without running them"),
+    "fmt": ("parolkit.script.cli", "format RBTscript programs"),
+    "plan": ("parolkit.motion.cli", "plan one move and print or plot its trajectory"),
+}
+
+
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="parolkit",
+        description="parolkit: control stack for the PAROL6 robot arm.",
+    )
+    parser.add_argument("--version", action="version", version=f"parolkit {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module, help_text) in SUBCOMMANDS.items():
+        if only is not None and name != only:
+            # a light placeholder keeps `parolkit --help` complete without importing everything
+            sub.add_parser(name, help=help_text, add_help=False)
+            continue
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name and exc.name.startswith("parolkit"):
+                sub.add_parser(name, help=f"{help_text} (not available in this build)")
+                continue
+            raise
+        mod.register(sub, name)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = next((a for a in argv if not a.startswith("-")), None)
+    parser = build_parser(only=command if command in SUBCOMMANDS else None)
+    if command not in SUBCOMMANDS:
+        # no or unknown command: let argparse print help / the error with every choice
+        if command is None and not argv:
+            parser.print_help()
+            return 2
+        parser.parse_args(argv)
+        return 2
+    args = parser.parse_args(argv)
+    func = getattr(args, "func", None)
+    if func is None:
+        parser.error(f"'{command}' is not available in this build")
+    try:
+        return int(func(args) or 0)
+    except KeyboardInterrupt:
+        return 130
+
+
+def serve_main() -> int:
+    """``headless-commander``: the same as ``parolkit serve``."""
+    return main(["serve", *sys.argv[1:]])
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,239 @@
+"""One configuration object for the whole stack, loaded from one TOML file.
+
+Precedence: built-in defaults < TOML file < CLI flags (passed as ``overrides``).
+
+Example ``parolkit.toml``::
+
+    [robot]
+    max_speed_steps_s = [15000, 25000, 32000, 10000, 10000, 27000]
+
+    [controller]
+    rate_hz = 250
+    udp_port = 5001
+
+    [serial]
+    port = "/dev/ttyACM0"
+
+    [gui]
+    http_port = 8080
+
+    [tools.pen]           # a user tool: pose of the TCP in the flange frame, mm / deg
+    pose = [0, 0, 120, 0, 0, 0]
+
+Unknown sections or keys are an error that names them (a typo never silently does nothing).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+from parolkit.errors import ParolkitValueError
+from parolkit.robot import PAROL6, RobotModel
+
+__all__ = [
+    "ControllerSettings",
+    "SerialSettings",
+    "GuiSettings",
+    "ToolSettings",
+    "Config",
+    "load_config",
+    "DEFAULT_CONFIG_PATHS",
+]
+
+#: Searched in order when no path is given; the first that exists is used.
+DEFAULT_CONFIG_PATHS = (Path("parolkit.toml"), Path.home() / ".config" / "parolkit" / "parolkit.toml")
+
+
+@dataclass(frozen=True)
+class ControllerSettings:
+    """The headless controller (``parolkit serve``)."""
+
+    #: control loop rate, Hz (one command frame per tick)
+    rate_hz: float = 100.0
+    #: address the UDP server binds; anything but loopback prints a warning
+    bind: str = "127.0.0.1"
+    #: UDP command port
+    udp_port: int = 5001
+    #: UDP port acknowledgements are sent to (on the sender's address)
+    ack_port: int = 5002
+    #: maximum queued motion commands; more are refused with a FAILED ack
+    queue_size: int = 256
+    #: home automatically at start-up when the board is simulated
+    home_on_start: bool = True
+    #: serial silence (ticks without a status frame) that counts as a lost link
+    link_timeout_ticks: int = 3
+    #: streaming jog watchdog: motion stops when no update arrived for this long, s
+    stream_watchdog_s: float = 0.02
+    #: time scale of the simulated board's homing (1 = real time)
+    sim_homing_speedup: float = 20.0
+
+    def __post_init__(self) -> None:
+        _positive(self.rate_hz, "controller.rate_hz", hi=1000.0)
+        _port(self.udp_port, "controller.udp_port")
+        _port(self.ack_port, "controller.ack_port")
+        _int_range(self.queue_size, "controller.queue_size", 1, 100_000)
+        _int_range(self.link_timeout_ticks, "controller.link_timeout_ticks", 1, 1000)
+        _positive(self.stream_watchdog_s, "controller.stream_watchdog_s", hi=10.0)
+        _positive(self.sim_homing_speedup, "controller.sim_homing_speedup", hi=10_000.0)
+        if not isinstance(self.bind, str) or not self.bind:
+            raise ParolkitValueError("controller.bind must be a host address string")
+        if not isinstance(self.home_on_start, bool):
+            raise ParolkitValueError("controller.home_on_start must be true or false")
+
+    @property
+    def period_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+@dataclass(frozen=True)
+class SerialSettings:
+    """The board link. ``port=None`` means the in-process simulated board."""
+
+    port: str | None = None
+    baud: int = 3_000_000
+
+    def __post_init__(self) -> None:
+        if self.port is not None and (not isinstance(self.port, str) or not self.port):
+            raise ParolkitValueError("serial.port must be a device path such as /dev/ttyACM0")
+        _int_range(self.baud, "serial.baud", 1200, 12_000_000)
+
+    @property
+    def simulated(self) -> bool:
+        return self.port is None
+
+
+@dataclass(frozen=True)
+class GuiSettings:
+    """The web commander (``parolkit gui``)."""
+
+    http_port: int = 8080
+    host: str = "127.0.0.1"
+    open_browser: bool = True
+
+    def __post_init__(self) -> None:
+        _port(self.http_port, "gui.http_port")
+
+
+@dataclass(frozen=True)
+class ToolSettings:
+    """A user tool: the TCP pose in the flange frame, [x, y, z mm, A, B, C deg]."""
+
+    name: str
+    pose: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.pose) != 6 or not all(
+            isinstance(v, (int, float)) and math.isfinite(v) for v in self.pose
+        ):
+            raise ParolkitValueError(f"tools.{self.name}.pose must be 6 finite numbers (mm, deg)")
+        object.__setattr__(self, "pose", tuple(float(v) for v in self.pose))
+
+
+@dataclass(frozen=True)
+class Config:
+    """Everything configurable, in one object."""
+
+    robot: RobotModel = PAROL6
+    controller: ControllerSettings = field(default_factory=ControllerSettings)
+    serial: SerialSettings = field(default_factory=SerialSettings)
+    gui: GuiSettings = field(default_factory=GuiSettings)
+    tools: tuple[ToolSettings, ...] = ()
+    source: str | None = None
+
+    def with_overrides(self, overrides: Mapping[str, Mapping[str, Any]]) -> "Config":
+        """Apply ``{"controller": {"rate_hz": 250}, ...}``; ``None`` values are ignored."""
+        return _apply(self, overrides, origin="command line")
+
+
+def _positive(v: object, name: str, hi: float) -> None:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= hi:
+        raise ParolkitValueError(f"{name} must be a number in (0, {hi:g}], got {v!r}")
+
+
+def _int_range(v: object, name: str, lo: int, hi: int) -> None:
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise ParolkitValueError(f"{name} must be an integer in {lo}..{hi}, got {v!r}")
+
+
+def _port(v: object, name: str) -> None:
+    _int_range(v, name, 1, 65535)
+
+
+_SECTIONS = {"controller": ControllerSettings, "serial": SerialSettings, "gui": GuiSettings}
+_ROBOT_FIELDS = {f.name for f in dataclasses.fields(RobotModel)} - {"dh"}
+
+
+def _apply(cfg: Config, data: Mapping[str, Any], origin: str) -> Config:
+    if not isinstance(data, Mapping):
+        raise ParolkitValueError(f"{origin}: configuration must be a table")
+    changes: dict[str, Any] = {}
+    for section, values in data.items():
+        if section == "tools":
+            if not isinstance(values, Mapping):
+                raise ParolkitValueError(f"{origin}: [tools] must be a table of tables")
+            tools = {t.name: t for t in cfg.tools}
+            for name, spec in values.items():
+                if not isinstance(spec, Mapping) or set(spec) != {"pose"}:
+                    raise ParolkitValueError(f"{origin}: tools.{name} needs exactly one key: pose")
+                tools[name] = ToolSettings(name=name, pose=tuple(spec["pose"]))
+            changes["tools"] = tuple(tools.values())
+            continue
+        if section == "robot":
+            target, allowed = cfg.robot, _ROBOT_FIELDS
+        elif section in _SECTIONS:
+            target, allowed = getattr(cfg, section), {f.name for f in dataclasses.fields(_SECTIONS[section])}
+        else:
+            raise ParolkitValueError(
+                f"{origin}: unknown section [{section}] (known: robot, controller, serial, gui, tools)"
+            )
+        if not isinstance(values, Mapping):
+            raise ParolkitValueError(f"{origin}: [{section}] must be a table")
+        upd = {}
+        for key, value in values.items():
+            if key not in allowed:
+                raise ParolkitValueError(
+                    f"{origin}: unknown key {section}.{key} (known: {', '.join(sorted(allowed))})"
+                )
+            if value is None:
+                continue
+            if section == "robot" and isinstance(value, list):
+                value = tuple(tuple(v) if isinstance(v, list) else v for v in value)
+            upd[key] = value
+        if upd:
+            try:
+                changes[section] = dataclasses.replace(target, **upd)
+            except (TypeError, ValueError) as exc:
+                raise ParolkitValueError(f"{origin}: [{section}]: {exc}") from None
+    return dataclasses.replace(cfg, **changes)
+
+
+def load_config(
+    path: str | Path | None = None,
+    overrides: Mapping[str, Mapping[str, Any]] | None = None,
+    *,
+    search_default_paths: bool = True,
+) -> Config:
+    """Defaults, then the TOML file (``path`` or the first of :data:`DEFAULT_CONFIG_PATHS`
+    that exists), then ``overrides`` (CLI flags)."""
+    cfg = Config()
+    file: Path | None = None
+    if path is not None:
+        file = Path(path)
+        if not file.is_file():
+            raise ParolkitValueError(f"config file {file} does not exist")
+    elif search_default_paths:
+        file = next((p for p in DEFAULT_CONFIG_PATHS if p.is_file()), None)
+    if file is not None:
+        try:
+            data = tomllib.loads(file.read_text(encoding="utf-8"))
+        except tomllib.TOMLDecodeError as exc:
+            raise ParolkitValueError(f"{file}: not valid TOML: {exc}") from None
+        cfg = dataclasses.replace(_apply(cfg, data, origin=str(file)), source=str(file))
+    if overrides:
+        cfg = cfg.with_overrides(overrides)
+    return cfg

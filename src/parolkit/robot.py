@@ -1,0 +1,437 @@
+"""PAROL6 robot model: the one source of truth for every robot constant.
+
+Every number here comes from the public PAROL6 sources (see docs/robot-model in the README).
+Units are stated in every name or docstring:
+
+* ``*_deg``: joint degrees, ``*_rad``: joint radians,
+* ``*_steps``: motor microsteps as counted by the board (200 full steps x 32 microsteps per
+  motor revolution, times the joint's gear ratio),
+* ``*_steps_s`` / ``*_steps_s2``: microsteps per second / per second squared,
+* lengths in metres inside (DH table), millimetres at the user-facing edges.
+
+Conversions are vectorised: they accept a scalar, a length-6 sequence or an ``(N, 6)`` array
+and return numpy arrays (``float64`` for angles, ``int64`` for steps).
+
+Rounding rule for steps: degrees/radians -> steps rounds to the NEAREST step, ties to even
+(``numpy.rint``).  The error of one conversion is therefore at most half a microstep
+(0.0044 deg on J1, the coarsest joint).  Steps -> degrees is exact (float division).
+
+Nothing in this module clamps or wraps.  Values outside a range raise
+:class:`JointLimitError` (which names the joint and the bound) from the ``check_*``
+functions; the conversions themselves only reject values that cannot be represented at all
+(NaN, infinities, wrong shapes).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Sequence
+
+import numpy as np
+
+from parolkit.errors import JointLimitError, ParolkitValueError
+
+__all__ = [
+    "NUM_JOINTS",
+    "JOINT_NAMES",
+    "FULL_STEPS_PER_REV",
+    "MICROSTEPS",
+    "MOTOR_DEG_PER_STEP",
+    "DHRow",
+    "RobotModel",
+    "PAROL6",
+    "deg_to_steps",
+    "steps_to_deg",
+    "rad_to_steps",
+    "steps_to_rad",
+    "deg_s_to_steps_s",
+    "steps_s_to_deg_s",
+    "rad_s_to_steps_s",
+    "steps_s_to_rad_s",
+    "check_joint_limits_deg",
+    "check_joint_limits_steps",
+    "check_joint_speeds_steps_s",
+    "as_joint_array",
+]
+
+NUM_JOINTS = 6
+JOINT_NAMES = ("J1", "J2", "J3", "J4", "J5", "J6")
+
+#: Full steps per motor revolution (1.8 deg steppers).
+FULL_STEPS_PER_REV = 200
+#: Microstepping configured in the TMC5160 drivers.
+MICROSTEPS = 32
+#: Motor-shaft degrees per microstep: 360 / (200 * 32) = 0.05625.
+MOTOR_DEG_PER_STEP = 360.0 / (FULL_STEPS_PER_REV * MICROSTEPS)
+
+
+@dataclass(frozen=True)
+class DHRow:
+    """One standard Denavit-Hartenberg row. ``d`` and ``a`` in metres, ``alpha`` in radians."""
+
+    d: float
+    a: float
+    alpha: float
+
+
+def _tuple6(values: Sequence[float], name: str) -> tuple[float, ...]:
+    out = tuple(float(v) for v in values)
+    if len(out) != NUM_JOINTS:
+        raise ParolkitValueError(f"{name} must have {NUM_JOINTS} values, got {len(out)}")
+    return out
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """All PAROL6 parameters.  Frozen: derive a variant with :meth:`with_changes`.
+
+    The default instance :data:`PAROL6` holds the stock values.  The limit tables are
+    configurable (``parolkit.config``) because later community firmware runs faster
+    (``HIGH_SPEED_MAX_STEPS_S``).
+    """
+
+    #: Gear ratio joint : motor for J1..J6.
+    gear_ratios: tuple[float, ...] = (6.4, 20.0, 20.0 * 38.0 / 42.0, 4.0, 4.0, 10.0)
+    #: Joint position limits in degrees (lower, upper) for J1..J6, as published.
+    limits_deg: tuple[tuple[float, float], ...] = (
+        (-123.046875, 123.046875),
+        (-145.0088, -3.375),
+        (107.866, 287.8675),
+        (-105.46975, 105.46975),
+        (-90.0, 90.0),
+        (0.0, 360.0),
+    )
+    #: Joint position limits in microsteps (lower, upper), as published (the degree limits
+    #: converted with truncation toward zero by the original software).
+    limits_steps: tuple[tuple[int, int], ...] = (
+        (-14000, 14000),
+        (-51558, -1200),
+        (34699, 92604),
+        (-7500, 7500),
+        (-6400, 6400),
+        (0, 64000),
+    )
+    #: Maximum joint speed, steps/s (stock values).
+    max_speed_steps_s: tuple[float, ...] = (6500, 18000, 20000, 22000, 22000, 22000)
+    #: Maximum jog speed, steps/s.
+    max_jog_speed_steps_s: tuple[float, ...] = (1500, 3000, 3600, 7000, 7000, 18000)
+    #: Minimum joint speed (also the minimum jog speed), steps/s.
+    min_speed_steps_s: tuple[float, ...] = (100, 100, 100, 100, 100, 100)
+    #: Joint acceleration range mapped from 0..100 %, steps/s^2.
+    accel_range_steps_s2: tuple[float, float] = (100.0, 32000.0)
+    #: Cartesian jog linear speed range mapped from 0..100 %, mm/s.
+    cart_linear_speed_range_mm_s: tuple[float, float] = (2.0, 60.0)
+    #: Cartesian jog angular speed range mapped from 0..100 %, deg/s.
+    cart_angular_speed_range_deg_s: tuple[float, float] = (0.7, 25.0)
+    #: Standby pose (where homing ends), degrees.
+    standby_deg: tuple[float, ...] = (90.0, -90.0, 180.0, 0.0, 0.0, 180.0)
+    #: Standby pose in board counts, exactly as the firmware writes them after homing.
+    standby_steps: tuple[int, ...] = (10240, -32000, 57905, 0, 0, 32000)
+    #: Standard DH table, J1..J6.  Row 6 includes the original commander's tool point.
+    dh: tuple[DHRow, ...] = (
+        DHRow(0.11050, 0.02342, -math.pi / 2),
+        DHRow(0.0, 0.18000, math.pi),
+        DHRow(0.0, -0.04350, math.pi / 2),
+        DHRow(-0.17635, 0.0, -math.pi / 2),
+        DHRow(0.0, 0.0, math.pi / 2),
+        DHRow(-0.06280, -0.04525, math.pi),
+    )
+    #: Hardware speed ceiling of the stepper loop (the firmware clamps to this), steps/s.
+    firmware_speed_clamp_steps_s: int = 50000
+
+    def __post_init__(self) -> None:
+        _tuple6(self.gear_ratios, "gear_ratios")
+        _tuple6(self.max_speed_steps_s, "max_speed_steps_s")
+        _tuple6(self.max_jog_speed_steps_s, "max_jog_speed_steps_s")
+        _tuple6(self.min_speed_steps_s, "min_speed_steps_s")
+        _tuple6(self.standby_deg, "standby_deg")
+        _tuple6(self.standby_steps, "standby_steps")
+        if len(self.limits_deg) != NUM_JOINTS or len(self.limits_steps) != NUM_JOINTS:
+            raise ParolkitValueError("limits_deg and limits_steps need one (low, high) pair per joint")
+        for i, ((lo, hi), (slo, shi)) in enumerate(zip(self.limits_deg, self.limits_steps)):
+            if not lo < hi or not slo < shi:
+                raise ParolkitValueError(f"{JOINT_NAMES[i]} limits must be (low, high) with low < high")
+        for i, (mn, mx, jog) in enumerate(
+            zip(self.min_speed_steps_s, self.max_speed_steps_s, self.max_jog_speed_steps_s)
+        ):
+            if not 0 < mn <= mx or not 0 < jog <= self.firmware_speed_clamp_steps_s:
+                raise ParolkitValueError(
+                    f"{JOINT_NAMES[i]} speeds must satisfy 0 < min <= max and 0 < jog <= "
+                    f"{self.firmware_speed_clamp_steps_s} steps/s"
+                )
+        lo, hi = self.accel_range_steps_s2
+        if not 0 < lo <= hi:
+            raise ParolkitValueError("accel_range_steps_s2 must satisfy 0 < low <= high")
+        if len(self.dh) != NUM_JOINTS:
+            raise ParolkitValueError("dh needs one row per joint")
+
+    def with_changes(self, **changes: object) -> "RobotModel":
+        """A copy with some fields replaced (validated like the original)."""
+        return replace(self, **changes)
+
+    # ---- derived arrays (cheap; numpy arrays are created on each access, never shared) ----
+
+    @property
+    def steps_per_deg(self) -> np.ndarray:
+        """Microsteps per joint degree, J1..J6 (113.78, 355.56, 321.69, 71.11, 71.11, 177.78)."""
+        return np.asarray(self.gear_ratios, dtype=float) / MOTOR_DEG_PER_STEP
+
+    @property
+    def steps_per_rad(self) -> np.ndarray:
+        """Microsteps per joint radian, J1..J6."""
+        return self.steps_per_deg * (180.0 / math.pi)
+
+    @property
+    def limits_deg_array(self) -> np.ndarray:
+        """(6, 2) array of the published degree limits."""
+        return np.asarray(self.limits_deg, dtype=float)
+
+    @property
+    def limits_steps_array(self) -> np.ndarray:
+        """(6, 2) int64 array of the published step limits (what the wire guard enforces)."""
+        return np.asarray(self.limits_steps, dtype=np.int64)
+
+    @property
+    def safe_limits_deg(self) -> np.ndarray:
+        """(6, 2) degree limits that are safe on BOTH tables.
+
+        The published degree and step tables differ by a fraction of a step (the original
+        truncated when converting).  Planning and IK use this intersection, so any angle they
+        accept converts (with :func:`deg_to_steps` rounding) to counts the wire guard accepts.
+        """
+        spd = self.steps_per_deg
+        steps = self.limits_steps_array.astype(float)
+        # an angle x converts to rint(x * spd); it stays inside [lo_steps, hi_steps] as long as
+        # x * spd is within 0.499 steps beyond them (0.499, not 0.5: ties round to even)
+        lo = np.maximum(self.limits_deg_array[:, 0], (steps[:, 0] - 0.499) / spd)
+        hi = np.minimum(self.limits_deg_array[:, 1], (steps[:, 1] + 0.499) / spd)
+        return np.stack([lo, hi], axis=1)
+
+    @property
+    def max_speed_deg_s(self) -> np.ndarray:
+        return np.asarray(self.max_speed_steps_s, dtype=float) / self.steps_per_deg
+
+    @property
+    def max_jog_speed_deg_s(self) -> np.ndarray:
+        return np.asarray(self.max_jog_speed_steps_s, dtype=float) / self.steps_per_deg
+
+    @property
+    def min_speed_deg_s(self) -> np.ndarray:
+        return np.asarray(self.min_speed_steps_s, dtype=float) / self.steps_per_deg
+
+    @property
+    def max_accel_deg_s2(self) -> np.ndarray:
+        """Per-joint upper acceleration (the top of :attr:`accel_range_steps_s2`) in deg/s^2."""
+        return self.accel_range_steps_s2[1] / self.steps_per_deg
+
+    # ---- percent mappings used by the original software ----
+
+    def speed_from_percent(self, percent: float) -> np.ndarray:
+        """Joint speed (steps/s, per joint) for a move speed percentage: 0 % -> min, 100 % -> max."""
+        p = _check_percent(percent, "speed_percentage")
+        mn = np.asarray(self.min_speed_steps_s, dtype=float)
+        mx = np.asarray(self.max_speed_steps_s, dtype=float)
+        return mn + (mx - mn) * p / 100.0
+
+    def jog_speed_from_percent(self, percent: float) -> np.ndarray:
+        """Jog speed (steps/s, per joint): 0..100 % -> 0..max jog speed (as the original)."""
+        p = _check_percent(percent, "speed_percentage")
+        return np.asarray(self.max_jog_speed_steps_s, dtype=float) * p / 100.0
+
+    def accel_from_percent(self, percent: float) -> float:
+        """Joint acceleration (steps/s^2) for a percentage: 0 % -> 100, 100 % -> 32000."""
+        p = _check_percent(percent, "accel_percentage")
+        lo, hi = self.accel_range_steps_s2
+        return lo + (hi - lo) * p / 100.0
+
+    def cart_linear_speed_from_percent(self, percent: float) -> float:
+        """Cartesian linear speed in mm/s: 0..100 % -> 2..60 mm/s."""
+        p = _check_percent(percent, "speed_percentage")
+        lo, hi = self.cart_linear_speed_range_mm_s
+        return lo + (hi - lo) * p / 100.0
+
+    def cart_angular_speed_from_percent(self, percent: float) -> float:
+        """Cartesian angular speed in deg/s: 0..100 % -> 0.7..25 deg/s."""
+        p = _check_percent(percent, "speed_percentage")
+        lo, hi = self.cart_angular_speed_range_deg_s
+        return lo + (hi - lo) * p / 100.0
+
+
+def _check_percent(value: float, name: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParolkitValueError(f"{name} must be a number in 0..100, got {value!r}") from None
+    if not math.isfinite(v) or not 0.0 <= v <= 100.0:
+        raise ParolkitValueError(f"{name} must be in 0..100 %, got {value!r}")
+    return v
+
+
+#: The stock PAROL6.
+PAROL6 = RobotModel()
+
+#: Hardware maxima used by later community software (steps/s); opt in via the config file.
+HIGH_SPEED_MAX_STEPS_S = (15000, 25000, 32000, 10000, 10000, 27000)
+
+
+# --------------------------------------------------------------------------------------------
+# Conversions
+# --------------------------------------------------------------------------------------------
+
+
+def as_joint_array(values: object, name: str = "joints", *, allow_batch: bool = True) -> np.ndarray:
+    """Validate and convert joint values to a float64 array of shape (6,) or (N, 6).
+
+    Raises :class:`ParolkitValueError` naming ``name`` for wrong shapes, non-numbers, NaN or
+    infinities.
+    """
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise ParolkitValueError(f"{name} must be numbers, got {values!r}") from None
+    if arr.ndim == 1 and arr.shape[0] == NUM_JOINTS:
+        pass
+    elif allow_batch and arr.ndim == 2 and arr.shape[1] == NUM_JOINTS:
+        pass
+    else:
+        want = "6 values or an (N, 6) array" if allow_batch else "6 values"
+        raise ParolkitValueError(f"{name} must be {want}, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        joint = JOINT_NAMES[int(bad[-1])]
+        raise ParolkitValueError(f"{name}: {joint} is not a finite number")
+    return arr
+
+
+def _scale(values: object, name: str, model: RobotModel | None) -> tuple[np.ndarray, RobotModel]:
+    return as_joint_array(values, name), (model or PAROL6)
+
+
+def _to_steps(x: np.ndarray) -> np.ndarray:
+    out = np.rint(x)
+    if np.any(np.abs(out) > 2**53):
+        raise ParolkitValueError("value too large to express in steps")
+    return out.astype(np.int64)
+
+
+def deg_to_steps(deg: object, model: RobotModel | None = None) -> np.ndarray:
+    """Joint degrees -> microsteps (int64), nearest step, ties to even."""
+    arr, m = _scale(deg, "joints_deg", model)
+    return _to_steps(arr * m.steps_per_deg)
+
+
+def steps_to_deg(steps: object, model: RobotModel | None = None) -> np.ndarray:
+    """Microsteps -> joint degrees (float64, exact)."""
+    arr, m = _scale(steps, "joints_steps", model)
+    return arr / m.steps_per_deg
+
+
+def rad_to_steps(rad: object, model: RobotModel | None = None) -> np.ndarray:
+    """Joint radians -> microsteps (int64), nearest step, ties to even."""
+    arr, m = _scale(rad, "joints_rad", model)
+    return _to_steps(arr * m.steps_per_rad)
+
+
+def steps_to_rad(steps: object, model: RobotModel | None = None) -> np.ndarray:
+    """Microsteps -> joint radians (float64)."""
+    arr, m = _scale(steps, "joints_steps", model)
+    return arr / m.steps_per_rad
+
+
+def deg_s_to_steps_s(deg_s: object, model: RobotModel | None = None) -> np.ndarray:
+    """Joint deg/s -> steps/s (int64), nearest, ties to even."""
+    arr, m = _scale(deg_s, "speeds_deg_s", model)
+    return _to_steps(arr * m.steps_per_deg)
+
+
+def steps_s_to_deg_s(steps_s: object, model: RobotModel | None = None) -> np.ndarray:
+    """Steps/s -> joint deg/s (float64)."""
+    arr, m = _scale(steps_s, "speeds_steps_s", model)
+    return arr / m.steps_per_deg
+
+
+def rad_s_to_steps_s(rad_s: object, model: RobotModel | None = None) -> np.ndarray:
+    """Joint rad/s -> steps/s (int64), nearest, ties to even."""
+    arr, m = _scale(rad_s, "speeds_rad_s", model)
+    return _to_steps(arr * m.steps_per_rad)
+
+
+def steps_s_to_rad_s(steps_s: object, model: RobotModel | None = None) -> np.ndarray:
+    """Steps/s -> joint rad/s (float64)."""
+    arr, m = _scale(steps_s, "speeds_steps_s", model)
+    return arr / m.steps_per_rad
+
+
+# --------------------------------------------------------------------------------------------
+# Limit checks
+# --------------------------------------------------------------------------------------------
+
+
+def _first_violation(arr: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+    flat = np.atleast_2d(arr)
+    below = flat < lo
+    above = flat > hi
+    if not (below.any() or above.any()):
+        return None
+    bad = np.argwhere(below | above)[0]
+    row, j = int(bad[0]), int(bad[1])
+    value = float(flat[row, j])
+    if below[row, j]:
+        return row, j, value, "lower", float(lo[j])
+    return row, j, value, "upper", float(hi[j])
+
+
+def check_joint_limits_deg(
+    deg: object, model: RobotModel | None = None, *, safe: bool = True, what: str = "joints"
+) -> np.ndarray:
+    """Raise :class:`JointLimitError` if any angle is outside its range; return the array.
+
+    ``safe=True`` (default) uses :attr:`RobotModel.safe_limits_deg` (the range every part of
+    parolkit plans in); ``safe=False`` the published degree table.
+    """
+    m = model or PAROL6
+    arr = as_joint_array(deg, what)
+    lim = m.safe_limits_deg if safe else m.limits_deg_array
+    v = _first_violation(arr, lim[:, 0], lim[:, 1])
+    if v is not None:
+        row, j, value, side, bound = v
+        raise JointLimitError(
+            joint=j, value=value, low=float(lim[j, 0]), high=float(lim[j, 1]), unit="deg",
+            sample=row if arr.ndim == 2 else None, what=what,
+        )
+    return arr
+
+
+def check_joint_limits_steps(
+    steps: object, model: RobotModel | None = None, *, what: str = "joints"
+) -> np.ndarray:
+    """Raise :class:`JointLimitError` if any count is outside the published step limits."""
+    m = model or PAROL6
+    arr = as_joint_array(steps, what)
+    lim = m.limits_steps_array
+    v = _first_violation(arr, lim[:, 0], lim[:, 1])
+    if v is not None:
+        row, j, value, side, bound = v
+        raise JointLimitError(
+            joint=j, value=value, low=float(lim[j, 0]), high=float(lim[j, 1]), unit="steps",
+            sample=row if arr.ndim == 2 else None, what=what,
+        )
+    return arr
+
+
+def check_joint_speeds_steps_s(
+    speeds: object, model: RobotModel | None = None, *, jog: bool = False, what: str = "speeds"
+) -> np.ndarray:
+    """Raise :class:`JointLimitError` if any |speed| exceeds the max (or max jog) speed."""
+    m = model or PAROL6
+    arr = as_joint_array(speeds, what)
+    mx = np.asarray(m.max_jog_speed_steps_s if jog else m.max_speed_steps_s, dtype=float)
+    v = _first_violation(arr, -mx, mx)
+    if v is not None:
+        row, j, value, side, bound = v
+        raise JointLimitError(
+            joint=j, value=value, low=float(-mx[j]), high=float(mx[j]), unit="steps/s",
+            sample=row if arr.ndim == 2 else None, what=what,
+        )
+    return arr
