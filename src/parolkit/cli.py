@@ -18,7 +18,7 @@ from parolkit import __version__
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "serve": ("parolkit.controller.cli", "run the headless controller (UDP server + 100 Hz loop)"),
     "board-sim": ("parolkit.board.cli", "emulate a PAROL6 control board on a pseudo-terminal"),
-    "board-test": ("parolkit.board.testtool", "exercise one board function at a time"),
+    "board-test": ("parolkit.boardtest", "exercise one board function at a time"),
     "gui": ("parolkit.gui.cli", "start the browser commander"),
     "run": ("parolkit.script.cli", "run an RBTscript program"),
     "check": ("parolkit.script.cli", "check RBTscript programs without running them"),

@@ -1,0 +1,139 @@
+"""Shared test fixtures: free ports, test data paths, and a real controller process.
+
+The controller fixture starts ``python -m parolkit serve`` as a real subprocess (never an
+in-process stand-in) on free UDP ports and waits for its first PONG.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+DATA_DIR = REPO_ROOT / "tests" / "data"
+ARTIFACTS_DIR = REPO_ROOT / "test-artifacts"
+
+
+def free_udp_port() -> int:
+    """A UDP port that was free a moment ago on 127.0.0.1."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def free_tcp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def udp_query(port: int, text: str, timeout: float = 1.0, host: str = "127.0.0.1") -> str | None:
+    """Send one datagram and return the first reply (or None on timeout)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.settimeout(timeout)
+        s.sendto(text.encode(), (host, port))
+        try:
+            data, _ = s.recvfrom(65535)
+        except socket.timeout:
+            return None
+        return data.decode(errors="replace")
+
+
+@dataclass
+class ControllerProcess:
+    """A running ``parolkit serve`` subprocess."""
+
+    proc: subprocess.Popen
+    host: str
+    port: int
+    ack_port: int
+    args: list[str] = field(default_factory=list)
+    log_path: Path | None = None
+
+    def query(self, text: str, timeout: float = 1.0) -> str | None:
+        return udp_query(self.port, text, timeout, self.host)
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace") if self.log_path else ""
+
+    def stop(self, timeout: float = 10.0) -> int:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        return self.proc.returncode
+
+
+def start_controller(
+    extra_args: list[str] | None = None,
+    *,
+    log_dir: Path | None = None,
+    ready_timeout: float = 20.0,
+    wait_homed: bool = True,
+) -> ControllerProcess:
+    """Start ``parolkit serve`` (``--sim`` unless ``--port`` is given) on free ports and wait
+    until it answers PING (and, with ``wait_homed``, until the simulated board is homed)."""
+    port, ack_port = free_udp_port(), free_udp_port()
+    args = [sys.executable, "-m", "parolkit", "serve", "--udp-port", str(port), "--ack-port", str(ack_port)]
+    extra = list(extra_args or [])
+    if "--port" not in extra and "--sim" not in extra:
+        extra.append("--sim")
+    args += extra
+    log_dir = log_dir or ARTIFACTS_DIR
+    log_dir.mkdir(parents=True, exist_ok=True)
+    log_path = log_dir / f"controller-{port}.log"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env["PYTHONPATH"] = str(REPO_ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
+    with open(log_path, "wb") as log:
+        proc = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT)
+    cp = ControllerProcess(proc, "127.0.0.1", port, ack_port, args, log_path)
+    deadline = time.monotonic() + ready_timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise RuntimeError(f"controller exited with {proc.returncode}:\n{cp.log()}")
+        if (cp.query("PING", 0.2) or "").startswith("PONG"):
+            break
+    else:
+        cp.stop()
+        raise RuntimeError(f"controller did not answer PING within {ready_timeout} s:\n{cp.log()}")
+    if wait_homed and "--no-home" not in extra:
+        while time.monotonic() < deadline:
+            reply = cp.query("GET_STATUS", 0.5) or ""
+            if "HOMED=1,1,1,1,1,1" in reply and "STATE=HOMING" not in reply:
+                break
+            time.sleep(0.05)
+        else:
+            cp.stop()
+            raise RuntimeError(f"simulated robot did not home within {ready_timeout} s:\n{cp.log()}")
+    return cp
+
+
+@pytest.fixture
+def controller_factory(tmp_path):
+    """``controller_factory(extra_args)`` starts controllers that are stopped after the test."""
+    started: list[ControllerProcess] = []
+
+    def factory(extra_args: list[str] | None = None, **kw) -> ControllerProcess:
+        cp = start_controller(extra_args, log_dir=tmp_path, **kw)
+        started.append(cp)
+        return cp
+
+    yield factory
+    for cp in started:
+        cp.stop()
+
+
+@pytest.fixture
+def controller(controller_factory) -> ControllerProcess:
+    """A homed simulated controller on free ports."""
+    return controller_factory()
