@@ -10,6 +10,12 @@ A rejected candidate is dropped ONE byte at a time (never LEN bytes at once), so
 that starts inside a damaged one is still found.  Every discarded byte and every rejected
 candidate is counted in :class:`ParserStats`.
 
+Limits (the link has no checksum, so no receiver can do better): a byte changed in place
+inside a payload is accepted as sent, and a loss of exactly one frame's worth of bytes that
+straddles a frame boundary splices the head of one frame onto the tail of the next.  The
+controller guards against the consequences (every target passes the safety guard, and the
+``xtr`` echo is compared with the command sent).
+
 The buffer is bounded: it never holds more than one frame's worth of bytes beyond what is
 needed to decide, so a stream of garbage cannot grow memory.
 """
