@@ -28,6 +28,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The full parser of sub-command ``only``; the others get light placeholders (so that
+    ``parolkit --help`` lists every command without importing them all)."""
     parser = argparse.ArgumentParser(
         prog="parolkit",
         description="parolkit: control stack for the PAROL6 robot arm.",
@@ -35,7 +37,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"parolkit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module, help_text) in SUBCOMMANDS.items():
-        if only is not None and name != only:
+        if name != only:
             # a light placeholder keeps `parolkit --help` complete without importing everything
             sub.add_parser(name, help=help_text, add_help=False)
             continue
