@@ -1,0 +1,288 @@
+"""Jog logic: command building, limit blocking and the keyboard map (no UI imports).
+
+Units: joint angles in deg, positions in mm, orientations in deg, speeds/accelerations in %.
+A *continuous* jog is streamed (``STREAM|ON``, then a JOG/CARTJOG with a short duration
+every :data:`JOG_REPEAT_S` while the button is held); a *step* jog is one MOVEJOINT /
+MOVECART / MOVECARTRELTRF to a target a fixed increment away.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Sequence
+
+from parolkit.errors import ParolkitValueError
+from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
+
+__all__ = [
+    "Frame",
+    "CartAxis",
+    "JointJog",
+    "CartJog",
+    "JOG_REPEAT_S",
+    "JOG_DURATION_S",
+    "LIMIT_MARGIN_DEG",
+    "joint_jog_blocked",
+    "joint_step_target",
+    "cart_step_command",
+    "rpy_to_matrix",
+    "matrix_to_rpy",
+    "KeyBinding",
+    "KEYMAP",
+    "key_action",
+]
+
+#: While a jog button is held, a new streamed jog is sent this often, s.
+JOG_REPEAT_S = 0.05
+#: Duration of each streamed jog, s (longer than the repeat so motion is continuous; the
+#: controller's watchdog stops motion when updates stop).
+JOG_DURATION_S = 0.2
+#: A joint this close to a limit (deg) counts as "at the limit": jogging further is blocked.
+LIMIT_MARGIN_DEG = 0.05
+
+
+class Frame(str, Enum):
+    """Cartesian jog reference frame: world (base) or tool."""
+
+    WRF = "WRF"
+    TRF = "TRF"
+
+
+class CartAxis(str, Enum):
+    """A Cartesian jog direction (protocol spelling)."""
+
+    X_POS = "X+"
+    X_NEG = "X-"
+    Y_POS = "Y+"
+    Y_NEG = "Y-"
+    Z_POS = "Z+"
+    Z_NEG = "Z-"
+    RX_POS = "RX+"
+    RX_NEG = "RX-"
+    RY_POS = "RY+"
+    RY_NEG = "RY-"
+    RZ_POS = "RZ+"
+    RZ_NEG = "RZ-"
+
+    @property
+    def is_rotation(self) -> bool:
+        return self.value.startswith("R")
+
+    @property
+    def sign(self) -> int:
+        return 1 if self.value.endswith("+") else -1
+
+    @property
+    def index(self) -> int:
+        """0..2 for X/Y/Z (translation or rotation axis)."""
+        return "XYZ".index(self.value.rstrip("+-")[-1])
+
+
+def _percent(value: float, name: str) -> float:
+    v = float(value)
+    if not math.isfinite(v) or not 0.0 < v <= 100.0:
+        raise ParolkitValueError(f"{name} must be in (0, 100] %, got {value!r}")
+    return v
+
+
+def _joint(joint: int) -> int:
+    if isinstance(joint, bool) or not isinstance(joint, int) or not 0 <= joint < 6:
+        raise ParolkitValueError(f"joint must be an index 0..5 (J1..J6), got {joint!r}")
+    return joint
+
+
+@dataclass(frozen=True)
+class JointJog:
+    """Continuous jog of one joint. ``direction`` +1/-1, ``speed_percent`` (0, 100]."""
+
+    joint: int
+    direction: int
+    speed_percent: float
+
+    def __post_init__(self) -> None:
+        _joint(self.joint)
+        if self.direction not in (1, -1):
+            raise ParolkitValueError(f"direction must be +1 or -1, got {self.direction!r}")
+        _percent(self.speed_percent, "speed_percent")
+
+    @property
+    def wire_index(self) -> int:
+        """Protocol joint index: 0..5 positive, 6..11 negative."""
+        return self.joint if self.direction > 0 else self.joint + 6
+
+    def command(self, duration_s: float = JOG_DURATION_S) -> str:
+        """The JOG datagram body (no ID)."""
+        return f"JOG|{self.wire_index}|{self.speed_percent:g}|{duration_s:g}|None"
+
+
+@dataclass(frozen=True)
+class CartJog:
+    """Continuous Cartesian jog along/about one axis of ``frame``; speed in (0, 100] %."""
+
+    frame: Frame
+    axis: CartAxis
+    speed_percent: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.frame, Frame) or not isinstance(self.axis, CartAxis):
+            raise ParolkitValueError("frame must be a Frame and axis a CartAxis")
+        _percent(self.speed_percent, "speed_percent")
+
+    def command(self, duration_s: float = JOG_DURATION_S) -> str:
+        """The CARTJOG datagram body (no ID)."""
+        return f"CARTJOG|{self.frame.value}|{self.axis.value}|{self.speed_percent:g}|{duration_s:g}"
+
+
+def joint_jog_blocked(angles_deg: Sequence[float], joint: int, direction: int,
+                      model: RobotModel = PAROL6, margin_deg: float = LIMIT_MARGIN_DEG) -> bool:
+    """True when joint ``joint`` cannot move further in ``direction`` (+1/-1): it is within
+    ``margin_deg`` of the corresponding (safe) limit."""
+    _joint(joint)
+    lo, hi = model.safe_limits_deg[joint]
+    a = float(angles_deg[joint])
+    return a >= hi - margin_deg if direction > 0 else a <= lo + margin_deg
+
+
+def joint_step_target(angles_deg: Sequence[float], joint: int, step_deg: float,
+                      model: RobotModel = PAROL6) -> list[float]:
+    """The joint target of an incremental joint jog; raises if it leaves the joint range."""
+    _joint(joint)
+    if not math.isfinite(step_deg) or step_deg == 0:
+        raise ParolkitValueError(f"step must be a non-zero number of degrees, got {step_deg!r}")
+    target = [float(a) for a in angles_deg]
+    target[joint] += step_deg
+    lo, hi = model.safe_limits_deg[joint]
+    if not lo <= target[joint] <= hi:
+        raise ParolkitValueError(
+            f"{JOINT_NAMES[joint]} step to {target[joint]:.3f}° leaves the range {lo:.3f} .. {hi:.3f}°")
+    return target
+
+
+# ---- pose maths (convention: R = Rx(C) @ Ry(B) @ Rz(A), angles in degrees) ----
+
+Matrix = list[list[float]]
+
+
+def _mul(a: Matrix, b: Matrix) -> Matrix:
+    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+
+
+def _rot(axis: int, deg: float) -> Matrix:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    if axis == 0:
+        return [[1, 0, 0], [0, c, -s], [0, s, c]]
+    if axis == 1:
+        return [[c, 0, s], [0, 1, 0], [-s, 0, c]]
+    return [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+
+
+def rpy_to_matrix(a_deg: float, b_deg: float, c_deg: float) -> Matrix:
+    """Rotation matrix of pose angles A, B, C (deg): Rx(C) @ Ry(B) @ Rz(A)."""
+    return _mul(_mul(_rot(0, c_deg), _rot(1, b_deg)), _rot(2, a_deg))
+
+
+def matrix_to_rpy(r: Matrix) -> tuple[float, float, float]:
+    """Inverse of :func:`rpy_to_matrix`: (A, B, C) in degrees, B in [-90, 90]."""
+    # R = Rx(C) Ry(B) Rz(A): r[0][2] = sin B, r[0][0] = cos B cos A, r[0][1] = -cos B sin A,
+    # r[1][2] = -sin C cos B, r[2][2] = cos C cos B
+    sb = max(-1.0, min(1.0, r[0][2]))
+    b = math.asin(sb)
+    if abs(sb) < 1.0 - 1e-9:
+        a = math.atan2(-r[0][1], r[0][0])
+        c = math.atan2(-r[1][2], r[2][2])
+    else:  # gimbal lock: put everything into A
+        c = 0.0
+        a = math.atan2(r[1][0], r[1][1])
+    return math.degrees(a), math.degrees(b), math.degrees(c)
+
+
+def cart_step_command(pose: Sequence[float], frame: Frame, axis: CartAxis, step: float,
+                      speed_percent: float) -> str:
+    """The datagram body of an incremental Cartesian jog.
+
+    ``step`` is mm for translations and degrees for rotations (positive; the axis gives the
+    sign).  WRF: a MOVECART to the pose moved along / rotated about the world axis (rotation
+    about the TCP point, pre-multiplied).  TRF: a MOVECARTRELTRF (post-multiplied, in the
+    tool frame).
+    """
+    if not math.isfinite(step) or step <= 0:
+        raise ParolkitValueError(f"step must be a positive number (mm or deg), got {step!r}")
+    _percent(speed_percent, "speed_percent")
+    delta = [0.0] * 6
+    delta[(3 if axis.is_rotation else 0) + axis.index] = axis.sign * step
+    if frame is Frame.TRF:
+        return "MOVECARTRELTRF|" + "|".join(f"{v:g}" for v in delta) + f"|None|{speed_percent:g}"
+    x, y, z, a, b, c = (float(v) for v in pose)
+    if axis.is_rotation:
+        r = _mul(_rot(axis.index, axis.sign * step), rpy_to_matrix(a, b, c))
+        a, b, c = matrix_to_rpy(r)
+    else:
+        x, y, z = x + delta[0], y + delta[1], z + delta[2]
+    target = (x, y, z, a, b, c)
+    return "MOVECART|" + "|".join(f"{v:.4f}" for v in target) + f"|None|{speed_percent:g}"
+
+
+# ---- keyboard map ----
+
+
+@dataclass(frozen=True)
+class KeyBinding:
+    """A keyboard shortcut: ``key`` (KeyboardEvent.key, lower-case for letters) -> action.
+
+    ``action`` is ``"estop"``, ``"stop"``, ``"joint"`` (with ``joint``, ``direction``) or
+    ``"cart"`` (with ``axis``; frame = the panel's current frame).
+    """
+
+    key: str
+    action: str
+    description: str
+    joint: int | None = None
+    direction: int = 0
+    axis: CartAxis | None = None
+
+
+def _joint_keys() -> list[KeyBinding]:
+    out = []
+    for j, (plus, minus) in enumerate(zip("qwerty", "asdfgh")):
+        out.append(KeyBinding(plus, "joint", f"jog {JOINT_NAMES[j]} +", joint=j, direction=1))
+        out.append(KeyBinding(minus, "joint", f"jog {JOINT_NAMES[j]} −", joint=j, direction=-1))
+    return out
+
+
+#: Every shortcut of the commander (shown in the help dialog).
+KEYMAP: tuple[KeyBinding, ...] = (
+    KeyBinding("escape", "estop", "E-STOP (software stop, latched until Enable)"),
+    KeyBinding(" ", "stop", "stop motion (cancel the queue)"),
+    *_joint_keys(),
+    KeyBinding("arrowright", "cart", "Cartesian X +", axis=CartAxis.X_POS),
+    KeyBinding("arrowleft", "cart", "Cartesian X −", axis=CartAxis.X_NEG),
+    KeyBinding("arrowup", "cart", "Cartesian Y +", axis=CartAxis.Y_POS),
+    KeyBinding("arrowdown", "cart", "Cartesian Y −", axis=CartAxis.Y_NEG),
+    KeyBinding("pageup", "cart", "Cartesian Z +", axis=CartAxis.Z_POS),
+    KeyBinding("pagedown", "cart", "Cartesian Z −", axis=CartAxis.Z_NEG),
+    KeyBinding("i", "cart", "Cartesian RX +", axis=CartAxis.RX_POS),
+    KeyBinding("k", "cart", "Cartesian RX −", axis=CartAxis.RX_NEG),
+    KeyBinding("o", "cart", "Cartesian RY +", axis=CartAxis.RY_POS),
+    KeyBinding("l", "cart", "Cartesian RY −", axis=CartAxis.RY_NEG),
+    KeyBinding("p", "cart", "Cartesian RZ +", axis=CartAxis.RZ_POS),
+    KeyBinding(";", "cart", "Cartesian RZ −", axis=CartAxis.RZ_NEG),
+)
+
+_BY_KEY = {b.key: b for b in KEYMAP}
+assert len(_BY_KEY) == len(KEYMAP), "duplicate key in KEYMAP"
+
+
+def key_action(key: str) -> KeyBinding | None:
+    """The binding of a KeyboardEvent.key value (case-insensitive), or None."""
+    if not isinstance(key, str) or not key:
+        return None
+    return _BY_KEY.get(key if key == " " else key.lower())
+
+
+def key_label(key: str) -> str:
+    """How a key is shown in the help dialog."""
+    names = {"escape": "Esc", " ": "Space", "arrowright": "→", "arrowleft": "←", "arrowup": "↑",
+             "arrowdown": "↓", "pageup": "PgUp", "pagedown": "PgDn"}
+    return names.get(key, key.upper())
