@@ -1,0 +1,392 @@
+"""The typed RBTscript program: command objects with source positions, and diagnostics.
+
+A :class:`Program` is an immutable tuple of :class:`Command` objects.  Every command knows
+where it came from (``line`` and ``col``, both 1-based, and ``text``, the whole source line)
+so that the checker, the dry run and the interpreter can point at it.
+
+Units are those of the language: joint angles and pose angles in degrees, positions in mm,
+durations in seconds, speeds and accelerations in percent (0-100) of the joint's range,
+``SpeedJoint`` speeds in deg/s, gripper current in mA.
+
+This module imports nothing heavy; it is safe to use from the GUI and from tests.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from parolkit.errors import ParolkitError
+
+__all__ = [
+    "Severity",
+    "ScriptError",
+    "ProgramError",
+    "Profile",
+    "Tracking",
+    "Command",
+    "Begin",
+    "End",
+    "Loop",
+    "Home",
+    "Delay",
+    "Output",
+    "Input",
+    "Gripper",
+    "GripperCalibrate",
+    "MoveJoint",
+    "MovePose",
+    "MoveCart",
+    "MoveCartRelTRF",
+    "SpeedJoint",
+    "MOTION_COMMANDS",
+    "Program",
+    "ParseResult",
+    "format_number",
+]
+
+
+class Severity(enum.Enum):
+    """How bad a diagnostic is: errors stop the program from running, warnings do not."""
+
+    ERROR = "error"
+    WARNING = "warning"
+
+
+@dataclass(frozen=True)
+class ScriptError:
+    """One diagnostic at a place in a program.
+
+    ``line`` and ``col`` are 1-based; ``text`` is the whole source line (for the caret
+    display); ``source_name`` is the file name (or ``<script>``).
+    """
+
+    line: int
+    col: int
+    message: str
+    text: str = ""
+    severity: Severity = Severity.ERROR
+    source_name: str = "<script>"
+
+    @property
+    def is_error(self) -> bool:
+        return self.severity is Severity.ERROR
+
+    def headline(self) -> str:
+        """``file:line:col: error: message`` (one line)."""
+        return f"{self.source_name}:{self.line}:{self.col}: {self.severity.value}: {self.message}"
+
+    def format(self) -> str:
+        """The headline, the offending source line and a caret under the column."""
+        out = [self.headline()]
+        if self.text.strip():
+            shown = self.text.rstrip("\r\n").expandtabs(1)
+            out.append(f"    {shown}")
+            out.append("    " + " " * max(0, self.col - 1) + "^")
+        return "\n".join(out)
+
+    def __str__(self) -> str:
+        return self.headline()
+
+
+class ProgramError(ParolkitError):
+    """A program has errors; ``errors`` holds every one of them (never just the first)."""
+
+    def __init__(self, errors: tuple[ScriptError, ...] | list[ScriptError]) -> None:
+        self.errors = tuple(errors)
+        n = len(self.errors)
+        body = "\n".join(e.format() for e in self.errors)
+        super().__init__(f"{n} error{'s' if n != 1 else ''} in program:\n{body}")
+
+
+class Profile(enum.Enum):
+    """Velocity profile word of a move (``poly``/``trap`` from the original; two extensions)."""
+
+    POLY = "poly"
+    TRAP = "trap"
+    RUCKIG = "ruckig"
+    TOPPRA = "toppra"
+
+
+class Tracking(enum.Enum):
+    """How the controller tracks a move: position + speed (default) or the speed curve only."""
+
+    POSITION = "position"
+    SPEED = "speed"
+
+
+def format_number(value: float) -> str:
+    """Shortest text that reads back as the same float (``90.0`` -> ``90``, ``1.5`` -> ``1.5``)."""
+    if float(value).is_integer() and abs(value) < 1e15:
+        return str(int(value))
+    return repr(float(value))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Command:
+    """Base of every command.  ``line``/``col`` (1-based) locate the command name."""
+
+    line: int = 0
+    col: int = 0
+    text: str = field(default="", compare=False, repr=False)
+
+    #: canonical spelling of the command name (used by the formatter)
+    keyword: ClassVar[str] = ""
+    #: True for commands that move the arm
+    moves: ClassVar[bool] = False
+
+    def arguments(self) -> list[str]:
+        """The canonical argument texts (without the name and parentheses)."""
+        return []
+
+    def to_source(self) -> str:
+        """The command in canonical spelling, e.g. ``MoveJoint(90, -90, 180, 0, 0, 180, t=4)``."""
+        return f"{self.keyword}({', '.join(self.arguments())})"
+
+
+@dataclass(frozen=True, kw_only=True)
+class Begin(Command):
+    """``Begin()``: the first line of a program."""
+
+    keyword: ClassVar[str] = "Begin"
+
+
+@dataclass(frozen=True, kw_only=True)
+class End(Command):
+    """``End()``: the program stops here."""
+
+    keyword: ClassVar[str] = "End"
+
+
+@dataclass(frozen=True, kw_only=True)
+class Loop(Command):
+    """``Loop()``: the program restarts from the top."""
+
+    keyword: ClassVar[str] = "Loop"
+
+
+@dataclass(frozen=True, kw_only=True)
+class Home(Command):
+    """``Home()``: home the robot (ends in the standby pose)."""
+
+    keyword: ClassVar[str] = "Home"
+    moves: ClassVar[bool] = True
+
+
+@dataclass(frozen=True, kw_only=True)
+class Delay(Command):
+    """``Delay(t)``: wait ``seconds`` s (at least one control tick)."""
+
+    seconds: float
+    keyword: ClassVar[str] = "Delay"
+
+    def arguments(self) -> list[str]:
+        return [format_number(self.seconds)]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Output(Command):
+    """``Output(n, HIGH|LOW)``: set digital output ``port`` (1 or 2)."""
+
+    port: int
+    state: bool
+    keyword: ClassVar[str] = "Output"
+
+    def arguments(self) -> list[str]:
+        return [str(self.port), "HIGH" if self.state else "LOW"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Input(Command):
+    """``Input(n, HIGH|LOW[, timeout])``: wait until input ``port`` (1 or 2) is ``state``.
+
+    ``timeout_s`` None waits without limit; otherwise the program fails after that many s.
+    """
+
+    port: int
+    state: bool
+    timeout_s: float | None = None
+    keyword: ClassVar[str] = "Input"
+
+    def arguments(self) -> list[str]:
+        out = [str(self.port), "HIGH" if self.state else "LOW"]
+        if self.timeout_s is not None:
+            out.append(f"t={format_number(self.timeout_s)}")
+        return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class Gripper(Command):
+    """``Gripper(position, speed, current)``: move the SSG-48 (0-255, 0-255, mA).
+
+    Like the original, the program does not wait for the gripper: add a ``Delay``.
+    """
+
+    position: int
+    speed: int
+    current_ma: int
+    keyword: ClassVar[str] = "Gripper"
+
+    def arguments(self) -> list[str]:
+        return [str(self.position), str(self.speed), str(self.current_ma)]
+
+
+@dataclass(frozen=True, kw_only=True)
+class GripperCalibrate(Command):
+    """``Gripper_cal()``: calibrate and activate the SSG-48 (follow it with a Delay)."""
+
+    keyword: ClassVar[str] = "Gripper_cal"
+
+
+def _move_options(
+    speed_pct: float | None,
+    accel_pct: float | None,
+    duration_s: float | None,
+    profile: Profile | None,
+    tracking: Tracking,
+) -> list[str]:
+    out = []
+    if speed_pct is not None:
+        out.append(f"v={format_number(speed_pct)}")
+    if accel_pct is not None:
+        out.append(f"a={format_number(accel_pct)}")
+    if duration_s is not None:
+        out.append(f"t={format_number(duration_s)}")
+    if profile is not None:
+        out.append(profile.value)
+    if tracking is Tracking.SPEED:
+        out.append("speed")
+    return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Move(Command):
+    """Common fields of the four move commands.
+
+    ``duration_s`` (s) overrides ``speed_pct``/``accel_pct`` (0-100 % of the leading joint's
+    range); ``profile`` None means the language's default for the case; ``tracking`` SPEED is
+    the trailing word ``speed``.
+    """
+
+    speed_pct: float | None = None
+    accel_pct: float | None = None
+    duration_s: float | None = None
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
+    moves: ClassVar[bool] = True
+
+    def _options(self) -> list[str]:
+        return _move_options(self.speed_pct, self.accel_pct, self.duration_s, self.profile, self.tracking)
+
+
+@dataclass(frozen=True, kw_only=True)
+class MoveJoint(_Move):
+    """``MoveJoint(j1..j6, ...)``: joint-space move to ``joints_deg`` (deg)."""
+
+    joints_deg: tuple[float, ...]
+    keyword: ClassVar[str] = "MoveJoint"
+
+    def arguments(self) -> list[str]:
+        return [format_number(v) for v in self.joints_deg] + self._options()
+
+
+@dataclass(frozen=True, kw_only=True)
+class MovePose(_Move):
+    """``MovePose(x, y, z, A, B, C, ...)``: IK once, joint-space path (mm, deg)."""
+
+    pose: tuple[float, ...]
+    keyword: ClassVar[str] = "MovePose"
+
+    def arguments(self) -> list[str]:
+        return [format_number(v) for v in self.pose] + self._options()
+
+
+@dataclass(frozen=True, kw_only=True)
+class MoveCart(_Move):
+    """``MoveCart(x, y, z, A, B, C, ...)``: straight line in Cartesian space (mm, deg, WRF)."""
+
+    pose: tuple[float, ...]
+    keyword: ClassVar[str] = "MoveCart"
+
+    def arguments(self) -> list[str]:
+        return [format_number(v) for v in self.pose] + self._options()
+
+
+@dataclass(frozen=True, kw_only=True)
+class MoveCartRelTRF(_Move):
+    """``MoveCartRelTRF(dx, dy, dz, dA, dB, dC, ...)``: straight line relative to the tool frame."""
+
+    delta: tuple[float, ...]
+    keyword: ClassVar[str] = "MoveCartRelTRF"
+
+    def arguments(self) -> list[str]:
+        return [format_number(v) for v in self.delta] + self._options()
+
+
+@dataclass(frozen=True, kw_only=True)
+class SpeedJoint(Command):
+    """``SpeedJoint(s1..s6, t=T)``: constant joint speeds (deg/s) for ``duration_s`` s."""
+
+    speeds_deg_s: tuple[float, ...]
+    duration_s: float
+    keyword: ClassVar[str] = "SpeedJoint"
+    moves: ClassVar[bool] = True
+
+    def arguments(self) -> list[str]:
+        return [format_number(v) for v in self.speeds_deg_s] + [f"t={format_number(self.duration_s)}"]
+
+
+#: The commands that move the arm.
+MOTION_COMMANDS = (MoveJoint, MovePose, MoveCart, MoveCartRelTRF, SpeedJoint, Home)
+
+
+@dataclass(frozen=True)
+class Program:
+    """A parsed program: its commands in source order and where it came from."""
+
+    commands: tuple[Command, ...]
+    source_name: str = "<script>"
+    warnings: tuple[ScriptError, ...] = ()
+
+    @property
+    def loops(self) -> bool:
+        """True when the program ends with ``Loop()``."""
+        return bool(self.commands) and isinstance(self.commands[-1], Loop)
+
+    @property
+    def lines(self) -> tuple[int, ...]:
+        """Source line of each command."""
+        return tuple(c.line for c in self.commands)
+
+    def __len__(self) -> int:
+        return len(self.commands)
+
+    def __iter__(self):
+        return iter(self.commands)
+
+
+@dataclass(frozen=True)
+class ParseResult:
+    """What :func:`parolkit.script.parse` returns: a program, or every error in the text.
+
+    ``program`` is None exactly when ``errors`` is not empty.  ``warnings`` never stop a run.
+    """
+
+    program: Program | None
+    errors: tuple[ScriptError, ...] = ()
+    warnings: tuple[ScriptError, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+    def diagnostics(self) -> tuple[ScriptError, ...]:
+        """Errors and warnings in source order."""
+        return tuple(sorted(self.errors + self.warnings, key=lambda d: (d.line, d.col, d.severity.value)))
+
+    def unwrap(self) -> Program:
+        """The program, or raise :class:`ProgramError` with every error."""
+        if self.errors or self.program is None:
+            raise ProgramError(self.errors)
+        return self.program
