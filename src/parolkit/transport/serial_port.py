@@ -1,0 +1,102 @@
+"""A real serial link (USB CDC board or the emulator's pseudo-terminal) over pyserial."""
+
+from __future__ import annotations
+
+import math
+
+from parolkit.errors import ParolkitValueError
+from parolkit.transport.base import LinkLostError, Transport, TransportError
+
+__all__ = ["SerialTransport", "DEFAULT_BAUD"]
+
+#: The PAROL6 board's nominal baud rate (over USB CDC the value is nominal).
+DEFAULT_BAUD = 3_000_000
+
+
+class SerialTransport(Transport):
+    """pyserial link: ``SerialTransport("/dev/ttyACM0")`` or the path of ``parolkit board-sim``.
+
+    * :meth:`read` never blocks (pyserial ``timeout=0``) and returns ``b""`` when nothing came.
+    * :meth:`write` gives up after ``write_timeout_s`` seconds (``TransportError``).
+    * A vanished device (cable pulled, pty closed: read returns EOF / EIO) raises
+      :class:`LinkLostError`; the port is then closed and :meth:`open` reconnects.
+    """
+
+    def __init__(self, port: str, baud: int = DEFAULT_BAUD, *, write_timeout_s: float = 0.1,
+                 exclusive: bool = True) -> None:
+        if not isinstance(port, str) or not port:
+            raise ParolkitValueError(f"port must be a non-empty device path, got {port!r}")
+        if isinstance(baud, bool) or not isinstance(baud, int) or not 300 <= baud <= 12_000_000:
+            raise ParolkitValueError(f"baud must be an integer in 300..12000000, got {baud!r}")
+        if isinstance(write_timeout_s, bool) or not isinstance(write_timeout_s, (int, float)) \
+                or math.isnan(write_timeout_s) or not 0.001 <= write_timeout_s <= 10.0:
+            raise ParolkitValueError(
+                f"write_timeout_s must be a number in 0.001..10 s, got {write_timeout_s!r}")
+        self.port = port
+        self.baud = baud
+        self.write_timeout_s = float(write_timeout_s)
+        self.exclusive = bool(exclusive)
+        self._ser = None  # serial.Serial | None
+
+    @property
+    def description(self) -> str:
+        return f"{self.port} @ {self.baud}"
+
+    @property
+    def is_open(self) -> bool:
+        return self._ser is not None and self._ser.is_open
+
+    def open(self) -> None:
+        import serial  # pyserial
+
+        self.close()
+        try:
+            ser = serial.Serial()
+            ser.port = self.port
+            ser.baudrate = self.baud
+            ser.timeout = 0
+            ser.write_timeout = self.write_timeout_s
+            ser.exclusive = self.exclusive
+            ser.open()
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise TransportError(f"cannot open serial port {self.port} at {self.baud} baud: {exc}") from exc
+        self._ser = ser
+
+    def close(self) -> None:
+        ser, self._ser = self._ser, None
+        if ser is not None:
+            try:
+                ser.close()
+            except Exception:  # noqa: BLE001 - closing a vanished device may fail; it is gone
+                pass
+
+    def _lost(self, exc: BaseException) -> LinkLostError:
+        self.close()
+        return LinkLostError(f"serial link {self.port} lost: {exc}")
+
+    def write(self, data: bytes) -> None:
+        import serial
+
+        ser = self._ser
+        if ser is None:
+            raise TransportError(f"serial port {self.port} is not open (call open())")
+        try:
+            n = ser.write(data)
+            if n is not None and n != len(data):
+                raise TransportError(f"serial port {self.port}: wrote {n} of {len(data)} bytes")
+        except serial.SerialTimeoutException as exc:
+            raise TransportError(
+                f"serial port {self.port}: write timed out after {self.write_timeout_s} s") from exc
+        except (serial.SerialException, OSError) as exc:
+            raise self._lost(exc) from exc
+
+    def read(self) -> bytes:
+        import serial
+
+        ser = self._ser
+        if ser is None:
+            raise TransportError(f"serial port {self.port} is not open (call open())")
+        try:
+            return bytes(ser.read(65536))
+        except (serial.SerialException, OSError) as exc:
+            raise self._lost(exc) from exc
