@@ -1,0 +1,345 @@
+"""Dry run: plan a whole RBTscript program with the motion layer, without a robot.
+
+Every move is planned from the PREDICTED start state (the robot's joints before the program,
+or the standby pose [90, -90, 180, 0, 0, 180] deg without a robot; each move starts where the
+one before ended; ``Home()`` ends in the standby pose).  A target that cannot be reached, a
+path that leaves the joint limits, passes a singularity or needs more than a joint's maximum
+speed is reported as an error at the program line, before anything moves.
+
+For ``Loop()`` programs the default is two iterations, so that the path from the end of the
+program back to its first move is checked too; pass ``loops`` to plan a given number.
+
+The result, :class:`DryRunReport`, holds one row per executed command (start/end time,
+duration, joints at the end), the errors and warnings, and the planned trajectories (for
+``--plot``).  Times are seconds from the program start; the waits of ``Home()`` and
+``Input()`` depend on the robot and count as 0 s (their rows say so).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from parolkit.errors import ParolkitError
+from parolkit.robot import NUM_JOINTS, PAROL6, RobotModel, check_joint_limits_steps
+from parolkit.script.program import (
+    Begin,
+    Command,
+    Delay,
+    End,
+    Gripper,
+    GripperCalibrate,
+    Home,
+    Input,
+    Loop,
+    MoveCart,
+    MoveCartRelTRF,
+    MoveJoint,
+    MovePose,
+    Output,
+    Program,
+    ScriptError,
+    Severity,
+    SpeedJoint,
+    format_number,
+)
+
+__all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops"]
+
+
+@dataclass(frozen=True)
+class DryRunRow:
+    """One executed command in the dry run.
+
+    ``start_s``/``end_s``/``duration_s``: seconds from the program start; ``target_deg``: joints
+    (deg) at the end of a motion command (None for other commands); ``exact`` False when the
+    real duration depends on the robot (Home, Input); ``iteration``: 1-based loop pass.
+    """
+
+    line: int
+    col: int
+    command: str
+    iteration: int
+    start_s: float
+    duration_s: float
+    target_deg: tuple[float, ...] | None = None
+    note: str = ""
+    exact: bool = True
+    failed: bool = False
+
+    @property
+    def end_s(self) -> float:
+        return self.start_s + self.duration_s
+
+
+@dataclass(frozen=True)
+class DryRunReport:
+    """The outcome of :func:`dry_run`.
+
+    ``ok`` is True when there is no error.  ``segments`` are ``(start_s, trajectory)`` pairs of
+    every planned motion, in order (for plots); ``final_deg`` is the predicted end state.
+    """
+
+    program: Program
+    rows: tuple[DryRunRow, ...]
+    errors: tuple[ScriptError, ...]
+    warnings: tuple[ScriptError, ...]
+    start_deg: tuple[float, ...]
+    final_deg: tuple[float, ...]
+    iterations: int
+    segments: tuple = field(default=(), repr=False)
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+    @property
+    def total_s(self) -> float:
+        """Planned duration of the whole run (s), waits of Home/Input not included."""
+        return self.rows[-1].end_s if self.rows else 0.0
+
+    @property
+    def has_waits(self) -> bool:
+        return any(not r.exact for r in self.rows)
+
+    def duration_of_line(self, line: int) -> float:
+        """Planned duration (s) of the first execution of source line ``line``."""
+        for r in self.rows:
+            if r.line == line:
+                return r.duration_s
+        raise KeyError(f"line {line} is not a command of the program")
+
+    def table(self) -> str:
+        """The per-line table: line, iteration, start, end, duration, joints at the end, command."""
+        head = f"{'line':>4} {'it':>2} {'start s':>8} {'end s':>8} {'dur s':>7}  {'joints at end (deg)':<53} command"
+        out = [head, "-" * len(head)]
+        for r in self.rows:
+            joints = (
+                " ".join(f"{v:8.2f}" for v in r.target_deg) if r.target_deg is not None else ""
+            )
+            dur = f"{r.duration_s:7.2f}" + ("+" if not r.exact else " ")
+            cmd = r.command + (f"   [{r.note}]" if r.note else "")
+            mark = "!" if r.failed else " "
+            out.append(
+                f"{r.line:>4}{mark}{r.iteration:>2} {r.start_s:8.2f} {r.end_s:8.2f} {dur} {joints:<53} {cmd}"
+            )
+        total = f"total {self.total_s:.2f} s"
+        if self.iterations > 1:
+            total += f" for {self.iterations} loop iterations"
+        if self.has_waits:
+            total += " + waits (Home/Input, marked '+')"
+        out.append(total)
+        return "\n".join(out)
+
+    def series(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(t, positions_deg, speeds_deg_s) over the whole run: (N,), (N, 6), (N, 6).
+
+        Between moves the joints hold still (zero speed)."""
+        ts: list[np.ndarray] = []
+        qs: list[np.ndarray] = []
+        vs: list[np.ndarray] = []
+        state = np.asarray(self.start_deg, dtype=float)
+        t_now = 0.0
+        for start_s, traj in self.segments:
+            if start_s > t_now or not ts:
+                ts.append(np.array([t_now, start_s]))
+                qs.append(np.vstack([state, state]))
+                vs.append(np.zeros((2, NUM_JOINTS)))
+            ts.append(start_s + np.asarray(traj.t, dtype=float))
+            qs.append(np.asarray(traj.positions_deg(), dtype=float))
+            vs.append(np.asarray(traj.speeds_deg_s(), dtype=float))
+            state = np.asarray(traj.final_deg, dtype=float)
+            t_now = start_s + traj.duration
+        end = max(self.total_s, t_now)
+        ts.append(np.array([t_now, end]))
+        qs.append(np.vstack([state, state]))
+        vs.append(np.zeros((2, NUM_JOINTS)))
+        return np.concatenate(ts), np.vstack(qs), np.vstack(vs)
+
+    def plot(self, path: str) -> None:
+        """Draw joint positions (deg) and speeds (deg/s) over the whole run into ``path``."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        t, q, v = self.series()
+        fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(11, 7))
+        for j in range(NUM_JOINTS):
+            ax1.plot(t, q[:, j], label=f"J{j + 1}")
+            ax2.plot(t, v[:, j], label=f"J{j + 1}")
+        for r in self.rows:
+            if r.target_deg is not None and r.duration_s > 0:
+                ax1.axvline(r.start_s, color="0.85", lw=0.8, zorder=0)
+                ax1.annotate(f"L{r.line}", (r.start_s, 1.0), xycoords=("data", "axes fraction"),
+                             fontsize=7, color="0.4", va="bottom")
+        ax1.set_ylabel("joint position (deg)")
+        ax2.set_ylabel("joint speed (deg/s)")
+        ax2.set_xlabel("time since program start (s)")
+        ax1.legend(loc="upper right", ncol=6, fontsize=8)
+        ax1.grid(alpha=0.3)
+        ax2.grid(alpha=0.3)
+        name = self.program.source_name
+        fig.suptitle(f"{name}: planned run, {self.total_s:.2f} s")
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+
+
+def motion_move(cmd: Command):
+    """The :mod:`parolkit.motion` move for a motion command (None for other commands).
+
+    ``t`` overrides ``v``/``a`` (the seed's rule), so a move with a duration carries no
+    speed or acceleration."""
+    from parolkit import motion
+
+    if isinstance(cmd, SpeedJoint):
+        return motion.SpeedJointMove(cmd.speeds_deg_s, cmd.duration_s)
+    if not isinstance(cmd, (MoveJoint, MovePose, MoveCart, MoveCartRelTRF)):
+        return None
+    timed = cmd.duration_s is not None
+    common = dict(
+        duration_s=cmd.duration_s,
+        speed_pct=None if timed else cmd.speed_pct,
+        profile=cmd.profile.value if cmd.profile is not None else None,
+        tracking=cmd.tracking.value,
+    )
+    accel = None if timed else cmd.accel_pct
+    if isinstance(cmd, MoveJoint):
+        return motion.JointMove(cmd.joints_deg, accel_pct=accel, **common)
+    if isinstance(cmd, MovePose):
+        return motion.PoseMove(cmd.pose, accel_pct=accel, **common)
+    if isinstance(cmd, MoveCart):
+        return motion.CartMove(cmd.pose, **common)
+    return motion.CartRelTRFMove(cmd.delta, **common)
+
+
+def default_loops(program: Program) -> int:
+    """Iterations a dry run plans by default: 2 for Loop() programs (checks the wrap-around), else 1."""
+    return 2 if program.loops else 1
+
+
+def _fmt_joints(q: Sequence[float]) -> str:
+    return "[" + ", ".join(f"{v:.2f}" for v in q) + "]"
+
+
+def _planning_message(cmd: Command, state: np.ndarray, exc: Exception) -> str:
+    """``MoveCart cannot be planned from [..] deg (at t=1.20 s into the move): reason``."""
+    from parolkit.motion import PlanningError
+
+    head = f"{cmd.keyword} cannot be planned from {_fmt_joints(state)} deg"
+    if isinstance(exc, PlanningError):
+        when = f" (at t={exc.time_s:.2f} s into the move)" if exc.time_s is not None else ""
+        return f"{head}{when}: {exc.reason.rstrip('.')}"
+    return f"{head}: {str(exc).rstrip('.')}"
+
+
+def dry_run(
+    program: Program,
+    start_deg: Sequence[float] | None = None,
+    *,
+    loops: int | None = None,
+    model: RobotModel | None = None,
+    tool: object = None,
+    rate_hz: float = 100.0,
+) -> DryRunReport:
+    """Plan every command of ``program`` and return a :class:`DryRunReport`.
+
+    ``start_deg``: joints (deg) before the program (default: the standby pose);
+    ``loops``: iterations for a Loop() program (default 2; ignored for End() programs);
+    ``model``/``tool``/``rate_hz``: as for :func:`parolkit.motion.plan`.
+    Never raises for a planning problem: each one is an error at its program line.
+    """
+    from parolkit.motion import plan
+
+    m = model or PAROL6
+    state = np.asarray(m.standby_deg if start_deg is None else start_deg, dtype=float)
+    if state.shape != (NUM_JOINTS,):
+        raise ValueError(f"start_deg must be 6 joint angles in degrees, got shape {state.shape}")
+    start = tuple(float(v) for v in state)
+    if loops is not None and (isinstance(loops, bool) or int(loops) != loops or loops < 1):
+        raise ValueError(f"loops must be a whole number >= 1, got {loops!r}")
+    iterations = (int(loops) if loops is not None else default_loops(program)) if program.loops else 1
+
+    rows: list[DryRunRow] = []
+    errors: list[ScriptError] = []
+    warnings: list[ScriptError] = list(program.warnings)
+    segments: list = []
+    seen_errors: set[tuple[int, str]] = set()
+    t = 0.0
+
+    def add_error(cmd: Command, message: str, iteration: int) -> None:
+        key = (cmd.line, message)
+        if key in seen_errors:
+            return
+        seen_errors.add(key)
+        if iteration > 1:
+            message += f" (loop iteration {iteration})"
+        errors.append(ScriptError(cmd.line, cmd.col, message, cmd.text, Severity.ERROR, program.source_name))
+
+    for iteration in range(1, iterations + 1):
+        for cmd in program.commands:
+            text = cmd.to_source()
+            if isinstance(cmd, (Begin, End, Loop)):
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0))
+                continue
+            if isinstance(cmd, Delay):
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, cmd.seconds))
+                t += cmd.seconds
+                continue
+            if isinstance(cmd, Output):
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0,
+                                      note=f"OUT{cmd.port} {'HIGH' if cmd.state else 'LOW'}"))
+                continue
+            if isinstance(cmd, Input):
+                limit = f", at most {format_number(cmd.timeout_s)} s" if cmd.timeout_s else ", no timeout"
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0,
+                                      note=f"waits for IN{cmd.port} {'HIGH' if cmd.state else 'LOW'}{limit}",
+                                      exact=False))
+                continue
+            if isinstance(cmd, (Gripper, GripperCalibrate)):
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0,
+                                      note="gripper works in the background"))
+                continue
+            if isinstance(cmd, Home):
+                state = np.asarray(m.standby_deg, dtype=float)
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0,
+                                      target_deg=tuple(float(v) for v in state),
+                                      note="homing time depends on the robot", exact=False))
+                continue
+            move = None
+            try:
+                move = motion_move(cmd)
+                traj = plan(move, state, model=m, tool=tool, rate_hz=rate_hz)
+                if len(traj):
+                    check_joint_limits_steps(traj.positions, m, what=f"{cmd.keyword} path")
+            except ParolkitError as exc:
+                add_error(cmd, _planning_message(cmd, state, exc), iteration)
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0, failed=True,
+                                      note="refused"))
+                if isinstance(cmd, MoveJoint):
+                    state = np.asarray(cmd.joints_deg, dtype=float)
+                continue
+            except Exception as exc:  # a planner bug must not hide the other lines' results
+                add_error(cmd, f"{cmd.keyword}: the planner failed: {type(exc).__name__}: {exc}", iteration)
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0, failed=True, note="refused"))
+                continue
+            segments.append((t, traj))
+            state = np.asarray(traj.final_deg, dtype=float)
+            note = "; ".join(getattr(traj, "notes", ()) or ())
+            rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, traj.duration,
+                                  target_deg=tuple(float(v) for v in state), note=note))
+            t += traj.duration
+
+    return DryRunReport(
+        program=program,
+        rows=tuple(rows),
+        errors=tuple(sorted(errors, key=lambda e: (e.line, e.col))),
+        warnings=tuple(warnings),
+        start_deg=start,
+        final_deg=tuple(float(v) for v in state),
+        iterations=iterations,
+        segments=tuple(segments),
+    )
