@@ -1,0 +1,130 @@
+"""``parolkit board-sim``: an emulated PAROL6 board on a pseudo-terminal.
+
+Serve::
+
+    parolkit board-sim --link /tmp/p6 [--speedup N] [--estop-pressed] [--in1 0|1] [--in2 0|1]
+                       [--gripper-object WIDTH_MM] [--control PATH] [--start-homed]
+
+Control a running one (the control socket defaults to ``LINK.ctl``)::
+
+    parolkit board-sim --link /tmp/p6 --ctl "estop 1"
+    parolkit board-sim --link /tmp/p6 --ctl status
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+
+__all__ = ["register", "run"]
+
+
+def _bit(text: str) -> bool:
+    if text in ("0", "1"):
+        return text == "1"
+    raise argparse.ArgumentTypeError(f"must be 0 or 1, got {text!r}")
+
+
+def _speedup(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number in 1..1000, got {text!r}") from None
+    if not 1.0 <= v <= 1000.0:
+        raise argparse.ArgumentTypeError(f"must be in 1..1000, got {text}")
+    return v
+
+
+def _width(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a width in mm (0 < w < 48), got {text!r}") from None
+    if not 0.0 < v < 48.0:
+        raise argparse.ArgumentTypeError(f"must be 0 < width < 48 mm, got {text}")
+    return v
+
+
+def register(subparsers: argparse._SubParsersAction, name: str) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        name,
+        help="emulate a PAROL6 control board on a pseudo-terminal",
+        description="Emulate a PAROL6 control board (stock firmware behaviour) on a pty whose "
+        "path is --link; open it with pyserial at 3000000 baud like /dev/ttyACM0. "
+        "With --ctl, send one control command to a running board-sim instead.",
+    )
+    p.add_argument("--link", required=True, metavar="PATH",
+                   help="symlink to create, pointing at the pty (e.g. /tmp/p6)")
+    p.add_argument("--speedup", type=_speedup, default=1.0, metavar="N",
+                   help="homing time scale, 1..1000 (default 1 = real time, tens of seconds)")
+    p.add_argument("--estop-pressed", action="store_true", help="start with the E-stop pressed")
+    p.add_argument("--in1", type=_bit, default=False, metavar="0|1", help="initial IN1")
+    p.add_argument("--in2", type=_bit, default=False, metavar="0|1", help="initial IN2")
+    p.add_argument("--gripper-object", type=_width, default=None, metavar="WIDTH",
+                   help="an object WIDTH mm wide sits between the gripper jaws")
+    p.add_argument("--start-homed", action="store_true",
+                   help="power up already homed (not stock; saves the homing run)")
+    p.add_argument("--control", metavar="PATH", default=None,
+                   help="control socket path (default: LINK.ctl)")
+    p.add_argument("--ctl", metavar="COMMAND", default=None,
+                   help="send COMMAND to a running board-sim and print the reply "
+                   "(estop 1, in1 1, object 30, unplug, replug, errors temp J3, faults ..., status)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from parolkit.board.control import ControlError, ControlServer, send_control
+
+    control_path = args.control or f"{args.link}.ctl"
+    if args.ctl is not None:
+        try:
+            reply = send_control(control_path, args.ctl)
+        except ControlError as exc:
+            print(f"board-sim: {exc}", file=sys.stderr)
+            return 1
+        print(reply)
+        return 0 if reply.startswith("ok") else 1
+
+    from parolkit.board.emulator import BoardEmulator
+    from parolkit.board.pty_server import PtyBoardServer, PtyServerError
+    from parolkit.errors import ParolkitError
+
+    try:
+        emu = BoardEmulator(homing_speedup=args.speedup, estop_pressed=args.estop_pressed,
+                            in1=args.in1, in2=args.in2, start_homed=args.start_homed)
+        if args.gripper_object is not None:
+            emu.place_object(args.gripper_object)
+        server = PtyBoardServer(emu, args.link)
+        control = ControlServer(emu, control_path)
+    except ParolkitError as exc:
+        print(f"board-sim: {exc}", file=sys.stderr)
+        return 2
+
+    stop = threading.Event()
+
+    def _on_signal(signum: int, _frame: object) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, _on_signal)
+    signal.signal(signal.SIGTERM, _on_signal)
+    try:
+        server.start()
+        control.start()
+    except (PtyServerError, ControlError) as exc:
+        server.stop()
+        print(f"board-sim: {exc}", file=sys.stderr)
+        return 2
+    print(f"board-sim: PAROL6 board on {args.link} -> {server.device} "
+          f"(control: {control_path}; homing speedup {args.speedup:g})", flush=True)
+    try:
+        while not stop.wait(0.2):
+            pass
+    finally:
+        control.stop()
+        server.stop()
+        emu.stop()
+    print("board-sim: stopped", flush=True)
+    return 0

@@ -1,0 +1,238 @@
+"""Serve an emulated board on a pseudo-terminal, so any PAROL6 PC software can open it.
+
+:class:`PtyBoardServer` creates a pty (raw mode, no echo), points a symlink (``link_path``,
+e.g. ``/tmp/p6``) at its slave device and moves bytes between the master side and a
+:class:`~parolkit.board.BoardEmulator` in a thread.  pyserial opens the link path at
+3,000,000 baud like a real ``/dev/ttyACM0``.
+
+Unplug / replug (``emulator.unplug()``): the server closes the pty and removes the symlink, so
+the PC side sees EOF / EIO exactly as when a USB cable is pulled; replug creates a NEW pty and
+re-points the symlink (like a re-enumerated USB device): the PC must re-open the path.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import threading
+import tty
+from pathlib import Path
+
+from parolkit.board.emulator import BoardEmulator, ClockMode
+from parolkit.errors import ParolkitError, ParolkitValueError
+from parolkit.transport.base import LinkLostError
+
+__all__ = ["PtyBoardServer", "PtyServerError"]
+
+
+class PtyServerError(ParolkitError):
+    """The pty or its symlink could not be set up (the message says which path and why)."""
+
+
+def _make_pty() -> tuple[int, int, str]:
+    master, slave = os.openpty()
+    tty.setraw(slave)  # raw: no echo, no line discipline, 8 bits
+    os.set_blocking(master, False)
+    return master, slave, os.ttyname(slave)
+
+
+def _point_symlink(link: Path, target: str) -> None:
+    if link.exists() or link.is_symlink():
+        if not link.is_symlink():
+            raise PtyServerError(
+                f"link path {link} exists and is not a symlink: refusing to replace it")
+    tmp = link.with_name(f".{link.name}.{os.getpid()}.tmp")
+    try:
+        if tmp.is_symlink():
+            tmp.unlink()
+        os.symlink(target, tmp)
+        os.replace(tmp, link)
+    except OSError as exc:
+        raise PtyServerError(f"cannot create symlink {link} -> {target}: {exc}") from exc
+
+
+class PtyBoardServer:
+    """Bridges ``emulator`` to a pty whose slave is symlinked at ``link_path``.
+
+    Use as a context manager or call :meth:`start` / :meth:`stop`.  A real-time emulator's
+    loop is started if it is not running.  ``device`` is the current slave path
+    (``/dev/pts/N``); ``link_path`` always points at it while plugged.
+    """
+
+    def __init__(self, emulator: BoardEmulator, link_path: str | os.PathLike[str]) -> None:
+        if not isinstance(emulator, BoardEmulator):
+            raise ParolkitValueError(
+                f"emulator must be a BoardEmulator, got {type(emulator).__name__}")
+        if not isinstance(link_path, (str, os.PathLike)) or not str(link_path):
+            raise ParolkitValueError(f"link_path must be a file path, got {link_path!r}")
+        self.emulator = emulator
+        self.link_path = Path(link_path)
+        if not self.link_path.parent.is_dir():
+            raise ParolkitValueError(
+                f"link_path {self.link_path}: directory {self.link_path.parent} does not exist")
+        self._lock = threading.Lock()
+        self._master: int | None = None
+        self._slave: int | None = None
+        self.device: str | None = None
+        self._wake_r, self._wake_w = -1, -1
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._want_plugged = emulator.plugged
+        self._started_loop = False
+        #: bytes moved (monotonic): PC -> board, board -> PC
+        self.bytes_in = 0
+        self.bytes_out = 0
+        #: board output lost because the PC side did not read (pty buffer full)
+        self.bytes_discarded = 0
+
+    # ---- lifecycle ---------------------------------------------------------------------------
+    def start(self) -> "PtyBoardServer":
+        if self._thread is not None:
+            return self
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_r, False)
+        if self.emulator.plugged:
+            self._open_pty()
+        if self.emulator.clock is ClockMode.REALTIME and not self.emulator.running:
+            self.emulator.start()
+            self._started_loop = True
+        self.emulator.add_link_listener(self._on_link)
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="parolkit-pty-server", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop serving, close the pty and remove the symlink (idempotent)."""
+        if self._thread is None:
+            return
+        self._stop.set()
+        self._wake()
+        self._thread.join(timeout=2.0)
+        self._thread = None
+        self.emulator.remove_link_listener(self._on_link)
+        self._close_pty()
+        for fd in (self._wake_r, self._wake_w):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self._wake_r = self._wake_w = -1
+        if self._started_loop:
+            self.emulator.stop()
+            self._started_loop = False
+
+    def __enter__(self) -> "PtyBoardServer":
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def serve_forever(self, stop: threading.Event) -> None:
+        """Start (if needed) and block until ``stop`` is set; then stop."""
+        self.start()
+        try:
+            while not stop.wait(0.2):
+                pass
+        finally:
+            self.stop()
+
+    # ---- pty ---------------------------------------------------------------------------------
+    def _open_pty(self) -> None:
+        master, slave, name = _make_pty()
+        try:
+            _point_symlink(self.link_path, name)
+        except PtyServerError:
+            os.close(master)
+            os.close(slave)
+            raise
+        with self._lock:
+            self._master, self._slave, self.device = master, slave, name
+
+    def _close_pty(self) -> None:
+        with self._lock:
+            fds = (self._master, self._slave)
+            self._master = self._slave = None
+            self.device = None
+        for fd in fds:
+            if fd is not None:
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+        try:
+            if self.link_path.is_symlink():
+                self.link_path.unlink()
+        except OSError:
+            pass
+
+    def _on_link(self, plugged: bool) -> None:
+        self._want_plugged = plugged
+        self._wake()
+
+    def _wake(self) -> None:
+        if self._wake_w >= 0:
+            try:
+                os.write(self._wake_w, b"x")
+            except OSError:
+                pass
+
+    # ---- the bridge ----------------------------------------------------------------------------
+    def _run(self) -> None:
+        emu = self.emulator
+        while not self._stop.is_set():
+            # follow unplug / replug
+            if not self._want_plugged and self._master is not None:
+                self._close_pty()
+            elif self._want_plugged and self._master is None:
+                try:
+                    self._open_pty()
+                except PtyServerError:
+                    self._stop.wait(0.1)
+                    continue
+            master = self._master
+            due = emu.next_output_due() if master is not None else None
+            timeout = 0.1 if due is None else 0.0005
+            fds = [self._wake_r] + ([master] if master is not None else [])
+            try:
+                ready, _, _ = select.select(fds, [], [], timeout)
+            except (OSError, ValueError):
+                continue  # an fd was closed under us by unplug: loop and re-evaluate
+            if self._wake_r in ready:
+                try:
+                    os.read(self._wake_r, 4096)
+                except OSError:
+                    pass
+            if master is None:
+                continue
+            try:
+                if master in ready:
+                    data = os.read(master, 65536)
+                    if data:
+                        self.bytes_in += len(data)
+                        emu.write(data)
+                out = emu.read()
+                if out:
+                    self._write_all(master, out)
+            except BlockingIOError:
+                continue
+            except LinkLostError:
+                continue  # unplugged meanwhile: the next pass closes the pty
+            except OSError:
+                # EIO: nobody has the slave open right now (we hold it, so rare); keep serving
+                self._stop.wait(0.001)
+
+    def _write_all(self, fd: int, data: bytes) -> None:
+        # A PC that never reads fills the pty buffer; like a USB CDC device with a full host
+        # buffer, the board's further output is lost (counted), the board never blocks.
+        view = memoryview(data)
+        while view:
+            try:
+                n = os.write(fd, view)
+            except BlockingIOError:
+                if not select.select([], [fd], [], 0.005)[1]:
+                    self.bytes_discarded += len(view)
+                    return
+                continue
+            self.bytes_out += n
+            view = view[n:]
