@@ -1,0 +1,40 @@
+"""Clients of the parolkit controller.
+
+* :mod:`parolkit.client.robot_api`: the original function API (standard library only; also
+  importable as ``robot_api``).
+* :class:`parolkit.client.robot.Robot`: the object API (sync) and
+  :class:`parolkit.client.async_robot.AsyncRobot` (asyncio), sharing one protocol core
+  (:mod:`parolkit.client.core`).
+* :mod:`parolkit.client.errors`: ``RobotError`` and its subclasses.
+
+Attributes are loaded lazily so ``import parolkit.client`` stays cheap.
+"""
+
+from __future__ import annotations
+
+__all__ = ["Robot", "AsyncRobot", "RobotError", "CommandFailed", "CommandInvalid",
+           "CommandCancelled", "CommandTimeout", "ControllerUnreachable", "CommandResult",
+           "AckStatus", "RobotStatus"]
+
+_WHERE = {
+    "Robot": "parolkit.client.robot",
+    "AsyncRobot": "parolkit.client.async_robot",
+    "RobotError": "parolkit.client.errors",
+    "CommandFailed": "parolkit.client.errors",
+    "CommandInvalid": "parolkit.client.errors",
+    "CommandCancelled": "parolkit.client.errors",
+    "CommandTimeout": "parolkit.client.errors",
+    "ControllerUnreachable": "parolkit.client.errors",
+    "CommandResult": "parolkit.client.core",
+    "AckStatus": "parolkit.client.core",
+    "RobotStatus": "parolkit.client.core",
+}
+
+
+def __getattr__(name: str):
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'parolkit.client' has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(module), name)

@@ -1,0 +1,855 @@
+"""The protocol core shared by :class:`~parolkit.client.robot.Robot` (sync) and
+:class:`~parolkit.client.async_robot.AsyncRobot` (asyncio): no sockets in here.
+
+httpx-style: everything about the wire (datagram building, ack matching, reply parsing, typed
+results, errors) lives here once; the two clients only move datagrams and wait.
+
+* Datagrams are built by the ``build_*`` functions of :mod:`parolkit.client.robot_api` (one
+  formatting implementation for both APIs).
+* :class:`AckBook` matches ``ACK|ID|STATUS|details`` datagrams to the commands we sent.
+* :data:`QUERIES` maps each query to its request, reply tag and parser.
+* :class:`RobotCommands` defines every public command/query method once.  Each method builds
+  its datagram and hands it to ``self._command(...)`` / ``self._query(...)``: the sync
+  client returns results, the async client returns awaitables of the same results.
+
+Units: deg, mm, %, s at this API (as on the wire); joint speeds from the board in steps/s.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any, Callable, Dict, NamedTuple, Optional, Sequence, Tuple
+
+from parolkit.client import robot_api as wire
+from parolkit.client.errors import (
+    CommandCancelled,
+    CommandError,
+    CommandFailed,
+    CommandInvalid,
+    ReplyError,
+)
+from parolkit.errors import ParolkitValueError
+
+__all__ = [
+    "AckStatus",
+    "CommandResult",
+    "Pose",
+    "IOState",
+    "GripperState",
+    "LoopStats",
+    "BoardInfo",
+    "ErrorInfo",
+    "ActiveCommand",
+    "RobotStatus",
+    "PlanInfo",
+    "QueueInfo",
+    "ToolInfo",
+    "AckRecord",
+    "AckBook",
+    "QUERIES",
+    "RobotCommands",
+    "command_name",
+    "result_or_raise",
+    "parse_query_reply",
+    "DEFAULT_TIMEOUT_S",
+    "SUBSCRIBE_RENEW_S",
+]
+
+#: Seconds to wait for a query reply or for the first acknowledgement of a command.
+DEFAULT_TIMEOUT_S = 2.0
+#: The controller drops a subscription after 10 s; clients renew it this often (s).
+SUBSCRIBE_RENEW_S = 3.0
+
+
+class AckStatus(str, Enum):
+    """Acknowledgement status of a command (``ACK|ID|STATUS|details``)."""
+
+    QUEUED = "QUEUED"
+    EXECUTING = "EXECUTING"
+    COMPLETED = "COMPLETED"
+    FAILED = "FAILED"
+    CANCELLED = "CANCELLED"
+    INVALID = "INVALID"
+
+    @property
+    def terminal(self) -> bool:
+        """True for COMPLETED, FAILED, CANCELLED and INVALID (exactly one per command)."""
+        return self in (AckStatus.COMPLETED, AckStatus.FAILED, AckStatus.CANCELLED,
+                        AckStatus.INVALID)
+
+
+@dataclass(frozen=True)
+class CommandResult:
+    """What the controller said about one command: ``id``, ``command`` (name),
+    ``status`` and ``details`` (e.g. ``Position 2 in queue``)."""
+
+    id: str
+    command: str
+    status: AckStatus
+    details: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.status is AckStatus.COMPLETED
+
+    @property
+    def done(self) -> bool:
+        return self.status.terminal
+
+
+class Pose(NamedTuple):
+    """Tool pose: x, y, z in mm; a, b, c in degrees with R = Rx(c) * Ry(b) * Rz(a)."""
+
+    x: float
+    y: float
+    z: float
+    a: float
+    b: float
+    c: float
+
+
+class IOState(NamedTuple):
+    """Digital IO.  ``estop_pressed`` is True when the hardware E-stop is pressed."""
+
+    in1: bool
+    in2: bool
+    out1: bool
+    out2: bool
+    estop_pressed: bool
+
+
+@dataclass(frozen=True)
+class GripperState:
+    """SSG-48 electric gripper telemetry.  position/speed 0..255, current in mA."""
+
+    id: int = 0
+    position: int = 0
+    speed: int = 0
+    current: int = 0
+    status_byte: int = 0
+    object_detection: int = 0
+
+    @property
+    def activated(self) -> bool:
+        return bool(self.status_byte & 0x80)
+
+    @property
+    def calibrated(self) -> bool:
+        return bool(self.status_byte & 0x01)
+
+    @property
+    def error(self) -> bool:
+        """E-stop/error bit (0x02) of the status byte."""
+        return bool(self.status_byte & 0x02)
+
+    @property
+    def object_code(self) -> int:
+        """0 moving, 1 object found while closing, 2 while opening, 3 at position."""
+        return ((self.status_byte >> 5) & 1) << 1 | ((self.status_byte >> 4) & 1)
+
+    @property
+    def object_detected(self) -> bool:
+        return self.object_code in (1, 2)
+
+
+def _f(d: Dict[str, Any], key: str, default: float = 0.0) -> float:
+    v = d.get(key, default)
+    return float(v) if v is not None else default
+
+
+def _i(d: Dict[str, Any], key: str, default: int = 0) -> int:
+    v = d.get(key, default)
+    return int(v) if v is not None else default
+
+
+@dataclass(frozen=True)
+class LoopStats:
+    """Control-loop statistics (periods and round trips in ms)."""
+
+    rate_hz: float = 0.0
+    ticks: int = 0
+    period_p50_ms: float = 0.0
+    period_p99_ms: float = 0.0
+    period_max_ms: float = 0.0
+    overruns: int = 0
+    rtt_p50_ms: float = 0.0
+    rtt_p99_ms: float = 0.0
+    frames_sent: int = 0
+    frames_received: int = 0
+    bytes_dropped: int = 0
+    raw: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "LoopStats":
+        return cls(rate_hz=_f(d, "rate_hz"), ticks=_i(d, "ticks"),
+                   period_p50_ms=_f(d, "period_p50_ms"), period_p99_ms=_f(d, "period_p99_ms"),
+                   period_max_ms=_f(d, "period_max_ms"), overruns=_i(d, "overruns"),
+                   rtt_p50_ms=_f(d, "rtt_p50_ms"), rtt_p99_ms=_f(d, "rtt_p99_ms"),
+                   frames_sent=_i(d, "frames_sent"), frames_received=_i(d, "frames_received"),
+                   bytes_dropped=_i(d, "bytes_dropped"), raw=dict(d))
+
+
+@dataclass(frozen=True)
+class BoardInfo:
+    """The board link: ``timing_ms`` is the board's measured time between our last two frames."""
+
+    connected: bool = False
+    simulated: bool = False
+    port: str = ""
+    timing_ticks: int = 0
+    timing_ms: float = 0.0
+    xtr: int = 0
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "BoardInfo":
+        return cls(connected=bool(d.get("connected", False)), simulated=bool(d.get("simulated", False)),
+                   port=str(d.get("port") or ""), timing_ticks=_i(d, "timing_ticks"),
+                   timing_ms=_f(d, "timing_ms"), xtr=_i(d, "xtr"))
+
+
+@dataclass(frozen=True)
+class ErrorInfo:
+    """Error bits per joint and the latched error text (``message``; None when clear)."""
+
+    temperature: Tuple[bool, ...] = (False,) * 6
+    position: Tuple[bool, ...] = (False,) * 6
+    timeout_error: int = 0
+    message: Optional[str] = None
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "ErrorInfo":
+        return cls(temperature=tuple(bool(x) for x in d.get("temperature", (False,) * 6)),
+                   position=tuple(bool(x) for x in d.get("position", (False,) * 6)),
+                   timeout_error=_i(d, "timeout_error"), message=d.get("message"))
+
+
+@dataclass(frozen=True)
+class ActiveCommand:
+    """The command being executed: ``progress`` 0..1 where the controller reports it."""
+
+    id: Optional[str]
+    name: str
+    progress: Optional[float] = None
+
+    @classmethod
+    def from_dict(cls, d: Optional[Dict[str, Any]]) -> Optional["ActiveCommand"]:
+        if not d:
+            return None
+        p = d.get("progress")
+        return cls(id=d.get("id"), name=str(d.get("name", "")),
+                   progress=None if p is None else float(p))
+
+
+def _gripper_from_dict(d: Dict[str, Any]) -> GripperState:
+    return GripperState(id=_i(d, "id"), position=_i(d, "position"), speed=_i(d, "speed"),
+                        current=_i(d, "current"), status_byte=_i(d, "status"),
+                        object_detection=_i(d, "object_detection"))
+
+
+def _io_from_dict(d: Dict[str, Any]) -> IOState:
+    return IOState(bool(d.get("in1", 0)), bool(d.get("in2", 0)), bool(d.get("out1", 0)),
+                   bool(d.get("out2", 0)), not bool(d.get("estop", 1)))
+
+
+@dataclass(frozen=True)
+class RobotStatus:
+    """One status snapshot (``GET_STATUS_JSON`` or the SUBSCRIBE stream).
+
+    Angles in deg, pose in mm/deg, ``speeds`` in steps/s and ``speeds_deg_s`` in deg/s,
+    ``time`` in s since the controller started.  ``raw`` is the decoded JSON object.
+    """
+
+    seq: int
+    time: float
+    state: str
+    enabled: bool
+    homed: Tuple[bool, ...]
+    all_homed: bool
+    estop_pressed: bool
+    estop_latched: bool
+    angles: Tuple[float, ...]
+    pose: Pose
+    speeds: Tuple[float, ...]
+    speeds_deg_s: Tuple[float, ...]
+    io: IOState
+    gripper: GripperState
+    errors: ErrorInfo
+    board: BoardInfo
+    loop: LoopStats
+    command: Optional[ActiveCommand]
+    queue: int
+    stream_mode: bool
+    tool: str
+    plan_seq: int
+    raw: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def moving(self) -> bool:
+        """True while a command runs or any joint speed is non-zero."""
+        return self.command is not None or any(abs(s) > 0 for s in self.speeds)
+
+    @classmethod
+    def from_json(cls, obj: Dict[str, Any]) -> "RobotStatus":
+        """Build from the decoded status object; ``ReplyError`` names a missing/bad field."""
+        if not isinstance(obj, dict):
+            raise ReplyError(f"status: expected a JSON object, got {type(obj).__name__}")
+        try:
+            angles = tuple(float(a) for a in obj["angles"])
+            pose = obj.get("pose") or [0.0] * 6
+            homed = tuple(bool(h) for h in obj.get("homed", (False,) * 6))
+            return cls(
+                seq=_i(obj, "seq"), time=_f(obj, "time"), state=str(obj["state"]),
+                enabled=bool(obj.get("enabled", False)), homed=homed,
+                all_homed=bool(obj.get("all_homed", all(homed))),
+                estop_pressed=bool(obj.get("estop_pressed", False)),
+                estop_latched=bool(obj.get("estop_latched", False)),
+                angles=angles, pose=Pose(*(float(v) for v in pose)),
+                speeds=tuple(float(s) for s in obj.get("speeds", (0.0,) * 6)),
+                speeds_deg_s=tuple(float(s) for s in obj.get("speeds_deg_s", (0.0,) * 6)),
+                io=_io_from_dict(obj.get("io") or {}),
+                gripper=_gripper_from_dict(obj.get("gripper") or {}),
+                errors=ErrorInfo.from_dict(obj.get("errors") or {}),
+                board=BoardInfo.from_dict(obj.get("board") or {}),
+                loop=LoopStats.from_dict(obj.get("loop") or {}),
+                command=ActiveCommand.from_dict(obj.get("command")),
+                queue=_i(obj, "queue"), stream_mode=bool(obj.get("stream_mode", False)),
+                tool=str(obj.get("tool", "")), plan_seq=_i(obj, "plan_seq"), raw=obj,
+            )
+        except KeyError as exc:
+            raise ReplyError(f"status: field {exc.args[0]!r} is missing") from None
+        except (TypeError, ValueError) as exc:
+            raise ReplyError(f"status: malformed field ({exc})") from None
+
+
+@dataclass(frozen=True)
+class PlanInfo:
+    """The active motion's plan: ``target_angles`` (deg) and ``tcp_path`` ([x, y, z] mm)."""
+
+    seq: int
+    command: Optional[str]
+    target_angles: Optional[Tuple[float, ...]]
+    tcp_path: Tuple[Tuple[float, float, float], ...]
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "PlanInfo":
+        ta = d.get("target_angles")
+        return cls(seq=_i(d, "seq"), command=d.get("command"),
+                   target_angles=None if ta is None else tuple(float(a) for a in ta),
+                   tcp_path=tuple(tuple(float(v) for v in p) for p in (d.get("tcp_path") or ())))
+
+
+@dataclass(frozen=True)
+class QueueInfo:
+    """``active`` command and the ``queued`` ones as (id, name) pairs, oldest first."""
+
+    active: Optional[ActiveCommand]
+    queued: Tuple[Tuple[Optional[str], str], ...]
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "QueueInfo":
+        return cls(active=ActiveCommand.from_dict(d.get("active")),
+                   queued=tuple((q.get("id"), str(q.get("name", ""))) for q in d.get("queued") or ()))
+
+
+@dataclass(frozen=True)
+class ToolInfo:
+    """The selected tool: name and TCP pose in the flange frame (mm / deg)."""
+
+    name: str
+    pose: Tuple[float, ...]
+
+
+# =============================================================================================
+# query table
+# =============================================================================================
+
+
+def _numbers(payload: str, count: int, what: str) -> Tuple[float, ...]:
+    try:
+        return tuple(wire.parse_numbers(payload, count, what))
+    except ValueError as exc:
+        raise ReplyError(str(exc)) from None
+
+
+def _json(payload: str, what: str) -> Any:
+    try:
+        return json.loads(payload)
+    except ValueError as exc:
+        raise ReplyError(f"{what}: invalid JSON ({exc})") from None
+
+
+def _parse_pose_matrix(payload: str) -> Tuple[Tuple[float, ...], ...]:
+    m = _numbers(payload, 16, "POSE")
+    return (m[0:4], m[4:8], m[8:12], m[12:16])
+
+
+def _parse_pose(payload: str) -> Pose:
+    return Pose(*wire.matrix_to_pose(_numbers(payload, 16, "POSE")))
+
+
+def _parse_io(payload: str) -> IOState:
+    v = _numbers(payload, 5, "IO")
+    return IOState(bool(v[0]), bool(v[1]), bool(v[2]), bool(v[3]), v[4] == 0)
+
+
+def _parse_gripper(payload: str) -> GripperState:
+    v = [int(x) for x in _numbers(payload, 6, "GRIPPER")]
+    return GripperState(*v)
+
+
+def _parse_status(payload: str) -> RobotStatus:
+    return RobotStatus.from_json(_json(payload, "STATUS_JSON"))
+
+
+def _parse_ping(payload: str) -> bool:
+    return wire.parse_status_fields(payload).get("SERIAL", "0").strip() == "1"
+
+
+def _parse_tool(payload: str) -> ToolInfo:
+    name, _, pose = payload.partition("|")
+    return ToolInfo(name=name, pose=_numbers(pose, 6, "TOOL") if pose else (0.0,) * 6)
+
+
+class _Query(NamedTuple):
+    request: str
+    tag: str
+    parse: Callable[[str], Any]
+
+
+#: name -> (request datagram, reply tag, parser of the payload)
+QUERIES: Dict[str, _Query] = {
+    "angles": _Query("GET_ANGLES", "ANGLES", lambda p: _numbers(p, 6, "ANGLES")),
+    "pose": _Query("GET_POSE", "POSE", _parse_pose),
+    "pose_matrix": _Query("GET_POSE", "POSE", _parse_pose_matrix),
+    "io": _Query("GET_IO", "IO", _parse_io),
+    "gripper": _Query("GET_GRIPPER", "GRIPPER", _parse_gripper),
+    "speeds": _Query("GET_SPEEDS", "SPEEDS", lambda p: _numbers(p, 6, "SPEEDS")),
+    "status": _Query("GET_STATUS_JSON", "STATUS_JSON", _parse_status),
+    "status_text": _Query("GET_STATUS", "STATUS", wire.parse_status_fields),
+    "loop_stats": _Query("GET_LOOP_STATS", "LOOP_STATS",
+                         lambda p: LoopStats.from_dict(_json(p, "LOOP_STATS"))),
+    "plan_info": _Query("GET_PLAN", "PLAN", lambda p: PlanInfo.from_dict(_json(p, "PLAN"))),
+    "queue": _Query("GET_QUEUE", "QUEUE", lambda p: QueueInfo.from_dict(_json(p, "QUEUE"))),
+    "tool": _Query("GET_TOOL", "TOOL", _parse_tool),
+    "ping": _Query("PING", "PONG", _parse_ping),
+}
+
+
+def parse_query_reply(query: _Query, text: str) -> Any:
+    """Parse the reply to ``query``; ``ReplyError`` for ``ERROR|...`` or a malformed reply."""
+    head, _, payload = text.partition("|")
+    if head == "ERROR":
+        raise ReplyError(f"{query.request}: controller answered ERROR: {payload}")
+    if head != query.tag:
+        raise ReplyError(f"{query.request}: expected a {query.tag}|... reply, got {text[:80]!r}")
+    return query.parse(payload)
+
+
+# =============================================================================================
+# acknowledgements
+# =============================================================================================
+
+
+def command_name(body: str) -> str:
+    """The command word of a datagram body (``MOVEJOINT|...`` -> ``MOVEJOINT``)."""
+    return body.partition("|")[0].upper()
+
+
+_ERRORS = {
+    AckStatus.FAILED: CommandFailed,
+    AckStatus.INVALID: CommandInvalid,
+    AckStatus.CANCELLED: CommandCancelled,
+}
+
+
+def result_or_raise(cmd_id: str, command: str, status: AckStatus, details: str) -> CommandResult:
+    """A :class:`CommandResult` for COMPLETED/QUEUED/EXECUTING; raise the matching
+    :class:`~parolkit.client.errors.CommandError` for FAILED, INVALID and CANCELLED."""
+    exc = _ERRORS.get(status)
+    if exc is not None:
+        raise exc(cmd_id, command, status.value, details)
+    return CommandResult(cmd_id, command, status, details)
+
+
+@dataclass
+class AckRecord:
+    """Everything received for one command we sent."""
+
+    id: str
+    command: str
+    sent_at: float
+    history: list = field(default_factory=list)  # [(AckStatus, details), ...]
+    first_at: Optional[float] = None
+    terminal: Optional[Tuple[AckStatus, str]] = None
+
+    @property
+    def latest(self) -> Optional[Tuple[AckStatus, str]]:
+        return self.history[-1] if self.history else None
+
+    def result(self) -> CommandResult:
+        """Result (terminal, or latest intermediate); raises the CommandError for failures."""
+        status, details = self.terminal or self.latest or (AckStatus.QUEUED, "")
+        return result_or_raise(self.id, self.command, status, details)
+
+
+class AckBook:
+    """Matches acks to the commands we sent (bounded history; not thread-safe by itself)."""
+
+    def __init__(self, history: int = 2000) -> None:
+        self._records: "OrderedDict[str, AckRecord]" = OrderedDict()
+        self._history = history
+        self.unmatched = 0
+
+    def new(self, body: str) -> Tuple[AckRecord, str]:
+        """Register a command body; returns (record, datagram text with a fresh ID)."""
+        cmd_id = wire.new_command_id()
+        while cmd_id in self._records:
+            cmd_id = wire.new_command_id()
+        rec = AckRecord(cmd_id, command_name(body), time.monotonic())
+        self._records[cmd_id] = rec
+        while len(self._records) > self._history:
+            self._records.popitem(last=False)
+        return rec, f"{cmd_id}|{body}"
+
+    def get(self, cmd_id: str) -> Optional[AckRecord]:
+        return self._records.get(cmd_id)
+
+    def on_datagram(self, text: str) -> Optional[AckRecord]:
+        """Feed a received datagram; returns the updated record if it was one of our acks."""
+        ack = wire.parse_ack(text)
+        if ack is None:
+            return None
+        cmd_id, status_text, details = ack
+        rec = self._records.get(cmd_id)
+        if rec is None:
+            self.unmatched += 1
+            return None
+        try:
+            status = AckStatus(status_text)
+        except ValueError:
+            status, details = AckStatus.FAILED, f"unknown ack status {status_text!r}: {details}"
+        if rec.terminal is not None:
+            return rec  # exactly one terminal ack counts
+        if rec.first_at is None:
+            rec.first_at = time.monotonic()
+        rec.history.append((status, details))
+        if status.terminal:
+            rec.terminal = (status, details)
+        return rec
+
+
+# =============================================================================================
+# the method set shared by Robot and AsyncRobot
+# =============================================================================================
+
+
+def _check(build: Callable[..., str], *args: Any, **kwargs: Any) -> str:
+    """Run a datagram builder, turning its ValueError into ParolkitValueError."""
+    try:
+        return build(*args, **kwargs)
+    except ParolkitValueError:
+        raise
+    except ValueError as exc:
+        raise ParolkitValueError(str(exc)) from None
+
+
+def _opt_timeout(timeout: Optional[float]) -> Optional[float]:
+    if timeout is None:
+        return None
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or \
+            not math.isfinite(timeout) or timeout <= 0:
+        raise ParolkitValueError(f"timeout must be a number of seconds > 0, got {timeout!r}")
+    return float(timeout)
+
+
+def _flag(value: Any, name: str) -> bool:
+    if isinstance(value, bool):
+        return value
+    if value in (0, 1):
+        return bool(value)
+    if isinstance(value, str) and value.strip().upper() in ("ON", "OFF", "HIGH", "LOW"):
+        return value.strip().upper() in ("ON", "HIGH")
+    raise ParolkitValueError(f"{name} must be True/False, 0/1, 'on'/'off' or 'high'/'low', got {value!r}")
+
+
+class RobotCommands:
+    """Every command and query of the object API, written once.
+
+    Subclasses implement ``_command(body, wait, timeout)`` and ``_query(name)``; in
+    :class:`~parolkit.client.async_robot.AsyncRobot` they return awaitables, so every
+    method below is awaited there.
+
+    ``wait=True`` (default for motion): return the :class:`CommandResult` once the command
+    COMPLETED; raise :class:`~parolkit.client.errors.CommandFailed` / ``CommandInvalid`` /
+    ``CommandCancelled`` with the controller's reason, or ``CommandTimeout`` after
+    ``timeout`` s (``None``: no limit while the controller keeps answering).
+    ``wait=False``: return a handle as soon as the controller accepted the command (its
+    first ack); ``CommandInvalid`` is still raised at once for a refused command.
+    """
+
+    def _command(self, body: str, wait: bool, timeout: Optional[float]) -> Any:  # pragma: no cover
+        raise NotImplementedError
+
+    def _query(self, name: str) -> Any:  # pragma: no cover
+        raise NotImplementedError
+
+    # ---- motion ----
+    def move_joints(self, angles: Sequence[float], duration: Optional[float] = None,
+                    speed: Optional[float] = None, accel: Optional[float] = None,
+                    profile: Optional[str] = None, tracking: Optional[str] = None,
+                    wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """Joint-space move to ``angles`` (deg) in ``duration`` s or at ``speed`` % (one of the
+        two); ``accel`` %, ``profile`` poly|trap|ruckig|toppra, ``tracking`` position|speed."""
+        return self._command(_check(wire.build_move_joint, angles, duration, speed, accel, profile,
+                                    tracking), wait, _opt_timeout(timeout))
+
+    def move_pose(self, pose: Sequence[float], duration: Optional[float] = None,
+                  speed: Optional[float] = None, accel: Optional[float] = None,
+                  profile: Optional[str] = None, tracking: Optional[str] = None,
+                  wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK along a joint-space path."""
+        return self._command(_check(wire.build_move_pose, pose, duration, speed, accel, profile,
+                                    tracking), wait, _opt_timeout(timeout))
+
+    def move_cart(self, pose: Sequence[float], duration: Optional[float] = None,
+                  speed: Optional[float] = None, profile: Optional[str] = None,
+                  tracking: Optional[str] = None, wait: bool = True,
+                  timeout: Optional[float] = None) -> Any:
+        """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg)."""
+        return self._command(_check(wire.build_move_cart, pose, duration, speed, profile, tracking),
+                             wait, _opt_timeout(timeout))
+
+    def move_cart_rel_trf(self, delta: Sequence[float], duration: Optional[float] = None,
+                          speed: Optional[float] = None, profile: Optional[str] = None,
+                          tracking: Optional[str] = None, wait: bool = True,
+                          timeout: Optional[float] = None) -> Any:
+        """Relative straight-line move in the tool frame [dx, dy, dz, dA, dB, dC] (mm, deg)."""
+        return self._command(_check(wire.build_move_cart_rel_trf, delta, duration, speed, profile,
+                                    tracking), wait, _opt_timeout(timeout))
+
+    def jog_joint(self, joint: int, speed: float, duration: Optional[float] = None,
+                  distance: Optional[float] = None, wait: bool = False,
+                  timeout: Optional[float] = None) -> Any:
+        """Jog joint ``joint`` (1..6; negative -1..-6 for the negative direction) at ``speed``
+        % of its jog speed for ``duration`` s and/or ``distance`` deg."""
+        index = _jog_index(joint)
+        return self._command(_check(wire.build_jog, index, speed, duration, distance), wait,
+                             _opt_timeout(timeout))
+
+    def jog_multiple(self, joints: Sequence[int], speeds: Sequence[float], duration: float,
+                     wait: bool = False, timeout: Optional[float] = None) -> Any:
+        """Jog several joints (1..6 positive, -1..-6 negative) at ``speeds`` % for ``duration`` s."""
+        idx = [_jog_index(j) for j in joints] if not isinstance(joints, (str, bytes)) else joints
+        return self._command(_check(wire.build_multijog, idx, speeds, duration), wait,
+                             _opt_timeout(timeout))
+
+    def jog_cartesian(self, frame: str, axis: str, speed: float, duration: float,
+                      wait: bool = False, timeout: Optional[float] = None) -> Any:
+        """Cartesian jog in ``frame`` WRF|TRF along/about ``axis`` X+ ... RZ- at ``speed`` %."""
+        return self._command(_check(wire.build_cartjog, frame, axis, speed, duration), wait,
+                             _opt_timeout(timeout))
+
+    def speed_joint(self, speeds_deg_s: Sequence[float], duration: float, wait: bool = True,
+                    timeout: Optional[float] = None) -> Any:
+        """Run the joints at constant ``speeds_deg_s`` (deg/s) for ``duration`` s."""
+        return self._command(_check(wire.build_speed_joint, speeds_deg_s, duration), wait,
+                             _opt_timeout(timeout))
+
+    def home(self, wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """Run the board's homing sequence (completes when every joint is homed)."""
+        return self._command(wire.build_home(), wait, _opt_timeout(timeout))
+
+    def delay(self, seconds: float, wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """Queue a pause of ``seconds``."""
+        return self._command(_check(wire.build_delay, seconds), wait, _opt_timeout(timeout))
+
+    def wait_input(self, input_number: int, state: Any, input_timeout: Optional[float] = None,
+                   wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """Queue a wait until IN``input_number`` (1|2) equals ``state``; the command FAILS
+        (``CommandFailed``) when ``input_timeout`` s pass first."""
+        st = 1 if _flag(state, "state") else 0
+        return self._command(_check(wire.build_wait_input, input_number, st, input_timeout), wait,
+                             _opt_timeout(timeout))
+
+    # ---- IO and grippers ----
+    def set_output(self, output: int, state: Any, wait: bool = True,
+                   timeout: Optional[float] = None) -> Any:
+        """Set OUT1/OUT2 (``output`` 1|2) high (True) or low (False); queued like a move."""
+        action = "open" if _flag(state, "state") else "close"
+        return self._command(_check(wire.build_pneumatic_gripper, action, output), wait,
+                             _opt_timeout(timeout))
+
+    def pneumatic(self, action: str, port: int, wait: bool = True,
+                  timeout: Optional[float] = None) -> Any:
+        """Pneumatic gripper ``action`` open|close on output ``port`` 1|2."""
+        return self._command(_check(wire.build_pneumatic_gripper, action, port), wait,
+                             _opt_timeout(timeout))
+
+    def gripper_move(self, position: int, speed: int = 150, current: int = 500,
+                     wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """SSG-48: move to ``position`` 0..255 at ``speed`` 0..255 with ``current`` 100..1000 mA."""
+        return self._command(_check(wire.build_electric_gripper, "move", position, speed, current),
+                             wait, _opt_timeout(timeout))
+
+    def gripper_calibrate(self, wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """SSG-48: calibrate and activate."""
+        return self._command(_check(wire.build_electric_gripper, "calibrate"), wait,
+                             _opt_timeout(timeout))
+
+    def gripper_clear_error(self, wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """SSG-48: clear a gripper error."""
+        return self._command(_check(wire.build_electric_gripper, "clear_error"), wait,
+                             _opt_timeout(timeout))
+
+    # ---- smooth paths (mm, deg; exactly one of duration s / speed %) ----
+    def smooth_circle(self, center: Sequence[float], radius: float, plane: str = "XY",
+                      frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
+                      duration: Optional[float] = None, speed: Optional[float] = None,
+                      clockwise: bool = False, wait: bool = True,
+                      timeout: Optional[float] = None) -> Any:
+        """Full circle of ``radius`` mm about ``center`` [x, y, z] mm in ``plane``."""
+        return self._command(_check(wire.build_smooth_circle, center, radius, plane, frame,
+                                    start_pose, duration, speed, clockwise), wait,
+                             _opt_timeout(timeout))
+
+    def smooth_arc_center(self, end_pose: Sequence[float], center: Sequence[float],
+                          frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
+                          duration: Optional[float] = None, speed: Optional[float] = None,
+                          clockwise: bool = False, wait: bool = True,
+                          timeout: Optional[float] = None) -> Any:
+        """Arc to ``end_pose`` about ``center``."""
+        return self._command(_check(wire.build_smooth_arc_center, end_pose, center, frame,
+                                    start_pose, duration, speed, clockwise), wait,
+                             _opt_timeout(timeout))
+
+    def smooth_arc_param(self, end_pose: Sequence[float], radius: float, arc_angle: float,
+                         frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
+                         duration: Optional[float] = None, speed: Optional[float] = None,
+                         clockwise: bool = False, wait: bool = True,
+                         timeout: Optional[float] = None) -> Any:
+        """Arc to ``end_pose`` with ``radius`` mm over ``arc_angle`` deg."""
+        return self._command(_check(wire.build_smooth_arc_param, end_pose, radius, arc_angle,
+                                    frame, start_pose, duration, speed, clockwise), wait,
+                             _opt_timeout(timeout))
+
+    def smooth_spline(self, waypoints: Sequence[Sequence[float]], frame: str = "WRF",
+                      start_pose: Optional[Sequence[float]] = None,
+                      duration: Optional[float] = None, speed: Optional[float] = None,
+                      wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """Cubic spline through ``waypoints`` (poses)."""
+        return self._command(_check(wire.build_smooth_spline, waypoints, frame, start_pose,
+                                    duration, speed), wait, _opt_timeout(timeout))
+
+    def smooth_helix(self, center: Sequence[float], radius: float, pitch: float, height: float,
+                     frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
+                     duration: Optional[float] = None, speed: Optional[float] = None,
+                     clockwise: bool = False, wait: bool = True,
+                     timeout: Optional[float] = None) -> Any:
+        """Helix about ``center``: ``radius``, ``pitch`` per turn, total ``height`` (mm)."""
+        return self._command(_check(wire.build_smooth_helix, center, radius, pitch, height, frame,
+                                    start_pose, duration, speed, clockwise), wait,
+                             _opt_timeout(timeout))
+
+    def smooth_blend(self, segments: Sequence[Dict[str, Any]], blend_time: float = 0.5,
+                     frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
+                     duration: Optional[float] = None, speed: Optional[float] = None,
+                     wait: bool = True, timeout: Optional[float] = None) -> Any:
+        """Blend LINE/CIRCLE/ARC/SPLINE segment dicts into one path (see robot_api)."""
+        return self._command(_check(wire.build_smooth_blend, segments, blend_time, frame,
+                                    start_pose, duration, speed), wait, _opt_timeout(timeout))
+
+    # ---- immediate control ----
+    def stop(self, timeout: Optional[float] = None) -> Any:
+        """Cancel the active command and the queue (they end CANCELLED); hold position."""
+        return self._command("STOP", True, _opt_timeout(timeout))
+
+    def enable(self, timeout: Optional[float] = None) -> Any:
+        """Enable the robot (clears a released E-stop latch and a latched error)."""
+        return self._command("ENABLE", True, _opt_timeout(timeout))
+
+    def disable(self, timeout: Optional[float] = None) -> Any:
+        """Disable the robot."""
+        return self._command("DISABLE", True, _opt_timeout(timeout))
+
+    def clear_error(self, timeout: Optional[float] = None) -> Any:
+        """Clear a latched error."""
+        return self._command("CLEAR_ERROR", True, _opt_timeout(timeout))
+
+    def estop(self, timeout: Optional[float] = None) -> Any:
+        """Software E-stop: cancel everything, latched until :meth:`enable`."""
+        return self._command("ESTOP", True, _opt_timeout(timeout))
+
+    def stream(self, on: Any, timeout: Optional[float] = None) -> Any:
+        """Streaming jog mode on/off (newest jog replaces the previous one)."""
+        return self._command(_check(wire.build_stream, _flag(on, "on")), True,
+                             _opt_timeout(timeout))
+
+    def set_tool(self, name: str, timeout: Optional[float] = None) -> Any:
+        """Select the tool ``name`` (default, flange or one from the config)."""
+        return self._command(_check(wire.build_set_tool, name), True, _opt_timeout(timeout))
+
+    def set_port(self, name: str, timeout: Optional[float] = None) -> Any:
+        """Switch the controller's serial port to ``name``."""
+        return self._command(_check(wire.build_set_port, name), True, _opt_timeout(timeout))
+
+    # ---- queries ----
+    def angles(self) -> Any:
+        """Joint angles J1..J6 in deg (tuple)."""
+        return self._query("angles")
+
+    def pose(self) -> Any:
+        """Tool :class:`Pose` (mm, deg)."""
+        return self._query("pose")
+
+    def pose_matrix(self) -> Any:
+        """4x4 tool pose as 4 row tuples, translation in METRES."""
+        return self._query("pose_matrix")
+
+    def io(self) -> Any:
+        """:class:`IOState`."""
+        return self._query("io")
+
+    def gripper(self) -> Any:
+        """:class:`GripperState`."""
+        return self._query("gripper")
+
+    def speeds(self) -> Any:
+        """Joint speeds J1..J6 in steps/s (tuple)."""
+        return self._query("speeds")
+
+    def status(self) -> Any:
+        """Full :class:`RobotStatus` (GET_STATUS_JSON)."""
+        return self._query("status")
+
+    def loop_stats(self) -> Any:
+        """:class:`LoopStats` of the controller's loop."""
+        return self._query("loop_stats")
+
+    def plan_info(self) -> Any:
+        """:class:`PlanInfo` of the active motion."""
+        return self._query("plan_info")
+
+    def queue(self) -> Any:
+        """:class:`QueueInfo`: active and queued commands."""
+        return self._query("queue")
+
+    def tool(self) -> Any:
+        """:class:`ToolInfo`: the selected tool."""
+        return self._query("tool")
+
+    def ping(self) -> Any:
+        """True when the controller's board link is up (False: controller up, board down)."""
+        return self._query("ping")
+
+
+def _jog_index(joint: Any) -> int:
+    """Joint 1..6 -> index 0..5 (positive); -1..-6 -> 6..11 (negative)."""
+    if isinstance(joint, bool) or not isinstance(joint, int) or joint == 0 or not -6 <= joint <= 6:
+        raise ParolkitValueError(
+            f"joint must be 1..6 (positive direction) or -1..-6 (negative direction), got {joint!r}")
+    return joint - 1 if joint > 0 else 6 + (-joint - 1)

@@ -1,0 +1,379 @@
+"""``parolkit.Robot``: the synchronous object API.
+
+::
+
+    from parolkit import Robot
+
+    with Robot() as robot:                      # 127.0.0.1:5001
+        robot.move_joints([90, -90, 160, 12, 12, 180], duration=2)   # waits for COMPLETED
+        print(robot.angles(), robot.pose())
+        for status in robot.subscribe(every_n=10):                   # 10 Hz status stream
+            print(status.state, status.angles)
+            break
+
+One UDP socket carries commands, queries, their replies and the acknowledgements; a
+background thread receives and sorts them.  ``ack_port=0`` (default) binds an ephemeral
+port: the controller answers to the sender's port.  Give ``ack_port=5002`` to listen where
+the original protocol sends acks (one program per machine can hold that port).
+
+Every method is documented in :class:`parolkit.client.core.RobotCommands`; errors are the
+classes of :mod:`parolkit.client.errors`.
+"""
+
+from __future__ import annotations
+
+import queue
+import socket
+import threading
+import time
+from typing import Any, Callable, Iterator, Optional
+
+from parolkit.client import robot_api as wire
+from parolkit.client.core import (
+    DEFAULT_TIMEOUT_S,
+    QUERIES,
+    SUBSCRIBE_RENEW_S,
+    AckBook,
+    AckRecord,
+    AckStatus,
+    CommandResult,
+    RobotCommands,
+    RobotStatus,
+    parse_query_reply,
+)
+from parolkit.client.errors import CommandTimeout, ControllerUnreachable, RobotError
+from parolkit.errors import ParolkitValueError
+
+__all__ = ["Robot", "CommandHandle", "StatusSubscription"]
+
+
+def _bind_address(host: str) -> str:
+    return "127.0.0.1" if host in ("127.0.0.1", "localhost") else "0.0.0.0"
+
+
+def _check_port(port: Any, name: str, low: int) -> int:
+    if isinstance(port, bool) or not isinstance(port, int) or not low <= port <= 65535:
+        raise ParolkitValueError(f"{name} must be an integer in {low}..65535, got {port!r}")
+    return port
+
+
+class CommandHandle:
+    """A command sent with ``wait=False``: ``id``, ``command``, ``status()``, ``result()``."""
+
+    def __init__(self, robot: "Robot", record: AckRecord) -> None:
+        self._robot = robot
+        self._record = record
+
+    @property
+    def id(self) -> str:
+        return self._record.id
+
+    @property
+    def command(self) -> str:
+        return self._record.command
+
+    def status(self) -> Optional[AckStatus]:
+        """Latest acknowledgement status (None before the first ack)."""
+        with self._robot._cond:
+            latest = self._record.latest
+        return None if latest is None else latest[0]
+
+    def done(self) -> bool:
+        with self._robot._cond:
+            return self._record.terminal is not None
+
+    def result(self, timeout: Optional[float] = None) -> CommandResult:
+        """Wait for the terminal ack (see ``wait=True``); raises like a waiting call."""
+        return self._robot._wait_terminal(self._record, timeout)
+
+    def __repr__(self) -> str:
+        return f"<CommandHandle {self.command} id={self.id} status={self.status()}>"
+
+
+class StatusSubscription:
+    """Iterator over :class:`RobotStatus` from the SUBSCRIBE stream (renewed every 3 s).
+
+    Use as a context manager or call :meth:`close`; iteration raises
+    :class:`ControllerUnreachable` if no status arrives for ``timeout`` seconds.
+    """
+
+    def __init__(self, robot: "Robot", every_n: int, timeout: float,
+                 callback: Optional[Callable[[RobotStatus], Any]] = None) -> None:
+        self._robot = robot
+        self._every_n = every_n
+        self._timeout = timeout
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._sock.bind((_bind_address(robot.host), 0))
+        self.port: int = self._sock.getsockname()[1]
+        self._closed = threading.Event()
+        self._last_renew = 0.0
+        self.received = 0
+        self._renew()
+        self._renewer = threading.Thread(target=self._renew_loop, daemon=True,
+                                         name=f"parolkit-subscribe-{self.port}")
+        self._renewer.start()
+        self._callback_thread: Optional[threading.Thread] = None
+        if callback is not None:
+            self._callback_thread = threading.Thread(target=self._pump, args=(callback,),
+                                                     daemon=True, name="parolkit-status-callback")
+            self._callback_thread.start()
+
+    def _renew(self) -> None:
+        self._robot._send(wire.build_subscribe(self.port, self._every_n))
+        self._last_renew = time.monotonic()
+
+    def _renew_loop(self) -> None:
+        while not self._closed.wait(SUBSCRIBE_RENEW_S):
+            try:
+                self._renew()
+            except OSError:
+                pass  # the next renewal retries; iteration reports a silent controller
+
+    def _pump(self, callback: Callable[[RobotStatus], Any]) -> None:
+        try:
+            for status in self:
+                callback(status)
+        except (RobotError, OSError):
+            if not self._closed.is_set():
+                raise
+
+    def next(self, timeout: Optional[float] = None) -> RobotStatus:
+        """The next status (waits up to ``timeout`` s, default the subscription's)."""
+        wait = self._timeout if timeout is None else timeout
+        deadline = time.monotonic() + wait
+        while True:
+            if self._closed.is_set():
+                raise StopIteration
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise ControllerUnreachable(
+                    f"no status from {self._robot.host}:{self._robot.port} within {wait:g} s "
+                    "(is the controller running?)")
+            self._sock.settimeout(min(left, 0.5))
+            try:
+                data, _ = self._sock.recvfrom(65535)
+            except socket.timeout:
+                continue
+            except OSError:
+                if self._closed.is_set():
+                    raise StopIteration from None
+                raise
+            text = data.decode("utf-8", "replace")
+            if text.startswith("STATUS_JSON|"):
+                self.received += 1
+                return parse_query_reply(QUERIES["status"], text)
+
+    def __iter__(self) -> Iterator[RobotStatus]:
+        while True:
+            try:
+                yield self.next()
+            except StopIteration:
+                return
+
+    def close(self) -> None:
+        """Unsubscribe and close the socket (idempotent)."""
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        try:
+            self._robot._send(wire.build_unsubscribe(self.port))
+        except OSError:
+            pass
+        self._sock.close()
+
+    def __enter__(self) -> "StatusSubscription":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class Robot(RobotCommands):
+    """Synchronous client of a parolkit (or original PAROL6) controller.
+
+    ``host``/``port``: the controller's UDP address; ``ack_port``: local port for replies
+    and acks (0 = ephemeral); ``timeout``: seconds to wait for a query reply or for the
+    first acknowledgement of a command.  Thread-safe: several threads may share one Robot.
+    """
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 5001, ack_port: int = 0,
+                 timeout: float = DEFAULT_TIMEOUT_S) -> None:
+        if not isinstance(host, str) or not host:
+            raise ParolkitValueError(f"host must be a host name or address, got {host!r}")
+        self.host = host
+        self.port = _check_port(port, "port", 1)
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or timeout <= 0:
+            raise ParolkitValueError(f"timeout must be a number of seconds > 0, got {timeout!r}")
+        self.timeout = float(timeout)
+        self._addr = (host, self.port)
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            self._sock.bind((_bind_address(host), _check_port(ack_port, "ack_port", 0)))
+        except OSError as exc:
+            self._sock.close()
+            raise RobotError(
+                f"cannot bind UDP port {ack_port} for acknowledgements: {exc.strerror}; another "
+                "program holds it (use ack_port=0 for an ephemeral port)") from None
+        self.ack_port: int = self._sock.getsockname()[1]
+        self._sock.settimeout(0.25)  # lets the reader thread notice close()
+        self._cond = threading.Condition()
+        self._acks = AckBook()
+        self._replies: "queue.Queue[str]" = queue.Queue()
+        self._query_lock = threading.Lock()
+        self._last_heard = 0.0
+        self._closed = False
+        self._reader = threading.Thread(target=self._read_loop, daemon=True,
+                                        name=f"parolkit-robot-{self.ack_port}")
+        self._reader.start()
+
+    # ---- plumbing ----
+    def _send(self, text: str) -> None:
+        if self._closed:
+            raise RobotError("this Robot is closed")
+        self._sock.sendto(text.encode("utf-8"), self._addr)
+
+    def _read_loop(self) -> None:
+        sock = self._sock
+        while not self._closed:
+            try:
+                data, _ = sock.recvfrom(65535)
+            except socket.timeout:
+                continue
+            except OSError:
+                if self._closed:
+                    return
+                continue  # e.g. ICMP port unreachable reported on Linux: keep listening
+            text = data.decode("utf-8", "replace")
+            with self._cond:
+                self._last_heard = time.monotonic()
+                if text.startswith("ACK|"):
+                    self._acks.on_datagram(text)
+                    self._cond.notify_all()
+                    continue
+            self._replies.put(text)
+
+    def _request(self, request: str, tag: str, timeout: float) -> str:
+        """Send a query and return the raw reply carrying ``tag`` (or an ERROR reply)."""
+        with self._query_lock:
+            while True:  # drop late replies of earlier, timed-out queries
+                try:
+                    self._replies.get_nowait()
+                except queue.Empty:
+                    break
+            self._send(request)
+            deadline = time.monotonic() + timeout
+            while True:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise ControllerUnreachable(
+                        f"no {tag} reply from {self.host}:{self.port} within {timeout:g} s "
+                        "(is the controller running?)")
+                try:
+                    text = self._replies.get(timeout=left)
+                except queue.Empty:
+                    continue
+                head = text.partition("|")[0]
+                if head in (tag, "ERROR"):
+                    return text
+
+    def _query(self, name: str) -> Any:
+        q = QUERIES[name]
+        return parse_query_reply(q, self._request(q.request, q.tag, self.timeout))
+
+    def _command(self, body: str, wait: bool, timeout: Optional[float]) -> Any:
+        with self._cond:
+            record, text = self._acks.new(body)
+        self._send(text)
+        deadline = time.monotonic() + (self.timeout if timeout is None else min(timeout, self.timeout))
+        with self._cond:
+            while record.first_at is None:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise CommandTimeout(
+                        record.id, record.command, "TIMEOUT",
+                        f"no acknowledgement within {self.timeout:g} s: is the controller "
+                        f"running at {self.host}:{self.port}, and does it send acks to this "
+                        f"client's port {self.ack_port}?")
+                self._cond.wait(left)
+            if not wait:
+                if record.terminal is not None:
+                    record.result()  # refused (INVALID) or failed at once: raise now
+                return CommandHandle(self, record)
+            if record.terminal is not None:
+                return record.result()
+        return self._wait_terminal(record, timeout)
+
+    def _wait_terminal(self, record: AckRecord, timeout: Optional[float]) -> CommandResult:
+        start = time.monotonic()
+        deadline = None if timeout is None else start + timeout
+        probe_at = start + max(self.timeout, 1.0)
+        with self._cond:
+            while record.terminal is None:
+                now = time.monotonic()
+                if deadline is not None and now >= deadline:
+                    latest = record.latest[0].value if record.latest else "none"
+                    raise CommandTimeout(record.id, record.command, "TIMEOUT",
+                                         f"not finished within {timeout:g} s (last status: "
+                                         f"{latest}); it may still run: stop() cancels it")
+                if now >= probe_at:
+                    # liveness: a long move is fine while the controller still answers
+                    if now - self._last_heard > self.timeout:
+                        self._cond.release()
+                        try:
+                            self._query("ping")
+                        except ControllerUnreachable as exc:
+                            raise CommandTimeout(record.id, record.command, "TIMEOUT",
+                                                 f"controller stopped answering: {exc}") from None
+                        finally:
+                            self._cond.acquire()
+                    probe_at = time.monotonic() + max(self.timeout, 1.0)
+                    continue
+                wake = probe_at if deadline is None else min(probe_at, deadline)
+                self._cond.wait(max(0.0, wake - now))
+            return record.result()
+
+    # ---- status stream ----
+    def subscribe(self, every_n: int = 1, callback: Optional[Callable[[RobotStatus], Any]] = None,
+                  timeout: Optional[float] = None) -> StatusSubscription:
+        """Status stream: every ``every_n``-th control tick a :class:`RobotStatus`.
+
+        Without ``callback``: iterate the returned subscription.  With ``callback``: it is
+        called from a background thread for every status.  Close the subscription (or use
+        ``with``) to unsubscribe.  ``timeout``: seconds without a status before iteration
+        raises ``ControllerUnreachable`` (default: the Robot's timeout, at least 2 s).
+        """
+        if isinstance(every_n, bool) or not isinstance(every_n, int) or every_n < 1:
+            raise ParolkitValueError(f"every_n must be an integer >= 1 (ticks), got {every_n!r}")
+        n = every_n
+        wait = max(self.timeout, 2.0) if timeout is None else float(timeout)
+        return StatusSubscription(self, n, wait, callback)
+
+    # ---- helpers ----
+    def wait_until_idle(self, timeout: float = 30.0, poll_s: float = 0.05) -> RobotStatus:
+        """Poll the status until no command is active or queued; returns that status."""
+        deadline = time.monotonic() + timeout
+        while True:
+            st = self.status()
+            if st.command is None and st.queue == 0 and st.state not in ("MOVING", "HOMING"):
+                return st
+            if time.monotonic() >= deadline:
+                raise RobotError(f"robot still busy after {timeout:g} s (state {st.state}, "
+                                 f"queue {st.queue})")
+            time.sleep(poll_s)
+
+    def close(self) -> None:
+        """Close the socket (idempotent)."""
+        if self._closed:
+            return
+        self._closed = True
+        self._reader.join(1.0)
+        self._sock.close()
+
+    def __enter__(self) -> "Robot":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<Robot {self.host}:{self.port} ack_port={self.ack_port}>"

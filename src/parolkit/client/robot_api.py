@@ -1,0 +1,1221 @@
+"""robot_api: the PAROL6 function API, compatible with existing user scripts.
+
+Standard library only and free of imports from the rest of parolkit: copy this single file
+next to a script (for example onto a Raspberry Pi) and ``from robot_api import ...`` works.
+
+Usage, exactly as the original examples::
+
+    from robot_api import move_robot_joints, get_robot_joint_angles
+    move_robot_joints([90, -90, 160, 12, 12, 180], duration=5.5)
+    print(get_robot_joint_angles())
+
+Talking to a controller elsewhere: ``configure(host="192.168.1.20")`` (or set the module
+attributes :data:`SERVER_IP`, :data:`SERVER_PORT`, :data:`ACK_PORT` before the first call).
+
+Units on the wire and in every function: degrees, millimetres, percent (0..100), seconds.
+
+Every motion/action function has the original keyword arguments ``wait_for_ack=False``,
+``timeout`` and ``non_blocking=False``:
+
+* ``wait_for_ack=False`` (default): fire and forget; returns a short confirmation string.
+* ``wait_for_ack=True``: the command carries an 8-character ID; returns
+  ``{'status': 'COMPLETED'|'FAILED'|'CANCELLED'|'INVALID'|'TIMEOUT', 'details': str,
+  'command_id': str, 'completed': bool}`` once the terminal acknowledgement arrives or
+  ``timeout`` seconds have passed (then status ``'TIMEOUT'``; the command keeps running).
+* ``wait_for_ack=True, non_blocking=True``: returns the command ID at once; poll it with
+  :func:`check_command_status`.
+
+Acknowledgements arrive on UDP :data:`ACK_PORT` (5002): one shared listener thread binds it
+on first use.  If another program holds that port, :class:`AckPortBusyError` says so.
+
+Arguments are checked BEFORE anything is sent: a bad value raises ``ValueError`` naming the
+argument and the allowed range (for example ``speed_percentage must be in 0..100, got 150``).
+Queries return parsed values, or ``None`` (with a message on stderr) when the controller does
+not answer within :data:`QUERY_TIMEOUT` seconds.
+
+Besides the original functions this module exposes the datagram builders (``build_*``) and
+reply parsers (``parse_*``, :func:`matrix_to_pose`) that ``parolkit.Robot`` shares.
+"""
+
+from __future__ import annotations
+
+import math
+import socket
+import sys
+import threading
+import time
+import uuid
+from collections import OrderedDict
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+__all__ = [
+    # configuration
+    "SERVER_IP", "SERVER_PORT", "ACK_PORT", "QUERY_TIMEOUT", "configure",
+    "AckPortBusyError", "TERMINAL_STATUSES",
+    # sending
+    "send_robot_command", "send_robot_command_tracked", "send_and_wait",
+    # motion and actions (original names and defaults)
+    "move_robot_joints", "move_robot_pose", "move_robot_cartesian", "move_robot_cartesian_rel_trf",
+    "jog_robot_joint", "jog_multiple_joints", "jog_cartesian",
+    "control_pneumatic_gripper", "control_electric_gripper",
+    "delay_robot", "home_robot", "stop_robot_movement",
+    "smooth_circle", "smooth_arc_center", "smooth_arc_parametric", "smooth_spline",
+    "smooth_helix", "smooth_blend",
+    # extensions
+    "enable_robot", "disable_robot", "clear_robot_error", "estop_robot",
+    "speed_robot_joints", "wait_robot_input", "set_robot_tool", "set_stream_mode",
+    # queries
+    "get_robot_pose", "get_robot_pose_matrix", "get_robot_joint_angles", "get_robot_io",
+    "get_electric_gripper_status", "get_robot_joint_speeds", "is_robot_stopped",
+    "is_estop_pressed", "get_robot_status", "wait_for_robot_stopped", "ping_robot",
+    # tracking
+    "check_command_status", "is_tracking_active", "get_tracking_stats",
+    # shared building blocks (used by parolkit.Robot / AsyncRobot)
+    "new_command_id", "format_value", "matrix_to_pose", "parse_reply", "parse_ack",
+    "parse_numbers", "parse_status_fields",
+    "build_move_joint", "build_move_pose", "build_move_cart", "build_move_cart_rel_trf",
+    "build_jog", "build_multijog", "build_cartjog", "build_pneumatic_gripper",
+    "build_electric_gripper", "build_delay", "build_home", "build_speed_joint",
+    "build_wait_input", "build_smooth_circle", "build_smooth_arc_center",
+    "build_smooth_arc_param", "build_smooth_spline", "build_smooth_helix", "build_smooth_blend",
+    "build_stream", "build_set_tool", "build_set_port", "build_subscribe", "build_unsubscribe",
+    "CARTESIAN_AXES", "FRAMES", "PLANES", "PROFILES", "TRACKING_MODES", "SEGMENT_TYPES",
+]
+
+#: Controller address.
+SERVER_IP = "127.0.0.1"
+#: Controller command port (UDP).
+SERVER_PORT = 5001
+#: Local UDP port the acknowledgement listener binds (the controller sends acks there).
+ACK_PORT = 5002
+#: Seconds a query waits for its reply.
+QUERY_TIMEOUT = 2.0
+
+#: Acknowledgement statuses after which a command is finished.
+TERMINAL_STATUSES = frozenset({"COMPLETED", "FAILED", "CANCELLED", "INVALID"})
+CARTESIAN_AXES = ("X+", "X-", "Y+", "Y-", "Z+", "Z-", "RX+", "RX-", "RY+", "RY-", "RZ+", "RZ-")
+FRAMES = ("WRF", "TRF")
+PLANES = ("XY", "XZ", "YZ")
+PROFILES = ("poly", "trap", "ruckig", "toppra")
+TRACKING_MODES = ("position", "speed")
+SEGMENT_TYPES = ("LINE", "CIRCLE", "ARC", "SPLINE")
+
+#: Gripper ranges accepted by the SSG-48 as the controller drives it.
+GRIPPER_POSITION_RANGE = (0, 255)
+GRIPPER_SPEED_RANGE = (0, 255)
+GRIPPER_CURRENT_RANGE_MA = (100, 1000)
+
+
+class AckPortBusyError(OSError):
+    """The acknowledgement port could not be bound (another program listens on it)."""
+
+
+def configure(host: Optional[str] = None, port: Optional[int] = None,
+              ack_port: Optional[int] = None) -> Dict[str, Any]:
+    """Point the API at a controller; returns the settings now in effect.
+
+    ``host``: controller address; ``port``: its UDP command port (1..65535);
+    ``ack_port``: the local port acknowledgements arrive on (0..65535; 0 = any free port,
+    only useful when the controller sends acks back to the sender's port).
+    Arguments left at ``None`` keep their value.
+    """
+    global SERVER_IP, SERVER_PORT, ACK_PORT
+    if host is not None:
+        if not isinstance(host, str) or not host.strip():
+            raise ValueError(f"host must be a non-empty host name or address, got {host!r}")
+        SERVER_IP = host.strip()
+    if port is not None:
+        SERVER_PORT = _int(port, "port", 1, 65535)
+    if ack_port is not None:
+        new = _int(ack_port, "ack_port", 0, 65535)
+        if new != ACK_PORT:
+            ACK_PORT = new
+            _tracker.stop()  # re-bound lazily on the next tracked command
+    return {"host": SERVER_IP, "port": SERVER_PORT, "ack_port": ACK_PORT}
+
+
+# =============================================================================================
+# validation (raises ValueError naming the argument and the allowed range)
+# =============================================================================================
+
+
+def _number(value: Any, name: str, low: Optional[float] = None, high: Optional[float] = None,
+            *, low_open: bool = False) -> float:
+    if isinstance(value, bool) or value is None:
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    too_low = low is not None and (v <= low if low_open else v < low)
+    if too_low or (high is not None and v > high):
+        if high is None:
+            rng = f"{'>' if low_open else '>='} {low:g}"
+        elif low is None:
+            rng = f"<= {high:g}"
+        else:
+            rng = f"in {low:g}..{high:g}" + (f" (excluding {low:g})" if low_open else "")
+        raise ValueError(f"{name} must be {rng}, got {value!r}")
+    return v
+
+
+def _int(value: Any, name: str, low: int, high: int) -> int:
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be an integer in {low}..{high}, got {value!r}")
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    try:
+        v = value.__index__()
+    except (AttributeError, TypeError):
+        raise ValueError(f"{name} must be an integer in {low}..{high}, got {value!r}") from None
+    if not low <= v <= high:
+        raise ValueError(f"{name} must be in {low}..{high}, got {v}")
+    return v
+
+
+def _numbers(values: Any, count: int, name: str, what: str = "") -> List[float]:
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise ValueError(f"{name} must be a list of {count} numbers{what}, got {values!r}")
+    seq = list(values)
+    if len(seq) != count:
+        raise ValueError(f"{name} must have {count} values{what}, got {len(seq)}")
+    return [_number(v, f"{name}[{i}]") for i, v in enumerate(seq)]
+
+
+def _pose(values: Any, name: str) -> List[float]:
+    return _numbers(values, 6, name, " (x, y, z in mm; A, B, C in deg)")
+
+
+def _percent(value: Any, name: str) -> float:
+    return _number(value, name, 0.0, 100.0)
+
+
+def _positive(value: Any, name: str) -> float:
+    v = _number(value, name)
+    if v <= 0:
+        raise ValueError(f"{name} must be > 0 s, got {value!r}" if "duration" in name or "time" in name
+                         else f"{name} must be > 0, got {value!r}")
+    return v
+
+
+def _choice(value: Any, name: str, choices: Sequence[str], *, upper: bool = True) -> str:
+    if not isinstance(value, str):
+        raise ValueError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+    v = value.strip().upper() if upper else value.strip().lower()
+    if v not in choices:
+        raise ValueError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+    return v
+
+
+def _one_timing(duration: Any, speed_percentage: Any) -> Tuple[Optional[float], Optional[float]]:
+    if duration is None and speed_percentage is None:
+        raise ValueError("give either duration (s, > 0) or speed_percentage (0..100), got neither")
+    if duration is not None and speed_percentage is not None:
+        raise ValueError("give either duration or speed_percentage, not both")
+    d = _positive(duration, "duration") if duration is not None else None
+    s = _percent(speed_percentage, "speed_percentage") if speed_percentage is not None else None
+    return d, s
+
+
+def _opt_choice(value: Any, name: str, choices: Sequence[str]) -> Optional[str]:
+    if value is None:
+        return None
+    value = getattr(value, "value", value)  # accept enums whose value is the wire word
+    return _choice(value, name, choices, upper=False)
+
+
+# =============================================================================================
+# formatting
+# =============================================================================================
+
+
+def format_value(value: Any) -> str:
+    """One wire field: ``None`` -> ``None``; ints as ints; floats in shortest round-trip form."""
+    if value is None:
+        return "None"
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)  # shortest round-trip text, e.g. "90.0", "0.1"
+    return str(value)
+
+
+def _csv(values: Sequence[Any]) -> str:
+    return ",".join(format_value(v) for v in values)
+
+
+def _join(*fields: Any) -> str:
+    return "|".join(f if isinstance(f, str) else format_value(f) for f in fields)
+
+
+def _start_field(start_pose: Any) -> str:
+    return "CURRENT" if start_pose is None else _csv(_pose(start_pose, "start_pose"))
+
+
+def _timing_fields(duration: Any, speed_percentage: Any) -> str:
+    d, s = _one_timing(duration, speed_percentage)
+    return f"DURATION|{format_value(d)}" if d is not None else f"SPEED|{format_value(s)}"
+
+
+# =============================================================================================
+# datagram builders (one command body each, without the ID)
+# =============================================================================================
+
+
+def _move_fields(values: List[float], duration: Any, speed_percentage: Any,
+                 accel_percentage: Any = None, profile: Any = None, tracking: Any = None,
+                 *, with_accel: bool = True) -> str:
+    d, s = _one_timing(duration, speed_percentage)
+    parts = [*values, d, s]
+    a = _percent(accel_percentage, "accel_percentage") if accel_percentage is not None else None
+    p = _opt_choice(profile, "profile", PROFILES)
+    t = _opt_choice(tracking, "tracking", TRACKING_MODES)
+    ext = [a, p, t] if with_accel else [p, t]
+    if any(x is not None for x in ext):
+        parts += ext
+    return _join(*parts)
+
+
+def build_move_joint(angles: Any, duration: Any = None, speed_percentage: Any = None,
+                     accel_percentage: Any = None, profile: Any = None, tracking: Any = None) -> str:
+    """``MOVEJOINT|j1..j6|duration|speed%[|accel%|profile|tracking]`` (deg, s, %)."""
+    a = _numbers(angles, 6, "angles", " (J1..J6 in deg)")
+    return "MOVEJOINT|" + _move_fields(a, duration, speed_percentage, accel_percentage, profile, tracking)
+
+
+def build_move_pose(pose: Any, duration: Any = None, speed_percentage: Any = None,
+                    accel_percentage: Any = None, profile: Any = None, tracking: Any = None) -> str:
+    """``MOVEPOSE|x|y|z|A|B|C|duration|speed%[|accel%|profile|tracking]`` (mm, deg)."""
+    p = _pose(pose, "pose")
+    return "MOVEPOSE|" + _move_fields(p, duration, speed_percentage, accel_percentage, profile, tracking)
+
+
+def build_move_cart(pose: Any, duration: Any = None, speed_percentage: Any = None,
+                    profile: Any = None, tracking: Any = None) -> str:
+    """``MOVECART|x|y|z|A|B|C|duration|speed%[|profile|tracking]`` straight line (mm, deg)."""
+    p = _pose(pose, "pose")
+    return "MOVECART|" + _move_fields(p, duration, speed_percentage, None, profile, tracking,
+                                      with_accel=False)
+
+
+def build_move_cart_rel_trf(delta: Any, duration: Any = None, speed_percentage: Any = None,
+                            profile: Any = None, tracking: Any = None) -> str:
+    """``MOVECARTRELTRF|dx|dy|dz|dA|dB|dC|duration|speed%[|profile|tracking]`` (tool frame)."""
+    p = _pose(delta, "delta")
+    return "MOVECARTRELTRF|" + _move_fields(p, duration, speed_percentage, None, profile, tracking,
+                                            with_accel=False)
+
+
+def build_jog(joint_index: Any, speed_percentage: Any, duration: Any = None,
+              distance_deg: Any = None) -> str:
+    """``JOG|index|speed%|duration|distance_deg``; index 0-5 = J1-J6 positive, 6-11 negative."""
+    i = _int(joint_index, "joint_index", 0, 11)
+    s = _percent(speed_percentage, "speed_percentage")
+    if duration is None and distance_deg is None:
+        raise ValueError("give duration (s, > 0) and/or distance_deg (> 0), got neither")
+    d = _positive(duration, "duration") if duration is not None else None
+    dist = _positive(distance_deg, "distance_deg") if distance_deg is not None else None
+    return _join("JOG", i, s, d, dist)
+
+
+def build_multijog(joints: Any, speeds: Any, duration: Any) -> str:
+    """``MULTIJOG|i,i,...|s,s,...|duration`` (same index rule as JOG)."""
+    if isinstance(joints, (str, bytes)) or not hasattr(joints, "__iter__"):
+        raise ValueError(f"joints must be a list of joint indices 0..11, got {joints!r}")
+    if isinstance(speeds, (str, bytes)) or not hasattr(speeds, "__iter__"):
+        raise ValueError(f"speeds must be a list of percentages 0..100, got {speeds!r}")
+    js = [_int(j, f"joints[{k}]", 0, 11) for k, j in enumerate(joints)]
+    ss = [_percent(s, f"speeds[{k}]") for k, s in enumerate(speeds)]
+    if not js:
+        raise ValueError("joints must name at least one joint (0..11)")
+    if len(js) != len(ss):
+        raise ValueError(f"joints and speeds must have the same length, got {len(js)} and {len(ss)}")
+    seen: Dict[int, int] = {}
+    for j in js:
+        joint = j % 6
+        if joint in seen:
+            what = "twice" if seen[joint] == j else "in both directions"
+            raise ValueError(f"joints: J{joint + 1} is given {what} (indices {seen[joint]} and {j})")
+        seen[joint] = j
+    d = _positive(duration, "duration")
+    return _join("MULTIJOG", _csv(js), _csv(ss), d)
+
+
+def build_cartjog(frame: Any, axis: Any, speed_percentage: Any, duration: Any) -> str:
+    """``CARTJOG|WRF|TRF|axis|speed%|duration``."""
+    f = _choice(frame, "frame", FRAMES)
+    a = _choice(axis, "axis", CARTESIAN_AXES)
+    s = _percent(speed_percentage, "speed_percentage")
+    d = _positive(duration, "duration")
+    return _join("CARTJOG", f, a, s, d)
+
+
+def build_pneumatic_gripper(action: Any, port: Any) -> str:
+    """``PNEUMATICGRIPPER|open|close|port`` (port 1 = OUT1, 2 = OUT2)."""
+    a = _choice(action, "action", ("open", "close"), upper=False)
+    p = _int(port, "port", 1, 2)
+    return _join("PNEUMATICGRIPPER", a, p)
+
+
+def build_electric_gripper(action: Any, position: Any = 255, speed: Any = 150,
+                           current: Any = 500) -> str:
+    """``ELECTRICGRIPPER|move|calibrate|clear_error|None|position|speed|current``.
+
+    position 0..255 (0 open, 255 closed), speed 0..255, current 100..1000 mA.
+    """
+    if action is None:
+        a = "None"
+    else:
+        a = _choice(action, "action", ("move", "calibrate", "clear_error", "none"), upper=False)
+        a = "None" if a == "none" else a
+    pos = _int(position, "position", *GRIPPER_POSITION_RANGE)
+    spd = _int(speed, "speed", *GRIPPER_SPEED_RANGE)
+    cur = _int(current, "current", *GRIPPER_CURRENT_RANGE_MA)
+    return _join("ELECTRICGRIPPER", a, pos, spd, cur)
+
+
+def build_delay(duration: Any) -> str:
+    """``DELAY|seconds`` (> 0)."""
+    return _join("DELAY", _positive(duration, "duration"))
+
+
+def build_home() -> str:
+    """``HOME``."""
+    return "HOME"
+
+
+def build_speed_joint(speeds_deg_s: Any, duration: Any) -> str:
+    """**(ext)** ``SPEEDJOINT|s1..s6|duration``: constant joint speeds (deg/s) for duration s."""
+    s = _numbers(speeds_deg_s, 6, "speeds_deg_s", " (J1..J6 in deg/s)")
+    return _join("SPEEDJOINT", *s, _positive(duration, "duration"))
+
+
+def build_wait_input(input_number: Any, state: Any, timeout: Any = None) -> str:
+    """**(ext)** ``WAIT_INPUT|1|2|0|1|timeout_s or None``."""
+    n = _int(input_number, "input", 1, 2)
+    st = _int(1 if state is True else 0 if state is False else state, "state", 0, 1)
+    t = _positive(timeout, "timeout") if timeout is not None else None
+    return _join("WAIT_INPUT", n, st, t)
+
+
+def build_smooth_circle(center: Any, radius: Any, plane: Any = "XY", frame: Any = "WRF",
+                        start_pose: Any = None, duration: Any = None,
+                        speed_percentage: Any = None, clockwise: bool = False) -> str:
+    """``SMOOTH_CIRCLE|cx,cy,cz|radius|plane|frame|start|DURATION|SPEED|value|cw``."""
+    c = _numbers(center, 3, "center", " (x, y, z in mm)")
+    r = _number(radius, "radius", 0.0, low_open=True)
+    return _join("SMOOTH_CIRCLE", _csv(c), r, _choice(plane, "plane", PLANES),
+                 _choice(frame, "frame", FRAMES), _start_field(start_pose),
+                 _timing_fields(duration, speed_percentage), "1" if clockwise else "0")
+
+
+def build_smooth_arc_center(end_pose: Any, center: Any, frame: Any = "WRF", start_pose: Any = None,
+                            duration: Any = None, speed_percentage: Any = None,
+                            clockwise: bool = False) -> str:
+    """``SMOOTH_ARC_CENTER|end pose|cx,cy,cz|frame|start|timing|value|cw``."""
+    e = _pose(end_pose, "end_pose")
+    c = _numbers(center, 3, "center", " (x, y, z in mm)")
+    return _join("SMOOTH_ARC_CENTER", _csv(e), _csv(c), _choice(frame, "frame", FRAMES),
+                 _start_field(start_pose), _timing_fields(duration, speed_percentage),
+                 "1" if clockwise else "0")
+
+
+def build_smooth_arc_param(end_pose: Any, radius: Any, arc_angle: Any, frame: Any = "WRF",
+                           start_pose: Any = None, duration: Any = None,
+                           speed_percentage: Any = None, clockwise: bool = False) -> str:
+    """``SMOOTH_ARC_PARAM|end pose|radius|angle deg|frame|start|timing|value|cw``."""
+    e = _pose(end_pose, "end_pose")
+    r = _number(radius, "radius", 0.0, low_open=True)
+    ang = _number(arc_angle, "arc_angle")
+    if ang == 0:
+        raise ValueError("arc_angle must be non-zero (deg)")
+    return _join("SMOOTH_ARC_PARAM", _csv(e), r, ang, _choice(frame, "frame", FRAMES),
+                 _start_field(start_pose), _timing_fields(duration, speed_percentage),
+                 "1" if clockwise else "0")
+
+
+def build_smooth_spline(waypoints: Any, frame: Any = "WRF", start_pose: Any = None,
+                        duration: Any = None, speed_percentage: Any = None) -> str:
+    """``SMOOTH_SPLINE|n|frame|start|timing|value|x|y|z|A|B|C|...`` (6 fields per waypoint)."""
+    if isinstance(waypoints, (str, bytes)) or not hasattr(waypoints, "__iter__"):
+        raise ValueError(f"waypoints must be a list of poses [x, y, z, A, B, C], got {waypoints!r}")
+    wps = [_pose(w, f"waypoints[{i}]") for i, w in enumerate(waypoints)]
+    if len(wps) < 2:
+        raise ValueError(f"waypoints must hold at least 2 poses, got {len(wps)}")
+    flat = [v for w in wps for v in w]
+    return _join("SMOOTH_SPLINE", len(wps), _choice(frame, "frame", FRAMES), _start_field(start_pose),
+                 _timing_fields(duration, speed_percentage), *flat)
+
+
+def build_smooth_helix(center: Any, radius: Any, pitch: Any, height: Any, frame: Any = "WRF",
+                       start_pose: Any = None, duration: Any = None,
+                       speed_percentage: Any = None, clockwise: bool = False) -> str:
+    """``SMOOTH_HELIX|cx,cy,cz|radius|pitch|height|frame|start|timing|value|cw`` (mm)."""
+    c = _numbers(center, 3, "center", " (x, y, z in mm)")
+    r = _number(radius, "radius", 0.0, low_open=True)
+    p = _number(pitch, "pitch", 0.0, low_open=True)
+    h = _number(height, "height")
+    if h == 0:
+        raise ValueError("height must be non-zero (mm)")
+    return _join("SMOOTH_HELIX", _csv(c), r, p, h, _choice(frame, "frame", FRAMES),
+                 _start_field(start_pose), _timing_fields(duration, speed_percentage),
+                 "1" if clockwise else "0")
+
+
+def _segment(seg: Any, i: int) -> str:
+    name = f"segments[{i}]"
+    if not isinstance(seg, dict):
+        raise ValueError(f"{name} must be a dict with a 'type' of {', '.join(SEGMENT_TYPES)}, got {seg!r}")
+    kind = _choice(seg.get("type"), f"{name}['type']", SEGMENT_TYPES)
+    cw = "1" if seg.get("clockwise", False) else "0"
+
+    def need(key: str) -> Any:
+        if key not in seg:
+            raise ValueError(f"{name} ({kind}) needs the key {key!r}")
+        return seg[key]
+
+    if kind == "LINE":
+        end = _pose(need("end"), f"{name}['end']")
+        dur = _positive(seg.get("duration", 2.0), f"{name}['duration']")
+        return _join("LINE", _csv(end), dur)
+    if kind == "CIRCLE":
+        c = _numbers(need("center"), 3, f"{name}['center']")
+        r = _number(need("radius"), f"{name}['radius']", 0.0, low_open=True)
+        plane = _choice(seg.get("plane", "XY"), f"{name}['plane']", PLANES)
+        dur = _positive(seg.get("duration", 3.0), f"{name}['duration']")
+        return _join("CIRCLE", _csv(c), r, plane, dur, cw)
+    if kind == "ARC":
+        end = _pose(need("end"), f"{name}['end']")
+        c = _numbers(need("center"), 3, f"{name}['center']")
+        dur = _positive(seg.get("duration", 2.0), f"{name}['duration']")
+        return _join("ARC", _csv(end), _csv(c), dur, cw)
+    wps = need("waypoints")
+    if isinstance(wps, (str, bytes)) or not hasattr(wps, "__iter__"):
+        raise ValueError(f"{name}['waypoints'] must be a list of poses")
+    poses = [_pose(w, f"{name}['waypoints'][{k}]") for k, w in enumerate(wps)]
+    if len(poses) < 2:
+        raise ValueError(f"{name}['waypoints'] must hold at least 2 poses, got {len(poses)}")
+    dur = _positive(seg.get("duration", 3.0), f"{name}['duration']")
+    return _join("SPLINE", len(poses), ";".join(_csv(p) for p in poses), dur)
+
+
+def build_smooth_blend(segments: Any, blend_time: Any = 0.5, frame: Any = "WRF",
+                       start_pose: Any = None, duration: Any = None,
+                       speed_percentage: Any = None) -> str:
+    """``SMOOTH_BLEND|n|blend_time|frame|start|DEFAULT|DURATION|SPEED[|value]|seg||seg...``.
+
+    Segments are dicts: ``{'type': 'LINE', 'end': pose, 'duration': s}``,
+    ``{'type': 'CIRCLE', 'center': xyz, 'radius': mm, 'plane': 'XY', 'duration': s,
+    'clockwise': bool}``, ``{'type': 'ARC', 'end': pose, 'center': xyz, 'duration': s,
+    'clockwise': bool}``, ``{'type': 'SPLINE', 'waypoints': [pose, ...], 'duration': s}``.
+    Without duration/speed_percentage each segment keeps its own duration (``DEFAULT``).
+    """
+    if isinstance(segments, (str, bytes, dict)) or not hasattr(segments, "__iter__"):
+        raise ValueError(f"segments must be a list of segment dicts, got {segments!r}")
+    segs = [_segment(s, i) for i, s in enumerate(segments)]
+    if not segs:
+        raise ValueError("segments must hold at least 1 segment")
+    bt = _number(blend_time, "blend_time", 0.0)
+    if duration is None and speed_percentage is None:
+        timing = "DEFAULT"
+    else:
+        timing = _timing_fields(duration, speed_percentage)
+    return _join("SMOOTH_BLEND", len(segs), bt, _choice(frame, "frame", FRAMES),
+                 _start_field(start_pose), timing) + "|" + "||".join(segs)
+
+
+def build_stream(on: Any) -> str:
+    """``STREAM|ON`` / ``STREAM|OFF``."""
+    if isinstance(on, str):
+        on = _choice(on, "stream", ("ON", "OFF")) == "ON"
+    if not isinstance(on, bool):
+        raise ValueError(f"stream must be True/False or 'ON'/'OFF', got {on!r}")
+    return "STREAM|ON" if on else "STREAM|OFF"
+
+
+def build_set_tool(name: Any) -> str:
+    """**(ext)** ``SET_TOOL|name``."""
+    if not isinstance(name, str) or not name.strip() or "|" in name:
+        raise ValueError(f"tool name must be a non-empty string without '|', got {name!r}")
+    return f"SET_TOOL|{name.strip()}"
+
+
+def build_set_port(name: Any) -> str:
+    """``SET_PORT|name`` (serial device of the board)."""
+    if not isinstance(name, str) or not name.strip() or "|" in name:
+        raise ValueError(f"port must be a non-empty device name without '|', got {name!r}")
+    return f"SET_PORT|{name.strip()}"
+
+
+def build_subscribe(port: Any, every_n: Any = 1) -> str:
+    """**(ext)** ``SUBSCRIBE|port|every_n_ticks``."""
+    return _join("SUBSCRIBE", _int(port, "port", 1, 65535), _int(every_n, "every_n", 1, 1_000_000))
+
+
+def build_unsubscribe(port: Any) -> str:
+    """**(ext)** ``UNSUBSCRIBE|port``."""
+    return _join("UNSUBSCRIBE", _int(port, "port", 1, 65535))
+
+
+# =============================================================================================
+# parsing
+# =============================================================================================
+
+
+def new_command_id() -> str:
+    """A fresh 8-character command ID (the first 8 hex digits of a uuid4: never all upper-case)."""
+    return uuid.uuid4().hex[:8]
+
+
+def parse_reply(text: str, tag: str) -> str:
+    """The payload of a ``TAG|payload`` reply; ``ValueError`` if the tag differs or on ``ERROR|``."""
+    head, sep, payload = text.partition("|")
+    if head == tag and sep:
+        return payload
+    if head == "ERROR":
+        raise ValueError(f"controller answered ERROR: {payload}")
+    raise ValueError(f"expected a {tag}|... reply, got {text[:80]!r}")
+
+
+def parse_numbers(payload: str, count: Optional[int], what: str) -> List[float]:
+    """Comma-separated numbers; ``count`` (if given) is checked."""
+    try:
+        values = [float(v) for v in payload.split(",")] if payload.strip() else []
+    except ValueError:
+        raise ValueError(f"{what}: not a list of numbers: {payload[:80]!r}") from None
+    if count is not None and len(values) != count:
+        raise ValueError(f"{what}: expected {count} values, got {len(values)}")
+    return values
+
+
+def parse_ack(text: str) -> Optional[Tuple[str, str, str]]:
+    """``ACK|ID|STATUS|details`` -> (id, status, details); ``None`` if not an ack."""
+    parts = text.split("|", 3)
+    if len(parts) < 3 or parts[0] != "ACK":
+        return None
+    return parts[1], parts[2].strip().upper(), parts[3] if len(parts) > 3 else ""
+
+
+def parse_status_fields(payload: str) -> Dict[str, str]:
+    """``KEY=value|KEY=value...`` of a GET_STATUS reply -> dict (values as text)."""
+    out: Dict[str, str] = {}
+    for part in payload.split("|"):
+        key, sep, value = part.partition("=")
+        if sep:
+            out[key.strip().upper()] = value
+    return out
+
+
+def matrix_to_pose(matrix: Sequence[Any]) -> List[float]:
+    """4x4 tool pose (16 row-major numbers or 4 rows, translation in METRES) -> [x, y, z, A, B, C].
+
+    x, y, z in mm; A, B, C in degrees with R = Rx(C) * Ry(B) * Rz(A), the convention of the
+    original software (spatialmath ``T.rpy('deg', 'xyz')``, including its choice at the
+    B = +-90 deg singularity: A = 0).
+    """
+    flat = [float(v) for row in matrix for v in (row if hasattr(row, "__iter__") else [row])]
+    if len(flat) != 16:
+        raise ValueError(f"a pose matrix needs 16 numbers, got {len(flat)}")
+    r = [flat[0:3], flat[4:7], flat[8:11]]
+    x, y, z = flat[3] * 1000.0, flat[7] * 1000.0, flat[11] * 1000.0
+    eps = 20 * sys.float_info.epsilon
+    if abs(abs(r[0][2]) - 1.0) < eps:
+        a = 0.0
+        if r[0][2] > 0:
+            c = math.atan2(r[2][1], r[1][1])
+        else:
+            c = -math.atan2(r[1][0], r[2][0])
+        b = math.asin(max(-1.0, min(1.0, r[0][2])))
+    else:
+        a = -math.atan2(r[0][1], r[0][0])
+        c = -math.atan2(r[1][2], r[2][2])
+        cands = [abs(r[0][0]), abs(r[0][1]), abs(r[1][2]), abs(r[2][2])]
+        k = cands.index(max(cands))
+        if k == 0:
+            b = math.atan(r[0][2] * math.cos(a) / r[0][0])
+        elif k == 1:
+            b = -math.atan(r[0][2] * math.sin(a) / r[0][1])
+        elif k == 2:
+            b = -math.atan(r[0][2] * math.sin(c) / r[1][2])
+        else:
+            b = math.atan(r[0][2] * math.cos(c) / r[2][2])
+    return [v + 0.0 for v in (x, y, z, math.degrees(a), math.degrees(b), math.degrees(c))]
+
+
+# =============================================================================================
+# sending and acknowledgements
+# =============================================================================================
+
+
+def send_robot_command(command_string: str) -> str:
+    """Send one datagram to the controller without tracking; returns a confirmation string."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.sendto(command_string.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+    return f"Successfully sent command: '{command_string[:60]}'"
+
+
+class _AckTracker:
+    """The one shared acknowledgement listener (a daemon thread on ACK_PORT)."""
+
+    HISTORY = 1000
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._records: "OrderedDict[str, Dict[str, Any]]" = OrderedDict()
+        self._sock: Optional[socket.socket] = None
+        self._thread: Optional[threading.Thread] = None
+        self._port: Optional[int] = None
+
+    @property
+    def active(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def ensure_started(self) -> None:
+        with self._cond:
+            if self.active and self._port == ACK_PORT:
+                return
+        self.stop()
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            sock.bind(("", ACK_PORT))
+        except OSError as exc:
+            sock.close()
+            raise AckPortBusyError(
+                exc.errno,
+                f"cannot listen for acknowledgements on UDP port {ACK_PORT}: {exc.strerror}. "
+                "Another program (another robot_api script, or a controller on this machine "
+                "using that port) holds it; call robot_api.configure(ack_port=N) with the port "
+                "the controller sends acks to (its --ack-port), or stop the other program.",
+            ) from None
+        sock.settimeout(0.2)
+        with self._cond:
+            self._sock = sock
+            self._port = ACK_PORT
+            self._thread = threading.Thread(target=self._run, args=(sock,),
+                                            name="robot_api-acks", daemon=True)
+            self._thread.start()
+
+    def stop(self) -> None:
+        with self._cond:
+            sock, thread = self._sock, self._thread
+            self._sock = self._thread = None
+            self._port = None
+        if sock is not None:
+            sock.close()
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(1.0)
+
+    def _run(self, sock: socket.socket) -> None:
+        while True:
+            try:
+                data, _ = sock.recvfrom(65535)
+            except socket.timeout:
+                if self._sock is not sock:
+                    return
+                continue
+            except OSError:
+                return  # socket closed by stop()
+            ack = parse_ack(data.decode("utf-8", "replace"))
+            if ack is None:
+                continue
+            cmd_id, status, details = ack
+            with self._cond:
+                rec = self._records.get(cmd_id)
+                if rec is None:
+                    rec = self._records[cmd_id] = {"command": None, "sent_time": None}
+                if not rec.get("completed"):  # the first terminal ack is final
+                    rec.update(status=status, details=details, ack_time=time.time(),
+                               completed=status in TERMINAL_STATUSES)
+                    rec.setdefault("history", []).append(status)
+                while len(self._records) > self.HISTORY:
+                    self._records.popitem(last=False)
+                self._cond.notify_all()
+
+    def register(self, cmd_id: str, command: str) -> None:
+        with self._cond:
+            self._records[cmd_id] = {"command": command, "sent_time": time.time(),
+                                     "status": "SENT", "details": "", "completed": False,
+                                     "history": []}
+
+    def get(self, cmd_id: str) -> Optional[Dict[str, Any]]:
+        with self._cond:
+            rec = self._records.get(cmd_id)
+            return None if rec is None else dict(rec, command_id=cmd_id)
+
+    def wait(self, cmd_id: str, timeout: float) -> Dict[str, Any]:
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while True:
+                rec = self._records.get(cmd_id)
+                if rec is not None and rec.get("completed"):
+                    return {"status": rec["status"], "details": rec["details"],
+                            "command_id": cmd_id, "completed": True}
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    last = rec.get("status", "SENT") if rec else "SENT"
+                    return {"status": "TIMEOUT", "completed": False, "command_id": cmd_id,
+                            "details": f"no terminal acknowledgement within {timeout:g} s "
+                                       f"(last status: {last}); the command may still run"}
+                self._cond.wait(left)
+
+    def stats(self) -> Dict[str, Any]:
+        with self._cond:
+            return {"active": self.active, "ack_port": self._port,
+                    "commands_tracked": len(self._records),
+                    "pending": sum(1 for r in self._records.values() if not r.get("completed"))}
+
+
+_tracker = _AckTracker()
+
+
+def send_robot_command_tracked(command_string: str) -> Tuple[str, str]:
+    """Send with a fresh ID (starting the ack listener if needed); returns (message, id)."""
+    _tracker.ensure_started()
+    cmd_id = new_command_id()
+    _tracker.register(cmd_id, command_string)
+    text = f"{cmd_id}|{command_string}"
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.sendto(text.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+    return f"Command sent with tracking (ID: {cmd_id})", cmd_id
+
+
+def send_and_wait(command_string: str, timeout: float = 2.0,
+                  non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+    """Send with an ID; return the command ID at once (``non_blocking``) or the terminal
+    status dict (``{'status', 'details', 'command_id', 'completed'}``; ``'TIMEOUT'`` when no
+    terminal ack came within ``timeout`` s)."""
+    t = _number(timeout, "timeout", 0.0)
+    _, cmd_id = send_robot_command_tracked(command_string)
+    if non_blocking:
+        return cmd_id
+    return _tracker.wait(cmd_id, t)
+
+
+def _dispatch(command: str, wait_for_ack: bool, timeout: float, non_blocking: bool) -> Any:
+    if wait_for_ack:
+        return send_and_wait(command, timeout, non_blocking)
+    return send_robot_command(command)
+
+
+def check_command_status(command_id: str) -> Optional[Dict[str, Any]]:
+    """The latest known status of a tracked command (``None`` if unknown).
+
+    Keys: ``status`` (SENT, QUEUED, EXECUTING or a terminal status), ``details``,
+    ``completed``, ``command``, ``history`` (every status received, in order), ``command_id``.
+    """
+    return _tracker.get(command_id)
+
+
+def is_tracking_active() -> bool:
+    """True once the acknowledgement listener runs."""
+    return _tracker.active
+
+
+def get_tracking_stats() -> Dict[str, Any]:
+    """Listener state: ``active``, ``ack_port``, ``commands_tracked``, ``pending``."""
+    return _tracker.stats()
+
+
+# =============================================================================================
+# motion and action functions (original names, arguments and defaults)
+# =============================================================================================
+
+
+def move_robot_joints(angles: List[float], duration: Optional[float] = None,
+                      speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
+                      timeout: float = 2.0, non_blocking: bool = False):
+    """Joint-space move to ``angles`` (J1..J6, deg) in ``duration`` s or at ``speed_percentage``."""
+    return _dispatch(build_move_joint(angles, duration, speed_percentage), wait_for_ack, timeout,
+                     non_blocking)
+
+
+def move_robot_pose(pose: List[float], duration: Optional[float] = None,
+                    speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
+                    timeout: float = 2.0, non_blocking: bool = False):
+    """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK, joint-space path."""
+    return _dispatch(build_move_pose(pose, duration, speed_percentage), wait_for_ack, timeout,
+                     non_blocking)
+
+
+def move_robot_cartesian(pose: List[float], duration: Optional[float] = None,
+                         speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
+                         timeout: float = 2.0, non_blocking: bool = False):
+    """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg)."""
+    return _dispatch(build_move_cart(pose, duration, speed_percentage), wait_for_ack, timeout,
+                     non_blocking)
+
+
+def move_robot_cartesian_rel_trf(delta: List[float], duration: Optional[float] = None,
+                                 speed_percentage: Optional[float] = None,
+                                 wait_for_ack: bool = False, timeout: float = 2.0,
+                                 non_blocking: bool = False):
+    """Relative straight-line move in the tool frame: [dx, dy, dz, dA, dB, dC] (mm, deg)."""
+    return _dispatch(build_move_cart_rel_trf(delta, duration, speed_percentage), wait_for_ack,
+                     timeout, non_blocking)
+
+
+def jog_robot_joint(joint_index: int, speed_percentage: float, duration: Optional[float] = None,
+                    distance_deg: Optional[float] = None, wait_for_ack: bool = False,
+                    timeout: float = 2.0, non_blocking: bool = False):
+    """Jog one joint: index 0-5 = J1-J6 positive, 6-11 = J1-J6 negative; for ``duration`` s
+    and/or ``distance_deg`` degrees at ``speed_percentage`` of its jog speed."""
+    return _dispatch(build_jog(joint_index, speed_percentage, duration, distance_deg),
+                     wait_for_ack, timeout, non_blocking)
+
+
+def jog_multiple_joints(joints: List[int], speeds: List[float], duration: float,
+                        wait_for_ack: bool = False, timeout: float = 2.0,
+                        non_blocking: bool = False):
+    """Jog several joints at once (indices as :func:`jog_robot_joint`, speeds in %)."""
+    return _dispatch(build_multijog(joints, speeds, duration), wait_for_ack, timeout, non_blocking)
+
+
+def jog_cartesian(frame: str, axis: str, speed_percentage: float, duration: float,
+                  wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False):
+    """Cartesian jog in ``frame`` ('WRF'/'TRF') along/about ``axis`` ('X+' ... 'RZ-')."""
+    return _dispatch(build_cartjog(frame, axis, speed_percentage, duration), wait_for_ack, timeout,
+                     non_blocking)
+
+
+def control_pneumatic_gripper(action: str, port: int, wait_for_ack: bool = False,
+                              timeout: float = 2.0, non_blocking: bool = False):
+    """Open/close the pneumatic gripper on output ``port`` (1 or 2)."""
+    return _dispatch(build_pneumatic_gripper(action, port), wait_for_ack, timeout, non_blocking)
+
+
+def control_electric_gripper(action: str, position: Optional[int] = 255,
+                             speed: Optional[int] = 150, current: Optional[int] = 500,
+                             wait_for_ack: bool = False, timeout: float = 2.0,
+                             non_blocking: bool = False):
+    """SSG-48 gripper: ``action`` 'move' or 'calibrate' (or 'clear_error');
+    position 0..255, speed 0..255, current 100..1000 mA."""
+    return _dispatch(build_electric_gripper(action, position, speed, current), wait_for_ack,
+                     timeout, non_blocking)
+
+
+def delay_robot(duration: float, wait_for_ack: bool = False, timeout: float = 2.0,
+                non_blocking: bool = False):
+    """Queue a pause of ``duration`` seconds."""
+    return _dispatch(build_delay(duration), wait_for_ack, timeout, non_blocking)
+
+
+def home_robot(wait_for_ack: bool = False, timeout: float = 30.0, non_blocking: bool = False):
+    """Run the board's homing sequence."""
+    return _dispatch(build_home(), wait_for_ack, timeout, non_blocking)
+
+
+def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,
+                        non_blocking: bool = False):
+    """Cancel the active command and clear the queue; the robot holds position."""
+    return _dispatch("STOP", wait_for_ack, timeout, non_blocking)
+
+
+def smooth_circle(center: List[float], radius: float, plane: str = "XY", frame: str = "WRF",
+                  start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
+                  speed_percentage: Optional[float] = None, clockwise: bool = False,
+                  wait_for_ack: bool = False, timeout: float = 10.0, non_blocking: bool = False):
+    """Full circle of ``radius`` mm about ``center`` [x, y, z] mm in ``plane``."""
+    return _dispatch(build_smooth_circle(center, radius, plane, frame, start_pose, duration,
+                                         speed_percentage, clockwise),
+                     wait_for_ack, timeout, non_blocking)
+
+
+def smooth_arc_center(end_pose: List[float], center: List[float], frame: str = "WRF",
+                      start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
+                      speed_percentage: Optional[float] = None, clockwise: bool = False,
+                      wait_for_ack: bool = False, timeout: float = 10.0,
+                      non_blocking: bool = False):
+    """Arc to ``end_pose`` about ``center`` [x, y, z] mm."""
+    return _dispatch(build_smooth_arc_center(end_pose, center, frame, start_pose, duration,
+                                             speed_percentage, clockwise),
+                     wait_for_ack, timeout, non_blocking)
+
+
+def smooth_arc_parametric(end_pose: List[float], radius: float, arc_angle: float,
+                          frame: str = "WRF", start_pose: Optional[List[float]] = None,
+                          duration: Optional[float] = None,
+                          speed_percentage: Optional[float] = None, clockwise: bool = False,
+                          wait_for_ack: bool = False, timeout: float = 10.0,
+                          non_blocking: bool = False):
+    """Arc to ``end_pose`` with ``radius`` mm and ``arc_angle`` degrees."""
+    return _dispatch(build_smooth_arc_param(end_pose, radius, arc_angle, frame, start_pose,
+                                            duration, speed_percentage, clockwise),
+                     wait_for_ack, timeout, non_blocking)
+
+
+def smooth_spline(waypoints: List[List[float]], frame: str = "WRF",
+                  start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
+                  speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
+                  timeout: float = 10.0, non_blocking: bool = False):
+    """Cubic spline through ``waypoints`` (poses [x, y, z, A, B, C] in mm/deg)."""
+    return _dispatch(build_smooth_spline(waypoints, frame, start_pose, duration, speed_percentage),
+                     wait_for_ack, timeout, non_blocking)
+
+
+def smooth_helix(center: List[float], radius: float, pitch: float, height: float,
+                 frame: str = "WRF", start_pose: Optional[List[float]] = None,
+                 duration: Optional[float] = None, speed_percentage: Optional[float] = None,
+                 clockwise: bool = False, wait_for_ack: bool = False, timeout: float = 10.0,
+                 non_blocking: bool = False):
+    """Helix about ``center`` (mm): ``radius``, ``pitch`` per turn and total ``height`` in mm."""
+    return _dispatch(build_smooth_helix(center, radius, pitch, height, frame, start_pose, duration,
+                                        speed_percentage, clockwise),
+                     wait_for_ack, timeout, non_blocking)
+
+
+def smooth_blend(segments: List[Dict[str, Any]], blend_time: float = 0.5, frame: str = "WRF",
+                 start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
+                 speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
+                 timeout: float = 15.0, non_blocking: bool = False):
+    """Blend LINE/CIRCLE/ARC/SPLINE segments into one path (see :func:`build_smooth_blend`)."""
+    return _dispatch(build_smooth_blend(segments, blend_time, frame, start_pose, duration,
+                                        speed_percentage),
+                     wait_for_ack, timeout, non_blocking)
+
+
+# ---- extensions (parolkit controller) ----
+
+
+def enable_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False):
+    """ENABLE: enable the robot; clears a released E-stop latch and a latched error."""
+    return _dispatch("ENABLE", wait_for_ack, timeout, non_blocking)
+
+
+def disable_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False):
+    """DISABLE the robot (no steps generated)."""
+    return _dispatch("DISABLE", wait_for_ack, timeout, non_blocking)
+
+
+def clear_robot_error(wait_for_ack: bool = False, timeout: float = 2.0,
+                      non_blocking: bool = False):
+    """CLEAR_ERROR: clear a latched error."""
+    return _dispatch("CLEAR_ERROR", wait_for_ack, timeout, non_blocking)
+
+
+def estop_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False):
+    """**(ext)** software E-stop (latched until :func:`enable_robot`)."""
+    return _dispatch("ESTOP", wait_for_ack, timeout, non_blocking)
+
+
+def speed_robot_joints(speeds_deg_s: List[float], duration: float, wait_for_ack: bool = False,
+                       timeout: float = 2.0, non_blocking: bool = False):
+    """**(ext)** constant joint speeds (deg/s, J1..J6) for ``duration`` s."""
+    return _dispatch(build_speed_joint(speeds_deg_s, duration), wait_for_ack, timeout, non_blocking)
+
+
+def wait_robot_input(input_number: int, state: int, input_timeout: Optional[float] = None,
+                     wait_for_ack: bool = False, timeout: float = 2.0,
+                     non_blocking: bool = False):
+    """**(ext)** queue a wait until IN``input_number`` equals ``state`` (FAILED after
+    ``input_timeout`` s)."""
+    return _dispatch(build_wait_input(input_number, state, input_timeout), wait_for_ack, timeout,
+                     non_blocking)
+
+
+def set_robot_tool(name: str, wait_for_ack: bool = False, timeout: float = 2.0,
+                   non_blocking: bool = False):
+    """**(ext)** select a tool by name ('default', 'flange' or one from the config)."""
+    return _dispatch(build_set_tool(name), wait_for_ack, timeout, non_blocking)
+
+
+def set_stream_mode(on: bool, wait_for_ack: bool = False, timeout: float = 2.0,
+                    non_blocking: bool = False):
+    """Streaming jog mode on/off (newest jog replaces the previous one)."""
+    return _dispatch(build_stream(on), wait_for_ack, timeout, non_blocking)
+
+
+# =============================================================================================
+# queries
+# =============================================================================================
+
+
+def _query(request: str, tag: str) -> Optional[str]:
+    """Send a query and return its payload, or None (message on stderr) on timeout/error."""
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.settimeout(QUERY_TIMEOUT)
+            sock.sendto(request.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+            deadline = time.monotonic() + QUERY_TIMEOUT
+            while True:
+                data, _ = sock.recvfrom(65535)
+                text = data.decode("utf-8", "replace")
+                head = text.partition("|")[0]
+                if head in (tag, "ERROR"):
+                    return parse_reply(text, tag)
+                left = deadline - time.monotonic()  # a stray datagram: keep waiting
+                if left <= 0:
+                    raise socket.timeout()
+                sock.settimeout(left)
+    except socket.timeout:
+        print(f"robot_api: no {tag} reply from {SERVER_IP}:{SERVER_PORT} within "
+              f"{QUERY_TIMEOUT:g} s (is the controller running?)", file=sys.stderr)
+    except (OSError, ValueError) as exc:
+        print(f"robot_api: {request} failed: {exc}", file=sys.stderr)
+    return None
+
+
+def get_robot_pose_matrix() -> Optional[List[List[float]]]:
+    """The 4x4 tool pose as a list of 4 rows (translation in METRES), or None."""
+    payload = _query("GET_POSE", "POSE")
+    if payload is None:
+        return None
+    try:
+        m = parse_numbers(payload, 16, "POSE")
+    except ValueError as exc:
+        print(f"robot_api: {exc}", file=sys.stderr)
+        return None
+    return [m[0:4], m[4:8], m[8:12], m[12:16]]
+
+
+def get_robot_pose() -> Optional[List[float]]:
+    """[x, y, z, A, B, C] in mm / deg (R = Rx(C) Ry(B) Rz(A)), or None."""
+    m = get_robot_pose_matrix()
+    return None if m is None else matrix_to_pose(m)
+
+
+def get_robot_joint_angles() -> Optional[List[float]]:
+    """[J1..J6] in degrees, or None."""
+    payload = _query("GET_ANGLES", "ANGLES")
+    if payload is None:
+        return None
+    try:
+        return parse_numbers(payload, 6, "ANGLES")
+    except ValueError as exc:
+        print(f"robot_api: {exc}", file=sys.stderr)
+        return None
+
+
+def get_robot_joint_speeds() -> Optional[List[float]]:
+    """[J1..J6] joint speeds in steps/s, or None."""
+    payload = _query("GET_SPEEDS", "SPEEDS")
+    if payload is None:
+        return None
+    try:
+        return parse_numbers(payload, 6, "SPEEDS")
+    except ValueError as exc:
+        print(f"robot_api: {exc}", file=sys.stderr)
+        return None
+
+
+def _ints(payload: str, count: int, what: str) -> List[int]:
+    values = parse_numbers(payload, count, what)
+    return [int(v) for v in values]
+
+
+def get_robot_io(verbose: bool = False) -> Optional[List[int]]:
+    """[IN1, IN2, OUT1, OUT2, ESTOP] as 0/1 (ESTOP 0 = pressed), or None; ``verbose`` prints."""
+    payload = _query("GET_IO", "IO")
+    if payload is None:
+        return None
+    try:
+        io = _ints(payload, 5, "IO")
+    except ValueError as exc:
+        print(f"robot_api: {exc}", file=sys.stderr)
+        return None
+    if verbose:
+        print("--- I/O status ---")
+        for name, v in zip(("IN1", "IN2", "OUT1", "OUT2"), io):
+            print(f"  {name:<5} {v} | {'ON' if v else 'OFF'}")
+        print(f"  ESTOP {io[4]} | {'PRESSED' if io[4] == 0 else 'released (OK)'}")
+    return io
+
+
+def get_electric_gripper_status(verbose: bool = False) -> Optional[List[int]]:
+    """[id, position, speed, current, status_byte, object_detection], or None.
+
+    Status byte bits: 0x80 activated, 0x40 action, 0x20/0x10 object code (0 moving,
+    1 object while closing, 2 object while opening, 3 at position), 0x08 temperature error,
+    0x04 timeout error, 0x02 E-stop/error, 0x01 calibrated.  ``verbose`` prints them.
+    """
+    payload = _query("GET_GRIPPER", "GRIPPER")
+    if payload is None:
+        return None
+    try:
+        g = _ints(payload, 6, "GRIPPER")
+    except ValueError as exc:
+        print(f"robot_api: {exc}", file=sys.stderr)
+        return None
+    if verbose:
+        s = g[4]
+        code = ((s >> 5) & 1) << 1 | ((s >> 4) & 1)
+        code_text = ("moving", "object found while closing", "object found while opening",
+                     "at position")[code]
+        print("--- Electric gripper status ---")
+        print(f"  ID: {g[0]}  position: {g[1]}  speed: {g[2]}  current: {g[3]} mA")
+        print(f"  status byte: 0x{s:02X}  activated={bool(s & 0x80)} calibrated={bool(s & 0x01)} "
+              f"error={bool(s & 0x02)}  object: {code_text}")
+    return g
+
+
+def is_robot_stopped(threshold_speed: float = 2.0) -> bool:
+    """True when every joint speed is below ``threshold_speed`` steps/s (False if no reply)."""
+    speeds = get_robot_joint_speeds()
+    return bool(speeds) and max(abs(s) for s in speeds) < threshold_speed
+
+
+def is_estop_pressed() -> bool:
+    """True when the hardware E-stop is pressed (False if no reply)."""
+    io = get_robot_io()
+    return bool(io) and io[4] == 0
+
+
+def get_robot_status() -> Optional[Dict[str, Any]]:
+    """Everything in one GET_STATUS round trip, or None.
+
+    Keys: ``pose`` [x, y, z, A, B, C] mm/deg, ``pose_matrix``, ``angles`` deg, ``speeds``
+    steps/s, ``io`` [IN1, IN2, OUT1, OUT2, ESTOP], ``gripper`` (as
+    :func:`get_electric_gripper_status`), ``stopped``, ``estop`` (pressed), ``state``,
+    ``homed`` (6 bools), ``queue``, ``command``, ``error``.
+    """
+    payload = _query("GET_STATUS", "STATUS")
+    if payload is None:
+        return None
+    f = parse_status_fields(payload)
+    try:
+        matrix = parse_numbers(f["POSE"], 16, "STATUS POSE")
+        speeds = parse_numbers(f["SPEEDS"], 6, "STATUS SPEEDS") if "SPEEDS" in f else None
+        io = _ints(f["IO"], 5, "STATUS IO")
+        out = {
+            "pose": matrix_to_pose(matrix),
+            "pose_matrix": [matrix[0:4], matrix[4:8], matrix[8:12], matrix[12:16]],
+            "angles": parse_numbers(f["ANGLES"], 6, "STATUS ANGLES"),
+            "speeds": speeds,
+            "io": io,
+            "gripper": _ints(f["GRIPPER"], 6, "STATUS GRIPPER") if "GRIPPER" in f else None,
+            "stopped": speeds is not None and max(abs(s) for s in speeds) < 2.0,
+            "estop": io[4] == 0,
+            "state": f.get("STATE"),
+            "homed": [v.strip() == "1" for v in f["HOMED"].split(",")] if "HOMED" in f else None,
+            "queue": int(f["QUEUE"]) if f.get("QUEUE", "").strip().isdigit() else None,
+            "command": None if f.get("CMD") in (None, "None", "") else f["CMD"],
+            "error": None if f.get("ERROR") in (None, "None", "") else f["ERROR"],
+        }
+    except (KeyError, ValueError) as exc:
+        print(f"robot_api: malformed STATUS reply ({exc!s})", file=sys.stderr)
+        return None
+    return out
+
+
+def ping_robot() -> Optional[bool]:
+    """PING: True when the controller's board link is up, False when down, None if no reply."""
+    payload = _query("PING", "PONG")
+    if payload is None:
+        return None
+    return parse_status_fields(payload).get("SERIAL", "0").strip() == "1"
+
+
+def wait_for_robot_stopped(timeout: float = 10.0, poll_rate: float = 0.1) -> bool:
+    """Poll until :func:`is_robot_stopped`; True when stopped, False after ``timeout`` s."""
+    t = _number(timeout, "timeout", 0.0)
+    p = _number(poll_rate, "poll_rate", 0.0, low_open=True)
+    deadline = time.monotonic() + t
+    while True:
+        if is_robot_stopped():
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(min(p, max(0.0, deadline - time.monotonic())))
