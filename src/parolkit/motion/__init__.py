@@ -1,0 +1,63 @@
+"""Motion planning: move requests -> validated per-tick trajectories (steps, steps/s, command).
+
+One entry point, :func:`plan`; see docs/motion.md for the rules (the seed's) and numbers.
+Heavy libraries (ruckig, toppra, matplotlib, the kinematics) load only when first needed.
+"""
+
+from parolkit.motion.errors import PlanningError
+from parolkit.motion.moves import (
+    ArcCenterMove,
+    ArcParamMove,
+    BlendMove,
+    CartJog,
+    CartMove,
+    CartRelTRFMove,
+    CircleMove,
+    Frame,
+    HelixMove,
+    JointJog,
+    JointMove,
+    LineSegment,
+    Move,
+    Plane,
+    PoseMove,
+    Profile,
+    SpeedJointMove,
+    SplineMove,
+    Tracking,
+)
+from parolkit.motion.planner import plan
+from parolkit.motion.trajectory import Trajectory
+
+__all__ = [
+    "plan",
+    "Trajectory",
+    "PlanningError",
+    "Profile",
+    "Tracking",
+    "Frame",
+    "Plane",
+    "JointMove",
+    "PoseMove",
+    "CartMove",
+    "CartRelTRFMove",
+    "SpeedJointMove",
+    "JointJog",
+    "CartJog",
+    "CircleMove",
+    "ArcCenterMove",
+    "ArcParamMove",
+    "HelixMove",
+    "SplineMove",
+    "LineSegment",
+    "BlendMove",
+    "Move",
+    "plot_trajectory",
+]
+
+
+def plot_trajectory(traj_or_list, path_png, **kwargs):
+    """Draw position and speed per joint to ``path_png`` (see :mod:`parolkit.motion.plot`)."""
+    from parolkit.motion.plot import plot_trajectory as _plot
+
+    return _plot(traj_or_list, path_png, **kwargs)

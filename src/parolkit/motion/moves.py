@@ -1,0 +1,641 @@
+"""Move requests: typed, validated value objects (units at the edge: deg, mm, %, s).
+
+Every move validates its fields on construction and raises
+:class:`~parolkit.errors.ParolkitValueError` naming the field and the allowed range.  A move
+says WHAT to do; :func:`parolkit.motion.plan` decides HOW (profile, duration, samples).
+
+Timing fields follow the seed's rules (``docs/motion.md``):
+
+* ``duration_s`` given: the move lasts exactly that long (it overrides ``speed_pct`` and
+  ``accel_pct``), default profile ``POLY``;
+* ``speed_pct`` (and ``accel_pct``) given: trapezoid on the leading joint (joint moves) or on
+  the path speed (Cartesian moves);
+* neither: the conservative default of the case.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Sequence, Union
+
+from parolkit.errors import ParolkitValueError
+
+__all__ = [
+    "Profile",
+    "Tracking",
+    "Frame",
+    "Plane",
+    "JointMove",
+    "PoseMove",
+    "CartMove",
+    "CartRelTRFMove",
+    "SpeedJointMove",
+    "JointJog",
+    "CartJog",
+    "CircleMove",
+    "ArcCenterMove",
+    "ArcParamMove",
+    "HelixMove",
+    "SplineMove",
+    "LineSegment",
+    "BlendMove",
+    "Move",
+    "CART_JOG_AXES",
+]
+
+
+class Profile(Enum):
+    """Time-scaling profile.  ``None`` in a move means the seed's default for the case."""
+
+    POLY = "poly"  #: quintic polynomial: zero speed and acceleration at both ends
+    TRAP = "trap"  #: trapezoidal speed (with a duration: 1/3 accelerate, 1/3 cruise, 1/3 brake)
+    RUCKIG = "ruckig"  #: jerk-limited (Ruckig), time-optimal within speed/accel/jerk limits
+    TOPPRA = "toppra"  #: time-optimal path parameterisation (TOPP-RA) within joint limits
+
+    @classmethod
+    def parse(cls, value: "Profile | str | None") -> "Profile | None":
+        """Accept a Profile, its name/value in any case, or None."""
+        if value is None or isinstance(value, Profile):
+            return value
+        if isinstance(value, str):
+            key = value.strip().lower()
+            if key in ("", "none"):
+                return None
+            for p in cls:
+                if p.value == key:
+                    return p
+        raise ParolkitValueError(
+            f"profile must be one of poly, trap, ruckig, toppra or None, got {value!r}"
+        )
+
+
+class Tracking(Enum):
+    """How the board follows the trajectory."""
+
+    POSITION = 156  #: position + feed-forward speed (board command 156): ends exactly on target
+    SPEED = 123  #: speed only (board command 123): smoother, may end slightly off target
+
+    @classmethod
+    def parse(cls, value: "Tracking | str | None") -> "Tracking":
+        if value is None:
+            return cls.POSITION
+        if isinstance(value, Tracking):
+            return value
+        if isinstance(value, str) and value.strip().lower() in ("position", "speed"):
+            return cls.POSITION if value.strip().lower() == "position" else cls.SPEED
+        raise ParolkitValueError(f"tracking must be 'position' or 'speed', got {value!r}")
+
+
+class Frame(Enum):
+    """Reference frame: world (base) or the tool frame at the start of the move."""
+
+    WRF = "WRF"
+    TRF = "TRF"
+
+    @classmethod
+    def parse(cls, value: "Frame | str") -> "Frame":
+        if isinstance(value, Frame):
+            return value
+        if isinstance(value, str) and value.strip().upper() in ("WRF", "TRF"):
+            return cls(value.strip().upper())
+        raise ParolkitValueError(f"frame must be WRF or TRF, got {value!r}")
+
+
+class Plane(Enum):
+    """Plane of a circle, with its normal: XY (+Z), XZ (+Y), YZ (+X)."""
+
+    XY = "XY"
+    XZ = "XZ"
+    YZ = "YZ"
+
+    @classmethod
+    def parse(cls, value: "Plane | str") -> "Plane":
+        if isinstance(value, Plane):
+            return value
+        if isinstance(value, str) and value.strip().upper() in ("XY", "XZ", "YZ"):
+            return cls(value.strip().upper())
+        raise ParolkitValueError(f"plane must be XY, XZ or YZ, got {value!r}")
+
+
+#: Cartesian jog axes: name -> (is_rotation, axis index 0..2, sign).
+CART_JOG_AXES: dict[str, tuple[bool, int, int]] = {
+    "X+": (False, 0, 1), "X-": (False, 0, -1),
+    "Y+": (False, 1, 1), "Y-": (False, 1, -1),
+    "Z+": (False, 2, 1), "Z-": (False, 2, -1),
+    "RX+": (True, 0, 1), "RX-": (True, 0, -1),
+    "RY+": (True, 1, 1), "RY-": (True, 1, -1),
+    "RZ+": (True, 2, 1), "RZ-": (True, 2, -1),
+}
+
+# ---------------------------------------------------------------------------------------------
+# field validators (each names the field and the allowed range)
+# ---------------------------------------------------------------------------------------------
+
+
+def _num(value: object, name: str) -> float:
+    if isinstance(value, bool):
+        raise ParolkitValueError(f"{name} must be a number, got {value!r}")
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ParolkitValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ParolkitValueError(f"{name} must be a finite number, got {value!r}")
+    return v
+
+
+def _vec(values: object, n: int, name: str) -> tuple[float, ...]:
+    try:
+        seq = list(values)  # type: ignore[call-overload]
+    except TypeError:
+        raise ParolkitValueError(f"{name} must be {n} numbers, got {values!r}") from None
+    if len(seq) != n:
+        raise ParolkitValueError(f"{name} must be {n} numbers, got {len(seq)}")
+    return tuple(_num(v, f"{name}[{i}]") for i, v in enumerate(seq))
+
+
+def _opt_duration(value: object, name: str = "duration_s") -> float | None:
+    if value is None:
+        return None
+    v = _num(value, name)
+    if not 0.0 < v <= 3600.0:
+        raise ParolkitValueError(f"{name} must be in (0, 3600] s, got {value!r}")
+    return v
+
+
+def _opt_pct(value: object, name: str, *, allow_zero: bool = True) -> float | None:
+    if value is None:
+        return None
+    v = _num(value, name)
+    lo_ok = v >= 0.0 if allow_zero else v > 0.0
+    if not (lo_ok and v <= 100.0):
+        rng = "0..100 %" if allow_zero else "(0, 100] %"
+        raise ParolkitValueError(f"{name} must be in {rng}, got {value!r}")
+    return v
+
+
+def _pose(values: object, name: str) -> tuple[float, ...]:
+    return _vec(values, 6, name)
+
+
+def _opt_pose(values: object, name: str) -> tuple[float, ...] | None:
+    return None if values is None else _pose(values, name)
+
+
+def _positive(value: object, name: str, unit: str) -> float:
+    v = _num(value, name)
+    if v <= 0.0:
+        raise ParolkitValueError(f"{name} must be > 0 {unit}, got {value!r}")
+    return v
+
+
+def _timing(obj: object) -> None:
+    """Common fields: duration_s, speed_pct, profile, tracking."""
+    object.__setattr__(obj, "duration_s", _opt_duration(getattr(obj, "duration_s")))
+    object.__setattr__(
+        obj, "speed_pct", _opt_pct(getattr(obj, "speed_pct"), "speed_pct", allow_zero=True)
+    )
+    object.__setattr__(obj, "profile", Profile.parse(getattr(obj, "profile")))
+    object.__setattr__(obj, "tracking", Tracking.parse(getattr(obj, "tracking")))
+
+
+# ---------------------------------------------------------------------------------------------
+# point-to-point moves
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class JointMove:
+    """MoveJoint: go to ``target_deg`` (J1..J6, degrees) on a straight joint-space path.
+
+    ``duration_s`` (s) overrides ``speed_pct``/``accel_pct`` (percent of the leading joint's
+    speed and of the acceleration range).  With neither: v=45 %, a=27 %, trapezoid.
+    """
+
+    target_deg: Sequence[float]
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    accel_pct: float | None = None
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "MoveJoint"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "target_deg", _vec(self.target_deg, 6, "target_deg"))
+        _timing(self)
+        object.__setattr__(self, "accel_pct", _opt_pct(self.accel_pct, "accel_pct"))
+
+
+@dataclass(frozen=True)
+class PoseMove:
+    """MovePose: IK once at ``pose`` [x, y, z mm, A, B, C deg], then a joint-space move.
+
+    Same timing rules as :class:`JointMove`; defaults v=50 %, a=30 %.
+    """
+
+    pose: Sequence[float]
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    accel_pct: float | None = None
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "MovePose"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pose", _pose(self.pose, "pose"))
+        _timing(self)
+        object.__setattr__(self, "accel_pct", _opt_pct(self.accel_pct, "accel_pct"))
+
+
+@dataclass(frozen=True)
+class CartMove:
+    """MoveCart: straight line to ``pose`` (WRF, mm/deg), orientation by SLERP, IK along it.
+
+    ``speed_pct`` maps to 2..60 mm/s and 0.7..25 deg/s (the slower governs); without
+    ``duration_s`` and ``speed_pct`` the default is 50 % (see docs/motion.md).
+    """
+
+    pose: Sequence[float]
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "MoveCart"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pose", _pose(self.pose, "pose"))
+        _timing(self)
+
+
+@dataclass(frozen=True)
+class CartRelTRFMove:
+    """MoveCartRelTRF: straight-line move by ``delta`` [dx, dy, dz mm, dA, dB, dC deg] in
+    the tool frame at the start of the move (post-multiplied)."""
+
+    delta: Sequence[float]
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "MoveCartRelTRF"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "delta", _pose(self.delta, "delta"))
+        _timing(self)
+
+
+@dataclass(frozen=True)
+class SpeedJointMove:
+    """SpeedJoint: constant joint speeds ``speeds_deg_s`` (deg/s) for ``duration_s`` s,
+    streamed as speed commands (board 123), then a zero-speed sample."""
+
+    speeds_deg_s: Sequence[float]
+    duration_s: float
+
+    name = "SpeedJoint"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "speeds_deg_s", _vec(self.speeds_deg_s, 6, "speeds_deg_s"))
+        d = _opt_duration(self.duration_s)
+        if d is None:
+            raise ParolkitValueError("duration_s is required for SpeedJoint (0 < t <= 3600 s)")
+        object.__setattr__(self, "duration_s", d)
+
+
+@dataclass(frozen=True)
+class JointJog:
+    """Jog one or several joints at constant speed (board 123).
+
+    ``joints``: 0-based indices (0 = J1); ``directions``: +1 / -1 per joint; ``speed_pct``: per
+    joint, 0 < p <= 100 % of the joint's maximum jog speed.  Give ``duration_s`` (s),
+    ``distance_deg`` (deg, single-joint jog only) or both (the shorter ends the jog).
+    """
+
+    joints: Sequence[int]
+    directions: Sequence[int]
+    speed_pct: Sequence[float]
+    duration_s: float | None = None
+    distance_deg: float | None = None
+
+    name = "Jog"
+
+    def __post_init__(self) -> None:
+        joints = tuple(self.joints)
+        n = len(joints)
+        if n == 0 or n > 6:
+            raise ParolkitValueError(f"joints must name 1..6 joints, got {n}")
+        for i, j in enumerate(joints):
+            if isinstance(j, bool) or not isinstance(j, int) or not 0 <= j <= 5:
+                raise ParolkitValueError(f"joints[{i}] must be an integer 0..5, got {j!r}")
+        if len(set(joints)) != n:
+            raise ParolkitValueError(
+                f"joints must not repeat a joint (+ and - of one joint together is invalid): {joints}"
+            )
+        dirs = tuple(self.directions)
+        if len(dirs) != n:
+            raise ParolkitValueError(f"directions must have {n} values (one per joint), got {len(dirs)}")
+        for i, d in enumerate(dirs):
+            if d not in (1, -1) or isinstance(d, bool):
+                raise ParolkitValueError(f"directions[{i}] must be +1 or -1, got {d!r}")
+        pct = _vec(self.speed_pct, n, "speed_pct")
+        for i, p in enumerate(pct):
+            if not 0.0 < p <= 100.0:
+                raise ParolkitValueError(f"speed_pct[{i}] must be in (0, 100] %, got {p!r}")
+        dur = _opt_duration(self.duration_s)
+        dist = None
+        if self.distance_deg is not None:
+            dist = _positive(self.distance_deg, "distance_deg", "deg")
+            if n != 1:
+                raise ParolkitValueError("distance_deg is only allowed when jogging one joint")
+        if dur is None and dist is None:
+            raise ParolkitValueError("a jog needs duration_s and/or distance_deg")
+        object.__setattr__(self, "joints", joints)
+        object.__setattr__(self, "directions", tuple(int(d) for d in dirs))
+        object.__setattr__(self, "speed_pct", pct)
+        object.__setattr__(self, "duration_s", dur)
+        object.__setattr__(self, "distance_deg", dist)
+
+    @classmethod
+    def from_index(
+        cls, index: int, speed_pct: float, duration_s: float | None = None,
+        distance_deg: float | None = None,
+    ) -> "JointJog":
+        """The UDP JOG convention: index 0-5 = J1..J6 positive, 6-11 = negative."""
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 11:
+            raise ParolkitValueError(f"joint index must be an integer 0..11, got {index!r}")
+        return cls((index % 6,), (1 if index < 6 else -1,), (speed_pct,), duration_s, distance_deg)
+
+
+@dataclass(frozen=True)
+class CartJog:
+    """Cartesian jog along/about one axis of WRF or TRF at a constant speed for ``duration_s``.
+
+    ``axis``: X+ X- Y+ Y- Z+ Z- RX+ RX- RY+ RY- RZ+ RZ-; ``speed_pct`` (0, 100] maps to
+    2..60 mm/s (translations) or 0.7..25 deg/s (rotations).  Rotations turn about the TCP.
+    """
+
+    frame: Frame | str
+    axis: str
+    speed_pct: float
+    duration_s: float
+
+    name = "CartJog"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "frame", Frame.parse(self.frame))
+        ax = self.axis.strip().upper() if isinstance(self.axis, str) else self.axis
+        if ax not in CART_JOG_AXES:
+            raise ParolkitValueError(
+                f"axis must be one of {', '.join(CART_JOG_AXES)}, got {self.axis!r}"
+            )
+        object.__setattr__(self, "axis", ax)
+        object.__setattr__(self, "speed_pct", _opt_pct(self.speed_pct, "speed_pct", allow_zero=False))
+        d = _opt_duration(self.duration_s)
+        if d is None:
+            raise ParolkitValueError("duration_s is required for CartJog (0 < t <= 3600 s)")
+        object.__setattr__(self, "duration_s", d)
+
+
+# ---------------------------------------------------------------------------------------------
+# smooth paths (mirroring the UDP SMOOTH_* arguments)
+# ---------------------------------------------------------------------------------------------
+
+
+def _smooth_common(obj: object) -> None:
+    object.__setattr__(obj, "frame", Frame.parse(getattr(obj, "frame")))
+    object.__setattr__(obj, "start_pose", _opt_pose(getattr(obj, "start_pose"), "start_pose"))
+    _timing(obj)
+
+
+@dataclass(frozen=True)
+class CircleMove:
+    """A full 360 deg circle of ``radius_mm`` around ``center_mm`` in ``plane`` of ``frame``.
+
+    The circle starts at the point of the circle nearest the start position (a straight
+    approach to it is planned first when the start is not on the circle, > 0.05 mm away).
+    Orientation is held.  Counter-clockwise about the plane normal unless ``clockwise``.
+    """
+
+    center_mm: Sequence[float]
+    radius_mm: float
+    plane: Plane | str = Plane.XY
+    frame: Frame | str = Frame.WRF
+    start_pose: Sequence[float] | None = None
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    clockwise: bool = False
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "SmoothCircle"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "center_mm", _vec(self.center_mm, 3, "center_mm"))
+        object.__setattr__(self, "radius_mm", _positive(self.radius_mm, "radius_mm", "mm"))
+        object.__setattr__(self, "plane", Plane.parse(self.plane))
+        object.__setattr__(self, "clockwise", bool(self.clockwise))
+        _smooth_common(self)
+
+
+@dataclass(frozen=True)
+class ArcCenterMove:
+    """An arc from the start position to ``end_pose`` around ``center_mm``.
+
+    Both ends must lie at the same distance from the centre (within 1 mm).  The arc turns
+    counter-clockwise about the frame's Z axis (seen from +Z) unless ``clockwise``.
+    Orientation by SLERP from start to end.
+    """
+
+    end_pose: Sequence[float]
+    center_mm: Sequence[float]
+    frame: Frame | str = Frame.WRF
+    start_pose: Sequence[float] | None = None
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    clockwise: bool = False
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "SmoothArcCenter"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "end_pose", _pose(self.end_pose, "end_pose"))
+        object.__setattr__(self, "center_mm", _vec(self.center_mm, 3, "center_mm"))
+        object.__setattr__(self, "clockwise", bool(self.clockwise))
+        _smooth_common(self)
+
+
+@dataclass(frozen=True)
+class ArcParamMove:
+    """An arc of ``radius_mm`` sweeping ``angle_deg`` from the start position to ``end_pose``.
+
+    The centre lies in the plane through the chord and the frame's Z axis; the chord must
+    match the radius and angle (2 R sin(angle/2), within 1 deg of angle).
+    """
+
+    end_pose: Sequence[float]
+    radius_mm: float
+    angle_deg: float
+    frame: Frame | str = Frame.WRF
+    start_pose: Sequence[float] | None = None
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    clockwise: bool = False
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "SmoothArcParam"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "end_pose", _pose(self.end_pose, "end_pose"))
+        object.__setattr__(self, "radius_mm", _positive(self.radius_mm, "radius_mm", "mm"))
+        a = _num(self.angle_deg, "angle_deg")
+        if not 0.0 < a < 360.0:
+            raise ParolkitValueError(f"angle_deg must be in (0, 360) deg, got {self.angle_deg!r}")
+        object.__setattr__(self, "angle_deg", a)
+        object.__setattr__(self, "clockwise", bool(self.clockwise))
+        _smooth_common(self)
+
+
+@dataclass(frozen=True)
+class HelixMove:
+    """A helix around the axis through ``center_mm`` parallel to the frame's Z axis.
+
+    ``radius_mm`` > 0, ``pitch_mm`` > 0 (rise per turn), ``height_mm`` (total rise, sign =
+    direction along Z, non-zero).  It starts at the start position's height, at the point of
+    the cylinder nearest the start (approach line first if needed).  Orientation is held.
+    """
+
+    center_mm: Sequence[float]
+    radius_mm: float
+    pitch_mm: float
+    height_mm: float
+    frame: Frame | str = Frame.WRF
+    start_pose: Sequence[float] | None = None
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    clockwise: bool = False
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "SmoothHelix"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "center_mm", _vec(self.center_mm, 3, "center_mm"))
+        object.__setattr__(self, "radius_mm", _positive(self.radius_mm, "radius_mm", "mm"))
+        object.__setattr__(self, "pitch_mm", _positive(self.pitch_mm, "pitch_mm", "mm"))
+        h = _num(self.height_mm, "height_mm")
+        if h == 0.0:
+            raise ParolkitValueError("height_mm must be non-zero (mm)")
+        if abs(h) / self.pitch_mm > 100:
+            raise ParolkitValueError(
+                f"height_mm / pitch_mm must be at most 100 turns, got {abs(h) / self.pitch_mm:g}"
+            )
+        object.__setattr__(self, "height_mm", h)
+        object.__setattr__(self, "clockwise", bool(self.clockwise))
+        _smooth_common(self)
+
+
+@dataclass(frozen=True)
+class SplineMove:
+    """A cubic spline (chord-length parameterised) from the start through ``waypoints``
+    (poses mm/deg, at least one); orientation by a smooth rotation spline through the
+    waypoint orientations."""
+
+    waypoints: Sequence[Sequence[float]]
+    frame: Frame | str = Frame.WRF
+    start_pose: Sequence[float] | None = None
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "SmoothSpline"
+
+    def __post_init__(self) -> None:
+        try:
+            wps = list(self.waypoints)
+        except TypeError:
+            raise ParolkitValueError("waypoints must be a list of poses") from None
+        if not 1 <= len(wps) <= 1000:
+            raise ParolkitValueError(f"waypoints must hold 1..1000 poses, got {len(wps)}")
+        object.__setattr__(
+            self, "waypoints", tuple(_pose(w, f"waypoints[{i}]") for i, w in enumerate(wps))
+        )
+        _smooth_common(self)
+
+
+@dataclass(frozen=True)
+class LineSegment:
+    """A straight segment to ``pose`` (mm/deg) inside a :class:`BlendMove`."""
+
+    pose: Sequence[float]
+
+    name = "Line"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pose", _pose(self.pose, "pose"))
+
+
+BlendSegment = Union[LineSegment, "CircleMove", "ArcCenterMove", "ArcParamMove", "SplineMove"]
+
+
+@dataclass(frozen=True)
+class BlendMove:
+    """Several segments (LINE / CIRCLE / ARC / SPLINE) joined into one path whose corners are
+    rounded, then timed as ONE move: continuous in position and velocity.
+
+    Corner rounding: ``blend_radius_mm`` (mm, distance from the corner where the rounding
+    starts) or ``blend_time_s`` (s, converted with the path's mean speed: r = v * t / 2).
+    The segments' own timing fields are ignored; ``duration_s`` / ``speed_pct`` time the whole.
+    """
+
+    segments: Sequence[object]
+    blend_radius_mm: float | None = None
+    blend_time_s: float | None = None
+    frame: Frame | str = Frame.WRF
+    start_pose: Sequence[float] | None = None
+    duration_s: float | None = None
+    speed_pct: float | None = None
+    profile: Profile | str | None = None
+    tracking: Tracking | str = Tracking.POSITION
+
+    name = "SmoothBlend"
+
+    def __post_init__(self) -> None:
+        segs = tuple(self.segments)
+        if not 1 <= len(segs) <= 100:
+            raise ParolkitValueError(f"segments must hold 1..100 segments, got {len(segs)}")
+        for i, s in enumerate(segs):
+            if not isinstance(s, (LineSegment, CircleMove, ArcCenterMove, ArcParamMove, SplineMove)):
+                raise ParolkitValueError(
+                    f"segments[{i}] must be a LineSegment, CircleMove, ArcCenterMove, "
+                    f"ArcParamMove or SplineMove, got {type(s).__name__}"
+                )
+        object.__setattr__(self, "segments", segs)
+        if self.blend_radius_mm is not None and self.blend_time_s is not None:
+            raise ParolkitValueError("give blend_radius_mm or blend_time_s, not both")
+        if self.blend_radius_mm is not None:
+            r = _num(self.blend_radius_mm, "blend_radius_mm")
+            if r < 0:
+                raise ParolkitValueError(f"blend_radius_mm must be >= 0 mm, got {r!r}")
+            object.__setattr__(self, "blend_radius_mm", r)
+        if self.blend_time_s is not None:
+            t = _num(self.blend_time_s, "blend_time_s")
+            if not 0.0 <= t <= 60.0:
+                raise ParolkitValueError(f"blend_time_s must be in 0..60 s, got {t!r}")
+            object.__setattr__(self, "blend_time_s", t)
+        _smooth_common(self)
+
+
+Move = Union[
+    JointMove, PoseMove, CartMove, CartRelTRFMove, SpeedJointMove, JointJog, CartJog,
+    CircleMove, ArcCenterMove, ArcParamMove, HelixMove, SplineMove, BlendMove,
+]
+

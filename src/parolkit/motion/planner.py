@@ -1,0 +1,427 @@
+"""``plan(move, start_deg) -> Trajectory``: the one planning entry point.
+
+Joint-space moves (MoveJoint, MovePose, SpeedJoint, joint jogs) are planned here; Cartesian
+moves and smooth paths in :mod:`parolkit.motion.cartesian` (imported when first needed).
+
+Timing rules (the seed's, see docs/motion.md):
+
+* ``duration_s`` given: exactly that long (rounded UP to whole ticks; the profile itself lasts
+  exactly ``duration_s``), default POLY; if a joint would exceed its speed or acceleration
+  limit the move is REFUSED (the message gives the shortest feasible duration).
+* ``speed_pct`` / ``accel_pct``: trapezoid on the leading joint (the one with the most steps
+  to go), all joints synchronised; when another joint could not follow, the leading joint is
+  slowed and a note says so.
+* neither: MoveJoint v=45 %, a=27 %; MovePose v=50 %, a=30 % (trapezoid).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from parolkit.errors import ParolkitValueError
+from parolkit.motion import validate
+from parolkit.motion.errors import PlanningError
+from parolkit.motion.moves import (
+    CartJog, JointJog, JointMove, PoseMove, Profile, SpeedJointMove, Tracking,
+)
+from parolkit.motion.profiles import (
+    POLY_PEAK_ACCEL, POLY_PEAK_SPEED, TRAP3_PEAK_ACCEL, TRAP3_PEAK_SPEED, ScalarProfile,
+    ruckig_unit_profile, trapezoid_for_limits,
+)
+from parolkit.motion.trajectory import Trajectory
+from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
+
+__all__ = [
+    "plan",
+    "MOVEJOINT_DEFAULT_PCT",
+    "MOVEPOSE_DEFAULT_PCT",
+    "SPEED_ONLY_ACCEL_PCT",
+    "RUCKIG_JERK_TIME_S",
+]
+
+#: MoveJoint with only targets: (speed %, accel %) of the original software.
+MOVEJOINT_DEFAULT_PCT = (45.0, 27.0)
+#: MovePose with only a pose: (speed %, accel %).
+MOVEPOSE_DEFAULT_PCT = (50.0, 30.0)
+#: Acceleration % used when only a speed % is given (the original UDP MOVEJOINT rule).
+SPEED_ONLY_ACCEL_PCT = 50.0
+#: Ruckig jerk limit = acceleration limit / this time (s): full acceleration within 0.1 s.
+RUCKIG_JERK_TIME_S = 0.1
+
+_TOL = 1e-9
+
+
+def _rate(rate_hz: float) -> float:
+    try:
+        r = float(rate_hz)
+    except (TypeError, ValueError):
+        raise ParolkitValueError(f"rate_hz must be a number in 1..1000 Hz, got {rate_hz!r}") from None
+    if not math.isfinite(r) or not 1.0 <= r <= 1000.0:
+        raise ParolkitValueError(f"rate_hz must be in 1..1000 Hz, got {rate_hz!r}")
+    return r
+
+
+def sample_times(duration: float, rate_hz: float) -> np.ndarray:
+    """Tick times 1/rate, 2/rate, ... up to the first tick at or after ``duration`` (s)."""
+    n = max(1, int(math.ceil(duration * rate_hz - 1e-6)))
+    return np.arange(1, n + 1, dtype=float) / rate_hz
+
+
+def plan(
+    move: object,
+    start_deg: Sequence[float],
+    *,
+    model: RobotModel = PAROL6,
+    tool: object = None,
+    rate_hz: float = 100.0,
+) -> Trajectory:
+    """Plan ``move`` from the joint angles ``start_deg`` (deg, J1..J6).
+
+    Returns a validated :class:`Trajectory` (every sample inside the joint limits, speeds and
+    accelerations inside the model's maxima) or raises :class:`PlanningError` naming the
+    move, the sample time, the joint and the value.  ``tool`` is passed to the kinematics for
+    pose-based moves (None = the default tool).  ``rate_hz``: control loop rate (Hz).
+    """
+    rate = _rate(rate_hz)
+    start = np.asarray(start_deg, dtype=float) if not isinstance(start_deg, np.ndarray) else start_deg.astype(float)
+    if start.shape != (6,) or not np.all(np.isfinite(start)):
+        raise ParolkitValueError(f"start_deg must be 6 finite joint angles (deg), got {start_deg!r}")
+    if isinstance(move, JointMove):
+        return _plan_joint_target(move, start, np.asarray(move.target_deg), model, rate,
+                                  MOVEJOINT_DEFAULT_PCT)
+    if isinstance(move, PoseMove):
+        return _plan_pose(move, start, model, tool, rate)
+    if isinstance(move, SpeedJointMove):
+        return _plan_speed_joint(move, start, model, rate)
+    if isinstance(move, JointJog):
+        return _plan_joint_jog(move, start, model, rate)
+    from parolkit.motion import cartesian  # lazy: needs kinematics
+
+    if isinstance(move, CartJog):
+        return cartesian.plan_cart_jog(move, start, model=model, tool=tool, rate_hz=rate)
+    return cartesian.plan_cartesian(move, start, model=model, tool=tool, rate_hz=rate)
+
+
+# ---------------------------------------------------------------------------------------------
+# building and checking the arrays
+# ---------------------------------------------------------------------------------------------
+
+
+def build_trajectory(
+    move: object, t: np.ndarray, q_deg: np.ndarray, qd_deg_s: np.ndarray, *,
+    start: np.ndarray, model: RobotModel, rate: float, tracking: Tracking,
+    notes: Sequence[str] = (), target_deg: np.ndarray | None = None, jog: bool = False,
+    check_accel: bool = True, hint: str = "",
+) -> Trajectory:
+    """Round to steps, validate (positions, speeds, accelerations) and wrap in a Trajectory.
+
+    ``target_deg``: the last sample is set exactly to it (POSITION tracking ends on target).
+    SPEED tracking gets a trailing zero-speed sample when the last speed is not zero.
+    """
+    name = getattr(move, "name", type(move).__name__)
+    spd = model.steps_per_deg
+    steps_f = q_deg * spd
+    pos = np.rint(steps_f).astype(np.int64)
+    if target_deg is not None:
+        pos[-1] = np.rint(np.asarray(target_deg) * spd).astype(np.int64)
+    sp_f = qd_deg_s * spd
+    validate.check_positions(name, t, pos, model)
+    validate.check_speeds(name, t, sp_f, model, jog=jog, hint=hint)
+    if check_accel:
+        validate.check_accels(name, t, sp_f, model, rate, hint=hint)
+    sp = np.rint(sp_f).astype(np.int64)
+    if tracking is Tracking.SPEED and np.any(sp[-1] != 0):
+        t = np.append(t, t[-1] + 1.0 / rate)
+        pos = np.vstack([pos, pos[-1:]])
+        sp = np.vstack([sp, np.zeros((1, 6), dtype=np.int64)])
+    commands = np.full(len(t), tracking.value, dtype=np.uint8)
+    return Trajectory(t=t, positions=pos, speeds=sp, commands=commands, rate_hz=rate, move=move,
+                      notes=tuple(notes), start_deg=start, model=model)
+
+
+def _check_target(name: str, target: np.ndarray, model: RobotModel, what: str = "target") -> None:
+    lim = model.safe_limits_deg
+    bad = np.nonzero((target < lim[:, 0]) | (target > lim[:, 1]))[0]
+    if len(bad):
+        j = int(bad[0])
+        raise PlanningError(
+            name,
+            f"{what} {JOINT_NAMES[j]} = {target[j]:.3f} deg is outside the joint range "
+            f"{lim[j, 0]:.3f} .. {lim[j, 1]:.3f} deg",
+            joint=j, value=float(target[j]),
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# joint-space point-to-point (MoveJoint, MovePose)
+# ---------------------------------------------------------------------------------------------
+
+
+def _plan_pose(move: PoseMove, start: np.ndarray, model: RobotModel, tool: object, rate: float) -> Trajectory:
+    from parolkit import kinematics
+
+    try:
+        target = np.asarray(kinematics.ik(move.pose, seed_deg=start, tool=tool), dtype=float)
+    except ParolkitValueError:
+        raise
+    except Exception as exc:  # IKError and friends: an unreachable pose
+        reason = getattr(exc, "reason", None) or str(exc)
+        raise PlanningError(
+            move.name, f"pose {_fmt_pose(move.pose)} is not reachable: {reason}"
+        ) from exc
+    return _plan_joint_target(move, start, target, model, rate, MOVEPOSE_DEFAULT_PCT)
+
+
+def _fmt_pose(pose: Sequence[float]) -> str:
+    return "[" + ", ".join(f"{v:g}" for v in pose) + "]"
+
+
+def _plan_joint_target(
+    move: JointMove | PoseMove, start: np.ndarray, target: np.ndarray, model: RobotModel,
+    rate: float, default_pct: tuple[float, float],
+) -> Trajectory:
+    name = move.name
+    _check_target(name, target, model)
+    spd = model.steps_per_deg
+    delta = target - start  # deg
+    dist = np.abs(delta * spd)  # steps
+    vmax = np.asarray(model.max_speed_steps_s, dtype=float)
+    amax = float(model.accel_range_steps_s2[1])
+    notes: list[str] = []
+    tracking = move.tracking
+    if dist.max() < 0.5:  # already there (less than half a step on every joint)
+        t = np.array([1.0 / rate])
+        return build_trajectory(move, t, target[None, :], np.zeros((1, 6)), start=start,
+                                model=model, rate=rate, tracking=tracking, notes=["already at target"],
+                                target_deg=target)
+    if move.duration_s is not None:
+        if move.speed_pct is not None or move.accel_pct is not None:
+            notes.append("duration given: it overrides speed and acceleration percentages")
+        prof, T = _timed_profile(name, move.profile or Profile.POLY, float(move.duration_s), dist,
+                                 vmax, amax, start, delta, spd)
+    else:
+        v_pct = move.speed_pct if move.speed_pct is not None else default_pct[0]
+        if move.accel_pct is not None:
+            a_pct = move.accel_pct
+        else:
+            a_pct = SPEED_ONLY_ACCEL_PCT if move.speed_pct is not None else default_pct[1]
+        prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, vmax,
+                                   amax, start, delta, spd, model, notes)
+    t = sample_times(T, rate)
+    if isinstance(prof, ScalarProfile):
+        s, sd, _ = prof(t)
+        q = start + np.outer(s, delta)
+        qd = np.outer(sd, delta)
+    else:  # TOPP-RA result on the straight joint path
+        q, qd, _ = prof.evaluate(t)
+        q = np.array(q, dtype=float)
+        qd = np.array(qd, dtype=float)
+    q[-1] = target
+    qd[-1] = 0.0
+    return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate, tracking=tracking,
+                            notes=notes, target_deg=target)
+
+
+def _min_duration(kind: str, dist: np.ndarray, vmax: np.ndarray, amax: float) -> tuple[float, int, str]:
+    """Shortest duration for a synchronised poly/trap(1/3) move; the limiting joint and why."""
+    kv, ka = (POLY_PEAK_SPEED, POLY_PEAK_ACCEL) if kind == "poly" else (TRAP3_PEAK_SPEED, TRAP3_PEAK_ACCEL)
+    tv = kv * dist / vmax
+    ta = np.sqrt(ka * dist / amax)
+    jv, ja = int(np.argmax(tv)), int(np.argmax(ta))
+    if tv[jv] >= ta[ja]:
+        return float(tv[jv]), jv, "speed"
+    return float(ta[ja]), ja, "acceleration"
+
+
+def _timed_profile(
+    name: str, profile: Profile, T: float, dist: np.ndarray, vmax: np.ndarray, amax: float,
+    start: np.ndarray, delta: np.ndarray, spd: np.ndarray,
+):
+    """Profile lasting exactly ``T`` s, or a refusal when a joint cannot keep up."""
+    if profile in (Profile.POLY, Profile.TRAP):
+        kind = "poly" if profile is Profile.POLY else "trap"
+        tmin, j, why = _min_duration(kind, dist, vmax, amax)
+        if T < tmin * (1.0 - 1e-9):
+            _refuse_too_fast(name, kind, T, tmin, j, why, dist, vmax, amax)
+        return (ScalarProfile("poly", T) if kind == "poly" else ScalarProfile("trap", T, T / 3.0)), T
+    if profile is Profile.RUCKIG:
+        with np.errstate(divide="ignore"):
+            v_s = float(np.min(vmax / dist))
+            a_s = float(np.min(amax / dist))
+        j_s = a_s / RUCKIG_JERK_TIME_S
+        prof = ruckig_unit_profile(v_s, a_s, j_s, min_duration=T)
+        if prof.T > T * (1.0 + 1e-6):
+            raise PlanningError(
+                name,
+                f"too fast for t={T:g} s: the jerk-limited profile needs at least {prof.T:.3f} s "
+                f"within the joint speed/acceleration limits; give t >= {math.ceil(prof.T * 100) / 100:.2f} s",
+            )
+        return prof, T
+    # TOPP-RA on the straight joint-space line
+    from parolkit.motion.topp import toppra_parameterize
+
+    res = toppra_parameterize(np.array([0.0, 1.0]), np.vstack([start, start + delta]),
+                              vmax / spd, amax / spd, duration=T)
+    if res is None or res.duration > T * (1.0 + 1e-6):
+        need = "no feasible timing" if res is None else f"at least {res.duration:.3f} s"
+        raise PlanningError(name, f"too fast for t={T:g} s: TOPP-RA finds {need} within the joint limits")
+    return res, T
+
+
+def _refuse_too_fast(name, kind, T, tmin, j, why, dist, vmax, amax) -> None:
+    if why == "speed":
+        k = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
+        value = k * dist[j] / T
+        t_at = T / 2.0 if kind == "poly" else T / 3.0
+        detail = f"{JOINT_NAMES[j]} would need a speed of {value:.0f} steps/s (maximum {vmax[j]:.0f} steps/s)"
+    else:
+        k = POLY_PEAK_ACCEL if kind == "poly" else TRAP3_PEAK_ACCEL
+        value = k * dist[j] / T**2
+        t_at = T * (0.5 - 0.5 / math.sqrt(3.0)) if kind == "poly" else 1.0 / 100.0
+        detail = (f"{JOINT_NAMES[j]} would need an acceleration of {value:.0f} steps/s^2 "
+                  f"(maximum {amax:.0f} steps/s^2)")
+    raise PlanningError(
+        name,
+        f"too fast for t={T:g} s with the {kind} profile: {detail}; "
+        f"give t >= {math.ceil(tmin * 100 - 1e-6) / 100:.2f} s",
+        time_s=t_at, joint=j, value=value,
+    )
+
+
+def _percent_profile(
+    name: str, profile: Profile, v_pct: float, a_pct: float, dist: np.ndarray, vmax: np.ndarray,
+    amax: float, start: np.ndarray, delta: np.ndarray, spd: np.ndarray, model: RobotModel,
+    notes: list[str],
+):
+    """Leading-joint v/a profile with every joint synchronised (finishing together)."""
+    lead = int(np.argmax(dist))
+    v_lead = float(model.speed_from_percent(v_pct)[lead])
+    a_lead = float(model.accel_from_percent(a_pct))
+    if profile is Profile.TOPPRA:
+        # time-optimal: every joint within its own mapped speed and the mapped acceleration
+        from parolkit.motion.topp import toppra_parameterize
+
+        v_joint = np.minimum(model.speed_from_percent(v_pct), vmax) / spd
+        res = toppra_parameterize(np.array([0.0, 1.0]), np.vstack([start, start + delta]),
+                                  v_joint, np.full(6, a_lead) / spd)
+        if res is None:
+            raise PlanningError(name, "TOPP-RA finds no feasible timing within the joint limits")
+        return res, res.duration
+    d = dist[lead]
+    moving = dist > 0.0
+    # unit-path limits: the leading joint's mapped values, capped so every joint stays inside
+    v_s = v_lead / d
+    a_s = a_lead / d
+    with np.errstate(divide="ignore"):
+        v_caps = np.where(moving, vmax / np.where(moving, dist, 1.0), np.inf)
+        a_caps = np.where(moving, amax / np.where(moving, dist, 1.0), np.inf)
+    jv = int(np.argmin(v_caps))
+    if v_caps[jv] < v_s * (1.0 - 1e-12):
+        notes.append(
+            f"leading joint {JOINT_NAMES[lead]} slowed from {v_lead:.0f} to {v_caps[jv] * d:.0f} steps/s: "
+            f"{JOINT_NAMES[jv]} speed limit {vmax[jv]:.0f} steps/s (all joints finish together)"
+        )
+        v_s = float(v_caps[jv])
+    ja = int(np.argmin(a_caps))
+    if a_caps[ja] < a_s * (1.0 - 1e-12):
+        a_s = float(a_caps[ja])
+    if profile is Profile.TRAP:
+        T, ta = trapezoid_for_limits(1.0, v_s, a_s)
+        if abs(ta - T / 2.0) < 1e-12:
+            notes.append(
+                f"triangular profile: {JOINT_NAMES[lead]} peaks at {d / ta:.0f} steps/s before "
+                f"reaching {v_s * d:.0f} steps/s"
+            )
+        return ScalarProfile("trap", T, ta), T
+    if profile is Profile.POLY:
+        T = max(POLY_PEAK_SPEED / v_s, math.sqrt(POLY_PEAK_ACCEL / a_s))
+        return ScalarProfile("poly", T), T
+    prof = ruckig_unit_profile(v_s, a_s, a_s / RUCKIG_JERK_TIME_S)
+    return prof, prof.T
+
+
+# ---------------------------------------------------------------------------------------------
+# constant-speed streams (SpeedJoint, joint jogs): board command 123
+# ---------------------------------------------------------------------------------------------
+
+
+def _constant_speed(
+    move: object, start: np.ndarray, v_deg_s: np.ndarray, T: float, model: RobotModel,
+    rate: float, *, jog: bool, notes: Sequence[str] = (),
+) -> Trajectory:
+    """Constant joint speeds for ``T`` s (the last tick scaled so the integral is exact), then
+    a zero-speed sample.  Positions are where the joints are expected at each tick."""
+    name = getattr(move, "name", type(move).__name__)
+    spd = model.steps_per_deg
+    sp_f = v_deg_s * spd
+    mx = np.asarray(model.max_jog_speed_steps_s if jog else model.max_speed_steps_s, dtype=float)
+    over = np.nonzero(np.abs(sp_f) > mx * (1 + 1e-9))[0]
+    if len(over):
+        j = int(over[0])
+        kind = "maximum jog speed" if jog else "maximum speed"
+        raise PlanningError(
+            name, f"{JOINT_NAMES[j]} speed {abs(sp_f[j]):.0f} steps/s ({abs(v_deg_s[j]):.3f} deg/s) "
+            f"exceeds the {kind} {mx[j]:.0f} steps/s ({mx[j] / spd[j]:.3f} deg/s)",
+            time_s=1.0 / rate, joint=j, value=float(v_deg_s[j]),
+        )
+    # where would the joints leave their range?  Refuse with the longest allowed duration.
+    lim = model.safe_limits_deg
+    end = start + v_deg_s * T
+    bad = np.nonzero((end < lim[:, 0]) | (end > lim[:, 1]))[0]
+    if len(bad):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = np.where(v_deg_s > 0, lim[:, 1], lim[:, 0])
+            t_hit = np.where(v_deg_s != 0, (bound - start) / v_deg_s, np.inf)
+        j = int(bad[np.argmin(t_hit[bad])])
+        th = max(0.0, float(t_hit[j]))
+        raise PlanningError(
+            name,
+            f"{JOINT_NAMES[j]} would reach {end[j]:.3f} deg, beyond its range "
+            f"{lim[j, 0]:.3f} .. {lim[j, 1]:.3f} deg (it gets there after {th:.3f} s; "
+            f"the longest allowed duration is {math.floor(th * rate) / rate:.2f} s)",
+            time_s=th, joint=j, value=float(end[j]),
+        )
+    n_full = int(math.floor(T * rate + 1e-9))
+    frac = T * rate - n_full
+    if frac < 1e-6:
+        frac = 0.0
+    n = n_full + (1 if frac > 0 else 0)
+    scale = np.ones(n)
+    if frac > 0:
+        scale[-1] = frac
+    speeds = np.outer(scale, v_deg_s)  # deg/s applied during each tick
+    # position at tick k = start + sum of the speeds sent before it
+    q = start + np.vstack([np.zeros((1, 6)), np.cumsum(speeds, axis=0) / rate])
+    t = np.arange(1, n + 2, dtype=float) / rate
+    qd = np.vstack([speeds, np.zeros((1, 6))])
+    spdr = np.rint(qd * spd).astype(np.int64)
+    pos = np.rint(q * spd).astype(np.int64)
+    validate.check_positions(name, t, pos, model)
+    return Trajectory(t=t, positions=pos, speeds=spdr,
+                      commands=np.full(len(t), Tracking.SPEED.value, dtype=np.uint8),
+                      rate_hz=rate, move=move, notes=tuple(notes), start_deg=start, model=model)
+
+
+def _plan_speed_joint(move: SpeedJointMove, start: np.ndarray, model: RobotModel, rate: float) -> Trajectory:
+    return _constant_speed(move, start, np.asarray(move.speeds_deg_s, dtype=float),
+                           float(move.duration_s), model, rate, jog=False)
+
+
+def _plan_joint_jog(move: JointJog, start: np.ndarray, model: RobotModel, rate: float) -> Trajectory:
+    spd = model.steps_per_deg
+    v = np.zeros(6)
+    for j, d, p in zip(move.joints, move.directions, move.speed_pct):
+        v[j] = d * float(model.jog_speed_from_percent(p)[j]) / spd[j]
+    notes = []
+    T = move.duration_s
+    if move.distance_deg is not None:
+        j = move.joints[0]
+        t_dist = move.distance_deg / abs(v[j])
+        if T is None or t_dist < T:
+            T = t_dist
+            if move.duration_s is not None:
+                notes.append(f"jog ends after {move.distance_deg:g} deg ({t_dist:.3f} s), before duration_s")
+    return _constant_speed(move, start, v, float(T), model, rate, jog=True, notes=notes)

@@ -1,0 +1,157 @@
+"""The planned trajectory: plain arrays a control loop plays with zero per-tick computation.
+
+Sample convention: ``t[0] = 1 / rate_hz`` (the first tick after the start), one sample every
+``1 / rate_hz`` s.  For POSITION tracking (board command 156) ``positions[-1]`` is exactly the
+target in steps; SPEED tracking streams (board command 123) end with a zero-speed sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from parolkit.robot import PAROL6, RobotModel
+
+__all__ = ["Trajectory"]
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A planned move, sample by sample.
+
+    Attributes:
+        t: (N,) sample times in s from the start of the move.
+        positions: (N, 6) int64 joint positions in microsteps.
+        speeds: (N, 6) int64 feed-forward joint speeds in microsteps/s.
+        commands: (N,) uint8 board command per sample: 156 (position + speed) or 123 (speed).
+        rate_hz: sample rate (Hz).
+        move: the request this was planned from.
+        notes: what the planner decided for the caller, e.g. ``"duration stretched from 0.5 s
+            to 1.2 s: J2 speed limit"``.
+        start_deg: (6,) joint angles (deg) the move starts from.
+        model: the robot model the steps refer to.
+    """
+
+    t: np.ndarray
+    positions: np.ndarray
+    speeds: np.ndarray
+    commands: np.ndarray
+    rate_hz: float
+    move: object
+    notes: tuple[str, ...] = ()
+    start_deg: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    model: RobotModel = PAROL6
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "t", _frozen(np.asarray(self.t, dtype=float)))
+        object.__setattr__(self, "positions", _frozen(np.asarray(self.positions, dtype=np.int64)))
+        object.__setattr__(self, "speeds", _frozen(np.asarray(self.speeds, dtype=np.int64)))
+        object.__setattr__(self, "commands", _frozen(np.asarray(self.commands, dtype=np.uint8)))
+        object.__setattr__(self, "start_deg", _frozen(np.asarray(self.start_deg, dtype=float)))
+        object.__setattr__(self, "notes", tuple(self.notes))
+        n = len(self.t)
+        if self.positions.shape != (n, 6) or self.speeds.shape != (n, 6) or self.commands.shape != (n,):
+            raise ValueError(
+                f"inconsistent trajectory arrays: t {self.t.shape}, positions "
+                f"{self.positions.shape}, speeds {self.speeds.shape}, commands {self.commands.shape}"
+            )
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    @property
+    def duration(self) -> float:
+        """Time of the last sample (s); 0 for an empty trajectory."""
+        return float(self.t[-1]) if len(self.t) else 0.0
+
+    @property
+    def name(self) -> str:
+        """Name of the move kind (``"MoveJoint"``, ...)."""
+        return getattr(self.move, "name", type(self.move).__name__)
+
+    def positions_deg(self) -> np.ndarray:
+        """(N, 6) joint positions in degrees."""
+        return self.positions / self.model.steps_per_deg
+
+    def speeds_deg_s(self) -> np.ndarray:
+        """(N, 6) joint speeds in deg/s."""
+        return self.speeds / self.model.steps_per_deg
+
+    @property
+    def final_deg(self) -> np.ndarray:
+        """(6,) joint angles (deg) of the last sample (the start when empty)."""
+        if not len(self.t):
+            return np.array(self.start_deg)
+        return self.positions[-1] / self.model.steps_per_deg
+
+    @property
+    def final_steps(self) -> np.ndarray:
+        """(6,) int64 joint positions of the last sample."""
+        return np.array(self.positions[-1]) if len(self.t) else np.rint(
+            self.start_deg * self.model.steps_per_deg
+        ).astype(np.int64)
+
+    def peak_speeds_steps_s(self) -> np.ndarray:
+        """(6,) largest |speed| per joint, steps/s."""
+        return np.abs(self.speeds).max(axis=0) if len(self.t) else np.zeros(6, dtype=np.int64)
+
+    def tcp_path_mm(self, tool: object = None, max_points: int = 400) -> np.ndarray:
+        """(M, 3) tool positions (mm, WRF) along the move, M <= ``max_points`` (start and end
+        included).  Uses forward kinematics (imported lazily)."""
+        from parolkit import kinematics
+
+        q = np.vstack([self.start_deg[None, :], self.positions_deg()])
+        if max_points < 2:
+            max_points = 2
+        if len(q) > max_points:
+            idx = np.unique(np.linspace(0, len(q) - 1, max_points).round().astype(int))
+            q = q[idx]
+        poses = np.asarray(kinematics.fk_batch(q, tool))
+        return np.array(poses[:, :3], dtype=float)
+
+    def poses(self, tool: object = None) -> np.ndarray:
+        """(N, 6) tool poses [x, y, z mm, A, B, C deg] of every sample (forward kinematics)."""
+        from parolkit import kinematics
+
+        return np.asarray(kinematics.fk_batch(self.positions_deg(), tool), dtype=float)
+
+    def summary(self) -> str:
+        """A few lines for people: duration, samples, peak speeds, notes."""
+        peaks = self.peak_speeds_steps_s()
+        lines = [
+            f"{self.name}: {len(self)} samples at {self.rate_hz:g} Hz, duration {self.duration:.3f} s, "
+            f"board command {int(self.commands[-1]) if len(self) else '-'}",
+            "peak speed (steps/s): " + "  ".join(f"J{i + 1} {int(p)}" for i, p in enumerate(peaks)),
+        ]
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    @staticmethod
+    def concatenate(parts: Sequence["Trajectory"], move: object, notes: Sequence[str] = ()) -> "Trajectory":
+        """Play ``parts`` one after another as one trajectory for ``move``."""
+        parts = [p for p in parts if len(p)]
+        if not parts:
+            raise ValueError("nothing to concatenate")
+        offs = 0.0
+        ts = []
+        for p in parts:
+            ts.append(p.t + offs)
+            offs += p.duration
+        all_notes = list(notes)
+        for p in parts:
+            all_notes += [n for n in p.notes if n not in all_notes]
+        return Trajectory(
+            t=np.concatenate(ts),
+            positions=np.concatenate([p.positions for p in parts]),
+            speeds=np.concatenate([p.speeds for p in parts]),
+            commands=np.concatenate([p.commands for p in parts]),
+            rate_hz=parts[0].rate_hz, move=move, notes=tuple(all_notes),
+            start_deg=parts[0].start_deg, model=parts[0].model,
+        )

@@ -1,0 +1,85 @@
+"""Sample-by-sample checks every trajectory passes before it is handed out.
+
+Each check finds the FIRST offending sample and raises :class:`PlanningError` naming the move,
+the sample time, the joint and the value with its limit.  Nothing is clamped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from parolkit.motion.errors import PlanningError
+from parolkit.robot import JOINT_NAMES, RobotModel
+
+__all__ = ["check_positions", "check_speeds", "check_accels", "ACCEL_TOLERANCE"]
+
+#: Finite-difference accelerations may exceed the analytic peak by this fraction (sampling).
+ACCEL_TOLERANCE = 0.02
+
+
+def _first(mask: np.ndarray) -> tuple[int, int] | None:
+    if not mask.any():
+        return None
+    k, j = np.argwhere(mask)[0]
+    return int(k), int(j)
+
+
+def check_positions(name: str, t: np.ndarray, steps: np.ndarray, model: RobotModel) -> None:
+    """Every (rounded) sample inside ``model.limits_steps``."""
+    lim = model.limits_steps_array
+    hit = _first((steps < lim[:, 0]) | (steps > lim[:, 1]))
+    if hit is None:
+        return
+    k, j = hit
+    spd = model.steps_per_deg[j]
+    value = float(steps[k, j])
+    lo, hi = lim[j]
+    side = f"below the lower limit {lo / spd:.3f} deg" if value < lo else f"above the upper limit {hi / spd:.3f} deg"
+    raise PlanningError(
+        name,
+        f"{JOINT_NAMES[j]} = {value / spd:.3f} deg ({int(value)} steps) is {side} "
+        f"(allowed {lo / spd:.3f} .. {hi / spd:.3f} deg)",
+        time_s=float(t[k]), joint=j, value=value / spd,
+    )
+
+
+def check_speeds(
+    name: str, t: np.ndarray, speeds_steps_s: np.ndarray, model: RobotModel, *,
+    jog: bool = False, hint: str = "",
+) -> None:
+    """Every |speed| within the maximum joint speed (``jog``: the maximum jog speed)."""
+    mx = np.asarray(model.max_jog_speed_steps_s if jog else model.max_speed_steps_s, dtype=float)
+    hit = _first(np.abs(speeds_steps_s) > mx * (1.0 + 1e-9))
+    if hit is None:
+        return
+    k, j = hit
+    value = float(speeds_steps_s[k, j])
+    kind = "maximum jog speed" if jog else "maximum speed"
+    raise PlanningError(
+        name,
+        f"{JOINT_NAMES[j]} speed {abs(value):.0f} steps/s exceeds the {kind} {mx[j]:.0f} steps/s"
+        + (f"; {hint}" if hint else ""),
+        time_s=float(t[k]), joint=j, value=value,
+    )
+
+
+def check_accels(
+    name: str, t: np.ndarray, speeds_steps_s: np.ndarray, model: RobotModel, rate_hz: float,
+    *, hint: str = "",
+) -> None:
+    """Every finite-difference acceleration (from rest) within the top of the acceleration
+    range (plus :data:`ACCEL_TOLERANCE` for sampling)."""
+    amax = float(model.accel_range_steps_s2[1])
+    v = np.vstack([np.zeros((1, 6)), speeds_steps_s])
+    acc = np.diff(v, axis=0) * rate_hz
+    hit = _first(np.abs(acc) > amax * (1.0 + ACCEL_TOLERANCE))
+    if hit is None:
+        return
+    k, j = hit
+    value = float(acc[k, j])
+    raise PlanningError(
+        name,
+        f"{JOINT_NAMES[j]} acceleration {abs(value):.0f} steps/s^2 exceeds the maximum "
+        f"{amax:.0f} steps/s^2" + (f"; {hint}" if hint else ""),
+        time_s=float(t[k]), joint=j, value=value,
+    )

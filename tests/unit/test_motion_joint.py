@@ -1,0 +1,272 @@
+"""Joint-space planning: the seed's timing rules, proved numerically on the planned samples."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from parolkit.errors import ParolkitValueError
+from parolkit.motion import (
+    JointJog, JointMove, PlanningError, Profile, SpeedJointMove, Trajectory, Tracking, plan,
+)
+from parolkit.robot import PAROL6, deg_to_steps
+
+STANDBY = np.array(PAROL6.standby_deg)
+SPD = PAROL6.steps_per_deg
+VMAX = np.asarray(PAROL6.max_speed_steps_s, dtype=float)
+AMAX = PAROL6.accel_range_steps_s2[1]
+
+
+def _speeds_f(tr: Trajectory) -> np.ndarray:
+    return tr.speeds.astype(float)
+
+
+def test_sample_convention_first_tick_after_start_and_last_sample_exactly_on_target():
+    target = [50, -80, 170, 10, -10, 200]
+    tr = plan(JointMove(target, duration_s=3.0), STANDBY)
+    assert tr.t[0] == pytest.approx(0.01)
+    assert np.allclose(np.diff(tr.t), 0.01)
+    assert len(tr) == 300 and tr.duration == pytest.approx(3.0)
+    assert np.array_equal(tr.positions[-1], deg_to_steps(target))
+    assert np.all(tr.speeds[-1] == 0)
+    assert tr.positions.dtype == np.int64 and tr.speeds.dtype == np.int64
+    assert tr.commands.dtype == np.uint8 and set(tr.commands.tolist()) == {156}
+
+
+def test_trap_with_duration_has_three_equal_phases_of_one_third():
+    tr = plan(JointMove([50, -90, 180, 0, 0, 180], duration_s=2.0, profile="trap"), STANDBY)
+    v = np.abs(_speeds_f(tr)[:, 0])
+    vc = v.max()
+    # cruise speed 1.5 * distance / T
+    dist = 40 * SPD[0]
+    assert vc == pytest.approx(1.5 * dist / 2.0, abs=1)
+    cruise = tr.t[np.abs(v - vc) <= 1]
+    assert cruise[0] == pytest.approx(2 / 3, abs=0.01)
+    assert cruise[-1] == pytest.approx(4 / 3, abs=0.01)
+    # accelerating phase: speed grows linearly with t (constant acceleration 4.5 d / T^2)
+    acc = tr.t < 0.66
+    assert np.allclose(v[acc], 4.5 * dist / 4.0 * tr.t[acc], atol=1)
+    assert tr.t[-1] == 2.0 and tr.positions[-1, 0] == deg_to_steps([50, -90, 180, 0, 0, 180])[0]
+
+
+def test_poly_starts_and_ends_with_zero_speed_and_acceleration():
+    tr = plan(JointMove([60, -70, 160, 20, 30, 150], duration_s=4.0, profile="poly"), STANDBY)
+    v = tr.speeds_deg_s()
+    dist = np.abs(np.array([60, -70, 160, 20, 30, 150]) - STANDBY)
+    peak = 1.875 * dist / 4.0
+    assert np.all(np.abs(v[0]) < 0.001 * peak + 1 / SPD)
+    assert np.all(v[-1] == 0)
+    acc = np.diff(v, axis=0) * 100
+    peak_acc = 5.7735 * dist / 16.0
+    # acceleration at the ends: a tiny fraction of the peak (zero in the limit)
+    assert np.all(np.abs(acc[0]) < 0.02 * peak_acc + 2 / SPD * 100)
+    assert np.all(np.abs(acc[-1]) < 0.02 * peak_acc + 2 / SPD * 100)
+    assert np.allclose(np.abs(v).max(axis=0), peak, rtol=0.01, atol=0.02)
+
+
+def test_speed_and_accel_percent_leading_joint_reaches_mapped_speed_and_all_finish_together():
+    start = STANDBY
+    target = np.array([80, -70, 170, 30, -20, 250])  # J6 travels the most steps
+    tr = plan(JointMove(target, speed_pct=40, accel_pct=60), start)
+    steps = np.abs((target - start) * SPD)
+    lead = int(np.argmax(steps))
+    assert lead == 5
+    mapped = PAROL6.speed_from_percent(40)[lead]
+    assert np.abs(tr.speeds[:, lead]).max() == pytest.approx(mapped, abs=1)
+    # acceleration of the leading joint: the mapped 60 %
+    acc = np.abs(np.diff(_speeds_f(tr)[:, lead])) * 100
+    assert acc.max() == pytest.approx(PAROL6.accel_from_percent(60), rel=0.01)
+    # synchronised: every joint's speed is the same fraction of its distance at every sample
+    delta_steps = (target - start) * SPD
+    lead_frac = tr.speeds[:, [lead]] / delta_steps[lead]
+    assert np.allclose(tr.speeds, lead_frac * delta_steps, atol=1.0)
+    # all joints reach their targets on the same (last) sample
+    assert np.array_equal(tr.positions[-1], deg_to_steps(target))
+    assert np.all(tr.speeds[-1] == 0) and np.all(tr.speeds[-2, steps > 100] != 0)
+
+
+def test_other_joint_that_cannot_follow_slows_the_leader_and_says_so():
+    target = np.array([0, -60, 150, 10, 20, 100])  # J1 (slowest joint) nearly as far as J6
+    tr = plan(JointMove(target, speed_pct=100, accel_pct=100), STANDBY)
+    assert np.abs(tr.speeds[:, 0]).max() <= VMAX[0]
+    assert np.abs(tr.speeds[:, 0]).max() == pytest.approx(VMAX[0], abs=1)
+    assert any("J1 speed limit" in n for n in tr.notes)
+
+
+def test_only_targets_uses_the_conservative_default_trapezoid():
+    target = np.array([70, -80, 170, 0, 0, 180])
+    tr = plan(JointMove(target), STANDBY)
+    lead = int(np.argmax(np.abs((target - STANDBY) * SPD)))
+    # default MoveJoint: v=45 %, a=27 %
+    assert np.abs(tr.speeds[:, lead]).max() <= PAROL6.speed_from_percent(45)[lead] + 1
+    acc = np.abs(np.diff(_speeds_f(tr)[:, lead])) * 100
+    assert acc.max() == pytest.approx(PAROL6.accel_from_percent(27), rel=0.02)
+
+
+def test_duration_overrides_percentages():
+    tr = plan(JointMove([70, -80, 170, 0, 0, 180], duration_s=3, speed_pct=100, accel_pct=100), STANDBY)
+    assert tr.duration == 3.0
+    assert any("overrides" in n for n in tr.notes)
+
+
+def test_too_fast_for_duration_is_refused_naming_joint_time_value_and_minimum():
+    with pytest.raises(PlanningError) as ei:
+        plan(JointMove([0, -90, 180, 0, 0, 180], duration_s=2.0, profile="trap"), STANDBY)
+    e = ei.value
+    assert e.move == "MoveJoint" and e.joint == 0 and e.joint_name == "J1"
+    assert e.value == pytest.approx(1.5 * 90 * SPD[0] / 2.0)
+    assert e.time_s == pytest.approx(2 / 3)
+    assert "J1 would need a speed of 7680 steps/s (maximum 6500 steps/s)" in str(e)
+    assert "give t >= 2.37 s" in str(e)
+
+
+def test_acceleration_limit_refuses_a_short_small_move_too():
+    # 20 deg of J6 in 0.2 s: speed ok (17778 < 22000 would be 1.875*3556/0.2=33333: too fast)
+    with pytest.raises(PlanningError, match="J6"):
+        plan(JointMove([90, -90, 180, 0, 0, 200], duration_s=0.2), STANDBY)
+    # 2 deg of J6 in 0.1 s: speed fine, acceleration 5.77*355.6/0.01 = 205000 steps/s^2 > 32000
+    with pytest.raises(PlanningError, match="acceleration"):
+        plan(JointMove([90, -90, 180, 0, 0, 182], duration_s=0.1), STANDBY)
+
+
+def test_target_outside_joint_range_is_refused_before_planning():
+    with pytest.raises(PlanningError) as ei:
+        plan(JointMove([0, -150, 180, 0, 0, 180]), STANDBY)
+    assert ei.value.joint == 1 and "J2 = -150.000 deg is outside the joint range" in str(ei.value)
+
+
+def test_speed_tracking_streams_command_123_and_ends_with_zero_speed():
+    tr = plan(JointMove([70, -80, 170, 0, 0, 180], duration_s=2, tracking="speed"), STANDBY)
+    assert set(tr.commands.tolist()) == {Tracking.SPEED.value} == {123}
+    assert np.all(tr.speeds[-1] == 0)
+
+
+@pytest.mark.parametrize("profile", [Profile.RUCKIG, Profile.TOPPRA])
+def test_ruckig_and_toppra_joint_moves_stay_inside_limits_and_end_on_target(profile):
+    target = np.array([40, -60, 150, 30, 20, 120])
+    tr = plan(JointMove(target, profile=profile), STANDBY)
+    assert np.array_equal(tr.positions[-1], deg_to_steps(target))
+    assert np.all(np.abs(tr.speeds) <= VMAX)
+    acc = np.abs(np.diff(np.vstack([np.zeros(6), _speeds_f(tr)]), axis=0)) * 100
+    assert acc.max() <= AMAX * 1.02
+    timed = plan(JointMove(target, duration_s=tr.duration + 1.0, profile=profile), STANDBY)
+    assert timed.duration == pytest.approx(tr.duration + 1.0, abs=0.011)
+    with pytest.raises(PlanningError, match="too fast"):
+        plan(JointMove(target, duration_s=tr.duration * 0.3, profile=profile), STANDBY)
+
+
+def test_ruckig_profile_is_jerk_limited():
+    tr = plan(JointMove([40, -60, 150, 30, 20, 120], profile="ruckig"), STANDBY)
+    acc = np.diff(np.vstack([np.zeros(6), _speeds_f(tr)]), axis=0) * 100
+    jerk = np.abs(np.diff(acc, axis=0)) * 100
+    # full acceleration takes >= 0.1 s: jerk <= 32000 / 0.1 (plus rounding of steps/s)
+    assert jerk.max() <= 32000 / 0.1 * 1.05 + 2e4
+
+
+def test_zero_length_move_is_one_sample_at_target():
+    tr = plan(JointMove(STANDBY), STANDBY)
+    assert len(tr) == 1 and np.all(tr.speeds == 0)
+
+
+def test_speed_joint_streams_constant_speed_then_zero():
+    tr = plan(SpeedJointMove([5, 0, 0, 0, 0, -10], 1.234), STANDBY)
+    assert set(tr.commands.tolist()) == {123}
+    v = tr.speeds_deg_s()
+    assert np.allclose(v[:123, 0], 5, atol=0.01) and np.allclose(v[:123, 5], -10, atol=0.01)
+    assert np.all(tr.speeds[-1] == 0)
+    # the last partial tick makes the travelled distance exact
+    assert tr.final_deg[0] == pytest.approx(90 + 5 * 1.234, abs=0.01)
+    assert tr.final_deg[5] == pytest.approx(180 - 10 * 1.234, abs=0.01)
+
+
+def test_speed_joint_refuses_leaving_the_range_and_says_how_long_is_allowed():
+    with pytest.raises(PlanningError) as ei:
+        plan(SpeedJointMove([50, 0, 0, 0, 0, 0], 2.0), STANDBY)
+    e = ei.value
+    assert e.joint == 0 and e.time_s == pytest.approx((123.046875 - 90) / 50, abs=0.002)
+    assert "longest allowed duration is 0.66 s" in str(e)
+    with pytest.raises(PlanningError, match="maximum speed"):
+        plan(SpeedJointMove([0, 0, 0, 0, 0, 200], 0.5), STANDBY)
+
+
+def test_joint_jog_by_distance_is_exact_and_uses_jog_speed():
+    tr = plan(JointJog.from_index(9, 50, distance_deg=10), STANDBY)  # J4 negative
+    assert set(tr.commands.tolist()) == {123}
+    assert tr.speeds[0, 3] == -round(PAROL6.max_jog_speed_steps_s[3] * 0.5)
+    assert tr.final_deg[3] == pytest.approx(-10, abs=1 / SPD[3])
+    assert np.all(tr.speeds[-1] == 0)
+
+
+def test_multi_joint_jog_moves_every_named_joint_at_its_jog_speed():
+    tr = plan(JointJog((0, 2, 5), (1, -1, 1), (10, 20, 30), duration_s=0.5), STANDBY)
+    jog = np.asarray(PAROL6.max_jog_speed_steps_s)
+    assert tr.speeds[0, 0] == round(jog[0] * 0.1)
+    assert tr.speeds[0, 2] == -round(jog[2] * 0.2)
+    assert tr.speeds[0, 5] == round(jog[5] * 0.3)
+    assert tr.speeds[0, 1] == 0 and len(tr) == 51
+
+
+def test_jog_past_a_limit_is_refused():
+    with pytest.raises(PlanningError, match="J1 would reach"):
+        plan(JointJog.from_index(0, 100, duration_s=10), STANDBY)
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        (dict(target_deg=[0, 0, 0]), "target_deg"),
+        (dict(target_deg=[0, 0, 0, 0, 0, float("nan")]), "target_deg[5]"),
+        (dict(target_deg=[0] * 6, duration_s=-1), "duration_s"),
+        (dict(target_deg=[0] * 6, speed_pct=101), "speed_pct"),
+        (dict(target_deg=[0] * 6, accel_pct=-1), "accel_pct"),
+        (dict(target_deg=[0] * 6, profile="cubic"), "profile"),
+        (dict(target_deg=[0] * 6, tracking="torque"), "tracking"),
+    ],
+)
+def test_bad_move_fields_are_rejected_naming_the_field(kwargs, field):
+    with pytest.raises(ParolkitValueError, match=field.replace("[", r"\[").replace("]", r"\]")):
+        JointMove(**kwargs)
+
+
+def test_bad_jogs_are_rejected_naming_the_field():
+    with pytest.raises(ParolkitValueError, match="joint index"):
+        JointJog.from_index(12, 50, 1.0)
+    with pytest.raises(ParolkitValueError, match="must not repeat"):
+        JointJog((0, 0), (1, -1), (10, 10), 1.0)
+    with pytest.raises(ParolkitValueError, match=r"speed_pct\[0\]"):
+        JointJog((0,), (1,), (0,), 1.0)
+    with pytest.raises(ParolkitValueError, match="duration_s and/or distance_deg"):
+        JointJog((0,), (1,), (10,))
+
+
+_lim = PAROL6.safe_limits_deg
+_angles = st.tuples(*[st.floats(float(lo), float(hi)) for lo, hi in _lim])
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(start=_angles, target=_angles,
+       timing=st.one_of(st.none(), st.floats(0.5, 8.0),
+                        st.tuples(st.floats(0, 100), st.floats(0, 100))),
+       profile=st.sampled_from([None, "poly", "trap"]))
+def test_property_no_sample_ever_exceeds_limits_or_misses_the_target(start, target, timing, profile):
+    kw: dict = {"profile": profile}
+    if isinstance(timing, float):
+        kw["duration_s"] = timing
+    elif isinstance(timing, tuple):
+        kw["speed_pct"], kw["accel_pct"] = timing
+    try:
+        tr = plan(JointMove(target, **kw), np.array(start))
+    except PlanningError as e:
+        # only a too-short duration may be refused, and the message says the minimum
+        assert isinstance(timing, float) and "too fast" in str(e)
+        return
+    lim = PAROL6.limits_steps_array
+    assert np.all(tr.positions >= lim[:, 0]) and np.all(tr.positions <= lim[:, 1])
+    assert np.all(np.abs(tr.speeds) <= VMAX)
+    acc = np.abs(np.diff(np.vstack([np.zeros(6), _speeds_f(tr)]), axis=0)) * 100
+    assert np.all(acc <= AMAX * 1.02 + 100)  # + rounding of the integer speeds
+    assert np.array_equal(tr.positions[-1], deg_to_steps(target))
