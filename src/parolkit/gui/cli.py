@@ -1,0 +1,158 @@
+"""``parolkit gui``: start (or connect to) a controller and serve the commander.
+
+    parolkit gui [--sim | --port /dev/ttyACM0 | --connect HOST:PORT] [--http-port 8080]
+                 [--host 127.0.0.1] [--no-browser]
+
+With ``--sim`` (the default) or ``--port`` a ``parolkit serve`` subprocess is started on
+free UDP ports and stopped with the GUI.  ``--connect`` uses a running controller (acks are
+received on ``--ack-port``, 5002 by default, as the controller sends them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ipaddress
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+__all__ = ["register", "main", "parse_host_port", "start_controller_process"]
+
+
+def parse_host_port(text: str) -> tuple[str, int]:
+    """'HOST:PORT' -> (host, port); raises argparse.ArgumentTypeError naming the problem."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host:
+        raise argparse.ArgumentTypeError(f"--connect needs HOST:PORT (e.g. 127.0.0.1:5001), got {text!r}")
+    try:
+        p = int(port)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--connect port must be an integer 1..65535, got {port!r}") from None
+    if not 1 <= p <= 65535:
+        raise argparse.ArgumentTypeError(f"--connect port must be in 1..65535, got {p}")
+    return host, p
+
+
+def _port(text: str) -> int:
+    try:
+        p = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"port must be an integer 1..65535, got {text!r}") from None
+    if not 1 <= p <= 65535:
+        raise argparse.ArgumentTypeError(f"port must be in 1..65535, got {p}")
+    return p
+
+
+def register(subparsers: argparse._SubParsersAction, name: str = "gui") -> argparse.ArgumentParser:
+    p = subparsers.add_parser(name, help="start the browser commander",
+                              description="Start the PAROL6 browser commander (3D simulator, jog, IO, "
+                                          "gripper, RBTscript editor).")
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--sim", action="store_true", help="start a controller with the simulated robot (default)")
+    src.add_argument("--port", metavar="DEV", help="start a controller on this serial port (real robot)")
+    src.add_argument("--connect", metavar="HOST:PORT", type=parse_host_port, help="use a running controller")
+    p.add_argument("--ack-port", type=_port, default=None,
+                   help="UDP port acks are received on (default: a free port for a started controller, 5002 with --connect)")
+    p.add_argument("--http-port", type=_port, default=None, help="HTTP port of the GUI (default from config: 8080)")
+    p.add_argument("--host", default=None,
+                   help="address the GUI binds (default 127.0.0.1; anything else exposes robot control to the network)")
+    p.add_argument("--no-browser", action="store_true", help="do not open a browser")
+    p.add_argument("--config", type=Path, default=None, help="parolkit.toml to use")
+    p.set_defaults(func=main)
+    return p
+
+
+def _free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _ping(port: int, timeout: float) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.settimeout(timeout)
+        s.sendto(b"PING", ("127.0.0.1", port))
+        try:
+            data, _ = s.recvfrom(1024)
+        except OSError:
+            return False
+        return data.startswith(b"PONG")
+
+
+def start_controller_process(serial_port: str | None, udp_port: int, ack_port: int,
+                             config: Path | None = None, ready_timeout: float = 20.0) -> subprocess.Popen:
+    """Start ``parolkit serve`` and wait until it answers PING; raises RuntimeError otherwise."""
+    args = [sys.executable, "-m", "parolkit", "serve", "--udp-port", str(udp_port), "--ack-port", str(ack_port)]
+    args += ["--port", serial_port] if serial_port else ["--sim"]
+    if config is not None:
+        args += ["--config", str(config)]
+    proc = subprocess.Popen(args, env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    deadline = time.monotonic() + ready_timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise RuntimeError(f"the controller exited with code {proc.returncode} (command: {' '.join(args)})")
+        if _ping(udp_port, 0.2):
+            return proc
+    proc.terminate()
+    raise RuntimeError(f"the controller did not answer PING within {ready_timeout:g} s")
+
+
+def main(args: argparse.Namespace) -> int:
+    from parolkit.config import load_config
+
+    try:
+        cfg = load_config(args.config)
+    except (OSError, ValueError) as exc:
+        print(f"parolkit gui: {exc}", file=sys.stderr)
+        return 2
+    http_port = args.http_port or cfg.gui.http_port
+    host = args.host or cfg.gui.host
+    try:
+        loopback = ipaddress.ip_address(socket.gethostbyname(host)).is_loopback
+    except (OSError, ValueError):
+        loopback = False
+    if not loopback:
+        print(f"WARNING: the commander binds {host}: anyone who can reach this address can move the robot.",
+              file=sys.stderr)
+
+    proc: subprocess.Popen | None = None
+    if args.connect:
+        ctl_host, ctl_port = args.connect
+        ack_port = args.ack_port or 5002
+        mode = f"controller {ctl_host}:{ctl_port}"
+    else:
+        ctl_host, ctl_port = "127.0.0.1", _free_udp_port()
+        ack_port = args.ack_port or _free_udp_port()
+        serial_port = args.port
+        mode = f"REAL · {serial_port}" if serial_port else "SIMULATOR"
+        print(f"starting controller ({'serial ' + serial_port if serial_port else 'simulated robot'}) "
+              f"on UDP {ctl_port}, acks on {ack_port}", file=sys.stderr)
+        try:
+            proc = start_controller_process(serial_port, ctl_port, ack_port, args.config)
+        except (RuntimeError, OSError) as exc:
+            print(f"parolkit gui: {exc}", file=sys.stderr)
+            return 1
+
+    from nicegui import ui
+
+    from parolkit.gui.app import Commander, build_app
+    from parolkit.gui.link import ControllerLink
+
+    link = ControllerLink(ctl_host, ctl_port, ack_port)
+    commander = Commander(link, mode_label=mode)
+    root = build_app(commander)
+    print(f"parolkit commander on http://{host}:{http_port}/", file=sys.stderr, flush=True)
+    try:
+        ui.run(root, host=host, port=http_port, title="parolkit commander", reload=False,
+               show=not args.no_browser, show_welcome_message=False, dark=True, favicon="🦾")
+    finally:
+        if proc is not None and proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+    return 0

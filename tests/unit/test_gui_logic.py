@@ -1,0 +1,302 @@
+"""Fast tests of the commander's pure UI logic (no browser, no NiceGUI)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from parolkit.errors import ParolkitValueError
+from parolkit.gui import geometry
+from parolkit.gui.eventlog import EventLog, Level, level_of_ack
+from parolkit.gui.highlight import TokenKind, line_decorations, mark_decorations, tokenize
+from parolkit.gui.jog import (
+    KEYMAP,
+    CartAxis,
+    CartJog,
+    Frame,
+    JointJog,
+    cart_step_command,
+    joint_jog_blocked,
+    joint_step_target,
+    key_action,
+    matrix_to_rpy,
+    rpy_to_matrix,
+)
+from parolkit.gui.link import Ack, Plan, new_command_id
+from parolkit.gui.status import (
+    RobotState,
+    RobotStatus,
+    format_angles,
+    format_loop,
+    format_pose,
+    parse_status_datagram,
+    state_badge,
+)
+from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
+from parolkit.robot import PAROL6
+
+STATUS = {
+    "seq": 1234, "time": 12.34, "state": "IDLE", "enabled": True, "homed": [True] * 6,
+    "all_homed": True, "estop_pressed": False, "estop_latched": False,
+    "angles": [90, -90, 180, 0, 0, 180], "pose": [0, 262.57, 288.75, -90, 0, -90],
+    "speeds": [0] * 6, "speeds_deg_s": [0] * 6,
+    "io": {"in1": 0, "in2": 1, "out1": 1, "out2": 0, "estop": 1},
+    "gripper": {"id": 0, "position": 12, "speed": 1, "current": 300, "status": 0, "object_detection": 1,
+                "activated": True, "calibrated": True, "object_code": 0, "object_detected": False, "error": False},
+    "errors": {"temperature": [False] * 6, "position": [False, True, False, False, False, False],
+               "timeout_error": 100, "message": None},
+    "board": {"connected": True, "simulated": True, "port": "emulated board", "timing_ticks": 7031,
+              "timing_ms": 10.0, "xtr": 255},
+    "loop": {"rate_hz": 100.0, "ticks": 5000, "period_p50_ms": 10.0, "period_p99_ms": 10.4,
+             "period_max_ms": 12.1, "overruns": 0},
+    "command": {"id": "1a2b3c4d", "name": "MOVEJOINT", "progress": 0.42},
+    "queue": 2, "stream_mode": False, "tool": "default", "plan_seq": 7,
+}
+
+
+# ---- status model ----
+
+def test_status_json_becomes_typed_values():
+    st = RobotStatus.from_json(STATUS)
+    assert st.state is RobotState.IDLE and st.all_homed and st.can_move
+    assert st.angles == (90.0, -90.0, 180.0, 0.0, 0.0, 180.0)
+    assert st.io.out1 == 1 and st.io.in2 == 1 and st.io.estop == 1
+    assert st.gripper.position == 12 and st.gripper.status_text == "calibrated"
+    assert st.errors.position[1] and st.errors.any
+    assert st.board.simulated and st.board.timing_ms == 10.0
+    assert st.command.name == "MOVEJOINT" and st.command.progress == pytest.approx(0.42)
+    assert st.loop.period_p99_ms == pytest.approx(10.4) and st.plan_seq == 7
+
+
+def test_status_datagram_round_trip():
+    st = parse_status_datagram("STATUS_JSON|" + json.dumps(STATUS))
+    assert st.seq == 1234
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("angles", [1, 2, 3], "angles must be a list of 6"),
+    ("state", "FLYING", "status.state must be one of"),
+    ("angles", [1, 2, 3, 4, 5, float("nan")], "angles[5] must be a finite number"),
+])
+def test_malformed_status_names_the_field(field, value, message):
+    bad = dict(STATUS, **{field: value})
+    with pytest.raises(ParolkitValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        RobotStatus.from_json(bad)
+
+
+def test_missing_io_field_is_named():
+    bad = dict(STATUS, io={"in1": 0})
+    with pytest.raises(ParolkitValueError, match="io.in2 is missing"):
+        RobotStatus.from_json(bad)
+
+
+def test_non_status_datagram_rejected():
+    with pytest.raises(ParolkitValueError, match="STATUS_JSON"):
+        parse_status_datagram("PONG|SERIAL=1")
+
+
+def test_readout_formatting_units():
+    assert format_angles([90, -90.1234])[:2] == ["+90.000°", "-90.123°"]
+    pose = format_pose([0, 262.574, 288.75, -90, 0, -90])
+    assert pose[1] == "+262.57 mm" and pose[3] == "-90.000°"
+    assert format_loop(RobotStatus.from_json(STATUS).loop).startswith("100 Hz · p50 10.00 ms")
+
+
+def test_state_badge_priorities():
+    st = RobotStatus.from_json(STATUS)
+    assert state_badge(st, True) == ("READY", "positive")
+    assert state_badge(st, False)[0] == "NO LINK"
+    latched = RobotStatus.from_json(dict(STATUS, estop_latched=True, state="ESTOP"))
+    assert state_badge(latched, True) == ("E-STOP", "negative")
+    assert not latched.can_move
+    disabled = RobotStatus.from_json(dict(STATUS, enabled=False, state="DISABLED"))
+    assert state_badge(disabled, True)[0] == "DISABLED"
+
+
+# ---- jog logic ----
+
+def test_joint_jog_wire_index_and_command():
+    assert JointJog(2, 1, 30).command(0.2) == "JOG|2|30|0.2|None"
+    assert JointJog(2, -1, 30).command(0.2) == "JOG|8|30|0.2|None"
+
+
+@pytest.mark.parametrize("kwargs, msg", [
+    (dict(joint=6, direction=1, speed_percent=10), "joint must be an index 0..5"),
+    (dict(joint=0, direction=0, speed_percent=10), "direction must be"),
+    (dict(joint=0, direction=1, speed_percent=120), r"speed_percent must be in \(0, 100\]"),
+])
+def test_bad_jog_is_refused(kwargs, msg):
+    with pytest.raises(ParolkitValueError, match=msg):
+        JointJog(**kwargs)
+
+
+def test_cart_jog_command_in_both_frames():
+    assert CartJog(Frame.TRF, CartAxis.RZ_NEG, 50).command(0.2) == "CARTJOG|TRF|RZ-|50|0.2"
+    assert CartJog(Frame.WRF, CartAxis.X_POS, 5).command(0.2) == "CARTJOG|WRF|X+|5|0.2"
+
+
+def test_jog_buttons_blocked_at_limits_only_in_that_direction():
+    lo, hi = PAROL6.safe_limits_deg[0]
+    at_upper = [hi, -90, 180, 0, 0, 180]
+    assert joint_jog_blocked(at_upper, 0, +1)
+    assert not joint_jog_blocked(at_upper, 0, -1)
+    at_lower = [lo, -90, 180, 0, 0, 180]
+    assert joint_jog_blocked(at_lower, 0, -1) and not joint_jog_blocked(at_lower, 0, +1)
+    assert not joint_jog_blocked(PAROL6.standby_deg, 3, 1)
+
+
+def test_step_target_refuses_leaving_the_range():
+    assert joint_step_target(PAROL6.standby_deg, 0, 5)[0] == pytest.approx(95)
+    with pytest.raises(ParolkitValueError, match="J5 step to 95.000"):
+        joint_step_target(PAROL6.standby_deg, 4, 95)
+
+
+def test_rpy_matches_pose_convention_and_inverts():
+    # R = Rx(C) Ry(B) Rz(A): for A=-90, B=0, C=-90 the tool z axis is the world -y... check by hand
+    r = rpy_to_matrix(-90, 0, -90)
+    assert r[0] == pytest.approx([0, 1, 0], abs=1e-12)
+    for abc in [(10, 20, 30), (-90, 0, -90), (170, -45, 100)]:
+        assert matrix_to_rpy(rpy_to_matrix(*abc)) == pytest.approx(abc, abs=1e-9)
+
+
+def test_wrf_rotation_step_rotates_about_world_axis():
+    cmd = cart_step_command([0, 262.57, 288.75, -90, 0, -90], Frame.WRF, CartAxis.RZ_POS, 10, 30)
+    fields = cmd.split("|")
+    assert fields[0] == "MOVECART" and fields[-2:] == ["None", "30"]
+    x, y, z, a, b, c = map(float, fields[1:7])
+    assert (x, y, z) == pytest.approx((0, 262.57, 288.75))
+    # rotating 10 deg about world Z: new R = Rz(10) R_old
+    expect = rpy_to_matrix(-90, 0, -90)
+    rz = rpy_to_matrix(10, 0, 0)
+    want = [[sum(rz[i][k] * expect[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+    got = rpy_to_matrix(a, b, c)
+    for i in range(3):
+        assert got[i] == pytest.approx(want[i], abs=1e-4)
+
+
+def test_trf_step_is_relative_tool_move():
+    assert cart_step_command([0] * 6, Frame.TRF, CartAxis.Y_NEG, 5, 20) == "MOVECARTRELTRF|0|-5|0|0|0|0|None|20"
+
+
+def test_keyboard_map_is_unique_and_escape_is_estop():
+    assert len({b.key for b in KEYMAP}) == len(KEYMAP)
+    assert key_action("Escape").action == "estop"
+    b = key_action("Q")
+    assert b.action == "joint" and b.joint == 0 and b.direction == 1
+    assert key_action("a").direction == -1
+    assert key_action("ArrowUp").axis is CartAxis.Y_POS
+    assert key_action("z") is None and key_action("") is None
+
+
+# ---- log, acks, plans ----
+
+def test_event_log_is_bounded_and_timestamped():
+    t = iter(range(1000))
+    log = EventLog(maxlen=3, clock=lambda: 1_700_000_000 + next(t) / 1000)
+    for i in range(5):
+        log.info(f"m{i}")
+    log.error("boom")
+    assert [e.text for e in log] == ["m3", "m4", "boom"]
+    assert log.errors()[0].level is Level.ERROR
+    assert ".00" in log.tail(1)[0].clock and "ERROR" in log.tail(1)[0].format()
+    assert level_of_ack("INVALID") is Level.ERROR and level_of_ack("CANCELLED") is Level.WARNING
+
+
+def test_command_ids_follow_the_protocol():
+    for _ in range(200):
+        cid = new_command_id()
+        assert len(cid) == 8 and cid != cid.upper()
+
+
+def test_ack_and_plan_parsing():
+    ack = Ack.parse("ACK|1a2b3c4d|INVALID|J1 = 200 deg out of range")
+    assert ack.terminal and ack.details.startswith("J1")
+    assert not Ack.parse("ACK|1a2b3c4d|QUEUED|Position 1 in queue").terminal
+    plan = Plan.parse('PLAN|{"seq": 3, "command": "MOVEJOINT", "target_angles": [1,2,3,4,5,6], '
+                      '"tcp_path": [[1,2,3],[4,5,6]]}')
+    assert plan.target_angles == (1, 2, 3, 4, 5, 6) and len(plan.tcp_path) == 2
+    idle = Plan.parse('PLAN|{"seq": 0, "command": null, "target_angles": null, "tcp_path": null}')
+    assert idle.target_angles is None and idle.tcp_path == ()
+
+
+# ---- templates and highlighting ----
+
+def test_templates_are_filled_with_current_values():
+    line = render_template("MoveJoint", [90, -90, 180, 0, 0, 180], [0] * 6)
+    assert line == "MoveJoint(90.000,-90.000,180.000,0.000,0.000,180.000,t=2)"
+    assert render_template("MoveCart", [0] * 6, [1, 2, 3, 4, 5, 6]).startswith("MoveCart(1.000,2.000,3.000")
+    with pytest.raises(ParolkitValueError, match="unknown template"):
+        render_template("Fly", [0] * 6, [0] * 6)
+
+
+def test_every_template_and_example_parses():
+    from parolkit.script import parse
+
+    for t in TEMPLATES:
+        if t.name in ("Begin", "End", "Loop"):
+            continue
+        text = "Begin()\n" + render_template(t.name, PAROL6.standby_deg, [0, 262.57, 288.75, -90, 0, -90]) + "\nEnd()\n"
+        assert parse(text).ok, (t.name, parse(text).errors)
+    for name, text in SEED_EXAMPLES.items():
+        assert parse(text).ok, name
+
+
+def test_highlighting_tokens():
+    text = "MoveJoint(1.5,-2,t=3) // go\nOutput(1,HIGH)"
+    kinds = [(t.kind, text[t.start:t.end]) for t in tokenize(text)]
+    assert (TokenKind.COMMAND, "MoveJoint") in kinds and (TokenKind.NUMBER, "-2") in kinds
+    assert (TokenKind.PARAM, "t=") in kinds and (TokenKind.COMMENT, "// go") in kinds
+    assert (TokenKind.KEYWORD, "HIGH") in kinds
+    marks = mark_decorations(text)
+    assert all(m["kind"] == "mark" and m["from"] < m["to"] for m in marks)
+
+
+def test_line_decorations_mark_current_and_error_lines():
+    decos = line_decorations("a\nb\nc", current_line=2, error_lines={3: "bad", 9: "beyond"})
+    assert {"kind": "line", "line": 2, "class": "rbt-current"} in decos
+    assert {"kind": "line", "line": 3, "class": "rbt-error"} in decos
+    assert all(d["line"] <= 3 for d in decos)
+
+
+# ---- geometry ----
+
+def test_dh_frames_reach_the_documented_tcp():
+    f = geometry.dh_frames([90, -90, 180, 0, 0, 180])
+    assert [f[7][i][3] * 1000 for i in range(3)] == pytest.approx([0, 262.57, 288.75], abs=0.01)
+    f = geometry.dh_frames([0, -90, 180, 0, 0, 180])
+    assert [f[7][i][3] * 1000 for i in range(3)] == pytest.approx([262.57, 0, 288.75], abs=0.01)
+
+
+def test_dh_frames_match_the_fk_reference_data():
+    from pathlib import Path
+
+    ref = json.loads((Path(__file__).resolve().parents[1] / "data" / "fk_reference.json").read_text())
+    for case in ref["cases"]:
+        f = geometry.dh_frames(case["joints_deg"])
+        for i in range(3):
+            assert f[7][i] == pytest.approx(case["tcp_matrix"][i], abs=1e-6)
+
+
+def test_arm_solids_come_from_the_dh_table():
+    solids = geometry.arm_solids()
+    links = [s for s in solids if s.role == "link"]
+    # every non-zero d and a of rows 1..5 gives one link cylinder with that length
+    expected = sorted(abs(v) for row in PAROL6.dh[:5] for v in (row.d, row.a) if abs(v) > 1e-6)
+    assert sorted(round(s.length, 6) for s in links) == pytest.approx(expected)
+    tool = [s for s in solids if s.role == "tool" and s.shape == "cylinder"]
+    assert sorted(round(s.length, 5) for s in tool) == pytest.approx(sorted([0.0628, 0.04525]))
+    assert all(0 <= s.frame < geometry.N_FRAMES for s in solids)
+
+
+def test_cylinder_rotation_maps_y_onto_segment():
+    s = geometry.Solid(0, "cylinder", (0, 0, 0), (0.1, 0, 0), radius=0.01)
+    r = s.rotation_y_to_axis()
+    assert [r[i][1] for i in range(3)] == pytest.approx([1, 0, 0], abs=1e-12)
+    s = geometry.Solid(0, "cylinder", (0, 0, 0), (0, 0, -0.1), radius=0.01)
+    r = s.rotation_y_to_axis()
+    assert [r[i][1] for i in range(3)] == pytest.approx([0, 0, -1], abs=1e-12)
+    det = (r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1]) - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+           + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]))
+    assert math.isclose(det, 1.0, abs_tol=1e-12)
