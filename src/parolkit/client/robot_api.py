@@ -189,7 +189,8 @@ def _pose(values: Any, name: str) -> List[float]:
 
 
 def _percent(value: Any, name: str) -> float:
-    return _number(value, name, 0.0, 100.0)
+    """A speed/acceleration percentage: 0 < value <= 100 (0 % would never move)."""
+    return _number(value, name, 0.0, 100.0, low_open=True)
 
 
 def _positive(value: Any, name: str) -> float:
@@ -440,15 +441,14 @@ def build_smooth_arc_param(end_pose: Any, radius: Any, arc_angle: Any, frame: An
 
 def build_smooth_spline(waypoints: Any, frame: Any = "WRF", start_pose: Any = None,
                         duration: Any = None, speed_percentage: Any = None) -> str:
-    """``SMOOTH_SPLINE|n|frame|start|timing|value|x|y|z|A|B|C|...`` (6 fields per waypoint)."""
+    """``SMOOTH_SPLINE|n|frame|start|timing|value|x,y,z,A,B,C|...`` (one field per waypoint)."""
     if isinstance(waypoints, (str, bytes)) or not hasattr(waypoints, "__iter__"):
         raise ValueError(f"waypoints must be a list of poses [x, y, z, A, B, C], got {waypoints!r}")
     wps = [_pose(w, f"waypoints[{i}]") for i, w in enumerate(waypoints)]
     if len(wps) < 2:
         raise ValueError(f"waypoints must hold at least 2 poses, got {len(wps)}")
-    flat = [v for w in wps for v in w]
     return _join("SMOOTH_SPLINE", len(wps), _choice(frame, "frame", FRAMES), _start_field(start_pose),
-                 _timing_fields(duration, speed_percentage), *flat)
+                 _timing_fields(duration, speed_percentage), *(_csv(w) for w in wps))
 
 
 def build_smooth_helix(center: Any, radius: Any, pitch: Any, height: Any, frame: Any = "WRF",
@@ -500,19 +500,21 @@ def _segment(seg: Any, i: int) -> str:
     if len(poses) < 2:
         raise ValueError(f"{name}['waypoints'] must hold at least 2 poses, got {len(poses)}")
     dur = _positive(seg.get("duration", 3.0), f"{name}['duration']")
-    return _join("SPLINE", len(poses), ";".join(_csv(p) for p in poses), dur)
+    return _join("SPLINE", dur, *(_csv(p) for p in poses))
 
 
 def build_smooth_blend(segments: Any, blend_time: Any = 0.5, frame: Any = "WRF",
                        start_pose: Any = None, duration: Any = None,
                        speed_percentage: Any = None) -> str:
-    """``SMOOTH_BLEND|n|blend_time|frame|start|DEFAULT|DURATION|SPEED[|value]|seg||seg...``.
+    """``SMOOTH_BLEND|n|blend_time|frame|start|DURATION|SPEED|value|seg||seg...``.
 
     Segments are dicts: ``{'type': 'LINE', 'end': pose, 'duration': s}``,
     ``{'type': 'CIRCLE', 'center': xyz, 'radius': mm, 'plane': 'XY', 'duration': s,
     'clockwise': bool}``, ``{'type': 'ARC', 'end': pose, 'center': xyz, 'duration': s,
     'clockwise': bool}``, ``{'type': 'SPLINE', 'waypoints': [pose, ...], 'duration': s}``.
-    Without duration/speed_percentage each segment keeps its own duration (``DEFAULT``).
+    Without duration/speed_percentage each segment keeps its own duration (``DURATION|None``).
+    Segment wire forms: ``LINE|pose|s``, ``CIRCLE|xyz|r|plane|s|cw``, ``ARC|pose|xyz|s|cw``,
+    ``SPLINE|s|pose|pose|...``.
     """
     if isinstance(segments, (str, bytes, dict)) or not hasattr(segments, "__iter__"):
         raise ValueError(f"segments must be a list of segment dicts, got {segments!r}")
@@ -521,7 +523,7 @@ def build_smooth_blend(segments: Any, blend_time: Any = 0.5, frame: Any = "WRF",
         raise ValueError("segments must hold at least 1 segment")
     bt = _number(blend_time, "blend_time", 0.0)
     if duration is None and speed_percentage is None:
-        timing = "DEFAULT"
+        timing = "DURATION|None"
     else:
         timing = _timing_fields(duration, speed_percentage)
     return _join("SMOOTH_BLEND", len(segs), bt, _choice(frame, "frame", FRAMES),

@@ -1,0 +1,400 @@
+"""``parolkit.AsyncRobot``: the asyncio twin of :class:`parolkit.Robot`.
+
+Same method names and arguments (see :class:`parolkit.client.core.RobotCommands`); every
+command and query is awaited::
+
+    import asyncio
+    from parolkit import AsyncRobot
+
+    async def main():
+        async with AsyncRobot() as robot:
+            await robot.move_joints([90, -90, 160, 12, 12, 180], duration=2)
+            print(await robot.angles())
+            async with robot.subscribe(every_n=10) as stream:
+                async for status in stream:
+                    print(status.state, status.angles)
+                    break
+
+    asyncio.run(main())
+
+Arguments are checked when the method is called (a bad value raises
+``ParolkitValueError`` before anything is awaited or sent).  One datagram endpoint carries
+commands, queries, replies and acks (``ack_port=0``: ephemeral).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+import time
+from typing import Any, AsyncIterator, Dict, Optional
+
+from parolkit.client import robot_api as wire
+from parolkit.client.core import (
+    DEFAULT_TIMEOUT_S,
+    QUERIES,
+    SUBSCRIBE_RENEW_S,
+    AckBook,
+    AckRecord,
+    AckStatus,
+    CommandResult,
+    RobotCommands,
+    RobotStatus,
+    parse_query_reply,
+)
+from parolkit.client.errors import CommandTimeout, ControllerUnreachable, RobotError
+from parolkit.errors import ParolkitValueError
+
+__all__ = ["AsyncRobot", "AsyncCommandHandle", "AsyncStatusSubscription"]
+
+
+def _bind_address(host: str) -> str:
+    return "127.0.0.1" if host in ("127.0.0.1", "localhost") else "0.0.0.0"
+
+
+class _Protocol(asyncio.DatagramProtocol):
+    def __init__(self, owner: "AsyncRobot") -> None:
+        self.owner = owner
+
+    def datagram_received(self, data: bytes, addr: Any) -> None:
+        self.owner._on_datagram(data.decode("utf-8", "replace"))
+
+    def error_received(self, exc: Exception) -> None:  # ICMP unreachable etc.: keep going
+        pass
+
+
+class AsyncCommandHandle:
+    """A command sent with ``wait=False``: ``id``, ``command``, ``status()``, ``await result()``."""
+
+    def __init__(self, robot: "AsyncRobot", record: AckRecord) -> None:
+        self._robot = robot
+        self._record = record
+
+    @property
+    def id(self) -> str:
+        return self._record.id
+
+    @property
+    def command(self) -> str:
+        return self._record.command
+
+    def status(self) -> Optional[AckStatus]:
+        latest = self._record.latest
+        return None if latest is None else latest[0]
+
+    def done(self) -> bool:
+        return self._record.terminal is not None
+
+    async def result(self, timeout: Optional[float] = None) -> CommandResult:
+        return await self._robot._wait_terminal(self._record, timeout)
+
+    def __repr__(self) -> str:
+        return f"<AsyncCommandHandle {self.command} id={self.id} status={self.status()}>"
+
+
+class _StreamProtocol(asyncio.DatagramProtocol):
+    def __init__(self, queue: "asyncio.Queue[str]") -> None:
+        self.queue = queue
+
+    def datagram_received(self, data: bytes, addr: Any) -> None:
+        text = data.decode("utf-8", "replace")
+        if text.startswith("STATUS_JSON|"):
+            if self.queue.full():  # a slow consumer sees the newest statuses, never a backlog
+                self.queue.get_nowait()
+            self.queue.put_nowait(text)
+
+    def error_received(self, exc: Exception) -> None:
+        pass
+
+
+class AsyncStatusSubscription:
+    """Async iterator of :class:`RobotStatus` from the SUBSCRIBE stream (renewed every 3 s).
+
+    ``async with robot.subscribe(...) as stream: async for status in stream: ...``
+    Iteration raises :class:`ControllerUnreachable` after ``timeout`` s without a status.
+    At most ``buffer`` statuses are buffered; older ones are dropped for a slow consumer.
+    """
+
+    def __init__(self, robot: "AsyncRobot", every_n: int, timeout: float, buffer: int = 64) -> None:
+        self._robot = robot
+        self._every_n = every_n
+        self._timeout = timeout
+        self._queue: "asyncio.Queue[str]" = asyncio.Queue(maxsize=buffer)
+        self._transport: Optional[asyncio.DatagramTransport] = None
+        self._renewer: Optional[asyncio.Task] = None
+        self.port: Optional[int] = None
+        self.received = 0
+        self._closed = False
+
+    async def start(self) -> "AsyncStatusSubscription":
+        await self._robot._ensure_open()
+        loop = asyncio.get_running_loop()
+        self._transport, _ = await loop.create_datagram_endpoint(
+            lambda: _StreamProtocol(self._queue),
+            local_addr=(_bind_address(self._robot.host), 0), family=socket.AF_INET)
+        self.port = self._transport.get_extra_info("sockname")[1]
+        self._robot._send(wire.build_subscribe(self.port, self._every_n))
+        self._renewer = asyncio.ensure_future(self._renew_loop())
+        return self
+
+    async def _renew_loop(self) -> None:
+        while not self._closed:
+            await asyncio.sleep(SUBSCRIBE_RENEW_S)
+            if not self._closed:
+                try:
+                    self._robot._send(wire.build_subscribe(self.port, self._every_n))
+                except (OSError, RobotError):
+                    pass
+
+    async def next(self, timeout: Optional[float] = None) -> RobotStatus:
+        """The next status (waits up to ``timeout`` s, default the subscription's)."""
+        if self._transport is None:
+            await self.start()
+        wait = self._timeout if timeout is None else timeout
+        try:
+            text = await asyncio.wait_for(self._queue.get(), wait)
+        except asyncio.TimeoutError:
+            raise ControllerUnreachable(
+                f"no status from {self._robot.host}:{self._robot.port} within {wait:g} s "
+                "(is the controller running?)") from None
+        self.received += 1
+        return parse_query_reply(QUERIES["status"], text)
+
+    def __aiter__(self) -> AsyncIterator[RobotStatus]:
+        return self
+
+    async def __anext__(self) -> RobotStatus:
+        if self._closed:
+            raise StopAsyncIteration
+        return await self.next()
+
+    async def close(self) -> None:
+        """Unsubscribe and close (idempotent)."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._renewer is not None:
+            self._renewer.cancel()
+        if self.port is not None:
+            try:
+                self._robot._send(wire.build_unsubscribe(self.port))
+            except (OSError, RobotError):
+                pass
+        if self._transport is not None:
+            self._transport.close()
+
+    async def __aenter__(self) -> "AsyncStatusSubscription":
+        if self._transport is None:
+            await self.start()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+
+class AsyncRobot(RobotCommands):
+    """asyncio client of the parolkit controller (same API as :class:`parolkit.Robot`).
+
+    The endpoint opens on first use (or ``await robot.open()`` / ``async with``) in the
+    running event loop; use one AsyncRobot per event loop.
+    """
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 5001, ack_port: int = 0,
+                 timeout: float = DEFAULT_TIMEOUT_S) -> None:
+        if not isinstance(host, str) or not host:
+            raise ParolkitValueError(f"host must be a host name or address, got {host!r}")
+        for value, name, low in ((port, "port", 1), (ack_port, "ack_port", 0)):
+            if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 65535:
+                raise ParolkitValueError(f"{name} must be an integer in {low}..65535, got {value!r}")
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or timeout <= 0:
+            raise ParolkitValueError(f"timeout must be a number of seconds > 0, got {timeout!r}")
+        self.host = host
+        self.port = port
+        self.timeout = float(timeout)
+        self._requested_ack_port = ack_port
+        self.ack_port: Optional[int] = None
+        self._transport: Optional[asyncio.DatagramTransport] = None
+        self._acks = AckBook()
+        self._first: Dict[str, asyncio.Future] = {}
+        self._final: Dict[str, asyncio.Future] = {}
+        self._pending_reply: Optional[tuple] = None  # (tag, future)
+        self._query_lock: Optional[asyncio.Lock] = None
+        self._open_lock: Optional[asyncio.Lock] = None
+        self._last_heard = 0.0
+        self._closed = False
+
+    # ---- plumbing ----
+    async def open(self) -> "AsyncRobot":
+        """Open the datagram endpoint (idempotent)."""
+        await self._ensure_open()
+        return self
+
+    async def _ensure_open(self) -> None:
+        if self._transport is not None:
+            return
+        if self._closed:
+            raise RobotError("this AsyncRobot is closed")
+        if self._open_lock is None:
+            self._open_lock = asyncio.Lock()
+            self._query_lock = asyncio.Lock()
+        async with self._open_lock:
+            if self._transport is not None:
+                return
+            loop = asyncio.get_running_loop()
+            try:
+                transport, _ = await loop.create_datagram_endpoint(
+                    lambda: _Protocol(self),
+                    local_addr=(_bind_address(self.host), self._requested_ack_port),
+                    family=socket.AF_INET)
+            except OSError as exc:
+                raise RobotError(
+                    f"cannot bind UDP port {self._requested_ack_port} for acknowledgements: "
+                    f"{exc.strerror}; use ack_port=0 for an ephemeral port") from None
+            self._transport = transport
+            self.ack_port = transport.get_extra_info("sockname")[1]
+
+    def _send(self, text: str) -> None:
+        if self._transport is None or self._closed:
+            raise RobotError("this AsyncRobot is not open (closed, or not used inside its event loop)")
+        self._transport.sendto(text.encode("utf-8"), (self.host, self.port))
+
+    def _on_datagram(self, text: str) -> None:
+        self._last_heard = time.monotonic()
+        if text.startswith("ACK|"):
+            rec = self._acks.on_datagram(text)
+            if rec is None:
+                return
+            fut = self._first.pop(rec.id, None)
+            if fut is not None and not fut.done():
+                fut.set_result(None)
+            if rec.terminal is not None:
+                fut = self._final.pop(rec.id, None)
+                if fut is not None and not fut.done():
+                    fut.set_result(None)
+            return
+        pending = self._pending_reply
+        if pending is not None:
+            tag, fut = pending
+            if text.partition("|")[0] in (tag, "ERROR") and not fut.done():
+                fut.set_result(text)
+
+    async def _request(self, request: str, tag: str, timeout: float) -> str:
+        await self._ensure_open()
+        assert self._query_lock is not None
+        async with self._query_lock:
+            fut = asyncio.get_running_loop().create_future()
+            self._pending_reply = (tag, fut)
+            try:
+                self._send(request)
+                return await asyncio.wait_for(fut, timeout)
+            except asyncio.TimeoutError:
+                raise ControllerUnreachable(
+                    f"no {tag} reply from {self.host}:{self.port} within {timeout:g} s "
+                    "(is the controller running?)") from None
+            finally:
+                self._pending_reply = None
+
+    async def _query(self, name: str) -> Any:
+        q = QUERIES[name]
+        return parse_query_reply(q, await self._request(q.request, q.tag, self.timeout))
+
+    def _command(self, body: str, wait: bool, timeout: Optional[float]) -> Any:
+        # the datagram body is already built (and validated) by the caller: only I/O is async
+        return self._command_async(body, wait, timeout)
+
+    async def _command_async(self, body: str, wait: bool, timeout: Optional[float]) -> Any:
+        await self._ensure_open()
+        loop = asyncio.get_running_loop()
+        record, text = self._acks.new(body)
+        first = self._first[record.id] = loop.create_future()
+        self._final[record.id] = loop.create_future()
+        self._send(text)
+        limit = self.timeout if timeout is None else min(timeout, self.timeout)
+        try:
+            await asyncio.wait_for(asyncio.shield(first), limit)
+        except asyncio.TimeoutError:
+            self._first.pop(record.id, None)
+            self._final.pop(record.id, None)
+            raise CommandTimeout(
+                record.id, record.command, "TIMEOUT",
+                f"no acknowledgement within {limit:g} s: is the controller running at "
+                f"{self.host}:{self.port}, and does it send acks to this client's port "
+                f"{self.ack_port}?") from None
+        if not wait:
+            if record.terminal is not None:
+                record.result()  # refused or failed at once: raise now
+            return AsyncCommandHandle(self, record)
+        if record.terminal is not None:
+            self._final.pop(record.id, None)
+            return record.result()
+        return await self._wait_terminal(record, timeout)
+
+    async def _wait_terminal(self, record: AckRecord, timeout: Optional[float]) -> CommandResult:
+        if record.terminal is not None:
+            return record.result()
+        fut = self._final.get(record.id)
+        if fut is None:
+            fut = self._final[record.id] = asyncio.get_running_loop().create_future()
+        start = time.monotonic()
+        probe = max(self.timeout, 1.0)
+        while record.terminal is None:
+            wait = probe
+            if timeout is not None:
+                left = start + timeout - time.monotonic()
+                if left <= 0:
+                    latest = record.latest[0].value if record.latest else "none"
+                    raise CommandTimeout(record.id, record.command, "TIMEOUT",
+                                         f"not finished within {timeout:g} s (last status: "
+                                         f"{latest}); it may still run: stop() cancels it")
+                wait = min(wait, left)
+            try:
+                await asyncio.wait_for(asyncio.shield(fut), wait)
+            except asyncio.TimeoutError:
+                if time.monotonic() - self._last_heard > self.timeout:
+                    try:
+                        await self._query("ping")
+                    except ControllerUnreachable as exc:
+                        raise CommandTimeout(record.id, record.command, "TIMEOUT",
+                                             f"controller stopped answering: {exc}") from None
+        self._final.pop(record.id, None)
+        return record.result()
+
+    # ---- status stream ----
+    def subscribe(self, every_n: int = 1, timeout: Optional[float] = None,
+                  buffer: int = 64) -> AsyncStatusSubscription:
+        """Status stream every ``every_n``-th tick; use with ``async with`` / ``async for``."""
+        if isinstance(every_n, bool) or not isinstance(every_n, int) or every_n < 1:
+            raise ParolkitValueError(f"every_n must be an integer >= 1 (ticks), got {every_n!r}")
+        if isinstance(buffer, bool) or not isinstance(buffer, int) or buffer < 1:
+            raise ParolkitValueError(f"buffer must be an integer >= 1, got {buffer!r}")
+        wait = max(self.timeout, 2.0) if timeout is None else float(timeout)
+        return AsyncStatusSubscription(self, every_n, wait, buffer)
+
+    async def wait_until_idle(self, timeout: float = 30.0, poll_s: float = 0.05) -> RobotStatus:
+        """Poll the status until no command is active or queued; returns that status."""
+        deadline = time.monotonic() + timeout
+        while True:
+            st = await self.status()
+            if st.command is None and st.queue == 0 and st.state not in ("MOVING", "HOMING"):
+                return st
+            if time.monotonic() >= deadline:
+                raise RobotError(f"robot still busy after {timeout:g} s (state {st.state}, "
+                                 f"queue {st.queue})")
+            await asyncio.sleep(poll_s)
+
+    async def close(self) -> None:
+        """Close the endpoint (idempotent)."""
+        self._closed = True
+        if self._transport is not None:
+            self._transport.close()
+            self._transport = None
+
+    async def __aenter__(self) -> "AsyncRobot":
+        await self._ensure_open()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+    def __repr__(self) -> str:
+        return f"<AsyncRobot {self.host}:{self.port} ack_port={self.ack_port}>"
