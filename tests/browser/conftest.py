@@ -1,0 +1,88 @@
+"""Browser-test fixtures: a real ``parolkit gui --sim`` process and a real headless Chromium."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+ARTIFACTS = REPO_ROOT / "test-artifacts" / "browser"
+CHROMIUM = os.environ.get("PAROLKIT_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--no-sandbox", "--headless=new", "--disable-gpu", "--enable-unsafe-swiftshader",
+    "--use-angle=swiftshader", "--disable-background-networking", "--disable-component-update",
+    "--disable-sync", "--no-first-run",
+]
+
+
+def _free_tcp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def gui_url():
+    """Start ``parolkit gui --sim --no-browser`` on a free HTTP port; yield its URL."""
+    pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    port = _free_tcp_port()
+    log_path = ARTIFACTS / f"gui-{port}.log"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env["PYTHONPATH"] = str(REPO_ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
+    with open(log_path, "wb") as log:
+        proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", "--sim", "--http-port", str(port),
+                                 "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT)
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.monotonic() + 40
+    while True:
+        if proc.poll() is not None:
+            pytest.fail(f"parolkit gui exited with {proc.returncode}:\n{log_path.read_text(errors='replace')}")
+        try:
+            with urllib.request.urlopen(url, timeout=1) as r:
+                if r.status == 200:
+                    break
+        except OSError:
+            pass
+        if time.monotonic() > deadline:
+            proc.terminate()
+            pytest.fail(f"parolkit gui did not serve {url} within 40 s:\n{log_path.read_text(errors='replace')}")
+        time.sleep(0.2)
+    yield url
+    proc.terminate()
+    try:
+        proc.wait(15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(5)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from playwright.sync_api import sync_playwright
+
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"Chromium not found at {CHROMIUM}: run scripts/ensure-chromium.sh (make test does)")
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser, gui_url):
+    """One page for the whole module (tests run in file order and build on each other)."""
+    pg = browser.new_page(viewport={"width": 1500, "height": 1000})
+    pg.console_errors = []  # type: ignore[attr-defined]
+    pg.on("console", lambda m: pg.console_errors.append(m.text) if m.type == "error" else None)
+    pg.on("pageerror", lambda e: pg.console_errors.append(f"pageerror: {e}"))
+    pg.goto(gui_url)
+    yield pg
+    pg.close()

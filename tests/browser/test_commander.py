@@ -1,0 +1,189 @@
+"""The commander in a real headless Chromium against ``parolkit gui --sim``.
+
+One GUI process and one page for the module; the tests run in file order (each leaves the
+robot enabled, homed and idle for the next).
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+ARTIFACTS = REPO_ROOT / "test-artifacts" / "browser"
+README_IMAGE = REPO_ROOT / "docs" / "images" / "commander.png"
+
+
+def wait_until(predicate, timeout: float = 15.0, interval: float = 0.1, what: str = "condition"):
+    deadline = time.monotonic() + timeout
+    last = None
+    while time.monotonic() < deadline:
+        last = predicate()
+        if last:
+            return last
+        time.sleep(interval)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what} (last value {last!r})")
+
+
+def text(page, testid: str) -> str:
+    return page.get_by_test_id(testid).inner_text()
+
+
+def number(page, testid: str) -> float:
+    m = re.search(r"[-+]?\d+(?:\.\d+)?", text(page, testid))
+    assert m, f"{testid} shows no number: {text(page, testid)!r}"
+    return float(m.group())
+
+
+def state(page) -> str:
+    return text(page, "state-chip").strip()
+
+
+def wait_ready(page, timeout: float = 30.0) -> None:
+    wait_until(lambda: state(page) == "READY", timeout, what="state READY")
+
+
+def hold(page, testid: str, seconds: float) -> None:
+    button = page.get_by_test_id(testid)
+    button.hover()
+    page.mouse.down()
+    page.wait_for_timeout(int(seconds * 1000))
+    page.mouse.up()
+
+
+def test_page_loads_links_and_has_no_console_errors(page):
+    wait_until(lambda: text(page, "link-chip").strip() == "LINKED", 30, what="link up")
+    wait_ready(page)
+    assert "SIMULATOR" in text(page, "mode-chip")
+    assert number(page, "angle-1") == pytest.approx(90.0, abs=0.5)
+    assert page.console_errors == []
+
+
+def test_3d_view_is_rendered_and_not_blank(page):
+    from PIL import Image, ImageStat
+
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    shot = ARTIFACTS / "scene.png"
+    page.wait_for_timeout(500)
+    page.locator("[data-testid=scene] canvas").first.screenshot(path=str(shot))
+    img = Image.open(shot).convert("L")
+    var = ImageStat.Stat(img).var[0]
+    assert img.size[0] > 300 and var > 50.0, f"3D view looks blank (variance {var:.1f})"
+    fps_text = wait_until(lambda: text(page, "scene").strip() or page.locator(".text-xs.pk-mono").first.inner_text(), 5)
+    assert fps_text
+
+
+def test_joint_jog_hold_moves_and_release_stops(page):
+    wait_ready(page)
+    before = number(page, "angle-1")
+    hold(page, "jog-j1+", 1.2)
+    page.wait_for_timeout(400)
+    after = number(page, "angle-1")
+    assert after > before + 1.0, f"J1 did not move up: {before} -> {after}"
+    page.wait_for_timeout(500)
+    assert number(page, "angle-1") == pytest.approx(after, abs=0.2), "J1 kept moving after release"
+    before3 = number(page, "angle-3")
+    hold(page, "jog-j3-", 1.0)
+    page.wait_for_timeout(400)
+    assert number(page, "angle-3") < before3 - 0.5
+
+
+def test_cartesian_jog_in_wrf_and_trf_rotation(page):
+    wait_ready(page)
+    z0 = number(page, "pose-z")
+    hold(page, "jog-z+", 1.2)
+    page.wait_for_timeout(400)
+    assert number(page, "pose-z") > z0 + 2.0
+    page.get_by_test_id("frame-toggle").get_by_text("TRF").click()
+    wait_ready(page)
+    before = [number(page, f"pose-{k}") for k in "abc"]
+    hold(page, "jog-rz+", 1.2)
+    page.wait_for_timeout(400)
+    after = [number(page, f"pose-{k}") for k in "abc"]
+    assert max(abs(a - b) for a, b in zip(after, before)) > 1.0, f"TRF RZ did not rotate: {before} -> {after}"
+    page.get_by_test_id("frame-toggle").get_by_text("WRF").click()
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    README_IMAGE.parent.mkdir(parents=True, exist_ok=True)
+    page.wait_for_timeout(600)
+    page.screenshot(path=str(README_IMAGE), full_page=True)
+
+
+def test_home_returns_to_standby(page):
+    page.get_by_test_id("btn-home").click()
+    wait_until(lambda: abs(number(page, "angle-1") - 90.0) < 0.1 and state(page) == "READY", 40, what="homed standby")
+
+
+def test_estop_latches_until_enable(page):
+    page.get_by_test_id("btn-estop").click()
+    wait_until(lambda: state(page) == "E-STOP", 10, what="E-STOP state")
+    assert "LATCHED" in text(page, "btn-estop")
+    assert page.get_by_test_id("jog-j1+").is_disabled()
+    page.get_by_test_id("btn-enable").click()
+    wait_ready(page, 20)
+    assert "LATCHED" not in text(page, "btn-estop")
+
+
+def test_outputs_toggle_and_io_readout_follows(page):
+    page.get_by_test_id("tab-gripper").click()
+    page.get_by_test_id("out1-high").click()
+    wait_until(lambda: "HIGH" in text(page, "io-out1"), 10, what="OUT1 HIGH")
+    page.get_by_test_id("out1-low").click()
+    wait_until(lambda: "LOW" in text(page, "io-out1"), 10, what="OUT1 LOW")
+    page.get_by_test_id("out2-high").click()
+    wait_until(lambda: "HIGH" in text(page, "io-out2"), 10, what="OUT2 HIGH")
+    page.get_by_test_id("out2-low").click()
+    wait_until(lambda: "LOW" in text(page, "io-out2"), 10, what="OUT2 LOW")
+
+
+def test_gripper_calibrate_and_move_changes_readout(page):
+    page.get_by_test_id("grip-cal").click()
+    wait_until(lambda: "calibrated" in text(page, "grip-readout"), 20, what="gripper calibrated")
+    before = number(page, "grip-readout")
+    page.get_by_test_id("grip-move").click()  # the position slider starts at 100
+    wait_until(lambda: abs(number(page, "grip-readout") - 100) <= 3, 20, what="gripper at 100")
+    assert before != number(page, "grip-readout") or before == 100
+
+
+def _type_program(page, program: str) -> None:
+    page.get_by_test_id("tab-program").click()
+    content = page.locator("[data-testid=editor] .cm-content")
+    content.click()
+    page.keyboard.press("Control+A")
+    page.keyboard.press("Delete")
+    page.keyboard.insert_text(program)
+    page.wait_for_timeout(300)
+
+
+def test_seed_program_runs_with_lines_highlighted(page):
+    wait_ready(page)
+    _type_program(page, "Begin()\nOutput(1,HIGH)\nDelay(1)\nOutput(1,LOW)\nDelay(1)\nLoop()\n")
+    page.get_by_test_id("prog-run").click()
+    seen_lines = set()
+
+    def highlighted():
+        cur = page.locator(".cm-line.rbt-current")
+        if cur.count():
+            seen_lines.add(cur.first.inner_text())
+        return len(seen_lines) >= 2
+
+    wait_until(highlighted, 20, what="two different executing lines highlighted")
+    wait_until(lambda: "HIGH" in text(page, "io-out1"), 10, what="program sets OUT1")
+    wait_until(lambda: "LOW" in text(page, "io-out1"), 10, what="program clears OUT1")
+    page.get_by_test_id("prog-stop").click()
+    wait_until(lambda: page.locator(".cm-line.rbt-current").count() == 0, 10, what="highlight cleared on stop")
+
+
+def test_broken_program_shows_error_at_its_line(page):
+    _type_program(page, "Begin()\nDelay(1)\nMoveJoint(90,-90,180,0,0\nEnd()\n")
+    page.get_by_test_id("prog-check").click()
+    diag = page.get_by_test_id("diagnostic").first
+    diag.wait_for(timeout=10000)
+    assert diag.inner_text().startswith("line 3"), diag.inner_text()
+    err = page.locator(".cm-line.rbt-error")
+    assert err.count() == 1 and err.first.inner_text().startswith("MoveJoint")
+    assert page.console_errors == []
