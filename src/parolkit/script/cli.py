@@ -1,0 +1,393 @@
+"""``parolkit run`` / ``parolkit check`` / ``parolkit fmt``: RBTscript from the command line.
+
+::
+
+    parolkit run PROGRAM [--sim] [--host H --port P] [--dry-run] [--plot out.png] [--step]
+                         [--loops N] [--from J1 .. J6] [--config FILE] [--quiet]
+    parolkit check PROGRAM... [--no-plan] [--table] [--loops N] [--from J1 .. J6] [--strict]
+    parolkit fmt PROGRAM... [--check] [--stdout]
+
+Exit status: 0 success; 1 the program has errors (nothing moved), the run failed or a file
+is not formatted (``fmt --check``); 2 bad command line; 130 interrupted (Ctrl-C sends STOP).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+__all__ = ["register", "run_main", "check_main", "fmt_main"]
+
+_DESCRIPTIONS = {
+    "run": (
+        "run an RBTscript program",
+        "Check a program (every error at once, then a dry run of every move from the robot's "
+        "current joints) and run it on the controller, showing the current line and the "
+        "elapsed/planned time. Nothing moves when the program has an error.",
+    ),
+    "check": (
+        "check RBTscript programs without running them",
+        "Parse and dry-run programs (from the standby pose unless --from is given): syntax, "
+        "argument counts and ranges, reachability and path validity. Exit 1 on any error.",
+    ),
+    "fmt": (
+        "format RBTscript programs",
+        "Rewrite programs in canonical form (original spellings, ', ' between arguments, "
+        "shortest numbers, comments kept). Programs with errors are left alone.",
+    ),
+}
+
+
+def register(subparsers: argparse._SubParsersAction, name: str) -> argparse.ArgumentParser:
+    """Add the ``run``, ``check`` or ``fmt`` parser (``name``) to ``subparsers``."""
+    if name not in _DESCRIPTIONS:
+        raise ValueError(f"parolkit.script.cli provides run, check and fmt, not {name!r}")
+    help_text, description = _DESCRIPTIONS[name]
+    p = subparsers.add_parser(name, help=help_text, description=description)
+    if name == "run":
+        p.add_argument("program", help="the .rbt program file")
+        p.add_argument("--sim", action="store_true",
+                       help="start a controller with the simulated board for this run")
+        p.add_argument("--host", default="127.0.0.1", help="controller address (default 127.0.0.1)")
+        p.add_argument("--port", type=int, default=None,
+                       help="controller UDP port (default: from the config, 5001)")
+        p.add_argument("--dry-run", action="store_true",
+                       help="plan everything without a robot and print the per-line table")
+        p.add_argument("--plot", metavar="PNG", default=None,
+                       help="draw joint positions and speeds of the whole program into PNG")
+        p.add_argument("--step", action="store_true",
+                       help="single-step: Enter runs the next command, c continues, q stops")
+        _common(p)
+        p.add_argument("--quiet", "-q", action="store_true", help="no progress lines")
+        p.set_defaults(func=run_main)
+    elif name == "check":
+        p.add_argument("programs", nargs="+", help="the .rbt program files")
+        p.add_argument("--no-plan", action="store_true", help="syntax and ranges only (no dry run)")
+        p.add_argument("--table", action="store_true", help="print the per-line dry-run table")
+        p.add_argument("--strict", action="store_true", help="treat warnings as errors")
+        _common(p)
+        p.set_defaults(func=check_main)
+    else:
+        p.add_argument("programs", nargs="+", help="the .rbt program files")
+        p.add_argument("--check", action="store_true",
+                       help="change nothing; exit 1 if a file is not formatted")
+        p.add_argument("--stdout", action="store_true", help="print the result instead of rewriting")
+        p.set_defaults(func=fmt_main)
+    return p
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--loops", type=_positive_int, default=None, metavar="N",
+                   help="passes of a Loop() program (run: default forever; check: default 2)")
+    p.add_argument("--from", dest="start", nargs=6, type=float, metavar="J", default=None,
+                   help="start joint angles (deg) for a dry run; default the standby pose "
+                        "90 -90 180 0 0 180")
+    p.add_argument("--config", default=None, help="parolkit.toml to use")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {value}")
+    return value
+
+
+def _config(args):
+    from parolkit.config import load_config
+
+    return load_config(args.config)
+
+
+def _limits(cfg):
+    from parolkit.script.parser import Limits
+
+    return Limits.from_model(cfg.robot, rate_hz=cfg.controller.rate_hz)
+
+
+def _print_diagnostics(diags, stream=None) -> None:
+    stream = stream or sys.stderr
+    for d in diags:
+        print(d.format(), file=stream)
+
+
+# ------------------------------------------------------------------------------------------
+# check
+# ------------------------------------------------------------------------------------------
+
+
+def check_main(args) -> int:
+    from parolkit.errors import ParolkitError
+    from parolkit.script.parser import parse_file
+
+    try:
+        cfg = _config(args)
+    except ParolkitError as exc:
+        print(f"parolkit check: {exc}", file=sys.stderr)
+        return 2
+    limits = _limits(cfg)
+    failed = False
+    for name in args.programs:
+        result = parse_file(name, limits=limits)
+        if not result.ok:
+            _print_diagnostics(result.diagnostics(), sys.stdout)
+            print(f"{name}: {len(result.errors)} error(s)")
+            failed = True
+            continue
+        program = result.program
+        errors, warnings = (), result.warnings
+        report = None
+        if not args.no_plan:
+            from parolkit.script.dryrun import dry_run
+
+            report = dry_run(program, args.start, loops=args.loops, model=cfg.robot,
+                             rate_hz=cfg.controller.rate_hz)
+            errors, warnings = report.errors, report.warnings
+        diags = sorted(errors + warnings, key=lambda d: (d.line, d.col))
+        _print_diagnostics(diags, sys.stdout)
+        if report is not None and args.table:
+            print(report.table())
+        bad = bool(errors) or (args.strict and bool(warnings))
+        failed |= bad
+        if bad:
+            print(f"{name}: {len(errors)} error(s), {len(warnings)} warning(s)")
+        else:
+            planned = f", planned {report.total_s:.2f} s" if report is not None else ""
+            if report is not None and report.iterations > 1:
+                planned += f" for {report.iterations} passes"
+            print(f"{name}: OK, {len(program)} commands{planned}")
+    return 1 if failed else 0
+
+
+# ------------------------------------------------------------------------------------------
+# fmt
+# ------------------------------------------------------------------------------------------
+
+
+def fmt_main(args) -> int:
+    from parolkit.script.formatter import format_program
+    from parolkit.script.program import ProgramError
+
+    status = 0
+    for name in args.programs:
+        path = Path(name)
+        try:
+            original = path.read_bytes().decode("utf-8-sig")
+        except (OSError, UnicodeDecodeError) as exc:
+            print(f"{name}: cannot read: {exc}", file=sys.stderr)
+            status = 1
+            continue
+        try:
+            formatted = format_program(original, name)
+        except ProgramError as exc:
+            _print_diagnostics(exc.errors)
+            print(f"{name}: not formatted ({len(exc.errors)} error(s))", file=sys.stderr)
+            status = 1
+            continue
+        if args.stdout:
+            sys.stdout.write(formatted)
+        elif formatted != original:
+            if args.check:
+                print(f"{name}: would be reformatted")
+                status = 1
+            else:
+                path.write_text(formatted, encoding="utf-8")
+                print(f"{name}: formatted")
+    return status
+
+
+# ------------------------------------------------------------------------------------------
+# run
+# ------------------------------------------------------------------------------------------
+
+
+def _free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class _SimController:
+    """``parolkit serve --sim`` started for one run (free ports, stopped afterwards)."""
+
+    def __init__(self, config: str | None) -> None:
+        self.port = _free_udp_port()
+        self.ack_port = _free_udp_port()
+        cmd = [sys.executable, "-m", "parolkit", "serve", "--sim",
+               "--udp-port", str(self.port), "--ack-port", str(self.ack_port)]
+        if config:
+            cmd += ["--config", config]
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                     env=dict(os.environ, PYTHONUNBUFFERED="1"))
+
+    def wait_ready(self, robot, timeout: float = 30.0) -> None:
+        deadline = time.monotonic() + timeout
+        last = None
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                err = self.proc.stderr.read().decode(errors="replace") if self.proc.stderr else ""
+                raise RuntimeError(f"the simulated controller exited with {self.proc.returncode}: {err.strip()}")
+            try:
+                status = robot.status()
+                if status.all_homed and status.state != "HOMING":
+                    return
+                last = status.state
+            except Exception as exc:  # not up yet
+                last = exc
+            time.sleep(0.1)
+        raise RuntimeError(f"the simulated controller was not ready within {timeout:g} s ({last})")
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+
+
+def _fmt_joints(q) -> str:
+    return "[" + ", ".join(f"{v:.3f}" for v in q) + "]"
+
+
+def _dry_run_main(args, program, cfg) -> int:
+    from parolkit.script.dryrun import dry_run
+
+    report = dry_run(program, args.start, loops=args.loops, model=cfg.robot,
+                     rate_hz=cfg.controller.rate_hz)
+    _print_diagnostics(sorted(report.errors + report.warnings, key=lambda d: (d.line, d.col)))
+    print(report.table())
+    if args.plot:
+        report.plot(args.plot)
+        print(f"plot: {args.plot}")
+    if not report.ok:
+        print(f"{program.source_name}: {len(report.errors)} error(s): nothing would run", file=sys.stderr)
+        return 1
+    print(f"final joints: {_fmt_joints(report.final_deg)} deg")
+    return 0
+
+
+def _step_console(interp, done: threading.Event) -> None:
+    """Single-step prompts on the terminal (runs in the main thread)."""
+    from parolkit.script.interpreter import InterpreterState
+
+    while not done.is_set():
+        if interp.state is not InterpreterState.PAUSED:
+            done.wait(0.05)
+            continue
+        index = interp.current_index
+        cmd = interp.program.commands[index] if index is not None else None
+        where = f"line {cmd.line}: {cmd.to_source()}" if cmd is not None else "next command"
+        try:
+            answer = input(f"{where}   [Enter] step, c continue, q stop > ").strip().lower()
+        except EOFError:
+            answer = "q"
+        if answer in ("q", "quit", "stop"):
+            interp.stop()
+            return
+        if answer in ("c", "continue"):
+            interp.resume()
+            return
+        interp.step()
+        # wait until the command has left the PAUSED state before prompting again
+        deadline = time.monotonic() + 2.0
+        while interp.state is InterpreterState.PAUSED and not done.is_set() and time.monotonic() < deadline:
+            done.wait(0.01)
+
+
+def run_main(args) -> int:
+    from parolkit.errors import ParolkitError
+    from parolkit.script.parser import parse_file
+
+    try:
+        cfg = _config(args)
+    except ParolkitError as exc:
+        print(f"parolkit run: {exc}", file=sys.stderr)
+        return 2
+    result = parse_file(args.program, limits=_limits(cfg))
+    if not result.ok:
+        _print_diagnostics(result.diagnostics())
+        print(f"{args.program}: {len(result.errors)} error(s): nothing was run", file=sys.stderr)
+        return 1
+    program = result.program
+    if args.dry_run:
+        return _dry_run_main(args, program, cfg)
+
+    from parolkit.client.robot import Robot
+    from parolkit.script.interpreter import Interpreter
+
+    sim = None
+    port = args.port if args.port is not None else cfg.controller.udp_port
+    host = args.host
+    if args.sim:
+        sim = _SimController(args.config)
+        host, port = "127.0.0.1", sim.port
+    robot = None
+    try:
+        robot = Robot(host, port)
+        if sim is not None:
+            sim.wait_ready(robot)
+        quiet = args.quiet
+
+        def on_line(p) -> None:
+            if quiet:
+                return
+            total = f"{p.planned_total_s:.1f}" if p.planned_total_s is not None else f"{p.planned_pass_s:.1f}/pass"
+            it = f" pass {p.iteration}" if program.loops else ""
+            print(f"[{p.elapsed_s:6.1f} s / {total} s] line {p.line}{it}: {p.command}", flush=True)
+
+        interp = Interpreter(program, robot, on_line=on_line, loops=args.loops, step=args.step,
+                             model=cfg.robot, rate_hz=cfg.controller.rate_hz)
+        done = threading.Event()
+
+        def body() -> None:
+            try:
+                interp.run()
+            finally:
+                done.set()
+
+        thread = threading.Thread(target=body, name="rbtscript", daemon=True)
+        thread.start()
+        try:
+            if args.step:
+                _step_console(interp, done)
+            while not done.wait(0.2):
+                pass
+        except KeyboardInterrupt:
+            print("\ninterrupted: stopping the robot", file=sys.stderr)
+            interp.stop()
+            done.wait(10)
+            return 130
+        thread.join(5)
+        res = interp.result
+        if res is None:
+            print("the run did not end cleanly", file=sys.stderr)
+            return 1
+        if res.warnings and not quiet:
+            _print_diagnostics(res.warnings)
+        if res.errors:
+            _print_diagnostics(res.errors)
+        if args.plot and interp.report is not None:
+            interp.report.plot(args.plot)
+            print(f"plot: {args.plot}")
+        print(res.message)
+        if res.final_deg is not None:
+            print(f"final joints: {_fmt_joints(res.final_deg)} deg")
+        return 0 if res.ok else 1
+    except (ParolkitError, RuntimeError, OSError) as exc:
+        print(f"parolkit run: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        if robot is not None:
+            robot.close()
+        if sim is not None:
+            sim.close()

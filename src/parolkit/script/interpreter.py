@@ -1,0 +1,446 @@
+"""Run an RBTscript program on the controller through the client API.
+
+::
+
+    from parolkit import Robot
+    from parolkit.script import load, Interpreter
+
+    with Robot("127.0.0.1", 5001) as robot:
+        it = Interpreter(load("pick.rbt"), robot, on_line=lambda p: print(p.line, p.command))
+        result = it.run()            # blocking; or it.start() for a background thread
+        print(result.state, result.elapsed_s)
+
+Before the first command the program is checked (a dry run planned from the robot's current
+joints with the controller's tool).  With any error nothing is sent to the controller and the
+run ends FAILED with every error in ``result.errors``.
+
+Commands run one after another; each waits for the controller's COMPLETED acknowledgement,
+so ``current_line`` is the line the robot is executing.  ``Gripper()`` and ``Gripper_cal()``
+do not wait (as in the original: follow them with a Delay).  Control from any thread:
+
+* :meth:`pause` / :meth:`resume`: pause BETWEEN commands (a move in progress finishes);
+* :meth:`step`: run exactly one more command, then pause (``step=True`` starts paused);
+* :meth:`stop`: sends STOP (cancels the active move and the queue) and ends the run.
+
+``on_line(progress)`` is called before each command and ``on_state(state)`` on every state
+change, from the interpreter's thread; keep them short (the GUI posts them to its loop).
+"""
+
+from __future__ import annotations
+
+import enum
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+from parolkit.script.program import (
+    Begin,
+    Command,
+    Delay,
+    End,
+    Gripper,
+    GripperCalibrate,
+    Home,
+    Input,
+    Loop,
+    MoveCart,
+    MoveCartRelTRF,
+    MoveJoint,
+    MovePose,
+    Output,
+    Program,
+    ScriptError,
+    Severity,
+    SpeedJoint,
+)
+
+__all__ = ["InterpreterState", "Progress", "RunResult", "Interpreter"]
+
+
+class InterpreterState(enum.Enum):
+    """Life cycle: IDLE -> CHECKING -> RUNNING <-> PAUSED -> FINISHED | STOPPED | FAILED."""
+
+    IDLE = "idle"
+    CHECKING = "checking"
+    RUNNING = "running"
+    PAUSED = "paused"
+    STOPPING = "stopping"
+    FINISHED = "finished"
+    STOPPED = "stopped"
+    FAILED = "failed"
+
+    @property
+    def done(self) -> bool:
+        return self in (InterpreterState.FINISHED, InterpreterState.STOPPED, InterpreterState.FAILED)
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where the run is: the command about to run (``line``, ``index`` into the program,
+    ``command`` text), the loop ``iteration`` (1-based), ``elapsed_s`` since the start, and
+    the planned total ``planned_total_s`` (None for endless loops; then ``planned_pass_s`` is
+    one pass through the program)."""
+
+    line: int
+    index: int
+    iteration: int
+    command: str
+    elapsed_s: float
+    planned_total_s: float | None
+    planned_pass_s: float
+    commands_done: int
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """How a run ended.  ``errors``: the check's errors (nothing ran) or the failing line's
+    error; ``final_deg``: the robot's joints after the run (None when unknown)."""
+
+    state: InterpreterState
+    commands_executed: int
+    iterations: int
+    elapsed_s: float
+    errors: tuple[ScriptError, ...] = ()
+    warnings: tuple[ScriptError, ...] = ()
+    final_deg: tuple[float, ...] | None = None
+    report: object = field(default=None, repr=False)
+
+    @property
+    def ok(self) -> bool:
+        return self.state is InterpreterState.FINISHED
+
+    @property
+    def message(self) -> str:
+        """One line for people."""
+        head = f"{self.state.value} after {self.commands_executed} commands, {self.elapsed_s:.2f} s"
+        if self.iterations > 1:
+            head += f", {self.iterations} loop iterations"
+        if self.errors:
+            head += f": {self.errors[0].headline()}"
+        return head
+
+
+class _Stopped(Exception):
+    """Internal: the run was stopped."""
+
+
+class Interpreter:
+    """Executes a :class:`Program` on a robot (``parolkit.Robot`` or anything with its methods).
+
+    ``loops``: how many passes a Loop() program makes (None = until stopped); ``step``: start
+    paused and run one command per :meth:`step`; ``check``: dry-run the program first and refuse
+    to run on any error (default True); ``model``/``rate_hz``: for the check.
+    """
+
+    def __init__(
+        self,
+        program: Program,
+        robot,
+        *,
+        on_line: Callable[[Progress], object] | None = None,
+        on_state: Callable[[InterpreterState], object] | None = None,
+        loops: int | None = None,
+        step: bool = False,
+        check: bool = True,
+        model=None,
+        rate_hz: float = 100.0,
+    ) -> None:
+        if loops is not None and (isinstance(loops, bool) or not isinstance(loops, int) or loops < 1):
+            raise ValueError(f"loops must be a whole number >= 1 or None, got {loops!r}")
+        self.program = program
+        self.robot = robot
+        self.on_line = on_line
+        self.on_state = on_state
+        self.loops = loops
+        self.check_first = check
+        self.model = model
+        self.rate_hz = rate_hz
+        self._cond = threading.Condition()
+        self._state = InterpreterState.IDLE
+        self._paused = bool(step)
+        self._step_tokens = 0
+        self._stop_requested = False
+        self._current_line: int | None = None
+        self._current_index: int | None = None
+        self._iteration = 0
+        self._thread: threading.Thread | None = None
+        self._result: RunResult | None = None
+        self._t0 = 0.0
+        self.report = None
+
+    # ---- observation --------------------------------------------------------------------
+
+    @property
+    def state(self) -> InterpreterState:
+        return self._state
+
+    @property
+    def current_line(self) -> int | None:
+        """Source line of the command running now (or about to run); None before/after."""
+        return self._current_line
+
+    @property
+    def current_index(self) -> int | None:
+        return self._current_index
+
+    @property
+    def iteration(self) -> int:
+        """Current loop pass, 1-based (0 before the start)."""
+        return self._iteration
+
+    @property
+    def result(self) -> RunResult | None:
+        """The outcome once the run is over (else None)."""
+        return self._result
+
+    def _set_state(self, state: InterpreterState) -> None:
+        with self._cond:
+            if self._state is state:
+                return
+            self._state = state
+            self._cond.notify_all()
+        if self.on_state is not None:
+            self.on_state(state)
+
+    # ---- control (any thread) -----------------------------------------------------------
+
+    def pause(self) -> None:
+        """Pause before the next command (a command in progress finishes)."""
+        with self._cond:
+            self._paused = True
+            self._cond.notify_all()
+
+    def resume(self) -> None:
+        """Continue after :meth:`pause` or single-stepping."""
+        with self._cond:
+            self._paused = False
+            self._step_tokens = 0
+            self._cond.notify_all()
+
+    def step(self) -> None:
+        """Run exactly one more command, then pause (also from a running program)."""
+        with self._cond:
+            self._paused = True
+            self._step_tokens += 1
+            self._cond.notify_all()
+
+    def stop(self) -> None:
+        """Stop the program: send STOP to the controller (cancels the move in progress and the
+        queue) and end the run as STOPPED."""
+        with self._cond:
+            if self._state.done:
+                return
+            self._stop_requested = True
+            running = self._state in (InterpreterState.RUNNING, InterpreterState.PAUSED)
+            self._cond.notify_all()
+        if running:
+            self._set_state(InterpreterState.STOPPING)
+            try:
+                self.robot.stop()
+            except Exception:  # the run loop reports what happened
+                pass
+
+    def start(self) -> threading.Thread:
+        """Run in a background thread (daemon); returns it.  See :meth:`wait`."""
+        if self._thread is not None:
+            raise RuntimeError("this Interpreter has already been started")
+        self._thread = threading.Thread(target=self.run, name="rbtscript", daemon=True)
+        self._thread.start()
+        return self._thread
+
+    def wait(self, timeout: float | None = None) -> RunResult | None:
+        """Wait for a :meth:`start`-ed run to end; its result (None on timeout)."""
+        if self._thread is not None:
+            self._thread.join(timeout)
+        return self._result
+
+    # ---- checking -----------------------------------------------------------------------
+
+    def _robot_tool(self):
+        try:
+            info = self.robot.tool()
+        except Exception:
+            return None
+        if info is None or getattr(info, "name", "default") == "default":
+            return None
+        from parolkit.kinematics.tools import Tool
+
+        return Tool.from_pose(info.name, info.pose)
+
+    def check(self):
+        """Dry-run the program from the robot's current joints (and tool); the report."""
+        from parolkit.script.dryrun import dry_run
+
+        start = tuple(float(v) for v in self.robot.angles())
+        return dry_run(
+            self.program, start, loops=self.loops if self.loops is not None else None,
+            model=self.model, tool=self._robot_tool(), rate_hz=self.rate_hz,
+        )
+
+    # ---- running ------------------------------------------------------------------------
+
+    def _error(self, cmd: Command, message: str) -> ScriptError:
+        return ScriptError(cmd.line, cmd.col, message, cmd.text, Severity.ERROR, self.program.source_name)
+
+    def _gate(self) -> None:
+        """Block while paused (unless a step token is available); raise when stopped."""
+        announced = False
+        while True:
+            with self._cond:
+                if self._stop_requested:
+                    raise _Stopped
+                if not self._paused:
+                    break
+                if self._step_tokens > 0:
+                    self._step_tokens -= 1
+                    break
+                if announced:
+                    self._cond.wait(0.5)
+                    continue
+            self._set_state(InterpreterState.PAUSED)
+            announced = True
+        self._set_state(InterpreterState.RUNNING)
+
+    def _execute(self, cmd: Command) -> None:
+        r = self.robot
+        if isinstance(cmd, Delay):
+            r.delay(cmd.seconds, wait=True, timeout=None)
+        elif isinstance(cmd, MoveJoint):
+            timed = cmd.duration_s is not None
+            r.move_joints(
+                list(cmd.joints_deg), duration=cmd.duration_s,
+                speed=None if timed else cmd.speed_pct, accel=None if timed else cmd.accel_pct,
+                profile=cmd.profile.value if cmd.profile else None, tracking=cmd.tracking.value,
+                wait=True, timeout=None,
+            )
+        elif isinstance(cmd, MovePose):
+            timed = cmd.duration_s is not None
+            r.move_pose(
+                list(cmd.pose), duration=cmd.duration_s,
+                speed=None if timed else cmd.speed_pct, accel=None if timed else cmd.accel_pct,
+                profile=cmd.profile.value if cmd.profile else None, tracking=cmd.tracking.value,
+                wait=True, timeout=None,
+            )
+        elif isinstance(cmd, (MoveCart, MoveCartRelTRF)):
+            timed = cmd.duration_s is not None
+            fn = r.move_cart if isinstance(cmd, MoveCart) else r.move_cart_rel_trf
+            values = cmd.pose if isinstance(cmd, MoveCart) else cmd.delta
+            fn(
+                list(values), duration=cmd.duration_s, speed=None if timed else cmd.speed_pct,
+                profile=cmd.profile.value if cmd.profile else None, tracking=cmd.tracking.value,
+                wait=True, timeout=None,
+            )
+        elif isinstance(cmd, SpeedJoint):
+            r.speed_joint(list(cmd.speeds_deg_s), cmd.duration_s, wait=True, timeout=None)
+        elif isinstance(cmd, Home):
+            r.home(wait=True, timeout=None)
+        elif isinstance(cmd, Output):
+            r.set_output(cmd.port, cmd.state, wait=True, timeout=None)
+        elif isinstance(cmd, Input):
+            r.wait_input(cmd.port, cmd.state, input_timeout=cmd.timeout_s, wait=True, timeout=None)
+        elif isinstance(cmd, Gripper):
+            r.gripper_move(cmd.position, cmd.speed, cmd.current_ma, wait=False)
+        elif isinstance(cmd, GripperCalibrate):
+            r.gripper_calibrate(wait=False)
+        else:  # pragma: no cover - every command class is handled above
+            raise TypeError(f"no executor for {type(cmd).__name__}")
+
+    def _final_deg(self) -> tuple[float, ...] | None:
+        try:
+            return tuple(float(v) for v in self.robot.angles())
+        except Exception:
+            return None
+
+    def run(self) -> RunResult:
+        """Check, then run the program to its end (blocking).  Never raises for robot or
+        program problems: they are in the returned :class:`RunResult`."""
+        with self._cond:
+            if self._state is not InterpreterState.IDLE:
+                raise RuntimeError("this Interpreter has already run")
+        self._t0 = time.monotonic()
+        warnings: tuple[ScriptError, ...] = tuple(self.program.warnings)
+        executed = 0
+        commands = self.program.commands
+        planned_pass = 0.0
+        planned_total: float | None = None
+        try:
+            if self.check_first:
+                self._set_state(InterpreterState.CHECKING)
+                try:
+                    report = self.check()
+                except Exception as exc:
+                    err = ScriptError(1, 1, f"cannot check the program against the robot: {exc}", "",
+                                      Severity.ERROR, self.program.source_name)
+                    return self._finish(InterpreterState.FAILED, 0, (err,), warnings)
+                self.report = report
+                warnings = report.warnings
+                if not report.ok:
+                    return self._finish(InterpreterState.FAILED, 0, report.errors, warnings, report)
+                if report.iterations:
+                    planned_pass = report.total_s / report.iterations
+                if not self.program.loops:
+                    planned_total = report.total_s
+                elif self.loops is not None:
+                    planned_total = planned_pass * self.loops
+            if self._stop_requested:
+                raise _Stopped
+            self._set_state(InterpreterState.PAUSED if self._paused else InterpreterState.RUNNING)
+            self._iteration = 1
+            while True:
+                for index, cmd in enumerate(commands):
+                    with self._cond:
+                        self._current_line = cmd.line
+                        self._current_index = index
+                    if isinstance(cmd, Loop):
+                        if self.loops is not None and self._iteration >= self.loops:
+                            return self._finish(InterpreterState.FINISHED, executed, (), warnings)
+                        break
+                    self._gate()
+                    if self.on_line is not None:
+                        self.on_line(Progress(cmd.line, index, self._iteration, cmd.to_source(),
+                                              time.monotonic() - self._t0, planned_total,
+                                              planned_pass, executed))
+                    if isinstance(cmd, End):
+                        executed += 1
+                        return self._finish(InterpreterState.FINISHED, executed, (), warnings)
+                    if isinstance(cmd, Begin):
+                        executed += 1
+                        continue
+                    try:
+                        self._execute(cmd)
+                    except Exception as exc:
+                        if self._stop_requested:
+                            raise _Stopped from None
+                        reason = getattr(exc, "reason", None) or str(exc)
+                        status = getattr(exc, "status", None)
+                        what = f"{cmd.keyword} {status.lower()}" if isinstance(status, str) else f"{cmd.keyword} failed"
+                        err = self._error(cmd, f"{what}: {reason}")
+                        return self._finish(InterpreterState.FAILED, executed, (err,), warnings)
+                    executed += 1
+                    if self._stop_requested:
+                        raise _Stopped
+                else:
+                    # no Loop(): the program ends after its last line
+                    return self._finish(InterpreterState.FINISHED, executed, (), warnings)
+                self._iteration += 1
+        except _Stopped:
+            return self._finish(InterpreterState.STOPPED, executed, (), warnings)
+
+    def _finish(self, state, executed, errors, warnings, report=None) -> RunResult:
+        result = RunResult(
+            state=state,
+            commands_executed=executed,
+            iterations=max(self._iteration, 1 if executed else 0),
+            elapsed_s=time.monotonic() - self._t0,
+            errors=tuple(errors),
+            warnings=tuple(warnings),
+            final_deg=self._final_deg(),
+            report=report if report is not None else self.report,
+        )
+        self._result = result
+        with self._cond:
+            self._current_line = None
+            self._current_index = None
+        self._set_state(state)
+        return result

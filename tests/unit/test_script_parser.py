@@ -1,0 +1,273 @@
+"""RBTscript parser: typed commands with positions, original spellings, every error at once."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from parolkit.script import (
+    Begin,
+    Delay,
+    End,
+    Gripper,
+    GripperCalibrate,
+    Home,
+    Input,
+    Loop,
+    MoveCart,
+    MoveCartRelTRF,
+    MoveJoint,
+    MovePose,
+    Output,
+    Profile,
+    ProgramError,
+    Severity,
+    SpeedJoint,
+    Tracking,
+    load,
+    parse,
+    parse_file,
+)
+
+REPO = Path(__file__).resolve().parents[2]
+EXAMPLES = sorted((REPO / "examples").glob("*.rbt"))
+
+
+def only(text: str):
+    result = parse(text)
+    assert result.ok, [e.format() for e in result.errors]
+    cmds = [c for c in result.program.commands if not isinstance(c, (Begin, End, Loop))]
+    assert len(cmds) == 1
+    return cmds[0]
+
+
+def errors_of(text: str) -> list[tuple[int, int, str]]:
+    return [(e.line, e.col, e.message) for e in parse(text).errors]
+
+
+# ---- the five seed examples -----------------------------------------------------------------
+
+
+def test_the_five_seed_examples_are_in_examples():
+    names = {p.name for p in EXAMPLES}
+    assert names == {
+        "simple_joint_move.rbt",
+        "cartesian_trf.rbt",
+        "cartesian_relative_trf.rbt",
+        "ssg48_gripper_test.rbt",
+        "output_click.rbt",
+    }
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
+def test_seed_examples_parse_unchanged_without_errors(path):
+    result = parse_file(path)
+    assert result.ok, [e.format() for e in result.errors]
+    program = result.program
+    assert isinstance(program.commands[0], Begin)
+    assert isinstance(program.commands[-1], (End, Loop))
+    assert program.source_name == str(path)
+    # one command per non-blank line, in order, with its line number
+    lines = [i for i, t in enumerate(path.read_text().split("\n"), 1) if t.strip()]
+    assert list(program.lines) == lines
+
+
+def test_seed_cartesian_example_values_are_exact():
+    program = load(REPO / "examples" / "cartesian_trf.rbt")
+    move = program.commands[2]
+    assert isinstance(move, MoveJoint)
+    assert move.joints_deg == (90.0, -90.0, 180.001, 0.0, 0.0, 180.0)
+    assert move.duration_s == 4.0 and move.profile is None and move.tracking is Tracking.POSITION
+    cart = program.commands[4]
+    assert isinstance(cart, MoveCart)
+    assert cart.pose == (0.0, 263.23, 161.241, -90.0, 0.0, -89.499)
+    assert (cart.line, cart.col) == (5, 1)
+    assert cart.text == "MoveCart(0.0,263.23,161.241,-90.0,0.0,-89.499)"
+
+
+# ---- each command ---------------------------------------------------------------------------
+
+
+def test_movejoint_seed_forms():
+    m = only("MoveJoint(0,-90,180,0,0,180,t=4)")
+    assert m.joints_deg[1] == -90 and m.duration_s == 4 and m.speed_pct is None
+    m = only("MoveJoint(0,-90,180,0,0,180,v=50,a=50)")
+    assert (m.speed_pct, m.accel_pct, m.duration_s) == (50, 50, None)
+    m = only("MoveJoint(0,-90,180,0,0,180)")
+    assert (m.speed_pct, m.accel_pct, m.duration_s, m.profile) == (None, None, None, None)
+    m = only("MoveJoint(0,-90,180,0,0,180,speed)")
+    assert m.tracking is Tracking.SPEED
+
+
+def test_move_profile_words_func_keyword_and_quotes():
+    assert only("MoveJoint(0,-90,180,0,0,180,t=2,trap)").profile is Profile.TRAP
+    assert only('MoveJoint(0,-90,180,0,0,180,t=2,"poly")').profile is Profile.POLY
+    assert only("MoveJoint(0,-90,180,0,0,180,t=2,func=trap)").profile is Profile.TRAP
+    assert only("MovePose(0,250,300,-90,0,-90,t=2,ruckig,speed)").profile is Profile.RUCKIG
+    m = only("MovePose(0, 250, 300, -90, 0, -90, v=20, a=10, trap, speed)")
+    assert isinstance(m, MovePose) and m.pose == (0, 250, 300, -90, 0, -90)
+    assert (m.speed_pct, m.accel_pct, m.profile, m.tracking) == (20, 10, Profile.TRAP, Tracking.SPEED)
+
+
+def test_cartesian_moves_take_duration_speed_profile_and_tracking():
+    m = only("MoveCart(0,263,161,-90,0,-89.5,t=9,trap)")
+    assert isinstance(m, MoveCart) and m.duration_s == 9 and m.profile is Profile.TRAP
+    m = only("MoveCartRelTRF(-80,0,0,0,0,0)")
+    assert isinstance(m, MoveCartRelTRF) and m.delta == (-80, 0, 0, 0, 0, 0) and m.duration_s is None
+    m = only("MoveCartRelTRF(0,0,0,0,45,0,v=30,speed)")
+    assert m.speed_pct == 30 and m.tracking is Tracking.SPEED
+
+
+def test_io_gripper_delay_home_speedjoint():
+    assert only("Delay(1.5)") == Delay(seconds=1.5, line=1, col=1)
+    o = only("Output(2, LOW)")
+    assert isinstance(o, Output) and (o.port, o.state) == (2, False)
+    assert only("Output(1,HIGH)").state is True
+    assert only("output(1, 1)").state is True
+    i = only("Input(2, HIGH, 5)")
+    assert isinstance(i, Input) and (i.port, i.state, i.timeout_s) == (2, True, 5.0)
+    i = only("Input(1, LOW)")
+    assert i.timeout_s is None and i.state is False
+    assert only("Input(1, LOW, t=2.5)").timeout_s == 2.5
+    g = only("Gripper(120, 30, 500)")
+    assert isinstance(g, Gripper) and (g.position, g.speed, g.current_ma) == (120, 30, 500)
+    assert isinstance(only("Gripper_cal()"), GripperCalibrate)
+    assert isinstance(only("Home()"), Home)
+    s = only("SpeedJoint(5, 0, 0, 0, 0, -5, t=2)")
+    assert isinstance(s, SpeedJoint) and s.speeds_deg_s == (5, 0, 0, 0, 0, -5) and s.duration_s == 2
+
+
+def test_whitespace_comments_blank_lines_and_case_are_allowed():
+    text = (
+        "\n"
+        "  Begin()   # start\n"
+        "\n"
+        "// a comment line\n"
+        "\tmovejoint( 90 , -90 , 180 , 0 , 0 , 180 , T = 3 )  // trailing\n"
+        "DELAY(1)#tight comment\n"
+        "gripper_CAL()\n"
+        "Delay(2)\n"
+        "end()\r\n"
+    )
+    result = parse(text, "demo.rbt")
+    assert result.ok, [e.format() for e in result.errors]
+    kinds = [type(c).__name__ for c in result.program.commands]
+    assert kinds == ["Begin", "MoveJoint", "Delay", "GripperCalibrate", "Delay", "End"]
+    move = result.program.commands[1]
+    assert (move.line, move.col, move.duration_s) == (5, 2, 3.0)
+
+
+# ---- errors ---------------------------------------------------------------------------------
+
+
+def test_seed_typo_is_an_error_not_a_different_move():
+    text = "Begin()\nMoveCart(81.565,262.804,161.047,-90.135,-0.029,141.983.t=9)\nEnd()\n"
+    result = parse(text, "typo.rbt")
+    assert result.program is None
+    (err,) = result.errors
+    assert (err.line, err.col) == (2, 55)
+    assert "after the number 141.983" in err.message
+    shown = err.format().splitlines()
+    assert shown[0].startswith("typo.rbt:2:55: error: unexpected '.'")
+    assert shown[1].strip() == "MoveCart(81.565,262.804,161.047,-90.135,-0.029,141.983.t=9)"
+    assert shown[2].index("^") == shown[1].index("141.983.") + len("141.983")
+
+
+def test_all_errors_of_a_file_are_reported_at_once():
+    text = "Begin()\nFoo(1)\nMoveJoint(1,2)\nDelay(0)\nOutput(1 HIGH)\nEnd()\n"
+    errs = errors_of(text)
+    assert [e[0] for e in errs] == [2, 3, 4, 5]
+    assert "unknown command 'Foo'" in errs[0][2]
+    assert "takes 6 joint values" in errs[1][2]
+    assert "Delay = 0 s is out of range" in errs[2][2]
+    assert errs[3][1] == 10 and "expected ',' or ')'" in errs[3][2]
+
+
+def test_unknown_command_suggests_the_closest_name():
+    (e,) = errors_of("Begin()\nGriper(1,2,150)\nEnd()")
+    assert e[:2] == (2, 1) and "did you mean Gripper?" in e[2]
+    (e,) = errors_of("Begin()\nFrobnicate()\nEnd()")
+    assert "known: Begin, End, Loop" in e[2]
+
+
+def test_output_2_is_supported_and_output_3_is_rejected():
+    assert only("Output(2,HIGH)").port == 2
+    (e,) = errors_of("Output(3,HIGH)")
+    assert e[:2] == (1, 8) and "must be 1 or 2" in e[2]
+
+
+def test_joint_limit_error_names_joint_value_and_range():
+    (e,) = errors_of("MoveJoint(130, -90, 180, 0, 0, 180)")
+    assert e[:2] == (1, 11)
+    assert e[2].startswith("J1 = 130 deg is outside the joint limits (-123.0")
+
+
+def test_t_overrides_v_and_a_with_a_warning():
+    result = parse("MoveJoint(90,-90,180,0,0,180,v=50,a=50,t=3)")
+    assert result.ok
+    (w,) = [w for w in result.warnings if w.line == 1 and w.col == 40]
+    assert w.severity is Severity.WARNING and "t= overrides v= and a=" in w.message
+
+
+def test_gripper_current_warnings_follow_the_seed():
+    assert any("too weak" in w.message for w in parse("Gripper(10, 10, 120)").warnings)
+    assert any("dangerous" in w.message for w in parse("Gripper(10, 200, 800)").warnings)
+    assert not [w for w in parse("Gripper(10, 60, 500)").warnings if "gripper" in w.message]
+
+
+def test_structure_warnings_do_not_stop_a_program():
+    result = parse("Delay(1)\nGripper_cal()\nGripper(1,2,300)")
+    assert result.ok
+    msgs = [w.message for w in result.warnings]
+    assert any("does not start with Begin()" in m for m in msgs)
+    assert any("add a Delay() after Gripper_cal()" in m for m in msgs)
+    assert any("no End() or Loop()" in m for m in msgs)
+
+
+def test_huge_numbers_are_an_error_not_infinity():
+    (e,) = errors_of("Delay(1e999)")
+    assert "too large" in e[2]
+
+
+def test_unwrap_raises_program_error_with_every_error():
+    result = parse("Foo()\nBar()")
+    with pytest.raises(ProgramError) as info:
+        result.unwrap()
+    assert len(info.value.errors) == 2
+    assert "2 errors" in str(info.value)
+
+
+def test_unreadable_and_non_utf8_files_are_reported(tmp_path):
+    missing = parse_file(tmp_path / "nope.rbt")
+    assert not missing.ok and "cannot read" in missing.errors[0].message
+    bad = tmp_path / "bad.rbt"
+    bad.write_bytes(b"Begin()\nDelay(\xff)\n")
+    result = parse_file(bad)
+    assert not result.ok and result.errors[0].line == 2 and "not UTF-8" in result.errors[0].message
+
+
+# ---- random text never crashes the parser ---------------------------------------------------
+
+_ALPHABET = st.sampled_from(
+    list("()=,.#/-+ \t\n\r\"'0123456789eE;xX_")
+    + ["MoveJoint", "MoveCart", "Delay", "Output", "HIGH", "t=", "v=", "Begin()", "End()", "Loop()", "//"]
+)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.one_of(st.text(max_size=200), st.lists(_ALPHABET, max_size=60).map("".join)))
+def test_random_text_gives_a_program_or_errors_never_an_exception(text):
+    result = parse(text, "fuzz.rbt")
+    assert (result.program is None) == bool(result.errors)
+    n_lines = text.count("\n") + 1
+    for d in result.errors + result.warnings:
+        assert 1 <= d.line <= n_lines
+        assert d.col >= 1
+        assert d.message
+        d.format()
+    if result.program is not None:
+        for cmd in result.program.commands:
+            assert cmd.line >= 1 and cmd.col >= 1
