@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Callable, Iterable, Sequence
 
-from parolkit.board.faults import ByteFaultInjector, LinkFaults
+from parolkit.board.faults import ByteFaultInjector, LinkFaults, faults_from_options
 from parolkit.board.gripper import GripperState, SSG48Gripper
 from parolkit.board.homing import (
     J5_OFFSET_PNEUMATIC,
@@ -480,7 +480,7 @@ class BoardEmulator:
         ``"from_board"`` or ``"both"`` (``silent`` always concerns the board's receiver).
         """
         if faults is None:
-            faults = LinkFaults(**kw)  # type: ignore[arg-type]
+            faults = faults_from_options(kw)
         elif kw:
             raise ParolkitValueError("pass either a LinkFaults or keyword fields, not both")
         if not isinstance(faults, LinkFaults):

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from parolkit.errors import ParolkitValueError
 
-__all__ = ["LinkFaults", "ByteFaultInjector", "FaultCounters"]
+__all__ = ["LinkFaults", "ByteFaultInjector", "FaultCounters", "faults_from_options"]
 
 
 def _check_rate(value: object, name: str) -> float:
@@ -67,6 +67,18 @@ class LinkFaults:
     def active(self) -> bool:
         """True when any fault is switched on."""
         return bool(self.drop_rate or self.corrupt_rate or self.delay_s or self.silent)
+
+
+_FIELDS = ("drop_rate", "corrupt_rate", "delay_s", "silent")
+
+
+def faults_from_options(options: dict[str, object]) -> LinkFaults:
+    """``LinkFaults(**options)`` with a clear error for an unknown option name."""
+    unknown = sorted(set(options) - set(_FIELDS))
+    if unknown:
+        raise ParolkitValueError(
+            f"unknown fault option(s) {', '.join(unknown)}; allowed: {', '.join(_FIELDS)}")
+    return LinkFaults(**options)  # type: ignore[arg-type]
 
 
 @dataclass

@@ -13,7 +13,8 @@ Behaviour per accepted frame (the board forwards one CAN message per frame):
 * mode 1 (CALIBRATE): the gripper calibrates for ``calibration_s`` (default 1.0 s) and ends
   fully open, calibrated and activated.
 * mode 2 (CLEAR_ERROR): clears the E-stop/error flag.
-* mode 0: the command byte's ACTIVATE bit (0x80) keeps the gripper active (0 deactivates it:
+* mode 0, setpoints unchanged since the last frame: only a keep-alive (no effect).
+* mode 0, something changed: the command byte's ACTIVATE bit (0x80) keeps the gripper active (0 deactivates it:
   the jaws stop); with ACTIVATE and MOVE (0x40) the position/speed/current setpoints are
   taken; the ESTOP bit (0x20) stops the jaws and raises the error flag (0x02) until a
   clear-error.  Moves need a calibrated gripper (as the real SSG-48).
@@ -85,6 +86,7 @@ class SSG48Gripper:
         self.object_width_mm: float | None = None
         self._calibrating_left = 0.0
         self._gripping = False
+        self._last_msg: tuple[int, int, int, int] | None = (0, 0, 0, 0)
 
     # ---- PC side (once per accepted frame) ------------------------------------------------
     def on_frame(self, position: int, speed: int, current: int, command: int, mode: int) -> None:
@@ -102,6 +104,10 @@ class SSG48Gripper:
             return
         if mode != GripperMode.OPERATE:
             return  # other modes: the gripper ignores the message
+        msg = (position, speed, current, command)
+        if msg == self._last_msg:
+            return  # unchanged setpoints: the board sends only a keep-alive
+        self._last_msg = msg
         if command & GripperCommandBits.ESTOP:
             self.error = True
             self.action = False

@@ -5,11 +5,12 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from parolkit.board.faults import ByteFaultInjector, LinkFaults
+from parolkit.board.faults import ByteFaultInjector, LinkFaults, faults_from_options
 from parolkit.errors import ParolkitValueError
 from parolkit.transport.base import Transport
 
 __all__ = ["FaultyTransport"]
+
 
 
 class FaultyTransport(Transport):
@@ -26,14 +27,14 @@ class FaultyTransport(Transport):
             raise ParolkitValueError(f"inner must be a Transport, got {type(inner).__name__}")
         self.inner = inner
         self.simulated = inner.simulated
-        lf = LinkFaults(**faults)
+        lf = faults_from_options(faults)
         self._tx = ByteFaultInjector(lf, seed=seed)
         self._rx = ByteFaultInjector(lf, seed=None if seed is None else seed + 1)
 
     def set_faults(self, faults: LinkFaults | None = None, **kw: Any) -> None:
         """Replace the faults (a ``LinkFaults`` or its fields as keywords)."""
         if faults is None:
-            faults = LinkFaults(**kw)
+            faults = faults_from_options(kw)
         elif kw:
             raise ParolkitValueError("pass either a LinkFaults or keyword fields, not both")
         self._tx.set_faults(faults)

@@ -1,0 +1,163 @@
+"""Transports: in-process emulator link, fault-injecting wrapper, factory, argument checks."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from parolkit.board import BoardEmulator
+from parolkit.errors import ParolkitValueError
+from parolkit.protocol import BoardCommand, CommandFrame, StatusParser
+from parolkit.transport import (
+    EmulatorTransport,
+    FaultyTransport,
+    LinkLostError,
+    SerialTransport,
+    Transport,
+    TransportError,
+    open_transport,
+)
+
+IDLE = CommandFrame(command=BoardCommand.IDLE).encode()
+
+
+def roundtrip(t: Transport, data: bytes = IDLE, wait_s: float = 0.0) -> list:
+    parser = StatusParser()
+    t.write(data)
+    if wait_s:
+        time.sleep(wait_s)
+    return parser.feed(t.read())
+
+
+def test_emulator_transport_answers_every_frame_with_one_status_frame():
+    with EmulatorTransport(clock="virtual") as t:
+        assert t.simulated and t.description == "emulated board" and t.is_open
+        frames = roundtrip(t, CommandFrame(command=BoardCommand.ENABLE).encode())
+        assert len(frames) == 1 and frames[0].xtr == 101
+        assert t.read() == b""  # nothing unsolicited
+
+
+def test_emulator_transport_starts_and_stops_the_realtime_loop():
+    t = EmulatorTransport(homing_speedup=10)
+    assert not t.emulator.running
+    t.open()
+    assert t.emulator.running
+    t.close()
+    assert not t.emulator.running
+
+
+def test_emulator_transport_uses_a_given_emulator_for_test_control():
+    emu = BoardEmulator(clock="virtual")
+    with EmulatorTransport(emu) as t:
+        assert t.emulator is emu
+        emu.set_estop(True)
+        assert roundtrip(t)[0].estop_pressed
+
+
+def test_emulator_transport_unplug_raises_link_lost_and_reopen_after_replug_works():
+    with EmulatorTransport(clock="virtual") as t:
+        t.emulator.unplug()
+        with pytest.raises(LinkLostError):
+            t.write(IDLE)
+        assert not t.is_open
+        with pytest.raises(TransportError, match="unplugged"):
+            t.open()
+        t.emulator.replug()
+        t.open()
+        assert len(roundtrip(t)) == 1
+
+
+def test_emulator_transport_refuses_use_before_open():
+    t = EmulatorTransport(clock="virtual")
+    with pytest.raises(TransportError, match="not open"):
+        t.read()
+
+
+def test_emulator_transport_rejects_conflicting_arguments():
+    with pytest.raises(ParolkitValueError, match="emulator"):
+        EmulatorTransport(BoardEmulator(clock="virtual"), homing_speedup=2)
+    with pytest.raises(ParolkitValueError, match="emulator"):
+        EmulatorTransport("board")  # type: ignore[arg-type]
+    with pytest.raises(ParolkitValueError, match="homing_speedup"):
+        EmulatorTransport(homing_speedup=-1)
+
+
+def test_open_transport_none_gives_an_open_emulator_link():
+    t = open_transport(None, clock="virtual")
+    try:
+        assert isinstance(t, EmulatorTransport) and t.is_open
+        assert len(roundtrip(t)) == 1
+    finally:
+        t.close()
+
+
+def test_open_transport_reports_a_missing_serial_port_by_name():
+    with pytest.raises(TransportError, match="/nonexistent/ttyPAROL"):
+        open_transport("/nonexistent/ttyPAROL")
+    with pytest.raises(ParolkitValueError, match="port"):
+        open_transport("")
+
+
+@pytest.mark.parametrize(
+    "args, kwargs, field",
+    [
+        (("",), {}, "port"),
+        ((None,), {}, "port"),
+        (("/dev/x",), {"baud": 0}, "baud"),
+        (("/dev/x",), {"baud": 3e6}, "baud"),
+        (("/dev/x",), {"write_timeout_s": 0}, "write_timeout_s"),
+    ],
+)
+def test_serial_transport_checks_its_arguments(args, kwargs, field):
+    with pytest.raises(ParolkitValueError, match=field):
+        SerialTransport(*args, **kwargs)
+
+
+def test_serial_transport_refuses_use_before_open():
+    t = SerialTransport("/dev/null-parolkit")
+    assert not t.is_open and t.description == "/dev/null-parolkit @ 3000000"
+    with pytest.raises(TransportError, match="not open"):
+        t.write(IDLE)
+
+
+def test_faulty_transport_dropping_everything_means_no_reply():
+    with FaultyTransport(EmulatorTransport(clock="virtual"), drop_rate=1.0, seed=3) as t:
+        assert roundtrip(t) == []
+        assert t.counters["tx_dropped"] == len(IDLE)
+        t.set_faults(drop_rate=0.0)
+        assert len(roundtrip(t)) == 1
+
+
+def test_faulty_transport_corruption_is_caught_by_the_parsers():
+    with FaultyTransport(EmulatorTransport(clock="virtual"), corrupt_rate=0.02, seed=11) as t:
+        parser = StatusParser()
+        good = 0
+        for _ in range(200):
+            t.write(IDLE)
+            good += len(parser.feed(t.read()))
+        assert 50 < good < 200
+        assert t.counters["tx_corrupted"] + t.counters["rx_corrupted"] > 0
+        assert parser.stats.frames_rejected + parser.stats.bytes_dropped > 0
+
+
+def test_faulty_transport_delay_and_silence():
+    with FaultyTransport(EmulatorTransport(clock="virtual"), delay_s=0.05) as t:
+        assert roundtrip(t) == []
+        parser, frames, t0 = StatusParser(), [], time.monotonic()
+        while not frames and time.monotonic() - t0 < 1.0:
+            time.sleep(0.01)
+            frames = parser.feed(t.read())
+        assert len(frames) == 1
+        assert time.monotonic() - t0 >= 0.09  # 50 ms out + 50 ms back
+        t.set_faults(silent=True)
+        assert roundtrip(t) == []
+
+
+def test_faulty_transport_checks_its_arguments():
+    with pytest.raises(ParolkitValueError, match="inner"):
+        FaultyTransport(object())  # type: ignore[arg-type]
+    with pytest.raises(ParolkitValueError, match="corrupt_rate"):
+        FaultyTransport(EmulatorTransport(clock="virtual"), corrupt_rate=1.5)
+    with pytest.raises(ParolkitValueError, match="bogus"):
+        FaultyTransport(EmulatorTransport(clock="virtual"), bogus=1)
