@@ -1,0 +1,643 @@
+"""Command queue, planner worker and the active job; every ack after QUEUED comes from here.
+
+Threads and ownership:
+
+* the **server thread** calls :meth:`Executor.submit` (queued commands), :meth:`post`
+  (immediate actions, run at the start of the next tick) and the read-only views;
+* the **planner thread** plans queued motion jobs ahead of time, each from the final joints of
+  the job before it (or from the measured joints when nothing is ahead), and CARTJOG streams;
+* the **loop thread** calls :meth:`tick` once per tick: it runs posted actions, activates the
+  next job when its plan is ready and asks the active activity for this tick's frame.
+
+Planning never happens in the tick.  A job whose plan assumed a start the robot is not at (a
+jog or a speed-tracked move ended elsewhere) is sent back to the planner; the loop holds still
+until the new plan is ready.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+from queue import SimpleQueue
+from typing import Callable, Sequence
+
+from parolkit.controller.jobs import (
+    Activity,
+    DelayActivity,
+    HomeActivity,
+    Job,
+    OneShotActivity,
+    SpeedActivity,
+    Step,
+    TickContext,
+    TrajectoryActivity,
+    WaitInputActivity,
+    ticks_for,
+)
+from parolkit.protocol import commands as C
+from parolkit.protocol.commands import AckStatus
+from parolkit.protocol.frames import BoardCommand, GripperCommandBits, GripperMode, StatusFrame
+from parolkit.robot import RobotModel
+
+__all__ = ["Executor", "AckSink", "START_TOLERANCE_DEG"]
+
+log = logging.getLogger("parolkit.controller")
+
+#: (job, status, details) -> None; must not block (the controller queues the datagram)
+AckSink = Callable[[Job, AckStatus, str], None]
+
+#: a planned move may start this far (deg, any joint) from the measured joints
+START_TOLERANCE_DEG = 0.5
+#: how many queued jobs the planner plans ahead
+PLAN_AHEAD = 4
+
+_TRAJECTORY_COMMANDS = (
+    C.MoveJoint, C.MovePose, C.MoveCart, C.MoveCartRelTRF, C.CartJog, C.SmoothCircle,
+    C.SmoothArcCenter, C.SmoothArcParam, C.SmoothSpline, C.SmoothHelix, C.SmoothBlend,
+)
+_SPEED_COMMANDS = (C.Jog, C.MultiJog, C.SpeedJoint)
+_STREAMABLE = (C.Jog, C.MultiJog, C.CartJog)
+
+
+def needs_plan(cmd: C.Command) -> bool:
+    return isinstance(cmd, _TRAJECTORY_COMMANDS)
+
+
+@dataclass
+class GripperSetpoint:
+    """Persistent SSG-48 setpoints sent in every frame."""
+
+    position: int = 0
+    speed: int = 0
+    current: int = 0
+    command: int = 0
+
+
+class Executor:
+    """The queue and the active job.  See the module docstring for the threading rules."""
+
+    def __init__(
+        self,
+        *,
+        model: RobotModel,
+        rate_hz: float,
+        queue_size: int,
+        watchdog_s: float,
+        send_ack: AckSink,
+        tool_provider: Callable[[], object] | None = None,
+        homing_timeout_s: float = 180.0,
+    ) -> None:
+        self.model = model
+        self.rate_hz = rate_hz
+        self.queue_size = queue_size
+        self.watchdog_s = watchdog_s
+        self._send_ack = send_ack
+        self.tool_provider = tool_provider or (lambda: None)
+        self.homing_timeout_s = homing_timeout_s
+        self._lock = threading.RLock()
+        self._plan_cv = threading.Condition(self._lock)
+        self.queue: deque[Job] = deque()
+        self.active: Job | None = None
+        self.activity: Activity | None = None
+        self._requests: SimpleQueue[Callable[[], None]] = SimpleQueue()
+        self._seq = 0
+        self.plan_seq = 0
+        self.stream_mode = False
+        self.enabled = True
+        self.estop_latched = False
+        self.estop_pressed = False
+        self.error: str | None = None
+        self.outputs = [False, False]
+        self.gripper = GripperSetpoint()
+        self._pending_code: int | None = None
+        self._stream_cart: Job | None = None
+        self._measured: tuple[float, ...] | None = None
+        self._homed = False
+        self._spd = tuple(float(v) for v in model.steps_per_deg)
+        self._limits = tuple((int(lo), int(hi)) for lo, hi in model.limits_steps)
+        self._running = False
+        self._planner: threading.Thread | None = None
+        self._motion = None  # parolkit.motion, imported by the planner thread
+        self.planned_count = 0
+        self.plan_time_s = 0.0
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def start(self) -> None:
+        self._running = True
+        self._planner = threading.Thread(target=self._planner_main, name="parolkit-planner", daemon=True)
+        self._planner.start()
+
+    def stop(self) -> None:
+        with self._plan_cv:
+            self._running = False
+            self._plan_cv.notify_all()
+        if self._planner is not None:
+            self._planner.join(2.0)
+
+    # ------------------------------------------------------------------ acks
+
+    def _ack(self, job: Job, status: AckStatus, details: str = "") -> None:
+        if job.terminal is not None:
+            return
+        if status.terminal:
+            job.terminal = status
+        self._send_ack(job, status, details)
+
+    # ------------------------------------------------------------------ server-thread API
+
+    def new_job(self, command: C.Command, command_id: str | None, ack_addr: tuple[str, int] | None) -> Job:
+        with self._lock:
+            self._seq += 1
+            return Job(self._seq, command, command_id, ack_addr, time.monotonic())
+
+    def submit(self, job: Job) -> None:
+        """Queue ``job`` (QUEUED ack) or refuse it (FAILED ack).  Streaming jogs replace."""
+        cmd = job.command
+        with self._lock:
+            if self.estop_latched:
+                self._ack(job, AckStatus.FAILED, "E-stop latched: release it and send ENABLE")
+                return
+            if self.stream_mode and isinstance(cmd, _STREAMABLE) and not self.queue and (
+                self.active is None or self.active.streamed
+            ):
+                job.streamed = True
+                if isinstance(cmd, C.CartJog):
+                    old = self._stream_cart
+                    self._stream_cart = job
+                    if old is not None:
+                        self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog before it started")
+                    self._plan_cv.notify_all()
+                else:
+                    self._requests.put(lambda: self._stream_replace(job))
+                return
+            if len(self.queue) >= self.queue_size:
+                self._ack(job, AckStatus.FAILED,
+                          f"queue full ({self.queue_size} commands): wait for acks or send STOP")
+                return
+            self.queue.append(job)
+            ahead = len(self.queue) + (1 if self.active is not None else 0)
+            self._ack(job, AckStatus.QUEUED, f"Position {ahead} in queue")
+            self._plan_cv.notify_all()
+
+    def post(self, action: Callable[[], None]) -> None:
+        """Run ``action`` in the loop thread at the start of the next tick."""
+        self._requests.put(action)
+
+    # immediate actions (run in the loop thread via post)
+
+    def cancel_all(self, reason: str) -> int:
+        """Cancel the active job and every queued one (CANCELLED acks). Returns how many."""
+        with self._lock:
+            n = 0
+            if self.active is not None:
+                self._ack(self.active, AckStatus.CANCELLED, reason)
+                self.active = None
+                self.activity = None
+                n += 1
+            while self.queue:
+                self._ack(self.queue.popleft(), AckStatus.CANCELLED, reason)
+                n += 1
+            if self._stream_cart is not None:
+                self._ack(self._stream_cart, AckStatus.CANCELLED, reason)
+                self._stream_cart = None
+                n += 1
+            return n
+
+    def do_stop(self) -> None:
+        self.cancel_all("stopped by STOP")
+
+    def do_estop(self, reason: str) -> None:
+        if not self.estop_latched:
+            log.warning("E-stop: %s", reason)
+        self.estop_latched = True
+        self.cancel_all(f"E-stop: {reason}")
+
+    def do_enable(self) -> None:
+        self.estop_latched = False
+        self.enabled = True
+        self.error = None
+        self._pending_code = BoardCommand.ENABLE
+
+    def do_disable(self) -> None:
+        self.enabled = False
+        self.cancel_all("robot disabled by DISABLE")
+
+    def do_clear_error(self) -> None:
+        self.error = None
+        self._pending_code = BoardCommand.CLEAR_ERROR
+
+    def set_stream_mode(self, on: bool) -> None:
+        self.stream_mode = on
+        if not on:
+            with self._lock:
+                if self.active is not None and self.active.streamed:
+                    self._ack(self.active, AckStatus.COMPLETED, "stream mode switched off")
+                    self.active = None
+                    self.activity = None
+
+    def link_lost(self, reason: str) -> None:
+        """Called by the loop: motion is cancelled and never resumed; the error is latched."""
+        self.error = reason
+        self.cancel_all(f"board link lost: {reason}")
+
+    # ------------------------------------------------------------------ views
+
+    def queue_length(self) -> int:
+        return len(self.queue)
+
+    def queue_view(self) -> dict:
+        with self._lock:
+            a = self.active
+            act = None
+            if a is not None:
+                act = {"id": a.command_id, "name": a.name,
+                       "progress": round(self.activity.progress, 4) if self.activity else 0.0}
+            return {"active": act, "queued": [{"id": j.command_id, "name": j.name} for j in self.queue]}
+
+    def plan_view(self, tool: object = None) -> dict:
+        with self._lock:
+            a = self.active
+            traj = a.trajectory if a is not None else None
+            seq = self.plan_seq
+        if a is None or traj is None:
+            return {"seq": seq, "command": a.name if a else None, "target_angles": None, "tcp_path": None}
+        try:
+            path = traj.tcp_path_mm(tool, max_points=400)  # type: ignore[attr-defined]
+            tcp = [[round(float(v), 3) for v in p[:3]] for p in path]
+        except Exception as exc:  # kinematics trouble must not kill the server thread
+            log.warning("GET_PLAN: could not compute the TCP path: %s", exc)
+            tcp = None
+        final = a.final_deg
+        return {"seq": seq, "command": a.name, "id": a.command_id,
+                "target_angles": [round(v, 4) for v in final] if final else None, "tcp_path": tcp}
+
+    # ------------------------------------------------------------------ planner thread
+
+    def _chain_start(self) -> tuple[float, ...] | None:
+        if self.active is not None:
+            return self.active.final_deg
+        return self._measured if self._homed else None
+
+    def _next_to_plan(self) -> tuple[Job, tuple[float, ...], bool] | None:
+        """(job, start, is_stream) of the first job that needs a plan now, under the lock."""
+        if self._stream_cart is not None and self._measured is not None and self._homed:
+            return self._stream_cart, self._measured, True
+        prev = self._chain_start()
+        for job in list(self.queue)[:PLAN_AHEAD]:
+            cmd = job.command
+            if isinstance(cmd, C.Home):
+                job.planned = True
+                prev = tuple(float(v) for v in self.model.standby_deg)
+                job.final_deg = prev
+                continue
+            if isinstance(cmd, _SPEED_COMMANDS):
+                job.planned = True
+                job.final_deg = None
+                prev = None
+                continue
+            if not needs_plan(cmd):
+                job.planned = True
+                job.final_deg = prev
+                continue
+            if job.planned and job.start_deg == prev:
+                prev = job.final_deg if job.plan_error is None else prev
+                continue
+            if prev is None:
+                return None
+            return job, prev, False
+        return None
+
+    def _planner_main(self) -> None:
+        try:
+            import parolkit.motion as motion  # noqa: F401  (warm the import off the start-up path)
+
+            self._motion = motion
+        except Exception as exc:  # pragma: no cover - a broken install
+            log.error("motion planner unavailable: %s", exc)
+        while True:
+            with self._plan_cv:
+                if not self._running:
+                    return
+                item = self._next_to_plan()
+                if item is None:
+                    self._plan_cv.wait(0.05)
+                    continue
+            job, start, streamed = item
+            t0 = time.perf_counter()
+            traj, err = self._plan(job.command, start)
+            dt = time.perf_counter() - t0
+            with self._lock:
+                self.planned_count += 1
+                self.plan_time_s += dt
+                if streamed:
+                    if self._stream_cart is not job:
+                        continue  # superseded while planning
+                    self._stream_cart = None
+                    if err is not None:
+                        self._ack(job, AckStatus.FAILED, err)
+                        continue
+                    self._set_plan(job, start, traj)
+                    self._requests.put(lambda j=job: self._stream_replace(j))
+                    continue
+                if job not in self.queue:
+                    continue  # cancelled while planning
+                if err is not None:
+                    job.start_deg, job.final_deg, job.planned, job.plan_error = start, start, True, err
+                else:
+                    self._set_plan(job, start, traj)
+
+    def _set_plan(self, job: Job, start: tuple[float, ...], traj: object) -> None:
+        job.trajectory = traj
+        job.samples = (traj.positions.tolist(), traj.speeds.tolist(), traj.commands.tolist())  # type: ignore[attr-defined]
+        job.start_deg = start
+        job.final_deg = tuple(float(v) for v in traj.final_deg)  # type: ignore[attr-defined]
+        job.notes = tuple(getattr(traj, "notes", ()))
+        job.plan_error = None
+        job.planned = True
+
+    def to_move(self, cmd: C.Command) -> object:
+        """The :mod:`parolkit.motion` request for a command."""
+        m = self._motion
+        if m is None:
+            import parolkit.motion as m  # type: ignore[no-redef]
+
+            self._motion = m
+
+        def prof(p):
+            return p.value if p is not None else None
+
+        if isinstance(cmd, C.MoveJoint):
+            return m.JointMove(cmd.angles_deg, cmd.duration_s, cmd.speed_pct, cmd.accel_pct,
+                               prof(cmd.profile), cmd.tracking.value)
+        if isinstance(cmd, C.MovePose):
+            return m.PoseMove(cmd.pose, cmd.duration_s, cmd.speed_pct, cmd.accel_pct,
+                              prof(cmd.profile), cmd.tracking.value)
+        if isinstance(cmd, C.MoveCart):
+            return m.CartMove(cmd.pose, cmd.duration_s, cmd.speed_pct, prof(cmd.profile), cmd.tracking.value)
+        if isinstance(cmd, C.MoveCartRelTRF):
+            return m.CartRelTRFMove(cmd.delta, cmd.duration_s, cmd.speed_pct, prof(cmd.profile),
+                                    cmd.tracking.value)
+        if isinstance(cmd, C.CartJog):
+            return m.CartJog(cmd.frame.value, cmd.axis, cmd.speed_pct, cmd.duration_s)
+        if isinstance(cmd, C._Smooth):
+            timing = {"duration_s": cmd.timing_value if cmd.timing is C.Timing.DURATION else None,
+                      "speed_pct": cmd.timing_value if cmd.timing is C.Timing.SPEED else None}
+            common = {"frame": cmd.frame.value, "start_pose": cmd.start, **timing}
+            if isinstance(cmd, C.SmoothCircle):
+                return m.CircleMove(cmd.center, cmd.radius_mm, cmd.plane.value, clockwise=cmd.clockwise, **common)
+            if isinstance(cmd, C.SmoothArcCenter):
+                return m.ArcCenterMove(cmd.end_pose, cmd.center, clockwise=cmd.clockwise, **common)
+            if isinstance(cmd, C.SmoothArcParam):
+                return m.ArcParamMove(cmd.end_pose, cmd.radius_mm, cmd.angle_deg, clockwise=cmd.clockwise, **common)
+            if isinstance(cmd, C.SmoothHelix):
+                return m.HelixMove(cmd.center, cmd.radius_mm, cmd.pitch_mm, cmd.height_mm,
+                                   clockwise=cmd.clockwise, **common)
+            if isinstance(cmd, C.SmoothSpline):
+                return m.SplineMove(cmd.waypoints, **common)
+            if isinstance(cmd, C.SmoothBlend):
+                segs = []
+                for s in cmd.segments:
+                    if s.kind == "LINE":
+                        segs.append(m.LineSegment(s.end_pose))
+                    elif s.kind == "CIRCLE":
+                        segs.append(m.CircleMove(s.center, s.radius_mm, s.plane.value, clockwise=s.clockwise,
+                                                 frame=cmd.frame.value, duration_s=s.duration_s))
+                    elif s.kind == "ARC":
+                        segs.append(m.ArcCenterMove(s.end_pose, s.center, clockwise=s.clockwise,
+                                                    frame=cmd.frame.value, duration_s=s.duration_s))
+                    else:
+                        segs.append(m.SplineMove(s.waypoints, frame=cmd.frame.value, duration_s=s.duration_s))
+                return m.BlendMove(segs, blend_time_s=cmd.blend_time_s, **common)
+        raise TypeError(f"{cmd.name} is not a planned motion command")
+
+    def _plan(self, cmd: C.Command, start: Sequence[float]) -> tuple[object | None, str | None]:
+        try:
+            move = self.to_move(cmd)
+            m = self._motion
+            traj = m.plan(move, start, model=self.model, tool=self.tool_provider(), rate_hz=self.rate_hz)
+            if len(traj) == 0:
+                return None, "the move plans to zero samples"
+            return traj, None
+        except Exception as exc:  # PlanningError, IKError, value errors: all become FAILED
+            msg = str(exc) or type(exc).__name__
+            log.info("planning %s failed: %s", cmd.name, msg)
+            return None, msg
+
+    # ------------------------------------------------------------------ loop thread
+
+    def _stream_replace(self, job: Job) -> None:
+        """(loop thread) make a streamed jog the active job, superseding the previous one."""
+        now = time.monotonic()
+        with self._lock:
+            if job.terminal is not None:
+                return
+            if self.estop_latched or not self.enabled:
+                self._ack(job, AckStatus.FAILED, "robot is disabled or E-stopped")
+                return
+            if self.queue or (self.active is not None and not self.active.streamed):
+                # something non-streamed is running: queue it like any other command
+                job.streamed = False
+                self.queue.append(job)
+                self._ack(job, AckStatus.QUEUED, f"Position {len(self.queue) + 1} in queue")
+                self._plan_cv.notify_all()
+                return
+            cmd = job.command
+            if isinstance(cmd, C.CartJog) and not self._homed:
+                self._ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
+                return
+            old, old_act = self.active, self.activity
+            if (
+                old is not None and isinstance(old_act, SpeedActivity) and not isinstance(cmd, C.CartJog)
+            ):
+                speeds, ticks, err = self._speed_plan(cmd)
+                if err is not None:
+                    self._ack(job, AckStatus.FAILED, err)
+                    return
+                old_act.replace(speeds, ticks, now)
+                self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
+                self.active = job
+                self._ack(job, AckStatus.EXECUTING)
+                return
+            if old is not None:
+                self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
+                self.active = None
+                self.activity = None
+            self._activate(job, now)
+
+    def _speed_plan(self, cmd: C.Command) -> tuple[tuple[int, ...], int, str | None]:
+        """Steps/s per joint and tick count of JOG / MULTIJOG / SPEEDJOINT."""
+        m = self.model
+        speeds = [0] * 6
+        if isinstance(cmd, C.Jog):
+            v = float(m.jog_speed_from_percent(cmd.speed_pct)[cmd.joint])
+            speeds[cmd.joint] = int(round(v)) * cmd.direction
+            secs = []
+            if cmd.duration_s is not None:
+                secs.append(cmd.duration_s)
+            if cmd.distance_deg is not None:
+                secs.append(cmd.distance_deg * self._spd[cmd.joint] / max(v, 1e-9))
+            return tuple(speeds), ticks_for(min(secs), self.rate_hz), None
+        if isinstance(cmd, C.MultiJog):
+            table = m.jog_speed_from_percent(100.0)
+            for (j, d), pct in zip(cmd.joints, cmd.speeds_pct):
+                speeds[j] = int(round(float(table[j]) * pct / 100.0)) * d
+            return tuple(speeds), ticks_for(cmd.duration_s, self.rate_hz), None
+        if isinstance(cmd, C.SpeedJoint):
+            for j, v in enumerate(cmd.speeds_deg_s):
+                speeds[j] = int(round(v * self._spd[j]))
+                if abs(speeds[j]) > m.max_speed_steps_s[j]:
+                    return (), 0, f"J{j + 1} speed {v:g} deg/s exceeds the maximum"
+            return tuple(speeds), ticks_for(cmd.duration_s, self.rate_hz), None
+        return (), 0, f"{cmd.name} is not a speed command"
+
+    def _activate(self, job: Job, now: float) -> None:
+        cmd = job.command
+        settle = max(3, int(0.5 * self.rate_hz))
+        act: Activity
+        if isinstance(cmd, C.Home):
+            act = HomeActivity(self.model.standby_steps, ticks_for(self.homing_timeout_s, self.rate_hz))
+        elif isinstance(cmd, _SPEED_COMMANDS):
+            speeds, ticks, err = self._speed_plan(cmd)
+            if err is not None:
+                self._ack(job, AckStatus.FAILED, err)
+                return
+            act = SpeedActivity(speeds, ticks, streamed=job.streamed, started=now)
+        elif needs_plan(cmd):
+            act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now)  # type: ignore[arg-type]
+            self.plan_seq += 1
+        elif isinstance(cmd, C.Delay):
+            act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
+        elif isinstance(cmd, C.PneumaticGripper):
+            self.outputs[cmd.port - 1] = cmd.action == "close"
+            act = OneShotActivity()
+        elif isinstance(cmd, C.ElectricGripper):
+            g = self.gripper
+            if cmd.action == "move":
+                g.position, g.speed, g.current = cmd.position, cmd.speed, cmd.current_ma
+                g.command = GripperCommandBits.ACTIVATE | GripperCommandBits.MOVE | GripperCommandBits.RELEASE_DIR
+                act = OneShotActivity()
+            elif cmd.action == "calibrate":
+                g.command = GripperCommandBits.ACTIVATE | GripperCommandBits.RELEASE_DIR
+                act = OneShotActivity(GripperMode.CALIBRATE)
+            else:
+                act = OneShotActivity(GripperMode.CLEAR_ERROR)
+        elif isinstance(cmd, C.WaitInput):
+            to = ticks_for(cmd.timeout_s, self.rate_hz) if cmd.timeout_s is not None else None
+            act = WaitInputActivity(cmd.input_no, cmd.state, to)
+        else:
+            self._ack(job, AckStatus.FAILED, f"{cmd.name} cannot be executed")
+            return
+        self.active = job
+        self.activity = act
+        details = "; ".join(job.notes) if job.notes else ""
+        self._ack(job, AckStatus.EXECUTING, details)
+
+    def _try_activate(self, now: float, status: StatusFrame | None) -> None:
+        with self._lock:
+            while self.queue:
+                job = self.queue[0]
+                cmd = job.command
+                if not job.planned:
+                    self._plan_cv.notify_all()
+                    return
+                if job.plan_error is not None:
+                    self.queue.popleft()
+                    self._ack(job, AckStatus.FAILED, job.plan_error)
+                    self._plan_cv.notify_all()
+                    continue
+                if cmd.is_motion and not isinstance(cmd, (C.Jog, C.MultiJog)) and not self._homed:
+                    self.queue.popleft()
+                    self._ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
+                    continue
+                if needs_plan(cmd):
+                    meas = self._measured
+                    if meas is None or job.start_deg is None or any(
+                        abs(a - b) > START_TOLERANCE_DEG for a, b in zip(meas, job.start_deg)
+                    ):
+                        job.planned = False  # plan again from where the robot is
+                        self._plan_cv.notify_all()
+                        return
+                self.queue.popleft()
+                self._activate(job, now)
+                if self.active is not None:
+                    self._plan_cv.notify_all()
+                    return
+
+    def tick(
+        self,
+        *,
+        tick: int,
+        now: float,
+        status: StatusFrame | None,
+        link_up: bool,
+    ) -> Step:
+        """This tick's frame content.  Runs posted actions first.  Loop thread only."""
+        while True:
+            try:
+                action = self._requests.get_nowait()
+            except Exception:
+                break
+            try:
+                action()
+            except Exception:  # an action must never kill the loop
+                log.exception("immediate action failed")
+        if status is not None:
+            self._homed = status.all_homed
+            self._measured = tuple(p / s for p, s in zip(status.positions, self._spd))
+            pressed = status.estop_pressed
+            if pressed and not self.estop_pressed:
+                self.do_estop("hardware E-stop pressed")
+            self.estop_pressed = pressed
+        if self.estop_latched:
+            return Step(BoardCommand.DISABLE)
+        if self._pending_code is not None:
+            code, self._pending_code = self._pending_code, None
+            return Step(code)
+        if not self.enabled:
+            return Step(BoardCommand.DISABLE)
+        if not link_up:
+            return Step(BoardCommand.IDLE)
+        if self.active is None and self.queue:
+            self._try_activate(now, status)
+        act = self.activity
+        if act is None:
+            return Step(BoardCommand.IDLE)
+        ctx = TickContext(tick, now, self.rate_hz, status, self._homed, self.stream_mode, self.watchdog_s,
+                          self._limits)
+        try:
+            step = act.step(ctx)
+        except Exception as exc:
+            log.exception("activity of %s failed", self.active.name if self.active else "?")
+            step = Step(BoardCommand.IDLE, done=AckStatus.FAILED, details=f"internal error: {exc}")
+        if step.done is not None:
+            with self._lock:
+                job = self.active
+                self.active = None
+                self.activity = None
+                if job is not None:
+                    self._ack(job, step.done, step.details)
+                self._plan_cv.notify_all()
+        return step
+
+    def fail_active(self, reason: str) -> None:
+        """The guard refused this job's frame: FAILED, nothing else of it is sent."""
+        with self._lock:
+            job = self.active
+            if job is None:
+                return
+            self.active = None
+            self.activity = None
+            self._ack(job, AckStatus.FAILED, f"safety guard: {reason}")
+            self._plan_cv.notify_all()
+
+    @property
+    def homed(self) -> bool:
+        return self._homed
+
+    @property
+    def measured_deg(self) -> tuple[float, ...] | None:
+        return self._measured

@@ -1,0 +1,254 @@
+"""The control loop: a fixed-rate, deadline-based tick.  Small and boring:
+
+1. read every byte the board sent, keep the newest status frame;
+2. ask the executor for this tick's frame content (no planning here);
+3. pass the frame through the safety guard;
+4. write it, wait briefly for the reply (round-trip time);
+5. publish a status snapshot; sleep until the next deadline.
+
+Deadlines are ``t0 + k * period`` (no drift).  A tick that starts more than one period late
+counts as an overrun and the missed deadlines are skipped (never a burst of catch-up frames).
+
+Link supervision: no status frame for ``link_timeout_ticks`` ticks, or a
+:class:`LinkLostError`, means the link is lost: motion is cancelled (never resumed), the error
+is latched, and a reconnect is tried once a second in a helper thread (the tick never blocks
+on ``open()``).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from dataclasses import replace
+from typing import Callable
+
+from parolkit.controller.executor import Executor
+from parolkit.controller.guard import SafetyGuard
+from parolkit.controller.jobs import Step
+from parolkit.controller.stats import LoopStats
+from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
+from parolkit.protocol.stream import StatusParser
+from parolkit.transport.base import LinkLostError, Transport, TransportError
+
+__all__ = ["ControlLoop"]
+
+log = logging.getLogger("parolkit.controller")
+
+
+class ControlLoop:
+    """Owns the transport, the guard and the tick thread."""
+
+    def __init__(
+        self,
+        *,
+        transport: Transport,
+        executor: Executor,
+        guard: SafetyGuard,
+        rate_hz: float,
+        link_timeout_ticks: int,
+        on_tick: Callable[["ControlLoop"], None] | None = None,
+        reply_wait_fraction: float = 0.4,
+    ) -> None:
+        self.transport = transport
+        self.executor = executor
+        self.guard = guard
+        self.rate_hz = rate_hz
+        self.period = 1.0 / rate_hz
+        self.link_timeout_ticks = link_timeout_ticks
+        self.on_tick = on_tick
+        self.reply_wait = min(self.period * reply_wait_fraction, 0.003)
+        self.stats = LoopStats(rate_hz)
+        self.parser = StatusParser()
+        self.status: StatusFrame | None = None
+        self.link_up = transport.is_open
+        self.tick_count = 0
+        self.start_time = time.monotonic()
+        self._last_status_tick = 0
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._reconnecting = False
+        self._reconnect_lock = threading.Lock()
+        self._next_reconnect = 0.0
+        self._final_frame_sent = False
+        self.port_request: str | None = None
+        self.last_frame: CommandFrame | None = None
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="parolkit-loop", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 2.0) -> None:
+        """Stop ticking; then send one DISABLE frame (robot stopped, idle) and close the port."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+        self.executor.cancel_all("controller shutting down")
+        try:
+            if self.transport.is_open:
+                pos = self.status.positions if self.status else (0,) * 6
+                if self.last_frame is not None and self.last_frame.command == BoardCommand.JOG and any(self.last_frame.speeds):
+                    self.transport.write(replace(self.last_frame, speeds=(0,) * 6).encode())
+                self.transport.write(CommandFrame(positions=pos, command=BoardCommand.DISABLE).encode())
+                self._final_frame_sent = True
+        except Exception as exc:
+            log.warning("could not send the final DISABLE frame: %s", exc)
+        try:
+            self.transport.close()
+        except Exception as exc:
+            log.warning("closing the board link: %s", exc)
+
+    # ------------------------------------------------------------------ link
+
+    def _lose_link(self, reason: str) -> None:
+        if not self.link_up:
+            return
+        self.link_up = False
+        self.stats.link_losses += 1
+        log.error("board link lost: %s", reason)
+        self.executor.link_lost(reason)
+        self._next_reconnect = time.monotonic() + 1.0
+
+    def _reconnect_worker(self) -> None:
+        try:
+            port = self.port_request
+            if port is not None:
+                from parolkit.transport import open_transport
+
+                self.port_request = None
+                new = open_transport(port)
+                try:
+                    self.transport.close()
+                except Exception:
+                    pass
+                self.transport = new
+            else:
+                self.transport.reconnect()
+            self.parser.reset()
+            self.status = None
+            self._last_status_tick = self.tick_count
+            self.link_up = True
+            log.warning("board link up again: %s", self.transport.description)
+        except (TransportError, OSError) as exc:
+            log.info("reconnect failed: %s", exc)
+        except Exception as exc:  # never let a reconnect attempt kill anything
+            log.warning("reconnect failed: %s", exc)
+        finally:
+            self._next_reconnect = time.monotonic() + 1.0
+            self._reconnecting = False
+
+    def request_port(self, port: str) -> None:
+        """SET_PORT: switch the serial port (done by the reconnect helper)."""
+        self.port_request = port
+        self._lose_link(f"switching to port {port}")
+        self._next_reconnect = 0.0
+
+    # ------------------------------------------------------------------ the tick
+
+    def _read(self) -> None:
+        try:
+            data = self.transport.read()
+        except LinkLostError as exc:
+            self._lose_link(str(exc) or "link lost")
+            return
+        except TransportError as exc:
+            self._lose_link(str(exc))
+            return
+        if data:
+            newest = None
+            for f in self.parser.feed(data):
+                newest = f
+                self.stats.frames_received += 1
+            self.stats.bytes_dropped = self.parser.stats.bytes_dropped
+            if newest is not None:
+                self.status = newest
+                self._last_status_tick = self.tick_count
+
+    def _compose(self, step: Step) -> CommandFrame:
+        ex = self.executor
+        st = self.status
+        pos = step.positions if step.positions is not None else (
+            st.positions if st is not None else (0,) * 6)
+        g = ex.gripper
+        io = (0x20 if ex.outputs[0] else 0) | (0x10 if ex.outputs[1] else 0)
+        return CommandFrame(
+            positions=pos, speeds=step.speeds, command=step.command, io=io,
+            gripper_position=g.position, gripper_speed=g.speed, gripper_current=g.current,
+            gripper_command=g.command, gripper_mode=step.gripper_mode,
+        )
+
+    def _tick(self, now: float) -> None:
+        ex = self.executor
+        if self.link_up:
+            self._read()
+            if self.link_up and self.tick_count - self._last_status_tick > self.link_timeout_ticks:
+                self._lose_link(f"no status frame for {self.tick_count - self._last_status_tick} ticks")
+        elif not self._reconnecting and now >= self._next_reconnect:
+            self._reconnecting = True
+            threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
+        step = ex.tick(tick=self.tick_count, now=now, status=self.status if self.link_up else None,
+                       link_up=self.link_up)
+        if not self.link_up:
+            return
+        frame = self._compose(step)
+        res = self.guard.check(frame, self.status, estop=ex.estop_latched or ex.estop_pressed,
+                               homed=ex.homed)
+        if res.violation is not None:
+            log.error("safety guard replaced a %s frame: %s", frame.command, res.violation)
+            ex.fail_active(res.violation)
+        try:
+            t_write = time.perf_counter()
+            self.transport.write(res.frame.encode())
+            self.last_frame = res.frame
+            self.stats.frames_sent += 1
+        except (LinkLostError, TransportError) as exc:
+            self._lose_link(str(exc) or "write failed")
+            return
+        # wait briefly for the reply to measure the round trip and consume it this tick
+        deadline = t_write + self.reply_wait
+        got = self.stats.frames_received
+        while True:
+            self._read()
+            if not self.link_up or self.stats.frames_received != got:
+                if self.link_up:
+                    self.stats.rtt.add(time.perf_counter() - t_write)
+                break
+            if time.perf_counter() >= deadline:
+                break
+            time.sleep(0.0002)
+
+    def _run(self) -> None:
+        period = self.period
+        t0 = time.monotonic()
+        self.start_time = t0
+        k = 0
+        last_start: float | None = None
+        while not self._stop.is_set():
+            deadline = t0 + k * period
+            now = time.monotonic()
+            if now < deadline:
+                time.sleep(deadline - now)
+                now = time.monotonic()
+            late = now - deadline
+            if late > period:
+                skipped = int(late // period)
+                self.stats.overruns += 1
+                k += skipped
+            if last_start is not None:
+                self.stats.period.add(now - last_start)
+            last_start = now
+            try:
+                self._tick(now)
+            except Exception:  # the loop must survive anything
+                log.exception("tick %d failed", self.tick_count)
+            self.tick_count += 1
+            self.stats.ticks = self.tick_count
+            if self.on_tick is not None:
+                try:
+                    self.on_tick(self)
+                except Exception:
+                    log.exception("status publication failed")
+            self.stats.work.add(time.monotonic() - now)
+            k += 1

@@ -1,0 +1,251 @@
+"""The status snapshot: one immutable value per tick, and every reply format built from it.
+
+The loop thread builds a :class:`Snapshot` at the end of each tick (cheap: references and a
+few scalars) and publishes it by assignment.  Query threads format replies from the latest
+snapshot without waiting for the next tick.  Expensive derived values (angles in degrees,
+forward kinematics) are computed on first use and cached inside the snapshot.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from enum import Enum
+from typing import Callable, Sequence
+
+from parolkit.protocol.commands import dumps, format_floats
+from parolkit.protocol.frames import IOBits, StatusFrame
+
+__all__ = ["RobotState", "CommandInfo", "BoardInfo", "Snapshot", "PoseProvider"]
+
+
+class RobotState(str, Enum):
+    """What the controller is doing (``STATE=`` in GET_STATUS, ``state`` in JSON)."""
+
+    IDLE = "IDLE"
+    MOVING = "MOVING"
+    HOMING = "HOMING"
+    DISABLED = "DISABLED"
+    ESTOP = "ESTOP"
+    ERROR = "ERROR"
+    DISCONNECTED = "DISCONNECTED"
+
+
+@dataclass(frozen=True)
+class CommandInfo:
+    """The active command: ID (or None), name, progress 0..1."""
+
+    command_id: str | None
+    name: str
+    progress: float
+
+    def as_dict(self) -> dict:
+        return {"id": self.command_id, "name": self.name, "progress": round(self.progress, 4)}
+
+
+@dataclass(frozen=True)
+class BoardInfo:
+    """The board link."""
+
+    connected: bool
+    simulated: bool
+    port: str
+
+
+#: ``(angles_deg, tool_name) -> (pose_mm_deg[6], matrix_m[16])`` computed by kinematics.
+PoseProvider = Callable[[Sequence[float], str], tuple[tuple[float, ...], tuple[float, ...]]]
+
+
+class Snapshot:
+    """Everything a query or the status stream needs, as of one tick.
+
+    Angles in degrees, pose in mm/deg (tool frame of ``tool``), speeds in steps/s.
+    """
+
+    __slots__ = (
+        "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
+        "error", "command", "queue", "stream_mode", "tool", "plan_seq", "outputs", "loop_view",
+        "_steps_per_deg", "_pose_provider", "_lock", "_angles", "_pose", "_matrix",
+    )
+
+    def __init__(
+        self,
+        *,
+        seq: int,
+        time: float,
+        state: RobotState,
+        enabled: bool,
+        estop_pressed: bool,
+        estop_latched: bool,
+        status: StatusFrame | None,
+        board: BoardInfo,
+        error: str | None,
+        command: CommandInfo | None,
+        queue: int,
+        stream_mode: bool,
+        tool: str,
+        plan_seq: int,
+        outputs: tuple[bool, bool],
+        steps_per_deg: Sequence[float],
+        pose_provider: PoseProvider | None,
+        loop_view: Callable[[], dict],
+    ) -> None:
+        self.seq = seq
+        self.time = time
+        self.state = state
+        self.enabled = enabled
+        self.estop_pressed = estop_pressed
+        self.estop_latched = estop_latched
+        self.status = status if status is not None else StatusFrame()
+        self.board = board
+        self.error = error
+        self.command = command
+        self.queue = queue
+        self.stream_mode = stream_mode
+        self.tool = tool
+        self.plan_seq = plan_seq
+        self.outputs = outputs
+        self.loop_view = loop_view
+        self._steps_per_deg = steps_per_deg
+        self._pose_provider = pose_provider
+        self._lock = threading.Lock()
+        self._angles: tuple[float, ...] | None = None
+        self._pose: tuple[float, ...] | None = None
+        self._matrix: tuple[float, ...] | None = None
+
+    # ---- derived values (cached) ----
+
+    @property
+    def angles_deg(self) -> tuple[float, ...]:
+        a = self._angles
+        if a is None:
+            a = tuple(p / s for p, s in zip(self.status.positions, self._steps_per_deg))
+            self._angles = a
+        return a
+
+    @property
+    def speeds_deg_s(self) -> tuple[float, ...]:
+        return tuple(v / s for v, s in zip(self.status.speeds, self._steps_per_deg))
+
+    def _fk(self) -> None:
+        with self._lock:
+            if self._pose is not None:
+                return
+            if self._pose_provider is None:
+                self._pose, self._matrix = (0.0,) * 6, (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0)
+                return
+            self._pose, self._matrix = self._pose_provider(self.angles_deg, self.tool)
+
+    @property
+    def pose(self) -> tuple[float, ...]:
+        """[x, y, z mm, A, B, C deg] of the current tool."""
+        if self._pose is None:
+            self._fk()
+        return self._pose  # type: ignore[return-value]
+
+    @property
+    def matrix_m(self) -> tuple[float, ...]:
+        """The 4x4 tool pose, row-major, translation in metres."""
+        if self._matrix is None:
+            self._fk()
+        return self._matrix  # type: ignore[return-value]
+
+    @property
+    def homed(self) -> tuple[bool, ...]:
+        return self.status.homed_joints
+
+    @property
+    def io_values(self) -> tuple[int, int, int, int, int]:
+        """(IN1, IN2, OUT1, OUT2, ESTOP) as the board reports them; ESTOP 0 = pressed."""
+        io = self.status.io
+        return (
+            int(bool(io & IOBits.IN1)), int(bool(io & IOBits.IN2)), int(bool(io & IOBits.OUT1)),
+            int(bool(io & IOBits.OUT2)), int(bool(io & IOBits.ESTOP)),
+        )
+
+    # ---- reply formats (docs/protocol.md) ----
+
+    def reply_angles(self) -> str:
+        return "ANGLES|" + format_floats(self.angles_deg)
+
+    def reply_pose(self) -> str:
+        return "POSE|" + format_floats(self.matrix_m, 6)
+
+    def reply_io(self) -> str:
+        return "IO|" + ",".join(str(v) for v in self.io_values)
+
+    def _gripper_csv(self) -> str:
+        s = self.status
+        return ",".join(str(v) for v in (
+            s.gripper_id, s.gripper_position, s.gripper_speed, s.gripper_current, s.gripper_status,
+            s.object_detection,
+        ))
+
+    def reply_gripper(self) -> str:
+        return "GRIPPER|" + self._gripper_csv()
+
+    def reply_speeds(self) -> str:
+        return "SPEEDS|" + ",".join(str(v) for v in self.status.speeds)
+
+    def reply_ping(self) -> str:
+        return f"PONG|SERIAL={int(self.board.connected)}"
+
+    def reply_status(self) -> str:
+        cmd = self.command.name if self.command else "None"
+        err = (self.error or "None").replace("|", "/")
+        return (
+            f"STATUS|POSE={format_floats(self.matrix_m, 6)}|ANGLES={format_floats(self.angles_deg)}"
+            f"|SPEEDS={','.join(str(v) for v in self.status.speeds)}"
+            f"|IO={','.join(str(v) for v in self.io_values)}|GRIPPER={self._gripper_csv()}"
+            f"|STATE={self.state.value}|HOMED={','.join(str(int(h)) for h in self.homed)}"
+            f"|ESTOP={int(self.estop_pressed or self.estop_latched)}|QUEUE={self.queue}"
+            f"|CMD={cmd}|ERROR={err}"
+        )
+
+    def as_dict(self) -> dict:
+        s = self.status
+        g = s.gripper
+        io = self.io_values
+        return {
+            "seq": self.seq,
+            "time": round(self.time, 4),
+            "state": self.state.value,
+            "enabled": self.enabled,
+            "homed": list(self.homed),
+            "all_homed": all(self.homed),
+            "estop_pressed": self.estop_pressed,
+            "estop_latched": self.estop_latched,
+            "angles": [round(a, 4) for a in self.angles_deg],
+            "pose": [round(p, 4) for p in self.pose],
+            "speeds": list(s.speeds),
+            "speeds_deg_s": [round(v, 4) for v in self.speeds_deg_s],
+            "io": {"in1": io[0], "in2": io[1], "out1": io[2], "out2": io[3], "estop": io[4]},
+            "gripper": {
+                "id": s.gripper_id, "position": s.gripper_position, "speed": s.gripper_speed,
+                "current": s.gripper_current, "status": s.gripper_status,
+                "object_detection": s.object_detection, "activated": g.activated,
+                "calibrated": g.calibrated, "object_code": g.object_code,
+                "object_detected": g.object_detected,
+                "error": g.estop_error or g.temperature_error or g.timeout_error,
+            },
+            "errors": {
+                "temperature": [bool(s.temperature_error & (0x80 >> i)) for i in range(6)],
+                "position": [bool(s.position_error & (0x80 >> i)) for i in range(6)],
+                "timeout_error": s.timeout_error,
+                "message": self.error,
+            },
+            "board": {
+                "connected": self.board.connected, "simulated": self.board.simulated,
+                "port": self.board.port, "timing_ticks": s.timing,
+                "timing_ms": round(s.timing_s * 1e3, 3), "xtr": s.xtr,
+            },
+            "loop": self.loop_view(),
+            "command": self.command.as_dict() if self.command else None,
+            "queue": self.queue,
+            "stream_mode": self.stream_mode,
+            "tool": self.tool,
+            "plan_seq": self.plan_seq,
+        }
+
+    def reply_status_json(self) -> str:
+        return "STATUS_JSON|" + dumps(self.as_dict())
