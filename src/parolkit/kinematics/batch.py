@@ -1,0 +1,344 @@
+"""Vectorised closed-form IK over N poses (numpy; all branches at once).
+
+Two modes (:func:`parolkit.kinematics.ik_batch`):
+
+* **continuous** (one seed, the default): the poses are a path.  Sample 0 is solved like
+  :func:`ik` (nearest to the seed, optional branch pin); every later sample stays on the same
+  shoulder and elbow branch, and each joint takes the representation (theta + k 360) nearest
+  its previous value, so joints never wrap and never hop to another branch.  The wrist follows
+  the nearer of its two solutions (passing through J5 = 0 is a continuous motion in which the
+  J5 sign changes), unless ``config`` pins ``wrist_flip``.  On the wrist / shoulder
+  singularities the free angle (J4 / J1) keeps its previous value.  The first sample that
+  leaves the workspace or a joint range raises :class:`IKError` with ``.sample``.
+* **independent** (``continuous=False`` or one seed per pose): each pose is solved like
+  :func:`ik` with its own seed; all 8 branches are evaluated for all poses at once.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from parolkit.kinematics.model import (
+    A1, A2, A3, D1, D4, L3, LIM_HI, LIM_HI_ARR, LIM_LO, LIM_LO_ARR, LIMIT_TOL, PHI3, TWO_PI,
+    WEIGHTS,
+)
+from parolkit.kinematics.pose import as_matrix_array, as_pose_array
+from parolkit.kinematics.tools import Tool
+from parolkit.kinematics.types import Branch, IKError, IKFailure
+
+__all__ = ["solve_independent", "solve_continuous", "targets_from_poses"]
+
+_PI = math.pi
+_RAD = 180.0 / math.pi
+_K0 = A2 * A2 + L3 * L3
+_INV_2A2L = 1.0 / (2.0 * A2 * L3)
+_REACH_MAX = A2 + L3
+_REACH_MIN = abs(A2 - L3)
+_WRIST_EPS = 1e-9
+_SHOULDER_EPS = 1e-9
+_REACH_EPS = 1e-12
+
+
+# ---------------------------------------------------------------------------------------------
+# targets
+# ---------------------------------------------------------------------------------------------
+
+
+def targets_from_poses(poses: object, tool: Tool):
+    """``(N, 6)`` mm/deg or ``(N, 4, 4)`` m TCP poses -> flange rotation (9 arrays) + wrist centre (3)."""
+    arr = np.asarray(poses, dtype=float) if not isinstance(poses, np.ndarray) else poses
+    if arr.ndim == 3 or arr.shape == (4, 4):
+        m = as_matrix_array(arr, "poses")
+        if m.ndim == 2:
+            m = m[None]
+        rot = [m[:, i, j] for i in range(3) for j in range(3)]
+        pos = [m[:, 0, 3], m[:, 1, 3], m[:, 2, 3]]
+    else:
+        a = as_pose_array(arr, "poses")
+        if a.ndim == 1:
+            a = a[None, :]
+        ang = np.radians(a[:, 3:])
+        cs = np.cos(ang)
+        sn = np.sin(ang)
+        ca, cb, cc = cs[:, 0], cs[:, 1], cs[:, 2]
+        sa, sb, sc = sn[:, 0], sn[:, 1], sn[:, 2]
+        scsb = sc * sb
+        ccsb = cc * sb
+        rot = [cb * ca, -cb * sa, sb,
+               cc * sa + scsb * ca, cc * ca - scsb * sa, -sc * cb,
+               sc * sa - ccsb * ca, sc * ca + ccsb * sa, cc * cb]
+        pos = [a[:, 0] * 1e-3, a[:, 1] * 1e-3, a[:, 2] * 1e-3]
+    if not tool._identity_rot:
+        t = tool._rot
+        rot = [rot[3 * i] * t[3 * j] + rot[3 * i + 1] * t[3 * j + 1] + rot[3 * i + 2] * t[3 * j + 2]
+               for i in range(3) for j in range(3)]
+    tx, ty, tz = tool._t
+    if tx or ty or tz:
+        pos = [pos[0] - (rot[0] * tx + rot[1] * ty + rot[2] * tz),
+               pos[1] - (rot[3] * tx + rot[4] * ty + rot[5] * tz),
+               pos[2] - (rot[6] * tx + rot[7] * ty + rot[8] * tz)]
+    return rot, pos
+
+
+# ---------------------------------------------------------------------------------------------
+# raw branch solutions (no limits)
+# ---------------------------------------------------------------------------------------------
+
+
+class _Shoulder:
+    """Per-shoulder quantities shared by both elbows (arrays over N)."""
+
+    __slots__ = ("q1", "X", "c", "delta", "atan_y", "n00", "n01", "n02", "n10", "n12", "reach_ok",
+                 "excess")
+
+    def __init__(self, rot, pos, back: bool, free_q1: np.ndarray):
+        x, y, z = pos
+        rho = np.hypot(x, y)
+        base = np.arctan2(y, x)
+        sing = rho < _SHOULDER_EPS
+        if back:
+            base = base + _PI
+            rr = -rho
+        else:
+            rr = rho
+        if sing.any():
+            base = np.where(sing, free_q1, base)
+        self.q1 = base
+        X = rr - A1
+        Y = D1 - z
+        c = (X * X + Y * Y - _K0) * _INV_2A2L
+        self.reach_ok = np.abs(c) <= 1.0 + _REACH_EPS
+        dist = np.hypot(X, Y)
+        self.excess = np.where(dist > _REACH_MAX, dist - _REACH_MAX, _REACH_MIN - dist)
+        self.c = np.clip(c, -1.0, 1.0)
+        self.delta = np.arccos(self.c)
+        self.atan_y = np.arctan2(Y, X)
+        self.X = X
+        r00, r01, r02, r10, r11, r12 = rot[:6]
+        c1 = np.cos(base)
+        s1 = np.sin(base)
+        self.n00 = c1 * r00 + s1 * r10
+        self.n01 = c1 * r01 + s1 * r11
+        self.n02 = c1 * r02 + s1 * r12
+        self.n10 = c1 * r10 - s1 * r00
+        self.n12 = c1 * r12 - s1 * r02
+
+
+def _arm(sh: _Shoulder, rot, down: bool, free_q4: np.ndarray):
+    """Raw joint arrays for one (shoulder, elbow): q1, q2, q3 and both wrist solutions.
+
+    Returns ``(q1, q2, q3, noflip (q4, q5, q6), flip (q4, q5, q6), singular mask)``.
+    """
+    q3 = PHI3 + sh.delta if down else PHI3 - sh.delta
+    c3 = np.cos(q3)
+    s3 = np.sin(q3)
+    q2 = sh.atan_y - np.arctan2(D4 * c3 - A3 * s3, A2 + A3 * c3 + D4 * s3)
+    psi = q2 - q3
+    cp = np.cos(psi)
+    sp = np.sin(psi)
+    r20, r21, r22 = rot[6], rot[7], rot[8]
+    m02 = cp * sh.n02 - sp * r22
+    m22 = sp * sh.n02 + cp * r22
+    n12 = sh.n12
+    sb = np.hypot(m02, n12)
+    al = np.arctan2(n12, m02)
+    be = np.arctan2(sb, m22)
+    ga = np.arctan2(sp * sh.n01 + cp * r21, -(sp * sh.n00 + cp * r20))
+    sing = sb <= _WRIST_EPS
+    nf = (_PI - al, be, _PI - ga)
+    fl = (-al, -be, -ga)
+    if sing.any():
+        m00 = cp * sh.n00 - sp * r20
+        # Rz(-(q4 + q6)) when J5 = 0; J5 = 180 (m22 < 0) is out of range anyway
+        total = np.where(m22 > 0, -np.arctan2(sh.n10, m00), np.arctan2(-sh.n10, -m00))
+        q5s = np.where(m22 > 0, 0.0, _PI)
+        q6s = np.where(m22 > 0, total - free_q4, total + free_q4)
+        nf = (np.where(sing, free_q4, nf[0]), np.where(sing, q5s, nf[1]), np.where(sing, q6s, nf[2]))
+        fl = (np.where(sing, free_q4, fl[0]), np.where(sing, q5s, fl[1]), np.where(sing, q6s, fl[2]))
+    return sh.q1, q2, q3, nf, fl, sing
+
+
+# ---------------------------------------------------------------------------------------------
+# fitting into joint ranges
+# ---------------------------------------------------------------------------------------------
+
+
+def _fit(theta: np.ndarray, j: int, seed: np.ndarray | float):
+    """In-range representation of ``theta`` (nearest ``seed`` where two fit) and a valid mask."""
+    lo, hi = LIM_LO[j], LIM_HI[j]
+    t = theta - TWO_PI * np.floor((theta - lo) * (1.0 / TWO_PI))
+    over = t > hi
+    valid = ~over | (t <= hi + LIMIT_TOL) | (t >= lo + TWO_PI - LIMIT_TOL)
+    if over.any():
+        t = np.where(over, np.where(t <= hi + LIMIT_TOL, hi, lo), t)
+    if hi - lo >= TWO_PI - 2 * LIMIT_TOL:
+        alt = t + TWO_PI
+        use = (alt <= hi + LIMIT_TOL) & (np.abs(alt - seed) < np.abs(t - seed))
+        if use.any():
+            t = np.where(use, np.minimum(alt, hi), t)
+    return t, valid
+
+
+def _fit_j5(theta: np.ndarray):
+    lo, hi = LIM_LO[4], LIM_HI[4]
+    valid = (theta >= lo - LIMIT_TOL) & (theta <= hi + LIMIT_TOL)
+    return np.clip(theta, lo, hi), valid
+
+
+# ---------------------------------------------------------------------------------------------
+# independent mode
+# ---------------------------------------------------------------------------------------------
+
+_BRANCHES = [(sh, el, fl) for sh in ("front", "back") for el in ("up", "down") for fl in (False, True)]
+
+
+def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
+    """Nearest in-limit solution per sample.  Returns (q (N, 6) rad, ok (N,), branch index (N,))."""
+    n = rot[0].shape[0]
+    seeds = np.broadcast_to(seeds, (n, 6))
+    free_q1 = np.clip(seeds[:, 0], LIM_LO[0], LIM_HI[0])
+    free_q4 = np.clip(seeds[:, 3], LIM_LO[3], LIM_HI[3])
+    best_q = np.zeros((n, 6))
+    best_d = np.full(n, np.inf)
+    best_b = np.full(n, -1, dtype=np.int64)
+    for back in (False, True):
+        if branch is not None and branch.shoulder is not None and (branch.shoulder == "back") != back:
+            continue
+        sh = _Shoulder(rot, pos, back, free_q1)
+        q1, ok1 = _fit(sh.q1, 0, seeds[:, 0])
+        ok1 &= sh.reach_ok
+        for down in (False, True):
+            if branch is not None and branch.elbow is not None and (branch.elbow == "down") != down:
+                continue
+            _, q2r, q3r, nf, fl, _ = _arm(sh, rot, down, free_q4)
+            q2, ok2 = _fit(q2r, 1, seeds[:, 1])
+            q3, ok3 = _fit(q3r, 2, seeds[:, 2])
+            ok_arm = ok1 & ok2 & ok3
+            d_arm = (WEIGHTS[0] * (q1 - seeds[:, 0]) ** 2 + WEIGHTS[1] * (q2 - seeds[:, 1]) ** 2
+                     + WEIGHTS[2] * (q3 - seeds[:, 2]) ** 2)
+            for flip, wr in ((False, nf), (True, fl)):
+                if branch is not None and branch.wrist_flip is not None and branch.wrist_flip != flip:
+                    continue  # (at singular samples both entries are the same solution)
+                q4, ok4 = _fit(wr[0], 3, seeds[:, 3])
+                q5, ok5 = _fit_j5(wr[1])
+                q6, ok6 = _fit(wr[2], 5, seeds[:, 5])
+                ok = ok_arm & ok4 & ok5 & ok6
+                d = (d_arm + WEIGHTS[3] * (q4 - seeds[:, 3]) ** 2 + WEIGHTS[4] * (q5 - seeds[:, 4]) ** 2
+                     + WEIGHTS[5] * (q6 - seeds[:, 5]) ** 2)
+                better = ok & (d < best_d)
+                if better.any():
+                    best_d = np.where(better, d, best_d)
+                    best_b[better] = _BRANCHES.index(("back" if back else "front",
+                                                      "down" if down else "up", flip))
+                    best_q[better] = np.stack([q1, q2, q3, q4, q5, q6], axis=1)[better]
+    return best_q, best_b >= 0, best_b
+
+
+# ---------------------------------------------------------------------------------------------
+# continuous mode
+# ---------------------------------------------------------------------------------------------
+
+
+def _ffill(values: np.ndarray, holes: np.ndarray, first: float) -> np.ndarray:
+    """Replace ``values[holes]`` by the last non-hole value before them (``first`` at the start)."""
+    n = values.shape[0]
+    idx = np.where(holes, -1, np.arange(n))
+    np.maximum.accumulate(idx, out=idx)
+    src = np.concatenate(([first], values))
+    return np.where(holes, src[idx + 1], values)
+
+
+def _unwrap_from(raw: np.ndarray, start: float) -> np.ndarray:
+    """Shift each ``raw`` angle by k 2pi so consecutive values differ by less than pi; raw[0] -> start."""
+    k = np.empty(raw.shape[0])
+    k[0] = np.rint((start - raw[0]) / TWO_PI)
+    if raw.shape[0] > 1:
+        k[1:] = np.rint(-(np.diff(raw)) / TWO_PI)
+        np.cumsum(k, out=k)
+    return raw + TWO_PI * k
+
+
+def _wrap(d: np.ndarray) -> np.ndarray:
+    return d - TWO_PI * np.rint(d / TWO_PI)
+
+
+def solve_continuous(rot, pos, q0: tuple[float, ...], branch0: Branch, pin_flip: bool):
+    """Branch-continuous solutions (N, 6) rad given sample 0's solution ``q0`` and its branch.
+
+    Raises :class:`IKError` with ``.sample`` at the first sample that cannot be followed.
+    """
+    n = rot[0].shape[0]
+    back = branch0.shoulder == "back"
+    down = branch0.elbow == "down"
+    x, y, _ = pos
+    shoulder_sing = np.hypot(x, y) < _SHOULDER_EPS
+    free_q1 = np.full(n, q0[0])
+    sh = _Shoulder(rot, pos, back, free_q1)
+    if not sh.reach_ok.all():
+        i = int(np.argmin(sh.reach_ok))
+        raise IKError(
+            f"target out of reach by {sh.excess[i] * 1e3:.1f} mm (following the path in branch "
+            f"'{branch0.shoulder} {branch0.elbow}')", kind=IKFailure.OUT_OF_REACH, sample=i,
+            value=float(sh.excess[i] * 1e3))
+    free_q4 = np.full(n, q0[3])
+    _, q2r, q3r, nf, fl, sing = _arm(sh, rot, down, free_q4)
+    q1r = sh.q1
+    if shoulder_sing.any():
+        q1r = _ffill(q1r, shoulder_sing, q0[0])
+    # --- wrist: choose noflip / flip per sample
+    if pin_flip:
+        wr = fl if branch0.wrist_flip else nf
+        q4r, q5r, q6r = wr
+        sel = None
+    else:
+        ns = ~sing
+        sel = np.zeros(n, dtype=bool)  # True = flip solution
+        idx = np.nonzero(ns)[0]
+        if idx.size:
+            a4, a5, a6 = nf[0][idx], nf[1][idx], nf[2][idx]
+            b4, b5, b6 = fl[0][idx], fl[1][idx], fl[2][idx]
+            # first non-singular sample: the solution nearer the previous (sample 0's) wrist
+            i0 = idx[0]
+            da = (WEIGHTS[3] * _wrap(a4[0] - q0[3]) ** 2 + WEIGHTS[4] * (a5[0] - q0[4]) ** 2
+                  + WEIGHTS[5] * _wrap(a6[0] - q0[5]) ** 2)
+            db = (WEIGHTS[3] * _wrap(b4[0] - q0[3]) ** 2 + WEIGHTS[4] * (b5[0] - q0[4]) ** 2
+                  + WEIGHTS[5] * _wrap(b6[0] - q0[5]) ** 2)
+            first_flip = bool(db < da) if i0 > 0 else bool(branch0.wrist_flip)
+            if idx.size > 1:
+                d_same = (WEIGHTS[3] * _wrap(a4[1:] - a4[:-1]) ** 2 + WEIGHTS[4] * (a5[1:] - a5[:-1]) ** 2
+                          + WEIGHTS[5] * _wrap(a6[1:] - a6[:-1]) ** 2)
+                d_swap = (WEIGHTS[3] * _wrap(a4[1:] - b4[:-1]) ** 2 + WEIGHTS[4] * (a5[1:] - b5[:-1]) ** 2
+                          + WEIGHTS[5] * _wrap(a6[1:] - b6[:-1]) ** 2)
+                parity = np.concatenate(([0], np.cumsum(d_swap < d_same) & 1)).astype(bool)
+            else:
+                parity = np.zeros(1, dtype=bool)
+            sel[idx] = parity ^ first_flip
+        q4r = np.where(sel, fl[0], nf[0])
+        q5r = np.where(sel, fl[1], nf[1])
+        q6r = np.where(sel, fl[2], nf[2])
+    if sing.any():
+        # wrist singular: keep the previous J4 (forward fill of the raw values), J6 takes the rest
+        q4_fill = _ffill(q4r, sing, q0[3])
+        shift = q4_fill - free_q4
+        q6r = np.where(sing, np.where(q5r > 1.0, q6r + shift, q6r - shift), q6r)
+        q4r = q4_fill
+    q = np.stack([_unwrap_from(q1r, q0[0]), _unwrap_from(q2r, q0[1]), _unwrap_from(q3r, q0[2]),
+                  _unwrap_from(q4r, q0[3]), q5r, _unwrap_from(q6r, q0[5])], axis=1)
+    below = q < LIM_LO_ARR - LIMIT_TOL
+    above = q > LIM_HI_ARR + LIMIT_TOL
+    bad = below | above
+    if bad.any():
+        i, j = (int(v) for v in np.argwhere(bad)[0])
+        val = q[i, j] * _RAD
+        lo, hi = LIM_LO[j] * _RAD, LIM_HI[j] * _RAD
+        side = f"> {hi:.4g}" if above[i, j] else f"< {lo:.4g}"
+        raise IKError(
+            f"joint J{j + 1} would be {val:.1f} deg {side} (allowed {lo:.4g} .. {hi:.4g} deg) "
+            f"following the path continuously from sample {i - 1 if i else 0} in branch "
+            f"'{branch0.shoulder} {branch0.elbow}'", kind=IKFailure.JOINT_LIMIT, sample=i, joint=j,
+            value=float(val))
+    np.clip(q, LIM_LO_ARR, LIM_HI_ARR, out=q)
+    return q, sel
+

@@ -1,0 +1,117 @@
+"""Tools: rigid transforms from the flange to the tool centre point (TCP).
+
+Built-ins (:data:`TOOLS`):
+
+* ``'default'``: the original commander's TCP (DH row 6: d = -62.8 mm, a = -45.25 mm), i.e.
+  the point ``(-45.25, 0, 62.8) mm`` in the flange frame, no rotation.  Existing programs
+  and poses were written against it; ``tool=None`` means this tool everywhere.
+* ``'flange'``: the bare flange (identity).
+
+User tools come from the config file (``[tools.NAME] pose = [x, y, z, A, B, C]``, the TCP pose
+in the flange frame in mm/deg) and are looked up with :func:`get_tool` given the
+:class:`parolkit.config.Config`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from parolkit.errors import ParolkitValueError
+from parolkit.kinematics.model import TOOL_DEFAULT_T
+from parolkit.kinematics.pose import as_matrix_array, as_pose_array, matrix_to_pose, pose_to_matrix
+
+if TYPE_CHECKING:  # pragma: no cover
+    from parolkit.config import Config
+
+__all__ = ["Tool", "TOOLS", "get_tool"]
+
+
+@dataclass(frozen=True, eq=False)
+class Tool:
+    """A tool: ``name`` and ``matrix``, the 4x4 transform flange -> TCP in metres.
+
+    The matrix is validated (proper rotation, last row ``[0, 0, 0, 1]``) and stored read-only.
+    """
+
+    name: str
+    matrix: np.ndarray
+    # plain-float caches for the scalar hot paths (derived, not part of the identity)
+    _rot: tuple[float, ...] = field(init=False, repr=False)
+    _t: tuple[float, float, float] = field(init=False, repr=False)
+    _identity_rot: bool = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ParolkitValueError(f"Tool.name must be a non-empty string, got {self.name!r}")
+        m = np.array(as_matrix_array(self.matrix, f"tool {self.name!r} matrix", allow_batch=False))
+        m.setflags(write=False)
+        object.__setattr__(self, "matrix", m)
+        rot = tuple(float(v) for v in m[:3, :3].ravel())
+        object.__setattr__(self, "_rot", rot)
+        object.__setattr__(self, "_t", (float(m[0, 3]), float(m[1, 3]), float(m[2, 3])))
+        object.__setattr__(self, "_identity_rot", bool(np.array_equal(m[:3, :3], np.eye(3))))
+
+    @classmethod
+    def from_pose(cls, name: str, pose: object) -> "Tool":
+        """A tool from the TCP pose in the flange frame, ``[x, y, z mm, A, B, C deg]``."""
+        arr = as_pose_array(pose, f"tool {name!r} pose", allow_batch=False)
+        return cls(name, pose_to_matrix(arr))
+
+    @property
+    def pose(self) -> np.ndarray:
+        """The TCP pose in the flange frame, ``[x, y, z mm, A, B, C deg]``."""
+        return matrix_to_pose(self.matrix)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Tool):
+            return NotImplemented
+        return self.name == other.name and np.array_equal(self.matrix, other.matrix)
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.matrix.tobytes()))
+
+    def __repr__(self) -> str:
+        p = ", ".join(f"{v:g}" for v in self.pose)
+        return f"Tool({self.name!r}, pose=[{p}])"
+
+
+def _translation(t: tuple[float, float, float]) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, 3] = t
+    return m
+
+
+DEFAULT_TOOL = Tool("default", _translation(TOOL_DEFAULT_T))
+FLANGE = Tool("flange", np.eye(4))
+
+#: Built-in tools by name.
+TOOLS: dict[str, Tool] = {"default": DEFAULT_TOOL, "flange": FLANGE}
+
+
+def get_tool(tool: "str | Tool | None" = None, config: "Config | None" = None) -> Tool:
+    """Resolve a tool argument.
+
+    ``None`` -> the default tool; a :class:`Tool` -> itself; a name -> a built-in
+    (``'default'``, ``'flange'``) or a user tool from ``config.tools``
+    (``ToolSettings(name, pose)``).  Unknown names raise :class:`ParolkitValueError` listing
+    the known ones.
+    """
+    if tool is None:
+        return DEFAULT_TOOL
+    if isinstance(tool, Tool):
+        return tool
+    if isinstance(tool, str):
+        if config is not None:
+            for settings in getattr(config, "tools", ()):
+                if settings.name == tool:
+                    return Tool.from_pose(settings.name, settings.pose)
+        found = TOOLS.get(tool)
+        if found is not None:
+            return found
+        known = sorted(TOOLS) + sorted(s.name for s in getattr(config, "tools", ()) or ())
+        raise ParolkitValueError(f"unknown tool {tool!r} (known: {', '.join(known)})")
+    raise ParolkitValueError(f"tool must be a name, a Tool or None, got {type(tool).__name__}")
+
