@@ -118,6 +118,7 @@ class Controller:
         )
         self.executor.start()
         self.loop.start()
+        threading.Thread(target=self._warm_up, name="parolkit-warmup", daemon=True).start()
         if self.home_on_start and getattr(transport, "simulated", False):
             self.executor.submit(self.executor.new_job(C.Home(), None, None))
 
@@ -147,11 +148,19 @@ class Controller:
 
     def _kinematics(self):
         if self._kin is None:
-            import parolkit.kinematics.fk as fk
-            import parolkit.kinematics.tools as tools
+            import importlib
 
+            fk = importlib.import_module("parolkit.kinematics.fk")
+            tools = importlib.import_module("parolkit.kinematics.tools")
             self._kin = (fk, tools)
         return self._kin
+
+    def _warm_up(self) -> None:
+        """Import kinematics and compute one pose off the start-up path."""
+        try:
+            self._pose_provider(self.config.robot.standby_deg, self.tool_name)
+        except Exception as exc:
+            log.warning("kinematics warm-up failed: %s", exc)
 
     def tool(self) -> object:
         """The current tool object (kinematics), resolved lazily."""
