@@ -357,14 +357,15 @@ class BoardEmulator:
         self._command = cmd
         self._frames += 1
         sts = self._steppers
-        if cmd == BoardCommand.ENABLE:
-            self._enabled = True
+        if cmd in (BoardCommand.ENABLE, BoardCommand.DISABLE, BoardCommand.CLEAR_ERROR):
+            # stop homing (and reset its state machine); these commands generate no steps
             self._homing.abort()
-        elif cmd == BoardCommand.DISABLE:
-            self._enabled = False
-            self._homing.abort()
-        elif cmd == BoardCommand.CLEAR_ERROR:
-            self._homing.abort()
+            if cmd == BoardCommand.ENABLE:
+                self._enabled = True
+            elif cmd == BoardCommand.DISABLE:
+                self._enabled = False
+            for st in sts:
+                st.speed = 0
         elif not self._enabled:
             pass  # 100 / 123 / 156 / idle do nothing while disabled
         elif cmd == BoardCommand.HOME:

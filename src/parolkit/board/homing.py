@@ -134,13 +134,15 @@ class HomingSequence:
 
     def abort(self) -> None:
         """Stop homing and reset the state machine (motors stop where they are)."""
+        was_active = self.active
         self.active = False
         self.phase = HomingPhase.IDLE
         self._stages = []
         self._queues = {}
-        for st in self._st:
-            st.speed = 0
-            st.stop_phase()
+        if was_active:
+            for st in self._st:
+                st.speed = 0
+                st.stop_phase()
 
     def _next_stage(self) -> bool:
         if not self._stages:

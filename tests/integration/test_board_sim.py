@@ -1,0 +1,255 @@
+"""The emulated board on a real pty, driven by plain pyserial (issue 2's acceptance checks)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import serial
+
+from parolkit.board import BoardEmulator, PtyBoardServer
+from parolkit.protocol import BoardCommand, CommandFrame, StatusFrame, StatusParser
+from parolkit.transport import LinkLostError, SerialTransport
+
+STANDBY = (10240, -32000, 57905, 0, 0, 32000)
+REPO = Path(__file__).resolve().parents[2]
+
+
+class Link:
+    """A plain pyserial PC side."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.ser = serial.Serial(str(path), 3_000_000, timeout=0)
+        self.parser = StatusParser()
+
+    def exchange(self, timeout: float = 1.0, **kw: object) -> StatusFrame:
+        self.ser.write(CommandFrame(**kw).encode())  # type: ignore[arg-type]
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            frames = self.parser.feed(self.ser.read(4096))
+            if frames:
+                assert len(frames) == 1
+                return frames[0]
+            time.sleep(0.0005)
+        raise AssertionError("no reply from the board")
+
+    def silence(self, wait: float = 0.2) -> list[StatusFrame]:
+        time.sleep(wait)
+        return self.parser.feed(self.ser.read(4096))
+
+    def run_100hz(self, seconds: float, **kw: object) -> list[StatusFrame]:
+        out = []
+        next_t = time.monotonic()
+        end = next_t + seconds
+        while next_t < end:
+            out.append(self.exchange(**kw))
+            next_t += 0.01
+            time.sleep(max(0.0, next_t - time.monotonic()))
+        return out
+
+    def close(self) -> None:
+        self.ser.close()
+
+
+@pytest.fixture
+def board(tmp_path):
+    emu = BoardEmulator(homing_speedup=50, gripper_calibration_s=0.1)
+    link = tmp_path / "p6"
+    with PtyBoardServer(emu, link) as server:
+        pc = Link(link)
+        yield emu, server, pc
+        pc.close()
+    assert not link.exists()
+
+
+def test_enable_home_idle_at_100hz_ends_homed_at_standby_with_timing_about_7031(board):
+    emu, server, pc = board
+    assert pc.exchange(command=BoardCommand.ENABLE).xtr == 101
+    assert pc.exchange(command=BoardCommand.HOME).xtr == 100
+    homed = None
+    next_t = time.monotonic()
+    timings = []
+    for _ in range(500):
+        st = pc.exchange(command=BoardCommand.IDLE)
+        timings.append(st.timing)
+        if st.homed == 0xFF:
+            homed = st
+            break
+        next_t += 0.01
+        time.sleep(max(0.0, next_t - time.monotonic()))
+    assert homed is not None, "not homed within 5 s at speedup 50"
+    assert homed.positions == STANDBY and homed.xtr == 255
+    assert 6300 < statistics.median(timings[1:]) < 7800  # 10 ms = 7031 ticks
+
+
+def test_goto_frame_converges_on_its_target(board):
+    emu, server, pc = board
+    target = (1200, -800, 500, 300, -200, 1000)
+    frames = pc.run_100hz(0.3, command=BoardCommand.GOTO, positions=target)
+    assert frames[-1].positions == target
+    assert frames[-1].speeds == (0,) * 6
+
+
+def test_jog_runs_at_the_given_speed(board):
+    emu, server, pc = board
+    speeds = (1000, -2000, 3000, 0, 500, -4000)
+    first = pc.exchange(command=BoardCommand.JOG, speeds=speeds)
+    t0 = time.monotonic()
+    assert first.speeds == speeds
+    time.sleep(0.5)
+    last = pc.exchange(command=BoardCommand.JOG, speeds=speeds)
+    dt = time.monotonic() - t0
+    for p0, p1, v in zip(first.positions, last.positions, speeds):
+        assert p1 - p0 == pytest.approx(v * dt, rel=0.1, abs=40)
+
+
+def test_outputs_echo_in_the_io_byte_and_inputs_estop_follow_the_emulator(board):
+    emu, server, pc = board
+    assert pc.exchange(io=0x20).io == 0x2F
+    assert pc.exchange(io=0x30).io == 0x3F
+    emu.set_input(1, True)
+    emu.set_estop(True)
+    st = pc.exchange(io=0x00)
+    assert st.io == 0x87 and st.estop_pressed and st.inputs == (True, False)
+
+
+def test_garbage_half_frames_and_wrong_end_bytes_get_no_reply_and_the_board_survives(board):
+    emu, server, pc = board
+    good = CommandFrame().encode()
+    pc.ser.write(os.urandom(500).replace(b"\x01\x02", b"\x01\x01"))
+    pc.ser.write(good[:25])
+    pc.ser.write(b"\x00" * 40)
+    pc.ser.write(good[:-2] + b"\x00\x00")
+    pc.ser.write(good[:3] + b"\x30" + good[4:])
+    assert pc.silence(0.3) == []
+    assert pc.exchange(command=42).xtr == 42
+
+
+def test_one_percent_corruption_loses_frames_without_breaking_the_board(board):
+    emu, server, pc = board
+    emu.set_faults(corrupt_rate=0.01)
+    got = 0
+    for _ in range(100):
+        pc.ser.write(CommandFrame(io=0x10).encode())
+        time.sleep(0.002)
+        got += len(pc.parser.feed(pc.ser.read(4096)))
+    got += len(pc.silence(0.1))
+    assert 40 < got < 100
+    emu.clear_faults()
+    assert pc.exchange(io=0x10).io == 0x1F
+
+
+def test_unplug_closes_the_pty_so_the_pc_sees_link_lost_and_replug_reconnects(board, tmp_path):
+    emu, server, pc = board
+    link = tmp_path / "p6"
+    t = SerialTransport(str(link))
+    t.open()
+    t.write(CommandFrame().encode())
+    time.sleep(0.05)
+    assert len(StatusParser().feed(t.read())) == 1
+    emu.unplug()
+    deadline = time.monotonic() + 2.0
+    with pytest.raises(LinkLostError):
+        while time.monotonic() < deadline:
+            t.read()
+            t.write(CommandFrame().encode())
+            time.sleep(0.01)
+    assert not t.is_open
+    assert not link.exists()
+    emu.replug()
+    deadline = time.monotonic() + 2.0
+    while not link.exists() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    t.open()
+    t.write(CommandFrame(command=77).encode())
+    time.sleep(0.05)
+    frames = StatusParser().feed(t.read())
+    assert len(frames) == 1 and frames[0].xtr == 77
+    t.close()
+
+
+def test_gripper_calibrate_and_grip_an_object_over_serial(board):
+    emu, server, pc = board
+    pc.exchange(gripper_mode=1)
+    time.sleep(0.15)
+    emu.place_object(24.0)
+    frames = pc.run_100hz(0.8, gripper_command=0xD0, gripper_position=255, gripper_speed=255,
+                          gripper_current=400)
+    st = frames[-1]
+    assert st.gripper.calibrated and st.gripper.activated and st.gripper.object_detected
+    assert st.gripper_position == round(255 * (1 - 24 / 48))
+    assert st.gripper_current == 400
+
+
+def test_pty_server_refuses_to_replace_a_regular_file(tmp_path):
+    from parolkit.board.pty_server import PtyServerError
+
+    f = tmp_path / "not-a-link"
+    f.write_text("keep me")
+    with pytest.raises(PtyServerError, match="not a symlink"):
+        PtyBoardServer(BoardEmulator(clock="virtual"), f).start()
+    assert f.read_text() == "keep me"
+
+
+# ------------------------------------------------------------------------------------------
+# the real command, as a subprocess
+# ------------------------------------------------------------------------------------------
+
+def _parolkit(*args: str, **kw: object) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "parolkit", *args], capture_output=True,
+                          text=True, timeout=20, cwd=REPO, **kw)
+
+
+def test_board_sim_command_serves_a_plain_pyserial_script_and_obeys_ctl_and_sigterm(tmp_path):
+    link = tmp_path / "p6"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "parolkit", "board-sim", "--link", str(link), "--speedup", "50",
+         "--in2", "1"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+    try:
+        deadline = time.monotonic() + 10.0
+        while not link.exists() and time.monotonic() < deadline:
+            assert proc.poll() is None, proc.stderr.read()
+            time.sleep(0.02)
+        pc = Link(link)
+        pc.exchange(command=BoardCommand.ENABLE)
+        pc.exchange(command=BoardCommand.HOME)
+        st = None
+        for _ in range(600):
+            st = pc.exchange(command=BoardCommand.IDLE)
+            if st.homed == 0xFF:
+                break
+            time.sleep(0.01)
+        assert st is not None and st.homed == 0xFF and st.positions == STANDBY
+        assert st.inputs == (False, True)
+        ctl = _parolkit("board-sim", "--link", str(link), "--ctl", "estop 1")
+        assert ctl.returncode == 0 and ctl.stdout.strip() == "ok"
+        assert pc.exchange().estop_pressed
+        bad = _parolkit("board-sim", "--link", str(link), "--ctl", "estop maybe")
+        assert bad.returncode == 1 and "expected 0 or 1" in bad.stdout
+        pc.close()
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=10)
+    assert proc.returncode == 0, err
+    assert "board-sim: PAROL6 board on" in out
+    assert not link.exists() and not Path(f"{link}.ctl").exists()
+
+
+def test_board_sim_rejects_bad_flags_with_the_flag_named(tmp_path):
+    r = _parolkit("board-sim", "--link", str(tmp_path / "p"), "--speedup", "0")
+    assert r.returncode == 2 and "--speedup" in r.stderr
+    r = _parolkit("board-sim", "--link", str(tmp_path / "p"), "--in1", "5")
+    assert r.returncode == 2 and "--in1" in r.stderr
+    r = _parolkit("board-sim", "--link", str(tmp_path / "p"), "--gripper-object", "80")
+    assert r.returncode == 2 and "--gripper-object" in r.stderr
+    r = _parolkit("board-sim", "--link", str(tmp_path / "nope" / "p"))
+    assert r.returncode == 2 and "does not exist" in r.stderr
+    r = _parolkit("board-sim", "--link", str(tmp_path / "p"), "--ctl", "status")
+    assert r.returncode == 1 and "no board-sim control socket" in r.stderr
