@@ -1,0 +1,534 @@
+"""Cartesian moves: MoveCart, MoveCartRelTRF, Cartesian jogs and the smooth paths.
+
+Pipeline: geometry (:mod:`parolkit.motion.paths`, mm, exact) -> time-scaling ``s(t)`` of the
+path progress (poly / trap / ruckig / TOPP-RA) -> the tool pose of every tick -> IK along the
+path (``kinematics.ik_batch``, branch-continuous, seeded with the start joints) -> joint
+speeds by differentiation -> the same sample checks as every move.
+
+Timing:
+
+* ``duration_s``: exactly that long (default POLY); a joint too fast -> refused.
+* ``speed_pct`` (or the default :data:`DEFAULT_CART_SPEED_PCT` = 50 %): the PEAK path speed is
+  the mapped linear speed (2..60 mm/s) or angular speed (0.7..25 deg/s), whichever makes the
+  move longer; default profile TRAP (1/3 accelerate, 1/3 cruise, 1/3 brake).  When a joint
+  cannot follow (speed or acceleration), the duration is stretched and a note says so.
+
+A path through a singularity shows up as a joint needing an unbounded speed; beyond
+:data:`MAX_STRETCH` times the requested duration the move is refused and the message names
+the nearest singularity.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from parolkit.motion import validate
+from parolkit.motion.errors import PlanningError
+from parolkit.motion.moves import (
+    CART_JOG_AXES, ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove,
+    CircleMove, Frame, HelixMove, LineSegment, Plane, Profile, SplineMove, Tracking,
+)
+from parolkit.motion.paths import (
+    Arc, Line, Path, Segment, Spline, blend_corners, rot_about, rotation_angle,
+)
+from parolkit.motion.planner import build_trajectory, sample_times
+from parolkit.motion.profiles import (
+    POLY_PEAK_SPEED, TRAP3_PEAK_SPEED, ScalarProfile, ruckig_unit_profile,
+)
+from parolkit.motion.trajectory import Trajectory
+from parolkit.robot import JOINT_NAMES, RobotModel
+
+__all__ = [
+    "plan_cartesian", "plan_cart_jog", "DEFAULT_CART_SPEED_PCT", "MAX_STRETCH",
+    "CART_ACCEL_TIME_S", "ON_PATH_TOL_MM",
+]
+
+#: MoveCart / smooth paths without duration and speed: this speed percentage (50 % -> peak
+#: 31 mm/s or 12.85 deg/s), instead of the original's fixed 3.6 s.
+DEFAULT_CART_SPEED_PCT = 50.0
+#: A path needing more than this stretch of its duration is refused (singularity).
+MAX_STRETCH = 8.0
+#: Ruckig on a Cartesian path: reach the path speed within this time (s).
+CART_ACCEL_TIME_S = 0.25
+#: A start this close (mm / deg) to a circle/helix/start pose needs no approach segment.
+ON_PATH_TOL_MM = 0.05
+#: Arc ends may differ in radius by this much (mm); the arc then spirals linearly.
+ARC_RADIUS_TOL_MM = 1.0
+
+
+def _kin():
+    from parolkit import kinematics
+
+    return kinematics
+
+
+# ---------------------------------------------------------------------------------------------
+# entry points
+# ---------------------------------------------------------------------------------------------
+
+
+def plan_cartesian(move, start: np.ndarray, *, model: RobotModel, tool, rate_hz: float) -> Trajectory:
+    """Plan any Cartesian move or smooth path (see module docstring)."""
+    kin = _kin()
+    t0 = np.asarray(kin.fk_matrix(start, tool), dtype=float)
+    p0, r0 = t0[:3, 3] * 1e3, t0[:3, :3]
+    parts: list[Trajectory] = []
+    notes: list[str] = []
+    cur_q = start
+    start_pose = getattr(move, "start_pose", None)
+    if start_pose is not None:
+        ts = _frame_pose(getattr(move, "frame", Frame.WRF), t0, start_pose)
+        if _far(p0, r0, ts[:3, 3] * 1e3, ts[:3, :3]):
+            approach = Path([Line(p0, ts[:3, 3] * 1e3, r0, ts[:3, :3])])
+            parts.append(_time_and_solve(move, approach, cur_q, model, tool, rate_hz, approach=True))
+            notes.append("approach: straight line to start_pose first")
+            cur_q = parts[-1].final_deg
+        p0, r0 = ts[:3, 3] * 1e3, ts[:3, :3]
+        t0 = ts
+    path, pre = _build_path(move, t0, p0, r0, rate_hz, model)
+    for seg_path, note in pre:  # approach segments played as separate, resting moves
+        parts.append(_time_and_solve(move, seg_path, cur_q, model, tool, rate_hz, approach=True))
+        notes.append(note)
+        cur_q = parts[-1].final_deg
+    parts.append(_time_and_solve(move, path, cur_q, model, tool, rate_hz))
+    if len(parts) == 1:
+        return parts[0]
+    return Trajectory.concatenate(parts, move, notes)
+
+
+def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, rate_hz: float) -> Trajectory:
+    """Constant Cartesian speed along / about one axis of WRF or TRF for ``duration_s``.
+
+    Streamed with position + speed (board 156) so the tool stays on the line; the first tick
+    already moves at the jog speed (as the original jog); a final zero-speed sample ends it.
+    """
+    kin = _kin()
+    t0 = np.asarray(kin.fk_matrix(start, tool), dtype=float)
+    p0, r0 = t0[:3, 3] * 1e3, t0[:3, :3]
+    is_rot, ax, sign = CART_JOG_AXES[move.axis]
+    axis = np.eye(3)[ax] if move.frame is Frame.WRF else r0[:, ax]
+    T = float(move.duration_s)
+    n = max(1, int(math.ceil(T * rate_hz - 1e-6)))
+    t = np.arange(1, n + 1, dtype=float) / rate_hz
+    tc = np.minimum(t, T)
+    if is_rot:
+        w = math.radians(model.cart_angular_speed_from_percent(move.speed_pct)) * sign
+        rots = rot_about(axis, w * tc)
+        rots = rots @ r0[None] if move.frame is Frame.WRF else r0[None] @ rot_about(np.eye(3)[ax], w * tc)
+        pos = np.repeat(p0[None, :], n, axis=0)
+    else:
+        v = model.cart_linear_speed_from_percent(move.speed_pct) * sign
+        pos = p0[None, :] + (v * tc)[:, None] * axis[None, :]
+        rots = np.repeat(r0[None], n, axis=0)
+    q = _solve_ik(move.name, pos, rots, start, tool, t)
+    dt = 1.0 / rate_hz
+    # speed to send at tick k: the motion to the next sample; the last: the rest of the jog
+    full = np.vstack([start[None, :], q])
+    qd = np.diff(full, axis=0) / dt
+    qd = np.vstack([qd[1:], np.zeros((1, 6))]) if n > 1 else np.zeros((1, 6))
+    _check_jumps(move.name, t, full, model, rate_hz, tool)
+    t_all = np.append(t, t[-1] + dt)
+    q_all = np.vstack([q, q[-1:]])
+    qd_all = np.vstack([qd, np.zeros((1, 6))])
+    return build_trajectory(move, t_all, q_all, qd_all, start=start, model=model, rate=rate_hz,
+                            tracking=Tracking.POSITION, check_accel=False,
+                            hint="lower the jog speed")
+
+
+# ---------------------------------------------------------------------------------------------
+# geometry from the move
+# ---------------------------------------------------------------------------------------------
+
+
+def _frame_pose(frame: Frame, t0: np.ndarray, pose: Sequence[float]) -> np.ndarray:
+    m = np.asarray(_kin().pose_to_matrix(pose), dtype=float)
+    return t0 @ m if frame is Frame.TRF else m
+
+
+def _frame_point(frame: Frame, t0: np.ndarray, point: Sequence[float]) -> np.ndarray:
+    p = np.asarray(point, dtype=float)
+    return t0[:3, 3] * 1e3 + t0[:3, :3] @ p if frame is Frame.TRF else p
+
+
+def _frame_rot(frame: Frame, t0: np.ndarray) -> np.ndarray:
+    return t0[:3, :3] if frame is Frame.TRF else np.eye(3)
+
+
+def _far(pa, ra, pb, rb) -> bool:
+    return float(np.linalg.norm(pa - pb)) > ON_PATH_TOL_MM or math.degrees(rotation_angle(ra, rb)) > ON_PATH_TOL_MM
+
+
+def _build_path(move, t0, p0, r0, rate_hz, model) -> tuple[Path, list[tuple[Path, str]]]:
+    """The main path and any approach paths (played first, each from rest to rest)."""
+    name = move.name
+    pre: list[tuple[Path, str]] = []
+    if isinstance(move, CartMove):
+        t1 = np.asarray(_kin().pose_to_matrix(move.pose), dtype=float)
+        return Path([Line(p0, t1[:3, 3] * 1e3, r0, t1[:3, :3])]), pre
+    if isinstance(move, CartRelTRFMove):
+        t1 = t0 @ np.asarray(_kin().pose_to_matrix(move.delta), dtype=float)
+        return Path([Line(p0, t1[:3, 3] * 1e3, r0, t1[:3, :3])]), pre
+    if isinstance(move, BlendMove):
+        return _blend_path(move, t0, p0, r0, model), pre
+    segs, approach = _segment_for(name, move, move.frame, t0, p0, r0)
+    if approach is not None:
+        pre.append((Path([approach]), f"approach: straight line ({approach.length:.1f} mm) onto the path first"))
+    return Path(segs), pre
+
+
+def _segment_for(name: str, seg, frame: Frame, t0, p, r) -> tuple[list[Segment], Line | None]:
+    """Segment(s) for one smooth element starting at position ``p`` / rotation ``r``; plus an
+    approach line when the element starts elsewhere (circle, helix)."""
+    fr = _frame_rot(frame, t0)
+    if isinstance(seg, LineSegment):
+        t1 = _frame_pose(frame, t0, seg.pose)
+        return [Line(p, t1[:3, 3] * 1e3, r, t1[:3, :3])], None
+    if isinstance(seg, CircleMove):
+        c = _frame_point(frame, t0, seg.center_mm)
+        e1, e2 = _plane_axes(seg.plane, fr)
+        n = np.cross(e1, e2)
+        v = p - c
+        v = v - np.dot(v, n) * n
+        phi0 = math.atan2(float(np.dot(v, e2)), float(np.dot(v, e1))) if np.linalg.norm(v) > 1e-9 else 0.0
+        entry = c + seg.radius_mm * (math.cos(phi0) * e1 + math.sin(phi0) * e2)
+        arc = Arc(c, seg.radius_mm, e1, e2, phi0, -2 * math.pi if seg.clockwise else 2 * math.pi, 0.0, r, r)
+        approach = Line(p, entry, r, r) if np.linalg.norm(entry - p) > ON_PATH_TOL_MM else None
+        return [arc], approach
+    if isinstance(seg, HelixMove):
+        c = _frame_point(frame, t0, seg.center_mm)
+        e1, e2, n = fr[:, 0], fr[:, 1], fr[:, 2]
+        v = p - c
+        h0 = float(np.dot(v, n))
+        vr = v - h0 * n
+        phi0 = math.atan2(float(np.dot(vr, e2)), float(np.dot(vr, e1))) if np.linalg.norm(vr) > 1e-9 else 0.0
+        entry = c + h0 * n + seg.radius_mm * (math.cos(phi0) * e1 + math.sin(phi0) * e2)
+        sweep = 2 * math.pi * abs(seg.height_mm) / seg.pitch_mm * (-1 if seg.clockwise else 1)
+        arc = Arc(c + h0 * n, seg.radius_mm, e1, e2, phi0, sweep, seg.height_mm, r, r)
+        approach = Line(p, entry, r, r) if np.linalg.norm(entry - p) > ON_PATH_TOL_MM else None
+        return [arc], approach
+    if isinstance(seg, ArcCenterMove):
+        t1 = _frame_pose(frame, t0, seg.end_pose)
+        c = _frame_point(frame, t0, seg.center_mm)
+        return [_arc_through(name, p, t1[:3, 3] * 1e3, c, None, fr, seg.clockwise, r, t1[:3, :3])], None
+    if isinstance(seg, ArcParamMove):
+        t1 = _frame_pose(frame, t0, seg.end_pose)
+        p1 = t1[:3, 3] * 1e3
+        chord = p1 - p
+        d = float(np.linalg.norm(chord))
+        R = seg.radius_mm
+        if d < 1e-6:
+            raise PlanningError(name, "arc start and end positions coincide: give ArcCenterMove or CircleMove")
+        if d > 2 * R + 1e-6:
+            raise PlanningError(
+                name, f"radius_mm {R:g} is too small: start and end are {d:.3f} mm apart (radius >= {d / 2:.3f} mm)",
+                value=R,
+            )
+        minor = math.degrees(2 * math.asin(min(1.0, d / (2 * R))))
+        major = 360.0 - minor
+        want = seg.angle_deg
+        if min(abs(want - minor), abs(want - major)) > 1.0:
+            raise PlanningError(
+                name,
+                f"angle_deg {want:g} does not match the geometry: start and end {d:.3f} mm apart on "
+                f"radius {R:g} mm span {minor:.3f} deg (or {major:.3f} deg the long way)",
+                value=want,
+            )
+        use_major = abs(want - major) < abs(want - minor)
+        u = chord / d
+        n = fr[:, 2] - np.dot(fr[:, 2], u) * u
+        if np.linalg.norm(n) < 1e-6:
+            n = fr[:, 0] - np.dot(fr[:, 0], u) * u
+        n /= np.linalg.norm(n)
+        w = np.cross(n, u)  # in-plane, left of the chord seen from +n
+        h = math.sqrt(max(0.0, R * R - d * d / 4))
+        left = (not use_major) != seg.clockwise  # ccw minor / cw major: centre on the left
+        c = (p + p1) / 2 + (h if left else -h) * w
+        return [_arc_through(name, p, p1, c, n, fr, seg.clockwise, r, t1[:3, :3])], None
+    if isinstance(seg, SplineMove):
+        mats = [_frame_pose(frame, t0, wp) for wp in seg.waypoints]
+        pts = np.vstack([p[None, :]] + [m[None, :3, 3] * 1e3 for m in mats])
+        rots = np.stack([r] + [m[:3, :3] for m in mats])
+        try:
+            return [Spline(pts, rots)], None
+        except ValueError:
+            raise PlanningError(name, "spline waypoints must include a point away from the start") from None
+    raise PlanningError(name, f"unsupported path element {type(seg).__name__}")
+
+
+def _plane_axes(plane: Plane, fr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    x, y, z = fr[:, 0], fr[:, 1], fr[:, 2]
+    if plane is Plane.XY:
+        return x, y  # normal +Z
+    if plane is Plane.XZ:
+        return z, x  # normal +Y
+    return y, z  # YZ: normal +X
+
+
+def _arc_through(name, p0, p1, c, n, fr, clockwise, r0, r1) -> Arc:
+    a, b = p0 - c, p1 - c
+    ra, rb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    if ra < 1e-6:
+        raise PlanningError(name, "the arc's start lies on its centre (radius 0 mm)")
+    if abs(ra - rb) > ARC_RADIUS_TOL_MM:
+        raise PlanningError(
+            name, f"start and end are not on one circle around the centre: radii {ra:.3f} mm and "
+            f"{rb:.3f} mm differ by more than {ARC_RADIUS_TOL_MM:g} mm", value=rb - ra,
+        )
+    if n is None:
+        cr = np.cross(a, b)
+        if np.linalg.norm(cr) > 1e-6 * ra * rb:
+            n = cr / np.linalg.norm(cr)
+            # orientation convention: counter-clockwise seen from the side of +Z (then +X, +Y)
+            for ref in (fr[:, 2], fr[:, 0], fr[:, 1]):
+                dd = float(np.dot(n, ref))
+                if abs(dd) > 1e-9:
+                    if dd < 0:
+                        n = -n
+                    break
+        else:
+            n = fr[:, 2] - np.dot(fr[:, 2], a / ra) * a / ra
+            if np.linalg.norm(n) < 1e-6:
+                n = fr[:, 0] - np.dot(fr[:, 0], a / ra) * a / ra
+            n = n / np.linalg.norm(n)
+    e1 = a / ra
+    e2 = np.cross(n, e1)
+    theta = math.atan2(float(np.dot(np.cross(a, b), n)), float(np.dot(a, b)))
+    if theta <= 1e-9:
+        theta += 2 * math.pi
+    sweep = theta - 2 * math.pi if clockwise else theta
+    arc = Arc(c, ra, e1, e2, 0.0, sweep, 0.0, r0, r1)
+    if abs(ra - rb) > 1e-9:
+        arc = _SpiralArc(arc, rb)
+    return arc
+
+
+class _SpiralArc(Arc):
+    """An arc whose radius changes linearly from start to end (ends off by <= 1 mm)."""
+
+    def __init__(self, arc: Arc, r_end: float) -> None:
+        self.__dict__.update(arc.__dict__)
+        self.r_end = r_end
+        self.length = float(abs(self.sweep) * (self.radius + r_end) / 2)
+
+    def positions(self, u):
+        u = np.asarray(u, dtype=float)
+        phi = self.phi0 + self.sweep * u
+        rad = self.radius + (self.r_end - self.radius) * u
+        return self.center[None, :] + rad[:, None] * (np.cos(phi)[:, None] * self.e1[None, :]
+                                                     + np.sin(phi)[:, None] * self.e2[None, :])
+
+
+def _blend_path(move: BlendMove, t0, p0, r0, model) -> Path:
+    segs: list[Segment] = []
+    p, r = p0, r0
+    for el in move.segments:
+        new, approach = _segment_for(move.name, el, move.frame, t0, p, r)
+        if approach is not None:
+            segs.append(approach)
+        segs.extend(new)
+        p = new[-1].p1
+        r = new[-1].rotations(np.array([1.0]))[0]
+    radius = move.blend_radius_mm
+    if radius is None and move.blend_time_s:
+        total = sum(s.length for s in segs)
+        if move.duration_s is not None:
+            v = total / move.duration_s
+        else:
+            pct = move.speed_pct if move.speed_pct is not None else DEFAULT_CART_SPEED_PCT
+            v = model.cart_linear_speed_from_percent(pct)
+        radius = v * move.blend_time_s / 2.0
+    if radius:
+        segs = blend_corners(segs, radius)
+    return Path(segs)
+
+
+# ---------------------------------------------------------------------------------------------
+# timing + IK + checks
+# ---------------------------------------------------------------------------------------------
+
+
+def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool, rate_hz: float,
+                    *, approach: bool = False) -> Trajectory:
+    name = move.name
+    tracking = getattr(move, "tracking", Tracking.POSITION)
+    duration = None if approach else move.duration_s
+    pct = move.speed_pct if move.speed_pct is not None else DEFAULT_CART_SPEED_PCT
+    v_lin = model.cart_linear_speed_from_percent(pct)  # mm/s
+    w_ang = model.cart_angular_speed_from_percent(pct)  # deg/s
+    mm_per_rad = v_lin / math.radians(w_ang)
+    path = Path.weighted(path.segments, mm_per_rad)
+    base = max(path.length / v_lin, math.degrees(path.angle) / w_ang)  # s at constant peak speed
+    notes: list[str] = []
+    if base < 1e-9:
+        q = np.asarray(start, dtype=float)[None, :]
+        return build_trajectory(move, np.array([1.0 / rate_hz]), q, np.zeros((1, 6)), start=start,
+                                model=model, rate=rate_hz, tracking=tracking,
+                                notes=["already at the target pose"], target_deg=q[0])
+    profile = move.profile or (Profile.POLY if duration is not None else Profile.TRAP)
+    if approach and profile is Profile.TOPPRA:
+        profile = Profile.TRAP
+    if profile is Profile.TOPPRA:
+        return _toppra_path(move, path, start, model, tool, rate_hz, duration, pct, tracking)
+    if duration is None:
+        if move.speed_pct is None and not approach:
+            notes.append(f"no duration or speed given: path speed {DEFAULT_CART_SPEED_PCT:g} % "
+                         f"({v_lin:g} mm/s, {w_ang:g} deg/s)")
+    stretch = 1.0
+    T = duration
+    for _attempt in range(4):
+        prof = _path_profile(profile, base, duration, stretch)
+        T = prof.T
+        t = sample_times(T, rate_hz)
+        s, _, _ = prof(t)
+        pos, rots = path.evaluate(s)
+        q = _solve_ik(name, pos, rots, start, tool, t)
+        qd = _derivative(q, start, rate_hz, t, T)
+        spd = model.steps_per_deg
+        vmax = np.asarray(model.max_speed_steps_s, dtype=float)
+        amax = float(model.accel_range_steps_s2[1])
+        v_steps = qd * spd
+        acc = np.diff(np.vstack([np.zeros((1, 6)), v_steps]), axis=0) * rate_hz
+        r_v = float(np.max(np.abs(v_steps) / vmax))
+        r_a = float(np.max(np.abs(acc))) / (amax * (1 + validate.ACCEL_TOLERANCE))
+        if r_v <= 1.0 and r_a <= 1.0:
+            break
+        if r_v > MAX_STRETCH * stretch or (duration is None and r_a > (MAX_STRETCH * stretch) ** 2):
+            _refuse_singular(name, t, q, v_steps, vmax, tool)
+        if duration is not None:
+            need = T * max(r_v, math.sqrt(r_a))
+            hint = f"give a duration of at least {math.ceil(need * 100) / 100:.2f} s"
+            full = np.vstack([start[None, :], q])
+            _check_jumps(name, t, full, model, rate_hz, tool)
+            validate.check_speeds(name, t, v_steps, model, hint=hint)
+            validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
+        stretch *= max(r_v, math.sqrt(r_a)) * 1.02
+    else:
+        raise PlanningError(name, "no feasible timing found within the joint limits after stretching")
+    if stretch > 1.0:
+        j = int(np.argmax(np.max(np.abs(v_steps) / vmax, axis=0)))
+        notes.append(f"duration stretched from {_nominal(profile, base):.2f} s to {T:.2f} s: "
+                     f"joint speed/acceleration limits ({JOINT_NAMES[j]} the busiest)")
+    _check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
+    return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
+                            notes=notes, target_deg=q[-1])
+
+
+def _nominal(profile: Profile, base: float) -> float:
+    return _path_profile(profile, base, None, 1.0).T
+
+
+def _path_profile(profile: Profile, base: float, duration: float | None, stretch: float) -> ScalarProfile:
+    """Unit profile for a path whose constant-peak-speed time is ``base`` (s)."""
+    if duration is not None:
+        T = duration
+        if profile is Profile.TRAP:
+            return ScalarProfile("trap", T, T / 3.0)
+        if profile is Profile.RUCKIG:
+            v_s = POLY_PEAK_SPEED / T * 4
+            return ruckig_unit_profile(v_s, v_s / CART_ACCEL_TIME_S * 4, v_s / CART_ACCEL_TIME_S * 40,
+                                       min_duration=T)
+        return ScalarProfile("poly", T)
+    if profile is Profile.TRAP:
+        T = TRAP3_PEAK_SPEED * base * stretch
+        return ScalarProfile("trap", T, T / 3.0)
+    if profile is Profile.POLY:
+        return ScalarProfile("poly", POLY_PEAK_SPEED * base * stretch)
+    v_s = 1.0 / (base * stretch)
+    a_s = v_s / (CART_ACCEL_TIME_S * stretch)
+    return ruckig_unit_profile(v_s, a_s, a_s / 0.1 / stretch)
+
+
+def _solve_ik(name: str, pos_mm: np.ndarray, rots: np.ndarray, seed: np.ndarray, tool, t: np.ndarray) -> np.ndarray:
+    kin = _kin()
+    n = len(pos_mm)
+    mats = np.zeros((n, 4, 4))
+    mats[:, :3, :3] = rots
+    mats[:, :3, 3] = pos_mm * 1e-3
+    mats[:, 3, 3] = 1.0
+    try:
+        return np.asarray(kin.ik_batch(mats, seed, tool=tool), dtype=float)
+    except kin.IKError as exc:
+        k = exc.sample if exc.sample is not None else 0
+        p = pos_mm[min(k, n - 1)]
+        raise PlanningError(
+            name, f"the path leaves the robot's reach at [{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}] mm: {exc.reason}",
+            time_s=float(t[min(k, n - 1)]), joint=exc.joint, value=exc.value,
+        ) from exc
+
+
+def _derivative(q: np.ndarray, start: np.ndarray, rate_hz: float, t: np.ndarray, T: float) -> np.ndarray:
+    """Joint speeds (deg/s) at the samples: central differences; zero once the path has ended."""
+    full = np.vstack([start[None, :], q])
+    qd = np.gradient(full, 1.0 / rate_hz, axis=0)[1:]
+    qd[t >= T - 1e-9] = 0.0
+    return qd
+
+
+def _check_jumps(name, t, full_q, model, rate_hz, tool) -> None:
+    """A branch hop: a joint moving more than 4x its maximum speed allows within one tick."""
+    step = np.abs(np.diff(full_q, axis=0))
+    lim = 4.0 * model.max_speed_deg_s / rate_hz
+    bad = np.argwhere(step > lim)
+    if len(bad):
+        k, j = int(bad[0][0]), int(bad[0][1])
+        raise PlanningError(
+            name, f"{JOINT_NAMES[j]} jumps {step[k, j]:.2f} deg within one tick (branch change or "
+            f"singularity{_sing_text(full_q[k + 1], tool)})", time_s=float(t[k]), joint=j,
+            value=float(full_q[k + 1, j]),
+        )
+
+
+def _sing_text(q, tool) -> str:
+    try:
+        info = _kin().singularity_distance(q)
+    except Exception:  # informative only
+        return ""
+    return (f"; nearest: {info.nearest} singularity (wrist {info.wrist_deg:.2f} deg, shoulder "
+            f"{info.shoulder_mm:.1f} mm, elbow {info.elbow_deg:.2f} deg)")
+
+
+def _refuse_singular(name, t, q, v_steps, vmax, tool) -> None:
+    ratio = np.abs(v_steps) / vmax
+    k, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    raise PlanningError(
+        name,
+        f"{JOINT_NAMES[j]} would need {abs(v_steps[k, j]):.0f} steps/s ({ratio[k, j]:.1f}x its maximum): "
+        f"the path passes too close to a singularity{_sing_text(q[k], tool)}",
+        time_s=float(t[k]), joint=int(j), value=float(v_steps[k, j]),
+    )
+
+
+def _toppra_path(move, path: Path, start, model, tool, rate_hz, duration, pct, tracking) -> Trajectory:
+    """TOPP-RA on the joint path (dense IK), then the exact geometry at the optimal s(t)."""
+    from parolkit.motion.topp import toppra_parameterize
+
+    name = move.name
+    m = int(min(400, max(30, path.length / 2.0, math.degrees(path.angle) / 2.0)))
+    s_grid = np.linspace(0.0, 1.0, m)
+    pos, rots = path.evaluate(s_grid)
+    q_grid = _solve_ik(name, pos, rots, start, tool, s_grid)
+    spd = model.steps_per_deg
+    vmax = np.asarray(model.max_speed_steps_s, dtype=float) / spd
+    amax = float(model.accel_range_steps_s2[1]) / spd
+    # a 7th coordinate = s itself (unconstrained) recovers s(t) from the joint-space result
+    aug = np.hstack([q_grid, s_grid[:, None]])
+    res = toppra_parameterize(s_grid, aug, np.append(vmax, 1e6), np.append(amax, 1e9), duration=duration)
+    if res is None:
+        raise PlanningError(name, "TOPP-RA finds no feasible timing within the joint limits")
+    if duration is not None and res.duration > duration * (1 + 1e-6):
+        raise PlanningError(name, f"too fast for t={duration:g} s: TOPP-RA needs at least {res.duration:.3f} s")
+    T = res.duration
+    t = sample_times(T, rate_hz)
+    s = np.clip(res.evaluate(t)[0][:, 6], 0.0, 1.0)
+    s = np.maximum.accumulate(s)
+    s[t >= T - 1e-9] = 1.0
+    pos, rots = path.evaluate(s)
+    q = _solve_ik(name, pos, rots, start, tool, t)
+    qd = _derivative(q, start, rate_hz, t, T)
+    _check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
+    return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
+                            notes=[f"TOPP-RA time-optimal: {T:.2f} s"], target_deg=q[-1],
+                            hint="the time-optimal timing exceeds a limit after sampling")
