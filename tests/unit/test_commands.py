@@ -1,0 +1,182 @@
+"""The controller's text-command parser: every command, the ID rules, precise INVALID texts."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from parolkit.protocol import commands as C
+from parolkit.protocol.commands import AckStatus, CommandError, parse_datagram
+
+
+def parse(text):
+    return parse_datagram(text)
+
+
+VALID = [
+    ("MOVEJOINT|90|-90|160|12|12|180|5.5|None", C.MoveJoint),
+    ("MOVEJOINT|90|-90|160|12|12|180|None|50|30|trap|speed", C.MoveJoint),
+    ("MOVEPOSE|7|250|200|-100|0|-90|5.5|None", C.MovePose),
+    ("MOVECART|7|250|150|-100|0|-90|None|50", C.MoveCart),
+    ("MOVECARTRELTRF|0|0|-10|0|0|0|1|None|poly|position", C.MoveCartRelTRF),
+    ("JOG|7|50|1|None", C.Jog),
+    ("JOG|0|50|None|10", C.Jog),
+    ("MULTIJOG|0,7,2|50,40,30|1.5", C.MultiJog),
+    ("CARTJOG|TRF|RZ-|20|0.5", C.CartJog),
+    ("HOME", C.Home),
+    ("DELAY|0.2", C.Delay),
+    ("PNEUMATICGRIPPER|open|1", C.PneumaticGripper),
+    ("ELECTRICGRIPPER|move|100|150|200", C.ElectricGripper),
+    ("ELECTRICGRIPPER|calibrate", C.ElectricGripper),
+    ("ELECTRICGRIPPER|None|10|20|300", C.ElectricGripper),
+    ("SPEEDJOINT|5|0|0|0|0|-5|2", C.SpeedJoint),
+    ("WAIT_INPUT|1|1|None", C.WaitInput),
+    ("SMOOTH_CIRCLE|0,250,150|20|XY|WRF|CURRENT|DURATION|3|0", C.SmoothCircle),
+    ("SMOOTH_ARC_CENTER|10,250,150,-90,0,-90|0,250,150|WRF|NONE|SPEED|40|1", C.SmoothArcCenter),
+    ("SMOOTH_ARC_PARAM|10,250,150,-90,0,-90|30|90|TRF|CURRENT|DURATION|2|0", C.SmoothArcParam),
+    ("SMOOTH_SPLINE|2|WRF|CURRENT|DURATION|3|0,250,150,-90,0,-90|10,260,150,-90,0,-90", C.SmoothSpline),
+    ("SMOOTH_HELIX|0,250,150|20|5|15|WRF|CURRENT|DURATION|4|1", C.SmoothHelix),
+    ("SMOOTH_BLEND|2|0.5|WRF|CURRENT|DURATION|None|LINE|0,250,150,-90,0,-90|1||"
+     "ARC|10,250,150,-90,0,-90|5,250,150|1|0", C.SmoothBlend),
+    ("STOP", C.Stop),
+    ("ENABLE", C.Enable),
+    ("DISABLE", C.Disable),
+    ("CLEAR_ERROR", C.ClearError),
+    ("ESTOP", C.EStop),
+    ("STREAM|ON", C.StreamMode),
+    ("SET_PORT|/dev/ttyACM0", C.SetPort),
+    ("SET_TOOL|flange", C.SetTool),
+    ("SUBSCRIBE|6000|5", C.Subscribe),
+    ("UNSUBSCRIBE|6000", C.Unsubscribe),
+]
+
+
+@pytest.mark.parametrize("text,cls", VALID, ids=[v[0].split("|")[0] + str(i) for i, v in enumerate(VALID)])
+def test_every_command_of_the_table_parses_to_its_typed_object(text, cls):
+    p = parse(text)
+    assert isinstance(p.command, cls)
+    assert p.command_id is None
+
+
+@pytest.mark.parametrize("name", C.QUERY_NAMES)
+def test_every_query_parses_and_is_answered_immediately(name):
+    p = parse(name.lower())
+    assert p.kind is C.CommandKind.QUERY and p.command.name == name
+
+
+def test_movejoint_fields_keep_edge_units_and_extensions():
+    p = parse("1a2b3c4d|movejoint|90|-90|160|12|12|180|None|50|30|trap|speed")
+    c = p.command
+    assert p.command_id == "1a2b3c4d"
+    assert c.angles_deg == (90, -90, 160, 12, 12, 180)
+    assert (c.duration_s, c.speed_pct, c.accel_pct) == (None, 50, 30)
+    assert c.profile is C.Profile.TRAP and c.tracking is C.Tracking.SPEED
+
+
+def test_jog_index_rule_maps_6_to_11_to_negative_directions():
+    assert parse("JOG|7|50|1|None").command.joint == 1
+    assert parse("JOG|7|50|1|None").command.direction == -1
+    assert parse("JOG|5|50|1|None").command.direction == 1
+
+
+def test_blend_segments_are_split_on_empty_fields():
+    c = parse(VALID[22][0]).command
+    assert [s.kind for s in c.segments] == ["LINE", "ARC"]
+    assert c.timing_value == pytest.approx(2.0)  # None = sum of segment durations
+
+
+def test_an_id_is_8_chars_not_all_upper_case():
+    assert C.is_command_id("1a2b3c4d")
+    assert C.is_command_id("12345678")
+    assert not C.is_command_id("MOVEPOSE")
+    assert not C.is_command_id("1a2b3c4")
+    assert not C.is_command_id("1a2b_c4d")
+    # an upper-case 8-letter name is the command, not an ID
+    assert isinstance(parse("MOVEPOSE|7|250|200|-100|0|-90|5.5|None").command, C.MovePose)
+
+
+INVALID = [
+    ("MOVEJOINT|190|-90|160|12|12|180|1|None", "J1 angle = 190 deg is out of range"),
+    ("MOVEJOINT|90|-90|160|12|12|180|None|None", "neither was given"),
+    ("MOVEJOINT|90|-90|160|12|12|180|1|50", "both were given"),
+    ("MOVEJOINT|90|-90|160|12|12|180|0|None", "duration = 0 s is out of range (0, 3600] s"),
+    ("MOVEJOINT|90|-90|nan|12|12|180|1|None", "J3 angle (deg) must be a decimal number"),
+    ("MOVEJOINT|90|-90|inf|12|12|180|1|None", "must be a decimal number"),
+    ("MOVEJOINT|90|-90|160|12|12|1|None", "MOVEJOINT takes 8..11 arguments, got 7"),
+    ("MOVEJOINT|90|-90|160|12|12|180|1|None|50|cubic", "profile must be one of poly|trap|ruckig|toppra"),
+    ("MOVEPOSE|7|250|200|-100|0|-90|None|150", "speed% = 150 % is out of range (0, 100] %"),
+    ("MOVECART|20000|250|200|-100|0|-90|1|None", "x = 20000 mm is out of range"),
+    ("JOG|12|50|1|None", "joint_index = 12 is out of range 0..11"),
+    ("JOG|1|50|None|None", "neither was given"),
+    ("MULTIJOG|0,6|50,50|1", "J1 is given both + and -"),
+    ("MULTIJOG|0,1|50|1", "speeds must have one value per joint index (2), got 1"),
+    ("CARTJOG|WRF|Q+|50|1", "axis must be one of"),
+    ("CARTJOG|BASE|X+|50|1", "frame must be one of WRF|TRF"),
+    ("PNEUMATICGRIPPER|open|3", "port = 3 is out of range 1..2"),
+    ("ELECTRICGRIPPER|move|100|150|2000", "current (mA) = 2000 is out of range 100..1000"),
+    ("ELECTRICGRIPPER|squeeze|100|150|200", "action must be move|calibrate|clear_error|None"),
+    ("SPEEDJOINT|500|0|0|0|0|0|1", "J1 speed (deg/s) = 500 deg/s is out of range"),
+    ("SMOOTH_CIRCLE|0,250|20|XY|WRF|CURRENT|DURATION|3|0", "center must be 3 comma-separated numbers, got 2"),
+    ("SMOOTH_CIRCLE|0,250,150|20|XW|WRF|CURRENT|DURATION|3|0", "plane must be one of XY|XZ|YZ"),
+    ("SMOOTH_SPLINE|3|WRF|CURRENT|DURATION|3|0,250,150,-90,0,-90|10,260,150,-90,0,-90",
+     "n = 3 waypoints announced, 2 given"),
+    ("SMOOTH_BLEND|3|0.5|WRF|CURRENT|DURATION|None|LINE|0,250,150,-90,0,-90|1", "3 segments announced, 1 given"),
+    ("DELAY|-1", "seconds = -1 s is out of range [0, 3600] s"),
+    ("STREAM|MAYBE", "STREAM takes ON|OFF"),
+    ("SUBSCRIBE|70000", "port = 70000 is out of range 1..65535"),
+    ("GET_ANGLES|1", "GET_ANGLES takes no arguments, got 1"),
+    ("FROBNICATE|1", "unknown command 'FROBNICATE'"),
+    ("", "empty datagram"),
+]
+
+
+@pytest.mark.parametrize("text,needle", INVALID, ids=[f"invalid{i}" for i in range(len(INVALID))])
+def test_invalid_datagrams_name_the_field_and_the_allowed_range(text, needle):
+    with pytest.raises(CommandError) as ei:
+        parse(text)
+    assert needle in str(ei.value)
+
+
+def test_invalid_datagram_with_an_id_carries_the_id_for_the_ack():
+    with pytest.raises(CommandError) as ei:
+        parse("abcd1234|MOVEJOINT|190|-90|160|12|12|180|1|None")
+    assert ei.value.command_id == "abcd1234"
+    assert ei.value.name == "MOVEJOINT"
+
+
+def test_non_utf8_and_oversized_datagrams_are_refused():
+    with pytest.raises(CommandError, match="not UTF-8"):
+        parse_datagram(b"\xff\xfeMOVE")
+    with pytest.raises(CommandError, match="at most 65000"):
+        parse_datagram(b"A" * 65_001)
+
+
+def test_ack_format_keeps_the_separator_out_of_details():
+    assert C.format_ack("1a2b3c4d", AckStatus.FAILED, "a|b\nc") == "ACK|1a2b3c4d|FAILED|a/b c"
+    assert AckStatus.CANCELLED.terminal and not AckStatus.EXECUTING.terminal
+
+
+def test_format_floats_prints_no_negative_zero():
+    assert C.format_floats([-0.00001, 1.23456], 4) == "0.0000,1.2346"
+
+
+_fields = st.sampled_from(list(C.COMMAND_NAMES) + ["1a2b3c4d", "None", "", "nan", "1e999", "-5", "0,1,2"])
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.one_of(_fields, st.text(max_size=12)), min_size=0, max_size=14))
+def test_no_datagram_makes_the_parser_raise_anything_but_command_error(parts):
+    try:
+        parse_datagram("|".join(parts))
+    except CommandError:
+        pass
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.binary(max_size=200))
+def test_random_bytes_never_crash_the_parser(data):
+    try:
+        parse_datagram(data)
+    except CommandError:
+        pass
