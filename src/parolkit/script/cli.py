@@ -2,7 +2,7 @@
 
 ::
 
-    parolkit run PROGRAM [--sim] [--host H --port P] [--dry-run] [--plot out.png] [--step]
+    parolkit run PROGRAM [--sim] [--host H --port P [--ack-port A]] [--dry-run] [--plot out.png] [--step]
                          [--loops N] [--from J1 .. J6] [--config FILE] [--quiet]
     parolkit check PROGRAM... [--no-plan] [--table] [--loops N] [--from J1 .. J6] [--strict]
     parolkit fmt PROGRAM... [--check] [--stdout]
@@ -18,6 +18,7 @@ import os
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -57,6 +58,9 @@ def register(subparsers: argparse._SubParsersAction, name: str) -> argparse.Argu
         p.add_argument("--host", default="127.0.0.1", help="controller address (default 127.0.0.1)")
         p.add_argument("--port", type=int, default=None,
                        help="controller UDP port (default: from the config, 5001)")
+        p.add_argument("--ack-port", type=int, default=None,
+                       help="local UDP port the controller sends acknowledgements to "
+                            "(default: from the config, 5002)")
         p.add_argument("--dry-run", action="store_true",
                        help="plan everything without a robot and print the per-line table")
         p.add_argument("--plot", metavar="PNG", default=None,
@@ -225,16 +229,22 @@ class _SimController:
                "--udp-port", str(self.port), "--ack-port", str(self.ack_port)]
         if config:
             cmd += ["--config", config]
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        # the controller's log goes to a file (a pipe nobody reads would fill up and block it)
+        self.log = tempfile.TemporaryFile()
+        self.proc = subprocess.Popen(cmd, stdout=self.log, stderr=subprocess.STDOUT,
                                      env=dict(os.environ, PYTHONUNBUFFERED="1"))
+
+    def log_tail(self, lines: int = 15) -> str:
+        self.log.seek(0)
+        return "\n".join(self.log.read().decode(errors="replace").splitlines()[-lines:])
 
     def wait_ready(self, robot, timeout: float = 30.0) -> None:
         deadline = time.monotonic() + timeout
         last = None
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
-                err = self.proc.stderr.read().decode(errors="replace") if self.proc.stderr else ""
-                raise RuntimeError(f"the simulated controller exited with {self.proc.returncode}: {err.strip()}")
+                raise RuntimeError(f"the simulated controller exited with {self.proc.returncode}:\n"
+                                   f"{self.log_tail()}")
             try:
                 status = robot.status()
                 if status.all_homed and status.state != "HOMING":
@@ -243,7 +253,8 @@ class _SimController:
             except Exception as exc:  # not up yet
                 last = exc
             time.sleep(0.1)
-        raise RuntimeError(f"the simulated controller was not ready within {timeout:g} s ({last})")
+        raise RuntimeError(f"the simulated controller was not ready within {timeout:g} s ({last}); "
+                           f"its log:\n{self.log_tail()}")
 
     def close(self) -> None:
         if self.proc.poll() is None:
@@ -253,6 +264,7 @@ class _SimController:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait(5)
+        self.log.close()
 
 
 def _fmt_joints(q) -> str:
@@ -327,13 +339,14 @@ def run_main(args) -> int:
 
     sim = None
     port = args.port if args.port is not None else cfg.controller.udp_port
+    ack_port = args.ack_port if args.ack_port is not None else cfg.controller.ack_port
     host = args.host
-    if args.sim:
-        sim = _SimController(args.config)
-        host, port = "127.0.0.1", sim.port
     robot = None
     try:
-        robot = Robot(host, port)
+        if args.sim:
+            sim = _SimController(args.config)
+            host, port, ack_port = "127.0.0.1", sim.port, sim.ack_port
+        robot = Robot(host, port, ack_port=ack_port)
         if sim is not None:
             sim.wait_ready(robot)
         quiet = args.quiet

@@ -46,7 +46,8 @@ from parolkit.script.program import (
     format_number,
 )
 
-__all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops"]
+__all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops", "Timing",
+           "effective_timing", "CART_DEFAULT_SPEED_PCT"]
 
 
 @dataclass(frozen=True)
@@ -188,6 +189,43 @@ class DryRunReport:
         plt.close(fig)
 
 
+#: Speed % of a MoveCart / MoveCartRelTRF without t= or v= (the motion layer's Cartesian
+#: default: 50 % maps to 31 mm/s and 12.9 deg/s, the slower governs; the original used 3.6 s).
+CART_DEFAULT_SPEED_PCT = 50.0
+
+
+@dataclass(frozen=True)
+class Timing:
+    """The timing a move is sent and planned with: exactly one of ``duration_s`` (s) and
+    ``speed_pct`` (%), and ``accel_pct`` (%, joint-space moves with a speed only)."""
+
+    duration_s: float | None
+    speed_pct: float | None
+    accel_pct: float | None
+
+
+def effective_timing(cmd: Command) -> Timing:
+    """Resolve the language's defaults for a move, the ONE place both the dry run and the
+    interpreter take them from (so the controller plans exactly what the dry run planned).
+
+    * ``t`` given: the duration; ``v``/``a`` are ignored (t overrides them);
+    * otherwise ``v`` (default: MoveJoint 45 %, MovePose 50 %, Cartesian moves 50 %) and for
+      joint-space moves ``a`` (default: MoveJoint 27 %, MovePose 30 %).
+    """
+    from parolkit.motion.planner import MOVEJOINT_DEFAULT_PCT, MOVEPOSE_DEFAULT_PCT
+
+    if cmd.duration_s is not None:
+        return Timing(cmd.duration_s, None, None)
+    if isinstance(cmd, (MoveJoint, MovePose)):
+        v_def, a_def = MOVEJOINT_DEFAULT_PCT if isinstance(cmd, MoveJoint) else MOVEPOSE_DEFAULT_PCT
+        return Timing(
+            None,
+            cmd.speed_pct if cmd.speed_pct is not None else v_def,
+            cmd.accel_pct if cmd.accel_pct is not None else a_def,
+        )
+    return Timing(None, cmd.speed_pct if cmd.speed_pct is not None else CART_DEFAULT_SPEED_PCT, None)
+
+
 def motion_move(cmd: Command):
     """The :mod:`parolkit.motion` move for a motion command (None for other commands).
 
@@ -199,14 +237,14 @@ def motion_move(cmd: Command):
         return motion.SpeedJointMove(cmd.speeds_deg_s, cmd.duration_s)
     if not isinstance(cmd, (MoveJoint, MovePose, MoveCart, MoveCartRelTRF)):
         return None
-    timed = cmd.duration_s is not None
+    timing = effective_timing(cmd)
     common = dict(
-        duration_s=cmd.duration_s,
-        speed_pct=None if timed else cmd.speed_pct,
+        duration_s=timing.duration_s,
+        speed_pct=timing.speed_pct,
         profile=cmd.profile.value if cmd.profile is not None else None,
         tracking=cmd.tracking.value,
     )
-    accel = None if timed else cmd.accel_pct
+    accel = timing.accel_pct
     if isinstance(cmd, MoveJoint):
         return motion.JointMove(cmd.joints_deg, accel_pct=accel, **common)
     if isinstance(cmd, MovePose):

@@ -303,31 +303,26 @@ class Interpreter:
         self._set_state(InterpreterState.RUNNING)
 
     def _execute(self, cmd: Command) -> None:
+        from parolkit.script.dryrun import effective_timing
+
         r = self.robot
         if isinstance(cmd, Delay):
             r.delay(cmd.seconds, wait=True, timeout=None)
-        elif isinstance(cmd, MoveJoint):
-            timed = cmd.duration_s is not None
-            r.move_joints(
-                list(cmd.joints_deg), duration=cmd.duration_s,
-                speed=None if timed else cmd.speed_pct, accel=None if timed else cmd.accel_pct,
-                profile=cmd.profile.value if cmd.profile else None, tracking=cmd.tracking.value,
-                wait=True, timeout=None,
-            )
-        elif isinstance(cmd, MovePose):
-            timed = cmd.duration_s is not None
-            r.move_pose(
-                list(cmd.pose), duration=cmd.duration_s,
-                speed=None if timed else cmd.speed_pct, accel=None if timed else cmd.accel_pct,
+        elif isinstance(cmd, (MoveJoint, MovePose)):
+            tm = effective_timing(cmd)
+            fn = r.move_joints if isinstance(cmd, MoveJoint) else r.move_pose
+            values = cmd.joints_deg if isinstance(cmd, MoveJoint) else cmd.pose
+            fn(
+                list(values), duration=tm.duration_s, speed=tm.speed_pct, accel=tm.accel_pct,
                 profile=cmd.profile.value if cmd.profile else None, tracking=cmd.tracking.value,
                 wait=True, timeout=None,
             )
         elif isinstance(cmd, (MoveCart, MoveCartRelTRF)):
-            timed = cmd.duration_s is not None
+            tm = effective_timing(cmd)
             fn = r.move_cart if isinstance(cmd, MoveCart) else r.move_cart_rel_trf
             values = cmd.pose if isinstance(cmd, MoveCart) else cmd.delta
             fn(
-                list(values), duration=cmd.duration_s, speed=None if timed else cmd.speed_pct,
+                list(values), duration=tm.duration_s, speed=tm.speed_pct,
                 profile=cmd.profile.value if cmd.profile else None, tracking=cmd.tracking.value,
                 wait=True, timeout=None,
             )

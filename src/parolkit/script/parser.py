@@ -441,9 +441,9 @@ def _move_builder(cls, values_what: str, *, joint_values: bool, allow_va: bool, 
             if slot == "t":
                 duration = ln.ranged(target.value, "t", 0.0, ln.limits.max_duration_s, "s", lo_open=True)
             elif slot == "v":
-                speed = ln.ranged(target.value, "v", 0.0, 100.0, "%")
+                speed = ln.ranged(target.value, "v", 0.0, 100.0, "%", lo_open=True)
             elif slot == "a":
-                accel = ln.ranged(target.value, "a", 0.0, 100.0, "%")
+                accel = ln.ranged(target.value, "a", 0.0, 100.0, "%", lo_open=True)
             elif slot == "profile":
                 w = target.word
                 if w not in _PROFILE_WORDS:
@@ -454,10 +454,6 @@ def _move_builder(cls, values_what: str, *, joint_values: bool, allow_va: bool, 
         if duration is not None and (speed is not None or accel is not None):
             which = " and ".join(k + "=" for k in ("v", "a") if k in seen)
             ln.warn(seen["t"].col, f"t= overrides {which}: the move takes exactly {format_number(duration)} s")
-        if duration is None and speed == 0.0:
-            ln.warn(seen["v"].col, "v=0 is the slowest joint speed (100 steps/s): this move will be very slow")
-        if duration is None and accel == 0.0:
-            ln.warn(seen["a"].col, "a=0 is the lowest acceleration (100 steps/s^2): this move will be very slow")
         fields = dict(line=ln.line, col=col, text=ln.text, speed_pct=speed, accel_pct=accel,
                       duration_s=duration, profile=profile, tracking=tracking)
         if ln.errors:
