@@ -37,6 +37,7 @@ def gui_url():
     log_path = ARTIFACTS / f"gui-{port}.log"
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     env["PYTHONPATH"] = str(REPO_ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
+    env.pop("PYTEST_CURRENT_TEST", None)  # NiceGUI would switch to its own screen-test mode
     with open(log_path, "wb") as log:
         proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", "--sim", "--http-port", str(port),
                                  "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT)

