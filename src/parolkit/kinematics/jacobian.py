@@ -34,9 +34,13 @@ def jacobian(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray
 
 
 def manipulability(joints_deg: object, tool: "str | Tool | None" = None) -> float:
-    """Yoshikawa manipulability ``sqrt(det(J J^T))`` (0 at a singularity; m^3 for this 6x6 J)."""
+    """Yoshikawa manipulability ``sqrt(det(J J^T))`` (0 at a singularity).
+
+    For the square 6x6 Jacobian this equals ``|det J|`` (computed that way: it keeps full
+    precision near zero).  Units: m^3 (three linear rows in m/s per rad/s).
+    """
     jac = jacobian(joints_deg, tool)
-    return float(math.sqrt(max(float(np.linalg.det(jac @ jac.T)), 0.0)))
+    return abs(float(np.linalg.det(jac)))
 
 
 def _fold(angle_deg: float) -> float:

@@ -63,10 +63,26 @@ PHI3 = math.atan2(D4, A3)
 #: The original commander's TCP in the flange frame (from DH row 6): (a6, 0, -d6) metres.
 TOOL_DEFAULT_T = (_dh[5].a, 0.0, -_dh[5].d)
 
+_RAD = 180.0 / math.pi
+
+
+def _inner_rad(limit_deg: float, upper: bool) -> float:
+    """The limit in radians, nudged inward (by ulps) so ``value * (180 / pi)`` of any angle
+    inside it stays inside the degree limit after rounding."""
+    r = math.radians(limit_deg)
+    if upper:
+        while r * _RAD > limit_deg:
+            r = math.nextafter(r, -math.inf)
+    else:
+        while r * _RAD < limit_deg:
+            r = math.nextafter(r, math.inf)
+    return r
+
+
 _safe = PAROL6.safe_limits_deg
 #: Safe joint limits in radians (the range IK results must lie in).
-LIM_LO = tuple(math.radians(v) for v in _safe[:, 0])
-LIM_HI = tuple(math.radians(v) for v in _safe[:, 1])
+LIM_LO = tuple(_inner_rad(float(v), False) for v in _safe[:, 0])
+LIM_HI = tuple(_inner_rad(float(v), True) for v in _safe[:, 1])
 
 #: Weights of the joint distance used to pick the solution nearest the seed: the squared
 #: inverse of each joint's maximum speed, so the distance is a travel-time measure
