@@ -210,9 +210,21 @@ def test_multi_joint_jog_moves_every_named_joint_at_its_jog_speed():
     assert tr.speeds[0, 1] == 0 and len(tr) == 51
 
 
-def test_jog_past_a_limit_is_refused():
-    with pytest.raises(PlanningError, match="J1 would reach"):
-        plan(JointJog.from_index(0, 100, duration_s=10), STANDBY)
+def test_jog_toward_a_limit_stops_exactly_at_it_and_says_so():
+    tr = plan(JointJog.from_index(0, 100, duration_s=10), STANDBY)
+    hi = PAROL6.safe_limits_deg[0, 1]
+    assert tr.final_deg[0] == pytest.approx(hi, abs=1 / SPD[0])
+    assert tr.positions[:, 0].max() <= PAROL6.limits_steps[0][1]
+    assert tr.duration == pytest.approx((hi - 90) / (1500 / SPD[0]), abs=0.021)  # + the zero-speed tick
+    assert np.all(tr.speeds[-1] == 0)
+    assert any("stopped at the upper limit of J1" in n for n in tr.notes)
+    # already at the limit: nothing moves
+    at = STANDBY.copy()
+    at[0] = hi
+    tr2 = plan(JointJog.from_index(0, 50, duration_s=1), at)
+    assert len(tr2) == 1 and np.all(tr2.speeds == 0) and "stopped" in tr2.notes[0]
+    # jogging away from the limit is fine
+    assert plan(JointJog.from_index(6, 50, duration_s=0.5), at).final_deg[0] < hi
 
 
 @pytest.mark.parametrize(

@@ -353,7 +353,11 @@ def _constant_speed(
     rate: float, *, jog: bool, notes: Sequence[str] = (),
 ) -> Trajectory:
     """Constant joint speeds for ``T`` s (the last tick scaled so the integral is exact), then
-    a zero-speed sample.  Positions are where the joints are expected at each tick."""
+    a zero-speed sample.  Positions are where the joints are expected at each tick.
+
+    A jog (``jog=True``) that would leave a joint's range stops exactly at the limit and says
+    so in the notes (``"stopped at the upper limit of J2 ..."``); a SpeedJoint is refused.
+    """
     name = getattr(move, "name", type(move).__name__)
     spd = model.steps_per_deg
     sp_f = v_deg_s * spd
@@ -367,23 +371,38 @@ def _constant_speed(
             f"exceeds the {kind} {mx[j]:.0f} steps/s ({mx[j] / spd[j]:.3f} deg/s)",
             time_s=1.0 / rate, joint=j, value=float(v_deg_s[j]),
         )
-    # where would the joints leave their range?  Refuse with the longest allowed duration.
+    # where would the joints leave their range?  Jogs stop there (with a note), other moves
+    # are refused with the longest allowed duration.
     lim = model.safe_limits_deg
     end = start + v_deg_s * T
     bad = np.nonzero((end < lim[:, 0]) | (end > lim[:, 1]))[0]
+    notes = list(notes)
     if len(bad):
         with np.errstate(divide="ignore", invalid="ignore"):
             bound = np.where(v_deg_s > 0, lim[:, 1], lim[:, 0])
             t_hit = np.where(v_deg_s != 0, (bound - start) / v_deg_s, np.inf)
         j = int(bad[np.argmin(t_hit[bad])])
         th = max(0.0, float(t_hit[j]))
-        raise PlanningError(
+        side = "upper" if v_deg_s[j] > 0 else "lower"
+        if jog:
+            notes.append(f"stopped at the {side} limit of {JOINT_NAMES[j]} "
+                         f"({bound[j]:.3f} deg) after {th:.3f} s")
+            if th * rate < 1e-6:
+                t = np.array([1.0 / rate])
+                pos = np.rint(start * spd).astype(np.int64)[None, :]
+                return Trajectory(t=t, positions=pos, speeds=np.zeros((1, 6), dtype=np.int64),
+                                  commands=np.full(1, Tracking.SPEED.value, dtype=np.uint8),
+                                  rate_hz=rate, move=move, notes=tuple(notes), start_deg=start,
+                                  model=model)
+            T = th
+        else:
+            raise PlanningError(
             name,
-            f"{JOINT_NAMES[j]} would reach {end[j]:.3f} deg, beyond its range "
-            f"{lim[j, 0]:.3f} .. {lim[j, 1]:.3f} deg (it gets there after {th:.3f} s; "
-            f"the longest allowed duration is {math.floor(th * rate) / rate:.2f} s)",
-            time_s=th, joint=j, value=float(end[j]),
-        )
+                f"{JOINT_NAMES[j]} would reach {end[j]:.3f} deg, beyond its range "
+                f"{lim[j, 0]:.3f} .. {lim[j, 1]:.3f} deg (it gets there after {th:.3f} s; "
+                f"the longest allowed duration is {math.floor(th * rate) / rate:.2f} s)",
+                time_s=th, joint=j, value=float(end[j]),
+            )
     n_full = int(math.floor(T * rate + 1e-9))
     frac = T * rate - n_full
     if frac < 1e-6:

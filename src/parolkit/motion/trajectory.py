@@ -63,6 +63,10 @@ class Trajectory:
                 f"{self.positions.shape}, speeds {self.speeds.shape}, commands {self.commands.shape}"
             )
 
+    def __repr__(self) -> str:
+        return (f"Trajectory({self.name}, {len(self)} samples at {self.rate_hz:g} Hz, "
+                f"{self.duration:.3f} s, notes={list(self.notes)!r})")
+
     def __len__(self) -> int:
         return len(self.t)
 
