@@ -99,3 +99,20 @@ def test_send_control_without_a_server_raises_control_error():
             send_control(os.path.join(d, "missing.ctl"), "status")
     with pytest.raises(ParolkitValueError, match="text"):
         send_control("/tmp/x.ctl", "  ")
+
+
+def test_pty_and_control_servers_check_their_arguments(tmp_path):
+    from parolkit.board import PtyBoardServer
+
+    with pytest.raises(ParolkitValueError, match="emulator"):
+        PtyBoardServer("board", tmp_path / "p6")  # type: ignore[arg-type]
+    with pytest.raises(ParolkitValueError, match="link_path"):
+        PtyBoardServer(BoardEmulator(clock="virtual"), "")
+    with pytest.raises(ParolkitValueError, match="does not exist"):
+        PtyBoardServer(BoardEmulator(clock="virtual"), tmp_path / "missing" / "p6")
+    with pytest.raises(ParolkitValueError, match="emulator"):
+        ControlServer(None, tmp_path / "c.ctl")  # type: ignore[arg-type]
+    regular = tmp_path / "file.ctl"
+    regular.write_text("x")
+    with pytest.raises(ControlError, match="not a socket"):
+        ControlServer(BoardEmulator(clock="virtual"), regular).start()

@@ -562,3 +562,34 @@ def test_unknown_fault_option_is_named():
     emu = BoardEmulator(clock="virtual")
     with pytest.raises(ParolkitValueError, match="jitter"):
         emu.set_faults(jitter=0.1)
+
+
+def test_homing_ignores_the_estop():
+    emu, pc = make(homing_speedup=50, estop_pressed=True)
+    st, _ = home(pc)
+    assert st.positions == STANDBY and st.estop_pressed
+
+
+def test_ssg48_j5_offset_changes_only_the_final_j5_move():
+    emu, pc = make(homing_speedup=100, j5_offset_steps=8035)
+    st, _ = home(pc)
+    assert st.positions == STANDBY
+    assert emu.physical_positions[4] == -8900 + 8035
+
+
+def test_start_homed_and_power_cycle():
+    emu, pc = make(start_homed=True)
+    st = pc.send()
+    assert st.positions == STANDBY and st.homed == 0xFF
+    emu.power_cycle()
+    st = pc.send()
+    assert st.positions == (0,) * 6 and st.homed == 0x03
+    assert emu.physical_positions == STANDBY  # the arm did not move
+
+
+def test_process_frame_is_the_decoded_path_of_write_and_read():
+    emu, pc = make()
+    st = emu.process_frame(CommandFrame(command=BoardCommand.JOG, speeds=(500, 0, 0, 0, 0, 0)))
+    assert st.xtr == 123 and st.speeds[0] == 500
+    emu.advance(0.2)
+    assert emu.status_frame().positions[0] == pytest.approx(100, abs=1)

@@ -111,9 +111,10 @@ def run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGINT, _on_signal)
     signal.signal(signal.SIGTERM, _on_signal)
     try:
+        control.start()  # before the pty: once the link path exists, the control socket works
         server.start()
-        control.start()
     except (PtyServerError, ControlError) as exc:
+        control.stop()
         server.stop()
         print(f"board-sim: {exc}", file=sys.stderr)
         return 2
