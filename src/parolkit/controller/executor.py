@@ -115,6 +115,7 @@ class Executor:
         self._pending_code: int | None = None
         self._stream_cart: Job | None = None
         self._measured: tuple[float, ...] | None = None
+        self._now = 0.0
         self._homed = False
         self._spd = tuple(float(v) for v in model.steps_per_deg)
         self._limits = tuple((int(lo), int(hi)) for lo, hi in model.limits_steps)
@@ -431,7 +432,7 @@ class Executor:
 
     def _stream_replace(self, job: Job) -> None:
         """(loop thread) make a streamed jog the active job, superseding the previous one."""
-        now = time.monotonic()
+        now = self._now
         with self._lock:
             if job.terminal is not None:
                 return
@@ -541,6 +542,10 @@ class Executor:
             while self.queue:
                 job = self.queue[0]
                 cmd = job.command
+                if cmd.is_motion and not isinstance(cmd, (C.Jog, C.MultiJog)) and not self._homed:
+                    self.queue.popleft()
+                    self._ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
+                    continue
                 if not job.planned:
                     self._plan_cv.notify_all()
                     return
@@ -548,10 +553,6 @@ class Executor:
                     self.queue.popleft()
                     self._ack(job, AckStatus.FAILED, job.plan_error)
                     self._plan_cv.notify_all()
-                    continue
-                if cmd.is_motion and not isinstance(cmd, (C.Jog, C.MultiJog)) and not self._homed:
-                    self.queue.popleft()
-                    self._ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
                     continue
                 if needs_plan(cmd):
                     meas = self._measured
@@ -576,6 +577,7 @@ class Executor:
         link_up: bool,
     ) -> Step:
         """This tick's frame content.  Runs posted actions first.  Loop thread only."""
+        self._now = now
         while True:
             try:
                 action = self._requests.get_nowait()

@@ -1,0 +1,353 @@
+"""Controller core, tick by tick: the real ControlLoop tick, executor, guard and planner
+thread against the real board emulator on a virtual clock (deterministic board time)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from parolkit.board import BoardEmulator
+from parolkit.controller.executor import Executor
+from parolkit.controller.guard import SafetyGuard
+from parolkit.controller.loop import ControlLoop
+from parolkit.controller.stats import Histogram
+from parolkit.protocol import commands as C
+from parolkit.protocol.commands import AckStatus, parse_datagram
+from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperMode, StatusFrame
+from parolkit.robot import PAROL6, deg_to_steps
+from parolkit.transport.emulated import EmulatorTransport
+
+RATE = 100.0
+
+
+class Rig:
+    """One controller core: ticks are driven by the test; the board advances 1/RATE per tick."""
+
+    def __init__(self, *, homed: bool = True, queue_size: int = 16, **emu_kw) -> None:
+        self.emu = BoardEmulator(clock="virtual", start_homed=homed, homing_speedup=200, **emu_kw)
+        self.transport = EmulatorTransport(emulator=self.emu)
+        self.transport.open()
+        self.acks: list[tuple[str | None, str, AckStatus, str]] = []
+        self.ex = Executor(model=PAROL6, rate_hz=RATE, queue_size=queue_size, watchdog_s=0.02,
+                           send_ack=lambda j, s, d: self.acks.append((j.command_id, j.name, s, d)))
+        self.guard = SafetyGuard(PAROL6, RATE)
+        self.loop = ControlLoop(transport=self.transport, executor=self.ex, guard=self.guard, rate_hz=RATE,
+                                link_timeout_ticks=3, reply_wait_fraction=0.0)
+        self.frames: list[CommandFrame] = []
+        self.now = 0.0
+        self.ex.start()
+        self.tick(2)
+
+    def close(self) -> None:
+        self.ex.stop()
+
+    def tick(self, n: int = 1) -> None:
+        for _ in range(n):
+            self.loop._tick(self.now)
+            if self.loop.last_frame is not None:
+                self.frames.append(self.loop.last_frame)
+            self.loop.tick_count += 1
+            self.now += 1.0 / RATE
+            if self.emu.plugged:
+                self.emu.advance(1.0 / RATE)
+
+    def submit(self, text: str) -> None:
+        p = parse_datagram(text)
+        self.ex.submit(self.ex.new_job(p.command, p.command_id, ("127.0.0.1", 1)))
+
+    def statuses(self, cid: str) -> list[AckStatus]:
+        return [a[2] for a in self.acks if a[0] == cid]
+
+    def run_until(self, cond, max_ticks: int = 2000, wall_s: float = 20.0) -> None:
+        end = time.monotonic() + wall_s
+        for _ in range(max_ticks):
+            if cond():
+                return
+            self.tick()
+            if not self.ex.queue or self.ex.active is not None:
+                continue
+            time.sleep(0.001)  # let the planner thread run
+            if time.monotonic() > end:
+                break
+        assert cond(), f"condition not met; acks: {self.acks[-5:]}"
+
+    def terminal(self, cid: str) -> AckStatus | None:
+        for s in self.statuses(cid):
+            if s.terminal:
+                return s
+        return None
+
+    @property
+    def angles(self) -> np.ndarray:
+        return np.asarray(self.loop.status.positions) / PAROL6.steps_per_deg
+
+
+@pytest.fixture
+def rig():
+    r = Rig()
+    yield r
+    r.close()
+
+
+def test_movejoint_acks_queued_executing_completed_and_reaches_target(rig):
+    rig.submit("aaaa0001|MOVEJOINT|90|-80|170|10|-10|170|1|None")
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    assert rig.statuses("aaaa0001") == [AckStatus.QUEUED, AckStatus.EXECUTING, AckStatus.COMPLETED]
+    assert np.allclose(rig.angles, [90, -80, 170, 10, -10, 170], atol=0.05)
+    assert any(f.command == BoardCommand.GOTO for f in rig.frames)
+
+
+def test_commands_run_in_order_each_planned_from_the_previous_end(rig):
+    rig.submit("aaaa0001|MOVEJOINT|80|-90|180|0|0|180|0.5|None")
+    rig.submit("aaaa0002|DELAY|0.1")
+    rig.submit("aaaa0003|MOVEJOINT|80|-90|170|0|0|180|1.5|None")
+    rig.run_until(lambda: rig.terminal("aaaa0003") is not None)
+    done = [a[0] for a in rig.acks if a[2] is AckStatus.COMPLETED]
+    assert done == ["aaaa0001", "aaaa0002", "aaaa0003"], rig.acks
+    assert np.allclose(rig.angles, [80, -90, 170, 0, 0, 180], atol=0.05)
+
+
+def test_stop_mid_move_cancels_active_and_queued_and_holds(rig):
+    rig.submit("aaaa0001|MOVEJOINT|60|-90|180|0|0|180|2|None")
+    rig.submit("aaaa0002|MOVEJOINT|90|-90|180|0|0|180|2|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(50)
+    rig.ex.post(rig.ex.do_stop)
+    rig.tick(3)
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert rig.terminal("aaaa0002") is AckStatus.CANCELLED
+    held = rig.angles.copy()
+    rig.tick(30)
+    assert np.allclose(rig.angles, held, atol=0.5)
+    assert rig.frames[-1].command == BoardCommand.IDLE
+
+
+def test_estop_press_cancels_sends_disable_every_tick_and_latches_until_release_and_enable(rig):
+    rig.submit("aaaa0001|MOVEJOINT|60|-90|180|0|0|180|2|None")
+    rig.submit("aaaa0002|DELAY|1")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(20)
+    rig.emu.set_estop(True)
+    rig.tick(3)
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert rig.terminal("aaaa0002") is AckStatus.CANCELLED
+    rig.tick(10)
+    assert all(f.command == BoardCommand.DISABLE for f in rig.frames[-10:])
+    rig.submit("aaaa0003|DELAY|0.1")
+    assert rig.terminal("aaaa0003") is AckStatus.FAILED
+    rig.emu.set_estop(False)
+    rig.tick(10)
+    # released but not re-enabled: still latched, still DISABLE
+    assert rig.ex.estop_latched
+    assert all(f.command == BoardCommand.DISABLE for f in rig.frames[-5:])
+    rig.ex.post(rig.ex.do_enable)
+    rig.tick(3)
+    assert not rig.ex.estop_latched
+    assert any(f.command == BoardCommand.ENABLE for f in rig.frames[-3:])
+    assert rig.frames[-1].command == BoardCommand.IDLE
+
+
+def test_software_estop_latches_like_the_hardware_one(rig):
+    rig.ex.post(lambda: rig.ex.do_estop("test"))
+    rig.tick(5)
+    assert all(f.command == BoardCommand.DISABLE for f in rig.frames[-4:])
+    rig.ex.post(rig.ex.do_enable)
+    rig.tick(2)
+    assert not rig.ex.estop_latched
+
+
+def test_unplugged_link_cancels_motion_within_three_ticks_and_reconnects(rig):
+    rig.submit("aaaa0001|MOVEJOINT|60|-90|180|0|0|180|2|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(10)
+    rig.emu.unplug()
+    rig.tick(3)
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert "link lost" in rig.acks[-1][3]
+    assert not rig.loop.link_up and rig.ex.error
+    rig.emu.replug()
+    rig.loop._next_reconnect = 0.0
+    end = time.monotonic() + 5
+    while not rig.loop.link_up and time.monotonic() < end:
+        rig.tick()
+        time.sleep(0.01)
+    assert rig.loop.link_up
+    rig.tick(5)
+    assert rig.ex.active is None  # never resumed
+
+
+def test_silent_board_counts_as_link_loss_after_link_timeout_ticks(rig):
+    rig.submit("aaaa0001|DELAY|2")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.emu.set_faults(silent=True)
+    rig.tick(5)
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert "no status frame" in rig.ex.error
+
+
+def test_motion_is_refused_until_homed_but_jog_is_allowed():
+    r = Rig(homed=False)
+    try:
+        r.submit("aaaa0001|MOVEJOINT|60|-90|180|0|0|180|1|None")
+        r.submit("aaaa0002|JOG|0|20|0.2|None")
+        r.run_until(lambda: r.terminal("aaaa0002") is not None)
+        assert r.terminal("aaaa0001") is AckStatus.FAILED
+        assert "not homed" in [a for a in r.acks if a[0] == "aaaa0001"][-1][3]
+        assert r.terminal("aaaa0002") is AckStatus.COMPLETED
+        jog = [f for f in r.frames if f.command == BoardCommand.JOG]
+        assert jog and any(f.speeds[0] > 0 for f in jog)
+        assert not any(f.command == BoardCommand.GOTO for f in r.frames)
+    finally:
+        r.close()
+
+
+def test_home_sends_100_once_then_idle_and_completes_at_standby():
+    r = Rig(homed=False)
+    try:
+        r.submit("aaaa0001|HOME")
+        r.run_until(lambda: r.terminal("aaaa0001") is not None, max_ticks=20000)
+        assert r.terminal("aaaa0001") is AckStatus.COMPLETED
+        assert sum(f.command == BoardCommand.HOME for f in r.frames) == 1
+        assert tuple(r.loop.status.positions) == PAROL6.standby_steps
+    finally:
+        r.close()
+
+
+def test_speed_streams_end_with_a_zero_speed_frame(rig):
+    rig.submit("aaaa0001|SPEEDJOINT|5|0|0|0|0|0|0.2")
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    jogs = [f for f in rig.frames if f.command == BoardCommand.JOG]
+    assert jogs[-1].speeds == (0, 0, 0, 0, 0, 0)
+    assert any(f.speeds[0] > 0 for f in jogs)
+
+
+def test_stop_during_a_speed_stream_sends_zero_speed_first(rig):
+    rig.submit("aaaa0001|JOG|0|50|2|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(5)
+    n = len(rig.frames)
+    rig.ex.post(rig.ex.do_stop)
+    rig.tick(2)
+    after = rig.frames[n:]
+    assert after[0].command == BoardCommand.JOG and after[0].speeds == (0,) * 6
+
+
+def test_stream_jog_watchdog_stops_motion_within_two_ticks(rig):
+    rig.ex.post(lambda: rig.ex.set_stream_mode(True))
+    rig.tick()
+    rig.submit("aaaa0001|JOG|0|50|5|None")
+    rig.tick(1)
+    assert AckStatus.EXECUTING in rig.statuses("aaaa0001")
+    # updates stop: rig.now advances 10 ms per tick, watchdog 20 ms
+    rig.tick(3)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
+    assert rig.frames[-1].speeds == (0,) * 6
+
+
+def test_newer_stream_jog_supersedes_the_previous_one(rig):
+    rig.ex.post(lambda: rig.ex.set_stream_mode(True))
+    rig.tick()
+    rig.submit("aaaa0001|JOG|0|50|5|None")
+    rig.tick()
+    rig.submit("aaaa0002|JOG|1|50|5|None")
+    rig.tick()
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
+    assert AckStatus.EXECUTING in rig.statuses("aaaa0002")
+    assert rig.frames[-1].speeds[1] != 0 and rig.frames[-1].speeds[0] == 0
+
+
+def test_jog_stops_at_the_joint_limit(rig):
+    rig.submit("aaaa0001|JOG|0|100|60|None")  # J1 positive for a minute: hits +123 deg
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None, max_ticks=6000)
+    detail = [a for a in rig.acks if a[0] == "aaaa0001"][-1][3]
+    assert "upper limit of J1" in detail
+    assert rig.angles[0] <= PAROL6.limits_deg[0][1]
+    assert rig.guard.violations == 0  # the jog stopped itself before the guard had to
+
+
+def test_queue_full_refuses_with_failed_never_drops():
+    r = Rig(queue_size=3)
+    try:
+        for i in range(5):
+            r.submit(f"aaaa000{i}|DELAY|1")
+        assert [r.terminal(f"aaaa000{i}") for i in range(5)][3:] == [AckStatus.FAILED, AckStatus.FAILED]
+        assert "queue full" in r.acks[-1][3]
+    finally:
+        r.close()
+
+
+def test_gripper_calibrate_is_sent_in_exactly_one_frame(rig):
+    rig.submit("aaaa0001|ELECTRICGRIPPER|calibrate")
+    rig.submit("aaaa0002|PNEUMATICGRIPPER|close|2")
+    rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
+    rig.tick(5)
+    assert sum(f.gripper_mode == GripperMode.CALIBRATE for f in rig.frames) == 1
+    assert rig.frames[-1].io & 0x10  # OUT2 on
+
+
+def test_plan_failure_is_reported_as_failed_when_its_turn_comes(rig):
+    rig.submit("aaaa0001|MOVEPOSE|900|0|0|0|0|0|1|None")  # far out of reach
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    assert rig.terminal("aaaa0001") is AckStatus.FAILED
+
+
+# ---------------------------------------------------------------------------------- guard
+
+
+def _status(pos=PAROL6.standby_steps, io=0x0F) -> StatusFrame:
+    return StatusFrame(positions=tuple(pos), homed=0xFF, io=io)
+
+
+def test_guard_replaces_out_of_limit_positions_and_names_the_joint():
+    g = SafetyGuard(PAROL6, RATE)
+    st = _status()
+    bad = list(PAROL6.standby_steps)
+    bad[1] = PAROL6.limits_steps[1][1] + 5
+    res = g.check(CommandFrame(positions=tuple(bad), command=BoardCommand.GOTO), st, estop=False, homed=True)
+    assert res.frame.command == BoardCommand.IDLE
+    assert "J2 target" in res.violation and "outside the limits" in res.violation
+
+
+def test_guard_refuses_position_frames_before_homing_and_jumps():
+    g = SafetyGuard(PAROL6, RATE)
+    st = _status()
+    f = CommandFrame(positions=PAROL6.standby_steps, command=BoardCommand.GOTO)
+    assert "until the robot is homed" in g.check(f, st, estop=False, homed=False).violation
+    far = list(PAROL6.standby_steps)
+    far[0] += 3000
+    res = g.check(CommandFrame(positions=tuple(far), command=BoardCommand.GOTO), st, estop=False, homed=True)
+    assert "would jump" in res.violation
+
+
+def test_guard_refuses_speeds_above_the_maximum_and_turns_estop_into_disable():
+    g = SafetyGuard(PAROL6, RATE)
+    st = _status()
+    fast = CommandFrame(positions=PAROL6.standby_steps, speeds=(7000, 0, 0, 0, 0, 0), command=BoardCommand.JOG)
+    res = g.check(fast, st, estop=False, homed=True)
+    assert res.frame.speeds == (0,) * 6 and "exceeds the maximum" in res.violation
+    res = g.check(CommandFrame(command=BoardCommand.GOTO, positions=PAROL6.standby_steps), st, estop=True, homed=True)
+    assert res.frame.command == BoardCommand.DISABLE
+
+
+def test_guard_never_sends_home_twice_in_a_row():
+    g = SafetyGuard(PAROL6, RATE)
+    st = _status()
+    assert g.check(CommandFrame(command=BoardCommand.HOME), st, estop=False, homed=False).violation is None
+    assert "one frame only" in g.check(CommandFrame(command=BoardCommand.HOME), st, estop=False, homed=False).violation
+
+
+# ---------------------------------------------------------------------------------- stats
+
+
+def test_histogram_percentiles_match_numpy_within_one_bin():
+    rng = np.random.default_rng(1)
+    xs = rng.normal(0.010, 0.0005, 5000).clip(0.001)
+    h = Histogram()
+    for x in xs:
+        h.add(float(x))
+    p50, p99 = h.percentiles((50.0, 99.0))
+    assert abs(p50 - np.percentile(xs, 50)) <= 2e-5
+    assert abs(p99 - np.percentile(xs, 99)) <= 2e-5
+    assert h.max == pytest.approx(xs.max())
