@@ -158,7 +158,7 @@ def _number(value: Any, name: str, low: Optional[float] = None, high: Optional[f
         else:
             rng = f"in {low:g}..{high:g}" + (f" (excluding {low:g})" if low_open else "")
         raise ValueError(f"{name} must be {rng}, got {value!r}")
-    return v
+    return value if type(value) is int else v  # ints keep their text form ("90", not "90.0")
 
 
 def _int(value: Any, name: str, low: int, high: int) -> int:

@@ -1,0 +1,18 @@
+from robot_api import move_robot_joints, home_robot, delay_robot, get_robot_joint_angles, control_pneumatic_gripper,get_robot_pose, control_electric_gripper, move_robot_pose,move_robot_cartesian,get_electric_gripper_status,get_robot_io
+import time
+print("Homing robot...") 
+control_electric_gripper(action = "calibrate")
+time.sleep(2)
+control_electric_gripper(action='move', position=100, speed=150, current = 200) 
+print(get_robot_joint_angles())
+print(get_robot_pose())
+print("Moving to new position...") 
+control_pneumatic_gripper("open",1)
+move_robot_joints([90, -90, 160, 12, 12, 180], duration=5.5)
+time.sleep(6)
+move_robot_pose([7, 250, 200, -100, 0, -90], duration=5.5) 
+time.sleep(6)
+move_robot_cartesian([7, 250, 150, -100, 0, -90], speed_percentage=50) 
+delay_robot(0.2)
+print(get_electric_gripper_status())
+print(get_robot_io())

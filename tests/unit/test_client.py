@@ -1,0 +1,640 @@
+"""Client datagrams, replies and errors against a REAL UDP socket standing in for the controller.
+
+``FakeController`` binds 127.0.0.1:0, records every datagram that arrives, answers queries
+the way docs/protocol.md specifies and sends acks to (sender address, ack_port) with a script
+of statuses chosen per command name.  Fast checks; the real controller is exercised in
+tests/integration/test_client_*.py.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import os
+import random
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from parolkit.client import robot_api
+from parolkit.client.async_robot import AsyncRobot
+from parolkit.client.core import AckStatus, Pose, RobotStatus, result_or_raise
+from parolkit.client.errors import (
+    CommandCancelled,
+    CommandFailed,
+    CommandInvalid,
+    CommandTimeout,
+    ControllerUnreachable,
+    ReplyError,
+)
+from parolkit.client.robot import Robot
+from parolkit.errors import ParolkitValueError
+from tests.conftest import free_udp_port
+
+SRC = Path(__file__).resolve().parents[2] / "src"
+
+#: the 4x4 pose the fake reports (metres): the standby pose of the default tool
+STANDBY_MATRIX = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.26257, 1.0, 0.0, 0.0, 0.28875, 0, 0, 0, 1]
+
+STATUS_OBJECT = {
+    "seq": 1234, "time": 12.34, "state": "IDLE", "enabled": True,
+    "homed": [True] * 6, "all_homed": True, "estop_pressed": False, "estop_latched": False,
+    "angles": [90, -90, 180, 0, 0, 180], "pose": [0, 262.57, 288.75, -90, 0, -90],
+    "speeds": [0, 0, 0, 0, 0, 0], "speeds_deg_s": [0, 0, 0, 0, 0, 0],
+    "io": {"in1": 1, "in2": 0, "out1": 0, "out2": 1, "estop": 1},
+    "gripper": {"id": 0, "position": 42, "speed": 1, "current": 300, "status": 0xB1,
+                "object_detection": 1, "activated": True, "calibrated": True, "object_code": 3,
+                "object_detected": False, "error": False},
+    "errors": {"temperature": [False] * 6, "position": [False] * 6, "timeout_error": 100,
+               "message": None},
+    "board": {"connected": True, "simulated": True, "port": "emulated board",
+              "timing_ticks": 7031, "timing_ms": 10.0, "xtr": 255},
+    "loop": {"rate_hz": 100.0, "ticks": 5000, "period_p50_ms": 10.0, "period_p99_ms": 10.4,
+             "period_max_ms": 12.1, "overruns": 0, "rtt_p50_ms": 0.2, "rtt_p99_ms": 0.6,
+             "frames_sent": 5000, "frames_received": 4999, "bytes_dropped": 0},
+    "command": {"id": "1a2b3c4d", "name": "MOVEJOINT", "progress": 0.42},
+    "queue": 2, "stream_mode": False, "tool": "default", "plan_seq": 7,
+}
+
+
+class FakeController:
+    """A real UDP socket that answers like the controller (see module docstring).
+
+    ``acks[name]``: list of (status, details) sent for a command ``name`` (default
+    QUEUED, EXECUTING, COMPLETED); ``delay_s`` between acks; ``speeds`` reported.
+    """
+
+    def __init__(self, ack_port: int | None = None) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.port = self.sock.getsockname()[1]
+        self.ack_port = ack_port if ack_port is not None else free_udp_port()
+        self.received: list[str] = []
+        self.acks: dict[str, list[tuple[str, str]]] = {}
+        self.delay_s = 0.0
+        self.speeds = [0, 0, 0, 0, 0, 0]
+        self.silent = False
+        self.query_error: str | None = None
+        self._stop = False
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        self.sock.settimeout(0.1)
+        while not self._stop:
+            try:
+                data, addr = self.sock.recvfrom(65535)
+            except socket.timeout:
+                continue
+            except OSError:
+                return
+            text = data.decode()
+            self.received.append(text)
+            if not self.silent:
+                self._answer(text, addr)
+
+    def _answer(self, text: str, addr) -> None:
+        parts = text.split("|")
+        cid = None
+        if len(parts[0]) == 8 and not parts[0].isupper():
+            cid, parts = parts[0], parts[1:]
+        name = parts[0].upper()
+        replies = {
+            "GET_ANGLES": "ANGLES|90.0000,-90.0000,180.0007,0.0000,0.0000,180.0000",
+            "GET_POSE": "POSE|" + ",".join(f"{v:.6f}" for v in STANDBY_MATRIX),
+            "GET_IO": "IO|1,0,1,0,1",
+            "GET_GRIPPER": "GRIPPER|0,100,1,200,177,1",
+            "GET_SPEEDS": "SPEEDS|" + ",".join(str(s) for s in self.speeds),
+            "PING": "PONG|SERIAL=1",
+            "GET_STATUS": "STATUS|POSE=" + ",".join(f"{v:.6f}" for v in STANDBY_MATRIX)
+                          + "|ANGLES=90,-90,180,0,0,180|SPEEDS=" + ",".join(str(s) for s in self.speeds)
+                          + "|IO=0,0,0,0,0|GRIPPER=0,0,1,0,0,1|STATE=IDLE|HOMED=1,1,1,1,1,1"
+                          + "|ESTOP=1|QUEUE=0|CMD=None|ERROR=None",
+            "GET_STATUS_JSON": "STATUS_JSON|" + json.dumps(STATUS_OBJECT),
+            "GET_LOOP_STATS": "LOOP_STATS|" + json.dumps(STATUS_OBJECT["loop"]),
+            "GET_QUEUE": 'QUEUE|{"active": {"id": "1a2b3c4d", "name": "MOVEJOINT", "progress": 0.5},'
+                         ' "queued": [{"id": "5e6f7a8b", "name": "DELAY"}]}',
+            "GET_PLAN": 'PLAN|{"seq": 3, "command": "MOVECART", "target_angles": [1, 2, 3, 4, 5, 6],'
+                        ' "tcp_path": [[0, 250, 200], [1, 250, 200]]}',
+            "GET_TOOL": "TOOL|default|-45.25,0,62.8,0,0,0",
+        }
+        if name in replies:
+            reply = f"ERROR|{self.query_error}" if self.query_error else replies[name]
+            self.sock.sendto(reply.encode(), addr)
+            return
+        if name == "SUBSCRIBE":
+            port = int(parts[1])
+            for seq in range(3):
+                obj = dict(STATUS_OBJECT, seq=seq)
+                self.sock.sendto(("STATUS_JSON|" + json.dumps(obj)).encode(), ("127.0.0.1", port))
+            return
+        if cid is None:
+            return
+        script = self.acks.get(name, [("QUEUED", "Position 1 in queue"), ("EXECUTING", ""),
+                                      ("COMPLETED", "")])
+
+        def send() -> None:
+            for status, details in script:
+                if self.delay_s:
+                    time.sleep(self.delay_s)
+                self.sock.sendto(f"ACK|{cid}|{status}|{details}".encode(), (addr[0], self.ack_port))
+
+        threading.Thread(target=send, daemon=True).start()
+
+    def wait_for(self, prefix: str, timeout: float = 2.0) -> list[str]:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            hits = [t for t in self.received if prefix in t]
+            if hits:
+                return hits
+            time.sleep(0.005)
+        return []
+
+    def close(self) -> None:
+        self._stop = True
+        self._thread.join(1.0)
+        self.sock.close()
+
+
+@pytest.fixture
+def fake():
+    f = FakeController()
+    yield f
+    f.close()
+
+
+@pytest.fixture
+def api(fake):
+    """robot_api pointed at the fake (restored afterwards)."""
+    before = (robot_api.SERVER_IP, robot_api.SERVER_PORT, robot_api.ACK_PORT, robot_api.QUERY_TIMEOUT)
+    robot_api.configure(host="127.0.0.1", port=fake.port, ack_port=fake.ack_port)
+    robot_api.QUERY_TIMEOUT = 1.0
+    yield robot_api
+    robot_api.configure(host=before[0], port=before[1], ack_port=before[2])
+    robot_api.QUERY_TIMEOUT = before[3]
+
+
+@pytest.fixture
+def robot(fake):
+    r = Robot(port=fake.port, ack_port=fake.ack_port, timeout=1.0)
+    yield r
+    r.close()
+
+
+# ============================================================================================
+# datagram formats (builders) checked against the controller's own parser
+# ============================================================================================
+
+BUILDS = [
+    (lambda: robot_api.build_move_joint([90, -90, 160, 12, 12, 180], duration=5.5), "MoveJoint"),
+    (lambda: robot_api.build_move_joint([90, -90, 160, 12, 12, 180], speed_percentage=50,
+                                        accel_percentage=30, profile="trap", tracking="speed"), "MoveJoint"),
+    (lambda: robot_api.build_move_pose([7, 250, 200, -100, 0, -90], duration=5.5), "MovePose"),
+    (lambda: robot_api.build_move_cart([7, 250, 150, -100, 0, -90], speed_percentage=50), "MoveCart"),
+    (lambda: robot_api.build_move_cart_rel_trf([-80, 0, 0, 0, 0, 0], duration=2, profile="poly"),
+     "MoveCartRelTRF"),
+    (lambda: robot_api.build_jog(3, 50, duration=1.0), "Jog"),
+    (lambda: robot_api.build_jog(9, 50, distance_deg=10), "Jog"),
+    (lambda: robot_api.build_multijog([0, 8], [10, 20], 1.5), "MultiJog"),
+    (lambda: robot_api.build_cartjog("trf", "rz+", 30, 1), "CartJog"),
+    (lambda: robot_api.build_pneumatic_gripper("open", 1), "PneumaticGripper"),
+    (lambda: robot_api.build_electric_gripper("calibrate"), "ElectricGripper"),
+    (lambda: robot_api.build_electric_gripper("move", 100, 150, 200), "ElectricGripper"),
+    (lambda: robot_api.build_electric_gripper("clear_error"), "ElectricGripper"),
+    (lambda: robot_api.build_delay(0.2), "Delay"),
+    (lambda: robot_api.build_home(), "Home"),
+    (lambda: robot_api.build_speed_joint([1, 2, 3, 4, 5, 6], 1), "SpeedJoint"),
+    (lambda: robot_api.build_wait_input(1, 1, 2.5), "WaitInput"),
+    (lambda: robot_api.build_smooth_circle([0, 250, 200], 30, "XY", "WRF", None, 4), "SmoothCircle"),
+    (lambda: robot_api.build_smooth_arc_center([10, 250, 200, -90, 0, -90], [0, 250, 200],
+                                               speed_percentage=40, clockwise=True), "SmoothArcCenter"),
+    (lambda: robot_api.build_smooth_arc_param([10, 250, 200, -90, 0, -90], 20, 90, "TRF",
+                                              [0, 250, 200, -90, 0, -90], 3), "SmoothArcParam"),
+    (lambda: robot_api.build_smooth_spline([[0, 250, 200, -90, 0, -90], [10, 250, 210, -90, 0, -90]],
+                                           duration=3), "SmoothSpline"),
+    (lambda: robot_api.build_smooth_helix([0, 250, 200], 20, 5, -20, duration=5), "SmoothHelix"),
+    (lambda: robot_api.build_smooth_blend([
+        {"type": "LINE", "end": [1, 2, 3, 4, 5, 6]},
+        {"type": "CIRCLE", "center": [0, 250, 200], "radius": 10, "plane": "XZ", "clockwise": True},
+        {"type": "ARC", "end": [1, 2, 3, 4, 5, 6], "center": [0, 0, 0]},
+        {"type": "SPLINE", "waypoints": [[1, 2, 3, 4, 5, 6], [1, 2, 3, 4, 5, 7]]}]), "SmoothBlend"),
+    (lambda: robot_api.build_smooth_blend([{"type": "LINE", "end": [1, 2, 3, 4, 5, 6]}],
+                                          speed_percentage=30), "SmoothBlend"),
+    (lambda: robot_api.build_stream(True), "StreamMode"),
+    (lambda: robot_api.build_set_tool("flange"), "SetTool"),
+    (lambda: robot_api.build_subscribe(5000, 2), "Subscribe"),
+    (lambda: robot_api.build_unsubscribe(5000), "Unsubscribe"),
+]
+
+
+@pytest.mark.parametrize("build,kind", BUILDS, ids=[k for _, k in BUILDS])
+def test_every_datagram_builder_output_is_accepted_by_the_controller_parser(build, kind):
+    from parolkit.protocol.commands import parse_datagram
+
+    parsed = parse_datagram(("abcd1234|" + build()).encode())
+    assert type(parsed.command).__name__ == kind
+    assert parsed.command_id == "abcd1234"
+
+
+def test_move_joint_datagram_keeps_the_original_field_order_and_the_values():
+    from parolkit.protocol.commands import parse_datagram
+
+    text = robot_api.build_move_joint([90, -90, 160, 12, 12, 180.25], duration=5.5)
+    assert text == "MOVEJOINT|90|-90|160|12|12|180.25|5.5|None"
+    cmd = parse_datagram(text.encode()).command
+    assert tuple(cmd.angles_deg) == (90, -90, 160, 12, 12, 180.25)
+
+
+def test_extension_fields_are_only_appended_when_given():
+    assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], speed_percentage=50) == \
+        "MOVECART|1|2|3|4|5|6|None|50"
+    assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], duration=2, tracking="speed") == \
+        "MOVECART|1|2|3|4|5|6|2|None|None|speed"
+    assert robot_api.build_move_joint([0] * 6, duration=1, accel_percentage=40) == \
+        "MOVEJOINT|0|0|0|0|0|0|1|None|40|None|None"
+
+
+@pytest.mark.parametrize("call,needle", [
+    (lambda: robot_api.move_robot_joints([1, 2, 3], duration=1), "angles must have 6 values"),
+    (lambda: robot_api.move_robot_joints([0] * 6), "either duration"),
+    (lambda: robot_api.move_robot_joints([0] * 6, duration=1, speed_percentage=5), "not both"),
+    (lambda: robot_api.move_robot_joints([0] * 6, speed_percentage=150), "speed_percentage must be in 0..100"),
+    (lambda: robot_api.move_robot_joints([0] * 6, duration=0), "duration must be > 0"),
+    (lambda: robot_api.move_robot_joints([0, 0, float("nan"), 0, 0, 0], duration=1), "angles[2] must be a finite"),
+    (lambda: robot_api.move_robot_pose([0] * 6, duration=-1), "duration must be > 0"),
+    (lambda: robot_api.move_robot_cartesian([0] * 5, speed_percentage=50), "pose must have 6 values"),
+    (lambda: robot_api.jog_robot_joint(12, 50, duration=1), "joint_index must be in 0..11"),
+    (lambda: robot_api.jog_robot_joint(1, 50), "duration"),
+    (lambda: robot_api.jog_multiple_joints([0, 6], [10, 10], 1), "J1 is given in both directions"),
+    (lambda: robot_api.jog_multiple_joints([0, 1], [10], 1), "same length"),
+    (lambda: robot_api.jog_cartesian("XRF", "X+", 50, 1), "frame must be one of WRF, TRF"),
+    (lambda: robot_api.jog_cartesian("WRF", "Q+", 50, 1), "axis must be one of"),
+    (lambda: robot_api.control_pneumatic_gripper("squeeze", 1), "action must be one of open, close"),
+    (lambda: robot_api.control_pneumatic_gripper("open", 3), "port must be in 1..2"),
+    (lambda: robot_api.control_electric_gripper("move", position=256), "position must be in 0..255"),
+    (lambda: robot_api.control_electric_gripper("move", speed=-1), "speed must be in 0..255"),
+    (lambda: robot_api.control_electric_gripper("move", current=1300), "current must be in 100..1000"),
+    (lambda: robot_api.delay_robot(0), "duration must be > 0"),
+    (lambda: robot_api.smooth_circle([0, 0], 10, duration=1), "center must have 3 values"),
+    (lambda: robot_api.smooth_circle([0, 0, 0], 0, duration=1), "radius must be > 0"),
+    (lambda: robot_api.smooth_circle([0, 0, 0], 10, plane="XW", duration=1), "plane must be one of XY, XZ, YZ"),
+    (lambda: robot_api.smooth_spline([[0] * 6], duration=1), "at least 2 poses"),
+    (lambda: robot_api.smooth_blend([{"type": "WIGGLE"}]), "segments[0]['type'] must be one of"),
+    (lambda: robot_api.smooth_blend([{"type": "LINE"}]), "needs the key 'end'"),
+])
+def test_bad_arguments_raise_a_precise_value_error_before_anything_is_sent(api, fake, call, needle):
+    with pytest.raises(ValueError) as info:
+        call()
+    assert needle in str(info.value)
+    time.sleep(0.05)
+    assert fake.received == []
+
+
+def test_configure_validates_and_reports_the_settings():
+    before = robot_api.configure()
+    try:
+        with pytest.raises(ValueError, match="port must be in 1..65535"):
+            robot_api.configure(port=70000)
+        with pytest.raises(ValueError, match="host must be"):
+            robot_api.configure(host="")
+        assert robot_api.configure(port=5001)["port"] == 5001
+    finally:
+        robot_api.configure(**before)
+
+
+# ============================================================================================
+# robot_api round trips
+# ============================================================================================
+
+
+def test_fire_and_forget_sends_exactly_the_original_datagram(api, fake):
+    msg = api.move_robot_joints([90, -90, 160, 12, 12, 180], duration=5.5)
+    assert msg.startswith("Successfully sent command")
+    assert fake.wait_for("MOVEJOINT") == ["MOVEJOINT|90|-90|160|12|12|180|5.5|None"]
+
+
+def test_wait_for_ack_returns_the_terminal_status_with_the_command_id(api, fake):
+    result = api.home_robot(wait_for_ack=True, timeout=2.0)
+    assert result["status"] == "COMPLETED" and result["completed"] is True
+    sent = fake.wait_for("|HOME")[0]
+    assert sent == f"{result['command_id']}|HOME"
+    assert len(result["command_id"]) == 8
+
+
+def test_wait_for_ack_failed_carries_the_controller_reason(api, fake):
+    fake.acks["MOVEPOSE"] = [("QUEUED", "Position 1 in queue"), ("FAILED", "IK failed: out of reach")]
+    result = api.move_robot_pose([500, 0, 0, 0, 0, 0], duration=1, wait_for_ack=True)
+    assert result["status"] == "FAILED"
+    assert result["details"] == "IK failed: out of reach"
+
+
+def test_wait_for_ack_without_a_terminal_ack_reports_timeout(api, fake):
+    fake.acks["DELAY"] = [("QUEUED", "Position 1 in queue"), ("EXECUTING", "")]
+    t0 = time.monotonic()
+    result = api.delay_robot(5, wait_for_ack=True, timeout=0.3)
+    assert 0.25 < time.monotonic() - t0 < 1.5
+    assert result["status"] == "TIMEOUT" and result["completed"] is False
+    assert "last status: EXECUTING" in result["details"]
+
+
+def test_non_blocking_returns_the_id_and_check_command_status_follows_it(api, fake):
+    fake.delay_s = 0.05
+    cmd_id = api.delay_robot(1, wait_for_ack=True, non_blocking=True)
+    assert isinstance(cmd_id, str) and len(cmd_id) == 8
+    deadline = time.monotonic() + 2
+    while (api.check_command_status(cmd_id) or {}).get("status") != "COMPLETED":
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    st = api.check_command_status(cmd_id)
+    assert st["history"] == ["QUEUED", "EXECUTING", "COMPLETED"]
+    assert st["command"] == "DELAY|1"
+    assert api.is_tracking_active() and api.get_tracking_stats()["ack_port"] == fake.ack_port
+
+
+def test_a_busy_ack_port_gives_a_clear_error(api, fake):
+    holder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    holder.bind(("0.0.0.0", 0))
+    busy = holder.getsockname()[1]
+    try:
+        api.configure(ack_port=busy)
+        with pytest.raises(robot_api.AckPortBusyError) as info:
+            api.home_robot(wait_for_ack=True)
+        assert f"UDP port {busy}" in str(info.value) and "configure(ack_port=N)" in str(info.value)
+    finally:
+        holder.close()
+
+
+def test_queries_return_parsed_values(api, fake, capsys):
+    assert api.get_robot_joint_angles() == [90.0, -90.0, 180.0007, 0.0, 0.0, 180.0]
+    pose = api.get_robot_pose()
+    assert pose == pytest.approx([0, 262.57, 288.75, -90, 0, -90], abs=1e-6)
+    assert api.get_robot_pose_matrix()[1] == pytest.approx([0.0, 0.0, 1.0, 0.26257])
+    assert api.get_robot_io(verbose=True) == [1, 0, 1, 0, 1]
+    assert api.get_electric_gripper_status(verbose=True) == [0, 100, 1, 200, 177, 1]
+    out = capsys.readouterr().out
+    assert "IN1   1 | ON" in out and "ESTOP 1 | released" in out and "calibrated=True" in out
+    assert api.get_robot_joint_speeds() == [0.0] * 6
+    assert api.ping_robot() is True
+    assert api.is_robot_stopped() is True and api.is_estop_pressed() is False
+
+
+def test_is_robot_stopped_uses_the_threshold_in_steps_per_second(api, fake):
+    fake.speeds = [0, 0, 1.5, 0, 0, 0]
+    assert api.is_robot_stopped() is True
+    assert api.is_robot_stopped(threshold_speed=1.0) is False
+    fake.speeds = [0, 0, 0, 0, 0, 100]
+    assert api.wait_for_robot_stopped(timeout=0.2, poll_rate=0.05) is False
+    fake.speeds = [0] * 6
+    assert api.wait_for_robot_stopped(timeout=1, poll_rate=0.05) is True
+
+
+def test_get_robot_status_decodes_one_status_datagram(api, fake):
+    st = api.get_robot_status()
+    assert st["angles"] == [90, -90, 180, 0, 0, 180]
+    assert st["pose"] == pytest.approx([0, 262.57, 288.75, -90, 0, -90], abs=1e-6)
+    assert st["estop"] is True  # IO=...,0 in the fake's STATUS: ESTOP pressed
+    assert st["state"] == "IDLE" and st["homed"] == [True] * 6 and st["queue"] == 0
+    assert st["command"] is None and st["error"] is None and st["stopped"] is True
+
+
+def test_a_silent_controller_makes_queries_return_none_with_a_message(api, fake, capsys):
+    fake.silent = True
+    api.QUERY_TIMEOUT = 0.2
+    assert api.get_robot_joint_angles() is None
+    assert "no ANGLES reply" in capsys.readouterr().err
+
+
+def test_matrix_to_pose_matches_spatialmath_rpy_xyz_including_the_singularity():
+    from spatialmath import SE3
+
+    rng = random.Random(7)
+    for i in range(120):
+        abc = [rng.uniform(-179, 179) for _ in range(3)]
+        if i % 5 == 0:
+            abc[1] = rng.choice([-90.0, 90.0])
+        T = SE3.RPY(abc, order="xyz", unit="deg") * SE3(0.1, -0.2, 0.3)
+        want = list(T.t * 1000) + list(T.rpy("deg", "xyz"))
+        assert robot_api.matrix_to_pose(T.A.flatten().tolist()) == pytest.approx(want, abs=1e-9)
+
+
+def test_robot_api_module_needs_only_the_standard_library(tmp_path):
+    (tmp_path / "robot_api.py").write_bytes((SRC / "parolkit" / "client" / "robot_api.py").read_bytes())
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import robot_api; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('parolkit', 'numpy')))")
+    out = subprocess.run([sys.executable, "-I", "-S", "-c", code, str(tmp_path)],
+                         capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+
+
+def test_top_level_robot_api_reexports_every_public_name():
+    import parolkit
+    import robot_api as top
+
+    assert top.__all__ == robot_api.__all__
+    assert all(getattr(top, n) is getattr(robot_api, n) for n in robot_api.__all__
+               if n not in ("SERVER_IP", "SERVER_PORT", "ACK_PORT", "QUERY_TIMEOUT"))
+    assert parolkit.robot_api is robot_api
+    for name in ("move_robot_joints", "move_robot_pose", "move_robot_cartesian", "jog_robot_joint",
+                 "jog_multiple_joints", "jog_cartesian", "control_pneumatic_gripper",
+                 "control_electric_gripper", "delay_robot", "home_robot", "stop_robot_movement",
+                 "smooth_circle", "smooth_arc_center", "smooth_arc_parametric", "smooth_spline",
+                 "smooth_helix", "smooth_blend", "get_robot_pose", "get_robot_pose_matrix",
+                 "get_robot_joint_angles", "get_robot_io", "get_electric_gripper_status",
+                 "get_robot_joint_speeds", "is_robot_stopped", "is_estop_pressed",
+                 "get_robot_status", "wait_for_robot_stopped", "check_command_status"):
+        assert name in top.__all__
+
+
+def test_original_signatures_and_defaults_are_kept():
+    import inspect
+
+    sig = inspect.signature(robot_api.move_robot_joints)
+    assert list(sig.parameters) == ["angles", "duration", "speed_percentage", "wait_for_ack",
+                                    "timeout", "non_blocking"]
+    assert sig.parameters["timeout"].default == 2.0
+    g = inspect.signature(robot_api.control_electric_gripper).parameters
+    assert (g["position"].default, g["speed"].default, g["current"].default) == (255, 150, 500)
+    assert inspect.signature(robot_api.home_robot).parameters["timeout"].default == 30.0
+    assert inspect.signature(robot_api.smooth_blend).parameters["timeout"].default == 15.0
+    assert inspect.signature(robot_api.smooth_circle).parameters["timeout"].default == 10.0
+    assert inspect.signature(robot_api.is_robot_stopped).parameters["threshold_speed"].default == 2.0
+    w = inspect.signature(robot_api.wait_for_robot_stopped).parameters
+    assert (w["timeout"].default, w["poll_rate"].default) == (10.0, 0.1)
+
+
+# ============================================================================================
+# core and Robot
+# ============================================================================================
+
+
+def test_status_object_of_the_protocol_decodes_into_typed_fields():
+    st = RobotStatus.from_json(STATUS_OBJECT)
+    assert st.state == "IDLE" and st.all_homed and st.angles == (90, -90, 180, 0, 0, 180)
+    assert st.pose == Pose(0, 262.57, 288.75, -90, 0, -90)
+    assert st.io.in1 and st.io.out2 and not st.io.estop_pressed
+    assert st.gripper.position == 42 and st.gripper.calibrated and st.gripper.object_code == 3
+    assert st.board.timing_ms == 10.0 and st.loop.period_p99_ms == 10.4
+    assert st.command.name == "MOVEJOINT" and st.command.progress == 0.42 and st.queue == 2
+    bad = dict(STATUS_OBJECT)
+    del bad["angles"]
+    with pytest.raises(ReplyError, match="'angles' is missing"):
+        RobotStatus.from_json(bad)
+
+
+@pytest.mark.parametrize("status,exc", [("FAILED", CommandFailed), ("INVALID", CommandInvalid),
+                                        ("CANCELLED", CommandCancelled)])
+def test_terminal_failures_map_to_exceptions_carrying_the_reason(status, exc):
+    with pytest.raises(exc) as info:
+        result_or_raise("abcd1234", "MOVEJOINT", AckStatus(status), "the reason")
+    assert info.value.reason == "the reason" and info.value.command_id == "abcd1234"
+    assert info.value.command == "MOVEJOINT" and "the reason" in str(info.value)
+    assert result_or_raise("abcd1234", "HOME", AckStatus.COMPLETED, "").ok
+
+
+def test_robot_move_waits_for_completed_and_sends_extension_fields(robot, fake):
+    fake.delay_s = 0.02
+    res = robot.move_joints([90, -90, 180, 0, 0, 180], speed=40, accel=20, profile="ruckig",
+                            tracking="position")
+    assert res.status is AckStatus.COMPLETED and res.command == "MOVEJOINT"
+    assert fake.wait_for("MOVEJOINT")[0] == f"{res.id}|MOVEJOINT|90|-90|180|0|0|180|None|40|20|ruckig|position"
+
+
+def test_robot_wait_false_returns_a_handle_after_the_first_ack(robot, fake):
+    fake.delay_s = 0.1
+    h = robot.move_cart([0, 250, 200, -90, 0, -90], duration=1, wait=False)
+    assert h.command == "MOVECART" and h.status() is AckStatus.QUEUED and not h.done()
+    assert h.result(timeout=2).ok and h.done()
+
+
+def test_robot_failures_raise_with_the_controller_reason(robot, fake):
+    fake.acks["MOVEPOSE"] = [("QUEUED", ""), ("FAILED", "IK failed: out of reach by 12 mm")]
+    with pytest.raises(CommandFailed) as info:
+        robot.move_pose([600, 0, 0, 0, 0, 0], duration=1)
+    assert info.value.reason == "IK failed: out of reach by 12 mm"
+    fake.acks["HOME"] = [("INVALID", "HOME takes 0 arguments, got 1")]
+    with pytest.raises(CommandInvalid, match="HOME takes 0 arguments"):
+        robot.home()
+    fake.acks["DELAY"] = [("QUEUED", ""), ("CANCELLED", "stopped by STOP")]
+    fake.delay_s = 0.05  # the handle is returned after QUEUED, before CANCELLED
+    h = robot.delay(3, wait=False)
+    with pytest.raises(CommandCancelled, match="stopped by STOP"):
+        h.result(timeout=2)
+
+
+def test_robot_without_any_ack_raises_command_timeout_naming_the_ports(fake):
+    with Robot(port=fake.port, ack_port=0, timeout=0.3) as r:  # fake acks go elsewhere
+        with pytest.raises(CommandTimeout) as info:
+            r.home()
+        assert f"port {r.ack_port}" in str(info.value)
+
+
+def test_robot_explicit_timeout_on_a_long_command(robot, fake):
+    fake.acks["DELAY"] = [("QUEUED", ""), ("EXECUTING", "")]
+    with pytest.raises(CommandTimeout, match="last status: EXECUTING"):
+        robot.delay(10, timeout=0.3)
+
+
+def test_robot_queries_are_typed(robot, fake):
+    assert robot.angles() == (90.0, -90.0, 180.0007, 0.0, 0.0, 180.0)
+    assert robot.pose() == pytest.approx((0, 262.57, 288.75, -90, 0, -90), abs=1e-6)
+    assert robot.pose_matrix()[3] == (0, 0, 0, 1)
+    io = robot.io()
+    assert io.in1 and io.out1 and not io.estop_pressed
+    g = robot.gripper()
+    assert g.position == 100 and g.current == 200 and g.calibrated and g.activated
+    assert robot.status().command.id == "1a2b3c4d"
+    assert robot.loop_stats().frames_received == 4999
+    q = robot.queue()
+    assert q.active.name == "MOVEJOINT" and q.queued == (("5e6f7a8b", "DELAY"),)
+    assert robot.plan_info().tcp_path[1] == (1, 250, 200)
+    assert robot.tool().name == "default" and robot.ping() is True
+
+
+def test_robot_query_errors(robot, fake):
+    fake.query_error = "GET_ANGLES: board not connected"
+    with pytest.raises(ReplyError, match="board not connected"):
+        robot.angles()
+    fake.query_error = None
+    fake.silent = True
+    with pytest.raises(ControllerUnreachable, match="no ANGLES reply"):
+        robot.angles()
+
+
+def test_robot_argument_errors_are_parolkit_value_errors_and_send_nothing(robot, fake):
+    with pytest.raises(ParolkitValueError, match="joint must be 1..6"):
+        robot.jog_joint(0, 50, duration=1)
+    with pytest.raises(ParolkitValueError, match="speed_percentage must be in 0..100"):
+        robot.move_joints([0] * 6, speed=0)
+    with pytest.raises(ParolkitValueError, match="timeout must be"):
+        robot.home(timeout=-1)
+    time.sleep(0.05)
+    assert fake.received == []
+
+
+def test_signed_joint_numbers_map_to_jog_indices(robot, fake):
+    robot.jog_joint(-3, 20, duration=0.5, wait=True)
+    robot.jog_multiple([1, -6], [10, 20], 0.5, wait=True)
+    assert fake.wait_for("|JOG|")[0].endswith("|JOG|8|20|0.5|None")
+    assert fake.wait_for("MULTIJOG")[0].endswith("|MULTIJOG|0,11|10,20|0.5")
+
+
+def test_set_output_maps_to_the_pneumatic_command(robot, fake):
+    robot.set_output(2, True)
+    robot.set_output(1, "low")
+    sent = fake.wait_for("PNEUMATICGRIPPER")
+    assert sent[0].endswith("PNEUMATICGRIPPER|open|2") and sent[1].endswith("PNEUMATICGRIPPER|close|1")
+
+
+def test_subscribe_renews_and_unsubscribes(robot, fake, monkeypatch):
+    import parolkit.client.robot as robot_mod
+
+    monkeypatch.setattr(robot_mod, "SUBSCRIBE_RENEW_S", 0.1)
+    with robot.subscribe(every_n=5) as sub:
+        got = [sub.next(timeout=1).seq for _ in range(3)]
+        time.sleep(0.35)
+    assert got == [0, 1, 2]
+    subs = [t for t in fake.received if t.startswith("SUBSCRIBE|")]
+    assert len(subs) >= 3 and subs[0] == f"SUBSCRIBE|{sub.port}|5"
+    assert fake.wait_for("UNSUBSCRIBE")[0] == f"UNSUBSCRIBE|{sub.port}"
+
+
+def test_subscribe_with_a_callback(robot, fake):
+    seen = []
+    sub = robot.subscribe(every_n=1, callback=seen.append)
+    deadline = time.monotonic() + 2
+    while len(seen) < 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    sub.close()
+    assert [s.seq for s in seen] == [0, 1, 2]
+
+
+def test_async_robot_shares_the_methods_and_errors(fake):
+    async def main():
+        async with AsyncRobot(port=fake.port, ack_port=fake.ack_port, timeout=1.0) as r:
+            assert await r.angles() == (90.0, -90.0, 180.0007, 0.0, 0.0, 180.0)
+            res = await r.move_joints([90, -90, 180, 0, 0, 180], duration=1)
+            assert res.ok
+            fake.acks["HOME"] = [("QUEUED", ""), ("FAILED", "board not connected")]
+            with pytest.raises(CommandFailed, match="board not connected"):
+                await r.home()
+            fake.delay_s = 0.05
+            h = await r.delay(1, wait=False)
+            assert h.status() is AckStatus.QUEUED
+            assert (await h.result(timeout=2)).ok
+            with pytest.raises(ParolkitValueError):
+                r.move_joints([0] * 5, duration=1)
+            async with r.subscribe(every_n=2) as sub:
+                seqs = [(await sub.next(timeout=1)).seq for _ in range(3)]
+            assert seqs == [0, 1, 2]
+            fake.silent = True
+            with pytest.raises(ControllerUnreachable):
+                await r.io()
+
+    asyncio.run(main())
