@@ -593,3 +593,30 @@ def test_process_frame_is_the_decoded_path_of_write_and_read():
     assert st.xtr == 123 and st.speeds[0] == 500
     emu.advance(0.2)
     assert emu.status_frame().positions[0] == pytest.approx(100, abs=1)
+
+
+def test_gripper_setpoints_reach_the_gripper_as_the_board_packs_them():
+    emu, pc = make(gripper_calibration_s=0.0)
+    pc.send(gripper_mode=1)
+    st = _grip(pc, gripper_position=256 + 40, gripper_current=5000)  # u8 position on CAN
+    emu.advance(1.0)
+    st = _grip(pc, gripper_position=256 + 40, gripper_current=5000)
+    assert st.gripper_position == 40
+    assert emu.gripper.setpoint == 40
+
+
+def test_jaw_rate_mapping_and_its_argument_check():
+    from parolkit.board import jaw_rate_units_s
+
+    assert jaw_rate_units_s(0) == 20.0 and jaw_rate_units_s(255) == 500.0
+    with pytest.raises(ParolkitValueError, match="speed"):
+        jaw_rate_units_s(256)
+
+
+def test_fault_injector_refuses_non_bytes():
+    from parolkit.board import ByteFaultInjector
+
+    with pytest.raises(ParolkitValueError, match="data"):
+        ByteFaultInjector().push("text", 0.0)  # type: ignore[arg-type]
+    with pytest.raises(ParolkitValueError, match="faults"):
+        ByteFaultInjector().set_faults({"drop_rate": 1})  # type: ignore[arg-type]

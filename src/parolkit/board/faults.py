@@ -115,6 +115,8 @@ class ByteFaultInjector:
         self._queue.clear()
 
     def push(self, data: bytes, now: float) -> None:
+        if not isinstance(data, (bytes, bytearray, memoryview)):
+            raise ParolkitValueError(f"data must be bytes, got {type(data).__name__}")
         f = self.faults
         self.counters.bytes_in += len(data)
         if f.drop_rate or f.corrupt_rate:

@@ -23,6 +23,9 @@ Status byte: 0x80 activated, 0x40 action (a move request is active), object code
 0x20/0x10 (0 moving, 1 object found while closing, 2 object found while opening, 3 at
 position), 0x02 error/E-stop, 0x01 calibrated.  Temperature/timeout bits stay 0.
 
+Setpoints reach the gripper as the board packs them: position and speed as bytes (low 8
+bits), current as u16; the SSG-48 drives at most 1300 mA.
+
 Current: the current setpoint (mA) while the jaws move or grip an object; ``REST_CURRENT_MA``
 (20 mA) at rest.  An object of width ``w`` mm placed between the jaws (:meth:`place_object`)
 stops a closing move at the position where the opening equals ``w`` (object code 1).
@@ -41,14 +44,17 @@ __all__ = ["SSG48Gripper", "GripperState", "STROKE_MM", "REST_CURRENT_MA", "jaw_
 
 STROKE_MM = 48.0
 REST_CURRENT_MA = 20
+#: The SSG-48's current ceiling, mA.
+MAX_CURRENT_MA = 1300
 MIN_RATE_UNITS_S = 20.0
 MAX_RATE_UNITS_S = 500.0
 
 
 def jaw_rate_units_s(speed: int) -> float:
     """Jaw rate in position units per second for a speed byte 0..255."""
-    s = min(max(int(speed), 0), 255)
-    return MIN_RATE_UNITS_S + (MAX_RATE_UNITS_S - MIN_RATE_UNITS_S) * s / 255.0
+    if isinstance(speed, bool) or not isinstance(speed, int) or not 0 <= speed <= 255:
+        raise ParolkitValueError(f"speed must be an integer byte 0..255, got {speed!r}")
+    return MIN_RATE_UNITS_S + (MAX_RATE_UNITS_S - MIN_RATE_UNITS_S) * speed / 255.0
 
 
 def position_for_opening(width_mm: float) -> float:
@@ -124,12 +130,15 @@ class SSG48Gripper:
         if self.calibrated:
             self.activated = True
         if self.calibrated and not self.error and command & GripperCommandBits.MOVE:
-            new_sp = float(min(max(position, 0), 255))
+            # the board packs the CAN message as [position u8, speed u8, current u16]: C casts
+            # keep the low bits (the PC's 16-bit fields are 0..255 in practice)
+            new_sp = float(position & 0xFF)
             if new_sp != self.setpoint or not self.action:
                 self._gripping = False
             self.setpoint = new_sp
-            self.speed = min(max(speed, 0), 255)
-            self.current_setpoint = min(max(current, 0), 1300)
+            self.speed = speed & 0xFF
+            # the SSG-48 drives at most MAX_CURRENT_MA whatever it is asked for
+            self.current_setpoint = min(current & 0xFFFF, MAX_CURRENT_MA)
             self.action = True
 
     def _finish_calibration(self) -> None:

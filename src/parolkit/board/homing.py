@@ -33,6 +33,7 @@ from enum import Enum
 from typing import Sequence
 
 from parolkit.board.steppers import Stepper
+from parolkit.errors import ParolkitValueError
 
 __all__ = [
     "HomingSequence",
@@ -100,6 +101,11 @@ class HomingSequence:
         max_speeds_steps_s: Sequence[float],
         j5_offset_steps: int = J5_OFFSET_PNEUMATIC,
     ) -> None:
+        if len(steppers) != 6 or not all(isinstance(st, Stepper) for st in steppers):
+            raise ParolkitValueError("steppers must be 6 Stepper objects (J1..J6)")
+        if len(max_speeds_steps_s) != 6 or not all(v > 0 for v in max_speeds_steps_s):
+            raise ParolkitValueError(
+                f"max_speeds_steps_s must be 6 positive speeds, got {max_speeds_steps_s!r}")
         self._st = steppers
         self._vmax = tuple(float(v) for v in max_speeds_steps_s)
         self._j5_offset = int(j5_offset_steps)
