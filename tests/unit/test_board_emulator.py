@@ -41,13 +41,14 @@ def make(**kw: object) -> tuple[BoardEmulator, PC]:
     return emu, PC(emu)
 
 
-def home(pc: PC, max_s: float = 120.0) -> tuple[StatusFrame, float]:
+def home(pc: PC, max_s: float = 120.0, period_s: float = 0.01) -> tuple[StatusFrame, float]:
+    """ENABLE, HOME, then IDLE frames every ``period_s`` until homed; (last reply, seconds)."""
     pc.send(command=BoardCommand.ENABLE)
     pc.tick(command=BoardCommand.HOME)
     t = 0.0
     while t < max_s:
-        st = pc.tick(command=BoardCommand.IDLE)
-        t += 0.01
+        st = pc.tick(period_s, command=BoardCommand.IDLE)
+        t += period_s
         if st.homed == 0xFF:
             return st, t
     raise AssertionError("homing did not finish")
@@ -86,16 +87,16 @@ def test_timing_is_inter_frame_time_in_board_ticks_low_16_bits():
 # homing
 # ------------------------------------------------------------------------------------------
 
-def test_enable_home_then_idle_frames_end_homed_0xff_at_standby_counts():
-    emu, pc = make(homing_speedup=1)
-    st, t = home(pc)
+def test_real_time_homing_takes_tens_of_seconds_and_ends_homed_at_standby_counts():
+    emu, pc = make(homing_speedup=1, pass_hz=1000)
+    st, t = home(pc, period_s=0.05)
     assert st.positions == STANDBY
     assert st.speeds == (0, 0, 0, 0, 0, 0)
     assert emu.physical_positions == STANDBY
     assert 20.0 < t < 60.0, f"a real-time homing takes tens of seconds, took {t:.1f} s"
 
 
-def test_homing_speedup_scales_homing_time():
+def test_enable_home_idle_frames_at_100hz_with_speedup_end_homed_0xff_at_standby_counts():
     emu, pc = make(homing_speedup=50)
     st, t = home(pc)
     assert st.positions == STANDBY and st.homed == 0xFF
