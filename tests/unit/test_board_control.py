@@ -116,3 +116,17 @@ def test_pty_and_control_servers_check_their_arguments(tmp_path):
     regular.write_text("x")
     with pytest.raises(ControlError, match="not a socket"):
         ControlServer(BoardEmulator(clock="virtual"), regular).start()
+
+
+def test_control_server_replaces_a_stale_socket_but_not_a_live_one(tmp_path):
+    import socket
+
+    emu = BoardEmulator(clock="virtual")
+    stale = tmp_path / "stale.ctl"
+    s = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    s.bind(str(stale))
+    s.close()  # the file stays, nobody listens
+    with ControlServer(emu, stale):
+        assert send_control(stale, "estop 1") == "ok"
+        with pytest.raises(ControlError, match="already answers"):
+            ControlServer(emu, stale).start()

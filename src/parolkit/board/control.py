@@ -159,7 +159,12 @@ class ControlServer:
         if self.path.exists() or self.path.is_symlink():
             if not self.path.is_socket():
                 raise ControlError(f"control path {self.path} exists and is not a socket")
-            self.path.unlink()  # a stale socket from a crashed run
+            try:
+                send_control(self.path, "help", timeout_s=0.3)
+            except ControlError:
+                self.path.unlink()  # a stale socket from a crashed run
+            else:
+                raise ControlError(f"another board-sim already answers on {self.path}")
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         try:
             sock.bind(str(self.path))
