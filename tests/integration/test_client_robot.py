@@ -1,0 +1,122 @@
+"""Robot and AsyncRobot round trips against the REAL controller (``parolkit serve --sim``).
+
+One controller subprocess serves the whole module (start-up and homing cost ~2 s).  The
+tests leave the robot idle and enabled for the next one.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+import pytest
+
+from parolkit.client.async_robot import AsyncRobot
+from parolkit.client.core import AckStatus
+from parolkit.client.errors import CommandCancelled, CommandFailed, CommandInvalid
+from parolkit.client.robot import Robot
+from tests.conftest import start_controller
+
+STANDBY = [90, -90, 180, 0, 0, 180]
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    cp = start_controller(log_dir=tmp_path_factory.mktemp("ctl"))
+    yield cp
+    cp.stop()
+
+
+@pytest.fixture
+def robot(served):
+    # acks go to the controller's --ack-port (docs/protocol.md); listen there
+    r = Robot(port=served.port, ack_port=served.ack_port, timeout=2.0)
+    yield r
+    try:
+        r.stop()
+        r.enable()
+    finally:
+        r.close()
+
+
+def test_move_joints_waits_until_the_robot_is_at_the_target(robot):
+    target = [80, -95, 170, 5, 5, 170]
+    t0 = time.monotonic()
+    res = robot.move_joints(target, duration=0.8)
+    assert res.status is AckStatus.COMPLETED and res.command == "MOVEJOINT"
+    assert time.monotonic() - t0 >= 0.75
+    assert robot.angles() == pytest.approx(target, abs=0.02)
+    robot.move_joints(STANDBY, speed=80)
+    assert robot.status().angles == pytest.approx(STANDBY, abs=0.02)
+
+
+def test_unreachable_pose_fails_with_the_controllers_ik_reason(robot):
+    with pytest.raises(CommandFailed) as info:
+        robot.move_pose([900, 0, 0, 0, 0, 0], duration=1)
+    assert "reach" in info.value.reason and info.value.command == "MOVEPOSE"
+
+
+def test_refused_command_is_invalid_and_names_the_field_and_range(robot):
+    with pytest.raises(CommandInvalid) as info:
+        robot.move_joints([200, -90, 180, 0, 0, 180], duration=1)
+    assert "J1" in info.value.reason and "123.0469" in info.value.reason
+    assert isinstance(info.value, ValueError)
+
+
+def test_stop_cancels_a_running_move_and_its_handle_reports_it(robot):
+    handle = robot.move_joints([60, -100, 160, 10, 10, 160], duration=3, wait=False)
+    assert handle.status() in (AckStatus.QUEUED, AckStatus.EXECUTING)
+    time.sleep(0.3)
+    assert robot.stop().ok
+    with pytest.raises(CommandCancelled) as info:
+        handle.result(timeout=3)
+    assert info.value.reason  # the controller says why (STOP)
+    robot.move_joints(STANDBY, speed=80)
+
+
+def test_wait_input_fails_with_the_reason_when_the_input_never_comes(robot):
+    with pytest.raises(CommandFailed) as info:
+        robot.wait_input(1, 1, input_timeout=0.3)
+    assert "IN1" in info.value.reason
+    assert robot.wait_input(1, 0, input_timeout=1).ok  # IN1 is low: completes at once
+
+
+def test_queries_agree_with_the_status_snapshot(robot):
+    st = robot.status()
+    assert st.state == "IDLE" and st.all_homed and st.board.connected and st.board.simulated
+    assert st.loop.rate_hz == pytest.approx(100.0)
+    assert robot.angles() == pytest.approx(st.angles, abs=1e-3)
+    assert list(robot.pose()) == pytest.approx(list(st.pose), abs=0.05)
+    m = robot.pose_matrix()
+    assert m[3] == (0, 0, 0, 1) and m[0][3] * 1000 == pytest.approx(st.pose.x, abs=0.05)
+    assert robot.io().estop_pressed is False
+    assert robot.ping() is True
+    assert robot.queue().active is None
+    assert robot.tool().name == st.tool
+    assert robot.loop_stats().ticks > 0
+
+
+def test_subscribe_streams_typed_statuses_every_n_ticks(robot):
+    with robot.subscribe(every_n=10) as sub:
+        statuses = [sub.next(timeout=2) for _ in range(4)]
+    seqs = [s.seq for s in statuses]
+    assert all(b > a for a, b in zip(seqs, seqs[1:]))
+    gaps = [b - a for a, b in zip(seqs, seqs[1:])]
+    assert max(gaps) >= 9  # one status per 10 control ticks (seq counts ticks)
+    assert statuses[-1].angles == pytest.approx(robot.angles(), abs=0.01)
+
+
+def test_async_robot_round_trip(served):
+    async def main():
+        async with AsyncRobot(port=served.port, ack_port=served.ack_port, timeout=2.0) as r:
+            res = await r.move_joints([85, -92, 175, 2, 2, 175], duration=1.0)
+            assert res.ok
+            assert await r.angles() == pytest.approx([85, -92, 175, 2, 2, 175], abs=0.02)
+            with pytest.raises(CommandInvalid):
+                await r.move_joints([0, 0, 0, 0, 0, 0], duration=1)  # J2 = 0 is out of range
+            async with r.subscribe(every_n=5) as sub:
+                st = await sub.next(timeout=2)
+            assert st.state == "IDLE"
+            await r.move_joints(STANDBY, speed=80)
+
+    asyncio.run(main())
