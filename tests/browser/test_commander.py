@@ -56,10 +56,25 @@ def hold(page, testid: str, seconds: float) -> None:
     page.mouse.up()
 
 
+def settled(page, testid: str, timeout: float = 4.0) -> float:
+    """The readout once it stopped changing (two reads 0.4 s apart agree); fails if it keeps
+    changing for ``timeout`` s (i.e. the robot did not stop)."""
+    prev = number(page, testid)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        page.wait_for_timeout(400)
+        cur = number(page, testid)
+        if abs(cur - prev) < 0.02:
+            return cur
+        prev = cur
+    raise AssertionError(f"{testid} still changing {timeout} s after release ({prev})")
+
+
 def test_page_loads_links_and_has_no_console_errors(page):
     wait_until(lambda: "LINKED" in text(page, "link-chip"), 30, what="link up")
     wait_ready(page)
     assert "SIMULATOR" in text(page, "mode-chip")
+    wait_until(lambda: re.search(r"\d", text(page, "angle-1")), 10, what="joint readout")
     assert number(page, "angle-1") == pytest.approx(90.0, abs=0.5)
     assert page.console_errors == []
 
@@ -78,30 +93,26 @@ def test_3d_view_is_rendered_and_not_blank(page):
 
 def test_joint_jog_hold_moves_and_release_stops(page):
     wait_ready(page)
-    before = number(page, "angle-1")
+    before = settled(page, "angle-1")
     hold(page, "jog-j1+", 1.2)
-    page.wait_for_timeout(400)
-    after = number(page, "angle-1")
-    assert after > before + 1.0, f"J1 did not move up: {before} -> {after}"
-    page.wait_for_timeout(500)
-    assert number(page, "angle-1") == pytest.approx(after, abs=0.2), "J1 kept moving after release"
-    before3 = number(page, "angle-3")
+    after = settled(page, "angle-1")  # release stops the joint
+    assert after > before + 1.0, f"J1 did not move up: {before} -> {after}; log:\n{text(page, 'log')}"
+    before3 = settled(page, "angle-3")
     hold(page, "jog-j3-", 1.0)
-    page.wait_for_timeout(400)
-    assert number(page, "angle-3") < before3 - 0.5
+    after3 = settled(page, "angle-3")
+    assert after3 < before3 - 0.5, f"J3 did not move down: {before3} -> {after3}; log:\n{text(page, 'log')}"
 
 
 def test_cartesian_jog_in_wrf_and_trf_rotation(page):
     wait_ready(page)
-    z0 = number(page, "pose-z")
+    z0 = settled(page, "pose-z")
     hold(page, "jog-z+", 1.2)
-    page.wait_for_timeout(400)
-    assert number(page, "pose-z") > z0 + 2.0
+    assert settled(page, "pose-z") > z0 + 2.0
     page.get_by_test_id("frame-toggle").get_by_text("TRF").click()
     wait_ready(page)
     before = [number(page, f"pose-{k}") for k in "abc"]
     hold(page, "jog-rz+", 1.2)
-    page.wait_for_timeout(400)
+    settled(page, "pose-a")
     after = [number(page, f"pose-{k}") for k in "abc"]
     assert max(abs(a - b) for a, b in zip(after, before)) > 1.0, f"TRF RZ did not rotate: {before} -> {after}"
     page.get_by_test_id("frame-toggle").get_by_text("WRF").click()

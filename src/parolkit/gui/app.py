@@ -486,8 +486,8 @@ class CommanderPage:
             with ui.column().classes("gap-2 grow"):
                 ui.label("SSG-48 electric gripper").classes("pk-title")
                 with ui.row().classes("gap-2"):
-                    ui.button("Calibrate", icon="tune", on_click=lambda: self.c.command("ELECTRICGRIPPER|calibrate|None|0|0|100", "Gripper calibrate")).props("unelevated color=primary").props("data-testid=grip-cal")
-                    ui.button("Clear error", icon="healing", on_click=lambda: self.c.command("ELECTRICGRIPPER|clear_error|None|0|0|100", "Gripper clear error")).props("outline color=grey-4").props("data-testid=grip-clear")
+                    ui.button("Calibrate", icon="tune", on_click=lambda: self.c.command("ELECTRICGRIPPER|calibrate", "Gripper calibrate")).props("unelevated color=primary").props("data-testid=grip-cal")
+                    ui.button("Clear error", icon="healing", on_click=lambda: self.c.command("ELECTRICGRIPPER|clear_error", "Gripper clear error")).props("outline color=grey-4").props("data-testid=grip-clear")
                 self.grip_pos = ui.slider(min=0, max=255, value=100).props("label").props("data-testid=grip-pos")
                 ui.label().bind_text_from(self.grip_pos, "value", lambda v: f"position {v}").classes("text-xs text-slate-400")
                 self.grip_speed = ui.slider(min=0, max=255, value=60).props("label").props("data-testid=grip-speed")
@@ -499,7 +499,7 @@ class CommanderPage:
 
     def gripper_move(self) -> None:
         p, s, c = int(self.grip_pos.value), int(self.grip_speed.value), int(self.grip_current.value)
-        self.c.command(f"ELECTRICGRIPPER|move|None|{p}|{s}|{c}", f"Gripper move {p}/{s}/{c} mA")
+        self.c.command(f"ELECTRICGRIPPER|move|{p}|{s}|{c}", f"Gripper move {p}/{s}/{c} mA")
 
     def build_program(self) -> None:
         with ui.row().classes("w-full items-center gap-2"):

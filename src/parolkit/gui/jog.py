@@ -34,8 +34,9 @@ __all__ = [
     "key_action",
 ]
 
-#: While a jog button is held, a new streamed jog is sent this often, s.
-JOG_REPEAT_S = 0.05
+#: While a jog button is held, a new streamed jog is sent this often, s (one per control
+#: tick: the controller's stream watchdog, ``controller.stream_watchdog_s``, is 20 ms).
+JOG_REPEAT_S = 0.01
 #: Duration of each streamed jog, s (longer than the repeat so motion is continuous; the
 #: controller's watchdog stops motion when updates stop).
 JOG_DURATION_S = 0.2
