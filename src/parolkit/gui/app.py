@@ -338,7 +338,7 @@ class CommanderPage:
                 ui.label("3D view").classes("pk-title")
                 ui.space()
                 self.fps_label = ui.label("").classes("text-xs text-slate-400 pk-mono")
-            self.scene = ui.scene(width=684, height=430, grid=(20, 20), background_color="#0d1526").props("data-testid=scene")
+            self.scene = ui.scene(width=684, height=430, grid=(20, 20), background_color="#0d1526", fps=30).props("data-testid=scene")
             with self.scene:
                 self.scene.axes_helper(length=1.2)  # world frame
                 self.groups = self._arm(opacity=1.0)

@@ -147,7 +147,8 @@ def main(args: argparse.Namespace) -> int:
     print(f"parolkit commander on http://{host}:{http_port}/", file=sys.stderr, flush=True)
     try:
         ui.run(root, host=host, port=http_port, title="parolkit commander", reload=False,
-               show=not args.no_browser, show_welcome_message=False, dark=True, favicon="🦾")
+               show=not args.no_browser, show_welcome_message=False, dark=True, favicon="🦾",
+               reconnect_timeout=30.0)
     finally:
         if proc is not None and proc.poll() is None:
             proc.terminate()
