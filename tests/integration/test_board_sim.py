@@ -99,9 +99,11 @@ def test_goto_frame_converges_on_its_target(board):
 def test_jog_runs_at_the_given_speed(board):
     emu, server, pc = board
     speeds = (1000, -2000, 3000, 0, 500, -4000)
+    pc.exchange(command=BoardCommand.JOG, speeds=speeds)
+    time.sleep(0.02)
     first = pc.exchange(command=BoardCommand.JOG, speeds=speeds)
     t0 = time.monotonic()
-    assert first.speeds == speeds
+    assert first.speeds == speeds  # the reply shows the telemetry of the last loop pass
     time.sleep(0.5)
     last = pc.exchange(command=BoardCommand.JOG, speeds=speeds)
     dt = time.monotonic() - t0

@@ -185,10 +185,21 @@ def test_goto_converges_exactly_on_its_target_without_feed_forward():
 
 def test_goto_reports_the_firmware_p_loop_speed():
     emu, pc = make()
-    st = pc.send(command=BoardCommand.GOTO, positions=(100, -37, 0, 0, 0, 0),
+    frame = dict(command=BoardCommand.GOTO, positions=(100, -37, 0, 0, 0, 0),
                  speeds=(300, 0, -50, 0, 0, 0))
+    pc.send(**frame)
+    emu.advance(1 / emu.pass_hz)  # exactly one loop pass, evaluated at counters 0
+    st = pc.send(**frame)
     # v = int(((target - current) / 0.01 + v_ff) / 2)
     assert st.speeds[:3] == (int((100 / 0.01 + 300) / 2), int((-37 / 0.01) / 2), -25)
+
+
+def test_a_reply_carries_the_last_loop_pass_telemetry_so_a_command_shows_from_the_next_frame():
+    emu, pc = make()
+    first = pc.send(command=BoardCommand.JOG, speeds=(1000, 0, 0, 0, 0, 0))
+    assert first.speeds[0] == 0  # copied by the last pass, before this frame was handled
+    assert emu.speeds[0] == 1000  # live value
+    assert pc.tick(0.01, command=BoardCommand.JOG, speeds=(1000, 0, 0, 0, 0, 0)).speeds[0] == 1000
 
 
 def test_goto_with_feed_forward_settles_where_error_is_minus_vff_over_100():
@@ -200,8 +211,8 @@ def test_goto_with_feed_forward_settles_where_error_is_minus_vff_over_100():
 
 def test_goto_speed_is_clamped_to_50000_steps_per_second():
     emu, pc = make()
-    st = pc.send(command=BoardCommand.GOTO, positions=(2_000_000, 0, 0, 0, 0, 0))
-    assert st.speeds[0] == 50000
+    pc.send(command=BoardCommand.GOTO, positions=(2_000_000, 0, 0, 0, 0, 0))
+    assert emu.speeds[0] == 50000
     emu.advance(0.5)
     assert abs(emu.positions[0] - 25000) <= 2
 
@@ -218,9 +229,9 @@ def test_jog_runs_at_the_frame_speed_and_steps_equal_speed_times_time():
 
 def test_jog_speed_is_clamped_to_50000_and_no_joint_limit_is_enforced():
     emu, pc = make()
-    st = pc.send(command=BoardCommand.JOG, speeds=(60000, -70000, 0, 0, 0, 0))
-    assert st.speeds[:2] == (50000, -50000)
+    pc.send(command=BoardCommand.JOG, speeds=(60000, -70000, 0, 0, 0, 0))
     emu.advance(1.0)
+    assert emu.speeds[:2] == (50000, -50000)
     assert abs(emu.positions[0] - 50000) <= 2  # far past J1's 14000-step limit
     assert abs(emu.positions[1] + 50000) <= 2
 
@@ -253,8 +264,8 @@ def test_disabled_board_ignores_jog_goto_and_joints_stop_dead():
     emu, pc = make()
     pc.send(command=BoardCommand.JOG, speeds=(2000, 0, 0, 0, 0, 0))
     emu.advance(0.5)
-    st = pc.send(command=BoardCommand.DISABLE)
-    assert st.speeds == (0,) * 6
+    pc.send(command=BoardCommand.DISABLE)
+    assert emu.speeds == (0,) * 6
     held = emu.positions
     assert pc.tick(0.5, command=BoardCommand.JOG, speeds=(2000,) * 6).speeds == (0,) * 6
     pc.tick(0.5, command=BoardCommand.GOTO, positions=(0, 9000, 0, 0, 0, 0))
@@ -591,8 +602,9 @@ def test_start_homed_and_power_cycle():
 def test_process_frame_is_the_decoded_path_of_write_and_read():
     emu, pc = make()
     st = emu.process_frame(CommandFrame(command=BoardCommand.JOG, speeds=(500, 0, 0, 0, 0, 0)))
-    assert st.xtr == 123 and st.speeds[0] == 500
+    assert st.xtr == 123
     emu.advance(0.2)
+    assert emu.status_frame().speeds[0] == 500
     assert emu.status_frame().positions[0] == pytest.approx(100, abs=1)
 
 

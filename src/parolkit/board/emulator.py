@@ -214,6 +214,9 @@ class BoardEmulator:
         self._link_listeners: list[Callable[[bool], None]] = []
         self._frames = 0
         self._replies = 0
+        #: (counters, speeds, homed) as copied by the last loop pass
+        self._telemetry: tuple[tuple[int, ...], tuple[int, ...], int] = (
+            tuple(st.counter for st in self._steppers), (0,) * 6, self._homed)
         # time
         self._t = 0.0  # simulated seconds since power-up
         self._last_frame_t = 0.0
@@ -282,6 +285,12 @@ class BoardEmulator:
     # the main loop body
     # =======================================================================================
     def _passes(self, n: int) -> None:
+        """Run ``n`` loop passes, then copy counters, speeds and homed into the telemetry."""
+        self._run_passes(n)
+        self._telemetry = (tuple(st.counter for st in self._steppers),
+                           tuple(st.speed for st in self._steppers), self._homed)
+
+    def _run_passes(self, n: int) -> None:
         dt = self._dt
         g = self._gripper
         if self._homing.active:
@@ -295,7 +304,7 @@ class BoardEmulator:
                         g.advance(dt)
                     if not self._homing.active:
                         self._t += (i + 1) * dt
-                        self._passes(n - i - 1)
+                        self._run_passes(n - i - 1)
                         return
             elif g.busy:
                 for _ in range(n):
@@ -407,11 +416,14 @@ class BoardEmulator:
         )
 
     def _status(self, *, timing: int, xtr: int) -> StatusFrame:
+        # like the firmware, the reply carries the telemetry copied by the last loop pass:
+        # the frame being answered takes effect from the next pass on
+        positions, speeds, homed = self._telemetry
         g = self._gripper
         return StatusFrame(
-            positions=tuple(st.counter for st in self._steppers),
-            speeds=tuple(st.speed for st in self._steppers),
-            homed=self._homed,
+            positions=positions,
+            speeds=speeds,
+            homed=homed,
             io=int(self._io_byte()),
             temperature_error=self._temp_mask | 0x03,
             position_error=self._pos_mask | 0x03,
@@ -427,7 +439,8 @@ class BoardEmulator:
         )
 
     def status_frame(self) -> StatusFrame:
-        """What the board would report right now (``timing`` 0, ``xtr`` = last command)."""
+        """The telemetry of the last loop pass as a status frame (``timing`` 0, ``xtr`` = last
+        command).  :attr:`positions` / :attr:`speeds` are the live values."""
         with self._lock:
             self._catch_up()
             return self._status(timing=0, xtr=self._command)
@@ -607,6 +620,7 @@ class BoardEmulator:
             self._command = int(BoardCommand.IDLE)
             self._outputs = 0
             self._parser.reset()
+            self._telemetry = (tuple(st.counter for st in self._steppers), (0,) * 6, self._homed)
 
     # =======================================================================================
     # read-only views
