@@ -123,18 +123,47 @@ def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, 
         v = model.cart_linear_speed_from_percent(move.speed_pct) * sign
         pos = p0[None, :] + (v * tc)[:, None] * axis[None, :]
         rots = np.repeat(r0[None], n, axis=0)
-    q = _solve_ik(move.name, pos, rots, start, tool, t)
+    notes: list[str] = []
+    q = None
+    while q is None:
+        try:
+            q = _solve_ik(move.name, pos, rots, start, tool, t)
+        except PlanningError as exc:
+            # a jog stops where the path leaves the workspace or a joint range (with a note)
+            k = int(round((exc.time_s or t[0]) * rate_hz)) - 1
+            notes = [f"stopped after {k / rate_hz:.2f} s: {exc.reason}"]
+            if k <= 0:
+                q0 = np.asarray(start, dtype=float)[None, :]
+                return build_trajectory(move, np.array([1.0 / rate_hz]), q0, np.zeros((1, 6)),
+                                        start=start, model=model, rate=rate_hz,
+                                        tracking=Tracking.POSITION, notes=notes, check_accel=False)
+            t, pos, rots = t[:k], pos[:k], rots[:k]
+            n = k
     dt = 1.0 / rate_hz
     # speed to send at tick k: the motion to the next sample; the last: the rest of the jog
     full = np.vstack([start[None, :], q])
-    qd = np.diff(full, axis=0) / dt
-    qd = np.vstack([qd[1:], np.zeros((1, 6))]) if n > 1 else np.zeros((1, 6))
-    _check_jumps(move.name, t, full, model, rate_hz, tool)
+    step = np.diff(full, axis=0) / dt  # step[k]: speed from sample k-1 to sample k
+    # a jog stops before the sample a joint cannot reach at its maximum speed (singularity)
+    vmax = model.max_speed_deg_s
+    too_fast = np.nonzero(np.any(np.abs(step) > vmax, axis=1))[0]
+    if len(too_fast):
+        k = int(too_fast[0])
+        j = int(np.argmax(np.abs(step[k]) / vmax))
+        notes = [f"stopped after {k / rate_hz:.2f} s: {JOINT_NAMES[j]} would exceed its maximum "
+                 f"speed{_sing_text(q[k], tool)}"]
+        if k == 0:
+            q0 = np.asarray(start, dtype=float)[None, :]
+            return build_trajectory(move, np.array([1.0 / rate_hz]), q0, np.zeros((1, 6)),
+                                    start=start, model=model, rate=rate_hz,
+                                    tracking=Tracking.POSITION, notes=notes, check_accel=False)
+        t, q, step = t[:k], q[:k], step[:k]
+        n = k
+    qd = np.vstack([step[1:], np.zeros((1, 6))]) if n > 1 else np.zeros((1, 6))
     t_all = np.append(t, t[-1] + dt)
     q_all = np.vstack([q, q[-1:]])
     qd_all = np.vstack([qd, np.zeros((1, 6))])
     return build_trajectory(move, t_all, q_all, qd_all, start=start, model=model, rate=rate_hz,
-                            tracking=Tracking.POSITION, check_accel=False,
+                            tracking=Tracking.POSITION, check_accel=False, notes=notes,
                             hint="lower the jog speed")
 
 
@@ -367,6 +396,11 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
         return build_trajectory(move, np.array([1.0 / rate_hz]), q, np.zeros((1, 6)), start=start,
                                 model=model, rate=rate_hz, tracking=tracking,
                                 notes=["already at the target pose"], target_deg=q[0])
+    unwind = _unwind_wrist(move, path, start, model, tool, rate_hz, tracking)
+    if unwind is not None:
+        main = _time_and_solve(move, path, unwind.planned_deg[-1], model, tool, rate_hz,
+                               approach=approach)
+        return Trajectory.concatenate([unwind, main], move)
     profile = move.profile or (Profile.POLY if duration is not None else Profile.TRAP)
     if approach and profile is Profile.TOPPRA:
         profile = Profile.TRAP
@@ -395,17 +429,19 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
         r_a = float(np.max(np.abs(acc))) / (amax * (1 + validate.ACCEL_TOLERANCE))
         if r_v <= 1.0 and r_a <= 1.0:
             break
-        if r_v > MAX_STRETCH * stretch or (duration is None and r_a > (MAX_STRETCH * stretch) ** 2):
+        factor = max(r_v, math.sqrt(r_a))
+        if factor > MAX_STRETCH and _near_singularity(q, v_steps, vmax):
             _refuse_singular(name, t, q, v_steps, vmax, tool)
         if duration is not None:
-            need = T * max(r_v, math.sqrt(r_a))
-            hint = f"give a duration of at least {math.ceil(need * 100) / 100:.2f} s"
-            full = np.vstack([start[None, :], q])
-            _check_jumps(name, t, full, model, rate_hz, tool)
+            hint = f"give a duration of at least {math.ceil(T * factor * 1.02 * 100) / 100:.2f} s"
             validate.check_speeds(name, t, v_steps, model, hint=hint)
             validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
-        stretch *= max(r_v, math.sqrt(r_a)) * 1.02
+        stretch *= factor * 1.02
     else:
+        # stretching does not help: a kink in joint space (the path grazes a singularity)
+        hint = "the joint path has a kink here (a singularity on the way): change the path"
+        validate.check_speeds(name, t, v_steps, model, hint=hint)
+        validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
         raise PlanningError(name, "no feasible timing found within the joint limits after stretching")
     if stretch > 1.0:
         j = int(np.argmax(np.max(np.abs(v_steps) / vmax, axis=0)))
@@ -414,6 +450,50 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
     _check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
                             notes=notes, target_deg=q[-1])
+
+
+#: |J5| (deg) at or below which the start counts as exactly on the wrist singularity.
+WRIST_SINGULAR_START_DEG = 0.01
+
+
+def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking) -> Trajectory | None:
+    """A path starting exactly on the wrist singularity (J5 = 0, e.g. the standby pose after
+    homing) may need J4 at another angle from the first tick on.  Axes 4 and 6 are aligned
+    there, so J4 + d and J6 - d is the same pose: turn J4/J6 that way first (a joint move
+    that leaves the tool where it is), then follow the path.  None when not needed."""
+    if abs(float(start[4])) > WRIST_SINGULAR_START_DEG:
+        return None
+    pos, rots = path.evaluate(np.array([1e-4]))
+    try:
+        q_eps = _solve_ik(move.name, pos, rots, start, tool, np.array([0.0]))[0]
+    except PlanningError:
+        return None
+    d = float(q_eps[3] - start[3])
+    if abs(d) < 1e-3:
+        return None
+    target = np.array(start, dtype=float)
+    target[3] += d
+    target[5] -= d
+    from parolkit.motion.moves import JointMove
+    from parolkit.motion.planner import MOVEJOINT_DEFAULT_PCT, _plan_joint_target
+
+    lim = model.safe_limits_deg
+    if not lim[5, 0] <= target[5] <= lim[5, 1]:
+        alt = target[5] + (360.0 if target[5] < lim[5, 0] else -360.0)
+        if lim[5, 0] <= alt <= lim[5, 1]:
+            target[5] = alt
+    jm = JointMove(target, tracking=tracking)
+    try:
+        tr = _plan_joint_target(jm, np.asarray(start, dtype=float), target, model, rate_hz,
+                                MOVEJOINT_DEFAULT_PCT)
+    except PlanningError as exc:
+        raise PlanningError(move.name, f"the path starts on the wrist singularity and J4/J6 cannot "
+                            f"turn out of it: {exc.reason}", joint=exc.joint, value=exc.value) from exc
+    note = (f"start on the wrist singularity (J5 = 0): J4 turned {d:+.1f} deg and J6 {-d:+.1f} deg "
+            f"first ({tr.duration:.2f} s, the tool does not move)")
+    return Trajectory(t=tr.t, positions=tr.positions, speeds=tr.speeds, commands=tr.commands,
+                      rate_hz=tr.rate_hz, move=move, notes=(note,), start_deg=tr.start_deg,
+                      model=model, planned_deg=tr.planned_deg)
 
 
 def _nominal(profile: Profile, base: float) -> float:
@@ -488,6 +568,16 @@ def _sing_text(q, tool) -> str:
         return ""
     return (f"; nearest: {info.nearest} singularity (wrist {info.wrist_deg:.2f} deg, shoulder "
             f"{info.shoulder_mm:.1f} mm, elbow {info.elbow_deg:.2f} deg)")
+
+
+def _near_singularity(q, v_steps, vmax) -> bool:
+    """Is the sample needing the highest joint speed near a singularity?"""
+    ratio = np.max(np.abs(v_steps) / vmax, axis=1)
+    k = int(np.argmax(ratio))
+    try:
+        return bool(_kin().singularity_distance(q[k]).near)
+    except Exception:  # no singularity information: judge by the spike alone
+        return bool(ratio[k] > 20 * max(np.median(ratio), 1e-9))
 
 
 def _refuse_singular(name, t, q, v_steps, vmax, tool) -> None:

@@ -133,13 +133,18 @@ def build_trajectory(
     if check_accel:
         validate.check_accels(name, t, sp_f, model, rate, hint=hint)
     sp = np.rint(sp_f).astype(np.int64)
+    planned = q_deg
+    if target_deg is not None:
+        planned = np.array(q_deg, dtype=float)
+        planned[-1] = target_deg
     if tracking is Tracking.SPEED and np.any(sp[-1] != 0):
         t = np.append(t, t[-1] + 1.0 / rate)
         pos = np.vstack([pos, pos[-1:]])
         sp = np.vstack([sp, np.zeros((1, 6), dtype=np.int64)])
+        planned = np.vstack([planned, planned[-1:]])
     commands = np.full(len(t), tracking.value, dtype=np.uint8)
     return Trajectory(t=t, positions=pos, speeds=sp, commands=commands, rate_hz=rate, move=move,
-                      notes=tuple(notes), start_deg=start, model=model)
+                      notes=tuple(notes), start_deg=start, model=model, planned_deg=planned)
 
 
 def _check_target(name: str, target: np.ndarray, model: RobotModel, what: str = "target") -> None:
@@ -412,8 +417,10 @@ def _constant_speed(
     if frac > 0:
         scale[-1] = frac
     speeds = np.outer(scale, v_deg_s)  # deg/s applied during each tick
-    # position at tick k = start + sum of the speeds sent before it
-    q = start + np.vstack([np.zeros((1, 6)), np.cumsum(speeds, axis=0) / rate])
+    # sample k's speed acts during the tick ending at t[k]; its position is where the joints
+    # are at t[k] (start + the speeds so far); the trailing zero-speed sample holds the end
+    travelled = np.cumsum(speeds, axis=0) / rate
+    q = start + np.vstack([travelled, travelled[-1:]])
     t = np.arange(1, n + 2, dtype=float) / rate
     qd = np.vstack([speeds, np.zeros((1, 6))])
     spdr = np.rint(qd * spd).astype(np.int64)
@@ -421,7 +428,8 @@ def _constant_speed(
     validate.check_positions(name, t, pos, model)
     return Trajectory(t=t, positions=pos, speeds=spdr,
                       commands=np.full(len(t), Tracking.SPEED.value, dtype=np.uint8),
-                      rate_hz=rate, move=move, notes=tuple(notes), start_deg=start, model=model)
+                      rate_hz=rate, move=move, notes=tuple(notes), start_deg=start, model=model,
+                      planned_deg=q)
 
 
 def _plan_speed_joint(move: SpeedJointMove, start: np.ndarray, model: RobotModel, rate: float) -> Trajectory:

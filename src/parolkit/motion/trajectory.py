@@ -37,6 +37,8 @@ class Trajectory:
             to 1.2 s: J2 speed limit"``.
         start_deg: (6,) joint angles (deg) the move starts from.
         model: the robot model the steps refer to.
+        planned_deg: (N, 6) float joint angles (deg) before rounding to steps (what the
+            planner computed; FK of these lies exactly on the path), or None.
     """
 
     t: np.ndarray
@@ -48,6 +50,7 @@ class Trajectory:
     notes: tuple[str, ...] = ()
     start_deg: np.ndarray = field(default_factory=lambda: np.zeros(6))
     model: RobotModel = PAROL6
+    planned_deg: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "t", _frozen(np.asarray(self.t, dtype=float)))
@@ -56,6 +59,8 @@ class Trajectory:
         object.__setattr__(self, "commands", _frozen(np.asarray(self.commands, dtype=np.uint8)))
         object.__setattr__(self, "start_deg", _frozen(np.asarray(self.start_deg, dtype=float)))
         object.__setattr__(self, "notes", tuple(self.notes))
+        if self.planned_deg is not None:
+            object.__setattr__(self, "planned_deg", _frozen(np.array(self.planned_deg, dtype=float)))
         n = len(self.t)
         if self.positions.shape != (n, 6) or self.speeds.shape != (n, 6) or self.commands.shape != (n,):
             raise ValueError(
@@ -158,4 +163,6 @@ class Trajectory:
             commands=np.concatenate([p.commands for p in parts]),
             rate_hz=parts[0].rate_hz, move=move, notes=tuple(all_notes),
             start_deg=parts[0].start_deg, model=parts[0].model,
+            planned_deg=(np.concatenate([p.planned_deg for p in parts])
+                         if all(p.planned_deg is not None for p in parts) else None),
         )
