@@ -112,17 +112,17 @@ class BoardTester:
     """Streams command frames to one board and keeps its latest status.
 
     ``transport``: an open :class:`parolkit.transport.Transport`; ``rate_hz``: frame rate
-    (1..1000); ``out``: where reports go.  Sticky PC-side state (outputs, gripper setpoints)
+    (1..1000); ``out``: where reports go (default: the current ``sys.stdout``).  Sticky PC-side state (outputs, gripper setpoints)
     is sent in every frame, as the original software does.
     """
 
-    def __init__(self, transport, rate_hz: float = 100.0, out: TextIO = sys.stdout,
+    def __init__(self, transport, rate_hz: float = 100.0, out: Optional[TextIO] = None,
                  model: RobotModel = PAROL6) -> None:
         if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float)) or not 1 <= rate_hz <= 1000:
             raise ParolkitValueError(f"rate must be in 1..1000 Hz, got {rate_hz!r}")
         self.transport = transport
         self.period = 1.0 / float(rate_hz)
-        self.out = out
+        self.out = out if out is not None else sys.stdout
         self.model = model
         self.parser = StatusParser()
         self.status: Optional[StatusFrame] = None
