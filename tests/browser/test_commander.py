@@ -89,6 +89,8 @@ def test_3d_view_is_rendered_and_not_blank(page):
     img = Image.open(shot).convert("L")
     var = ImageStat.Stat(img).var[0]
     assert img.size[0] > 300 and var > 50.0, f"3D view looks blank (variance {var:.1f})"
+    README_IMAGE.parent.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(README_IMAGE), full_page=True)  # the README's screenshot
 
 
 def test_joint_jog_hold_moves_and_release_stops(page):
@@ -116,10 +118,6 @@ def test_cartesian_jog_in_wrf_and_trf_rotation(page):
     after = [number(page, f"pose-{k}") for k in "abc"]
     assert max(abs(a - b) for a, b in zip(after, before)) > 1.0, f"TRF RZ did not rotate: {before} -> {after}"
     page.get_by_test_id("frame-toggle").get_by_text("WRF").click()
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    README_IMAGE.parent.mkdir(parents=True, exist_ok=True)
-    page.wait_for_timeout(600)
-    page.screenshot(path=str(README_IMAGE), full_page=True)
 
 
 def test_home_returns_to_standby(page):

@@ -181,8 +181,9 @@ class ProgramRunner:
         self.message = ""
         self.version = 0
 
-    def _on_line(self, line: int, *_: Any) -> None:
-        self.current_line = int(line)
+    def _on_line(self, progress: Any) -> None:
+        """Interpreter callback: ``progress.line`` is the line about to run (1-based)."""
+        self.current_line = int(getattr(progress, "line", progress))
         self.version += 1
 
     def start(self, text: str, *, step: bool = False) -> list[Any]:
@@ -213,7 +214,7 @@ class ProgramRunner:
             return []
         link = self.commander.link
         robot = Robot(host=link.host, port=link.port)
-        self.interpreter = Interpreter(result.program, robot, on_line=self._on_line)
+        self.interpreter = Interpreter(result.program, robot, on_line=self._on_line, step=step)
         self.state = "running"
         self.message = ""
         self.current_line = None
@@ -225,16 +226,16 @@ class ProgramRunner:
 
     def _run(self, step: bool) -> None:
         try:
-            if step:
-                self.interpreter.step()
-            else:
-                self.interpreter.start()
-            wait = getattr(self.interpreter, "wait", None)
-            if callable(wait):
-                wait()
-            if self.state != "error":
-                self.commander.log.add("program finished", Level.SUCCESS)
+            self.interpreter.start()
+            result = self.interpreter.wait()
+            if result is not None and not result.ok and result.state.value != "stopped":
+                self.state = "error"
+                self.message = result.message
+                self.commander.log.error(f"program {result.message}")
+            elif self.state != "error":
+                self.commander.log.add(f"program {result.message if result else 'finished'}", Level.SUCCESS)
                 self.state = "idle"
+            self.current_line = None
         except ParolkitError as exc:
             self.state = "error"
             self.message = str(exc)
