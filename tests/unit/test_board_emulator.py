@@ -633,3 +633,24 @@ def test_fault_injector_refuses_non_bytes():
         ByteFaultInjector().push("text", 0.0)  # type: ignore[arg-type]
     with pytest.raises(ParolkitValueError, match="faults"):
         ByteFaultInjector().set_faults({"drop_rate": 1})  # type: ignore[arg-type]
+
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as hs  # noqa: E402
+
+_garbage = hs.binary(max_size=80).map(lambda b: b.replace(b"\xff", b"\x00"))
+_frames = hs.builds(
+    lambda cmd, io, p: CommandFrame(command=cmd, io=io, positions=(p, -p, 0, 0, 0, p)),
+    hs.integers(0, 255), hs.integers(0, 255), hs.integers(-(1 << 23) + 1, (1 << 23) - 1))
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(hs.lists(hs.tuples(_garbage, _frames), min_size=1, max_size=6), hs.integers(1, 64))
+def test_every_valid_frame_between_garbage_gets_exactly_one_reply_echoing_it(items, chunk):
+    emu, pc = make()
+    stream = b"".join(g + f.encode() for g, f in items)
+    replies = []
+    for i in range(0, len(stream), chunk):  # any USB packet size
+        replies += pc.send_raw(stream[i:i + chunk])
+    assert [r.xtr for r in replies] == [int(f.command) for _, f in items]
+    assert [r.io & 0x30 for r in replies] == [f.io & 0x30 for _, f in items]
