@@ -120,3 +120,31 @@ def test_async_robot_round_trip(served):
             await r.move_joints(STANDBY, speed=80)
 
     asyncio.run(main())
+
+
+def test_robot_api_acks_and_queries_against_the_controller(served):
+    from parolkit.client import robot_api
+
+    before = robot_api.configure()
+    robot_api.configure(port=served.port, ack_port=served.ack_port)
+    try:
+        res = robot_api.move_robot_joints([85, -95, 175, 3, 3, 175], duration=0.6, wait_for_ack=True,
+                                          timeout=5.0)
+        assert res["status"] == "COMPLETED", res
+        assert robot_api.get_robot_joint_angles() == pytest.approx([85, -95, 175, 3, 3, 175], abs=0.02)
+        bad = robot_api.move_robot_joints([0, 0, 180, 0, 0, 180], duration=1, wait_for_ack=True)
+        assert bad["status"] == "INVALID" and "J2" in bad["details"]
+        cid = robot_api.move_robot_joints(STANDBY, speed_percentage=80, wait_for_ack=True,
+                                          non_blocking=True)
+        assert robot_api.wait_for_robot_stopped(timeout=10, poll_rate=0.05)
+        deadline = time.monotonic() + 5
+        while not (robot_api.check_command_status(cid) or {}).get("completed"):
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        assert robot_api.check_command_status(cid)["status"] == "COMPLETED"
+        st = robot_api.get_robot_status()
+        assert st["state"] == "IDLE" and st["homed"] == [True] * 6 and st["estop"] is False
+        assert st["angles"] == pytest.approx(STANDBY, abs=0.02)
+        assert robot_api.ping_robot() is True
+    finally:
+        robot_api.configure(port=before["port"], ack_port=before["ack_port"])  # stops the listener
