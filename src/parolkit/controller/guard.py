@@ -13,7 +13,9 @@ Rules, in order:
 4. GO TO (156): only when homed; every target inside the published step limits; every
    feed-forward speed within the maximum joint speed; the target may not lie further from the
    measured position than ``max_lead_ticks`` ticks of travel at maximum speed (the board's
-   P loop would otherwise race there at up to 50,000 steps/s).
+   P loop would otherwise race there at up to 50,000 steps/s; the allowance grows by one tick
+   for every tick the newest status frame is old), and no target may move more than two ticks
+   of maximum-speed travel from the previous 156 target.
 5. JOG (123): every |speed| within the maximum joint speed (the maximum JOG speed while not
    homed); when homed, no joint may reach its limit within ``lookahead_ticks`` ticks at the
    commanded speed.
@@ -54,7 +56,7 @@ class SafetyGuard:
         rate_hz: float,
         *,
         lookahead_ticks: float = 3.0,
-        max_lead_ticks: float = 6.0,
+        max_lead_ticks: float = 10.0,
     ) -> None:
         self.model = model
         self.period_s = 1.0 / rate_hz
@@ -93,7 +95,8 @@ class SafetyGuard:
 
     # ---- the check ----
 
-    def _violation(self, f: CommandFrame, status: StatusFrame | None, homed: bool) -> str | None:
+    def _violation(self, f: CommandFrame, status: StatusFrame | None, homed: bool,
+                   status_age_ticks: int) -> str | None:
         code = int(f.command)
         if code not in _KNOWN:
             return f"board command {code} is not one the controller may send"
@@ -115,15 +118,26 @@ class SafetyGuard:
                         f"{JOINT_NAMES[j]} speed {v} steps/s exceeds the maximum "
                         f"{self._vmax[j]:g} steps/s"
                     )
+            last = self._last
+            if last is not None and last.command == BoardCommand.GOTO:
+                for j in range(6):
+                    step = abs(f.positions[j] - last.positions[j])
+                    allowed = self._vmax[j] * self.period_s * 2.0 + 2
+                    if step > allowed:
+                        return (
+                            f"{JOINT_NAMES[j]} target moves {step} steps in one tick (at most "
+                            f"{allowed:.0f} steps = 2 ticks at maximum speed): the board would jump"
+                        )
             if status is not None:
+                ticks = self.max_lead_ticks + max(0, status_age_ticks)
                 for j in range(6):
                     lead = abs(f.positions[j] - status.positions[j])
-                    allowed = self._vmax[j] * self.period_s * self.max_lead_ticks
+                    allowed = self._vmax[j] * self.period_s * ticks
                     if lead > allowed:
                         return (
                             f"{JOINT_NAMES[j]} target is {lead} steps from the measured position "
-                            f"(at most {allowed:.0f} steps = {self.max_lead_ticks:g} ticks at "
-                            f"maximum speed): the board would jump"
+                            f"(at most {allowed:.0f} steps = {ticks:g} ticks at maximum speed): "
+                            f"the board would jump"
                         )
         elif code == BoardCommand.JOG:
             vlim = self._vmax if homed else self._vjog
@@ -155,8 +169,10 @@ class SafetyGuard:
         *,
         estop: bool,
         homed: bool,
+        status_age_ticks: int = 0,
     ) -> GuardResult:
-        """The frame to send this tick.  ``status`` is the latest status frame (or None)."""
+        """The frame to send this tick.  ``status`` is the latest status frame (or None),
+        received ``status_age_ticks`` ticks ago (a late link widens the lead allowance)."""
         if estop:
             out = self.disable_frame(frame, status)
             res = GuardResult(out, None, replaced=frame.command != BoardCommand.DISABLE)
@@ -170,7 +186,7 @@ class SafetyGuard:
             ):
                 res = GuardResult(self.zero_speed_frame(frame, status), None, replaced=True)
             else:
-                why = self._violation(frame, status, homed)
+                why = self._violation(frame, status, homed, status_age_ticks)
                 if why is None:
                     res = GuardResult(frame)
                 else:

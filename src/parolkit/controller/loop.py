@@ -183,7 +183,7 @@ class ControlLoop:
         ex = self.executor
         if self.link_up:
             self._read()
-            if self.link_up and self.tick_count - self._last_status_tick > self.link_timeout_ticks:
+            if self.link_up and self.tick_count - self._last_status_tick >= self.link_timeout_ticks:
                 self._lose_link(f"no status frame for {self.tick_count - self._last_status_tick} ticks")
         elif not self._reconnecting and now >= self._next_reconnect:
             self._reconnecting = True
@@ -194,7 +194,7 @@ class ControlLoop:
             return
         frame = self._compose(step)
         res = self.guard.check(frame, self.status, estop=ex.estop_latched or ex.estop_pressed,
-                               homed=ex.homed)
+                               homed=ex.homed, status_age_ticks=self.tick_count - self._last_status_tick)
         if res.violation is not None:
             log.error("safety guard replaced a %s frame: %s", frame.command, res.violation)
             ex.fail_active(res.violation)

@@ -1,0 +1,407 @@
+"""The real controller process on one side, the board emulator on a real pty on the other.
+
+The emulator and its :class:`PtyBoardServer` run in this test process; ``parolkit serve
+--port <pty>`` runs as a subprocess (``tests/conftest.py``'s ``start_controller``) and opens
+the pty with pyserial like a real ``/dev/ttyACM0``.  Acks are read on a real UDP socket.
+"""
+
+from __future__ import annotations
+
+import json
+import random
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections import defaultdict
+
+import pytest
+
+from parolkit.board import BoardEmulator, PtyBoardServer
+from parolkit.protocol.frames import BoardCommand
+from tests.conftest import start_controller
+
+TERMINAL = {"COMPLETED", "FAILED", "CANCELLED", "INVALID"}
+
+
+class AckListener:
+    """Collects every ack sent to the controller's ack port, in order, per ID."""
+
+    def __init__(self, port: int) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
+        self.sock.bind(("127.0.0.1", port))
+        self.sock.settimeout(0.2)
+        self.acks: dict[str, list[tuple[str, str]]] = defaultdict(list)
+        self._stop = False
+        self._cv = threading.Condition()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while not self._stop:
+            try:
+                data, _ = self.sock.recvfrom(65535)
+            except socket.timeout:
+                continue
+            except OSError:
+                return
+            parts = data.decode(errors="replace").split("|", 3)
+            if len(parts) >= 3 and parts[0] == "ACK":
+                with self._cv:
+                    self.acks[parts[1]].append((parts[2], parts[3] if len(parts) > 3 else ""))
+                    self._cv.notify_all()
+
+    def statuses(self, cid: str) -> list[str]:
+        with self._cv:
+            return [s for s, _ in self.acks.get(cid, [])]
+
+    def terminal(self, cid: str, timeout: float = 20.0) -> tuple[str, str]:
+        end = time.monotonic() + timeout
+        with self._cv:
+            while True:
+                for s, d in self.acks.get(cid, []):
+                    if s in TERMINAL:
+                        return s, d
+                left = end - time.monotonic()
+                if left <= 0:
+                    raise AssertionError(f"no terminal ack for {cid}: {self.acks.get(cid)}")
+                self._cv.wait(left)
+
+    def wait_status(self, cid: str, status: str, timeout: float = 10.0) -> None:
+        end = time.monotonic() + timeout
+        with self._cv:
+            while status not in [s for s, _ in self.acks.get(cid, [])]:
+                left = end - time.monotonic()
+                if left <= 0:
+                    raise AssertionError(f"no {status} ack for {cid}: {self.acks.get(cid)}")
+                self._cv.wait(left)
+
+    def close(self) -> None:
+        self._stop = True
+        self.sock.close()
+
+
+class Bench:
+    """Emulator + pty server + controller subprocess + ack listener."""
+
+    def __init__(self, tmp_path, *, start_homed: bool = True, link_timeout_ticks: int = 25,
+                 extra: list[str] | None = None) -> None:
+        self.emu = BoardEmulator(start_homed=start_homed, homing_speedup=100)
+        self.pty = PtyBoardServer(self.emu, tmp_path / "p6").start()
+        # The emulator shares this test process (and 2 busy cores) with the test threads, so
+        # its replies can lag by tens of ms: these tests allow 25 silent ticks; the silence
+        # test below uses the default of 3.
+        cfg = tmp_path / "controller.toml"
+        cfg.write_text(f"[controller]\nlink_timeout_ticks = {link_timeout_ticks}\n")
+        self.ctl = start_controller(["--port", str(tmp_path / "p6"), "--config", str(cfg), *(extra or [])],
+                                    log_dir=tmp_path, wait_homed=False)
+        self.acks = AckListener(self.ctl.ack_port)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.settimeout(1.0)
+        self._n = 0
+        # the controller answers PING at once; wait until the board link is up too
+        end = time.monotonic() + 10
+        while time.monotonic() < end and self.query("PING") != "PONG|SERIAL=1":
+            time.sleep(0.05)
+
+    def new_id(self) -> str:
+        self._n += 1
+        return f"t{self._n:07d}"
+
+    def send(self, text: str) -> str:
+        cid = self.new_id()
+        self.sock.sendto(f"{cid}|{text}".encode(), (self.ctl.host, self.ctl.port))
+        return cid
+
+    def run(self, text: str, timeout: float = 20.0) -> tuple[str, str]:
+        return self.acks.terminal(self.send(text), timeout)
+
+    def query(self, text: str) -> str:
+        self.sock.sendto(text.encode(), (self.ctl.host, self.ctl.port))
+        return self.sock.recvfrom(65535)[0].decode()
+
+    def status(self) -> dict:
+        return json.loads(self.query("GET_STATUS_JSON").split("|", 1)[1])
+
+    def close(self) -> int:
+        rc = self.ctl.stop()
+        self.acks.close()
+        self.sock.close()
+        self.pty.stop()
+        self.emu.stop()
+        return rc
+
+
+@pytest.fixture
+def bench(tmp_path):
+    b = Bench(tmp_path)
+    yield b
+    b.close()
+
+
+def test_every_command_of_the_table_over_a_real_pty(bench):
+    ok = "COMPLETED"
+    cases = [
+        ("MOVEJOINT|90|-90|160|12|12|180|1.5|None", ok),
+        ("MOVEPOSE|7|250|200|-100|0|-90|2|None", ok),
+        ("MOVECART|7|250|180|-100|0|-90|None|60", ok),
+        ("MOVECARTRELTRF|0|0|-10|0|0|0|1|None", ok),
+        ("JOG|0|30|0.3|None", ok),
+        ("JOG|6|30|None|2", ok),
+        ("MULTIJOG|0,7|30,30|0.3", ok),
+        ("CARTJOG|WRF|Z+|30|0.3", ok),
+        ("SPEEDJOINT|3|0|0|0|0|0|0.3", ok),
+        ("MOVEJOINT|90|-90|160|12|12|180|None|40", ok),
+        ("SMOOTH_CIRCLE|7,250,170|15|XY|WRF|CURRENT|DURATION|3|0", ok),
+        ("DELAY|0.1", ok),
+        ("PNEUMATICGRIPPER|close|1", ok),
+        ("PNEUMATICGRIPPER|open|1", ok),
+        ("ELECTRICGRIPPER|calibrate", ok),
+        ("ELECTRICGRIPPER|move|100|150|300", ok),
+        ("ELECTRICGRIPPER|clear_error", ok),
+        ("WAIT_INPUT|1|0|1", ok),
+        ("WAIT_INPUT|1|1|0.2", "FAILED"),
+        ("MOVEJOINT|190|-90|160|12|12|180|1|None", "INVALID"),
+        ("HOME", ok),
+    ]
+    for text, want in cases:
+        cid = bench.send(text)
+        status, details = bench.acks.terminal(cid, 30)
+        assert status == want, f"{text}: {status} {details}"
+        seq = bench.acks.statuses(cid)
+        if want in ("COMPLETED", "FAILED") and text != "WAIT_INPUT|1|1|0.2":
+            assert seq[:2] == ["QUEUED", "EXECUTING"] and seq[-1] == want and len(seq) == 3, (text, seq)
+    for q, prefix in [("GET_POSE", "POSE|"), ("GET_ANGLES", "ANGLES|"), ("GET_IO", "IO|"),
+                      ("GET_GRIPPER", "GRIPPER|"), ("GET_SPEEDS", "SPEEDS|"), ("PING", "PONG|SERIAL=1"),
+                      ("GET_STATUS", "STATUS|"), ("GET_STATUS_JSON", "STATUS_JSON|"),
+                      ("GET_LOOP_STATS", "LOOP_STATS|"), ("GET_PLAN", "PLAN|"), ("GET_TOOL", "TOOL|default|"),
+                      ("GET_QUEUE", "QUEUE|")]:
+        assert bench.query(q).startswith(prefix)
+    assert len(bench.query("GET_POSE").split("|")[1].split(",")) == 16
+    # immediate commands
+    for text in ("STREAM|ON", "STREAM|OFF", "SET_TOOL|flange", "SET_TOOL|default", "CLEAR_ERROR", "DISABLE",
+                 "ENABLE", "STOP"):
+        assert bench.run(text)[0] == "COMPLETED", text
+    assert bench.run("SET_TOOL|nosuchtool")[0] == "INVALID"
+    assert bench.emu.outputs == (False, False)
+
+
+def test_stop_mid_move_cancels_and_holds(bench):
+    a = bench.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
+    b = bench.send("MOVEJOINT|90|-90|180|0|0|180|3|None")
+    bench.acks.wait_status(a, "EXECUTING")
+    time.sleep(0.8)
+    bench.run("STOP")
+    assert bench.acks.terminal(a)[0] == "CANCELLED"
+    assert bench.acks.terminal(b)[0] == "CANCELLED"
+    time.sleep(0.3)
+    j1 = bench.status()["angles"][0]
+    time.sleep(0.5)
+    assert abs(bench.status()["angles"][0] - j1) < 0.2
+    assert 40 < j1 < 90
+
+
+def test_estop_press_mid_move_cancels_disables_and_latches_until_release_and_enable(bench):
+    a = bench.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
+    bench.acks.wait_status(a, "EXECUTING")
+    time.sleep(0.5)
+    bench.emu.set_estop(True)
+    status, details = bench.acks.terminal(a, 2)
+    assert status == "CANCELLED" and "E-stop" in details
+    time.sleep(0.2)
+    assert not bench.emu.enabled and bench.emu.command == BoardCommand.DISABLE
+    st = bench.status()
+    assert st["state"] == "ESTOP" and st["estop_latched"]
+    assert bench.run("DELAY|0.1")[0] == "FAILED"
+    assert bench.run("ENABLE")[0] == "FAILED"  # still pressed
+    bench.emu.set_estop(False)
+    time.sleep(0.3)
+    assert bench.status()["estop_latched"]  # no automatic restart
+    assert not bench.emu.enabled
+    assert bench.run("ENABLE")[0] == "COMPLETED"
+    time.sleep(0.2)
+    assert bench.emu.enabled and not bench.status()["estop_latched"]
+    assert bench.run("MOVEJOINT|60|-90|180|0|0|180|4|None")[0] == "COMPLETED"
+
+
+def test_pulling_the_cable_mid_move_cancels_reports_and_reconnects_without_resuming(bench):
+    a = bench.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
+    bench.acks.wait_status(a, "EXECUTING")
+    time.sleep(0.5)
+    bench.emu.unplug()
+    status, details = bench.acks.terminal(a, 2)
+    assert status == "CANCELLED" and "link lost" in details
+    assert bench.query("PING") == "PONG|SERIAL=0"
+    st = bench.status()
+    assert st["state"] == "DISCONNECTED" and st["errors"]["message"]
+    time.sleep(0.5)
+    bench.emu.replug()
+    end = time.monotonic() + 6
+    while bench.query("PING") != "PONG|SERIAL=1" and time.monotonic() < end:
+        time.sleep(0.1)
+    assert bench.query("PING") == "PONG|SERIAL=1"
+    j1 = bench.status()["angles"][0]
+    time.sleep(0.5)
+    assert abs(bench.status()["angles"][0] - j1) < 0.05  # the cancelled move is not resumed
+    assert bench.status()["command"] is None
+    assert bench.run("CLEAR_ERROR")[0] == "COMPLETED"
+
+
+def test_one_percent_byte_corruption_every_command_still_gets_one_terminal_ack(bench):
+    bench.emu.set_faults(corrupt_rate=0.01, direction="both")
+    ids = [bench.send(f"MOVEJOINT|{90 - 5 * (i % 2)}|-90|180|0|0|180|0.8|None") for i in range(6)]
+    ids += [bench.send("DELAY|0.1") for _ in range(3)]
+    for cid in ids:
+        bench.acks.terminal(cid, 40)
+    time.sleep(0.3)
+    for cid in ids:
+        st = bench.acks.statuses(cid)
+        assert sum(s in TERMINAL for s in st) == 1, (cid, st)
+    stats = json.loads(bench.query("GET_LOOP_STATS").split("|", 1)[1])
+    assert stats["bytes_dropped"] > 0
+    assert bench.ctl.proc.poll() is None
+    bench.emu.clear_faults()
+
+
+_FLOOD_SENDER = r"""
+import json, random, socket, sys, threading, time
+host, port, ack_port, duration, rate = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4]), int(sys.argv[5])
+acks = {}
+ack_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+ack_sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 23)
+ack_sock.bind(("127.0.0.1", ack_port))
+ack_sock.settimeout(0.2)
+stop = False
+def listen():
+    while not stop:
+        try:
+            data = ack_sock.recv(65535)
+        except socket.timeout:
+            continue
+        p = data.decode(errors="replace").split("|", 3)
+        if len(p) >= 3 and p[0] == "ACK":
+            acks.setdefault(p[1], []).append(p[2])
+t = threading.Thread(target=listen, daemon=True); t.start()
+rng = random.Random(7)
+garbage = [b"", b"\xff\xfe\x00", b"MOVEJOINT|1|2", b"|||||", b"GET_ANGLES|x", b"JOG|99|1|1|1",
+           b"A" * 3000, b"SMOOTH_BLEND|2|||||", b"ESTOPX", b"abcd|MOVE"]
+valid = ["DELAY|0.01", "GET_ANGLES", "PING", "JOG|0|10|0.05|None", "GET_STATUS",
+         "MOVEJOINT|90|-90|180|0|0|180|0.5|None", "ELECTRICGRIPPER|move|10|10|200"]
+ids = []
+sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+sock.setblocking(False)
+t0 = time.monotonic(); n = 0
+while True:
+    now = time.monotonic()
+    if now - t0 >= duration:
+        break
+    due = int((now - t0) * rate)
+    while n < due:
+        n += 1
+        r = rng.random()
+        if r < 0.5:
+            data = rng.choice(garbage) if rng.random() < 0.7 else rng.randbytes(rng.randint(1, 60))
+        elif r < 0.8:
+            cid = "f%07d" % n
+            ids.append(cid)
+            data = ("%s|%s" % (cid, rng.choice(valid + ["MOVEJOINT|500|0|0|0|0|0|1|None", "NOPE|1"]))).encode()
+        else:
+            data = rng.choice(valid).encode()
+        try:
+            sock.sendto(data, (host, port))
+        except BlockingIOError:
+            pass
+    time.sleep(0.001)
+end = time.monotonic() + 15
+while "COMPLETED" not in acks.get("zzzzzzz1", []) and time.monotonic() < end:
+    sock.sendto(b"zzzzzzz1|STOP", (host, port))
+    time.sleep(0.2)
+count, quiet = -1, time.monotonic()
+while time.monotonic() - quiet < 1.5 and time.monotonic() < end + 10:
+    c = sum(len(v) for v in acks.values())
+    if c != count:
+        count, quiet = c, time.monotonic()
+    time.sleep(0.1)
+stop = True
+print(json.dumps({"sent": n, "ids": ids, "acks": acks}))
+"""
+
+
+@pytest.mark.slow
+def test_flood_of_5000_datagrams_per_second_keeps_the_loop_and_acks_exact(bench):
+    """10 s of 5,000 datagrams/s (half garbage, a third ID'd commands) from another process."""
+    bench.acks.close()  # the sender process listens on the ack port itself
+    before = json.loads(bench.query("GET_LOOP_STATS").split("|", 1)[1])
+    out = subprocess.run(
+        [sys.executable, "-c", _FLOOD_SENDER, bench.ctl.host, str(bench.ctl.port), str(bench.ctl.ack_port),
+         "10", "5000"], capture_output=True, text=True, timeout=60,
+    )
+    assert out.returncode == 0, out.stderr
+    res = json.loads(out.stdout)
+    stats = json.loads(bench.query("GET_LOOP_STATS").split("|", 1)[1])
+    received = stats["datagrams_received"] - before["datagrams_received"]
+    print(f"flood: {res['sent']} datagrams sent, {received} received; loop period "
+          f"p50 {stats['period_p50_ms']:.2f} ms, p99 {stats['period_p99_ms']:.2f} ms, "
+          f"max {stats['period_max_ms']:.2f} ms, overruns {stats['overruns'] - before['overruns']}; "
+          f"invalid {stats['datagrams_invalid'] - before['datagrams_invalid']}")
+    assert bench.ctl.proc.poll() is None
+    assert bench.query("PING") == "PONG|SERIAL=1"
+    acked = [cid for cid in res["ids"] if cid in res["acks"]]
+    for cid in acked:
+        st = res["acks"][cid]
+        assert sum(s in TERMINAL for s in st) == 1, (cid, st)
+    # datagrams the kernel dropped before delivery cannot be acked; all delivered ones were
+    assert len(acked) >= 0.9 * len(res["ids"]) * min(1.0, received / res["sent"])
+    assert "COMPLETED" in res["acks"]["zzzzzzz1"]
+    # the loop kept ticking through the flood (the period figures are reported, not asserted)
+    assert stats["ticks"] - before["ticks"] >= 0.5 * 100 * 10
+
+
+def test_serial_silence_is_detected_within_the_default_three_ticks(tmp_path):
+    b = Bench(tmp_path, link_timeout_ticks=3)
+    try:
+        a = b.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
+        b.acks.wait_status(a, "EXECUTING")
+        b.emu.set_faults(silent=True)
+        status, details = b.acks.terminal(a, 2)
+        assert status == "CANCELLED" and "no status frame for 3 ticks" in details
+        assert b.query("PING") == "PONG|SERIAL=0"
+        b.emu.clear_faults()
+        end = time.monotonic() + 6
+        while b.query("PING") != "PONG|SERIAL=1" and time.monotonic() < end:
+            time.sleep(0.1)
+        assert b.query("PING") == "PONG|SERIAL=1"
+    finally:
+        b.close()
+
+
+def test_sigterm_stops_motion_sends_disable_and_closes_the_port(bench):
+    a = bench.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
+    bench.acks.wait_status(a, "EXECUTING")
+    time.sleep(0.3)
+    assert bench.ctl.stop() == 0
+    time.sleep(0.2)
+    assert not bench.emu.enabled and bench.emu.command == BoardCommand.DISABLE
+    assert "shutting down" in bench.ctl.log()
+
+
+def test_status_stream_subscribers_get_one_datagram_per_n_ticks(bench):
+    sub = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sub.bind(("127.0.0.1", 0))
+    sub.settimeout(1.0)
+    port = sub.getsockname()[1]
+    assert bench.run(f"SUBSCRIBE|{port}|10")[0] == "COMPLETED"
+    got = []
+    end = time.monotonic() + 1.0
+    while time.monotonic() < end:
+        try:
+            got.append(sub.recvfrom(65535)[0].decode())
+        except socket.timeout:
+            break
+    assert 5 <= len(got) <= 14  # 100 Hz / 10 = 10 per second
+    st = json.loads(got[-1].split("|", 1)[1])
+    assert {"angles", "pose", "io", "gripper", "homed", "state", "loop", "errors"} <= set(st)
+    assert bench.run(f"UNSUBSCRIBE|{port}")[0] == "COMPLETED"
+    sub.close()
