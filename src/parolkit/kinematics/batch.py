@@ -192,48 +192,231 @@ def _fit_j5(theta: np.ndarray):
 # ---------------------------------------------------------------------------------------------
 
 _BRANCHES = [(sh, el, fl) for sh in ("front", "back") for el in ("up", "down") for fl in (False, True)]
+_COS_PHI3 = math.cos(PHI3)
+_SIN_PHI3 = math.sin(PHI3)
+_NARROW = tuple(hi - lo < TWO_PI - 2 * LIMIT_TOL for lo, hi in zip(LIM_LO, LIM_HI))
+_INV_2PI = 1.0 / TWO_PI
+
+
+def _fit_narrow(theta: np.ndarray, j: int):
+    """In-range representation of ``theta`` for a joint whose range is narrower than 360 deg.
+
+    Returns (t, valid).  Values within LIMIT_TOL outside the range are snapped onto it.
+    """
+    lo = LIM_LO[j] - LIMIT_TOL
+    t = theta - TWO_PI * np.floor((theta - lo) * _INV_2PI)  # in [lo - tol, lo - tol + 2pi)
+    valid = t <= LIM_HI[j] + LIMIT_TOL
+    np.clip(t, LIM_LO[j], LIM_HI[j], out=t)
+    return t, valid
+
+
+def _fit_wide(theta: np.ndarray, j: int, seed) -> np.ndarray:
+    """In-range representation for a joint with a full-turn range (J6): nearest the seed.
+
+    ``seed`` is a float or an array like ``theta``.
+    """
+    lo, hi = LIM_LO[j], LIM_HI[j]
+    t = theta - TWO_PI * np.floor((theta - (lo - LIMIT_TOL)) * _INV_2PI)
+    two = t <= hi + LIMIT_TOL - TWO_PI  # both t and t + 2pi fit (J6 = 0 / 360)
+    if two.any():
+        k = np.nonzero(two)[0]
+        tk = t[k]
+        sk = seed if np.ndim(seed) == 0 else seed[k]
+        t[k] = np.where(np.abs(tk + TWO_PI - sk) < np.abs(tk - sk), tk + TWO_PI, tk)
+    np.clip(t, lo, hi, out=t)
+    return t
+
+
+_BIG = 1e300  # "no solution" distance (finite, so blends never produce NaN)
 
 
 def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
-    """Nearest in-limit solution per sample.  Returns (q (N, 6) rad, ok (N,), branch index (N,))."""
+    """Nearest in-limit solution per sample (all 8 branches, vectorised).
+
+    ``rot``: 9 arrays (flange rotation, row-major), ``pos``: 3 arrays (wrist centre, m),
+    ``seeds``: (6,) or (N, 6) radians.  Returns (q (N, 6) rad, ok (N,), branch index (N,)
+    into ``_BRANCHES``, -1 where no solution).  Work is done only on the samples still valid
+    after each joint (J1, reach, J3, J2), so rarely valid branches cost little; the two wrist
+    solutions are compared per arm, then the best of the 4 arms per sample is taken.
+    """
+    if not all(_NARROW[:5]) or _NARROW[5]:  # pragma: no cover - PAROL6 ranges
+        raise NotImplementedError("vectorised IK assumes J1..J5 narrower than 360 deg and J6 a full turn")
     n = rot[0].shape[0]
-    seeds = np.broadcast_to(seeds, (n, 6))
-    free_q1 = np.clip(seeds[:, 0], LIM_LO[0], LIM_HI[0])
-    free_q4 = np.clip(seeds[:, 3], LIM_LO[3], LIM_HI[3])
-    best_q = np.zeros((n, 6))
-    best_d = np.full(n, np.inf)
-    best_b = np.full(n, -1, dtype=np.int64)
+    seeds = np.asarray(seeds, dtype=float)
+    per_sample = seeds.ndim == 2
+    if per_sample:
+        seed_cols = [np.ascontiguousarray(seeds[:, j]) for j in range(6)]
+    else:
+        seed_cols = [float(v) for v in seeds]
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot
+    x, y, z = pos
+    rho = np.sqrt(x * x + y * y)
+    base = np.arctan2(y, x)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c1f = x / rho
+        s1f = y / rho
+    sing_sh = rho < _SHOULDER_EPS
+    if sing_sh.any():
+        free = np.clip(seed_cols[0], LIM_LO[0], LIM_HI[0]) + np.zeros(n)
+        base = np.where(sing_sh, free, base)
+        c1f = np.where(sing_sh, np.cos(free), c1f)
+        s1f = np.where(sing_sh, np.sin(free), s1f)
+    Yall = D1 - z
+    cand_d = np.full((4, n), _BIG)
+    cand_q = np.zeros((4, 6, n))
+    cand_flip = np.zeros((4, n), dtype=bool)
+    want_sh = None if branch is None else branch.shoulder
+    want_el = None if branch is None else branch.elbow
+    want_fl = None if branch is None else branch.wrist_flip
+    w1, w2, w3, w4, w5, w6 = WEIGHTS
     for back in (False, True):
-        if branch is not None and branch.shoulder is not None and (branch.shoulder == "back") != back:
+        if want_sh is not None and (want_sh == "back") != back:
             continue
-        sh = _Shoulder(rot, pos, back, free_q1)
-        q1, ok1 = _fit(sh.q1, 0, seeds[:, 0])
-        ok1 &= sh.reach_ok
+        q1, ok = _fit_narrow(base + _PI if back else base, 0)
+        if back:
+            rr = -rho
+            c1 = -c1f
+            s1 = -s1f
+        else:
+            rr = rho
+            c1 = c1f
+            s1 = s1f
+        X = rr - A1
+        c = (X * X + Yall * Yall - _K0) * _INV_2A2L
+        ok &= np.abs(c) <= 1.0 + _REACH_EPS
+        idx = np.nonzero(ok)[0]
+        if idx.size == 0:
+            continue
+        # --- restrict everything to the samples this shoulder can serve
+        q1 = q1[idx]
+        X = X[idx]
+        Y = Yall[idx]
+        c = np.clip(c[idx], -1.0, 1.0)
+        c1 = c1[idx]
+        s1 = s1[idx]
+        sd = [col[idx] for col in seed_cols] if per_sample else seed_cols
+        a00, a01, a02 = r00[idx], r01[idx], r02[idx]
+        a10, a12 = r10[idx], r12[idx]
+        a20, a21, a22 = r20[idx], r21[idx], r22[idx]
+        delta = np.arccos(c)
+        sdel = np.sqrt(1.0 - c * c)
+        atan_y = np.arctan2(Y, X)
+        n00 = c1 * a00 + s1 * a10
+        n01 = c1 * a01 + s1 * r11[idx]
+        n02 = c1 * a02 + s1 * a12
+        n10 = c1 * a10 - s1 * a00
+        n12 = c1 * a12 - s1 * a02
+        e = q1 - sd[0]
+        d1 = w1 * e * e
         for down in (False, True):
-            if branch is not None and branch.elbow is not None and (branch.elbow == "down") != down:
+            if want_el is not None and (want_el == "down") != down:
                 continue
-            _, q2r, q3r, nf, fl, _ = _arm(sh, rot, down, free_q4)
-            q2, ok2 = _fit(q2r, 1, seeds[:, 1])
-            q3, ok3 = _fit(q3r, 2, seeds[:, 2])
-            ok_arm = ok1 & ok2 & ok3
-            d_arm = (WEIGHTS[0] * (q1 - seeds[:, 0]) ** 2 + WEIGHTS[1] * (q2 - seeds[:, 1]) ** 2
-                     + WEIGHTS[2] * (q3 - seeds[:, 2]) ** 2)
-            for flip, wr in ((False, nf), (True, fl)):
-                if branch is not None and branch.wrist_flip is not None and branch.wrist_flip != flip:
-                    continue  # (at singular samples both entries are the same solution)
-                q4, ok4 = _fit(wr[0], 3, seeds[:, 3])
-                q5, ok5 = _fit_j5(wr[1])
-                q6, ok6 = _fit(wr[2], 5, seeds[:, 5])
-                ok = ok_arm & ok4 & ok5 & ok6
-                d = (d_arm + WEIGHTS[3] * (q4 - seeds[:, 3]) ** 2 + WEIGHTS[4] * (q5 - seeds[:, 4]) ** 2
-                     + WEIGHTS[5] * (q6 - seeds[:, 5]) ** 2)
-                better = ok & (d < best_d)
-                if better.any():
-                    best_d = np.where(better, d, best_d)
-                    best_b[better] = _BRANCHES.index(("back" if back else "front",
-                                                      "down" if down else "up", flip))
-                    best_q[better] = np.stack([q1, q2, q3, q4, q5, q6], axis=1)[better]
-    return best_q, best_b >= 0, best_b
+            if down:
+                q3, ok3 = _fit_narrow(PHI3 + delta, 2)
+                c3 = _COS_PHI3 * c - _SIN_PHI3 * sdel
+                s3 = _SIN_PHI3 * c + _COS_PHI3 * sdel
+            else:
+                q3, ok3 = _fit_narrow(PHI3 - delta, 2)
+                c3 = _COS_PHI3 * c + _SIN_PHI3 * sdel
+                s3 = _SIN_PHI3 * c - _COS_PHI3 * sdel
+            u = A2 + A3 * c3 + D4 * s3
+            v = D4 * c3 - A3 * s3
+            q2, ok2 = _fit_narrow(atan_y - np.arctan2(v, u), 1)
+            ok3 &= ok2
+            sub = np.nonzero(ok3)[0]
+            if sub.size == 0:
+                continue
+            if sub.size != ok3.size:
+                q2, q3, c3, s3, u, v = q2[sub], q3[sub], c3[sub], s3[sub], u[sub], v[sub]
+                Xs, Ys = X[sub], Y[sub]
+                m_n00, m_n01, m_n02, m_n10, m_n12 = n00[sub], n01[sub], n02[sub], n10[sub], n12[sub]
+                b20, b21, b22 = a20[sub], a21[sub], a22[sub]
+                sds = [col[sub] for col in sd] if per_sample else sd
+                q1s = q1[sub]
+                d1s = d1[sub]
+                where = idx[sub]
+            else:
+                Xs, Ys = X, Y
+                m_n00, m_n01, m_n02, m_n10, m_n12 = n00, n01, n02, n10, n12
+                b20, b21, b22 = a20, a21, a22
+                sds = sd
+                q1s = q1
+                d1s = d1
+                where = idx
+            inv = 1.0 / (u * u + v * v)
+            c2 = (Xs * u + Ys * v) * inv
+            s2 = (Ys * u - Xs * v) * inv
+            cp = c2 * c3 + s2 * s3  # cos(q2 - q3)
+            sp = s2 * c3 - c2 * s3
+            m02 = cp * m_n02 - sp * b22
+            m22 = sp * m_n02 + cp * b22
+            sb = np.sqrt(m02 * m02 + m_n12 * m_n12)
+            al = np.arctan2(m_n12, m02)
+            be = np.arctan2(sb, m22)
+            ga = np.arctan2(sp * m_n01 + cp * b21, -(sp * m_n00 + cp * b20))
+            sing = sb <= _WRIST_EPS
+            if sing.any():
+                # J4 from the seed, J6 the rest (noflip: q4 = pi - al, q6 = pi - ga)
+                free4 = np.clip(sds[3], LIM_LO[3], LIM_HI[3])
+                m00 = cp * m_n00 - sp * b20
+                total = -np.arctan2(m_n10, m00)
+                al = np.where(sing, _PI - free4, al)
+                ga = np.where(sing, _PI - total + free4, ga)
+                be = np.where(sing, np.where(m22 > 0, 0.0, _PI), be)
+            ok5 = be <= LIM_HI[4] + LIMIT_TOL
+            np.minimum(be, LIM_HI[4], out=be)
+            e2 = q2 - sds[1]
+            e3 = q3 - sds[2]
+            d123 = d1s + w2 * e2 * e2 + w3 * e3 * e3
+            e5 = be - sds[4]
+            e5f = be + sds[4]
+            opts = []
+            for flip in (False, True):
+                if want_fl is not None and want_fl != flip:
+                    continue
+                if flip:
+                    q4, ok4 = _fit_narrow(-al, 3)
+                    q6 = _fit_wide(-ga, 5, sds[5])
+                    e5x = e5f
+                else:
+                    q4, ok4 = _fit_narrow(_PI - al, 3)
+                    q6 = _fit_wide(_PI - ga, 5, sds[5])
+                    e5x = e5
+                ok4 &= ok5
+                e4 = q4 - sds[3]
+                e6 = q6 - sds[5]
+                d = d123 + w4 * e4 * e4 + w5 * e5x * e5x + w6 * e6 * e6
+                d[~ok4] = _BIG
+                opts.append((flip, q4, q6, d))
+            k = (2 if back else 0) + (1 if down else 0)
+            if len(opts) == 2:
+                (_, q4a, q6a, da), (_, q4b, q6b, db) = opts
+                use_b = db < da
+                fb = use_b.astype(float)
+                q4 = q4a + fb * (q4b - q4a)
+                q6 = q6a + fb * (q6b - q6a)
+                q5 = be - 2.0 * fb * be
+                d = np.minimum(da, db)
+                cand_flip[k, where] = use_b
+            else:
+                flip, q4, q6, d = opts[0]
+                q5 = -be if flip else be
+                cand_flip[k, where] = flip
+            cand_d[k, where] = d
+            cq = cand_q[k]
+            cq[0, where] = q1s
+            cq[1, where] = q2
+            cq[2, where] = q3
+            cq[3, where] = q4
+            cq[4, where] = q5
+            cq[5, where] = q6
+    kbest = np.argmin(cand_d, axis=0)
+    cols = np.arange(n)
+    ok = cand_d[kbest, cols] < _BIG
+    q = cand_q[kbest, :, cols]  # (n, 6)
+    b_idx = 2 * kbest + cand_flip[kbest, cols]
+    b_idx[~ok] = -1
+    return q, ok, b_idx
 
 
 # ---------------------------------------------------------------------------------------------

@@ -33,6 +33,7 @@ from parolkit.kinematics.model import (
     A1, A2, A3, D1, D4, L3, LIM_HI, LIM_LO, LIMIT_TOL, PHI3, STANDBY_RAD, TWO_PI, WEIGHTS,
 )
 from parolkit.kinematics.pose import _rot_from_abc, as_matrix_array, as_pose_array
+from parolkit.kinematics.tools import DEFAULT_TOOL as _DEFAULT_TOOL
 from parolkit.kinematics.tools import Tool, get_tool
 from parolkit.kinematics.types import Branch, IKError, IKFailure, IKSolution
 from parolkit.robot import as_joint_array
@@ -68,11 +69,15 @@ _LO1, _LO2, _LO3, _LO4, _LO5, _LO6 = LIM_LO
 _HI1, _HI2, _HI3, _HI4, _HI5, _HI6 = LIM_HI
 _W1, _W2, _W3, _W4, _W5, _W6 = WEIGHTS
 _WIDE = tuple(hi - lo >= TWO_PI - 2 * LIMIT_TOL for lo, hi in zip(LIM_LO, LIM_HI))
-_WIDE6 = _WIDE[5]
-if any(_WIDE[:5]):  # pragma: no cover - the inlined fits of J1..J5 assume narrow ranges
-    raise ImportError("parolkit.kinematics.ik assumes J1..J5 ranges narrower than 360 deg")
+if any(_WIDE[:5]) or not _WIDE[5]:  # pragma: no cover - the inlined fits assume these ranges
+    raise ImportError("parolkit.kinematics.ik assumes J1..J5 ranges narrower than 360 deg and J6 a full turn")
 if LIM_LO[4] < -_HALF_PI - 1e-12 or LIM_HI[4] != -LIM_LO[4]:  # pragma: no cover
     raise ImportError("parolkit.kinematics.ik assumes a symmetric J5 range within +-90 deg")
+_LO1M, _LO2M, _LO3M, _LO4M, _LO5M, _LO6M = (v - LIMIT_TOL for v in LIM_LO)
+_HI1P, _HI2P, _HI3P, _HI4P, _HI5P, _HI6P = (v + LIMIT_TOL for v in LIM_HI)
+#: J6 values up to this also fit one turn higher (J6 = 0 and 360 are both in range).
+_HI6_LOW_TWIN = _HI6P - TWO_PI
+_INF = math.inf
 _INV_2PI = 1.0 / TWO_PI
 _TWO_PI_M_TOL = TWO_PI - LIMIT_TOL
 _SHOULDERS = ("front", "back")
@@ -126,9 +131,14 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
 
     ``seed`` is six radians.  ``shoulder``/``elbow``/``flip`` restrict the branch (None = any).
     Returns a list of ``(distance, (q1..q6 rad), shoulder, elbow, flip)``; with ``best_only``
-    a list holding only the nearest one (or empty).  This is the hot path of :func:`ik`:
-    plain floats, fits of J1..J5 inlined (their ranges are narrower than 360 deg, so the
-    in-range representation is unique), early exits as soon as a joint is out of range.
+    a list holding only the nearest one (or empty).
+
+    This is the hot path of :func:`ik`: plain floats, every joint fit inlined (J1..J5 ranges
+    are narrower than 360 deg, so their in-range representation is unique; J6 spans a full
+    turn, where 0 and 360 both fit the one nearer the seed is taken), early exits as soon as a
+    joint is out of range, and with ``best_only`` a branch-and-bound: the nearer shoulder and
+    elbow are tried first and a branch is abandoned once its partial distance (J1, J3, J2
+    terms) already exceeds the best complete one.
     """
     s1, s2, s3, s4, s5, s6 = seed
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
@@ -137,23 +147,37 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
     Y = D1 - z
     out = []
     best = None
-    best_d = math.inf
+    best_d = _INF
     if rho < SHOULDER_SINGULAR_EPS:
-        shoulders = ((shoulder or "front", _clamp(s1, _LO1, _HI1), 0.0),)
+        q1f = _clamp(s1, _LO1, _HI1)
+        shoulders = ((shoulder or "front", q1f, 0.0, _cos(q1f), _sin(q1f)),)
     else:
         base = _atan2(y, x)
-        shoulders = (("front", base, rho), ("back", base + _PI, -rho))
-    for sh_name, q1, rr in shoulders:
+        c1f = x / rho
+        s1f = y / rho
+        d = base - s1
+        d -= TWO_PI * _floor(d * _INV_2PI + 0.5)
+        if -_HALF_PI <= d <= _HALF_PI:
+            shoulders = (("front", base, rho, c1f, s1f), ("back", base + _PI, -rho, -c1f, -s1f))
+        else:
+            shoulders = (("back", base + _PI, -rho, -c1f, -s1f), ("front", base, rho, c1f, s1f))
+    d = s3 - PHI3
+    d -= TWO_PI * _floor(d * _INV_2PI + 0.5)
+    elbow_order = (("up", -1.0), ("down", 1.0)) if d <= 0.0 else (("down", 1.0), ("up", -1.0))
+    for sh_name, q1, rr, c1, sn1 in shoulders:
         if shoulder is not None and sh_name != shoulder:
             continue
-        q1 -= TWO_PI * _floor((q1 - _LO1) * _INV_2PI)
-        if q1 > _HI1:
-            if q1 <= _HI1 + LIMIT_TOL:
-                q1 = _HI1
-            elif q1 >= _LO1 + _TWO_PI_M_TOL:
-                q1 = _LO1
-            else:
-                continue
+        q1 -= TWO_PI * _floor((q1 - _LO1M) * _INV_2PI)
+        if q1 > _HI1P:
+            continue
+        if q1 < _LO1:
+            q1 = _LO1
+        elif q1 > _HI1:
+            q1 = _HI1
+        e = q1 - s1
+        d1 = _W1 * e * e
+        if d1 >= best_d:
+            continue
         X = rr - A1
         c = (X * X + Y * Y - _K0) * _INV_2A2L
         if c > 1.0:
@@ -166,85 +190,128 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
             c = -1.0
         delta = _acos(c)
         atan_y = _atan2(Y, X)
-        c1 = _cos(q1)
-        sn1 = _sin(q1)
         # N = Rz(-q1) R (rows 0 and 1; row 2 is R's)
         n00 = c1 * r00 + sn1 * r10
         n01 = c1 * r01 + sn1 * r11
         n02 = c1 * r02 + sn1 * r12
         n10 = c1 * r10 - sn1 * r00
         n12 = c1 * r12 - sn1 * r02
-        for el_name, q3 in (("up", PHI3 - delta), ("down", PHI3 + delta)):
+        for el_name, sign in elbow_order:
             if elbow is not None and el_name != elbow:
                 continue
-            q3 -= TWO_PI * _floor((q3 - _LO3) * _INV_2PI)
-            if q3 > _HI3:
-                if q3 <= _HI3 + LIMIT_TOL:
-                    q3 = _HI3
-                elif q3 >= _LO3 + _TWO_PI_M_TOL:
-                    q3 = _LO3
-                else:
-                    continue
+            q3 = PHI3 + sign * delta
+            q3 -= TWO_PI * _floor((q3 - _LO3M) * _INV_2PI)
+            if q3 > _HI3P:
+                continue
+            if q3 < _LO3:
+                q3 = _LO3
+            elif q3 > _HI3:
+                q3 = _HI3
+            e = q3 - s3
+            d13 = d1 + _W3 * e * e
+            if d13 >= best_d:
+                continue
             c3 = _cos(q3)
             sn3 = _sin(q3)
             q2 = atan_y - _atan2(D4 * c3 - A3 * sn3, A2 + A3 * c3 + D4 * sn3)
-            q2 -= TWO_PI * _floor((q2 - _LO2) * _INV_2PI)
-            if q2 > _HI2:
-                if q2 <= _HI2 + LIMIT_TOL:
-                    q2 = _HI2
-                elif q2 >= _LO2 + _TWO_PI_M_TOL:
-                    q2 = _LO2
-                else:
-                    continue
+            q2 -= TWO_PI * _floor((q2 - _LO2M) * _INV_2PI)
+            if q2 > _HI2P:
+                continue
+            if q2 < _LO2:
+                q2 = _LO2
+            elif q2 > _HI2:
+                q2 = _HI2
+            e = q2 - s2
+            d123 = d13 + _W2 * e * e
+            if d123 >= best_d:
+                continue
             psi = q2 - q3
             cp = _cos(psi)
             sp = _sin(psi)
             m02 = cp * n02 - sp * r22
             m22 = sp * n02 + cp * r22
             sb = _sqrt(m02 * m02 + n12 * n12)
-            e1 = q1 - s1
-            e2 = q2 - s2
-            e3 = q3 - s3
-            d123 = _W1 * e1 * e1 + _W2 * e2 * e2 + _W3 * e3 * e3
             if sb > WRIST_SINGULAR_EPS:
-                al = _atan2(n12, m02)
-                ga = _atan2(sp * n01 + cp * r21, -(sp * n00 + cp * r20))
                 be = _atan2(sb, m22)  # in (0, pi]: J5 = +be (noflip) or -be (flip)
-                if be > _HI5 + LIMIT_TOL:
+                if be > _HI5P:
                     continue  # |J5| > 90 deg in both wrist solutions
                 if be > _HI5:
                     be = _HI5
-                wrists = ((False, _PI - al, be, _PI - ga), (True, -al, -be, -ga))
+                al = _atan2(n12, m02)
+                ga = _atan2(sp * n01 + cp * r21, -(sp * n00 + cp * r20))
+                if flip is not True:  # noflip: (pi - al, be, pi - ga)
+                    q4 = _PI - al
+                    q4 -= TWO_PI * _floor((q4 - _LO4M) * _INV_2PI)
+                    if q4 <= _HI4P:
+                        if q4 < _LO4:
+                            q4 = _LO4
+                        elif q4 > _HI4:
+                            q4 = _HI4
+                        q6 = _PI - ga
+                        q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
+                        if q6 <= _HI6_LOW_TWIN and abs(q6 + TWO_PI - s6) < abs(q6 - s6):
+                            q6 += TWO_PI
+                        if q6 < _LO6:
+                            q6 = _LO6
+                        elif q6 > _HI6:
+                            q6 = _HI6
+                        e4 = q4 - s4
+                        e5 = be - s5
+                        e6 = q6 - s6
+                        d = d123 + _W4 * e4 * e4 + _W5 * e5 * e5 + _W6 * e6 * e6
+                        if not best_only:
+                            out.append((d, (q1, q2, q3, q4, be, q6), sh_name, el_name, False))
+                        elif d < best_d:
+                            best_d = d
+                            best = (d, (q1, q2, q3, q4, be, q6), sh_name, el_name, False)
+                if flip is not False:  # flip: (-al, -be, -ga)
+                    q4 = -al
+                    q4 -= TWO_PI * _floor((q4 - _LO4M) * _INV_2PI)
+                    if q4 <= _HI4P:
+                        if q4 < _LO4:
+                            q4 = _LO4
+                        elif q4 > _HI4:
+                            q4 = _HI4
+                        q6 = -ga
+                        q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
+                        if q6 <= _HI6_LOW_TWIN and abs(q6 + TWO_PI - s6) < abs(q6 - s6):
+                            q6 += TWO_PI
+                        if q6 < _LO6:
+                            q6 = _LO6
+                        elif q6 > _HI6:
+                            q6 = _HI6
+                        e4 = q4 - s4
+                        e5 = be + s5
+                        e6 = q6 - s6
+                        d = d123 + _W4 * e4 * e4 + _W5 * e5 * e5 + _W6 * e6 * e6
+                        if not best_only:
+                            out.append((d, (q1, q2, q3, q4, -be, q6), sh_name, el_name, True))
+                        elif d < best_d:
+                            best_d = d
+                            best = (d, (q1, q2, q3, q4, -be, q6), sh_name, el_name, True)
             else:
+                # wrist singular: J4 keeps the seed's value, J6 takes the rest of J4 + J6
                 if m22 < 0:
                     continue  # J5 = 180 deg
-                q4f = _clamp(s4, _LO4, _HI4)
+                q4 = _clamp(s4, _LO4, _HI4)
                 m00 = cp * n00 - sp * r20
-                wrists = ((flip if flip is not None else False, q4f, 0.0, -_atan2(n10, m00) - q4f),)
-            for fl, q4, q5, t6 in wrists:
-                if flip is not None and fl != flip:
-                    continue
-                q4 -= TWO_PI * _floor((q4 - _LO4) * _INV_2PI)
-                if q4 > _HI4:
-                    if q4 <= _HI4 + LIMIT_TOL:
-                        q4 = _HI4
-                    elif q4 >= _LO4 + _TWO_PI_M_TOL:
-                        q4 = _LO4
-                    else:
-                        continue
-                q6 = _fit(t6, _LO6, _HI6, _WIDE6, s6)
-                if q6 is None:
-                    continue
+                q6 = -_atan2(n10, m00) - q4
+                q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
+                if q6 <= _HI6_LOW_TWIN and abs(q6 + TWO_PI - s6) < abs(q6 - s6):
+                    q6 += TWO_PI
+                if q6 < _LO6:
+                    q6 = _LO6
+                elif q6 > _HI6:
+                    q6 = _HI6
                 e4 = q4 - s4
-                e5 = q5 - s5
                 e6 = q6 - s6
-                dist = d123 + _W4 * e4 * e4 + _W5 * e5 * e5 + _W6 * e6 * e6
-                if best_only:
-                    if dist < best_d:
-                        best_d = dist
-                        best = (dist, (q1, q2, q3, q4, q5, q6), sh_name, el_name, fl)
-                else:
-                    out.append((dist, (q1, q2, q3, q4, q5, q6), sh_name, el_name, fl))
+                d = d123 + _W4 * e4 * e4 + _W5 * s5 * s5 + _W6 * e6 * e6
+                fl = flip if flip is not None else False
+                if not best_only:
+                    out.append((d, (q1, q2, q3, q4, 0.0, q6), sh_name, el_name, fl))
+                elif d < best_d:
+                    best_d = d
+                    best = (d, (q1, q2, q3, q4, 0.0, q6), sh_name, el_name, fl)
     if best_only:
         return [best] if best is not None else []
     return out
@@ -276,8 +343,7 @@ def _target(pose: object):
         c = float(c) * _DEG
     except (TypeError, ValueError):
         return _target_slow(pose)
-    if not (_isfinite(x) and _isfinite(y) and _isfinite(z) and _isfinite(a) and _isfinite(b)
-            and _isfinite(c)):
+    if not _isfinite(x + y + z + a + b + c):  # any NaN/inf (or a sum overflow: slow path decides)
         return _target_slow(pose)
     ca = _cos(a)
     sa = _sin(a)
@@ -365,18 +431,26 @@ def ik(pose: object, seed_deg: object = None, tool: "str | Tool | None" = None,
     Raises :class:`IKError` (out of reach, joint limits, malformed input).
     """
     r, p = _target(pose)
-    tool_obj = get_tool(tool)
-    seed = _seed(seed_deg)
-    rf, pf = _flange_target(r, p, tool_obj)
-    br = _branch(config)
-    if br is None:
-        found = solve_all_rad(rf, pf, seed, best_only=True)
+    tool_obj = _DEFAULT_TOOL if tool is None else get_tool(tool)
+    seed = STANDBY_RAD if seed_deg is None else _seed(seed_deg)
+    if tool_obj._identity_rot:  # flange origin = TCP - R t (hot path, inlined)
+        tx, ty, tz = tool_obj._t
+        pf = (p[0] - (r[0] * tx + r[1] * ty + r[2] * tz),
+              p[1] - (r[3] * tx + r[4] * ty + r[5] * tz),
+              p[2] - (r[6] * tx + r[7] * ty + r[8] * tz))
+        rf = r
     else:
-        found = solve_all_rad(rf, pf, seed, br.shoulder, br.elbow, br.wrist_flip, best_only=True)
+        rf, pf = _flange_target(r, p, tool_obj)
+    if config is None:
+        br = None
+        found = solve_all_rad(rf, pf, seed, None, None, None, True)
+    else:
+        br = _branch(config)
+        found = solve_all_rad(rf, pf, seed, br.shoulder, br.elbow, br.wrist_flip, True)
     if not found:
         raise diagnose(rf, pf, seed, br)
     q = found[0][1]
-    return np.array([q[0] * _RAD, q[1] * _RAD, q[2] * _RAD, q[3] * _RAD, q[4] * _RAD, q[5] * _RAD])
+    return np.array((q[0] * _RAD, q[1] * _RAD, q[2] * _RAD, q[3] * _RAD, q[4] * _RAD, q[5] * _RAD))
 
 
 def ik_all(pose: object, tool: "str | Tool | None" = None, seed_deg: object = None) -> list[IKSolution]:

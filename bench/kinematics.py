@@ -1,0 +1,216 @@
+"""Kinematics benchmark: parolkit's closed-form FK/IK vs roboticstoolbox's C++ ``ik_LM``.
+
+Everything is measured in this run on the same random in-limit configurations (default
+10,000): single-call median / p99 latency (us), batch throughput (poses/s), the in-limit
+success rate of each solver, and ratios.  Also the cold import time of parolkit.kinematics.
+
+    .venv/bin/python bench/kinematics.py [--n 10000] [--seed 0] [--no-rtb]
+
+Success means: the solver reports success, every joint lies inside the SAFE joint limits
+exactly as returned (no re-wrapping by the caller), and FK of the answer matches the target
+to 1e-6 mm / 1e-6 deg.  roboticstoolbox is a dev-only dependency used only here and in tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+
+def _import_time(module: str, repeat: int = 5) -> float:
+    """Best-of cold import time of ``module`` in a fresh interpreter (s), numpy included."""
+    code = ("import time; t = time.perf_counter(); import " + module +
+            "; print(time.perf_counter() - t)")
+    best = math.inf
+    for _ in range(repeat):
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+        best = min(best, float(out.stdout))
+    return best
+
+
+def _latency(fn, args_list) -> np.ndarray:
+    """Per-call latency in microseconds for ``fn(*args)`` over ``args_list``."""
+    out = np.empty(len(args_list))
+    clock = time.perf_counter_ns
+    for i, args in enumerate(args_list):
+        t0 = clock()
+        fn(*args)
+        out[i] = clock() - t0
+    return out / 1e3
+
+
+def _throughput(fn, n: int, repeat: int = 5) -> float:
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return n / best
+
+
+def _stats(us: np.ndarray) -> str:
+    return f"median {np.median(us):8.2f} us   p99 {np.percentile(us, 99):8.2f} us"
+
+
+def _rot_err_deg(ra: np.ndarray, rb: np.ndarray) -> np.ndarray:
+    rel = np.einsum("nij,nkj->nik", ra, rb)
+    skew = np.stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0], rel[:, 1, 0] - rel[:, 0, 1]], 1)
+    cos = (np.trace(rel, axis1=1, axis2=2) - 1.0) / 2.0
+    return np.degrees(np.arctan2(np.linalg.norm(skew, axis=1) / 2.0, cos))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=10_000, help="number of random configurations")
+    ap.add_argument("--seed", type=int, default=0, help="random seed")
+    ap.add_argument("--no-rtb", action="store_true", help="skip the roboticstoolbox reference")
+    args = ap.parse_args(argv)
+
+    print("== import ==")
+    t_np = _import_time("numpy")
+    t_kin = _import_time("parolkit.kinematics")
+    print(f"import numpy {t_np * 1e3:.0f} ms; import parolkit.kinematics {t_kin * 1e3:.0f} ms "
+          f"(incl. numpy; +{(t_kin - t_np) * 1e3:.0f} ms over numpy); target < 300 ms")
+
+    from parolkit.kinematics import fk, fk_batch, ik, ik_batch
+    from parolkit.kinematics.batch import solve_independent, targets_from_poses
+    from parolkit.kinematics.tools import get_tool
+    from parolkit.robot import PAROL6
+
+    n = args.n
+    lim = PAROL6.safe_limits_deg
+    rng = np.random.default_rng(args.seed)
+    qs = rng.uniform(lim[:, 0], lim[:, 1], size=(n, 6))
+    poses = fk_batch(qs)
+    mats = fk_batch(qs, as_matrix=True)
+    q_lists = qs.tolist()
+    p_lists = poses.tolist()
+
+    def in_limits(q):
+        q = np.atleast_2d(q)
+        return np.all((q >= lim[:, 0]) & (q <= lim[:, 1]), axis=1)
+
+    def reaches(q):
+        m = fk_batch(q, as_matrix=True)
+        pos = np.abs(m[:, :3, 3] - mats[:, :3, 3]).max(axis=1) * 1e3
+        return (pos <= 1e-6) & (_rot_err_deg(m[:, :3, :3], mats[:, :3, :3]) <= 1e-6)
+
+    print(f"\n== parolkit (closed form), {n} random in-limit configurations ==")
+    fk_us = _latency(fk, [(q,) for q in q_lists])
+    print(f"fk single                {_stats(fk_us)}")
+    ik_warm_us = _latency(ik, list(zip(p_lists, q_lists)))
+    print(f"ik single, warm seed     {_stats(ik_warm_us)}")
+    ik_cold_us = _latency(ik, [(p,) for p in p_lists])
+    print(f"ik single, cold (standby){_stats(ik_cold_us)}")
+
+    warm = np.array([ik(p, q) for p, q in zip(p_lists, q_lists)])
+    cold = []
+    cold_ok = np.ones(n, dtype=bool)
+    for i, p in enumerate(p_lists):
+        try:
+            cold.append(ik(p))
+        except Exception:  # counted as a failure
+            cold.append([0.0] * 6)
+            cold_ok[i] = False
+    cold = np.array(cold)
+    ok_warm = in_limits(warm) & reaches(warm)
+    ok_cold = cold_ok & in_limits(cold) & reaches(cold)
+    same_q = np.abs(warm - qs).max(axis=1) <= 1e-6
+    print(f"single success (in limits + exact pose): warm {ok_warm.mean() * 100:.2f} %, "
+          f"cold {ok_cold.mean() * 100:.2f} %; warm returns the seed configuration "
+          f"(1e-6 deg) in {same_q.mean() * 100:.2f} %")
+
+    fk_tp = _throughput(lambda: fk_batch(qs), n)
+    print(f"fk_batch                 {fk_tp:12,.0f} poses/s")
+    tool = get_tool(None)
+    rot, pos = targets_from_poses(poses, tool)
+    seeds_rad = np.radians(qs)
+    core_tp = _throughput(lambda: solve_independent(rot, pos, seeds_rad, None), n)
+    ikb_warm_tp = _throughput(lambda: ik_batch(poses, qs), n)
+    ikb_cold_tp = _throughput(lambda: ik_batch(poses, continuous=False), n)
+    bw = ik_batch(poses, qs)
+    bc = ik_batch(poses, continuous=False)
+    print(f"ik_batch, seed per pose  {ikb_warm_tp:12,.0f} poses/s   (solver core without "
+          f"pose conversion: {core_tp:,.0f} poses/s)")
+    print(f"ik_batch, cold (standby) {ikb_cold_tp:12,.0f} poses/s")
+    # a smooth path: continuous mode
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    q_a = np.array([60.0, -110.0, 200.0, -40.0, 40.0, 60.0])
+    q_b = np.array([110.0, -70.0, 160.0, 40.0, -40.0, 300.0])
+    path_q = q_a + t * (q_b - q_a)
+    path_poses = fk_batch(path_q)
+    ikb_path_tp = _throughput(lambda: ik_batch(path_poses, q_a), n)
+    path_sol = ik_batch(path_poses, q_a)
+    print(f"ik_batch, continuous path{ikb_path_tp:12,.0f} poses/s   (max joint error on the "
+          f"path {np.abs(path_sol - path_q).max():.1e} deg)")
+    print(f"batch success: seed per pose {(in_limits(bw) & reaches(bw)).mean() * 100:.2f} %, "
+          f"cold {(in_limits(bc) & reaches(bc)).mean() * 100:.2f} %")
+
+    if args.no_rtb:
+        return 0
+
+    print("\n== roboticstoolbox-python (C++ ETS ik_LM), same configurations ==")
+    t0 = time.perf_counter()
+    import roboticstoolbox as rtb
+
+    print(f"(import roboticstoolbox took {time.perf_counter() - t0:.1f} s)")
+    links = [rtb.RevoluteDH(d=r.d, a=r.a, alpha=r.alpha, qlim=np.radians(lm))
+             for r, lm in zip(PAROL6.dh, lim)]
+    ets = rtb.DHRobot(links, name="PAROL6").ets()
+    qs_rad = np.radians(qs)
+    rtb_fk_us = _latency(ets.eval, [(q,) for q in qs_rad])
+    print(f"fk single (ets.eval)     {_stats(rtb_fk_us)}")
+    mats_list = list(mats)
+    lm_warm_us = _latency(lambda T, q0: ets.ik_LM(T, q0=q0), list(zip(mats_list, qs_rad)))
+    print(f"ik_LM single, warm seed  {_stats(lm_warm_us)}")
+    np.random.seed(args.seed)
+    lm_cold_us = _latency(lambda T: ets.ik_LM(T), [(T,) for T in mats_list])
+    print(f"ik_LM single, cold       {_stats(lm_cold_us)}")
+
+    def run_lm(q0s):
+        sol = np.empty((n, 6))
+        flag = np.empty(n, dtype=bool)
+        for i, T in enumerate(mats_list):
+            res = ets.ik_LM(T, q0=None if q0s is None else q0s[i])
+            sol[i] = res.q
+            flag[i] = bool(res.success)
+        return np.degrees(sol), flag
+
+    np.random.seed(args.seed + 1)
+    t0 = time.perf_counter()
+    lm_warm, f_warm = run_lm(qs_rad)
+    lm_warm_tp = n / (time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    lm_cold, f_cold = run_lm(None)
+    lm_cold_tp = n / (time.perf_counter() - t0)
+    ok_lm_warm = f_warm & in_limits(lm_warm) & reaches(lm_warm)
+    ok_lm_cold = f_cold & in_limits(lm_cold) & reaches(lm_cold)
+    print(f"ik_LM loop, warm         {lm_warm_tp:12,.0f} poses/s  (no batch API: a Python loop)")
+    print(f"ik_LM loop, cold         {lm_cold_tp:12,.0f} poses/s")
+    print(f"ik_LM success (reported / in limits + exact pose): warm {f_warm.mean() * 100:.2f} % / "
+          f"{ok_lm_warm.mean() * 100:.2f} %, cold {f_cold.mean() * 100:.2f} % / {ok_lm_cold.mean() * 100:.2f} %")
+
+    print("\n== ratios (rtb / parolkit; > 1 means parolkit is faster) ==")
+    med = statistics.median
+    print(f"fk single median         {med(rtb_fk_us) / med(fk_us):6.2f} x")
+    print(f"ik single median, warm   {med(lm_warm_us) / med(ik_warm_us):6.2f} x")
+    print(f"ik single median, cold   {med(lm_cold_us) / med(ik_cold_us):6.2f} x")
+    print(f"ik throughput, warm      {ikb_warm_tp / lm_warm_tp:6.1f} x (parolkit batch vs ik_LM loop)")
+    print(f"ik throughput, cold      {ikb_cold_tp / lm_cold_tp:6.1f} x")
+
+    print("\n== targets ==")
+    print(f"single IK median <= 10 us: {med(ik_warm_us):.2f} us warm, {med(ik_cold_us):.2f} us cold")
+    print(f"batch >= 1,000,000 poses/s: {ikb_warm_tp:,.0f} (seed per pose), {ikb_cold_tp:,.0f} (cold), "
+          f"{ikb_path_tp:,.0f} (path)")
+    print(f"100 % in-limit success: warm {ok_warm.mean() * 100:.2f} %, cold {ok_cold.mean() * 100:.2f} %")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
