@@ -89,6 +89,9 @@ class BoardCommand(IntEnum):
     IDLE = 255
 
 
+_COMMANDS = {int(c): c for c in BoardCommand}
+
+
 class IOBits(IntFlag):
     """The IO byte. PC->board only OUT1/OUT2 matter; board->PC reports all and 0x07 are 1.
 
@@ -176,6 +179,8 @@ class GripperStatus:
 
 
 def _check_int(value: object, name: str, bounds: tuple[int, int]) -> int:
+    if type(value) is int and bounds[0] <= value <= bounds[1]:  # the common case, fast
+        return value
     if isinstance(value, bool):
         raise ParolkitValueError(f"{name} must be an integer, got a bool ({value!r})")
     try:
@@ -192,9 +197,15 @@ def _check_int(value: object, name: str, bounds: tuple[int, int]) -> int:
 def _check_six(values: object, name: str, bounds: tuple[int, int]) -> tuple[int, ...]:
     if isinstance(values, (str, bytes)) or not hasattr(values, "__len__"):
         raise ParolkitValueError(f"{name} must be a sequence of 6 integers, got {values!r}")
-    seq = list(values)  # type: ignore[arg-type]
+    seq = tuple(values)  # type: ignore[arg-type]
     if len(seq) != 6:
         raise ParolkitValueError(f"{name} must have 6 values (J1..J6), got {len(seq)}")
+    lo, hi = bounds
+    for v in seq:
+        if type(v) is not int or not lo <= v <= hi:
+            break
+    else:
+        return seq  # all plain in-range ints: no per-element work
     return tuple(_check_int(v, f"{name}[J{i + 1}]", bounds) for i, v in enumerate(seq))
 
 
@@ -224,14 +235,21 @@ def _put24(buf: bytearray, values: tuple[int, ...]) -> None:
 
 def _get24(data: bytes, off: int) -> tuple[int, ...]:
     out = []
-    for i in range(6):
-        raw = int.from_bytes(data[off + 3 * i : off + 3 * i + 3], "big")
+    for i in range(off, off + 18, 3):
+        raw = data[i] << 16 | data[i + 1] << 8 | data[i + 2]
         out.append(raw - 0x1000000 if raw & 0x800000 else raw)
     return tuple(out)
 
 
 def _i16(data: bytes, off: int) -> int:
     return int.from_bytes(data[off : off + 2], "big", signed=True)
+
+
+def _trusted(cls, values: dict):
+    """Build a frame from values decoded off the wire (in range by construction)."""
+    obj = object.__new__(cls)
+    obj.__dict__.update(values)
+    return obj
 
 
 def _check_envelope(data: bytes, length: int, crc_expected: int | None, what: str) -> None:
@@ -288,10 +306,8 @@ class CommandFrame:
             object.__setattr__(self, name, _check_int(getattr(self, name), name, _U8))
         for name in ("gripper_position", "gripper_speed", "gripper_current"):
             object.__setattr__(self, name, _check_int(getattr(self, name), name, _I16))
-        try:
-            object.__setattr__(self, "command", BoardCommand(self.command))
-        except ValueError:
-            pass  # an unknown code is legal on the wire: the board idles and replies
+        # an unknown code is legal on the wire: the board idles and replies
+        object.__setattr__(self, "command", _COMMANDS.get(self.command, self.command))
 
     @property
     def outputs(self) -> tuple[bool, bool]:
@@ -319,10 +335,11 @@ class CommandFrame:
         """
         _check_envelope(data, COMMAND_LEN, PC_CRC if check_crc else None, "command frame")
         p = bytes(data[4:])
-        return cls(
+        cmd = p[36]
+        return _trusted(cls, dict(
             positions=_get24(p, 0),
             speeds=_get24(p, 18),
-            command=p[36],
+            command=_COMMANDS.get(cmd, cmd),
             affected=p[37],
             io=p[38],
             timeout=p[39],
@@ -333,7 +350,7 @@ class CommandFrame:
             gripper_mode=p[47],
             gripper_id=p[48],
             crc=p[49],
-        )
+        ))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -429,7 +446,7 @@ class StatusFrame:
         """Parse exactly one 60-byte frame.  Raises :class:`FrameError` on a bad envelope."""
         _check_envelope(data, STATUS_LEN, BOARD_CRC if check_crc else None, "status frame")
         p = bytes(data[4:])
-        return cls(
+        return _trusted(cls, dict(
             positions=_get24(p, 0),
             speeds=_get24(p, 18),
             homed=p[36],
@@ -446,7 +463,7 @@ class StatusFrame:
             gripper_status=p[51],
             object_detection=p[52],
             crc=p[53],
-        )
+        ))
 
 
 def frame_fields(frame: CommandFrame | StatusFrame) -> dict[str, object]:
