@@ -122,7 +122,7 @@ def build_trajectory(
     SPEED tracking gets a trailing zero-speed sample when the last speed is not zero.
     """
     name = getattr(move, "name", type(move).__name__)
-    spd = model.steps_per_deg
+    spd = validate.model_arrays(model).steps_per_deg
     steps_f = q_deg * spd
     pos = np.rint(steps_f).astype(np.int64)
     if target_deg is not None:
@@ -148,7 +148,7 @@ def build_trajectory(
 
 
 def _check_target(name: str, target: np.ndarray, model: RobotModel, what: str = "target") -> None:
-    lim = model.safe_limits_deg
+    lim = validate.model_arrays(model).safe_deg
     bad = np.nonzero((target < lim[:, 0]) | (target > lim[:, 1]))[0]
     if len(bad):
         j = int(bad[0])
@@ -170,12 +170,10 @@ def _plan_pose(move: PoseMove, start: np.ndarray, model: RobotModel, tool: objec
 
     try:
         target = np.asarray(kinematics.ik(move.pose, seed_deg=start, tool=tool), dtype=float)
-    except ParolkitValueError:
-        raise
-    except Exception as exc:  # IKError and friends: an unreachable pose
-        reason = getattr(exc, "reason", None) or str(exc)
+    except kinematics.IKError as exc:  # an unreachable pose
         raise PlanningError(
-            move.name, f"pose {_fmt_pose(move.pose)} is not reachable: {reason}"
+            move.name, f"pose {_fmt_pose(move.pose)} is not reachable: {exc.reason}",
+            joint=exc.joint, value=exc.value,
         ) from exc
     return _plan_joint_target(move, start, target, model, rate, MOVEPOSE_DEFAULT_PCT)
 
@@ -190,11 +188,12 @@ def _plan_joint_target(
 ) -> Trajectory:
     name = move.name
     _check_target(name, target, model)
-    spd = model.steps_per_deg
+    ma = validate.model_arrays(model)
+    spd = ma.steps_per_deg
     delta = target - start  # deg
     dist = np.abs(delta * spd)  # steps
-    vmax = np.asarray(model.max_speed_steps_s, dtype=float)
-    amax = float(model.accel_range_steps_s2[1])
+    vmax = ma.vmax
+    amax = ma.amax
     notes: list[str] = []
     tracking = move.tracking
     if dist.max() < 0.5:  # already there (less than half a step on every joint)
@@ -218,8 +217,8 @@ def _plan_joint_target(
     t = sample_times(T, rate)
     if isinstance(prof, ScalarProfile):
         s, sd, _ = prof(t)
-        q = start + np.outer(s, delta)
-        qd = np.outer(sd, delta)
+        q = start + s[:, None] * delta
+        qd = sd[:, None] * delta
     else:  # TOPP-RA result on the straight joint path
         q, qd, _ = prof.evaluate(t)
         q = np.array(q, dtype=float)

@@ -11,10 +11,42 @@ import numpy as np
 from parolkit.motion.errors import PlanningError
 from parolkit.robot import JOINT_NAMES, RobotModel
 
-__all__ = ["check_positions", "check_speeds", "check_accels", "ACCEL_TOLERANCE"]
+__all__ = ["check_positions", "check_speeds", "check_accels", "ACCEL_TOLERANCE", "model_arrays"]
 
 #: Finite-difference accelerations may exceed the analytic peak by this fraction (sampling).
 ACCEL_TOLERANCE = 0.02
+
+
+class ModelArrays:
+    """Per-model constant arrays, computed once (read-only)."""
+
+    def __init__(self, model: RobotModel) -> None:
+        self.steps_per_deg = model.steps_per_deg
+        self.limits_steps = model.limits_steps_array
+        self.lim_lo = self.limits_steps[:, 0].copy()
+        self.lim_hi = self.limits_steps[:, 1].copy()
+        self.safe_deg = model.safe_limits_deg
+        self.vmax = np.asarray(model.max_speed_steps_s, dtype=float)
+        self.vmax_jog = np.asarray(model.max_jog_speed_steps_s, dtype=float)
+        self.amax = float(model.accel_range_steps_s2[1])
+        for a in (self.steps_per_deg, self.limits_steps, self.lim_lo, self.lim_hi, self.safe_deg,
+                  self.vmax, self.vmax_jog):
+            a.setflags(write=False)
+
+
+_CACHE: dict[int, tuple[RobotModel, ModelArrays]] = {}
+
+
+def model_arrays(model: RobotModel) -> ModelArrays:
+    """Cached :class:`ModelArrays` of ``model`` (models are frozen)."""
+    hit = _CACHE.get(id(model))
+    if hit is not None and hit[0] is model:
+        return hit[1]
+    arrays = ModelArrays(model)
+    if len(_CACHE) > 32:
+        _CACHE.clear()
+    _CACHE[id(model)] = (model, arrays)
+    return arrays
 
 
 def _first(mask: np.ndarray) -> tuple[int, int] | None:
@@ -26,7 +58,10 @@ def _first(mask: np.ndarray) -> tuple[int, int] | None:
 
 def check_positions(name: str, t: np.ndarray, steps: np.ndarray, model: RobotModel) -> None:
     """Every (rounded) sample inside ``model.limits_steps``."""
-    lim = model.limits_steps_array
+    ma = model_arrays(model)
+    lim = ma.limits_steps
+    if steps.min(axis=0).__ge__(ma.lim_lo).all() and steps.max(axis=0).__le__(ma.lim_hi).all():
+        return
     hit = _first((steps < lim[:, 0]) | (steps > lim[:, 1]))
     if hit is None:
         return
@@ -48,7 +83,11 @@ def check_speeds(
     jog: bool = False, hint: str = "",
 ) -> None:
     """Every |speed| within the maximum joint speed (``jog``: the maximum jog speed)."""
-    mx = np.asarray(model.max_jog_speed_steps_s if jog else model.max_speed_steps_s, dtype=float)
+    ma = model_arrays(model)
+    mx = ma.vmax_jog if jog else ma.vmax
+    peak = np.abs(speeds_steps_s).max(axis=0)
+    if np.all(peak <= mx * (1.0 + 1e-9)):
+        return
     hit = _first(np.abs(speeds_steps_s) > mx * (1.0 + 1e-9))
     if hit is None:
         return
@@ -69,9 +108,13 @@ def check_accels(
 ) -> None:
     """Every finite-difference acceleration (from rest) within the top of the acceleration
     range (plus :data:`ACCEL_TOLERANCE` for sampling)."""
-    amax = float(model.accel_range_steps_s2[1])
-    v = np.vstack([np.zeros((1, 6)), speeds_steps_s])
-    acc = np.diff(v, axis=0) * rate_hz
+    amax = model_arrays(model).amax
+    acc = np.empty_like(speeds_steps_s, dtype=float)
+    acc[0] = speeds_steps_s[0]
+    np.subtract(speeds_steps_s[1:], speeds_steps_s[:-1], out=acc[1:])
+    acc *= rate_hz
+    if np.abs(acc).max() <= amax * (1.0 + ACCEL_TOLERANCE):
+        return
     hit = _first(np.abs(acc) > amax * (1.0 + ACCEL_TOLERANCE))
     if hit is None:
         return
