@@ -256,7 +256,11 @@ class AsyncRobot(RobotCommands):
     def _send(self, text: str) -> None:
         if self._transport is None or self._closed:
             raise RobotError("this AsyncRobot is not open (closed, or not used inside its event loop)")
-        self._transport.sendto(text.encode("utf-8"), (self.host, self.port))
+        try:
+            self._transport.sendto(text.encode("utf-8"), (self.host, self.port))
+        except OSError as exc:
+            raise ControllerUnreachable(
+                f"cannot send to {self.host}:{self.port}: {exc.strerror or exc}") from None
 
     def _on_datagram(self, text: str) -> None:
         self._last_heard = time.monotonic()

@@ -126,7 +126,7 @@ class StatusSubscription:
         while not self._closed.wait(SUBSCRIBE_RENEW_S):
             try:
                 self._renew()
-            except OSError:
+            except (OSError, RobotError):
                 pass  # the next renewal retries; iteration reports a silent controller
 
     def _pump(self, callback: Callable[[RobotStatus], Any]) -> None:
@@ -177,7 +177,7 @@ class StatusSubscription:
         self._closed.set()
         try:
             self._robot._send(wire.build_unsubscribe(self.port))
-        except OSError:
+        except (OSError, RobotError):
             pass
         self._sock.close()
 
@@ -230,7 +230,11 @@ class Robot(RobotCommands):
     def _send(self, text: str) -> None:
         if self._closed:
             raise RobotError("this Robot is closed")
-        self._sock.sendto(text.encode("utf-8"), self._addr)
+        try:
+            self._sock.sendto(text.encode("utf-8"), self._addr)
+        except OSError as exc:  # unresolvable host, no route, ...
+            raise ControllerUnreachable(
+                f"cannot send to {self.host}:{self.port}: {exc.strerror or exc}") from None
 
     def _read_loop(self) -> None:
         sock = self._sock
