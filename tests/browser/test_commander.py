@@ -173,12 +173,13 @@ def test_seed_program_runs_with_lines_highlighted(page):
     seen_lines = set()
 
     def highlighted():
-        cur = page.locator(".cm-line.rbt-current")
-        if cur.count():
-            seen_lines.add(cur.first.inner_text())
+        seen_lines.update(page.locator(".cm-line.rbt-current").all_inner_texts())
         return len(seen_lines) >= 2
 
-    wait_until(highlighted, 20, what="two different executing lines highlighted")
+    try:
+        wait_until(highlighted, 20, what="two different executing lines highlighted")
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}; status {text(page, 'prog-status')!r}; log:\n{text(page, 'log')}") from None
     wait_until(lambda: "HIGH" in text(page, "io-out1"), 10, what="program sets OUT1")
     wait_until(lambda: "LOW" in text(page, "io-out1"), 10, what="program clears OUT1")
     page.get_by_test_id("prog-stop").click()

@@ -300,3 +300,35 @@ def test_cylinder_rotation_maps_y_onto_segment():
     det = (r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1]) - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
            + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]))
     assert math.isclose(det, 1.0, abs_tol=1e-12)
+
+
+# ---- CLI ----
+
+def test_gui_cli_flags_parse():
+    import argparse
+
+    from parolkit.gui import cli
+
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers()
+    cli.register(sub, "gui")
+    args = parser.parse_args(["gui", "--connect", "10.0.0.2:5001", "--http-port", "9000", "--no-browser"])
+    assert args.connect == ("10.0.0.2", 5001) and args.http_port == 9000 and args.no_browser
+    args = parser.parse_args(["gui", "--port", "/dev/ttyACM0"])
+    assert args.port == "/dev/ttyACM0" and not args.sim and args.func is cli.main
+    with pytest.raises(SystemExit):
+        parser.parse_args(["gui", "--sim", "--port", "/dev/ttyACM0"])  # mutually exclusive
+
+
+@pytest.mark.parametrize("text, msg", [
+    ("localhost", "needs HOST:PORT"),
+    ("host:abc", "integer 1..65535"),
+    ("host:70000", "in 1..65535"),
+])
+def test_connect_address_errors_are_precise(text, msg):
+    import argparse
+
+    from parolkit.gui.cli import parse_host_port
+
+    with pytest.raises(argparse.ArgumentTypeError, match=msg):
+        parse_host_port(text)

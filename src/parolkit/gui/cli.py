@@ -82,22 +82,55 @@ def _ping(port: int, timeout: float) -> bool:
         return data.startswith(b"PONG")
 
 
+#: Stream watchdog (s) of a controller the GUI starts itself.  The GUI's jog stream is sent
+#: from an asyncio loop every 10 ms; on a busy machine its jitter exceeds the controller's
+#: 20 ms default and a held jog would stutter.  Release sends STOP at once, so this only
+#: bounds how long motion continues if the GUI process itself stalls.
+GUI_STREAM_WATCHDOG_S = 0.15
+
+
 def start_controller_process(serial_port: str | None, udp_port: int, ack_port: int,
                              config: Path | None = None, ready_timeout: float = 20.0) -> subprocess.Popen:
-    """Start ``parolkit serve`` and wait until it answers PING; raises RuntimeError otherwise."""
+    """Start ``parolkit serve`` and wait until it answers PING; raises RuntimeError otherwise.
+
+    Without a user ``config`` the controller gets a generated one that only sets the stream
+    watchdog to :data:`GUI_STREAM_WATCHDOG_S`."""
+    import tempfile
+
     args = [sys.executable, "-m", "parolkit", "serve", "--udp-port", str(udp_port), "--ack-port", str(ack_port)]
     args += ["--port", serial_port] if serial_port else ["--sim"]
-    if config is not None:
-        args += ["--config", str(config)]
+    generated: Path | None = None
+    if config is None:
+        fd, name = tempfile.mkstemp(prefix="parolkit-gui-", suffix=".toml")
+        with os.fdopen(fd, "w") as f:
+            f.write(f"[controller]\nstream_watchdog_s = {GUI_STREAM_WATCHDOG_S}\n")
+        config = generated = Path(name)
+    args += ["--config", str(config)]
     proc = subprocess.Popen(args, env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    proc.generated_config = generated  # type: ignore[attr-defined]  # removed by stop_controller_process
     deadline = time.monotonic() + ready_timeout
     while time.monotonic() < deadline:
         if proc.poll() is not None:
+            stop_controller_process(proc)
             raise RuntimeError(f"the controller exited with code {proc.returncode} (command: {' '.join(args)})")
         if _ping(udp_port, 0.2):
             return proc
-    proc.terminate()
+    stop_controller_process(proc)
     raise RuntimeError(f"the controller did not answer PING within {ready_timeout:g} s")
+
+
+def stop_controller_process(proc: subprocess.Popen) -> None:
+    """Terminate a controller started by :func:`start_controller_process` and clean up."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+    generated = getattr(proc, "generated_config", None)
+    if generated is not None:
+        generated.unlink(missing_ok=True)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -150,10 +183,6 @@ def main(args: argparse.Namespace) -> int:
                show=not args.no_browser, show_welcome_message=False, dark=True, favicon="🦾",
                reconnect_timeout=30.0)
     finally:
-        if proc is not None and proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+        if proc is not None:
+            stop_controller_process(proc)
     return 0
