@@ -518,6 +518,10 @@ def main(args: argparse.Namespace) -> int:
     """Entry point of ``parolkit board-test``; returns the exit code."""
     from parolkit.transport import TransportError, open_transport
 
+    if args.port and args.speedup != 1.0:
+        print("board-test: --speedup applies to the simulated board (--sim) only; a real board "
+              "homes at its own pace", file=sys.stderr)
+        return 2
     try:
         if args.port:
             transport = open_transport(args.port, baud=args.baud)
