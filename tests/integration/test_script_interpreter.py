@@ -1,0 +1,196 @@
+"""The interpreter's controls against the real controller (simulated board): stop, pause /
+resume, single step, the current line, Home / Input / SpeedJoint / Output(2), endless loops,
+and the pre-run check that refuses a program before anything moves."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from conftest import start_controller
+from parolkit.client.robot import Robot
+from parolkit.script import Interpreter, InterpreterState, parse
+
+STANDBY = [90.0, -90.0, 180.0, 0.0, 0.0, 180.0]
+
+
+@pytest.fixture(scope="module")
+def robot(tmp_path_factory):
+    cp = start_controller(log_dir=tmp_path_factory.mktemp("interp"))
+    try:
+        with Robot(cp.host, cp.port, ack_port=cp.ack_port) as r:
+            yield r
+    finally:
+        cp.stop()
+
+
+def program(text: str):
+    return parse(text, "test.rbt").unwrap()
+
+
+def wait_for(predicate, timeout: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError("condition not reached in time")
+        time.sleep(0.01)
+
+
+def test_home_input_and_speedjoint_run_in_order(robot):
+    prog = program(
+        "Begin()\n"
+        "MoveJoint(80, -95, 175, 5, 5, 170, t=0.8)\n"
+        "Input(1, LOW, 2)      # the simulated inputs are low: returns at once\n"
+        "SpeedJoint(5, 0, 0, 0, 0, 0, t=1)\n"
+        "Home()\n"
+        "End()\n"
+    )
+    seen: list[tuple[int, str]] = []
+    result = Interpreter(prog, robot, on_line=lambda p: seen.append((p.line, p.command))).run()
+    assert result.state is InterpreterState.FINISHED, result.message
+    assert [line for line, _ in seen] == [1, 2, 3, 4, 5, 6]
+    assert seen[3][1] == "SpeedJoint(5, 0, 0, 0, 0, 0, t=1)"
+    np.testing.assert_allclose(result.final_deg, STANDBY, atol=0.05)
+
+
+def test_output_sets_the_named_output_high_then_low(robot):
+    """Output(2, ...) works (the original always rejected it); HIGH means the output is on."""
+    prog = program("Begin()\nOutput(2, HIGH)\nOutput(1, HIGH)\nOutput(2, LOW)\nOutput(1, LOW)\nEnd()")
+    observed: dict[int, tuple[bool, bool]] = {}
+
+    def on_line(p):  # the IO state after the previous line completed
+        io = robot.io()
+        observed[p.line] = (io.out1, io.out2)
+
+    result = Interpreter(prog, robot, on_line=on_line).run()
+    assert result.ok, result.message
+    assert observed[3] == (False, True)
+    assert observed[4] == (True, True)
+    assert observed[5] == (True, False)
+    assert observed[6] == (False, False)
+
+
+def test_speedjoint_moves_the_joint_by_speed_times_duration(robot):
+    robot.move_joints(STANDBY, duration=1.0)
+    result = Interpreter(program("Begin()\nSpeedJoint(-8, 0, 0, 0, 0, 0, t=1.5)\nEnd()"), robot).run()
+    assert result.ok, result.message
+    # speed x duration = 12 deg; the simulated board integrates speed over its own clock, so a
+    # heavily loaded machine (late ticks) adds a little: allow 3 deg
+    assert result.final_deg[0] == pytest.approx(90 - 8 * 1.5, abs=3.0)
+    assert result.final_deg[0] < 90 - 8 * 1.5 + 0.5
+    np.testing.assert_allclose(result.final_deg[1:], STANDBY[1:], atol=0.05)
+
+
+def test_input_timeout_fails_at_its_line_and_stops_the_program(robot):
+    robot.move_joints(STANDBY, duration=1.0)
+    prog = program("Begin()\nInput(2, HIGH, 0.3)\nMoveJoint(80, -95, 175, 5, 5, 170, t=1)\nEnd()")
+    result = Interpreter(prog, robot).run()
+    assert result.state is InterpreterState.FAILED
+    (err,) = result.errors
+    assert (err.line, err.col) == (2, 1)
+    assert err.message.startswith("Input failed")
+    np.testing.assert_allclose(robot.angles(), STANDBY, atol=0.05)  # line 3 never ran
+
+
+def test_stop_during_a_move_sends_stop_and_leaves_the_robot_short_of_the_target(robot):
+    robot.move_joints(STANDBY, duration=1.0)
+    target = [40.0, -90.0, 180.0, 0.0, 0.0, 180.0]
+    prog = program(f"Begin()\nMoveJoint({', '.join(map(str, target))}, t=6)\nDelay(5)\nEnd()")
+    interp = Interpreter(prog, robot)
+    interp.start()
+    wait_for(lambda: interp.current_line == 2 and interp.state is InterpreterState.RUNNING)
+    time.sleep(1.0)
+    t0 = time.monotonic()
+    interp.stop()
+    result = interp.wait(10)
+    assert time.monotonic() - t0 < 3.0
+    assert result.state is InterpreterState.STOPPED
+    assert interp.current_line is None
+    time.sleep(0.3)
+    j1 = robot.angles()[0]
+    assert 41.0 < j1 < 89.5, j1  # moved, but was stopped well before the target
+    assert robot.status().queue == 0
+    assert max(abs(s) for s in robot.speeds()) == 0
+
+
+A = [85.0, -92.0, 178.0, 2.0, 2.0, 178.0]
+B = [80.0, -95.0, 175.0, 5.0, 5.0, 175.0]
+
+
+def test_single_step_runs_one_command_per_step_and_pauses_between(robot):
+    robot.move_joints(STANDBY, duration=1.0)
+    states: list[InterpreterState] = []
+    prog = program(f"Begin()\nMoveJoint({', '.join(map(str, A))}, t=1)\n"
+                   f"MoveJoint({', '.join(map(str, B))}, t=1)\nEnd()")
+    interp = Interpreter(prog, robot, step=True, on_state=states.append)
+    interp.start()
+    wait_for(lambda: interp.state is InterpreterState.PAUSED)
+    assert interp.current_line == 1
+    interp.step()  # Begin()
+    wait_for(lambda: interp.state is InterpreterState.PAUSED and interp.current_line == 2)
+    np.testing.assert_allclose(robot.angles(), STANDBY, atol=0.05)
+    interp.step()  # the first move
+    wait_for(lambda: interp.state is InterpreterState.PAUSED and interp.current_line == 3)
+    np.testing.assert_allclose(robot.angles(), A, atol=0.05)
+    time.sleep(0.3)
+    assert interp.current_line == 3 and interp.state is InterpreterState.PAUSED  # stays paused
+    np.testing.assert_allclose(robot.angles(), A, atol=0.05)
+    interp.resume()
+    result = interp.wait(10)
+    assert result.state is InterpreterState.FINISHED
+    np.testing.assert_allclose(result.final_deg, B, atol=0.05)
+    assert InterpreterState.CHECKING in states and states[-1] is InterpreterState.FINISHED
+
+
+def test_pause_lets_the_move_in_progress_finish_then_waits(robot):
+    robot.move_joints(STANDBY, duration=1.0)
+    prog = program(f"Begin()\nMoveJoint({', '.join(map(str, A))}, t=1.2)\n"
+                   f"MoveJoint({', '.join(map(str, B))}, t=1)\nEnd()")
+    paused = threading.Event()
+
+    def on_line(p):
+        if p.line == 2:
+            interp.pause()  # requested just as the move starts
+
+    def on_state(s):
+        if s is InterpreterState.PAUSED:
+            paused.set()
+
+    interp = Interpreter(prog, robot, on_line=on_line, on_state=on_state)
+    interp.start()
+    assert paused.wait(10)
+    assert interp.current_line == 3
+    np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # the move finished
+    time.sleep(0.3)
+    np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # line 3 does not run while paused
+    interp.resume()
+    assert interp.wait(10).state is InterpreterState.FINISHED
+    np.testing.assert_allclose(robot.angles(), B, atol=0.05)
+
+
+def test_endless_loop_runs_until_stopped(robot):
+    passes: list[int] = []
+    prog = program("Begin()\nDelay(0.05)\nLoop()")
+    interp = Interpreter(prog, robot, on_line=lambda p: passes.append(p.iteration))
+    interp.start()
+    wait_for(lambda: interp.iteration >= 3)
+    interp.stop()
+    result = interp.wait(10)
+    assert result.state is InterpreterState.STOPPED
+    assert result.iterations >= 3 and max(passes) >= 3
+
+
+def test_check_refuses_an_unreachable_program_before_anything_moves(robot):
+    robot.move_joints(STANDBY, duration=1.0)
+    before = robot.status().plan_seq
+    prog = program("Begin()\nMoveJoint(80, -95, 175, 5, 5, 170, t=1)\nMovePose(0, 900, 100, -90, 0, -90)\nEnd()")
+    result = Interpreter(prog, robot).run()
+    assert result.state is InterpreterState.FAILED
+    assert result.commands_executed == 0
+    (err,) = result.errors
+    assert (err.line, err.col) == (3, 1) and "MovePose cannot be planned" in err.message
+    assert robot.status().plan_seq == before
+    np.testing.assert_allclose(robot.angles(), STANDBY, atol=0.05)
