@@ -158,6 +158,8 @@ class FakeController:
 
     def close(self) -> None:
         self._stop = True
+        self.silent = True
+        self.sock.sendto(b"", ("127.0.0.1", self.port))  # wake the thread now
         self._thread.join(1.0)
         self.sock.close()
 
@@ -563,6 +565,7 @@ def test_robot_query_errors(robot, fake):
         robot.angles()
     fake.query_error = None
     fake.silent = True
+    robot.timeout = 0.3
     with pytest.raises(ControllerUnreachable, match="no ANGLES reply"):
         robot.angles()
 

@@ -370,6 +370,10 @@ class Robot(RobotCommands):
         if self._closed:
             return
         self._closed = True
+        try:  # wake the reader thread at once instead of waiting for its poll timeout
+            self._sock.sendto(b"", ("127.0.0.1", self.ack_port))
+        except OSError:
+            pass
         self._reader.join(1.0)
         self._sock.close()
 
