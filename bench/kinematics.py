@@ -96,10 +96,10 @@ def main(argv: list[str] | None = None) -> int:
         q = np.atleast_2d(q)
         return np.all((q >= lim[:, 0]) & (q <= lim[:, 1]), axis=1)
 
-    def reaches(q):
+    def reaches(q, mm=1e-6, deg=1e-6):
         m = fk_batch(q, as_matrix=True)
         pos = np.abs(m[:, :3, 3] - mats[:, :3, 3]).max(axis=1) * 1e3
-        return (pos <= 1e-6) & (_rot_err_deg(m[:, :3, :3], mats[:, :3, :3]) <= 1e-6)
+        return (pos <= mm) & (_rot_err_deg(m[:, :3, :3], mats[:, :3, :3]) <= deg)
 
     print(f"\n== parolkit (closed form), {n} random in-limit configurations ==")
     fk_us = _latency(fk, [(q,) for q in q_lists])
@@ -193,8 +193,14 @@ def main(argv: list[str] | None = None) -> int:
     ok_lm_cold = f_cold & in_limits(lm_cold) & reaches(lm_cold)
     print(f"ik_LM loop, warm         {lm_warm_tp:12,.0f} poses/s  (no batch API: a Python loop)")
     print(f"ik_LM loop, cold         {lm_cold_tp:12,.0f} poses/s")
-    print(f"ik_LM success (reported / in limits + exact pose): warm {f_warm.mean() * 100:.2f} % / "
-          f"{ok_lm_warm.mean() * 100:.2f} %, cold {f_cold.mean() * 100:.2f} % / {ok_lm_cold.mean() * 100:.2f} %")
+    loose_warm = f_warm & in_limits(lm_warm) & reaches(lm_warm, 1.0, 1.0)
+    loose_cold = f_cold & in_limits(lm_cold) & reaches(lm_cold, 1.0, 1.0)
+    print(f"ik_LM success, reported by ik_LM:              warm {f_warm.mean() * 100:6.2f} %, "
+          f"cold {f_cold.mean() * 100:6.2f} %")
+    print(f"ik_LM success, in limits + pose within 1 mm/1 deg: warm {loose_warm.mean() * 100:6.2f} %, "
+          f"cold {loose_cold.mean() * 100:6.2f} %")
+    print(f"ik_LM success, in limits + exact pose (1e-6):  warm {ok_lm_warm.mean() * 100:6.2f} %, "
+          f"cold {ok_lm_cold.mean() * 100:6.2f} %  (ik_LM stops at its residual tolerance)")
 
     print("\n== ratios (rtb / parolkit; > 1 means parolkit is faster) ==")
     med = statistics.median

@@ -24,7 +24,7 @@ from parolkit.kinematics.model import (
     A1, A2, A3, D1, D4, L3, LIM_HI, LIM_HI_ARR, LIM_LO, LIM_LO_ARR, LIMIT_TOL, PHI3, TWO_PI,
     WEIGHTS,
 )
-from parolkit.kinematics.pose import as_matrix_array, as_pose_array
+from parolkit.kinematics.pose import as_matrix_array, as_pose_array, cos_sin
 from parolkit.kinematics.tools import Tool
 from parolkit.kinematics.types import Branch, IKError, IKFailure
 
@@ -39,6 +39,8 @@ _REACH_MIN = abs(A2 - L3)
 _WRIST_EPS = 1e-9
 _SHOULDER_EPS = 1e-9
 _REACH_EPS = 1e-12
+_COS_PHI3 = math.cos(PHI3)
+_SIN_PHI3 = math.sin(PHI3)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -59,11 +61,9 @@ def targets_from_poses(poses: object, tool: Tool):
         a = as_pose_array(arr, "poses")
         if a.ndim == 1:
             a = a[None, :]
-        ang = np.radians(a[:, 3:])
-        cs = np.cos(ang)
-        sn = np.sin(ang)
-        ca, cb, cc = cs[:, 0], cs[:, 1], cs[:, 2]
-        sa, sb, sc = sn[:, 0], sn[:, 1], sn[:, 2]
+        cs, sn = cos_sin(np.radians(a[:, 3:]).T)
+        ca, cb, cc = cs
+        sa, sb, sc = sn
         scsb = sc * sb
         ccsb = cc * sb
         rot = [cb * ca, -cb * sa, sb,
@@ -88,37 +88,48 @@ def targets_from_poses(poses: object, tool: Tool):
 
 
 class _Shoulder:
-    """Per-shoulder quantities shared by both elbows (arrays over N)."""
+    """Per-shoulder quantities shared by both elbows (arrays over N), continuous mode.
 
-    __slots__ = ("q1", "X", "c", "delta", "atan_y", "n00", "n01", "n02", "n10", "n12", "reach_ok",
-                 "excess")
+    ``free_q1`` (array) replaces J1 where the wrist centre is on the J1 axis.
+    """
 
-    def __init__(self, rot, pos, back: bool, free_q1: np.ndarray):
+    __slots__ = ("q1", "X", "Y", "c", "sdel", "delta", "atan_y", "n00", "n01", "n02", "n10", "n12",
+                 "reach_ok", "excess")
+
+    def __init__(self, rot, pos, back: bool, free_q1: np.ndarray | None):
         x, y, z = pos
-        rho = np.hypot(x, y)
+        rho = np.sqrt(x * x + y * y)
         base = np.arctan2(y, x)
         sing = rho < _SHOULDER_EPS
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c1 = x / rho
+            s1 = y / rho
         if back:
             base = base + _PI
             rr = -rho
+            c1 = -c1
+            s1 = -s1
         else:
             rr = rho
         if sing.any():
             base = np.where(sing, free_q1, base)
+            c1 = np.where(sing, np.cos(base), c1)
+            s1 = np.where(sing, np.sin(base), s1)
         self.q1 = base
         X = rr - A1
         Y = D1 - z
         c = (X * X + Y * Y - _K0) * _INV_2A2L
         self.reach_ok = np.abs(c) <= 1.0 + _REACH_EPS
-        dist = np.hypot(X, Y)
-        self.excess = np.where(dist > _REACH_MAX, dist - _REACH_MAX, _REACH_MIN - dist)
-        self.c = np.clip(c, -1.0, 1.0)
-        self.delta = np.arccos(self.c)
+        dist = np.sqrt(X * X + Y * Y)
+        self.excess = np.maximum(dist - _REACH_MAX, _REACH_MIN - dist)
+        c = np.clip(c, -1.0, 1.0)
+        self.c = c
+        self.sdel = np.sqrt(1.0 - c * c)
+        self.delta = np.arccos(c)
         self.atan_y = np.arctan2(Y, X)
         self.X = X
+        self.Y = Y
         r00, r01, r02, r10, r11, r12 = rot[:6]
-        c1 = np.cos(base)
-        s1 = np.sin(base)
         self.n00 = c1 * r00 + s1 * r10
         self.n01 = c1 * r01 + s1 * r11
         self.n02 = c1 * r02 + s1 * r12
@@ -129,20 +140,32 @@ class _Shoulder:
 def _arm(sh: _Shoulder, rot, down: bool, free_q4: np.ndarray):
     """Raw joint arrays for one (shoulder, elbow): q1, q2, q3 and both wrist solutions.
 
-    Returns ``(q1, q2, q3, noflip (q4, q5, q6), flip (q4, q5, q6), singular mask)``.
+    Returns ``(q1, q2, q3, noflip (q4, q5, q6), flip (q4, q5, q6), singular mask)``.  On the
+    wrist singularity both wrist entries hold J4 = ``free_q4`` and J6 = the rest.
     """
-    q3 = PHI3 + sh.delta if down else PHI3 - sh.delta
-    c3 = np.cos(q3)
-    s3 = np.sin(q3)
-    q2 = sh.atan_y - np.arctan2(D4 * c3 - A3 * s3, A2 + A3 * c3 + D4 * s3)
-    psi = q2 - q3
-    cp = np.cos(psi)
-    sp = np.sin(psi)
+    c = sh.c
+    sdel = sh.sdel
+    if down:
+        q3 = PHI3 + sh.delta
+        c3 = _COS_PHI3 * c - _SIN_PHI3 * sdel
+        s3 = _SIN_PHI3 * c + _COS_PHI3 * sdel
+    else:
+        q3 = PHI3 - sh.delta
+        c3 = _COS_PHI3 * c + _SIN_PHI3 * sdel
+        s3 = _SIN_PHI3 * c - _COS_PHI3 * sdel
+    u = A2 + A3 * c3 + D4 * s3
+    v = D4 * c3 - A3 * s3
+    q2 = sh.atan_y - np.arctan2(v, u)
+    inv = 1.0 / (u * u + v * v)
+    c2 = (sh.X * u + sh.Y * v) * inv
+    s2 = (sh.Y * u - sh.X * v) * inv
+    cp = c2 * c3 + s2 * s3  # cos(q2 - q3)
+    sp = s2 * c3 - c2 * s3
     r20, r21, r22 = rot[6], rot[7], rot[8]
     m02 = cp * sh.n02 - sp * r22
     m22 = sp * sh.n02 + cp * r22
     n12 = sh.n12
-    sb = np.hypot(m02, n12)
+    sb = np.sqrt(m02 * m02 + n12 * n12)
     al = np.arctan2(n12, m02)
     be = np.arctan2(sb, m22)
     ga = np.arctan2(sp * sh.n01 + cp * r21, -(sp * sh.n00 + cp * r20))
@@ -161,39 +184,10 @@ def _arm(sh: _Shoulder, rot, down: bool, free_q4: np.ndarray):
 
 
 # ---------------------------------------------------------------------------------------------
-# fitting into joint ranges
-# ---------------------------------------------------------------------------------------------
-
-
-def _fit(theta: np.ndarray, j: int, seed: np.ndarray | float):
-    """In-range representation of ``theta`` (nearest ``seed`` where two fit) and a valid mask."""
-    lo, hi = LIM_LO[j], LIM_HI[j]
-    t = theta - TWO_PI * np.floor((theta - lo) * (1.0 / TWO_PI))
-    over = t > hi
-    valid = ~over | (t <= hi + LIMIT_TOL) | (t >= lo + TWO_PI - LIMIT_TOL)
-    if over.any():
-        t = np.where(over, np.where(t <= hi + LIMIT_TOL, hi, lo), t)
-    if hi - lo >= TWO_PI - 2 * LIMIT_TOL:
-        alt = t + TWO_PI
-        use = (alt <= hi + LIMIT_TOL) & (np.abs(alt - seed) < np.abs(t - seed))
-        if use.any():
-            t = np.where(use, np.minimum(alt, hi), t)
-    return t, valid
-
-
-def _fit_j5(theta: np.ndarray):
-    lo, hi = LIM_LO[4], LIM_HI[4]
-    valid = (theta >= lo - LIMIT_TOL) & (theta <= hi + LIMIT_TOL)
-    return np.clip(theta, lo, hi), valid
-
-
-# ---------------------------------------------------------------------------------------------
 # independent mode
 # ---------------------------------------------------------------------------------------------
 
 _BRANCHES = [(sh, el, fl) for sh in ("front", "back") for el in ("up", "down") for fl in (False, True)]
-_COS_PHI3 = math.cos(PHI3)
-_SIN_PHI3 = math.sin(PHI3)
 _NARROW = tuple(hi - lo < TWO_PI - 2 * LIMIT_TOL for lo, hi in zip(LIM_LO, LIM_HI))
 _INV_2PI = 1.0 / TWO_PI
 
@@ -456,8 +450,12 @@ def solve_continuous(rot, pos, q0: tuple[float, ...], branch0: Branch, pin_flip:
     back = branch0.shoulder == "back"
     down = branch0.elbow == "down"
     x, y, _ = pos
-    shoulder_sing = np.hypot(x, y) < _SHOULDER_EPS
-    free_q1 = np.full(n, q0[0])
+    shoulder_sing = np.sqrt(x * x + y * y) < _SHOULDER_EPS
+    free_q1 = None
+    if shoulder_sing.any():
+        # J1 free on the J1 axis: keep the previous sample's J1
+        raw = np.arctan2(y, x) + (_PI if back else 0.0)
+        free_q1 = _ffill(raw, shoulder_sing, q0[0])
     sh = _Shoulder(rot, pos, back, free_q1)
     if not sh.reach_ok.all():
         i = int(np.argmin(sh.reach_ok))
@@ -468,8 +466,6 @@ def solve_continuous(rot, pos, q0: tuple[float, ...], branch0: Branch, pin_flip:
     free_q4 = np.full(n, q0[3])
     _, q2r, q3r, nf, fl, sing = _arm(sh, rot, down, free_q4)
     q1r = sh.q1
-    if shoulder_sing.any():
-        q1r = _ffill(q1r, shoulder_sing, q0[0])
     # --- wrist: choose noflip / flip per sample
     if pin_flip:
         wr = fl if branch0.wrist_flip else nf

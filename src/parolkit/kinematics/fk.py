@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from parolkit.kinematics.model import A1, A2, A3, D1, D4
-from parolkit.kinematics.pose import _abc_from_rot, _rot_to_poses
+from parolkit.kinematics.pose import _abc_from_rot, _rot_to_poses, cos_sin
 from parolkit.kinematics.tools import Tool, get_tool
 from parolkit.robot import PAROL6, as_joint_array
 
@@ -129,12 +129,11 @@ def fk_matrix(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarra
 
 def _flange_batch(q: np.ndarray):
     """Vectorised flange rotation entries (tuple of 9 arrays) and position (3 arrays), metres."""
-    c = np.cos(q)
-    s = np.sin(q)
-    c1, c2, c3, c4, c5, c6 = c.T
-    s1, s2, s3, s4, s5, s6 = s.T
-    psi = q[:, 1] - q[:, 2]
-    cp, sp = np.cos(psi), np.sin(psi)
+    c, s = cos_sin(q.T)
+    c1, c2, c3, c4, c5, c6 = c
+    s1, s2, s3, s4, s5, s6 = s
+    cp = c2 * c3 + s2 * s3  # cos(q2 - q3)
+    sp = s2 * c3 - c2 * s3
     c4c5 = c4 * c5
     s4c5 = s4 * c5
     w00 = c4c5 * c6 - s4 * s6
