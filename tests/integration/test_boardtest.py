@@ -102,3 +102,17 @@ def test_board_test_over_a_real_pty(tmp_path, capsys):
         assert emu.outputs == (True, False)
         assert cli_main(["board-test", "--port", str(link), "home", "--timeout", "20"]) == 0
         assert emu.homed == 0xFF
+
+
+def test_interactive_menu_reads_actions_from_stdin():
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "parolkit", "board-test", "--sim"],
+                          input="inputs\nout 2 on\nstatus\nquit\n", capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "board test: type an action" in proc.stdout
+    assert "IN1=0 IN2=0 ESTOP=released" in proc.stdout
+    assert "board reports OUT2=1" in proc.stdout
+    assert "timing:" in proc.stdout
