@@ -84,25 +84,6 @@ _SHOULDERS = ("front", "back")
 _ELBOWS = ("up", "down")
 
 
-def _fit(theta: float, lo: float, hi: float, wide: bool, seed: float):
-    """Representation of ``theta`` (+- k 2pi) inside [lo, hi], closest to ``seed``; None if none."""
-    t = theta - TWO_PI * _floor((theta - lo) / TWO_PI)
-    if t > hi:
-        if t <= hi + LIMIT_TOL:
-            t = hi
-        elif t - TWO_PI >= lo - LIMIT_TOL:
-            return lo
-        else:
-            return None
-    elif t < lo:  # rounding of the floor division
-        t = lo
-    if wide:
-        t2 = t + TWO_PI
-        if t2 <= hi + LIMIT_TOL and abs(t2 - seed) < abs(t - seed):
-            t = t2 if t2 < hi else hi
-    return t
-
-
 def _clamp(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else hi if x > hi else x
 
@@ -560,14 +541,12 @@ def diagnose(r, p, seed, branch: Branch | None) -> IKError:
         x, y, z = p
         rho = math.hypot(x, y)
         dist = min(math.hypot(rr - A1, D1 - z) for rr in (rho, -rho)) * 1e3
-        limit = REACH_MAX * 1e3 if excess_mm > 0 and dist > REACH_MAX * 1e3 - excess_mm - 1e-9 else None
         if dist * 1e-3 > REACH_MAX:
             detail = (f"the wrist centre would be {dist:.1f} mm from the shoulder (J2) axis, "
                       f"the arm reaches at most {REACH_MAX * 1e3:.1f} mm")
         else:
             detail = (f"the wrist centre would be {dist:.1f} mm from the shoulder (J2) axis, "
                       f"closer than the minimum {REACH_MIN * 1e3:.1f} mm")
-        del limit
         return IKError(f"target out of reach by {excess_mm:.1f} mm: {detail}",
                        kind=IKFailure.OUT_OF_REACH, value=excess_mm)
     best = None

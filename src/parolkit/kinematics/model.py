@@ -26,7 +26,7 @@ from parolkit.robot import PAROL6, RobotModel
 
 __all__ = [
     "D1", "A1", "A2", "A3", "D4", "L3", "PHI3", "TOOL_DEFAULT_T",
-    "LIM_LO", "LIM_HI", "WEIGHTS", "STANDBY_RAD", "TWO_PI", "LIMIT_TOL",
+    "LIM_LO", "LIM_HI", "LIM_LO_ARR", "LIM_HI_ARR", "WEIGHTS", "STANDBY_RAD", "TWO_PI", "LIMIT_TOL",
     "check_structure",
 ]
 
@@ -97,4 +97,3 @@ STANDBY_RAD = tuple(math.radians(v) for v in PAROL6.standby_deg)
 #: numpy copies for the vectorised code.
 LIM_LO_ARR = np.array(LIM_LO)
 LIM_HI_ARR = np.array(LIM_HI)
-WEIGHTS_ARR = np.array(WEIGHTS)
