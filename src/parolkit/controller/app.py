@@ -70,12 +70,16 @@ class Controller:
 
     # ------------------------------------------------------------------ lifecycle
 
-    def bind(self) -> tuple[str, int]:
+    def bind(self, sock: socket.socket | None = None) -> tuple[str, int]:
+        """Bind the command socket (or adopt ``sock``, already bound); returns (host, port)."""
         cs = self.config.controller
-        fam = socket.AF_INET6 if ":" in cs.bind else socket.AF_INET
-        self.sock = socket.socket(fam, socket.SOCK_DGRAM)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
-        self.sock.bind((cs.bind, cs.udp_port))
+        if sock is not None:
+            self.sock = sock
+        else:
+            fam = socket.AF_INET6 if ":" in cs.bind else socket.AF_INET
+            self.sock = socket.socket(fam, socket.SOCK_DGRAM)
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
+            self.sock.bind((cs.bind, cs.udp_port))
         if not is_loopback(cs.bind):
             log.warning(
                 "binding %s: the controller is reachable from the network and has no "

@@ -15,8 +15,10 @@ from __future__ import annotations
 import argparse
 import logging
 import signal
+import socket
 import sys
 import threading
+from pathlib import Path
 
 __all__ = ["register", "run", "build_overrides"]
 
@@ -59,6 +61,82 @@ def build_overrides(args: argparse.Namespace) -> dict:
     return out
 
 
+#: Same search order as :data:`parolkit.config.DEFAULT_CONFIG_PATHS` (repeated here so that
+#: the socket can be bound before ``parolkit.config`` pulls in numpy).
+_DEFAULT_CONFIG_PATHS = (Path("parolkit.toml"), Path.home() / ".config" / "parolkit" / "parolkit.toml")
+
+
+def _early_address(args: argparse.Namespace) -> tuple[str | None, int]:
+    """(bind, udp_port) from the flags and the TOML file, read without the config module.
+
+    Returns ``(None, 0)`` when the file cannot be read here (the full loader then reports it).
+    """
+    bind, port = "127.0.0.1", 5001
+    path = Path(args.config) if args.config else next((p for p in _DEFAULT_CONFIG_PATHS if p.is_file()), None)
+    if path is not None:
+        try:
+            import tomllib
+
+            ctl = tomllib.loads(path.read_text(encoding="utf-8")).get("controller", {})
+            bind = ctl.get("bind", bind)
+            port = ctl.get("udp_port", port)
+        except Exception:
+            return None, 0
+    if args.bind:
+        bind = args.bind
+    if args.udp_port is not None:
+        port = args.udp_port
+    if not isinstance(bind, str) or isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
+        return None, 0
+    return bind, port
+
+
+def _bind(host: str, port: int) -> socket.socket:
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_DGRAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
+    try:
+        sock.bind((host, port))
+    except OSError:
+        sock.close()
+        raise
+    return sock
+
+
+class EarlyPong(threading.Thread):
+    """Answers PING with ``PONG|SERIAL=0`` while the rest of the controller is still loading.
+
+    Only a datagram that is exactly ``PING`` is taken off the socket (peeked first); anything
+    else stays queued in the socket for the real server, which takes over the same socket.
+    """
+
+    def __init__(self, sock: socket.socket) -> None:
+        super().__init__(name="parolkit-early-pong", daemon=True)
+        self.sock = sock
+        self._done = threading.Event()
+
+    def run(self) -> None:
+        self.sock.settimeout(0.02)
+        while not self._done.is_set():
+            try:
+                data, addr = self.sock.recvfrom(64, socket.MSG_PEEK)
+            except (socket.timeout, BlockingIOError):
+                continue
+            except OSError:
+                return
+            if data.strip() == b"PING":
+                try:
+                    self.sock.recvfrom(64)
+                    self.sock.sendto(b"PONG|SERIAL=0", addr)
+                except OSError:
+                    pass
+            else:
+                self._done.wait(0.005)  # a command waits in the socket for the real server
+
+    def stop(self) -> None:
+        self._done.set()
+        self.join(1.0)
+
+
 def run(args: argparse.Namespace) -> int:
     logging.basicConfig(
         level=getattr(logging, args.log_level), stream=sys.stderr,
@@ -67,21 +145,6 @@ def run(args: argparse.Namespace) -> int:
     log = logging.getLogger("parolkit.controller")
     # a short GIL switch interval keeps the tick on time while other threads compute
     sys.setswitchinterval(0.0005)
-    from parolkit.config import load_config
-    from parolkit.errors import ParolkitError
-
-    try:
-        cfg = load_config(args.config, build_overrides(args))
-    except ParolkitError as exc:
-        print(f"parolkit serve: {exc}", file=sys.stderr)
-        return 2
-    if args.sim and cfg.serial.port is not None:
-        import dataclasses
-
-        cfg = dataclasses.replace(cfg, serial=dataclasses.replace(cfg.serial, port=None))
-    from parolkit.controller.app import Controller
-
-    ctl = Controller(cfg)
     stop = threading.Event()
 
     def on_signal(signum, frame):  # noqa: ARG001
@@ -89,12 +152,52 @@ def run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
+    # Listen (and answer PING) before the heavy imports: numpy alone can take most of the
+    # 1.5 s start-up budget on a busy machine.
+    bind, udp_port = _early_address(args)
+    sock = None
+    if bind is not None:
+        try:
+            sock = _bind(bind, udp_port)
+        except OSError as exc:
+            print(f"parolkit serve: cannot listen on {bind}:{udp_port}: {exc}", file=sys.stderr)
+            return 2
+    early = EarlyPong(sock) if sock is not None else None
+    if early is not None:
+        early.start()
+
+    from parolkit.config import load_config
+    from parolkit.errors import ParolkitError
+
     try:
-        host, port = ctl.bind()
-    except OSError as exc:
-        print(f"parolkit serve: cannot listen on {cfg.controller.bind}:{cfg.controller.udp_port}: {exc}",
-              file=sys.stderr)
+        cfg = load_config(args.config, build_overrides(args))
+    except ParolkitError as exc:
+        print(f"parolkit serve: {exc}", file=sys.stderr)
+        if early is not None:
+            early.stop()
+            sock.close()
         return 2
+    if args.sim and cfg.serial.port is not None:
+        import dataclasses
+
+        cfg = dataclasses.replace(cfg, serial=dataclasses.replace(cfg.serial, port=None))
+    cs = cfg.controller
+    if sock is None or (bind, udp_port) != (cs.bind, cs.udp_port):
+        if early is not None:
+            early.stop()
+            sock.close()
+        try:
+            sock = _bind(cs.bind, cs.udp_port)
+        except OSError as exc:
+            print(f"parolkit serve: cannot listen on {cs.bind}:{cs.udp_port}: {exc}", file=sys.stderr)
+            return 2
+        early = EarlyPong(sock)
+        early.start()
+    from parolkit.controller.app import Controller
+
+    ctl = Controller(cfg)
+    early.stop()
+    host, port = ctl.bind(sock)
     try:
         ctl.start()
     except ParolkitError as exc:

@@ -18,6 +18,7 @@ on ``open()``).
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from dataclasses import replace
@@ -219,7 +220,18 @@ class ControlLoop:
                 break
             time.sleep(0.0002)
 
+    @staticmethod
+    def _raise_priority() -> bool:
+        """Ask the OS to prefer the tick thread (nice -10); needs the privilege, else no-op."""
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), -10)
+            return True
+        except (AttributeError, OSError):
+            return False
+
     def _run(self) -> None:
+        if self._raise_priority():
+            log.debug("tick thread runs at nice -10")
         period = self.period
         t0 = time.monotonic()
         self.start_time = t0
