@@ -4,7 +4,6 @@ emulator the test controls) and through a real pty served by PtyBoardServer."""
 from __future__ import annotations
 
 import io
-import time
 
 import pytest
 

@@ -28,7 +28,6 @@ from typing import Any, Callable, Dict, NamedTuple, Optional, Sequence, Tuple
 from parolkit.client import robot_api as wire
 from parolkit.client.errors import (
     CommandCancelled,
-    CommandError,
     CommandFailed,
     CommandInvalid,
     ReplyError,
