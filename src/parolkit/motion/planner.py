@@ -25,7 +25,8 @@ from parolkit.errors import ParolkitValueError
 from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
 from parolkit.motion.moves import (
-    CartJog, JointJog, JointMove, PoseMove, Profile, SpeedJointMove, Tracking,
+    ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove, CircleMove,
+    HelixMove, JointJog, JointMove, PoseMove, Profile, SpeedJointMove, SplineMove, Tracking,
 )
 from parolkit.motion.profiles import (
     POLY_PEAK_ACCEL, POLY_PEAK_SPEED, TRAP3_PEAK_ACCEL, TRAP3_PEAK_SPEED, ScalarProfile,
@@ -98,12 +99,22 @@ def plan(
         return _plan_speed_joint(move, start, model, rate)
     if isinstance(move, JointJog):
         return _plan_joint_jog(move, start, model, rate)
+    if not isinstance(move, _CARTESIAN_MOVES):
+        raise ParolkitValueError(
+            f"move must be one of {', '.join(c.__name__ for c in (JointMove, PoseMove, SpeedJointMove, JointJog) + _CARTESIAN_MOVES)}, "
+            f"got {type(move).__name__}"
+        )
     from parolkit.motion import cartesian  # lazy: needs kinematics
 
     if isinstance(move, CartJog):
         return cartesian.plan_cart_jog(move, start, model=model, tool=tool, rate_hz=rate)
     return cartesian.plan_cartesian(move, start, model=model, tool=tool, rate_hz=rate)
 
+
+_CARTESIAN_MOVES = (
+    CartMove, CartRelTRFMove, CartJog, CircleMove, ArcCenterMove, ArcParamMove, HelixMove,
+    SplineMove, BlendMove,
+)
 
 # ---------------------------------------------------------------------------------------------
 # building and checking the arrays
@@ -114,12 +125,16 @@ def build_trajectory(
     move: object, t: np.ndarray, q_deg: np.ndarray, qd_deg_s: np.ndarray, *,
     start: np.ndarray, model: RobotModel, rate: float, tracking: Tracking,
     notes: Sequence[str] = (), target_deg: np.ndarray | None = None, jog: bool = False,
-    check_accel: bool = True, hint: str = "",
+    check_accel: bool = True, hint: str = "", proven: bool = False,
 ) -> Trajectory:
     """Round to steps, validate (positions, speeds, accelerations) and wrap in a Trajectory.
 
     ``target_deg``: the last sample is set exactly to it (POSITION tracking ends on target).
     SPEED tracking gets a trailing zero-speed sample when the last speed is not zero.
+    ``proven``: the caller has bounded the peak speed and acceleration analytically (a
+    synchronised poly / trap profile checked against every joint's maxima); the sampled
+    values cannot exceed those peaks (the speed limits are whole steps/s, so rounding cannot
+    cross them either), so only the positions are checked sample by sample.
     """
     name = getattr(move, "name", type(move).__name__)
     spd = validate.model_arrays(model).steps_per_deg
@@ -129,13 +144,13 @@ def build_trajectory(
         pos[-1] = np.rint(np.asarray(target_deg) * spd).astype(np.int64)
     sp_f = qd_deg_s * spd
     validate.check_positions(name, t, pos, model)
-    validate.check_speeds(name, t, sp_f, model, jog=jog, hint=hint)
-    if check_accel:
-        validate.check_accels(name, t, sp_f, model, rate, hint=hint)
+    if not proven:
+        validate.check_speeds(name, t, sp_f, model, jog=jog, hint=hint)
+        if check_accel:
+            validate.check_accels(name, t, sp_f, model, rate, hint=hint)
     sp = np.rint(sp_f).astype(np.int64)
     planned = q_deg
     if target_deg is not None:
-        planned = np.array(q_deg, dtype=float)
         planned[-1] = target_deg
     if tracking is Tracking.SPEED and np.any(sp[-1] != 0):
         t = np.append(t, t[-1] + 1.0 / rate)
@@ -215,6 +230,7 @@ def _plan_joint_target(
         prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, vmax,
                                    amax, start, delta, spd, model, notes)
     t = sample_times(T, rate)
+    proven = isinstance(prof, ScalarProfile) and prof.kind in ("poly", "trap")
     if isinstance(prof, ScalarProfile):
         s, sd, _ = prof(t)
         q = start + s[:, None] * delta
@@ -223,10 +239,9 @@ def _plan_joint_target(
         q, qd, _ = prof.evaluate(t)
         q = np.array(q, dtype=float)
         qd = np.array(qd, dtype=float)
-    q[-1] = target
     qd[-1] = 0.0
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate, tracking=tracking,
-                            notes=notes, target_deg=target)
+                            notes=notes, target_deg=target, proven=proven)
 
 
 def _min_duration(kind: str, dist: np.ndarray, vmax: np.ndarray, amax: float) -> tuple[float, int, str]:

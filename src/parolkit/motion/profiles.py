@@ -82,7 +82,7 @@ class ScalarProfile:
 
     def __call__(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Evaluate at times ``t`` (s); times outside [0, T] are held at the ends."""
-        t = np.clip(np.asarray(t, dtype=float), 0.0, self.T)
+        t = np.minimum(np.maximum(t, 0.0), self.T)
         if self.T <= 0:
             one = np.ones_like(t)
             return one, np.zeros_like(t), np.zeros_like(t)
@@ -96,12 +96,11 @@ class ScalarProfile:
 def quintic(t: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Quintic 10 tau^3 - 15 tau^4 + 6 tau^5 (tau = t / T): zero speed and acceleration at
     both ends.  ``t`` in s, clipped to [0, T]."""
-    tau = np.clip(np.asarray(t, dtype=float) / T, 0.0, 1.0)
+    tau = np.minimum(np.maximum(np.asarray(t, dtype=float) * (1.0 / T), 0.0), 1.0)
     t2 = tau * tau
-    t3 = t2 * tau
-    s = t3 * (10.0 - 15.0 * tau + 6.0 * t2)
-    sd = 30.0 * t2 * (1.0 - 2.0 * tau + t2) / T
-    sdd = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) / (T * T)
+    s = t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2)
+    sd = (30.0 / T) * t2 * (1.0 - 2.0 * tau + t2)
+    sdd = (60.0 / (T * T)) * tau * (1.0 - 3.0 * tau + 2.0 * t2)
     return s, sd, sdd
 
 
