@@ -10,7 +10,8 @@ import pytest
 
 from parolkit.cli import main
 from parolkit.script import ProgramError, load, parse
-from parolkit.script.dryrun import CART_DEFAULT_SPEED_PCT, dry_run, effective_timing
+from parolkit.motion.cartesian import DEFAULT_CART_SPEED_PCT
+from parolkit.script.dryrun import dry_run, effective_timing
 from parolkit.script.formatter import format_program
 
 REPO = Path(__file__).resolve().parents[2]
@@ -150,7 +151,7 @@ def test_effective_timing_applies_the_seed_defaults_once():
     t = effective_timing(cmd("MoveJoint(90,-90,180,0,0,180,v=80,a=60,t=3)"))
     assert (t.duration_s, t.speed_pct, t.accel_pct) == (3.0, None, None)
     t = effective_timing(cmd("MoveCart(0,250,300,-90,0,-90)"))
-    assert (t.duration_s, t.speed_pct, t.accel_pct) == (None, CART_DEFAULT_SPEED_PCT, None)
+    assert (t.duration_s, t.speed_pct, t.accel_pct) == (None, DEFAULT_CART_SPEED_PCT, None)
     t = effective_timing(cmd("MoveJoint(90,-90,180,0,0,180,v=70)"))
     assert (t.speed_pct, t.accel_pct) == (70.0, 27.0)
 

@@ -47,7 +47,7 @@ from parolkit.script.program import (
 )
 
 __all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops", "Timing",
-           "effective_timing", "CART_DEFAULT_SPEED_PCT"]
+           "effective_timing"]
 
 
 @dataclass(frozen=True)
@@ -189,11 +189,6 @@ class DryRunReport:
         plt.close(fig)
 
 
-#: Speed % of a MoveCart / MoveCartRelTRF without t= or v= (the motion layer's Cartesian
-#: default: 50 % maps to 31 mm/s and 12.9 deg/s, the slower governs; the original used 3.6 s).
-CART_DEFAULT_SPEED_PCT = 50.0
-
-
 @dataclass(frozen=True)
 class Timing:
     """The timing a move is sent and planned with: exactly one of ``duration_s`` (s) and
@@ -209,9 +204,11 @@ def effective_timing(cmd: Command) -> Timing:
     interpreter take them from (so the controller plans exactly what the dry run planned).
 
     * ``t`` given: the duration; ``v``/``a`` are ignored (t overrides them);
-    * otherwise ``v`` (default: MoveJoint 45 %, MovePose 50 %, Cartesian moves 50 %) and for
-      joint-space moves ``a`` (default: MoveJoint 27 %, MovePose 30 %).
+    * otherwise ``v`` (default: MoveJoint 45 %, MovePose 50 %, Cartesian moves the motion
+      layer's ``DEFAULT_CART_SPEED_PCT``, 50 %: a path speed instead of the original's fixed
+      3.6 s) and for joint-space moves ``a`` (default: MoveJoint 27 %, MovePose 30 %).
     """
+    from parolkit.motion.cartesian import DEFAULT_CART_SPEED_PCT
     from parolkit.motion.planner import MOVEJOINT_DEFAULT_PCT, MOVEPOSE_DEFAULT_PCT
 
     if cmd.duration_s is not None:
@@ -223,7 +220,7 @@ def effective_timing(cmd: Command) -> Timing:
             cmd.speed_pct if cmd.speed_pct is not None else v_def,
             cmd.accel_pct if cmd.accel_pct is not None else a_def,
         )
-    return Timing(None, cmd.speed_pct if cmd.speed_pct is not None else CART_DEFAULT_SPEED_PCT, None)
+    return Timing(None, cmd.speed_pct if cmd.speed_pct is not None else DEFAULT_CART_SPEED_PCT, None)
 
 
 def motion_move(cmd: Command):
