@@ -148,3 +148,29 @@ def test_robot_api_acks_and_queries_against_the_controller(served):
         assert robot_api.ping_robot() is True
     finally:
         robot_api.configure(port=before["port"], ack_port=before["ack_port"])  # stops the listener
+
+
+def test_smooth_paths_and_cartesian_moves_run_or_fail_with_the_planners_reason(robot):
+    x, y, z, a, b, c = robot.pose()
+    res = robot.smooth_blend([{"type": "LINE", "end": [x + 10, y, z, a, b, c], "duration": 0.6},
+                              {"type": "LINE", "end": [x + 10, y - 10, z, a, b, c], "duration": 0.6}])
+    assert res.ok
+    assert list(robot.pose())[:3] == pytest.approx([x + 10, y - 10, z], abs=0.5)
+    assert robot.move_cart([x, y, z - 10, a, b, c], speed=50).ok
+    assert robot.move_cart_rel_trf([0, 0, 5, 0, 0, 0], duration=0.5).ok
+    with pytest.raises(CommandFailed) as info:  # J6 would have to spin too fast
+        robot.smooth_helix([x, y - 20, z], 20, 10, 20, duration=1)
+    assert "speed" in info.value.reason and info.value.command == "SMOOTH_HELIX"
+    robot.move_joints(STANDBY, speed=80)
+
+
+def test_software_estop_cancels_motion_until_enable(robot):
+    assert "ENABLE" in robot.estop().details
+    with pytest.raises(CommandCancelled, match="E-stop"):
+        robot.move_joints([85, -90, 180, 0, 0, 180], duration=1)
+    assert robot.enable().ok
+    deadline = time.monotonic() + 2
+    while robot.status().state != "IDLE":
+        assert time.monotonic() < deadline
+        time.sleep(0.02)
+    assert robot.move_joints(STANDBY, duration=0.6).ok
