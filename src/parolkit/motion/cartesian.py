@@ -8,9 +8,10 @@ speeds by differentiation -> the same sample checks as every move.
 Timing:
 
 * ``duration_s``: exactly that long (default POLY); a joint too fast -> refused.
-* ``speed_pct`` (or the default :data:`DEFAULT_CART_SPEED_PCT` = 50 %): the PEAK path speed is
-  the mapped linear speed (2..60 mm/s) or angular speed (0.7..25 deg/s), whichever makes the
-  move longer; default profile TRAP (1/3 accelerate, 1/3 cruise, 1/3 brake).  When a joint
+* ``speed_pct`` (or the default :data:`DEFAULT_CART_SPEED_PCT` = 50 %): the move lasts
+  path length / mapped speed (2..60 mm/s linear, 0.7..25 deg/s angular, the slower governs),
+  as the original; default profile TRAP (1/3 accelerate, 1/3 cruise, 1/3 brake: the cruise
+  speed is 1.5x the mapped mean speed).  When a joint
   cannot follow (speed or acceleration), the duration is stretched and a note says so.
 
 A path through a singularity shows up as a joint needing an unbounded speed; beyond
@@ -36,7 +37,7 @@ from parolkit.motion.paths import (
 )
 from parolkit.motion.planner import build_trajectory, sample_times
 from parolkit.motion.profiles import (
-    POLY_PEAK_SPEED, TRAP3_PEAK_SPEED, ScalarProfile, ruckig_unit_profile,
+    POLY_PEAK_SPEED, ScalarProfile, ruckig_unit_profile,
 )
 from parolkit.motion.trajectory import Trajectory
 from parolkit.robot import JOINT_NAMES, RobotModel
@@ -46,8 +47,8 @@ __all__ = [
     "CART_ACCEL_TIME_S", "ON_PATH_TOL_MM",
 ]
 
-#: MoveCart / smooth paths without duration and speed: this speed percentage (50 % -> peak
-#: 31 mm/s or 12.85 deg/s), instead of the original's fixed 3.6 s.
+#: MoveCart / smooth paths without duration and speed: this speed percentage (50 % -> a mean
+#: speed of 31 mm/s or 12.85 deg/s), instead of the original's fixed 3.6 s.
 DEFAULT_CART_SPEED_PCT = 50.0
 #: A path needing more than this stretch of its duration is refused (singularity).
 MAX_STRETCH = 8.0
@@ -389,7 +390,8 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
     w_ang = model.cart_angular_speed_from_percent(pct)  # deg/s
     mm_per_rad = v_lin / math.radians(w_ang)
     path = Path.weighted(path.segments, mm_per_rad)
-    base = max(path.length / v_lin, math.degrees(path.angle) / w_ang)  # s at constant peak speed
+    # duration at the mapped speeds: path length / speed, the slower of linear and angular
+    base = max(path.length / v_lin, math.degrees(path.angle) / w_ang)
     notes: list[str] = []
     if base < 1e-9:
         q = np.asarray(start, dtype=float)[None, :]
@@ -438,8 +440,9 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
             validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
         stretch *= factor * 1.02
     else:
-        # stretching does not help: a kink in joint space (the path grazes a singularity)
-        hint = "the joint path has a kink here (a singularity on the way): change the path"
+        # stretching does not help: a kink (a sharp corner, or a singularity grazed)
+        hint = ("the path has a sharp corner or grazes a singularity here: round the corners "
+                "(blend radius) or change the path")
         validate.check_speeds(name, t, v_steps, model, hint=hint)
         validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
         raise PlanningError(name, "no feasible timing found within the joint limits after stretching")
@@ -501,7 +504,9 @@ def _nominal(profile: Profile, base: float) -> float:
 
 
 def _path_profile(profile: Profile, base: float, duration: float | None, stretch: float) -> ScalarProfile:
-    """Unit profile for a path whose constant-peak-speed time is ``base`` (s)."""
+    """Unit profile: with ``duration`` exactly that long; otherwise ``base`` (s, path length /
+    mapped speed) times ``stretch`` for poly and trap (the mapped speed is the MEAN speed, as
+    in the original), and for Ruckig the mapped speed is the speed limit."""
     if duration is not None:
         T = duration
         if profile is Profile.TRAP:
@@ -512,10 +517,10 @@ def _path_profile(profile: Profile, base: float, duration: float | None, stretch
                                        min_duration=T)
         return ScalarProfile("poly", T)
     if profile is Profile.TRAP:
-        T = TRAP3_PEAK_SPEED * base * stretch
+        T = base * stretch
         return ScalarProfile("trap", T, T / 3.0)
     if profile is Profile.POLY:
-        return ScalarProfile("poly", POLY_PEAK_SPEED * base * stretch)
+        return ScalarProfile("poly", base * stretch)
     v_s = 1.0 / (base * stretch)
     a_s = v_s / (CART_ACCEL_TIME_S * stretch)
     return ruckig_unit_profile(v_s, a_s, a_s / 0.1 / stretch)
