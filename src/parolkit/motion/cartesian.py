@@ -407,7 +407,7 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
     if approach and profile is Profile.TOPPRA:
         profile = Profile.TRAP
     if profile is Profile.TOPPRA:
-        return _toppra_path(move, path, start, model, tool, rate_hz, duration, pct, tracking)
+        return _toppra_path(move, path, start, model, tool, rate_hz, duration, base, tracking)
     if duration is None:
         if move.speed_pct is None and not approach:
             notes.append(f"no duration or speed given: path speed {DEFAULT_CART_SPEED_PCT:g} % "
@@ -596,8 +596,11 @@ def _refuse_singular(name, t, q, v_steps, vmax, tool) -> None:
     )
 
 
-def _toppra_path(move, path: Path, start, model, tool, rate_hz, duration, pct, tracking) -> Trajectory:
-    """TOPP-RA on the joint path (dense IK), then the exact geometry at the optimal s(t)."""
+def _toppra_path(move, path: Path, start, model, tool, rate_hz, duration, base, tracking) -> Trajectory:
+    """TOPP-RA on the joint path (dense IK), then the exact geometry at the optimal s(t).
+
+    Without a duration the mapped Cartesian speed (``1 / base`` of the path per second) is a
+    path speed limit besides the joint speed and acceleration limits."""
     from parolkit.motion.topp import toppra_parameterize
 
     name = move.name
@@ -610,7 +613,8 @@ def _toppra_path(move, path: Path, start, model, tool, rate_hz, duration, pct, t
     amax = float(model.accel_range_steps_s2[1]) / spd
     # a 7th coordinate = s itself (unconstrained) recovers s(t) from the joint-space result
     aug = np.hstack([q_grid, s_grid[:, None]])
-    res = toppra_parameterize(s_grid, aug, np.append(vmax, 1e6), np.append(amax, 1e9), duration=duration)
+    s_vmax = 1e6 if duration is not None else 1.0 / base
+    res = toppra_parameterize(s_grid, aug, np.append(vmax, s_vmax), np.append(amax, 1e9), duration=duration)
     if res is None:
         raise PlanningError(name, "TOPP-RA finds no feasible timing within the joint limits")
     if duration is not None and res.duration > duration * (1 + 1e-6):
