@@ -175,6 +175,8 @@ class ProgramRunner:
     def __init__(self, commander: Commander) -> None:
         self.commander = commander
         self.interpreter: Any = None
+        self.robot: Any = None
+        self._loop: asyncio.AbstractEventLoop | None = None
         self.thread: threading.Thread | None = None
         self.current_line: int | None = None
         self.state = "idle"  # idle, running, paused, error
@@ -186,7 +188,7 @@ class ProgramRunner:
         self.current_line = int(getattr(progress, "line", progress))
         self.version += 1
 
-    def start(self, text: str, *, step: bool = False) -> list[Any]:
+    async def start(self, text: str, *, step: bool = False) -> list[Any]:
         """Parse ``text`` and run it; returns the parse errors (nothing runs when there are any)."""
         from parolkit.script import parse
 
@@ -213,7 +215,20 @@ class ProgramRunner:
             self.version += 1
             return []
         link = self.commander.link
-        robot = Robot(host=link.host, port=link.port)
+        # the controller sends acks to one port: hand it to the runner's client while it runs
+        link.release_ack_port()
+        await asyncio.sleep(0.05)  # the transport closes its socket on the next loop turn
+        try:
+            robot = Robot(host=link.host, port=link.port, ack_port=link.ack_port)
+        except (OSError, ParolkitError) as exc:
+            background_tasks.create(link.bind_ack_port(), name="rebind-ack")
+            self.state = "error"
+            self.message = f"cannot start the program client: {exc}"
+            self.commander.log.error(self.message)
+            self.version += 1
+            return []
+        self.robot = robot
+        self._loop = asyncio.get_running_loop()
         self.interpreter = Interpreter(result.program, robot, on_line=self._on_line, step=step)
         self.state = "running"
         self.message = ""
@@ -245,6 +260,11 @@ class ProgramRunner:
             self.message = f"{type(exc).__name__}: {exc}"
             self.commander.log.error(f"program crashed: {self.message}")
         finally:
+            robot, self.robot = self.robot, None
+            if robot is not None:
+                robot.close()
+            link = self.commander.link
+            self._loop.call_soon_threadsafe(lambda: background_tasks.create(link.bind_ack_port(), name="rebind-ack"))
             self.version += 1
 
     @property
@@ -676,8 +696,8 @@ class CommanderPage:
                 opts["series"][j]["data"] = [[round(float(t[i]), 3), round(float(data[i][j]), 3)] for i in idx]
             chart.update()
 
-    def run_program(self, step: bool) -> None:
-        errors = self.c.program.start(self.editor.value or "", step=step)
+    async def run_program(self, step: bool) -> None:
+        errors = await self.c.program.start(self.editor.value or "", step=step)
         self._show_errors(errors)
         if errors:
             self.prog_status.set_text(f"✗ {len(errors)} error(s): nothing was run")

@@ -147,16 +147,31 @@ class ControllerLink:
             lambda: _Receiver(self._on_reply), local_addr=("0.0.0.0" if self.host not in ("127.0.0.1", "localhost") else "127.0.0.1", 0))
         self._status_tr, _ = await loop.create_datagram_endpoint(
             lambda: _Receiver(self._on_status), local_addr=("0.0.0.0" if self.host not in ("127.0.0.1", "localhost") else "127.0.0.1", 0))
-        try:
-            ack_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            ack_sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            ack_sock.bind(("0.0.0.0", self.ack_port))
-            self._ack_tr, _ = await loop.create_datagram_endpoint(lambda: _Receiver(self._on_ack), sock=ack_sock)
-        except OSError as exc:
-            self.log.add(f"cannot listen for acknowledgements on UDP {self.ack_port}: {exc}; "
-                         "commands are sent without waiting for acks", Level.WARNING)
+        await self.bind_ack_port()
         self._tasks.append(asyncio.create_task(self._subscription_loop()))
         self.log.info(f"connecting to controller at {self.host}:{self.port}")
+
+    async def bind_ack_port(self) -> bool:
+        """Listen for acks on :attr:`ack_port` (True on success; logs a warning otherwise)."""
+        if self._ack_tr is not None:
+            return True
+        loop = asyncio.get_running_loop()
+        try:
+            ack_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            ack_sock.bind(("127.0.0.1" if self.host in ("127.0.0.1", "localhost") else "0.0.0.0", self.ack_port))
+            self._ack_tr, _ = await loop.create_datagram_endpoint(lambda: _Receiver(self._on_ack), sock=ack_sock)
+            return True
+        except OSError as exc:
+            self.log.add(f"cannot listen for acknowledgements on UDP {self.ack_port}: {exc}; "
+                         "commands are sent without acks", Level.WARNING)
+            return False
+
+    def release_ack_port(self) -> None:
+        """Stop listening on the ack port so another client (the program runner) can bind it;
+        commands are sent without IDs until :meth:`bind_ack_port`."""
+        if self._ack_tr is not None:
+            self._ack_tr.close()
+            self._ack_tr = None
 
     async def close(self) -> None:
         for t in self._tasks:
