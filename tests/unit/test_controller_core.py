@@ -280,7 +280,7 @@ def test_queue_full_refuses_with_failed_never_drops():
 
 def test_gripper_calibrate_is_sent_in_exactly_one_frame(rig):
     rig.submit("aaaa0001|ELECTRICGRIPPER|calibrate")
-    rig.submit("aaaa0002|PNEUMATICGRIPPER|close|2")
+    rig.submit("aaaa0002|PNEUMATICGRIPPER|open|2")
     rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
     rig.tick(5)
     assert sum(f.gripper_mode == GripperMode.CALIBRATE for f in rig.frames) == 1

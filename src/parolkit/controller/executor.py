@@ -27,6 +27,7 @@ from typing import Callable, Sequence
 from parolkit.controller.jobs import (
     Activity,
     DelayActivity,
+    GripperCalibrateActivity,
     HomeActivity,
     Job,
     OneShotActivity,
@@ -51,6 +52,8 @@ AckSink = Callable[[Job, AckStatus, str], None]
 
 #: a planned move may start this far (deg, any joint) from the measured joints
 START_TOLERANCE_DEG = 0.5
+#: an SSG-48 calibration that takes longer than this FAILS, s
+GRIPPER_CALIBRATE_TIMEOUT_S = 10.0
 #: how many queued jobs the planner plans ahead
 PLAN_AHEAD = 4
 
@@ -513,7 +516,7 @@ class Executor:
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
         elif isinstance(cmd, C.PneumaticGripper):
-            self.outputs[cmd.port - 1] = cmd.action == "close"
+            self.outputs[cmd.port - 1] = cmd.action == "open"  # as the original: open = output on
             act = OneShotActivity()
         elif isinstance(cmd, C.ElectricGripper):
             g = self.gripper
@@ -523,7 +526,7 @@ class Executor:
                 act = OneShotActivity()
             elif cmd.action == "calibrate":
                 g.command = GripperCommandBits.ACTIVATE | GripperCommandBits.RELEASE_DIR
-                act = OneShotActivity(GripperMode.CALIBRATE)
+                act = GripperCalibrateActivity(ticks_for(GRIPPER_CALIBRATE_TIMEOUT_S, self.rate_hz))
             else:
                 act = OneShotActivity(GripperMode.CLEAR_ERROR)
         elif isinstance(cmd, C.WaitInput):

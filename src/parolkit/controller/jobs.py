@@ -18,7 +18,7 @@ from parolkit.robot import JOINT_NAMES
 
 __all__ = [
     "Job", "Step", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity",
-    "HomeActivity", "DelayActivity", "OneShotActivity", "WaitInputActivity",
+    "HomeActivity", "DelayActivity", "OneShotActivity", "WaitInputActivity", "GripperCalibrateActivity",
 ]
 
 _ZERO6 = (0, 0, 0, 0, 0, 0)
@@ -250,6 +250,33 @@ class OneShotActivity(Activity):
     def step(self, ctx: TickContext) -> Step:
         self.progress = 1.0
         return Step(BoardCommand.IDLE, gripper_mode=self.mode, done=AckStatus.COMPLETED)
+
+
+class GripperCalibrateActivity(Activity):
+    """Send the one-shot CALIBRATE mode in exactly one frame, then wait until the gripper
+    reports "calibrated" (FAILED after ``timeout_ticks``: no gripper, or it did not answer)."""
+
+    def __init__(self, timeout_ticks: int, min_ticks: int = 2) -> None:
+        self.sent = False
+        self.i = 0
+        self.timeout_ticks = timeout_ticks
+        self.min_ticks = min_ticks
+
+    def step(self, ctx: TickContext) -> Step:
+        if not self.sent:
+            self.sent = True
+            return Step(BoardCommand.IDLE, gripper_mode=GripperMode.CALIBRATE)
+        self.i += 1
+        self.progress = min(0.99, self.i / max(1, self.timeout_ticks))
+        st = ctx.status
+        if st is not None and self.i >= self.min_ticks and st.gripper.calibrated:
+            self.progress = 1.0
+            return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
+        if self.i >= self.timeout_ticks:
+            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
+                        details=f"the gripper did not report calibrated within "
+                                f"{self.timeout_ticks / ctx.rate_hz:g} s (is an SSG-48 connected?)")
+        return Step(BoardCommand.IDLE)
 
 
 class WaitInputActivity(Activity):

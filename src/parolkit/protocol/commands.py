@@ -558,7 +558,7 @@ class Delay(Command):
 
 @dataclass(frozen=True)
 class PneumaticGripper(Command):
-    """Drive OUT1/OUT2: ``open`` (output off) or ``close`` (output on) on ``port`` 1|2."""
+    """Drive OUT1/OUT2 like the original controller: ``open`` = output on, ``close`` = off."""
 
     action: str = "open"
     port: int = 1
