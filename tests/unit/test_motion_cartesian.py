@@ -341,3 +341,15 @@ def test_property_movecart_is_refused_or_inside_every_limit_on_the_line(d, pct):
         dd = (b - a) / np.linalg.norm(b - a)
         rel = pos - a
         assert np.linalg.norm(rel - np.outer(rel @ dd, dd), axis=1).max() <= 0.01
+
+
+def test_cartesian_jog_from_the_homed_pose_turns_the_wrist_first_then_moves():
+    standby = np.array(PAROL6.standby_deg)  # J5 = 0: X jogs need J4 at +-90 deg
+    p = kin.fk(standby)
+    tr = plan(CartJog("WRF", "X+", 50, 0.5), standby)
+    assert "wrist singularity" in tr.notes[0]
+    pos, _ = _tcp(tr)
+    v = PAROL6.cart_linear_speed_from_percent(50)
+    assert pos[-1, 0] == pytest.approx(p[0] + v * 0.5, abs=0.01)
+    assert np.allclose(pos[:, 1:], p[1:3], atol=0.01)  # only X changes, never Y or Z
+    assert np.all(np.abs(tr.speeds) <= VMAX)

@@ -125,6 +125,12 @@ def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, 
         pos = p0[None, :] + (v * tc)[:, None] * axis[None, :]
         rots = np.repeat(r0[None], n, axis=0)
     notes: list[str] = []
+    # on the wrist singularity (after homing): turn J4/J6 out of the way first, quickly
+    unwind = _unwind_wrist(move, None, start, model, tool, rate_hz, Tracking.POSITION,
+                           pct=(100.0, 100.0), first=(pos[:1], rots[:1]))
+    if unwind is not None:
+        jog = plan_cart_jog(move, unwind.planned_deg[-1], model=model, tool=tool, rate_hz=rate_hz)
+        return Trajectory.concatenate([unwind, jog], move)
     q = None
     while q is None:
         try:
@@ -459,14 +465,18 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
 WRIST_SINGULAR_START_DEG = 0.01
 
 
-def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking) -> Trajectory | None:
+def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking,
+                  pct: tuple[float, float] | None = None, first=None) -> Trajectory | None:
     """A path starting exactly on the wrist singularity (J5 = 0, e.g. the standby pose after
     homing) may need J4 at another angle from the first tick on.  Axes 4 and 6 are aligned
     there, so J4 + d and J6 - d is the same pose: turn J4/J6 that way first (a joint move
-    that leaves the tool where it is), then follow the path.  None when not needed."""
+    that leaves the tool where it is), then follow the path.  None when not needed.
+
+    ``pct``: (speed %, accel %) of that joint move (default MoveJoint's); ``first``: the
+    (positions, rotations) of the first path sample when there is no ``path``."""
     if abs(float(start[4])) > WRIST_SINGULAR_START_DEG:
         return None
-    pos, rots = path.evaluate(np.array([1e-4]))
+    pos, rots = first if first is not None else path.evaluate(np.array([1e-4]))
     try:
         q_eps = _solve_ik(move.name, pos, rots, start, tool, np.array([0.0]))[0]
     except PlanningError:
@@ -488,7 +498,7 @@ def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking) -> Tr
     jm = JointMove(target, tracking=tracking)
     try:
         tr = _plan_joint_target(jm, np.asarray(start, dtype=float), target, model, rate_hz,
-                                MOVEJOINT_DEFAULT_PCT)
+                                pct or MOVEJOINT_DEFAULT_PCT)
     except PlanningError as exc:
         raise PlanningError(move.name, f"the path starts on the wrist singularity and J4/J6 cannot "
                             f"turn out of it: {exc.reason}", joint=exc.joint, value=exc.value) from exc
