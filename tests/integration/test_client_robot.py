@@ -18,6 +18,14 @@ from parolkit.client.robot import Robot
 from tests.conftest import start_controller
 
 STANDBY = [90, -90, 180, 0, 0, 180]
+#: away from the wrist singularity of the standby pose (J5 = 0): Cartesian paths are free here
+WORK = [90, -100, 160, 0, 30, 180]
+
+
+def after_stop() -> None:
+    """Give a STOP two control ticks to take effect: the controller applies it at the next
+    tick, so a command sent at once after STOP's ack may still be cancelled by it."""
+    time.sleep(0.03)
 
 
 @pytest.fixture(scope="module")
@@ -33,8 +41,13 @@ def robot(served):
     r = Robot(port=served.port, ack_port=served.ack_port, timeout=2.0)
     yield r
     try:
-        r.stop()
-        r.enable()
+        st = r.status()
+        if st.command is not None or st.queue:
+            r.stop()
+            after_stop()
+        if st.state != "IDLE":
+            r.enable()
+            after_stop()
     finally:
         r.close()
 
@@ -70,7 +83,8 @@ def test_stop_cancels_a_running_move_and_its_handle_reports_it(robot):
     assert robot.stop().ok
     with pytest.raises(CommandCancelled) as info:
         handle.result(timeout=3)
-    assert info.value.reason  # the controller says why (STOP)
+    assert "STOP" in info.value.reason
+    after_stop()
     robot.move_joints(STANDBY, speed=80)
 
 
@@ -151,6 +165,7 @@ def test_robot_api_acks_and_queries_against_the_controller(served):
 
 
 def test_smooth_paths_and_cartesian_moves_run_or_fail_with_the_planners_reason(robot):
+    robot.move_joints(WORK, duration=1.2)
     x, y, z, a, b, c = robot.pose()
     res = robot.smooth_blend([{"type": "LINE", "end": [x + 10, y, z, a, b, c], "duration": 0.6},
                               {"type": "LINE", "end": [x + 10, y - 10, z, a, b, c], "duration": 0.6}])
@@ -158,17 +173,18 @@ def test_smooth_paths_and_cartesian_moves_run_or_fail_with_the_planners_reason(r
     assert list(robot.pose())[:3] == pytest.approx([x + 10, y - 10, z], abs=0.5)
     assert robot.move_cart([x, y, z - 10, a, b, c], speed=50).ok
     assert robot.move_cart_rel_trf([0, 0, 5, 0, 0, 0], duration=0.5).ok
-    with pytest.raises(CommandFailed) as info:  # J6 would have to spin too fast
+    with pytest.raises(CommandFailed) as info:  # a joint would have to move too fast
         robot.smooth_helix([x, y - 20, z], 20, 10, 20, duration=1)
     assert "speed" in info.value.reason and info.value.command == "SMOOTH_HELIX"
-    robot.move_joints(STANDBY, speed=80)
+    robot.move_joints(STANDBY, duration=1.2)
 
 
 def test_software_estop_cancels_motion_until_enable(robot):
     assert "ENABLE" in robot.estop().details
-    with pytest.raises(CommandCancelled, match="E-stop"):
+    with pytest.raises((CommandCancelled, CommandFailed), match="E-stop"):  # refused while latched
         robot.move_joints([85, -90, 180, 0, 0, 180], duration=1)
     assert robot.enable().ok
+    after_stop()
     deadline = time.monotonic() + 2
     while robot.status().state != "IDLE":
         assert time.monotonic() < deadline
