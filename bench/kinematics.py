@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import statistics
 import subprocess
 import sys
@@ -72,6 +73,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-rtb", action="store_true", help="skip the roboticstoolbox reference")
     args = ap.parse_args(argv)
 
+    load = os.getloadavg()
+    print(f"machine: {os.cpu_count()} CPUs, load average {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} "
+          "(other processes share the CPUs: compare the ratios, not only the absolute figures)")
     print("== import ==")
     t_np = _import_time("numpy")
     t_kin = _import_time("parolkit.kinematics")
@@ -215,6 +219,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"batch >= 1,000,000 poses/s: {ikb_warm_tp:,.0f} (seed per pose), {ikb_cold_tp:,.0f} (cold), "
           f"{ikb_path_tp:,.0f} (path)")
     print(f"100 % in-limit success: warm {ok_warm.mean() * 100:.2f} %, cold {ok_cold.mean() * 100:.2f} %")
+    load = os.getloadavg()
+    print(f"(load average at the end: {load[0]:.1f})")
     return 0
 
 

@@ -460,7 +460,7 @@ def solve_continuous(rot, pos, q0: tuple[float, ...], branch0: Branch, pin_flip:
     if not sh.reach_ok.all():
         i = int(np.argmin(sh.reach_ok))
         raise IKError(
-            f"target out of reach by {sh.excess[i] * 1e3:.1f} mm (following the path in branch "
+            f"target out of reach by {sh.excess[i] * 1e3:.4g} mm (following the path in branch "
             f"'{branch0.shoulder} {branch0.elbow}')", kind=IKFailure.OUT_OF_REACH, sample=i,
             value=float(sh.excess[i] * 1e3))
     free_q4 = np.full(n, q0[3])

@@ -13,6 +13,7 @@ import numpy as np
 
 from parolkit.kinematics.model import A1, A2, A3, D1, D4
 from parolkit.kinematics.pose import _abc_from_rot, _rot_to_poses, cos_sin
+from parolkit.kinematics.tools import DEFAULT_TOOL as _DEFAULT_TOOL
 from parolkit.kinematics.tools import Tool, get_tool
 from parolkit.robot import PAROL6, as_joint_array
 
@@ -23,23 +24,20 @@ _RAD = 180.0 / math.pi
 _isfinite = math.isfinite
 
 
-def _joints_rad(joints_deg: object, name: str = "joints_deg") -> list[float]:
-    """Six finite joint angles in degrees -> list of radians (fast path for lists/arrays)."""
-    if isinstance(joints_deg, np.ndarray):
-        vals = joints_deg.tolist() if joints_deg.shape == (6,) else None
-    elif isinstance(joints_deg, (list, tuple)) and len(joints_deg) == 6:
-        vals = joints_deg
-    else:
-        vals = None
-    if vals is not None:
+def _joints_rad(joints_deg: object, name: str = "joints_deg"):
+    """Six finite joint angles in degrees -> six radians (fast path for lists/tuples/arrays)."""
+    if type(joints_deg) is np.ndarray and joints_deg.shape == (6,):
+        joints_deg = joints_deg.tolist()
+    if (type(joints_deg) is list or type(joints_deg) is tuple) and len(joints_deg) == 6:
         try:
-            out = [float(v) * _DEG for v in vals]
-        except (TypeError, ValueError):
-            out = None
-        if out is not None and all(_isfinite(v) for v in out):
-            return out
+            q1, q2, q3, q4, q5, q6 = joints_deg
+            out = (q1 * _DEG, q2 * _DEG, q3 * _DEG, q4 * _DEG, q5 * _DEG, q6 * _DEG)
+            if _isfinite(out[0] + out[1] + out[2] + out[3] + out[4] + out[5]):
+                return out
+        except (TypeError, ValueError, OverflowError):
+            pass
     arr = as_joint_array(joints_deg, name, allow_batch=False)  # raises the precise error
-    return [float(v) * _DEG for v in arr]
+    return tuple(float(v) * _DEG for v in arr)
 
 
 def _flange_rad(q1, q2, q3, q4, q5, q6):
@@ -110,9 +108,9 @@ def _tcp_rad(q, tool: Tool):
 def fk(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray:
     """TCP pose ``[x, y, z mm, A, B, C deg]`` (R = Rx(C) Ry(B) Rz(A)) for six joint angles in deg."""
     q = _joints_rad(joints_deg)
-    rot, pos = _tcp_rad(q, get_tool(tool))
+    rot, pos = _tcp_rad(q, _DEFAULT_TOOL if tool is None else get_tool(tool))
     a, b, c = _abc_from_rot(*rot)
-    return np.array([pos[0] * 1e3, pos[1] * 1e3, pos[2] * 1e3, a * _RAD, b * _RAD, c * _RAD])
+    return np.array((pos[0] * 1e3, pos[1] * 1e3, pos[2] * 1e3, a * _RAD, b * _RAD, c * _RAD))
 
 
 def fk_matrix(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray:

@@ -316,29 +316,29 @@ def _target(pose: object):
         return _target_slow(pose)
     try:
         x, y, z, a, b, c = pose
-        x = float(x)
-        y = float(y)
-        z = float(z)
-        a = float(a) * _DEG
-        b = float(b) * _DEG
-        c = float(c) * _DEG
-    except (TypeError, ValueError):
+        x *= 1e-3
+        y *= 1e-3
+        z *= 1e-3
+        a *= _DEG
+        b *= _DEG
+        c *= _DEG
+        if not _isfinite(x + y + z + a + b + c):  # NaN/inf (or a sum overflow): slow path decides
+            return _target_slow(pose)
+        ca = _cos(a)
+        sa = _sin(a)
+        cb = _cos(b)
+        sb = _sin(b)
+        cc = _cos(c)
+        sc = _sin(c)
+    except (TypeError, ValueError, OverflowError):  # strings, complex, ...: precise error there
         return _target_slow(pose)
-    if not _isfinite(x + y + z + a + b + c):  # any NaN/inf (or a sum overflow: slow path decides)
-        return _target_slow(pose)
-    ca = _cos(a)
-    sa = _sin(a)
-    cb = _cos(b)
-    sb = _sin(b)
-    cc = _cos(c)
-    sc = _sin(c)
     scsb = sc * sb
     ccsb = cc * sb
     return (
         (cb * ca, -cb * sa, sb,
          cc * sa + scsb * ca, cc * ca - scsb * sa, -sc * cb,
          sc * sa - ccsb * ca, sc * ca + ccsb * sa, cc * cb),
-        (x * 1e-3, y * 1e-3, z * 1e-3),
+        (x, y, z),
     )
 
 
@@ -384,12 +384,11 @@ def _seed(seed_deg: object):
     if (type(seed_deg) is list or type(seed_deg) is tuple) and len(seed_deg) == 6:
         try:
             q1, q2, q3, q4, q5, q6 = seed_deg
-            out = (float(q1) * _DEG, float(q2) * _DEG, float(q3) * _DEG,
-                   float(q4) * _DEG, float(q5) * _DEG, float(q6) * _DEG)
-        except (TypeError, ValueError):
-            out = None
-        if out is not None and _isfinite(out[0] + out[1] + out[2] + out[3] + out[4] + out[5]):
-            return out
+            out = (q1 * _DEG, q2 * _DEG, q3 * _DEG, q4 * _DEG, q5 * _DEG, q6 * _DEG)
+            if _isfinite(out[0] + out[1] + out[2] + out[3] + out[4] + out[5]):
+                return out
+        except (TypeError, ValueError, OverflowError):
+            pass
     try:
         return _joints_rad(seed_deg, "seed_deg")
     except ParolkitValueError as exc:
@@ -527,6 +526,10 @@ def _raw_branches(r, p, seed):
     return out
 
 
+def _mm(value: float) -> str:
+    return f"{value:.1f}" if abs(value) < 1e6 else f"{value:.3g}"
+
+
 def _branch_words(sh: str, el: str, fl: bool) -> str:
     return f"{sh} {el} {'flip' if fl else 'noflip'}"
 
@@ -542,12 +545,12 @@ def diagnose(r, p, seed, branch: Branch | None) -> IKError:
         rho = math.hypot(x, y)
         dist = min(math.hypot(rr - A1, D1 - z) for rr in (rho, -rho)) * 1e3
         if dist * 1e-3 > REACH_MAX:
-            detail = (f"the wrist centre would be {dist:.1f} mm from the shoulder (J2) axis, "
+            detail = (f"the wrist centre would be {_mm(dist)} mm from the shoulder (J2) axis, "
                       f"the arm reaches at most {REACH_MAX * 1e3:.1f} mm")
         else:
-            detail = (f"the wrist centre would be {dist:.1f} mm from the shoulder (J2) axis, "
+            detail = (f"the wrist centre would be {_mm(dist)} mm from the shoulder (J2) axis, "
                       f"closer than the minimum {REACH_MIN * 1e3:.1f} mm")
-        return IKError(f"target out of reach by {excess_mm:.1f} mm: {detail}",
+        return IKError(f"target out of reach by {_mm(excess_mm)} mm: {detail}",
                        kind=IKFailure.OUT_OF_REACH, value=excess_mm)
     best = None
     for sh, el, fl, q, _ in reachable:

@@ -110,8 +110,9 @@ def as_matrix_array(matrix: object, name: str = "matrix", *, allow_batch: bool =
         bad = int(np.argmax(last > tol))
         raise ParolkitValueError(f"{name}{_sample(arr, bad)}: last row must be [0, 0, 0, 1]")
     rot = flat[:, :3, :3]
-    ortho = np.abs(rot @ np.swapaxes(rot, 1, 2) - np.eye(3)).max(axis=(1, 2))
-    det = np.linalg.det(rot)
+    ortho = np.abs(np.einsum("nij,nkj->nik", rot, rot) - np.eye(3)).max(axis=(1, 2))
+    c0, c1, c2 = rot[:, :, 0], rot[:, :, 1], rot[:, :, 2]
+    det = np.einsum("ni,ni->n", c0, np.cross(c1, c2))
     badmask = (ortho > tol) | (det < 0)
     if np.any(badmask):
         bad = int(np.argmax(badmask))

@@ -91,13 +91,28 @@ FLANGE = Tool("flange", np.eye(4))
 TOOLS: dict[str, Tool] = {"default": DEFAULT_TOOL, "flange": FLANGE}
 
 
+_USER_TOOLS: dict[tuple[str, tuple[float, ...]], Tool] = {}
+
+
+def _user_tool(name: str, pose: tuple[float, ...]) -> Tool:
+    key = (name, pose)
+    tool = _USER_TOOLS.get(key)
+    if tool is None:
+        tool = Tool.from_pose(name, pose)
+        if len(_USER_TOOLS) > 256:  # a config reloaded many times: do not grow without bound
+            _USER_TOOLS.clear()
+        _USER_TOOLS[key] = tool
+    return tool
+
+
 def get_tool(tool: "str | Tool | None" = None, config: "Config | None" = None) -> Tool:
     """Resolve a tool argument.
 
-    ``None`` -> the default tool; a :class:`Tool` -> itself; a name -> a built-in
-    (``'default'``, ``'flange'``) or a user tool from ``config.tools``
-    (``ToolSettings(name, pose)``).  Unknown names raise :class:`ParolkitValueError` listing
-    the known ones.
+    ``None`` -> the default tool; a :class:`Tool` -> itself; a name -> a user tool from
+    ``config.tools`` (``ToolSettings(name, pose)``; a user tool of the same name shadows a
+    built-in) or a built-in (``'default'``, ``'flange'``).  Unknown names raise
+    :class:`ParolkitValueError` listing the known ones.  User tools are cached by
+    (name, pose), so resolving one per call is cheap.
     """
     if tool is None:
         return DEFAULT_TOOL
@@ -107,7 +122,7 @@ def get_tool(tool: "str | Tool | None" = None, config: "Config | None" = None) -
         if config is not None:
             for settings in getattr(config, "tools", ()):
                 if settings.name == tool:
-                    return Tool.from_pose(settings.name, settings.pose)
+                    return _user_tool(settings.name, tuple(settings.pose))
         found = TOOLS.get(tool)
         if found is not None:
             return found

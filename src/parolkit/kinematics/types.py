@@ -101,9 +101,12 @@ class Branch:
         return " ".join(parts) if parts else "any"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class IKSolution:
-    """One IK solution: joint angles in degrees (inside the safe joint limits) and its branch."""
+    """One IK solution: joint angles in degrees (inside the safe joint limits) and its branch.
+
+    (Compared by identity: compare ``joints_deg`` with a tolerance instead.)
+    """
 
     joints_deg: np.ndarray
     config: Branch
