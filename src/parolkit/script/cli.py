@@ -238,21 +238,30 @@ class _SimController:
         self.log.seek(0)
         return "\n".join(self.log.read().decode(errors="replace").splitlines()[-lines:])
 
-    def wait_ready(self, robot, timeout: float = 30.0) -> None:
+    def _query(self, text: str, timeout: float) -> str:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.settimeout(timeout)
+            sock.sendto(text.encode(), ("127.0.0.1", self.port))
+            try:
+                return sock.recv(65535).decode(errors="replace")
+            except OSError:  # timeout, or ICMP "port unreachable" while it starts
+                return ""
+
+    def wait_ready(self, timeout: float = 60.0) -> None:
+        """Wait until the controller answers and the simulated board has homed."""
         deadline = time.monotonic() + timeout
-        last = None
+        last = "no answer"
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 raise RuntimeError(f"the simulated controller exited with {self.proc.returncode}:\n"
                                    f"{self.log_tail()}")
-            try:
-                status = robot.status()
-                if status.all_homed and status.state != "HOMING":
+            reply = self._query("GET_STATUS", 0.25)
+            if reply.startswith("STATUS|"):
+                fields = dict(f.partition("=")[::2] for f in reply.split("|")[1:])
+                last = f"state {fields.get('STATE')}, homed {fields.get('HOMED')}"
+                if fields.get("HOMED") == "1,1,1,1,1,1" and fields.get("STATE") != "HOMING":
                     return
-                last = status.state
-            except Exception as exc:  # not up yet
-                last = exc
-            time.sleep(0.1)
+                time.sleep(0.05)
         raise RuntimeError(f"the simulated controller was not ready within {timeout:g} s ({last}); "
                            f"its log:\n{self.log_tail()}")
 
@@ -346,9 +355,11 @@ def run_main(args) -> int:
         if args.sim:
             sim = _SimController(args.config)
             host, port, ack_port = "127.0.0.1", sim.port, sim.ack_port
-        robot = Robot(host, port, ack_port=ack_port)
         if sim is not None:
-            sim.wait_ready(robot)
+            if not args.quiet:
+                print("starting a controller with the simulated board ...", flush=True)
+            sim.wait_ready()
+        robot = Robot(host, port, ack_port=ack_port)
         quiet = args.quiet
 
         def on_line(p) -> None:
