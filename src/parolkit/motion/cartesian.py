@@ -536,15 +536,40 @@ def _path_profile(profile: Profile, base: float, duration: float | None, stretch
     return ruckig_unit_profile(v_s, a_s, a_s / 0.1 / stretch)
 
 
+#: |r02| this close to 1 is the gimbal lock of the A, B, C convention (B = +-90 deg).
+_GIMBAL_EPS = 1e-12
+
+
+def poses_from_rotations(pos_mm: np.ndarray, rots: np.ndarray) -> np.ndarray:
+    """(N, 3) mm + (N, 3, 3) rotations -> (N, 6) poses [x, y, z mm, A, B, C deg] with
+    R = Rx(C) Ry(B) Rz(A) (the kinematics convention; at B = +-90 deg, A = 0).
+
+    Our rotations are orthonormal by construction, so handing the IK poses instead of 4x4
+    matrices skips its per-matrix orthonormality check (a third of a Cartesian plan)."""
+    r = rots
+    out = np.empty((len(pos_mm), 6))
+    out[:, :3] = pos_mm
+    r00, r01, r02 = r[:, 0, 0], r[:, 0, 1], r[:, 0, 2]
+    out[:, 3] = -np.arctan2(r01, r00)
+    out[:, 4] = np.arctan2(r02, np.hypot(r00, r01))
+    out[:, 5] = -np.arctan2(r[:, 1, 2], r[:, 2, 2])
+    lock = np.abs(np.abs(r02) - 1.0) < _GIMBAL_EPS
+    if lock.any():
+        i = np.nonzero(lock)[0]
+        out[i, 3] = 0.0
+        out[i, 4] = np.arcsin(np.clip(r02[i], -1.0, 1.0))
+        out[i, 5] = np.where(r02[i] > 0, np.arctan2(r[i, 2, 1], r[i, 1, 1]),
+                             -np.arctan2(r[i, 1, 0], r[i, 2, 0]))
+    np.degrees(out[:, 3:], out=out[:, 3:])
+    return out
+
+
 def _solve_ik(name: str, pos_mm: np.ndarray, rots: np.ndarray, seed: np.ndarray, tool, t: np.ndarray) -> np.ndarray:
     kin = _kin()
     n = len(pos_mm)
-    mats = np.zeros((n, 4, 4))
-    mats[:, :3, :3] = rots
-    mats[:, :3, 3] = pos_mm * 1e-3
-    mats[:, 3, 3] = 1.0
+    poses = poses_from_rotations(pos_mm, rots)
     try:
-        return np.asarray(kin.ik_batch(mats, seed, tool=tool), dtype=float)
+        return np.asarray(kin.ik_batch(poses, seed, tool=tool), dtype=float)
     except kin.IKError as exc:
         k = exc.sample if exc.sample is not None else 0
         p = pos_mm[min(k, n - 1)]
