@@ -318,10 +318,10 @@ def _step_console(interp, done: threading.Event) -> None:
         if answer in ("c", "continue"):
             interp.resume()
             return
+        started = interp.commands_started
         interp.step()
-        # wait until the command has left the PAUSED state before prompting again
-        deadline = time.monotonic() + 2.0
-        while interp.state is InterpreterState.PAUSED and not done.is_set() and time.monotonic() < deadline:
+        # wait until that command has started before prompting again
+        while interp.commands_started == started and not done.is_set():
             done.wait(0.01)
 
 

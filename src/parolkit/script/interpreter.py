@@ -164,6 +164,7 @@ class Interpreter:
         self._current_line: int | None = None
         self._current_index: int | None = None
         self._iteration = 0
+        self._started = 0
         self._thread: threading.Thread | None = None
         self._result: RunResult | None = None
         self._t0 = 0.0
@@ -183,6 +184,11 @@ class Interpreter:
     @property
     def current_index(self) -> int | None:
         return self._current_index
+
+    @property
+    def commands_started(self) -> int:
+        """How many commands have started so far (grows by one per step in single-step mode)."""
+        return self._started
 
     @property
     def iteration(self) -> int:
@@ -300,6 +306,8 @@ class Interpreter:
                     continue
             self._set_state(InterpreterState.PAUSED)
             announced = True
+        with self._cond:
+            self._started += 1
         self._set_state(InterpreterState.RUNNING)
 
     def _execute(self, cmd: Command) -> None:
