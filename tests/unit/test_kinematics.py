@@ -252,3 +252,10 @@ def test_import_pulls_in_no_heavy_library():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def test_user_tool_shadows_builtin_of_the_same_name_and_is_cached():
+    cfg = Config(tools=(ToolSettings("flange", (0, 0, 50, 0, 0, 0)), ToolSettings("pen", (0, 0, 120, 0, 0, 0))))
+    np.testing.assert_allclose(get_tool("flange", cfg).matrix[:3, 3], [0, 0, 0.05])
+    assert get_tool("pen", cfg) is get_tool("pen", cfg)
+    assert get_tool("flange") is TOOLS["flange"]

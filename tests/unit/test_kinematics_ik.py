@@ -350,3 +350,35 @@ def test_ik_with_flange_and_rotated_tools_round_trips():
         np.testing.assert_allclose(ik_batch(poses, seed_deg=qs, tool=t), qs, atol=1e-6)
     m = pose_to_matrix(fk(qs[0], tool))
     np.testing.assert_allclose(ik(m, seed_deg=qs[0], tool=tool), qs[0], atol=1e-6)
+
+
+def test_non_numeric_pose_and_seed_entries_are_rejected_not_crashing():
+    with pytest.raises(IKError, match="pose must be numbers"):
+        ik(["a", 0, 0, 0, 0, 0])
+    with pytest.raises(IKError, match="pose must be numbers"):
+        ik([1j, 0, 0, 0, 0, 0])
+    with pytest.raises(IKError, match="seed_deg must be numbers"):
+        ik([7, 250, 200, -100, 0, -90], seed_deg=["x", 0, 0, 0, 0, 0])
+    with pytest.raises(IKError, match=r"out of reach by 1\.41e\+308 mm"):
+        ik([1e308, 1e308, 0, 0, 0, 0])
+
+
+def test_numpy_scalars_tuples_and_arrays_give_identical_results():
+    target = [7, 250, 200, -100, 0, -90]
+    ref = ik(target)
+    np.testing.assert_array_equal(ik(tuple(target)), ref)
+    np.testing.assert_array_equal(ik(np.array(target, dtype=float)), ref)
+    np.testing.assert_array_equal(ik([np.float64(v) for v in target], seed_deg=STANDBY), ref)
+
+
+def test_ik_all_without_solution_raises_and_single_pose_batch_works():
+    with pytest.raises(IKError, match="out of reach"):
+        ik_all([600, 0, 300, 0, 90, 0])
+    q = ik_batch([7, 250, 200, -100, 0, -90])
+    np.testing.assert_allclose(q[0], ik([7, 250, 200, -100, 0, -90]), atol=1e-9)
+
+
+def test_branch_words_round_trip():
+    b = Branch("back", "down", True)
+    assert str(b) == "back down flip" and Branch.parse(str(b)) == b
+    assert str(Branch()) == "any" and not Branch(elbow="up").is_complete

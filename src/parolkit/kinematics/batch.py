@@ -229,9 +229,12 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
 
     ``rot``: 9 arrays (flange rotation, row-major), ``pos``: 3 arrays (wrist centre, m),
     ``seeds``: (6,) or (N, 6) radians.  Returns (q (N, 6) rad, ok (N,), branch index (N,)
-    into ``_BRANCHES``, -1 where no solution).  Work is done only on the samples still valid
-    after each joint (J1, reach, J3, J2), so rarely valid branches cost little; the two wrist
-    solutions are compared per arm, then the best of the 4 arms per sample is taken.
+    into ``_BRANCHES``, -1 where no solution).
+
+    A vectorised branch-and-bound: arms are tried front/up first; each later arm works only on
+    the samples where it is still in range (J1, reach, J3, J2) AND its partial joint distance
+    (J1, J3, J2 terms) is below the best complete solution found so far.  With a good seed
+    nearly every sample is settled by its first valid arm, so the other branches cost little.
     """
     if not all(_NARROW[:5]) or _NARROW[5]:  # pragma: no cover - PAROL6 ranges
         raise NotImplementedError("vectorised IK assumes J1..J5 narrower than 360 deg and J6 a full turn")
@@ -256,9 +259,9 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
         c1f = np.where(sing_sh, np.cos(free), c1f)
         s1f = np.where(sing_sh, np.sin(free), s1f)
     Yall = D1 - z
-    cand_d = np.full((4, n), _BIG)
-    cand_q = np.zeros((4, 6, n))
-    cand_flip = np.zeros((4, n), dtype=bool)
+    best_d = np.full(n, _BIG)
+    best_q = np.zeros((6, n))
+    best_b = np.full(n, -1, dtype=np.int64)
     want_sh = None if branch is None else branch.shoulder
     want_el = None if branch is None else branch.elbow
     want_fl = None if branch is None else branch.wrist_flip
@@ -267,6 +270,9 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
         if want_sh is not None and (want_sh == "back") != back:
             continue
         q1, ok = _fit_narrow(base + _PI if back else base, 0)
+        e = q1 - seed_cols[0]
+        d1 = w1 * e * e
+        ok &= d1 < best_d
         if back:
             rr = -rho
             c1 = -c1f
@@ -281,8 +287,9 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
         idx = np.nonzero(ok)[0]
         if idx.size == 0:
             continue
-        # --- restrict everything to the samples this shoulder can serve
+        # --- restrict everything to the samples this shoulder can still improve
         q1 = q1[idx]
+        d1 = d1[idx]
         X = X[idx]
         Y = Yall[idx]
         c = np.clip(c[idx], -1.0, 1.0)
@@ -300,8 +307,6 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
         n02 = c1 * a02 + s1 * a12
         n10 = c1 * a10 - s1 * a00
         n12 = c1 * a12 - s1 * a02
-        e = q1 - sd[0]
-        d1 = w1 * e * e
         for down in (False, True):
             if want_el is not None and (want_el == "down") != down:
                 continue
@@ -313,21 +318,27 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 q3, ok3 = _fit_narrow(PHI3 - delta, 2)
                 c3 = _COS_PHI3 * c + _SIN_PHI3 * sdel
                 s3 = _SIN_PHI3 * c - _COS_PHI3 * sdel
+            e = q3 - sd[2]
+            d13 = d1 + w3 * e * e
+            bound = best_d[idx]
+            ok3 &= d13 < bound
             u = A2 + A3 * c3 + D4 * s3
             v = D4 * c3 - A3 * s3
             q2, ok2 = _fit_narrow(atan_y - np.arctan2(v, u), 1)
+            e = q2 - sd[1]
+            d123 = d13 + w2 * e * e
             ok3 &= ok2
+            ok3 &= d123 < bound
             sub = np.nonzero(ok3)[0]
             if sub.size == 0:
                 continue
             if sub.size != ok3.size:
-                q2, q3, c3, s3, u, v = q2[sub], q3[sub], c3[sub], s3[sub], u[sub], v[sub]
+                q2, q3, c3, s3, u, v, d123 = q2[sub], q3[sub], c3[sub], s3[sub], u[sub], v[sub], d123[sub]
                 Xs, Ys = X[sub], Y[sub]
                 m_n00, m_n01, m_n02, m_n10, m_n12 = n00[sub], n01[sub], n02[sub], n10[sub], n12[sub]
                 b20, b21, b22 = a20[sub], a21[sub], a22[sub]
                 sds = [col[sub] for col in sd] if per_sample else sd
                 q1s = q1[sub]
-                d1s = d1[sub]
                 where = idx[sub]
             else:
                 Xs, Ys = X, Y
@@ -335,7 +346,6 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 b20, b21, b22 = a20, a21, a22
                 sds = sd
                 q1s = q1
-                d1s = d1
                 where = idx
             inv = 1.0 / (u * u + v * v)
             c2 = (Xs * u + Ys * v) * inv
@@ -359,11 +369,6 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 be = np.where(sing, np.where(m22 > 0, 0.0, _PI), be)
             ok5 = be <= LIM_HI[4] + LIMIT_TOL
             np.minimum(be, LIM_HI[4], out=be)
-            e2 = q2 - sds[1]
-            e3 = q3 - sds[2]
-            d123 = d1s + w2 * e2 * e2 + w3 * e3 * e3
-            e5 = be - sds[4]
-            e5f = be + sds[4]
             opts = []
             for flip in (False, True):
                 if want_fl is not None and want_fl != flip:
@@ -371,18 +376,17 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 if flip:
                     q4, ok4 = _fit_narrow(-al, 3)
                     q6 = _fit_wide(-ga, 5, sds[5])
-                    e5x = e5f
+                    e5 = be + sds[4]
                 else:
                     q4, ok4 = _fit_narrow(_PI - al, 3)
                     q6 = _fit_wide(_PI - ga, 5, sds[5])
-                    e5x = e5
+                    e5 = be - sds[4]
                 ok4 &= ok5
                 e4 = q4 - sds[3]
                 e6 = q6 - sds[5]
-                d = d123 + w4 * e4 * e4 + w5 * e5x * e5x + w6 * e6 * e6
+                d = d123 + w4 * e4 * e4 + w5 * e5 * e5 + w6 * e6 * e6
                 d[~ok4] = _BIG
                 opts.append((flip, q4, q6, d))
-            k = (2 if back else 0) + (1 if down else 0)
             if len(opts) == 2:
                 (_, q4a, q6a, da), (_, q4b, q6b, db) = opts
                 use_b = db < da
@@ -391,26 +395,32 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 q6 = q6a + fb * (q6b - q6a)
                 q5 = be - 2.0 * fb * be
                 d = np.minimum(da, db)
-                cand_flip[k, where] = use_b
+                flips = use_b.astype(np.int64)
             else:
                 flip, q4, q6, d = opts[0]
                 q5 = -be if flip else be
-                cand_flip[k, where] = flip
-            cand_d[k, where] = d
-            cq = cand_q[k]
-            cq[0, where] = q1s
-            cq[1, where] = q2
-            cq[2, where] = q3
-            cq[3, where] = q4
-            cq[4, where] = q5
-            cq[5, where] = q6
-    kbest = np.argmin(cand_d, axis=0)
-    cols = np.arange(n)
-    ok = cand_d[kbest, cols] < _BIG
-    q = cand_q[kbest, :, cols]  # (n, 6)
-    b_idx = 2 * kbest + cand_flip[kbest, cols]
-    b_idx[~ok] = -1
-    return q, ok, b_idx
+                flips = 1 if flip else 0
+            better = d < best_d[where]
+            if better.all():
+                tgt = where
+                sel = slice(None)
+            else:
+                if not better.any():
+                    continue
+                tgt = where[better]
+                sel = better
+                if not np.isscalar(flips):
+                    flips = flips[better]
+            best_d[tgt] = d[sel]
+            best_b[tgt] = 4 * back + 2 * down + flips
+            best_q[0, tgt] = q1s[sel]
+            best_q[1, tgt] = q2[sel]
+            best_q[2, tgt] = q3[sel]
+            best_q[3, tgt] = q4[sel]
+            best_q[4, tgt] = q5[sel]
+            best_q[5, tgt] = q6[sel]
+    ok = best_b >= 0
+    return best_q.T, ok, best_b
 
 
 # ---------------------------------------------------------------------------------------------
