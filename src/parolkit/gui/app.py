@@ -329,6 +329,7 @@ class CommanderPage:
                 self.build_readouts()
             with ui.column().classes("gap-3 grow").style("min-width: 520px"):
                 self.build_tabs()
+                self.build_plots()
         self.build_help()
         ui.timer(1.0 / SCENE_FPS, self.update_scene)
         ui.timer(READOUT_PERIOD_S, self.update_readouts)
@@ -366,7 +367,7 @@ class CommanderPage:
                 self.ghost = self._arm(opacity=0.22, ghost=True)
                 for g in self.ghost:
                     g.visible(False)
-                self.path = self.scene.point_cloud([], point_size=0.06).material("#22d3ee")
+                self.path = self.scene.point_cloud([], point_size=0.14).material("#22d3ee")
             self.scene.move_camera(x=4.6, y=-4.2, z=3.9, look_at_x=0, look_at_y=0.8, look_at_z=1.7, duration=0)
             for g, t in zip(self.groups, geometry.dh_frames(PAROL6.standby_deg)):
                 pos, rot = geometry.frame_pose_for_scene(t)
@@ -438,7 +439,6 @@ class CommanderPage:
                 t_jog = ui.tab("Jog", icon="open_with").props("data-testid=tab-jog")
                 t_grip = ui.tab("IO · Gripper", icon="back_hand").props("data-testid=tab-gripper")
                 t_prog = ui.tab("Program", icon="code").props("data-testid=tab-program")
-                t_plot = ui.tab("Plots", icon="show_chart").props("data-testid=tab-plots")
             with ui.tab_panels(tabs, value=t_jog).classes("w-full bg-transparent"):
                 with ui.tab_panel(t_jog):
                     self.build_jog()
@@ -446,8 +446,6 @@ class CommanderPage:
                     self.build_gripper()
                 with ui.tab_panel(t_prog):
                     self.build_program()
-                with ui.tab_panel(t_plot):
-                    self.build_plots()
 
     def build_jog(self) -> None:
         with ui.row().classes("w-full items-center gap-4"):
@@ -553,10 +551,11 @@ class CommanderPage:
         self.on_edit()
 
     def build_plots(self) -> None:
-        ui.label(f"Joint positions (last {PLOT_WINDOW_S:.0f} s)").classes("pk-title")
-        self.pos_chart = ui.echart(self._live_options("deg")).classes("w-full").style("height: 260px").props("data-testid=pos-chart")
-        ui.label("Joint speeds").classes("pk-title")
-        self.speed_chart = ui.echart(self._live_options("deg/s")).classes("w-full").style("height: 260px").props("data-testid=speed-chart")
+        with ui.card().classes("pk-card w-full p-3 gap-1"):
+            ui.label(f"Live joint positions and speeds (last {PLOT_WINDOW_S:.0f} s)").classes("pk-title")
+            with ui.row().classes("w-full no-wrap gap-2"):
+                self.pos_chart = ui.echart(self._live_options("deg")).classes("w-1/2").style("height: 230px").props("data-testid=pos-chart")
+                self.speed_chart = ui.echart(self._live_options("deg/s")).classes("w-1/2").style("height: 230px").props("data-testid=speed-chart")
 
     def build_help(self) -> None:
         with ui.dialog() as self.help, ui.card().classes("pk-card"):

@@ -174,7 +174,7 @@ def main(args: argparse.Namespace) -> int:
     from parolkit.gui.app import Commander, build_app
     from parolkit.gui.link import ControllerLink
 
-    link = ControllerLink(ctl_host, ctl_port, ack_port)
+    link = ControllerLink(ctl_host, ctl_port, ack_port, every_n_ticks=2)  # 50 Hz status for a 30 fps view
     commander = Commander(link, mode_label=mode)
     root = build_app(commander)
     print(f"parolkit commander on http://{host}:{http_port}/", file=sys.stderr, flush=True)
