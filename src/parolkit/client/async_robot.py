@@ -323,7 +323,8 @@ class AsyncRobot(RobotCommands):
                 record.id, record.command, "TIMEOUT",
                 f"no acknowledgement within {limit:g} s: is the controller running at "
                 f"{self.host}:{self.port}, and does it send acks to this client's port "
-                f"{self.ack_port}?") from None
+                f"{self.ack_port}? (a controller that acks only its --ack-port needs "
+                "AsyncRobot(ack_port=<that port>))") from None
         if not wait:
             if record.terminal is not None:
                 record.result()  # refused or failed at once: raise now

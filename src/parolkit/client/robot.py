@@ -13,8 +13,9 @@
 
 One UDP socket carries commands, queries, their replies and the acknowledgements; a
 background thread receives and sorts them.  ``ack_port=0`` (default) binds an ephemeral
-port: the controller answers to the sender's port.  Give ``ack_port=5002`` to listen where
-the original protocol sends acks (one program per machine can hold that port).
+port: query replies always come back to it, acks only from a controller that also acks the
+sender's port.  Give ``ack_port=<the controller's --ack-port>`` (5002 by default) to listen
+where the original protocol sends acks (one program per machine can hold that port).
 
 Every method is documented in :class:`parolkit.client.core.RobotCommands`; errors are the
 classes of :mod:`parolkit.client.errors`.
@@ -288,16 +289,18 @@ class Robot(RobotCommands):
         with self._cond:
             record, text = self._acks.new(body)
         self._send(text)
-        deadline = time.monotonic() + (self.timeout if timeout is None else min(timeout, self.timeout))
+        limit = self.timeout if timeout is None else min(timeout, self.timeout)
+        deadline = time.monotonic() + limit
         with self._cond:
             while record.first_at is None:
                 left = deadline - time.monotonic()
                 if left <= 0:
                     raise CommandTimeout(
                         record.id, record.command, "TIMEOUT",
-                        f"no acknowledgement within {self.timeout:g} s: is the controller "
-                        f"running at {self.host}:{self.port}, and does it send acks to this "
-                        f"client's port {self.ack_port}?")
+                        f"no acknowledgement within {limit:g} s: is the controller running at "
+                        f"{self.host}:{self.port}, and does it send acks to this client's port "
+                        f"{self.ack_port}? (a controller that acks only its --ack-port needs "
+                        "Robot(ack_port=<that port>))")
                 self._cond.wait(left)
             if not wait:
                 if record.terminal is not None:
