@@ -280,6 +280,52 @@ def _fmt_joints(q) -> str:
     return "[" + ", ".join(f"{v:.3f}" for v in q) + "]"
 
 
+class _ProgressPrinter:
+    """Prints ``[elapsed / planned] line N: command`` as each command starts.  On a terminal
+    the current line is rewritten in place with the running time (every 0.2 s)."""
+
+    def __init__(self, loops: bool, live: bool) -> None:
+        self.loops = loops
+        self.live = live
+        self._lock = threading.Lock()
+        self._current = None
+        self._since = 0.0
+        self._open = False
+
+    def _text(self, p, elapsed: float) -> str:
+        total = f"{p.planned_total_s:.1f}" if p.planned_total_s is not None else f"{p.planned_pass_s:.1f}/pass"
+        it = f" pass {p.iteration}" if self.loops else ""
+        return f"[{elapsed:6.1f} s / {total} s] line {p.line}{it}: {p.command}"
+
+    def on_line(self, p) -> None:
+        with self._lock:
+            self._current = p
+            self._since = time.monotonic()
+            text = self._text(p, p.elapsed_s)
+            if self.live:
+                sys.stdout.write(("\n" if self._open else "") + text)
+                self._open = True
+                sys.stdout.flush()
+            else:
+                print(text, flush=True)
+
+    def tick(self) -> None:
+        with self._lock:
+            p = self._current
+            if not self.live or p is None:
+                return
+            elapsed = p.elapsed_s + time.monotonic() - self._since
+            sys.stdout.write("\r" + self._text(p, elapsed) + "\x1b[K")
+            sys.stdout.flush()
+
+    def close(self) -> None:
+        with self._lock:
+            if self._open:
+                sys.stdout.write("\n")
+                sys.stdout.flush()
+                self._open = False
+
+
 def _dry_run_main(args, program, cfg) -> int:
     from parolkit.script.dryrun import dry_run
 
@@ -361,16 +407,10 @@ def run_main(args) -> int:
             sim.wait_ready()
         robot = Robot(host, port, ack_port=ack_port)
         quiet = args.quiet
-
-        def on_line(p) -> None:
-            if quiet:
-                return
-            total = f"{p.planned_total_s:.1f}" if p.planned_total_s is not None else f"{p.planned_pass_s:.1f}/pass"
-            it = f" pass {p.iteration}" if program.loops else ""
-            print(f"[{p.elapsed_s:6.1f} s / {total} s] line {p.line}{it}: {p.command}", flush=True)
-
-        interp = Interpreter(program, robot, on_line=on_line, loops=args.loops, step=args.step,
-                             model=cfg.robot, rate_hz=cfg.controller.rate_hz)
+        progress = _ProgressPrinter(program.loops, live=sys.stdout.isatty() and not args.step)
+        interp = Interpreter(program, robot, on_line=None if quiet else progress.on_line,
+                             loops=args.loops, step=args.step, model=cfg.robot,
+                             rate_hz=cfg.controller.rate_hz)
         done = threading.Event()
 
         def body() -> None:
@@ -385,7 +425,10 @@ def run_main(args) -> int:
             if args.step:
                 _step_console(interp, done)
             while not done.wait(0.2):
-                pass
+                if not quiet:
+                    progress.tick()
+            if not quiet:
+                progress.close()
         except KeyboardInterrupt:
             print("\ninterrupted: stopping the robot", file=sys.stderr)
             interp.stop()

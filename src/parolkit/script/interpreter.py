@@ -95,7 +95,8 @@ class Progress:
 @dataclass(frozen=True)
 class RunResult:
     """How a run ended.  ``errors``: the check's errors (nothing ran) or the failing line's
-    error; ``final_deg``: the robot's joints after the run (None when unknown)."""
+    error; ``final_deg``: the robot's joints after the run (None when unknown);
+    ``elapsed_s``: from the first command to the end (the check before it not included)."""
 
     state: InterpreterState
     commands_executed: int
@@ -388,6 +389,7 @@ class Interpreter:
                     planned_total = planned_pass * self.loops
             if self._stop_requested:
                 raise _Stopped
+            self._t0 = time.monotonic()  # times are measured from the first command on
             self._set_state(InterpreterState.PAUSED if self._paused else InterpreterState.RUNNING)
             self._iteration = 1
             while True:
