@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction, name: str = "plan") -> argp
     p = subparsers.add_parser(
         name, help="plan one move and print or plot its trajectory",
         description="Plan one move from a start configuration and print its summary "
-        "(duration, samples, notes, peak speeds). Units: deg, mm, %%, s.",
+        "(duration, samples, notes, peak speeds). Units: deg, mm, %, s.",
     )
     p.add_argument("kind", choices=_KINDS, type=str.lower, help="the move")
     p.add_argument("values", nargs="+", type=float,

@@ -349,7 +349,7 @@ def _percent_profile(
         a_s = float(a_caps[ja])
     if profile is Profile.TRAP:
         T, ta = trapezoid_for_limits(1.0, v_s, a_s)
-        if abs(ta - T / 2.0) < 1e-12:
+        if abs(ta - T / 2.0) < 1e-12 and 1.0 / ta < 0.95 * v_s:
             notes.append(
                 f"triangular profile: {JOINT_NAMES[lead]} peaks at {d / ta:.0f} steps/s before "
                 f"reaching {v_s * d:.0f} steps/s"
