@@ -664,5 +664,7 @@ def _toppra_path(move, path: Path, start, model, tool, rate_hz, duration, base, 
     qd = _derivative(q, start, rate_hz, t, T)
     _check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
-                            notes=[f"TOPP-RA time-optimal: {T:.2f} s"], target_deg=q[-1],
+                            notes=[f"TOPP-RA time-optimal: {res.optimal_duration:.2f} s"
+                                   + (f", slowed uniformly to {T:.2f} s" if T > res.optimal_duration * 1.001 else "")],
+                            target_deg=q[-1],
                             hint="the time-optimal timing exceeds a limit after sampling")

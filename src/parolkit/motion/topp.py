@@ -18,6 +18,8 @@ class ToppResult:
 
     duration: float
     evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+    #: the time-optimal duration before any uniform slow-down to a requested duration (s)
+    optimal_duration: float = 0.0
 
 
 #: TOPP-RA gets limits reduced by this factor: its output spline may overshoot them slightly.
@@ -63,4 +65,4 @@ def toppra_parameterize(
             np.asarray(traj(tau)), np.asarray(traj(tau, 1)) * k, np.asarray(traj(tau, 2)) * k * k,
         )
 
-    return ToppResult(duration=total, evaluate=evaluate)
+    return ToppResult(duration=total, evaluate=evaluate, optimal_duration=t_opt)
