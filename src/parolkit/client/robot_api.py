@@ -720,7 +720,10 @@ class _AckTracker:
                     return
                 continue
             except OSError:
-                return  # socket closed by stop()
+                if self._sock is not sock:
+                    return  # socket closed by stop()
+                time.sleep(0.01)  # e.g. an ICMP error reported on the socket: keep listening
+                continue
             ack = parse_ack(data.decode("utf-8", "replace"))
             if ack is None:
                 continue
@@ -736,6 +739,15 @@ class _AckTracker:
                 while len(self._records) > self.HISTORY:
                     self._records.popitem(last=False)
                 self._cond.notify_all()
+
+    def send(self, text: str) -> None:
+        """Send from the listening socket, so a controller that acks the sender's port
+        reaches us even with ``ACK_PORT = 0``."""
+        with self._cond:
+            sock = self._sock
+        if sock is None:
+            raise OSError("the acknowledgement listener is not running")
+        sock.sendto(text.encode("utf-8"), (SERVER_IP, SERVER_PORT))
 
     def register(self, cmd_id: str, command: str) -> None:
         with self._cond:
@@ -779,9 +791,7 @@ def send_robot_command_tracked(command_string: str) -> Tuple[str, str]:
     _tracker.ensure_started()
     cmd_id = new_command_id()
     _tracker.register(cmd_id, command_string)
-    text = f"{cmd_id}|{command_string}"
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.sendto(text.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+    _tracker.send(f"{cmd_id}|{command_string}")
     return f"Command sent with tracking (ID: {cmd_id})", cmd_id
 
 
