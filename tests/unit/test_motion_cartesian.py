@@ -353,3 +353,23 @@ def test_cartesian_jog_from_the_homed_pose_turns_the_wrist_first_then_moves():
     assert pos[-1, 0] == pytest.approx(p[0] + v * 0.5, abs=0.01)
     assert np.allclose(pos[:, 1:], p[1:3], atol=0.01)  # only X changes, never Y or Z
     assert np.all(np.abs(tr.speeds) <= VMAX)
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(off=st.tuples(st.floats(-30, 30), st.floats(-30, 30), st.floats(-30, 30)),
+       radius=st.floats(5, 40), plane=st.sampled_from(["XY", "XZ", "YZ"]), cw=st.booleans(),
+       frame=st.sampled_from(["WRF", "TRF"]))
+def test_property_circles_are_refused_or_on_the_circle_inside_every_limit(off, radius, plane, cw, frame):
+    centre = np.array(off) if frame == "TRF" else P0[:3] + np.array(off)
+    move = CircleMove(centre, radius, plane, frame=frame, clockwise=cw, duration_s=8)
+    try:
+        tr = plan(move, START)
+    except PlanningError as e:
+        assert str(e).startswith("SmoothCircle refused")
+        return
+    _assert_limits(tr)
+    pos, _ = _tcp(tr)
+    t0 = kin.fk_matrix(START)
+    c = centre if frame == "WRF" else t0[:3, 3] * 1e3 + t0[:3, :3] @ centre
+    circle = pos[-800:]  # the circle itself lasts exactly 8 s (any approach comes first)
+    assert np.abs(np.linalg.norm(circle - c, axis=1) - radius).max() <= 0.01
