@@ -59,6 +59,8 @@ class Profile(Enum):
         """Accept a Profile, its name/value in any case, or None."""
         if value is None or isinstance(value, Profile):
             return value
+        if isinstance(value, Enum):  # another layer's enum with the same words
+            value = value.value
         if isinstance(value, str):
             key = value.strip().lower()
             if key in ("", "none"):
@@ -83,6 +85,8 @@ class Tracking(Enum):
             return cls.POSITION
         if isinstance(value, Tracking):
             return value
+        if isinstance(value, Enum):  # another layer's enum with the same words
+            value = value.value
         if isinstance(value, str) and value.strip().lower() in ("position", "speed"):
             return cls.POSITION if value.strip().lower() == "position" else cls.SPEED
         raise ParolkitValueError(f"tracking must be 'position' or 'speed', got {value!r}")
@@ -98,6 +102,8 @@ class Frame(Enum):
     def parse(cls, value: "Frame | str") -> "Frame":
         if isinstance(value, Frame):
             return value
+        if isinstance(value, Enum):
+            value = value.value
         if isinstance(value, str) and value.strip().upper() in ("WRF", "TRF"):
             return cls(value.strip().upper())
         raise ParolkitValueError(f"frame must be WRF or TRF, got {value!r}")
@@ -114,6 +120,8 @@ class Plane(Enum):
     def parse(cls, value: "Plane | str") -> "Plane":
         if isinstance(value, Plane):
             return value
+        if isinstance(value, Enum):
+            value = value.value
         if isinstance(value, str) and value.strip().upper() in ("XY", "XZ", "YZ"):
             return cls(value.strip().upper())
         raise ParolkitValueError(f"plane must be XY, XZ or YZ, got {value!r}")
