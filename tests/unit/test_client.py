@@ -639,3 +639,22 @@ def test_async_robot_shares_the_methods_and_errors(fake):
                 await r.io()
 
     asyncio.run(main())
+
+
+def test_closing_an_async_subscription_ends_a_waiting_iteration(fake):
+    async def main():
+        async with AsyncRobot(port=fake.port, ack_port=fake.ack_port, timeout=1.0) as r:
+            sub = await r.subscribe(every_n=1, timeout=5).start()
+            got = [s.seq async for s in _take(sub, 3)]
+            assert got == [0, 1, 2]
+            waiter = asyncio.ensure_future(sub.__anext__())  # nothing more will arrive
+            await asyncio.sleep(0.05)
+            await sub.close()
+            with pytest.raises(StopAsyncIteration):
+                await asyncio.wait_for(waiter, 1.0)
+
+    async def _take(sub, n):
+        for _ in range(n):
+            yield await sub.next(timeout=1)
+
+    asyncio.run(main())

@@ -93,7 +93,7 @@ class AsyncCommandHandle:
 
 
 class _StreamProtocol(asyncio.DatagramProtocol):
-    def __init__(self, queue: "asyncio.Queue[str]") -> None:
+    def __init__(self, queue: "asyncio.Queue[Optional[str]]") -> None:
         self.queue = queue
 
     def datagram_received(self, data: bytes, addr: Any) -> None:
@@ -119,7 +119,7 @@ class AsyncStatusSubscription:
         self._robot = robot
         self._every_n = every_n
         self._timeout = timeout
-        self._queue: "asyncio.Queue[str]" = asyncio.Queue(maxsize=buffer)
+        self._queue: "asyncio.Queue[Optional[str]]" = asyncio.Queue(maxsize=buffer)
         self._transport: Optional[asyncio.DatagramTransport] = None
         self._renewer: Optional[asyncio.Task] = None
         self.port: Optional[int] = None
@@ -147,7 +147,10 @@ class AsyncStatusSubscription:
                     pass
 
     async def next(self, timeout: Optional[float] = None) -> RobotStatus:
-        """The next status (waits up to ``timeout`` s, default the subscription's)."""
+        """The next status (waits up to ``timeout`` s, default the subscription's); raises
+        ``StopAsyncIteration`` once the subscription is closed."""
+        if self._closed:
+            raise StopAsyncIteration
         if self._transport is None:
             await self.start()
         wait = self._timeout if timeout is None else timeout
@@ -157,6 +160,8 @@ class AsyncStatusSubscription:
             raise ControllerUnreachable(
                 f"no status from {self._robot.host}:{self._robot.port} within {wait:g} s "
                 "(is the controller running?)") from None
+        if text is None:  # close() was called while we waited
+            raise StopAsyncIteration
         self.received += 1
         return parse_query_reply(QUERIES["status"], text)
 
@@ -182,6 +187,9 @@ class AsyncStatusSubscription:
                 pass
         if self._transport is not None:
             self._transport.close()
+        if self._queue.full():
+            self._queue.get_nowait()
+        self._queue.put_nowait(None)  # wakes a consumer waiting in next()
 
     async def __aenter__(self) -> "AsyncStatusSubscription":
         if self._transport is None:
