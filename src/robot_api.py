@@ -1,8 +1,13 @@
 """``from robot_api import move_robot_joints, ...`` exactly as existing PAROL6 scripts do.
 
-The implementation is :mod:`parolkit.client.robot_api` (standard library only); this module
-re-exports all of it so the original import line keeps working unchanged.
+The implementation is :mod:`parolkit.client.robot_api` (standard library only).  This module
+REPLACES itself with it in ``sys.modules``, so ``import robot_api`` gives that very module:
+scripts that set ``robot_api.SERVER_IP = "192.168.1.20"`` (as the original allowed) change
+the address the functions use, and ``__all__`` is the implementation's, complete.
 """
 
-from parolkit.client.robot_api import *  # noqa: F401,F403
-from parolkit.client.robot_api import __all__  # noqa: F401
+import sys
+
+from parolkit.client import robot_api as _implementation
+
+sys.modules[__name__] = _implementation

@@ -433,14 +433,11 @@ def test_robot_api_module_needs_only_the_standard_library(tmp_path):
     assert out.stdout.strip() == "[]"
 
 
-def test_top_level_robot_api_reexports_every_public_name():
+def test_top_level_robot_api_is_the_implementation_module_with_every_public_name():
     import parolkit
     import robot_api as top
 
-    assert top.__all__ == robot_api.__all__
-    assert all(getattr(top, n) is getattr(robot_api, n) for n in robot_api.__all__
-               if n not in ("SERVER_IP", "SERVER_PORT", "ACK_PORT", "QUERY_TIMEOUT"))
-    assert parolkit.robot_api is robot_api
+    assert top is robot_api and parolkit.robot_api is robot_api
     for name in ("move_robot_joints", "move_robot_pose", "move_robot_cartesian", "jog_robot_joint",
                  "jog_multiple_joints", "jog_cartesian", "control_pneumatic_gripper",
                  "control_electric_gripper", "delay_robot", "home_robot", "stop_robot_movement",
@@ -658,3 +655,14 @@ def test_closing_an_async_subscription_ends_a_waiting_iteration(fake):
             yield await sub.next(timeout=1)
 
     asyncio.run(main())
+
+
+def test_setting_server_port_on_the_top_level_module_redirects_queries(fake):
+    import robot_api as top
+
+    before = top.configure()
+    try:
+        top.SERVER_PORT = fake.port  # what original scripts do instead of configure()
+        assert top.get_robot_joint_angles() == [90.0, -90.0, 180.0007, 0.0, 0.0, 180.0]
+    finally:
+        top.configure(**before)
