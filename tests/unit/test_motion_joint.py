@@ -282,3 +282,13 @@ def test_property_no_sample_ever_exceeds_limits_or_misses_the_target(start, targ
     acc = np.abs(np.diff(np.vstack([np.zeros(6), _speeds_f(tr)]), axis=0)) * 100
     assert np.all(acc <= AMAX * 1.02 + 100)  # + rounding of the integer speeds
     assert np.array_equal(tr.positions[-1], deg_to_steps(target))
+
+
+def test_profile_and_tracking_accept_words_and_other_layers_enums():
+    from parolkit.protocol.commands import Profile as WireProfile
+    from parolkit.protocol.commands import Tracking as WireTracking
+
+    m = JointMove(STANDBY, profile=WireProfile.TRAP, tracking=WireTracking.SPEED)
+    assert m.profile is Profile.TRAP and m.tracking is Tracking.SPEED
+    assert JointMove(STANDBY, profile="POLY", tracking="position").profile is Profile.POLY
+    assert JointMove(STANDBY, profile="none").profile is None
