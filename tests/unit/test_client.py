@@ -666,3 +666,20 @@ def test_setting_server_port_on_the_top_level_module_redirects_queries(fake):
         assert top.get_robot_joint_angles() == [90.0, -90.0, 180.0007, 0.0, 0.0, 180.0]
     finally:
         top.configure(**before)
+
+
+def test_one_robot_shared_by_threads_matches_every_reply_and_ack(robot, fake):
+    from concurrent.futures import ThreadPoolExecutor
+
+    def worker(k: int) -> None:
+        for _ in range(20):
+            if k % 3 == 0:
+                assert robot.angles()[0] == 90.0
+            elif k % 3 == 1:
+                assert robot.io().in1 is True
+            else:
+                assert robot.delay(0.1).command == "DELAY"
+
+    with ThreadPoolExecutor(6) as pool:
+        list(pool.map(worker, range(6)))
+    assert len([t for t in fake.received if "|DELAY|" in t]) == 40
