@@ -55,6 +55,15 @@ def _throughput(fn, n: int, repeat: int = 5) -> float:
     return n / best
 
 
+def _trig_kernel(x: float) -> float:
+    """Reference pure-Python kernel: 80 math.sin calls (DESIGN.md: ~8 us on an idle machine)."""
+    s = math.sin
+    acc = 0.0
+    for _ in range(10):
+        acc += s(x) + s(x + 1) + s(x + 2) + s(x + 3) + s(x + 4) + s(x + 5) + s(x + 6) + s(x + 7)
+    return acc
+
+
 def _stats(us: np.ndarray) -> str:
     return f"median {np.median(us):8.2f} us   p99 {np.percentile(us, 99):8.2f} us"
 
@@ -104,6 +113,14 @@ def main(argv: list[str] | None = None) -> int:
         m = fk_batch(q, as_matrix=True)
         pos = np.abs(m[:, :3, 3] - mats[:, :3, 3]).max(axis=1) * 1e3
         return (pos <= mm) & (_rot_err_deg(m[:, :3, :3], mats[:, :3, :3]) <= deg)
+
+    ref_us = _latency(_trig_kernel, [(0.1 * i,) for i in range(n)])
+    a = rng.random(10_000)
+    b = rng.random(10_000)
+    np_add_tp = _throughput(lambda: a + b, 1, repeat=200)
+    print("\n== reference kernels (to judge how loaded the machine is) ==")
+    print(f"pure Python, 80 math.sin calls {_stats(ref_us)}   (idle machine: ~8 us)")
+    print(f"numpy add of 10,000 floats     {1e6 / np_add_tp:8.2f} us")
 
     print(f"\n== parolkit (closed form), {n} random in-limit configurations ==")
     fk_us = _latency(fk, [(q,) for q in q_lists])
@@ -156,7 +173,21 @@ def main(argv: list[str] | None = None) -> int:
     print(f"batch success: seed per pose {(in_limits(bw) & reaches(bw)).mean() * 100:.2f} %, "
           f"cold {(in_limits(bc) & reaches(bc)).mean() * 100:.2f} %")
 
+    med = statistics.median
+
+    def print_targets() -> None:
+        print("\n== targets ==")
+        print(f"single IK median <= 10 us: {med(ik_warm_us):.2f} us warm, {med(ik_cold_us):.2f} us cold "
+              f"(= {med(ik_warm_us) / med(ref_us):.2f} x the 80-sin reference kernel; at its idle 8 us "
+              f"that is {8.0 * med(ik_warm_us) / med(ref_us):.1f} us)")
+        print(f"batch >= 1,000,000 poses/s: {ikb_warm_tp:,.0f} (seed per pose), {ikb_cold_tp:,.0f} (cold), "
+              f"{ikb_path_tp:,.0f} (path)")
+        print(f"100 % in-limit success: warm {ok_warm.mean() * 100:.2f} %, cold {ok_cold.mean() * 100:.2f} %")
+        load = os.getloadavg()
+        print(f"(load average at the end: {load[0]:.1f})")
+
     if args.no_rtb:
+        print_targets()
         return 0
 
     print("\n== roboticstoolbox-python (C++ ETS ik_LM), same configurations ==")
@@ -207,20 +238,13 @@ def main(argv: list[str] | None = None) -> int:
           f"cold {ok_lm_cold.mean() * 100:6.2f} %  (ik_LM stops at its residual tolerance)")
 
     print("\n== ratios (rtb / parolkit; > 1 means parolkit is faster) ==")
-    med = statistics.median
     print(f"fk single median         {med(rtb_fk_us) / med(fk_us):6.2f} x")
     print(f"ik single median, warm   {med(lm_warm_us) / med(ik_warm_us):6.2f} x")
     print(f"ik single median, cold   {med(lm_cold_us) / med(ik_cold_us):6.2f} x")
     print(f"ik throughput, warm      {ikb_warm_tp / lm_warm_tp:6.1f} x (parolkit batch vs ik_LM loop)")
     print(f"ik throughput, cold      {ikb_cold_tp / lm_cold_tp:6.1f} x")
 
-    print("\n== targets ==")
-    print(f"single IK median <= 10 us: {med(ik_warm_us):.2f} us warm, {med(ik_cold_us):.2f} us cold")
-    print(f"batch >= 1,000,000 poses/s: {ikb_warm_tp:,.0f} (seed per pose), {ikb_cold_tp:,.0f} (cold), "
-          f"{ikb_path_tp:,.0f} (path)")
-    print(f"100 % in-limit success: warm {ok_warm.mean() * 100:.2f} %, cold {ok_cold.mean() * 100:.2f} %")
-    load = os.getloadavg()
-    print(f"(load average at the end: {load[0]:.1f})")
+    print_targets()
     return 0
 
 

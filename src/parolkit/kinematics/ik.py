@@ -77,6 +77,8 @@ _LO1M, _LO2M, _LO3M, _LO4M, _LO5M, _LO6M = (v - LIMIT_TOL for v in LIM_LO)
 _HI1P, _HI2P, _HI3P, _HI4P, _HI5P, _HI6P = (v + LIMIT_TOL for v in LIM_HI)
 #: J6 values up to this also fit one turn higher (J6 = 0 and 360 are both in range).
 _HI6_LOW_TWIN = _HI6P - TWO_PI
+_LO1M_2PI, _LO2M_2PI, _LO3M_2PI, _LO4M_2PI, _LO5M_2PI, _LO6M_2PI = (
+    v + TWO_PI for v in (_LO1M, _LO2M, _LO3M, _LO4M, _LO5M, _LO6M))
 _INF = math.inf
 _INV_2PI = 1.0 / TWO_PI
 _TWO_PI_M_TOL = TWO_PI - LIMIT_TOL
@@ -137,18 +139,21 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
         c1f = x / rho
         s1f = y / rho
         d = base - s1
-        d -= TWO_PI * _floor(d * _INV_2PI + 0.5)
+        if d > _PI or d < -_PI:
+            d -= TWO_PI * _floor(d * _INV_2PI + 0.5)
         if -_HALF_PI <= d <= _HALF_PI:
             shoulders = (("front", base, rho, c1f, s1f), ("back", base + _PI, -rho, -c1f, -s1f))
         else:
             shoulders = (("back", base + _PI, -rho, -c1f, -s1f), ("front", base, rho, c1f, s1f))
     d = s3 - PHI3
-    d -= TWO_PI * _floor(d * _INV_2PI + 0.5)
+    if d > _PI or d < -_PI:
+        d -= TWO_PI * _floor(d * _INV_2PI + 0.5)
     elbow_order = (("up", -1.0), ("down", 1.0)) if d <= 0.0 else (("down", 1.0), ("up", -1.0))
     for sh_name, q1, rr, c1, sn1 in shoulders:
         if shoulder is not None and sh_name != shoulder:
             continue
-        q1 -= TWO_PI * _floor((q1 - _LO1M) * _INV_2PI)
+        if q1 < _LO1M or q1 >= _LO1M_2PI:
+            q1 -= TWO_PI * _floor((q1 - _LO1M) * _INV_2PI)
         if q1 > _HI1P:
             continue
         if q1 < _LO1:
@@ -181,7 +186,8 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
             if elbow is not None and el_name != elbow:
                 continue
             q3 = PHI3 + sign * delta
-            q3 -= TWO_PI * _floor((q3 - _LO3M) * _INV_2PI)
+            if q3 < _LO3M or q3 >= _LO3M_2PI:
+                q3 -= TWO_PI * _floor((q3 - _LO3M) * _INV_2PI)
             if q3 > _HI3P:
                 continue
             if q3 < _LO3:
@@ -195,7 +201,8 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
             c3 = _cos(q3)
             sn3 = _sin(q3)
             q2 = atan_y - _atan2(D4 * c3 - A3 * sn3, A2 + A3 * c3 + D4 * sn3)
-            q2 -= TWO_PI * _floor((q2 - _LO2M) * _INV_2PI)
+            if q2 < _LO2M or q2 >= _LO2M_2PI:
+                q2 -= TWO_PI * _floor((q2 - _LO2M) * _INV_2PI)
             if q2 > _HI2P:
                 continue
             if q2 < _LO2:
@@ -222,14 +229,16 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
                 ga = _atan2(sp * n01 + cp * r21, -(sp * n00 + cp * r20))
                 if flip is not True:  # noflip: (pi - al, be, pi - ga)
                     q4 = _PI - al
-                    q4 -= TWO_PI * _floor((q4 - _LO4M) * _INV_2PI)
+                    if q4 < _LO4M or q4 >= _LO4M_2PI:
+                        q4 -= TWO_PI * _floor((q4 - _LO4M) * _INV_2PI)
                     if q4 <= _HI4P:
                         if q4 < _LO4:
                             q4 = _LO4
                         elif q4 > _HI4:
                             q4 = _HI4
                         q6 = _PI - ga
-                        q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
+                        if q6 < _LO6M or q6 >= _LO6M_2PI:
+                            q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
                         if q6 <= _HI6_LOW_TWIN and abs(q6 + TWO_PI - s6) < abs(q6 - s6):
                             q6 += TWO_PI
                         if q6 < _LO6:
@@ -247,14 +256,16 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
                             best = (d, (q1, q2, q3, q4, be, q6), sh_name, el_name, False)
                 if flip is not False:  # flip: (-al, -be, -ga)
                     q4 = -al
-                    q4 -= TWO_PI * _floor((q4 - _LO4M) * _INV_2PI)
+                    if q4 < _LO4M or q4 >= _LO4M_2PI:
+                        q4 -= TWO_PI * _floor((q4 - _LO4M) * _INV_2PI)
                     if q4 <= _HI4P:
                         if q4 < _LO4:
                             q4 = _LO4
                         elif q4 > _HI4:
                             q4 = _HI4
                         q6 = -ga
-                        q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
+                        if q6 < _LO6M or q6 >= _LO6M_2PI:
+                            q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
                         if q6 <= _HI6_LOW_TWIN and abs(q6 + TWO_PI - s6) < abs(q6 - s6):
                             q6 += TWO_PI
                         if q6 < _LO6:
@@ -277,7 +288,8 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
                 q4 = _clamp(s4, _LO4, _HI4)
                 m00 = cp * n00 - sp * r20
                 q6 = -_atan2(n10, m00) - q4
-                q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
+                if q6 < _LO6M or q6 >= _LO6M_2PI:
+                    q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
                 if q6 <= _HI6_LOW_TWIN and abs(q6 + TWO_PI - s6) < abs(q6 - s6):
                     q6 += TWO_PI
                 if q6 < _LO6:
@@ -340,6 +352,51 @@ def _target(pose: object):
          sc * sa - ccsb * ca, sc * ca + ccsb * sa, cc * cb),
         (x, y, z),
     )
+
+
+def _target_flange(pose: object, tool: Tool):
+    """Pose -> flange rotation (9 floats) and wrist centre (3 floats, m) for ``tool``.
+
+    The common case (six numbers, a tool without rotation such as the default TCP) is one
+    straight run of float arithmetic; everything else goes through :func:`_target`.
+    """
+    if type(pose) is np.ndarray and pose.shape == (6,):
+        pose = pose.tolist()
+    if (type(pose) is list or type(pose) is tuple) and len(pose) == 6 and tool._identity_rot:
+        try:
+            x, y, z, a, b, c = pose
+            x *= 1e-3
+            y *= 1e-3
+            z *= 1e-3
+            a *= _DEG
+            b *= _DEG
+            c *= _DEG
+            if _isfinite(x + y + z + a + b + c):
+                ca = _cos(a)
+                sa = _sin(a)
+                cb = _cos(b)
+                sb = _sin(b)
+                cc = _cos(c)
+                sc = _sin(c)
+                scsb = sc * sb
+                ccsb = cc * sb
+                r00 = cb * ca
+                r01 = -cb * sa
+                r10 = cc * sa + scsb * ca
+                r11 = cc * ca - scsb * sa
+                r12 = -sc * cb
+                r20 = sc * sa - ccsb * ca
+                r21 = sc * ca + ccsb * sa
+                r22 = cc * cb
+                tx, ty, tz = tool._t
+                return ((r00, r01, sb, r10, r11, r12, r20, r21, r22),
+                        (x - (r00 * tx + r01 * ty + sb * tz),
+                         y - (r10 * tx + r11 * ty + r12 * tz),
+                         z - (r20 * tx + r21 * ty + r22 * tz)))
+        except (TypeError, ValueError, OverflowError):
+            pass  # the general path below produces the precise error
+    r, p = _target(pose)
+    return _flange_target(r, p, tool)
 
 
 def _target_matrix(pose: object):
@@ -410,17 +467,8 @@ def ik(pose: object, seed_deg: object = None, tool: "str | Tool | None" = None,
 
     Raises :class:`IKError` (out of reach, joint limits, malformed input).
     """
-    r, p = _target(pose)
-    tool_obj = _DEFAULT_TOOL if tool is None else get_tool(tool)
+    rf, pf = _target_flange(pose, _DEFAULT_TOOL if tool is None else get_tool(tool))
     seed = STANDBY_RAD if seed_deg is None else _seed(seed_deg)
-    if tool_obj._identity_rot:  # flange origin = TCP - R t (hot path, inlined)
-        tx, ty, tz = tool_obj._t
-        pf = (p[0] - (r[0] * tx + r[1] * ty + r[2] * tz),
-              p[1] - (r[3] * tx + r[4] * ty + r[5] * tz),
-              p[2] - (r[6] * tx + r[7] * ty + r[8] * tz))
-        rf = r
-    else:
-        rf, pf = _flange_target(r, p, tool_obj)
     if config is None:
         br = None
         found = solve_all_rad(rf, pf, seed, None, None, None, True)
