@@ -285,8 +285,13 @@ def test_property_no_sample_ever_exceeds_limits_or_misses_the_target(start, targ
 
 
 def test_profile_and_tracking_accept_words_and_other_layers_enums():
-    from parolkit.protocol.commands import Profile as WireProfile
-    from parolkit.protocol.commands import Tracking as WireTracking
+    from enum import Enum
+
+    class WireProfile(str, Enum):  # the shape of the protocol / script layers' enums
+        TRAP = "trap"
+
+    class WireTracking(Enum):
+        SPEED = "speed"
 
     m = JointMove(STANDBY, profile=WireProfile.TRAP, tracking=WireTracking.SPEED)
     assert m.profile is Profile.TRAP and m.tracking is Tracking.SPEED
