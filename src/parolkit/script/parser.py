@@ -137,7 +137,6 @@ def _parser():
         _lark = Lark(
             GRAMMAR_PATH.read_text(encoding="utf-8"),
             parser="lalr",
-            propagate_positions=True,
             maybe_placeholders=False,
         )
     return _lark
