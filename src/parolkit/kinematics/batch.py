@@ -293,60 +293,66 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
         X = X[idx]
         Y = Yall[idx]
         c = np.clip(c[idx], -1.0, 1.0)
-        c1 = c1[idx]
-        s1 = s1[idx]
         sd = [col[idx] for col in seed_cols] if per_sample else seed_cols
-        a00, a01, a02 = r00[idx], r01[idx], r02[idx]
-        a10, a12 = r10[idx], r12[idx]
-        a20, a21, a22 = r20[idx], r21[idx], r22[idx]
         delta = np.arccos(c)
         sdel = np.sqrt(1.0 - c * c)
         atan_y = np.arctan2(Y, X)
-        n00 = c1 * a00 + s1 * a10
-        n01 = c1 * a01 + s1 * r11[idx]
-        n02 = c1 * a02 + s1 * a12
-        n10 = c1 * a10 - s1 * a00
-        n12 = c1 * a12 - s1 * a02
         for down in (False, True):
             if want_el is not None and (want_el == "down") != down:
                 continue
-            if down:
-                q3, ok3 = _fit_narrow(PHI3 + delta, 2)
-                c3 = _COS_PHI3 * c - _SIN_PHI3 * sdel
-                s3 = _SIN_PHI3 * c + _COS_PHI3 * sdel
-            else:
-                q3, ok3 = _fit_narrow(PHI3 - delta, 2)
-                c3 = _COS_PHI3 * c + _SIN_PHI3 * sdel
-                s3 = _SIN_PHI3 * c - _COS_PHI3 * sdel
+            q3, ok3 = _fit_narrow(PHI3 + delta if down else PHI3 - delta, 2)
             e = q3 - sd[2]
             d13 = d1 + w3 * e * e
             bound = best_d[idx]
             ok3 &= d13 < bound
-            u = A2 + A3 * c3 + D4 * s3
-            v = D4 * c3 - A3 * s3
-            q2, ok2 = _fit_narrow(atan_y - np.arctan2(v, u), 1)
-            e = q2 - sd[1]
-            d123 = d13 + w2 * e * e
-            ok3 &= ok2
-            ok3 &= d123 < bound
-            sub = np.nonzero(ok3)[0]
-            if sub.size == 0:
+            # stage 1: keep only the samples where this elbow fits J3 and can still win
+            s1i = np.nonzero(ok3)[0]
+            if s1i.size == 0:
                 continue
-            if sub.size != ok3.size:
-                q2, q3, c3, s3, u, v, d123 = q2[sub], q3[sub], c3[sub], s3[sub], u[sub], v[sub], d123[sub]
-                Xs, Ys = X[sub], Y[sub]
-                m_n00, m_n01, m_n02, m_n10, m_n12 = n00[sub], n01[sub], n02[sub], n10[sub], n12[sub]
-                b20, b21, b22 = a20[sub], a21[sub], a22[sub]
-                sds = [col[sub] for col in sd] if per_sample else sd
-                q1s = q1[sub]
-                where = idx[sub]
+            if s1i.size != ok3.size:
+                q3, d13, bound = q3[s1i], d13[s1i], bound[s1i]
+                cc, sdl, Xs, Ys, aty = c[s1i], sdel[s1i], X[s1i], Y[s1i], atan_y[s1i]
+                where = idx[s1i]
+                sds = [col[s1i] for col in sd] if per_sample else sd
+                q1s = q1[s1i]
             else:
-                Xs, Ys = X, Y
-                m_n00, m_n01, m_n02, m_n10, m_n12 = n00, n01, n02, n10, n12
-                b20, b21, b22 = a20, a21, a22
+                cc, sdl, Xs, Ys, aty = c, sdel, X, Y, atan_y
+                where = idx
                 sds = sd
                 q1s = q1
-                where = idx
+                s1i = None
+            if down:
+                c3 = _COS_PHI3 * cc - _SIN_PHI3 * sdl
+                s3 = _SIN_PHI3 * cc + _COS_PHI3 * sdl
+            else:
+                c3 = _COS_PHI3 * cc + _SIN_PHI3 * sdl
+                s3 = _SIN_PHI3 * cc - _COS_PHI3 * sdl
+            u = A2 + A3 * c3 + D4 * s3
+            v = D4 * c3 - A3 * s3
+            q2, ok2 = _fit_narrow(aty - np.arctan2(v, u), 1)
+            e = q2 - sds[1]
+            d123 = d13 + w2 * e * e
+            ok2 &= d123 < bound
+            # stage 2: ... and fits J2
+            sub = np.nonzero(ok2)[0]
+            if sub.size == 0:
+                continue
+            if sub.size != ok2.size:
+                q2, q3, c3, s3, u, v, d123 = q2[sub], q3[sub], c3[sub], s3[sub], u[sub], v[sub], d123[sub]
+                Xs, Ys = Xs[sub], Ys[sub]
+                sds = [col[sub] for col in sds] if per_sample else sds
+                q1s = q1s[sub]
+                where = where[sub]
+            # the orientation part only for the samples that survived: N = Rz(-q1) R
+            cw = c1[where]
+            sw = s1[where]
+            a00, a10, a02, a12 = r00[where], r10[where], r02[where], r12[where]
+            b20, b21, b22 = r20[where], r21[where], r22[where]
+            m_n00 = cw * a00 + sw * a10
+            m_n01 = cw * r01[where] + sw * r11[where]
+            m_n02 = cw * a02 + sw * a12
+            m_n10 = cw * a10 - sw * a00
+            m_n12 = cw * a12 - sw * a02
             inv = 1.0 / (u * u + v * v)
             c2 = (Xs * u + Ys * v) * inv
             s2 = (Ys * u - Xs * v) * inv
