@@ -382,3 +382,18 @@ def test_branch_words_round_trip():
     b = Branch("back", "down", True)
     assert str(b) == "back down flip" and Branch.parse(str(b)) == b
     assert str(Branch()) == "any" and not Branch(elbow="up").is_complete
+
+
+def test_batch_singular_samples_keep_the_seed_free_angle_in_both_modes():
+    wrist = [20, -80, 170, 0, 0, 100]
+    shoulder = _shoulder_singular_config(30.0)
+    poses = np.array([fk(wrist), fk(shoulder), fk(wrist)])
+    seeds = np.array([[20, -80, 170, 35, 0, 100], [50] + shoulder[1:], [20, -80, 170, -10, 0, 100]])
+    sols = ik_batch(poses, seed_deg=seeds)
+    assert sols[0, 3] == pytest.approx(35.0, abs=1e-9) and sols[2, 3] == pytest.approx(-10.0, abs=1e-9)
+    assert sols[1, 0] == pytest.approx(50.0, abs=1e-9)
+    assert_same_pose(fk_batch(sols), poses)
+    # continuous: a path sitting on the wrist singularity keeps J4 from the seed throughout
+    path = ik_batch(np.array([fk(wrist)] * 4), seed_deg=[20, -80, 170, 35, 0, 100])
+    np.testing.assert_allclose(path[:, 3], 35.0, atol=1e-9)
+    assert_same_pose(fk_batch(path), np.array([fk(wrist)] * 4))
