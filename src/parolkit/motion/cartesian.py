@@ -457,8 +457,9 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
         notes.append(f"duration stretched from {_nominal(profile, base):.2f} s to {T:.2f} s: "
                      f"joint speed/acceleration limits ({JOINT_NAMES[j]} the busiest)")
     _check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
+    # speeds and accelerations were checked sample by sample in the loop above (proven)
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
-                            notes=notes, target_deg=q[-1])
+                            notes=notes, target_deg=q[-1], proven=True)
 
 
 #: |J5| (deg) at or below which the start counts as exactly on the wrist singularity.
