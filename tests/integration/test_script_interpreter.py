@@ -197,3 +197,13 @@ def test_check_refuses_an_unreachable_program_before_anything_moves(robot):
     assert (err.line, err.col) == (3, 1) and "MovePose cannot be planned" in err.message
     assert robot.status().plan_seq == before
     np.testing.assert_allclose(robot.angles(), STANDBY, atol=0.05)
+
+
+def test_a_failing_callback_is_logged_and_does_not_end_the_run(robot, caplog):
+    def broken(progress):
+        raise RuntimeError("GUI went away")
+
+    result = Interpreter(program("Begin()\nDelay(0.05)\nEnd()"), robot, on_line=broken).run()
+    assert result.state is InterpreterState.FINISHED
+    assert result.commands_executed == 3
+    assert "GUI went away" in caplog.text

@@ -388,6 +388,8 @@ def run_main(args) -> int:
     program = result.program
     if args.dry_run:
         return _dry_run_main(args, program, cfg)
+    if result.warnings and not args.quiet:
+        _print_diagnostics(result.warnings)
 
     from parolkit.client.robot import Robot
     from parolkit.script.interpreter import Interpreter
@@ -439,8 +441,6 @@ def run_main(args) -> int:
         if res is None:
             print("the run did not end cleanly", file=sys.stderr)
             return 1
-        if res.warnings and not quiet:
-            _print_diagnostics(res.warnings)
         if res.errors:
             _print_diagnostics(res.errors)
         if args.plot and interp.report is not None:

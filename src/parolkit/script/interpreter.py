@@ -29,6 +29,7 @@ change, from the interpreter's thread; keep them short (the GUI posts them to it
 from __future__ import annotations
 
 import enum
+import logging
 import threading
 import time
 from dataclasses import dataclass, field
@@ -56,6 +57,8 @@ from parolkit.script.program import (
 )
 
 __all__ = ["InterpreterState", "Progress", "RunResult", "Interpreter"]
+
+_log = logging.getLogger(__name__)
 
 
 class InterpreterState(enum.Enum):
@@ -207,8 +210,17 @@ class Interpreter:
                 return
             self._state = state
             self._cond.notify_all()
-        if self.on_state is not None:
-            self.on_state(state)
+        self._notify(self.on_state, state)
+
+    @staticmethod
+    def _notify(callback, value) -> None:
+        """Call a user callback; an exception in it is logged and never ends the run."""
+        if callback is None:
+            return
+        try:
+            callback(value)
+        except Exception:
+            _log.exception("RBTscript callback %r failed", callback)
 
     # ---- control (any thread) -----------------------------------------------------------
 
@@ -403,9 +415,9 @@ class Interpreter:
                         break
                     self._gate()
                     if self.on_line is not None:
-                        self.on_line(Progress(cmd.line, index, self._iteration, cmd.to_source(),
-                                              time.monotonic() - self._t0, planned_total,
-                                              planned_pass, executed))
+                        self._notify(self.on_line, Progress(
+                            cmd.line, index, self._iteration, cmd.to_source(),
+                            time.monotonic() - self._t0, planned_total, planned_pass, executed))
                     if isinstance(cmd, End):
                         executed += 1
                         return self._finish(InterpreterState.FINISHED, executed, (), warnings)

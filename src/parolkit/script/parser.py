@@ -622,7 +622,7 @@ def _build_line(ln: _Line, tree) -> Command | None:
 # ------------------------------------------------------------------------------------------
 
 
-def _structure(commands: list[Command], source_name: str, errors: list, warnings: list, last_line: int) -> None:
+def _structure(commands: list[Command], source_name: str, errors: list, warnings: list) -> None:
     def diag(cmd: Command, msg: str, sev: Severity) -> ScriptError:
         return ScriptError(cmd.line, cmd.col, msg, cmd.text, sev, source_name)
 
@@ -693,7 +693,7 @@ def parse(text: str, source_name: str = "<script>", *, limits: Limits | None = N
     if not commands and not errors:
         errors.append(ScriptError(1, 1, "the program has no commands", lines[0] if lines else "",
                                   Severity.ERROR, source_name))
-    _structure(commands, source_name, errors, warnings, len(lines))
+    _structure(commands, source_name, errors, warnings)
     errors.sort(key=lambda e: (e.line, e.col))
     warnings.sort(key=lambda e: (e.line, e.col))
     if errors:
