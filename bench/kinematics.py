@@ -46,7 +46,7 @@ def _latency(fn, args_list) -> np.ndarray:
     return out / 1e3
 
 
-def _throughput(fn, n: int, repeat: int = 5) -> float:
+def _throughput(fn, n: int, repeat: int = 15) -> float:
     best = math.inf
     for _ in range(repeat):
         t0 = time.perf_counter()

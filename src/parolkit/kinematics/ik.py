@@ -81,8 +81,6 @@ _LO1M_2PI, _LO2M_2PI, _LO3M_2PI, _LO4M_2PI, _LO5M_2PI, _LO6M_2PI = (
     v + TWO_PI for v in (_LO1M, _LO2M, _LO3M, _LO4M, _LO5M, _LO6M))
 _INF = math.inf
 _INV_2PI = 1.0 / TWO_PI
-_TWO_PI_M_TOL = TWO_PI - LIMIT_TOL
-_SHOULDERS = ("front", "back")
 _ELBOWS = ("up", "down")
 
 
