@@ -167,9 +167,13 @@ def test_ruckig_profile_is_jerk_limited():
     assert jerk.max() <= 32000 / 0.1 * 1.05 + 2e4
 
 
-def test_zero_length_move_is_one_sample_at_target():
+def test_zero_length_move_is_one_sample_at_target_or_holds_for_its_duration():
     tr = plan(JointMove(STANDBY), STANDBY)
     assert len(tr) == 1 and np.all(tr.speeds == 0)
+    # the seed's program: MoveJoint(90,-90,180.001,0,0,180,t=4) from standby takes 4 s
+    held = plan(JointMove([90, -90, 180.001, 0, 0, 180], duration_s=4), STANDBY)
+    assert held.duration == 4.0 and np.all(held.speeds == 0)
+    assert np.all(held.positions == deg_to_steps(STANDBY)) and "holding" in held.notes[0]
 
 
 def test_speed_joint_streams_constant_speed_then_zero():

@@ -400,10 +400,9 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
     base = max(path.length / v_lin, math.degrees(path.angle) / w_ang)
     notes: list[str] = []
     if base < 1e-9:
-        q = np.asarray(start, dtype=float)[None, :]
-        return build_trajectory(move, np.array([1.0 / rate_hz]), q, np.zeros((1, 6)), start=start,
-                                model=model, rate=rate_hz, tracking=tracking,
-                                notes=["already at the target pose"], target_deg=q[0])
+        from parolkit.motion.planner import hold
+
+        return hold(move, start, np.asarray(start, dtype=float), model, rate_hz, tracking)
     unwind = _unwind_wrist(move, path, start, model, tool, rate_hz, tracking)
     if unwind is not None:
         main = _time_and_solve(move, path, unwind.planned_deg[-1], model, tool, rate_hz,

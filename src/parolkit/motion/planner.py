@@ -162,6 +162,18 @@ def build_trajectory(
                       notes=tuple(notes), start_deg=start, model=model, planned_deg=planned)
 
 
+def hold(move, start: np.ndarray, target: np.ndarray, model: RobotModel, rate: float,
+         tracking: Tracking) -> Trajectory:
+    """A move that is already at its target: one sample, or, when it has a duration, the
+    target held for that long (a program's timing stays what the user wrote)."""
+    duration = getattr(move, "duration_s", None)
+    t = sample_times(duration, rate) if duration else np.array([1.0 / rate])
+    q = np.repeat(np.asarray(target, dtype=float)[None, :], len(t), axis=0)
+    note = "already at target" + (f": holding it for {duration:g} s" if duration else "")
+    return build_trajectory(move, t, q, np.zeros_like(q), start=start, model=model, rate=rate,
+                            tracking=tracking, notes=[note], target_deg=target, proven=True)
+
+
 def _check_target(name: str, target: np.ndarray, model: RobotModel, what: str = "target") -> None:
     lim = validate.model_arrays(model).safe_deg
     bad = np.nonzero((target < lim[:, 0]) | (target > lim[:, 1]))[0]
@@ -212,10 +224,7 @@ def _plan_joint_target(
     notes: list[str] = []
     tracking = move.tracking
     if dist.max() < 0.5:  # already there (less than half a step on every joint)
-        t = np.array([1.0 / rate])
-        return build_trajectory(move, t, target[None, :], np.zeros((1, 6)), start=start,
-                                model=model, rate=rate, tracking=tracking, notes=["already at target"],
-                                target_deg=target)
+        return hold(move, start, target, model, rate, tracking)
     if move.duration_s is not None:
         if move.speed_pct is not None or move.accel_pct is not None:
             notes.append("duration given: it overrides speed and acceleration percentages")
