@@ -778,7 +778,8 @@ class _AckTracker:
 
     def stats(self) -> Dict[str, Any]:
         with self._cond:
-            return {"active": self.active, "ack_port": self._port,
+            bound = self._sock.getsockname()[1] if self._sock is not None else None
+            return {"active": self.active, "ack_port": bound,
                     "commands_tracked": len(self._records),
                     "pending": sum(1 for r in self._records.values() if not r.get("completed"))}
 
@@ -828,7 +829,8 @@ def is_tracking_active() -> bool:
 
 
 def get_tracking_stats() -> Dict[str, Any]:
-    """Listener state: ``active``, ``ack_port``, ``commands_tracked``, ``pending``."""
+    """Listener state: ``active``, ``ack_port`` (the port bound), ``commands_tracked``,
+    ``pending``."""
     return _tracker.stats()
 
 
