@@ -37,7 +37,7 @@ from parolkit.motion.paths import (
 )
 from parolkit.motion.planner import build_trajectory, sample_times
 from parolkit.motion.profiles import (
-    POLY_PEAK_SPEED, ScalarProfile, ruckig_unit_profile,
+    ScalarProfile, ruckig_unit_profile,
 )
 from parolkit.motion.trajectory import Trajectory
 from parolkit.robot import JOINT_NAMES, RobotModel
@@ -522,9 +522,9 @@ def _path_profile(profile: Profile, base: float, duration: float | None, stretch
         if profile is Profile.TRAP:
             return ScalarProfile("trap", T, T / 3.0)
         if profile is Profile.RUCKIG:
-            v_s = POLY_PEAK_SPEED / T * 4
-            return ruckig_unit_profile(v_s, v_s / CART_ACCEL_TIME_S * 4, v_s / CART_ACCEL_TIME_S * 40,
-                                       min_duration=T)
+            # scale-free limits (peak speed <= 2x the mean; the fastest such profile takes
+            # ~0.7 T), Ruckig then fits the jerk-limited profile to exactly T
+            return ruckig_unit_profile(2.0 / T, 16.0 / T**2, 256.0 / T**3, min_duration=T)
         return ScalarProfile("poly", T)
     if profile is Profile.TRAP:
         T = base * stretch
