@@ -194,7 +194,7 @@ class Controller:
     # ------------------------------------------------------------------ snapshot
 
     def _state(self, ex: Executor, loop: ControlLoop) -> RobotState:
-        if not loop.link_up:
+        if not loop.link_up or loop.status is None:
             return RobotState.DISCONNECTED
         if ex.estop_latched or ex.estop_pressed:
             return RobotState.ESTOP
@@ -218,8 +218,9 @@ class Controller:
         self._snapshot = Snapshot(
             seq=loop.tick_count, time=time.monotonic() - loop.start_time, state=self._state(ex, loop),
             enabled=ex.enabled, estop_pressed=ex.estop_pressed, estop_latched=ex.estop_latched,
-            status=loop.status, board=BoardInfo(loop.link_up, bool(getattr(loop.transport, "simulated", False)),
-                                                loop.transport.description),
+            status=loop.status or loop.last_status,
+            board=BoardInfo(loop.link_up and loop.status is not None,
+                            bool(getattr(loop.transport, "simulated", False)), loop.transport.description),
             error=ex.error, command=info, queue=len(ex.queue), stream_mode=ex.stream_mode,
             tool=self.tool_name, plan_seq=ex.plan_seq, outputs=(ex.outputs[0], ex.outputs[1]),
             steps_per_deg=self._spd, pose_provider=self._pose_provider, loop_view=self._loop_dict,

@@ -61,7 +61,10 @@ class ControlLoop:
         self.reply_wait = min(self.period * reply_wait_fraction, 0.003)
         self.stats = LoopStats(rate_hz)
         self.parser = StatusParser()
+        #: newest status frame of the current link session (None right after (re)connecting)
         self.status: StatusFrame | None = None
+        #: newest status frame ever received (what the robot last reported; for display)
+        self.last_status: StatusFrame | None = None
         self.link_up = transport.is_open
         self.tick_count = 0
         self.start_time = time.monotonic()
@@ -165,6 +168,7 @@ class ControlLoop:
             self.stats.bytes_dropped = self.parser.stats.bytes_dropped
             if newest is not None:
                 self.status = newest
+                self.last_status = newest
                 self._last_status_tick = self.tick_count
 
     def _compose(self, step: Step) -> CommandFrame:
