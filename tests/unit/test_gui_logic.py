@@ -17,7 +17,9 @@ from parolkit.gui.jog import (
     CartJog,
     Frame,
     JointJog,
+    cart_jog_blocked,
     cart_step_command,
+    jog_target_pose,
     joint_jog_blocked,
     joint_step_target,
     key_action,
@@ -174,6 +176,40 @@ def test_wrf_rotation_step_rotates_about_world_axis():
     got = rpy_to_matrix(a, b, c)
     for i in range(3):
         assert got[i] == pytest.approx(want[i], abs=1e-4)
+
+
+def test_trf_target_moves_along_the_tool_axis():
+    from parolkit.kinematics import fk, ik
+
+    joints = [90, -90, 180, 0, 0, 180]
+    pose = fk(joints)
+    target = jog_target_pose(pose, Frame.TRF, CartAxis.Z_POS, 10.0)
+    # a 10 mm move along the tool z axis = the TCP of the joints solving it moved 10 mm
+    q = ik(target, joints)
+    moved = fk(q)
+    assert math.dist(moved[:3], pose[:3]) == pytest.approx(10.0, abs=1e-3)
+    r = rpy_to_matrix(*pose[3:])
+    expect = [pose[i] + 10.0 * r[i][2] for i in range(3)]
+    assert list(target[:3]) == pytest.approx(expect, abs=1e-9)
+
+
+def test_cartesian_buttons_grey_where_ik_fails():
+    from parolkit.kinematics import fk, ik
+
+    # the arm stretched far out: moving further out along the reach is impossible
+    joints = [90, -30, 200, 0, 0, 180]
+    pose = fk(joints)
+    blocked = {axis: cart_jog_blocked(pose, joints, Frame.WRF, axis, ik) for axis in CartAxis}
+    assert not all(blocked.values()), "some direction must stay open"
+    standby = list(PAROL6.standby_deg)
+    home_pose = fk(standby)
+    assert not any(cart_jog_blocked(home_pose, standby, Frame.WRF, a, ik) for a in CartAxis)
+    assert not any(cart_jog_blocked(home_pose, standby, Frame.TRF, a, ik) for a in CartAxis)
+
+    def unreachable(pose, seed):
+        raise ParolkitValueError("out of reach")
+
+    assert cart_jog_blocked(home_pose, standby, Frame.WRF, CartAxis.X_POS, unreachable)
 
 
 def test_trf_step_is_relative_tool_move():

@@ -28,6 +28,7 @@ from parolkit.gui.jog import (
     CartJog,
     Frame,
     JointJog,
+    cart_jog_blocked,
     cart_step_command,
     joint_jog_blocked,
     joint_step_target,
@@ -110,6 +111,10 @@ KEY_JS = """
     if (keys.has(k) && k !== 'escape') emitEvent('pk_key', {key: k, down: false});
   });
   window.addEventListener('blur', () => emitEvent('pk_key', {key: 'blur', down: false}));
+  // a held jog button may be greyed out under the pointer (limit reached): a disabled button
+  // emits no mouseup, so any mouseup / touchend on the page also ends a held jog
+  document.addEventListener('mouseup', () => emitEvent('pk_key', {key: 'release', down: false}), true);
+  document.addEventListener('touchend', () => emitEvent('pk_key', {key: 'release', down: false}), true);
 })();
 </script>
 """
@@ -118,8 +123,12 @@ KEY_JS = """
 class Commander:
     """Process-wide state: the link, the log, the current jog hold and the program run."""
 
-    def __init__(self, link: ControllerLink, *, mode_label: str, program_dir: Path | None = None) -> None:
+    def __init__(self, link: ControllerLink, *, mode_label: str, program_dir: Path | None = None,
+                 jog_repeat_s: float = JOG_REPEAT_S) -> None:
+        """``jog_repeat_s``: period of the streamed jog updates, s; it must stay well below the
+        controller's stream watchdog (20 ms by default, 150 ms for a controller the GUI starts)."""
         self.link = link
+        self.jog_repeat_s = jog_repeat_s
         self.log: EventLog = link.log
         self.mode_label = mode_label
         self.program_dir = program_dir or Path.cwd()
@@ -134,10 +143,13 @@ class Commander:
         self._hold = background_tasks.create(self._hold_loop(make_command), name="jog-hold")
 
     async def _hold_loop(self, make_command: Callable[[], str]) -> None:
-        self.link.send("STREAM|ON", track=False)
-        while True:
-            self.link.send(make_command(), track=False)
-            await asyncio.sleep(JOG_REPEAT_S)
+        try:
+            self.link.send("STREAM|ON", track=False)
+            while True:
+                self.link.send(make_command(), track=False)
+                await asyncio.sleep(self.jog_repeat_s)
+        except LinkError as exc:
+            self.log.error(f"jog stopped: {exc}")
 
     def jog_release(self, *, send_stop: bool = True) -> None:
         """Stop a held jog: stop sending, then STOP and STREAM|OFF for certainty."""
@@ -146,8 +158,11 @@ class Commander:
         self._hold.cancel()
         self._hold = None
         if send_stop:
-            self.link.send("STOP", track=False)
-            self.link.send("STREAM|OFF", track=False)
+            try:
+                self.link.send("STOP", track=False)
+                self.link.send("STREAM|OFF", track=False)
+            except LinkError as exc:
+                self.log.error(f"jog release: {exc}")
 
     @property
     def jogging(self) -> bool:
@@ -165,8 +180,11 @@ class Commander:
     def estop(self) -> None:
         self.jog_release(send_stop=False)
         self.program.stop(reason="E-STOP")
-        self.link.send("ESTOP", label="E-STOP")
-        self.log.error("software E-STOP sent")
+        try:
+            self.link.send("ESTOP", label="E-STOP")
+            self.log.error("software E-STOP sent")
+        except LinkError as exc:
+            self.log.error(f"E-STOP could not be sent: {exc}")
 
 
 class ProgramRunner:
@@ -176,6 +194,8 @@ class ProgramRunner:
         self.commander = commander
         self.interpreter: Any = None
         self.robot: Any = None
+        #: errors of the last run (check or the failing line), shown inline by the page
+        self.errors: list[Any] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self.thread: threading.Thread | None = None
         self.current_line: int | None = None
@@ -230,6 +250,7 @@ class ProgramRunner:
         self.robot = robot
         self._loop = asyncio.get_running_loop()
         self.interpreter = Interpreter(result.program, robot, on_line=self._on_line, step=step)
+        self.errors = []
         self.state = "running"
         self.message = ""
         self.current_line = None
@@ -246,6 +267,7 @@ class ProgramRunner:
             if result is not None and not result.ok and result.state.value != "stopped":
                 self.state = "error"
                 self.message = result.message
+                self.errors = list(result.errors)
                 self.commander.log.error(f"program {result.message}")
             elif self.state != "error":
                 self.commander.log.add(f"program {result.message if result else 'finished'}", Level.SUCCESS)
@@ -310,6 +332,7 @@ class CommanderPage:
         self._log_version = -1
         self._prog_version = -1
         self._errors: dict[int, str] = {}
+        self._cart_key: tuple | None = None
         self.joint_buttons: dict[tuple[int, int], ui.button] = {}
         self.cart_buttons: dict[CartAxis, ui.button] = {}
         self.build()
@@ -830,6 +853,8 @@ class CommanderPage:
                 self.prog_status.set_text(f"▶ {runner.state} · line {runner.current_line or '—'}")
                 self.prog_status.classes(replace="text-sm pk-mono text-amber-300")
             elif runner.state == "error":
+                if runner.errors:
+                    self._show_errors(runner.errors)
                 self.prog_status.set_text(f"✗ {runner.message}")
                 self.prog_status.classes(replace="text-sm pk-mono text-red-400")
             elif runner.message:
@@ -837,11 +862,28 @@ class CommanderPage:
             self._refresh_decorations()
 
     def _update_enables(self, st: RobotStatus) -> None:
+        """Grey jog buttons that cannot move: robot not movable, joint at its limit in that
+        direction, or (Cartesian) no IK solution a small step ahead in that direction."""
         movable = st.can_move
         for (j, d), b in self.joint_buttons.items():
             b.set_enabled(movable and not joint_jog_blocked(st.angles, j, d))
-        for b in self.cart_buttons.values():
-            b.set_enabled(movable)
+        key = (tuple(round(v, 2) for v in st.pose), self.frame, movable, st.tool)
+        if key == self._cart_key:
+            return
+        self._cart_key = key
+        blocked: dict[CartAxis, bool] = {}
+        if movable:
+            from parolkit.kinematics import get_tool, ik
+
+            try:
+                tool = None if st.tool == "default" else get_tool(st.tool)
+            except (ParolkitError, KeyError, ValueError):
+                tool = None  # a tool only the controller knows: do not guess
+            if tool is not None or st.tool == "default":
+                solve = lambda pose, seed: ik(pose, seed, tool=tool)  # noqa: E731
+                blocked = {a: cart_jog_blocked(st.pose, st.angles, self.frame, a, solve) for a in CartAxis}
+        for axis, b in self.cart_buttons.items():
+            b.set_enabled(movable and not blocked.get(axis, False))
 
     def update_plots(self) -> None:
         if not hasattr(self, "pos_chart"):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import Enum
-from typing import Sequence
+from typing import Callable, Sequence
 
 from parolkit.errors import ParolkitValueError
 from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
@@ -27,6 +27,8 @@ __all__ = [
     "joint_jog_blocked",
     "joint_step_target",
     "cart_step_command",
+    "cart_jog_blocked",
+    "jog_target_pose",
     "rpy_to_matrix",
     "matrix_to_rpy",
     "KeyBinding",
@@ -199,6 +201,51 @@ def matrix_to_rpy(r: Matrix) -> tuple[float, float, float]:
     return math.degrees(a), math.degrees(b), math.degrees(c)
 
 
+def jog_target_pose(pose: Sequence[float], frame: Frame, axis: CartAxis, step: float) -> tuple[float, ...]:
+    """The pose (mm, deg) ``step`` mm / deg from ``pose`` along / about ``axis`` of ``frame``.
+
+    WRF: translate along the world axis, or rotate about the world axis through the TCP
+    (pre-multiplied).  TRF: translate along / rotate about the tool's own axis
+    (post-multiplied)."""
+    x, y, z, a, b, c = (float(v) for v in pose)
+    r = rpy_to_matrix(a, b, c)
+    sgn_step = axis.sign * step
+    if axis.is_rotation:
+        d = _rot(axis.index, sgn_step)
+        r = _mul(d, r) if frame is Frame.WRF else _mul(r, d)
+        a, b, c = matrix_to_rpy(r)
+    else:
+        v = [0.0, 0.0, 0.0]
+        v[axis.index] = sgn_step
+        if frame is Frame.TRF:
+            v = [sum(r[i][k] * v[k] for k in range(3)) for i in range(3)]
+        x, y, z = x + v[0], y + v[1], z + v[2]
+    return (x, y, z, a, b, c)
+
+
+#: how far ahead (mm / deg) :func:`cart_jog_blocked` probes
+PROBE_MM = 3.0
+PROBE_DEG = 2.0
+
+
+def cart_jog_blocked(pose: Sequence[float], angles_deg: Sequence[float], frame: Frame, axis: CartAxis,
+                     solve: "Callable[[Sequence[float], Sequence[float]], Sequence[float]]") -> bool:
+    """True when a Cartesian jog from ``pose`` along ``axis`` cannot go on: the pose a small
+    step ahead has no IK solution inside the joint limits near the current joints.
+
+    ``solve(pose, seed_deg) -> joints_deg`` raises (any :class:`ParolkitError` / ValueError)
+    when the pose is unreachable (e.g. ``parolkit.kinematics.ik``)."""
+    step = PROBE_DEG if axis.is_rotation else PROBE_MM
+    target = jog_target_pose(pose, frame, axis, step)
+    from parolkit.errors import ParolkitError
+
+    try:
+        solve(target, angles_deg)
+    except (ParolkitError, ValueError, ArithmeticError):  # IKError is a ParolkitError
+        return True
+    return False
+
+
 def cart_step_command(pose: Sequence[float], frame: Frame, axis: CartAxis, step: float,
                       speed_percent: float) -> str:
     """The datagram body of an incremental Cartesian jog.
@@ -215,13 +262,7 @@ def cart_step_command(pose: Sequence[float], frame: Frame, axis: CartAxis, step:
     delta[(3 if axis.is_rotation else 0) + axis.index] = axis.sign * step
     if frame is Frame.TRF:
         return "MOVECARTRELTRF|" + "|".join(f"{v:g}" for v in delta) + f"|None|{speed_percent:g}"
-    x, y, z, a, b, c = (float(v) for v in pose)
-    if axis.is_rotation:
-        r = _mul(_rot(axis.index, axis.sign * step), rpy_to_matrix(a, b, c))
-        a, b, c = matrix_to_rpy(r)
-    else:
-        x, y, z = x + delta[0], y + delta[1], z + delta[2]
-    target = (x, y, z, a, b, c)
+    target = jog_target_pose(pose, frame, axis, step)
     return "MOVECART|" + "|".join(f"{v:.4f}" for v in target) + f"|None|{speed_percent:g}"
 
 

@@ -110,6 +110,9 @@ class _Receiver(asyncio.DatagramProtocol):
         except Exception:  # one bad datagram must not kill the link
             log.exception("bad datagram from %s", addr)
 
+    def error_received(self, exc: Exception) -> None:
+        log.debug("UDP error: %s", exc)
+
 
 class ControllerLink:
     """UDP link to one controller at ``host:port``; acks arrive on ``ack_port`` (bound here)."""
@@ -143,10 +146,15 @@ class ControllerLink:
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
-        self._cmd, _ = await loop.create_datagram_endpoint(
-            lambda: _Receiver(self._on_reply), local_addr=("0.0.0.0" if self.host not in ("127.0.0.1", "localhost") else "127.0.0.1", 0))
+        local = "127.0.0.1" if self.host in ("127.0.0.1", "localhost") else "0.0.0.0"
+        # commands go out through the plain socket (a UDP send on it never blocks for long and
+        # an error is reported, not latched); the transport only reads replies from it
+        self._cmd_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._cmd_sock.bind((local, 0))
+        self._cmd_sock.setblocking(False)
+        self._cmd, _ = await loop.create_datagram_endpoint(lambda: _Receiver(self._on_reply), sock=self._cmd_sock)
         self._status_tr, _ = await loop.create_datagram_endpoint(
-            lambda: _Receiver(self._on_status), local_addr=("0.0.0.0" if self.host not in ("127.0.0.1", "localhost") else "127.0.0.1", 0))
+            lambda: _Receiver(self._on_status), local_addr=(local, 0))
         await self.bind_ack_port()
         self._tasks.append(asyncio.create_task(self._subscription_loop()))
         self.log.info(f"connecting to controller at {self.host}:{self.port}")
@@ -184,7 +192,10 @@ class ControllerLink:
         self._tasks.clear()
         if self._cmd is not None and self._status_tr is not None:
             port = self._status_tr.get_extra_info("sockname")[1]
-            self._cmd.sendto(f"UNSUBSCRIBE|{port}".encode(), (self.host, self.port))
+            try:
+                self._raw_send(f"UNSUBSCRIBE|{port}")
+            except LinkError:
+                pass
         for tr in (self._cmd, self._status_tr, self._ack_tr):
             if tr is not None:
                 tr.close()
@@ -193,7 +204,10 @@ class ControllerLink:
         assert self._status_tr is not None
         port = self._status_tr.get_extra_info("sockname")[1]
         while True:
-            self._raw_send(f"SUBSCRIBE|{port}|{self.every_n_ticks}")
+            try:
+                self._raw_send(f"SUBSCRIBE|{port}|{self.every_n_ticks}")
+            except LinkError as exc:
+                log.warning("subscribe failed: %s", exc)
             # check quickly until the first status arrives, then renew every RENEW_S
             for _ in range(int(RENEW_S / 0.25)):
                 await asyncio.sleep(0.25)
@@ -307,7 +321,10 @@ class ControllerLink:
     def _raw_send(self, text: str) -> None:
         if self._cmd is None:
             raise LinkError("link not started")
-        self._cmd.sendto(text.encode("utf-8"), (self.host, self.port))
+        try:
+            self._cmd_sock.sendto(text.encode("utf-8"), (self.host, self.port))
+        except OSError as exc:  # e.g. a full socket buffer on a stalled machine
+            raise LinkError(f"cannot send {text.split('|', 1)[0]} to {self.host}:{self.port}: {exc}") from exc
 
     def send(self, text: str, *, label: str | None = None, track: bool = True) -> str | None:
         """Send one command. With ``track`` it gets an ID and its terminal ack is logged
