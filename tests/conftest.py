@@ -21,6 +21,18 @@ DATA_DIR = REPO_ROOT / "tests" / "data"
 ARTIFACTS_DIR = REPO_ROOT / "test-artifacts"
 
 
+def _die_with_parent() -> None:
+    """Child-process hook: SIGTERM the child when the test process dies (Linux), so a killed
+    or timed-out test run never leaves controllers running."""
+    try:
+        import ctypes
+        import signal
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except Exception:
+        pass
+
+
 def free_udp_port() -> int:
     """A UDP port that was free a moment ago on 127.0.0.1."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
@@ -95,7 +107,10 @@ def start_controller(
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     env["PYTHONPATH"] = str(REPO_ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
     with open(log_path, "wb") as log:
-        proc = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT)
+        proc = subprocess.Popen(
+            args, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
+            preexec_fn=_die_with_parent,
+        )
     cp = ControllerProcess(proc, "127.0.0.1", port, ack_port, args, log_path)
     deadline = time.monotonic() + ready_timeout
     while time.monotonic() < deadline:
