@@ -351,3 +351,27 @@ def test_histogram_percentiles_match_numpy_within_one_bin():
     assert abs(p50 - np.percentile(xs, 50)) <= 2e-5
     assert abs(p99 - np.percentile(xs, 99)) <= 2e-5
     assert h.max == pytest.approx(xs.max())
+
+
+def test_commands_sent_while_disabled_fail_until_enable(rig):
+    rig.ex.post(rig.ex.do_disable)
+    rig.tick(2)
+    assert rig.frames[-1].command == BoardCommand.DISABLE
+    rig.submit("aaaa0001|DELAY|0.1")
+    assert rig.terminal("aaaa0001") is AckStatus.FAILED
+    rig.ex.post(rig.ex.do_enable)
+    rig.tick(2)
+    rig.submit("aaaa0002|DELAY|0.05")
+    rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
+    assert rig.terminal("aaaa0002") is AckStatus.COMPLETED
+
+
+def test_streamed_cartesian_jog_is_refused_before_homing():
+    r = Rig(homed=False)
+    try:
+        r.ex.post(lambda: r.ex.set_stream_mode(True))
+        r.tick()
+        r.submit("aaaa0001|CARTJOG|WRF|Z+|20|0.5")
+        assert r.terminal("aaaa0001") is AckStatus.FAILED
+    finally:
+        r.close()

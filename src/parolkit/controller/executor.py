@@ -165,11 +165,17 @@ class Executor:
             if self.estop_latched:
                 self._ack(job, AckStatus.FAILED, "E-stop latched: release it and send ENABLE")
                 return
+            if not self.enabled:
+                self._ack(job, AckStatus.FAILED, "robot is disabled: send ENABLE first")
+                return
             if self.stream_mode and isinstance(cmd, _STREAMABLE) and not self.queue and (
                 self.active is None or self.active.streamed
             ):
                 job.streamed = True
                 if isinstance(cmd, C.CartJog):
+                    if not self._homed or self._measured is None:
+                        self._ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
+                        return
                     old = self._stream_cart
                     self._stream_cart = job
                     if old is not None:
@@ -322,37 +328,45 @@ class Executor:
             self._motion = motion
         except Exception as exc:  # pragma: no cover - a broken install
             log.error("motion planner unavailable: %s", exc)
-        while True:
-            with self._plan_cv:
-                if not self._running:
-                    return
-                item = self._next_to_plan()
-                if item is None:
-                    self._plan_cv.wait(0.05)
-                    continue
-            job, start, streamed = item
-            t0 = time.perf_counter()
-            traj, err = self._plan(job.command, start)
-            dt = time.perf_counter() - t0
-            with self._lock:
-                self.planned_count += 1
-                self.plan_time_s += dt
-                if streamed:
-                    if self._stream_cart is not job:
-                        continue  # superseded while planning
-                    self._stream_cart = None
-                    if err is not None:
-                        self._ack(job, AckStatus.FAILED, err)
-                        continue
-                    self._set_plan(job, start, traj)
-                    self._requests.put(lambda j=job: self._stream_replace(j))
-                    continue
-                if job not in self.queue:
-                    continue  # cancelled while planning
+        while self._running:
+            try:
+                self._planner_step()
+            except Exception:  # the planner thread must survive anything
+                log.exception("planner step failed")
+                time.sleep(0.05)
+
+    def _planner_step(self) -> None:
+        """Plan one job (or wait briefly when none needs a plan)."""
+        with self._plan_cv:
+            if not self._running:
+                return
+            item = self._next_to_plan()
+            if item is None:
+                self._plan_cv.wait(0.05)
+                return
+        job, start, streamed = item
+        t0 = time.perf_counter()
+        traj, err = self._plan(job.command, start)
+        dt = time.perf_counter() - t0
+        with self._lock:
+            self.planned_count += 1
+            self.plan_time_s += dt
+            if streamed:
+                if self._stream_cart is not job:
+                    return  # superseded while planning
+                self._stream_cart = None
                 if err is not None:
-                    job.start_deg, job.final_deg, job.planned, job.plan_error = start, start, True, err
-                else:
-                    self._set_plan(job, start, traj)
+                    self._ack(job, AckStatus.FAILED, err)
+                    return
+                self._set_plan(job, start, traj)
+                self._requests.put(lambda j=job: self._stream_replace(j))
+                return
+            if job not in self.queue:
+                return  # cancelled while planning
+            if err is not None:
+                job.start_deg, job.final_deg, job.planned, job.plan_error = start, start, True, err
+            else:
+                self._set_plan(job, start, traj)
 
     def _set_plan(self, job: Job, start: tuple[float, ...], traj: object) -> None:
         job.trajectory = traj
