@@ -87,9 +87,20 @@ def plan(
     pose-based moves (None = the default tool).  ``rate_hz``: control loop rate (Hz).
     """
     rate = _rate(rate_hz)
-    start = np.asarray(start_deg, dtype=float) if not isinstance(start_deg, np.ndarray) else start_deg.astype(float)
+    try:
+        start = np.array(start_deg, dtype=float)
+    except (TypeError, ValueError):
+        start = np.zeros(0)
     if start.shape != (6,) or not np.all(np.isfinite(start)):
         raise ParolkitValueError(f"start_deg must be 6 finite joint angles (deg), got {start_deg!r}")
+    try:
+        return _dispatch(move, start, model, tool, rate)
+    except RuntimeError as exc:  # a profile library that gave up (Ruckig / TOPP-RA)
+        name = getattr(move, "name", type(move).__name__)
+        raise PlanningError(name, f"the profile could not be computed: {exc}") from exc
+
+
+def _dispatch(move: object, start: np.ndarray, model: RobotModel, tool: object, rate: float) -> Trajectory:
     if isinstance(move, JointMove):
         return _plan_joint_target(move, start, np.asarray(move.target_deg), model, rate,
                                   MOVEJOINT_DEFAULT_PCT)
