@@ -32,6 +32,7 @@ __all__ = ["solve_independent", "solve_continuous", "targets_from_poses"]
 
 _PI = math.pi
 _RAD = 180.0 / math.pi
+_DEG = math.pi / 180.0
 _K0 = A2 * A2 + L3 * L3
 _INV_2A2L = 1.0 / (2.0 * A2 * L3)
 _REACH_MAX = A2 + L3
@@ -61,7 +62,8 @@ def targets_from_poses(poses: object, tool: Tool):
         a = as_pose_array(arr, "poses")
         if a.ndim == 1:
             a = a[None, :]
-        cs, sn = cos_sin(np.radians(a[:, 3:]).T)
+        # (3, N) C-ordered so every row (angle) is contiguous for the element-wise maths below
+        cs, sn = cos_sin(np.multiply(a[:, 3:].T, _DEG, order="C"))
         ca, cb, cc = cs
         sa, sb, sc = sn
         scsb = sc * sb
@@ -69,7 +71,8 @@ def targets_from_poses(poses: object, tool: Tool):
         rot = [cb * ca, -cb * sa, sb,
                cc * sa + scsb * ca, cc * ca - scsb * sa, -sc * cb,
                sc * sa - ccsb * ca, sc * ca + ccsb * sa, cc * cb]
-        pos = [a[:, 0] * 1e-3, a[:, 1] * 1e-3, a[:, 2] * 1e-3]
+        xyz = np.multiply(a[:, :3].T, 1e-3, order="C")
+        pos = [xyz[0], xyz[1], xyz[2]]
     if not tool._identity_rot:
         t = tool._rot
         rot = [rot[3 * i] * t[3 * j] + rot[3 * i + 1] * t[3 * j + 1] + rot[3 * i + 2] * t[3 * j + 2]
@@ -242,7 +245,7 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
     seeds = np.asarray(seeds, dtype=float)
     per_sample = seeds.ndim == 2
     if per_sample:
-        seed_cols = [np.ascontiguousarray(seeds[:, j]) for j in range(6)]
+        seed_cols = list(np.ascontiguousarray(seeds.T))  # six contiguous rows
     else:
         seed_cols = [float(v) for v in seeds]
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = rot

@@ -125,9 +125,12 @@ def fk_matrix(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarra
     ])
 
 
-def _flange_batch(q: np.ndarray):
-    """Vectorised flange rotation entries (tuple of 9 arrays) and position (3 arrays), metres."""
-    c, s = cos_sin(q.T)
+def _flange_batch(q_t: np.ndarray):
+    """Vectorised flange rotation entries (9 arrays) and position (3 arrays), metres.
+
+    ``q_t``: joint radians as a C-ordered (6, N) array (one contiguous row per joint).
+    """
+    c, s = cos_sin(q_t)
     c1, c2, c3, c4, c5, c6 = c
     s1, s2, s3, s4, s5, s6 = s
     cp = c2 * c3 + s2 * s3  # cos(q2 - q3)
@@ -161,8 +164,8 @@ def _flange_batch(q: np.ndarray):
     return rot, pos
 
 
-def _tcp_batch(q: np.ndarray, tool: Tool):
-    r, p = _flange_batch(q)
+def _tcp_batch(q_t: np.ndarray, tool: Tool):
+    r, p = _flange_batch(q_t)
     tx, ty, tz = tool._t
     pos = (
         p[0] + r[0] * tx + r[1] * ty + r[2] * tz,
@@ -184,10 +187,10 @@ def fk_batch(joints_deg: object, tool: "str | Tool | None" = None, as_matrix: bo
     arr = as_joint_array(joints_deg, "joints_deg")
     if arr.ndim == 1:
         arr = arr[None, :]
-    q = np.radians(arr)
-    rot, pos = _tcp_batch(q, get_tool(tool))
+    q_t = np.multiply(arr.T, _DEG, order="C")
+    rot, pos = _tcp_batch(q_t, get_tool(tool))
     if as_matrix:
-        out = np.zeros((q.shape[0], 4, 4))
+        out = np.zeros((arr.shape[0], 4, 4))
         for k in range(9):
             out[:, k // 3, k % 3] = rot[k]
         for k in range(3):

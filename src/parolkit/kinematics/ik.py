@@ -668,7 +668,7 @@ def ik_batch(poses: object, seed_deg: object = None, tool: "str | Tool | None" =
         seeds = np.array(STANDBY_RAD)
     else:
         try:
-            seeds = np.radians(as_joint_array(seed_deg, "seed_deg"))
+            seeds = as_joint_array(seed_deg, "seed_deg") * _DEG
         except ParolkitValueError as exc:
             raise IKError(str(exc), kind=IKFailure.BAD_INPUT) from None
         if seeds.ndim == 2 and seeds.shape[0] != n:

@@ -143,7 +143,7 @@ def pose_to_matrix(pose: object) -> np.ndarray:
 
 def _poses_to_matrices(arr: np.ndarray) -> np.ndarray:
     n = arr.shape[0]
-    cs, sn = cos_sin(np.radians(arr[:, 3:]))
+    cs, sn = cos_sin(arr[:, 3:] * _DEG)
     ca, cb, cc = cs[:, 0], cs[:, 1], cs[:, 2]
     sa, sb, sc = sn[:, 0], sn[:, 1], sn[:, 2]
     out = np.zeros((n, 4, 4))
