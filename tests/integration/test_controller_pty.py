@@ -427,3 +427,22 @@ def test_status_stream_subscribers_get_one_datagram_per_n_ticks(bench):
     assert {"angles", "pose", "io", "gripper", "homed", "state", "loop", "errors"} <= set(st)
     assert bench.run(f"UNSUBSCRIBE|{port}")[0] == "COMPLETED"
     sub.close()
+
+
+def test_set_port_switches_the_board_link(bench, tmp_path):
+    emu2 = BoardEmulator(start_homed=True)
+    pty2 = PtyBoardServer(emu2, tmp_path / "p6b").start()
+    try:
+        before = emu2.stats.frames if hasattr(emu2.stats, "frames") else None
+        assert bench.run(f"SET_PORT|{tmp_path / 'p6b'}")[0] == "COMPLETED"
+        end = time.monotonic() + 10
+        while bench.query("PING") != "PONG|SERIAL=1" and time.monotonic() < end:
+            time.sleep(0.1)
+        assert bench.query("PING") == "PONG|SERIAL=1"
+        assert str(tmp_path / "p6b") in bench.status()["board"]["port"]
+        assert bench.run("MOVEJOINT|80|-90|180|0|0|180|2|None")[0] == "COMPLETED"
+        assert abs(emu2.positions[0] / 113.7777 - 80) < 0.1
+        assert before is None or emu2.stats.frames > before
+    finally:
+        pty2.stop()
+        emu2.stop()
