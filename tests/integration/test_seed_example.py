@@ -105,3 +105,13 @@ def test_seed_example_runs_unchanged_and_every_call_returns_real_values(controll
         assert status.io.out1 is True  # control_pneumatic_gripper("open", 1)
         assert status.gripper.calibrated
         assert status.gripper.position == 100  # control_electric_gripper('move', position=100)
+
+
+def test_robot_api_module_needs_only_the_standard_library(tmp_path):
+    (tmp_path / "robot_api.py").write_bytes(ROBOT_API.read_bytes())
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import robot_api; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('parolkit', 'numpy')))")
+    out = subprocess.run([sys.executable, "-I", "-S", "-c", code, str(tmp_path)],
+                         capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
