@@ -134,7 +134,14 @@ class Snapshot:
             if self._pose_provider is None:
                 self._pose, self._matrix = (0.0,) * 6, (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0)
                 return
-            self._pose, self._matrix = self._pose_provider(self.angles_deg, self.tool)
+            try:
+                self._pose, self._matrix = self._pose_provider(self.angles_deg, self.tool)
+            except Exception as exc:  # a query must always get an answer
+                import logging
+
+                logging.getLogger("parolkit.controller").warning("forward kinematics failed: %s", exc)
+                self._pose = (0.0,) * 6
+                self._matrix = (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0)
 
     @property
     def pose(self) -> tuple[float, ...]:

@@ -976,7 +976,7 @@ def _p_settool(a: Sequence[str], m: RobotModel) -> Command:
 def _p_subscribe(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SUBSCRIBE", 1, 2)
     port = _integer(a[0], "port", 1, 65535)
-    every = _integer(a[1], "every_n_ticks", 1, 10_000) if len(a) > 1 and _given(a[1]) else 1
+    every = _integer(a[1], "every_n_ticks", 1, 1_000_000) if len(a) > 1 and _given(a[1]) else 1
     return Subscribe(port, every)
 
 
