@@ -446,18 +446,8 @@ def _ffill(values: np.ndarray, holes: np.ndarray, first: float) -> np.ndarray:
     return np.where(holes, src[idx + 1], values)
 
 
-def _unwrap_from(raw: np.ndarray, start: float) -> np.ndarray:
-    """Shift each ``raw`` angle by k 2pi so consecutive values differ by less than pi; raw[0] -> start."""
-    k = np.empty(raw.shape[0])
-    k[0] = np.rint((start - raw[0]) / TWO_PI)
-    if raw.shape[0] > 1:
-        k[1:] = np.rint(-(np.diff(raw)) / TWO_PI)
-        np.cumsum(k, out=k)
-    return raw + TWO_PI * k
-
-
 def _wrap(d: np.ndarray) -> np.ndarray:
-    return d - TWO_PI * np.rint(d / TWO_PI)
+    return d - TWO_PI * np.floor(d * _INV_2PI + 0.5)
 
 
 def solve_continuous(rot, pos, q0: tuple[float, ...], branch0: Branch, pin_flip: bool):
@@ -522,21 +512,30 @@ def solve_continuous(rot, pos, q0: tuple[float, ...], branch0: Branch, pin_flip:
         shift = q4_fill - free_q4
         q6r = np.where(sing, np.where(q5r > 1.0, q6r + shift, q6r - shift), q6r)
         q4r = q4_fill
-    q = np.stack([_unwrap_from(q1r, q0[0]), _unwrap_from(q2r, q0[1]), _unwrap_from(q3r, q0[2]),
-                  _unwrap_from(q4r, q0[3]), q5r, _unwrap_from(q6r, q0[5])], axis=1)
-    below = q < LIM_LO_ARR - LIMIT_TOL
-    above = q > LIM_HI_ARR + LIMIT_TOL
-    bad = below | above
+    # every joint the short way from the previous sample (J5 never wraps: |J5| <= 180 deg)
+    raw = np.array([q1r, q2r, q3r, q4r, q5r, q6r])  # (6, n), one contiguous row per joint
+    k = np.empty_like(raw)
+    k[:, 0] = np.floor((np.asarray(q0) - raw[:, 0]) * _INV_2PI + 0.5)
+    if n > 1:
+        # (floor(x + 0.5) rather than rint: several times faster in numpy, same result here)
+        np.floor(np.diff(raw, axis=1) * -_INV_2PI + 0.5, out=k[:, 1:])
+        np.cumsum(k, axis=1, out=k)
+    q = raw + TWO_PI * k
+    lo_c = LIM_LO_ARR[:, None]
+    hi_c = LIM_HI_ARR[:, None]
+    above = q > hi_c + LIMIT_TOL
+    bad = (q < lo_c - LIMIT_TOL) | above
     if bad.any():
-        i, j = (int(v) for v in np.argwhere(bad)[0])
-        val = q[i, j] * _RAD
+        i = int(np.argmax(bad.any(axis=0)))
+        j = int(np.argmax(bad[:, i]))
+        val = q[j, i] * _RAD
         lo, hi = LIM_LO[j] * _RAD, LIM_HI[j] * _RAD
-        side = f"> {hi:.4g}" if above[i, j] else f"< {lo:.4g}"
+        side = f"> {hi:.4g}" if above[j, i] else f"< {lo:.4g}"
         raise IKError(
             f"joint J{j + 1} would be {val:.1f} deg {side} (allowed {lo:.4g} .. {hi:.4g} deg) "
             f"following the path continuously from sample {i - 1 if i else 0} in branch "
             f"'{branch0.shoulder} {branch0.elbow}'", kind=IKFailure.JOINT_LIMIT, sample=i, joint=j,
             value=float(val))
-    np.clip(q, LIM_LO_ARR, LIM_HI_ARR, out=q)
-    return q, sel
+    np.clip(q, lo_c, hi_c, out=q)
+    return q.T, sel
 

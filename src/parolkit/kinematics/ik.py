@@ -696,11 +696,11 @@ def ik_batch(poses: object, seed_deg: object = None, tool: "str | Tool | None" =
         _d, q0, sh, el, fl = found[0]
         pin_flip = br is not None and br.wrist_flip is not None
         q, _sel = _b.solve_continuous(rot, pos, q0, Branch(sh, el, fl), pin_flip)
-        return q * _RAD
+        return np.multiply(q, _RAD, order="C")
     q, ok, _b_idx = _b.solve_independent(rot, pos, seeds, br)
     if not ok.all():
         i = int(np.argmin(ok))
         r_i, p_i = sample(i)
         seed_i = tuple((seeds if seeds.ndim == 1 else seeds[i]).tolist())
         raise diagnose(r_i, p_i, seed_i, br).with_sample(i)
-    return q * _RAD
+    return np.multiply(q, _RAD, order="C")
