@@ -167,6 +167,9 @@ def test_unplugged_link_cancels_motion_within_three_ticks_and_reconnects(rig):
     assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
     assert "link lost" in rig.acks[-1][3]
     assert not rig.loop.link_up and rig.ex.error
+    rig.tick()
+    rig.submit("aaaa0002|DELAY|0.1")  # refused while the link is down
+    assert rig.terminal("aaaa0002") is AckStatus.FAILED
     rig.emu.replug()
     rig.loop._next_reconnect = 0.0
     end = time.monotonic() + 5

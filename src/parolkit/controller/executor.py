@@ -119,6 +119,7 @@ class Executor:
         self._stream_cart: Job | None = None
         self._measured: tuple[float, ...] | None = None
         self._now = 0.0
+        self._link_up = True
         self._homed = False
         self._spd = tuple(float(v) for v in model.steps_per_deg)
         self._limits = tuple((int(lo), int(hi)) for lo, hi in model.limits_steps)
@@ -167,6 +168,9 @@ class Executor:
                 return
             if not self.enabled:
                 self._ack(job, AckStatus.FAILED, "robot is disabled: send ENABLE first")
+                return
+            if not self._link_up:
+                self._ack(job, AckStatus.FAILED, f"board link is down ({self.error or 'reconnecting'})")
                 return
             if self.stream_mode and isinstance(cmd, _STREAMABLE) and not self.queue and (
                 self.active is None or self.active.streamed
@@ -595,6 +599,7 @@ class Executor:
     ) -> Step:
         """This tick's frame content.  Runs posted actions first.  Loop thread only."""
         self._now = now
+        self._link_up = link_up
         while True:
             try:
                 action = self._requests.get_nowait()
