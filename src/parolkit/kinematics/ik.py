@@ -234,6 +234,12 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
                             q4 = _LO4
                         elif q4 > _HI4:
                             q4 = _HI4
+                        e4 = q4 - s4
+                        e5 = be - s5
+                        d = d123 + _W4 * e4 * e4 + _W5 * e5 * e5
+                    else:
+                        d = _INF
+                    if d < best_d:
                         q6 = _PI - ga
                         if q6 < _LO6M or q6 >= _LO6M_2PI:
                             q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
@@ -243,10 +249,8 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
                             q6 = _LO6
                         elif q6 > _HI6:
                             q6 = _HI6
-                        e4 = q4 - s4
-                        e5 = be - s5
                         e6 = q6 - s6
-                        d = d123 + _W4 * e4 * e4 + _W5 * e5 * e5 + _W6 * e6 * e6
+                        d += _W6 * e6 * e6
                         if not best_only:
                             out.append((d, (q1, q2, q3, q4, be, q6), sh_name, el_name, False))
                         elif d < best_d:
@@ -261,6 +265,12 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
                             q4 = _LO4
                         elif q4 > _HI4:
                             q4 = _HI4
+                        e4 = q4 - s4
+                        e5 = be + s5
+                        d = d123 + _W4 * e4 * e4 + _W5 * e5 * e5
+                    else:
+                        d = _INF
+                    if d < best_d:
                         q6 = -ga
                         if q6 < _LO6M or q6 >= _LO6M_2PI:
                             q6 -= TWO_PI * _floor((q6 - _LO6M) * _INV_2PI)
@@ -270,10 +280,8 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
                             q6 = _LO6
                         elif q6 > _HI6:
                             q6 = _HI6
-                        e4 = q4 - s4
-                        e5 = be + s5
                         e6 = q6 - s6
-                        d = d123 + _W4 * e4 * e4 + _W5 * e5 * e5 + _W6 * e6 * e6
+                        d += _W6 * e6 * e6
                         if not best_only:
                             out.append((d, (q1, q2, q3, q4, -be, q6), sh_name, el_name, True))
                         elif d < best_d:
