@@ -80,6 +80,8 @@ _HI6_LOW_TWIN = _HI6P - TWO_PI
 _LO1M_2PI, _LO2M_2PI, _LO3M_2PI, _LO4M_2PI, _LO5M_2PI, _LO6M_2PI = (
     v + TWO_PI for v in (_LO1M, _LO2M, _LO3M, _LO4M, _LO5M, _LO6M))
 _INF = math.inf
+#: PHI3 shifted by whole turns into J3's range, so J3 = PHI3 -+ delta mostly needs no wrap.
+_PHI3_IN_RANGE = PHI3 + TWO_PI * math.ceil((LIM_LO[2] - PHI3) / TWO_PI)
 _INV_2PI = 1.0 / TWO_PI
 _ELBOWS = ("up", "down")
 
@@ -183,7 +185,7 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
         for el_name, sign in elbow_order:
             if elbow is not None and el_name != elbow:
                 continue
-            q3 = PHI3 + sign * delta
+            q3 = _PHI3_IN_RANGE + sign * delta
             if q3 < _LO3M or q3 >= _LO3M_2PI:
                 q3 -= TWO_PI * _floor((q3 - _LO3M) * _INV_2PI)
             if q3 > _HI3P:
