@@ -19,6 +19,9 @@ ARTIFACTS = REPO_ROOT / "test-artifacts" / "browser"
 README_IMAGE = REPO_ROOT / "docs" / "images" / "commander.png"
 
 
+_PAGE = None  # the module's page, for the GUI log in failure messages
+
+
 def wait_until(predicate, timeout: float = 15.0, interval: float = 0.1, what: str = "condition"):
     deadline = time.monotonic() + timeout
     last = None
@@ -27,7 +30,13 @@ def wait_until(predicate, timeout: float = 15.0, interval: float = 0.1, what: st
         if last:
             return last
         time.sleep(interval)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what} (last value {last!r})")
+    log = ""
+    if _PAGE is not None:
+        try:
+            log = "\nGUI log (newest first):\n" + _PAGE.get_by_test_id("log").inner_text(timeout=2000)
+        except Exception as exc:  # noqa: BLE001 - best effort diagnostics only
+            log = f"\n(GUI log unavailable: {exc})"
+    raise AssertionError(f"timed out after {timeout} s waiting for {what} (last value {last!r}){log}")
 
 
 def text(page, testid: str) -> str:
@@ -71,6 +80,8 @@ def settled(page, testid: str, timeout: float = 4.0) -> float:
 
 
 def test_page_loads_links_and_has_no_console_errors(page):
+    global _PAGE
+    _PAGE = page
     wait_until(lambda: "LINKED" in text(page, "link-chip"), 30, what="link up")
     wait_ready(page)
     assert "SIMULATOR" in text(page, "mode-chip")

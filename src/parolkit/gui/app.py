@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
-from nicegui import app, background_tasks, ui
+from nicegui import app, ui
 
 from parolkit.errors import ParolkitError, ParolkitValueError
 from parolkit.gui import geometry
@@ -140,7 +140,7 @@ class Commander:
     def jog_press(self, make_command: Callable[[], str]) -> None:
         """Start streaming a jog (``make_command`` builds each datagram) until :meth:`jog_release`."""
         self.jog_release(send_stop=False)
-        self._hold = background_tasks.create(self._hold_loop(make_command), name="jog-hold")
+        self._hold = asyncio.ensure_future(self._hold_loop(make_command))
 
     async def _hold_loop(self, make_command: Callable[[], str]) -> None:
         try:
@@ -241,7 +241,7 @@ class ProgramRunner:
         try:
             robot = Robot(host=link.host, port=link.port, ack_port=link.ack_port)
         except (OSError, ParolkitError) as exc:
-            background_tasks.create(link.bind_ack_port(), name="rebind-ack")
+            asyncio.ensure_future(link.bind_ack_port())
             self.state = "error"
             self.message = f"cannot start the program client: {exc}"
             self.commander.log.error(self.message)
@@ -286,7 +286,7 @@ class ProgramRunner:
             if robot is not None:
                 robot.close()
             link = self.commander.link
-            self._loop.call_soon_threadsafe(lambda: background_tasks.create(link.bind_ack_port(), name="rebind-ack"))
+            self._loop.call_soon_threadsafe(lambda: asyncio.ensure_future(link.bind_ack_port()))
             self.version += 1
 
     @property
@@ -522,9 +522,9 @@ class CommanderPage:
                 for n in (1, 2):
                     with ui.row().classes("items-center gap-2"):
                         ui.label(f"OUT{n}").classes("w-12 text-slate-300")
-                        ui.button("HIGH", on_click=lambda n=n: self.c.command(f"PNEUMATICGRIPPER|close|{n}", f"OUT{n} HIGH")).props("unelevated color=positive dense").props(f"data-testid=out{n}-high")
-                        ui.button("LOW", on_click=lambda n=n: self.c.command(f"PNEUMATICGRIPPER|open|{n}", f"OUT{n} LOW")).props("outline color=grey-4 dense").props(f"data-testid=out{n}-low")
-                ui.label("Pneumatic gripper: HIGH closes, LOW opens the valve on that output.").classes("text-xs text-slate-500 w-56")
+                        ui.button("HIGH", on_click=lambda n=n: self.c.command(f"PNEUMATICGRIPPER|open|{n}", f"OUT{n} HIGH")).props("unelevated color=positive dense").props(f"data-testid=out{n}-high")
+                        ui.button("LOW", on_click=lambda n=n: self.c.command(f"PNEUMATICGRIPPER|close|{n}", f"OUT{n} LOW")).props("outline color=grey-4 dense").props(f"data-testid=out{n}-low")
+                ui.label("Pneumatic gripper on OUT1/OUT2: HIGH = open (output on), LOW = close, as the original.").classes("text-xs text-slate-500 w-56")
             with ui.column().classes("gap-2 grow"):
                 ui.label("SSG-48 electric gripper").classes("pk-title")
                 with ui.row().classes("gap-2"):
