@@ -433,10 +433,16 @@ def test_set_port_switches_the_board_link(bench, tmp_path):
     emu2 = BoardEmulator(start_homed=True)
     pty2 = PtyBoardServer(emu2, tmp_path / "p6b").start()
     try:
+        end = time.monotonic() + 5
+        while not (tmp_path / "p6b").exists() and time.monotonic() < end:
+            time.sleep(0.02)
         before = emu2.stats.frames if hasattr(emu2.stats, "frames") else None
         assert bench.run(f"SET_PORT|{tmp_path / 'p6b'}")[0] == "COMPLETED"
         end = time.monotonic() + 10
-        while bench.query("PING") != "PONG|SERIAL=1" and time.monotonic() < end:
+        while time.monotonic() < end:
+            board = bench.status()["board"]
+            if board["connected"] and str(tmp_path / "p6b") in board["port"]:
+                break
             time.sleep(0.1)
         assert bench.query("PING") == "PONG|SERIAL=1"
         assert str(tmp_path / "p6b") in bench.status()["board"]["port"]

@@ -121,8 +121,9 @@ class ControlLoop:
             if port is not None:
                 from parolkit.transport import open_transport
 
-                self.port_request = None
-                new = open_transport(port)
+                new = open_transport(port)  # SET_PORT: keep trying this port until it opens
+                if self.port_request == port:
+                    self.port_request = None
                 try:
                     self.transport.close()
                 except Exception:
