@@ -154,6 +154,7 @@ def bench(tmp_path):
     b.close()
 
 
+@pytest.mark.slow
 def test_every_command_of_the_table_over_a_real_pty(bench):
     ok = "COMPLETED"
     cases = [
