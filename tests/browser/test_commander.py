@@ -184,7 +184,10 @@ def test_seed_program_runs_with_lines_highlighted(page):
     seen_lines = set()
 
     def highlighted():
-        seen_lines.update(page.locator(".cm-line.rbt-current").all_inner_texts())
+        line = page.evaluate("() => [...document.querySelectorAll('[data-testid=editor] .cm-line')]"
+                             ".findIndex(e => e.classList.contains('rbt-current')) + 1")
+        if line:
+            seen_lines.add(line)
         return len(seen_lines) >= 2
 
     try:
@@ -193,6 +196,7 @@ def test_seed_program_runs_with_lines_highlighted(page):
         raise AssertionError(f"{exc}; status {text(page, 'prog-status')!r}; log:\n{text(page, 'log')}") from None
     wait_until(lambda: "HIGH" in text(page, "io-out1"), 10, what="program sets OUT1")
     wait_until(lambda: "LOW" in text(page, "io-out1"), 10, what="program clears OUT1")
+    assert seen_lines <= {2, 3, 4, 5, 6}, seen_lines  # only lines of commands that run
     page.get_by_test_id("prog-stop").click()
     wait_until(lambda: page.locator(".cm-line.rbt-current").count() == 0, 10, what="highlight cleared on stop")
 
