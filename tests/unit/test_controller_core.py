@@ -11,7 +11,7 @@ import pytest
 from parolkit.board import BoardEmulator
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
-from parolkit.controller.loop import ControlLoop
+from parolkit.controller.loop import ControlLoop, StatusFilter
 from parolkit.controller.stats import Histogram
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import AckStatus, parse_datagram
@@ -378,3 +378,30 @@ def test_streamed_cartesian_jog_is_refused_before_homing():
         assert r.terminal("aaaa0001") is AckStatus.FAILED
     finally:
         r.close()
+
+
+def test_status_filter_holds_back_a_corrupted_frame_but_follows_a_confirmed_jump():
+    f = StatusFilter(PAROL6, RATE)
+    a = _status()
+    assert f.accept(a, 0.0)
+    near = _status(pos=[p + 10 for p in PAROL6.standby_steps])
+    assert f.accept(near, 0.01)
+    glitch = list(PAROL6.standby_steps)
+    glitch[3] += 0x10000  # a flipped high byte
+    assert not f.accept(_status(pos=glitch), 0.02)
+    assert f.accept(_status(pos=[p + 20 for p in PAROL6.standby_steps]), 0.03)  # the glitch is forgotten
+    assert not f.accept(StatusFrame(positions=PAROL6.standby_steps, homed=0xFF, io=0x08), 0.04)  # low IO bits
+    reset = StatusFrame(positions=(0,) * 6, homed=0x03, io=0x0F)  # power cycle: a real jump
+    assert not f.accept(reset, 0.05)
+    assert f.accept(StatusFrame(positions=(0,) * 6, homed=0x03, io=0x0F), 0.06)  # confirmed
+
+
+def test_a_single_frame_with_the_estop_bit_does_not_latch(rig):
+    for _ in range(3):
+        rig.tick()
+    # a corrupted IO byte is indistinguishable from a press for one frame: needs two in a row
+    st = rig.loop.status
+    rig.ex.tick(tick=0, now=rig.now, status=StatusFrame(positions=st.positions, homed=0xFF, io=0x07),
+                link_up=True)
+    rig.ex.tick(tick=1, now=rig.now, status=st, link_up=True)
+    assert not rig.ex.estop_latched

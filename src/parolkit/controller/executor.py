@@ -120,6 +120,8 @@ class Executor:
         self._measured: tuple[float, ...] | None = None
         self._now = 0.0
         self._link_up = True
+        self._estop_raw_prev = False
+        self._last_status: StatusFrame | None = None
         self._homed = False
         self._spd = tuple(float(v) for v in model.steps_per_deg)
         self._limits = tuple((int(lo), int(hi)) for lo, hi in model.limits_steps)
@@ -612,10 +614,16 @@ class Executor:
         if status is not None:
             self._homed = status.all_homed
             self._measured = tuple(p / s for p, s in zip(status.positions, self._spd))
-            pressed = status.estop_pressed
-            if pressed and not self.estop_pressed:
-                self.do_estop("hardware E-stop pressed")
-            self.estop_pressed = pressed
+            if status is not self._last_status:  # a new frame
+                # pressed in two frames in a row: one corrupted IO byte (the link has no
+                # checksum) must not latch an E-stop; costs one tick of reaction time
+                raw = status.estop_pressed
+                pressed = raw and self._estop_raw_prev
+                self._estop_raw_prev = raw
+                self._last_status = status
+                if pressed and not self.estop_pressed:
+                    self.do_estop("hardware E-stop pressed")
+                self.estop_pressed = pressed
         if self.estop_latched:
             return Step(BoardCommand.DISABLE)
         if self._pending_code is not None:

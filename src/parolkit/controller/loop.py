@@ -37,6 +37,55 @@ __all__ = ["ControlLoop"]
 log = logging.getLogger("parolkit.controller")
 
 
+class StatusFilter:
+    """Plausibility check of status frames (the link has no checksum: a corrupted byte in a
+    field passes the framing checks).
+
+    A frame is accepted when its constant bits are right (IO low bits 0x07, homed low bits
+    0x03), every speed is within the firmware clamp, and it is consistent with the last
+    accepted frame: same homed byte and no joint further away than 3x its maximum speed could
+    carry it (+ 32 steps).  A frame that is not consistent (a corrupted position or homed byte,
+    or a real jump: homing zeroes counters, ENABLE or a power cycle resets them) is held back
+    and accepted only when the NEXT frame agrees with it; a corrupted one never does.
+    """
+
+    def __init__(self, model, rate_hz: float) -> None:
+        self._vlim = tuple(min(50_000.0, 3.0 * float(v)) for v in model.max_speed_steps_s)
+        self._period = 1.0 / rate_hz
+        self.reset()
+
+    def reset(self) -> None:
+        self._ref: StatusFrame | None = None
+        self._ref_t = 0.0
+        self._cand: StatusFrame | None = None
+        self._cand_t = 0.0
+
+    def _consistent(self, a: StatusFrame, b: StatusFrame, dt: float) -> bool:
+        if a.homed != b.homed:
+            return False
+        dt = max(dt, self._period)
+        for j in range(6):
+            if abs(a.positions[j] - b.positions[j]) > self._vlim[j] * dt + 32:
+                return False
+        return True
+
+    def accept(self, f: StatusFrame, now: float) -> bool:
+        if (f.io & 0x07) != 0x07 or (f.homed & 0x03) != 0x03:
+            return False
+        if any(v > 50_000 or v < -50_000 for v in f.speeds):
+            return False
+        ref = self._ref
+        if ref is None or self._consistent(ref, f, now - self._ref_t):
+            self._ref, self._ref_t, self._cand = f, now, None
+            return True
+        cand = self._cand
+        if cand is not None and self._consistent(cand, f, now - self._cand_t):
+            self._ref, self._ref_t, self._cand = f, now, None
+            return True
+        self._cand, self._cand_t = f, now
+        return False
+
+
 class ControlLoop:
     """Owns the transport, the guard and the tick thread."""
 
@@ -69,6 +118,8 @@ class ControlLoop:
         self.tick_count = 0
         self.start_time = time.monotonic()
         self._last_status_tick = 0
+        self._alive_tick = 0
+        self.filter = StatusFilter(executor.model, rate_hz)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._reconnecting = False
@@ -132,8 +183,10 @@ class ControlLoop:
             else:
                 self.transport.reconnect()
             self.parser.reset()
+            self.filter.reset()
             self.status = None
             self._last_status_tick = self.tick_count
+            self._alive_tick = self.tick_count
             self.link_up = True
             log.warning("board link up again: %s", self.transport.description)
         except (TransportError, OSError) as exc:
@@ -162,15 +215,16 @@ class ControlLoop:
             self._lose_link(str(exc))
             return
         if data:
-            newest = None
             for f in self.parser.feed(data):
-                newest = f
                 self.stats.frames_received += 1
+                self._alive_tick = self.tick_count  # any frame proves the link is alive
+                if self.filter.accept(f, time.monotonic()):
+                    self.status = f
+                    self.last_status = f
+                    self._last_status_tick = self.tick_count
+                else:
+                    self.stats.implausible_frames += 1
             self.stats.bytes_dropped = self.parser.stats.bytes_dropped
-            if newest is not None:
-                self.status = newest
-                self.last_status = newest
-                self._last_status_tick = self.tick_count
 
     def _compose(self, step: Step) -> CommandFrame:
         ex = self.executor
@@ -189,8 +243,8 @@ class ControlLoop:
         ex = self.executor
         if self.link_up:
             self._read()
-            if self.link_up and self.tick_count - self._last_status_tick >= self.link_timeout_ticks:
-                self._lose_link(f"no status frame for {self.tick_count - self._last_status_tick} ticks")
+            if self.link_up and self.tick_count - self._alive_tick >= self.link_timeout_ticks:
+                self._lose_link(f"no status frame for {self.tick_count - self._alive_tick} ticks")
         elif not self._reconnecting and now >= self._next_reconnect:
             self._reconnecting = True
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()

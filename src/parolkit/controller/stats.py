@@ -91,6 +91,7 @@ class LoopStatsView:
     frames_sent: int
     frames_received: int
     bytes_dropped: int
+    implausible_frames: int
     link_losses: int
 
     def as_dict(self) -> dict:
@@ -121,6 +122,7 @@ class LoopStats:
             self.frames_sent = 0
             self.frames_received = 0
             self.bytes_dropped = 0
+            self.implausible_frames = 0
             self.link_losses = 0
             self._cache = None
 
@@ -151,6 +153,7 @@ class LoopStats:
                 frames_sent=self.frames_sent,
                 frames_received=self.frames_received,
                 bytes_dropped=self.bytes_dropped,
+                implausible_frames=self.implausible_frames,
                 link_losses=self.link_losses,
             )
         self._cache = (t, v)
