@@ -129,6 +129,8 @@ def test_cartesian_jog_in_wrf_and_trf_rotation(page):
     after = [number(page, f"pose-{k}") for k in "abc"]
     assert max(abs(a - b) for a, b in zip(after, before)) > 1.0, f"TRF RZ did not rotate: {before} -> {after}"
     page.get_by_test_id("frame-toggle").get_by_text("WRF").click()
+    page.wait_for_timeout(800)
+    page.screenshot(path=str(README_IMAGE), full_page=True)  # the README's screenshot, arm moved
 
 
 def test_home_returns_to_standby(page):
@@ -144,6 +146,25 @@ def test_estop_latches_until_enable(page):
     page.get_by_test_id("btn-enable").click()
     wait_ready(page, 20)
     assert "LATCHED" not in text(page, "btn-estop")
+
+
+def test_keyboard_jogs_and_escape_is_estop(page):
+    wait_ready(page)
+    page.get_by_test_id("help-button").click()
+    page.get_by_text("Keyboard shortcuts", exact=True).wait_for(timeout=5000)
+    assert page.get_by_text("E-STOP (software stop, latched until Enable)").is_visible()
+    page.keyboard.press("Escape")  # closes the dialog, and Esc is also the E-STOP key
+    wait_until(lambda: state(page) == "E-STOP", 10, what="E-STOP from the Esc key")
+    page.get_by_text("Keyboard shortcuts", exact=True).wait_for(state="hidden", timeout=5000)
+    page.get_by_test_id("btn-enable").click()
+    wait_ready(page, 20)
+    page.mouse.click(5, 5)  # focus the page, not an input
+    before = settled(page, "angle-2")
+    page.keyboard.down("w")  # J2 +
+    page.wait_for_timeout(1200)
+    page.keyboard.up("w")
+    after = settled(page, "angle-2")
+    assert after > before + 1.0, f"key W did not jog J2 up: {before} -> {after}"
 
 
 def test_outputs_toggle_and_io_readout_follows(page):

@@ -373,7 +373,7 @@ class CommanderPage:
             ui.button("Disable", icon="power_off", on_click=lambda: self.c.command("DISABLE", "Disable")).props("unelevated dense color=warning").classes("px-2").props("data-testid=btn-disable")
             ui.button("Clear error", icon="healing", on_click=lambda: self.c.command("CLEAR_ERROR", "Clear error")).props("outline dense color=grey-4").classes("px-2").props("data-testid=btn-clear")
             ui.button("Stop", icon="stop", on_click=lambda: self.c.command("STOP", "Stop")).props("outline dense color=orange").classes("px-2").props("data-testid=btn-stop")
-            ui.button(icon="help_outline", on_click=lambda: self.help.open()).props("flat round color=grey-4").tooltip("keyboard shortcuts")
+            ui.button(icon="help_outline", on_click=lambda: self.help.open()).props("flat round color=grey-4 data-testid=help-button").tooltip("keyboard shortcuts")
             self.estop_btn = ui.button("E-STOP", icon="dangerous", on_click=self.c.estop).props("color=red-8 size=lg").classes("pk-estop").props("data-testid=btn-estop")
             self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
 
