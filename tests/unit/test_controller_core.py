@@ -405,3 +405,16 @@ def test_a_single_frame_with_the_estop_bit_does_not_latch(rig):
                 link_up=True)
     rig.ex.tick(tick=1, now=rig.now, status=st, link_up=True)
     assert not rig.ex.estop_latched
+
+
+def test_wait_input_completes_when_the_input_matches_and_fails_on_timeout(rig):
+    rig.submit("aaaa0001|WAIT_INPUT|2|1|1")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(5)
+    assert rig.terminal("aaaa0001") is None
+    rig.emu.set_input(2, True)
+    rig.tick(4)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
+    rig.submit("aaaa0002|WAIT_INPUT|1|1|0.1")
+    rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
+    assert rig.terminal("aaaa0002") is AckStatus.FAILED

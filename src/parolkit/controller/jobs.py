@@ -287,11 +287,14 @@ class WaitInputActivity(Activity):
         self.state = state
         self.timeout_ticks = timeout_ticks
         self.i = 0
+        self.matches = 0
 
     def step(self, ctx: TickContext) -> Step:
         self.i += 1
         st = ctx.status
-        if st is not None and st.inputs[self.number - 1] == self.state:
+        # two ticks in a row: one corrupted IO byte (no checksum on the link) is not an input
+        self.matches = self.matches + 1 if st is not None and st.inputs[self.number - 1] == self.state else 0
+        if self.matches >= 2:
             self.progress = 1.0
             return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
         if self.timeout_ticks is not None:
