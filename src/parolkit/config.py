@@ -21,6 +21,10 @@ Example ``parolkit.toml``::
     pose = [0, 0, 120, 0, 0, 0]
 
 Unknown sections or keys are an error that names them (a typo never silently does nothing).
+
+Importing this module is cheap (standard library only): the robot model, and with it numpy,
+is loaded when a :class:`Config` is first built, so a program can find and read its config
+file (:func:`find_config_file`) before paying for numpy.
 """
 
 from __future__ import annotations
@@ -30,10 +34,12 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from parolkit.errors import ParolkitValueError
-from parolkit.robot import PAROL6, RobotModel
+
+if TYPE_CHECKING:  # importing this module stays numpy-free; the model loads with Config()
+    from parolkit.robot import RobotModel
 
 __all__ = [
     "ControllerSettings",
@@ -43,6 +49,7 @@ __all__ = [
     "Config",
     "load_config",
     "DEFAULT_CONFIG_PATHS",
+    "find_config_file",
 ]
 
 #: Searched in order when no path is given; the first that exists is used.
@@ -134,11 +141,28 @@ class ToolSettings:
         object.__setattr__(self, "pose", tuple(float(v) for v in self.pose))
 
 
+def _stock_robot() -> "RobotModel":
+    from parolkit.robot import PAROL6
+
+    return PAROL6
+
+
+def find_config_file(path: str | Path | None = None) -> Path | None:
+    """The config file to use: ``path`` (must exist) or the first of
+    :data:`DEFAULT_CONFIG_PATHS` that exists, or None."""
+    if path is not None:
+        file = Path(path)
+        if not file.is_file():
+            raise ParolkitValueError(f"config file {file} does not exist")
+        return file
+    return next((p for p in DEFAULT_CONFIG_PATHS if p.is_file()), None)
+
+
 @dataclass(frozen=True)
 class Config:
     """Everything configurable, in one object."""
 
-    robot: RobotModel = PAROL6
+    robot: "RobotModel" = field(default_factory=_stock_robot)
     controller: ControllerSettings = field(default_factory=ControllerSettings)
     serial: SerialSettings = field(default_factory=SerialSettings)
     gui: GuiSettings = field(default_factory=GuiSettings)
@@ -165,7 +189,12 @@ def _port(v: object, name: str) -> None:
 
 
 _SECTIONS = {"controller": ControllerSettings, "serial": SerialSettings, "gui": GuiSettings}
-_ROBOT_FIELDS = {f.name for f in dataclasses.fields(RobotModel)} - {"dh"}
+
+
+def _robot_fields() -> set[str]:
+    from parolkit.robot import RobotModel
+
+    return {f.name for f in dataclasses.fields(RobotModel)} - {"dh"}
 
 
 def _apply(cfg: Config, data: Mapping[str, Any], origin: str) -> Config:
@@ -184,7 +213,7 @@ def _apply(cfg: Config, data: Mapping[str, Any], origin: str) -> Config:
             changes["tools"] = tuple(tools.values())
             continue
         if section == "robot":
-            target, allowed = cfg.robot, _ROBOT_FIELDS
+            target, allowed = cfg.robot, _robot_fields()
         elif section in _SECTIONS:
             target, allowed = getattr(cfg, section), {f.name for f in dataclasses.fields(_SECTIONS[section])}
         else:
@@ -221,13 +250,7 @@ def load_config(
     """Defaults, then the TOML file (``path`` or the first of :data:`DEFAULT_CONFIG_PATHS`
     that exists), then ``overrides`` (CLI flags)."""
     cfg = Config()
-    file: Path | None = None
-    if path is not None:
-        file = Path(path)
-        if not file.is_file():
-            raise ParolkitValueError(f"config file {file} does not exist")
-    elif search_default_paths:
-        file = next((p for p in DEFAULT_CONFIG_PATHS if p.is_file()), None)
+    file = find_config_file(path) if (path is not None or search_default_paths) else None
     if file is not None:
         try:
             data = tomllib.loads(file.read_text(encoding="utf-8"))

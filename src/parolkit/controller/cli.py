@@ -61,18 +61,18 @@ def build_overrides(args: argparse.Namespace) -> dict:
     return out
 
 
-#: Same search order as :data:`parolkit.config.DEFAULT_CONFIG_PATHS` (repeated here so that
-#: the socket can be bound before ``parolkit.config`` pulls in numpy).
-_DEFAULT_CONFIG_PATHS = (Path("parolkit.toml"), Path.home() / ".config" / "parolkit" / "parolkit.toml")
-
-
 def _early_address(args: argparse.Namespace) -> tuple[str | None, int]:
     """(bind, udp_port) from the flags and the TOML file, read without the config module.
 
     Returns ``(None, 0)`` when the file cannot be read here (the full loader then reports it).
     """
+    from parolkit.config import find_config_file  # light: no numpy until a Config is built
+
     bind, port = "127.0.0.1", 5001
-    path = Path(args.config) if args.config else next((p for p in _DEFAULT_CONFIG_PATHS if p.is_file()), None)
+    try:
+        path = find_config_file(args.config)
+    except ValueError:
+        return None, 0
     if path is not None:
         try:
             import tomllib
