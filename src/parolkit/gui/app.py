@@ -144,9 +144,9 @@ class Commander:
 
     async def _hold_loop(self, make_command: Callable[[], str]) -> None:
         try:
-            self.link.send("STREAM|ON", track=False)
+            self.link.send("STREAM|ON", label="STREAM ON", quiet=True)
             while True:
-                self.link.send(make_command(), track=False)
+                self.link.send(make_command(), label="jog", quiet=True)  # only refusals are logged
                 await asyncio.sleep(self.jog_repeat_s)
         except LinkError as exc:
             self.log.error(f"jog stopped: {exc}")
@@ -503,7 +503,7 @@ class CommanderPage:
                         ui.label(axis_name).classes("text-slate-300 self-center")
                         for sign in ("-", "+"):
                             axis = CartAxis(axis_name + sign)
-                            b = ui.button(sign).props("unelevated color=indigo-8").props(f"data-testid=jog-{axis_name.lower()}{sign}")
+                            b = ui.button(icon="remove" if sign == "-" else "add").props("unelevated color=indigo-8").props(f"data-testid=jog-{axis_name.lower()}{sign}")
                             self._hold_button(b, lambda axis=axis: self.cart_press(axis))
                             self.cart_buttons[axis] = b
         ui.label("Hold a button (or its key, see ?) to jog; release stops. Step mode moves one increment per click.") \
@@ -907,12 +907,13 @@ class CommanderPage:
         return {
             "animation": False,
             "backgroundColor": "transparent",
-            "grid": {"left": 50, "right": 14, "top": 30, "bottom": 34},
-            "legend": {"textStyle": {"color": "#cbd5e1"}, "top": 0},
+            "grid": {"left": 52, "right": 14, "top": 30, "bottom": 34},
+            "legend": {"textStyle": {"color": "#cbd5e1"}, "top": 0, "left": 44, "itemWidth": 14, "itemGap": 8},
             "tooltip": {"trigger": "axis"},
             "xAxis": {"type": "value", "min": -PLOT_WINDOW_S, "max": 0, "name": "s",
                       "axisLabel": {"color": "#94a3b8"}, "splitLine": {"show": False}},
-            "yAxis": {"type": "value", "name": unit, "scale": True, "axisLabel": {"color": "#94a3b8"},
+            "yAxis": {"type": "value", "name": unit, "nameLocation": "middle", "nameGap": 36, "scale": True,
+                      "nameTextStyle": {"color": "#94a3b8"}, "axisLabel": {"color": "#94a3b8"},
                       "splitLine": {"lineStyle": {"color": "#1e293b"}}},
             "series": [{"name": JOINT_NAMES[j], "type": "line", "showSymbol": False, "data": [],
                         "lineStyle": {"width": 1.6}, "color": JOINT_COLOURS[j]} for j in range(6)],

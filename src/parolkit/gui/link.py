@@ -129,6 +129,7 @@ class ControllerLink:
         self.plan: Plan | None = None
         self.acks: dict[str, Ack] = {}
         self._labels: dict[str, str] = {}
+        self._quiet: set[str] = set()
         self._waiters: dict[str, asyncio.Future] = {}
         self._query_lock = asyncio.Lock()
         self._reply: asyncio.Future | None = None
@@ -278,7 +279,9 @@ class ControllerLink:
             for j, (b, pb) in enumerate(zip(bits, pbits)):
                 if b and not pb:
                     self.log.error(f"J{j + 1} {name} error")
-        if new.state != prev.state:
+        # IDLE <-> MOVING is the normal rhythm of every move and jog: not worth a log line
+        routine = {prev.state.value, new.state.value} <= {"IDLE", "MOVING"}
+        if new.state != prev.state and not routine:
             self.log.info(f"state {prev.state.value} -> {new.state.value}")
 
     def _on_ack(self, data: bytes, addr: Any) -> None:
@@ -288,11 +291,15 @@ class ControllerLink:
             return
         if ack.id not in self._labels:
             return  # somebody else's command (another client on this machine)
-        self.acks[ack.id] = ack
+        if not ack.terminal or ack.id not in self._quiet:
+            self.acks[ack.id] = ack
         if ack.terminal:
             label = self._labels.pop(ack.id, ack.id)
             detail = f": {ack.details}" if ack.details else ""
-            self.log.add(f"{label} {ack.status.lower()}{detail}", level_of_ack(ack.status))
+            quiet = ack.id in self._quiet
+            self._quiet.discard(ack.id)
+            if not quiet or level_of_ack(ack.status) is Level.ERROR:
+                self.log.add(f"{label} {ack.status.lower()}{detail}", level_of_ack(ack.status))
             fut = self._waiters.pop(ack.id, None)
             if fut is not None and not fut.done():
                 fut.set_result(ack)
@@ -326,14 +333,17 @@ class ControllerLink:
         except OSError as exc:  # e.g. a full socket buffer on a stalled machine
             raise LinkError(f"cannot send {text.split('|', 1)[0]} to {self.host}:{self.port}: {exc}") from exc
 
-    def send(self, text: str, *, label: str | None = None, track: bool = True) -> str | None:
+    def send(self, text: str, *, label: str | None = None, track: bool = True, quiet: bool = False) -> str | None:
         """Send one command. With ``track`` it gets an ID and its terminal ack is logged
-        (labelled ``label``); returns the ID (None when untracked)."""
+        (labelled ``label``; with ``quiet`` only FAILED / INVALID acks are logged); returns
+        the ID (None when untracked)."""
         if not track or self._ack_tr is None:
             self._raw_send(text)
             return None
         cid = new_command_id()
         self._labels[cid] = label or text.split("|", 1)[0]
+        if quiet:
+            self._quiet.add(cid)
         self._raw_send(f"{cid}|{text}")
         return cid
 
