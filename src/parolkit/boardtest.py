@@ -206,10 +206,13 @@ class BoardTester:
         self.print(f"jog {JOINT_NAMES[j]} at {spd} steps/s "
                    f"({spd / float(self.model.steps_per_deg[j]):.2f} deg/s) for {secs:g} s")
         stopped_by_estop = False
-        for _ in range(max(1, round(secs / self.period))):
+        t_end = time.monotonic() + secs  # wall time: late ticks must not stretch the jog
+        while True:
             f = self.tick(BoardCommand.JOG, speeds=speeds)
             if f is not None and f.estop_pressed:
                 stopped_by_estop = True
+                break
+            if time.monotonic() >= t_end - 0.5 * self.period:
                 break
         for _ in range(3):  # a speed-only stream always ends with zero speed
             self.tick(BoardCommand.JOG, speeds=(0,) * 6)
