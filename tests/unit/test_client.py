@@ -333,7 +333,7 @@ def test_wait_for_ack_without_a_terminal_ack_reports_timeout(api, fake):
     fake.acks["DELAY"] = [("QUEUED", "Position 1 in queue"), ("EXECUTING", "")]
     t0 = time.monotonic()
     result = api.delay_robot(5, wait_for_ack=True, timeout=0.3)
-    assert 0.25 < time.monotonic() - t0 < 1.5
+    assert 0.25 < time.monotonic() - t0 < 3.0  # generous: the machine is shared
     assert result["status"] == "TIMEOUT" and result["completed"] is False
     assert "last status: EXECUTING" in result["details"]
 
