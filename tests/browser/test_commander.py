@@ -58,11 +58,15 @@ def wait_ready(page, timeout: float = 30.0) -> None:
 
 
 def hold(page, testid: str, seconds: float) -> None:
+    """Press and hold a jog button with the mouse; the GUI marks a held button (pk-held)."""
     button = page.get_by_test_id(testid)
     button.hover()
     page.mouse.down()
-    page.wait_for_timeout(int(seconds * 1000))
-    page.mouse.up()
+    try:
+        page.locator(f"[data-testid='{testid}'].pk-held").wait_for(timeout=5000)
+        page.wait_for_timeout(int(seconds * 1000))
+    finally:
+        page.mouse.up()
 
 
 def settled(page, testid: str, timeout: float = 4.0) -> float:

@@ -368,3 +368,12 @@ def test_connect_address_errors_are_precise(text, msg):
 
     with pytest.raises(argparse.ArgumentTypeError, match=msg):
         parse_host_port(text)
+
+
+def test_geometry_frames_agree_with_the_kinematics_package():
+    import numpy as np
+
+    from parolkit.kinematics import fk_frames
+
+    for q in ([90, -90, 180, 0, 0, 180], [95, -89, 179.5, -31, -4, 202], [-100, -120, 250, 80, 60, 20]):
+        assert np.allclose(np.array(geometry.dh_frames(q)), fk_frames(q), atol=1e-12)

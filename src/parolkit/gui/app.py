@@ -22,6 +22,7 @@ from parolkit.gui import geometry
 from parolkit.gui.eventlog import EventLog, Level
 from parolkit.gui.highlight import line_decorations, mark_decorations
 from parolkit.gui.jog import (
+    JOG_DURATION_S,
     JOG_REPEAT_S,
     KEYMAP,
     CartAxis,
@@ -78,6 +79,7 @@ body { background: #0b1220; }
 .pk-log .success { color: #86efac; }
 .pk-log .info { color: #cbd5e1; }
 .pk-jog .q-btn { min-width: 46px; }
+.pk-jog .q-btn.pk-held { outline: 2px solid #fde047; box-shadow: 0 0 12px #fde047; }
 .rbt-command { color: #2563eb; font-weight: 600; }
 .rbt-number { color: #b45309; }
 .rbt-keyword { color: #7c3aed; font-weight: 600; }
@@ -124,11 +126,14 @@ class Commander:
     """Process-wide state: the link, the log, the current jog hold and the program run."""
 
     def __init__(self, link: ControllerLink, *, mode_label: str, program_dir: Path | None = None,
-                 jog_repeat_s: float = JOG_REPEAT_S) -> None:
-        """``jog_repeat_s``: period of the streamed jog updates, s; it must stay well below the
-        controller's stream watchdog (20 ms by default, 150 ms for a controller the GUI starts)."""
+                 jog_repeat_s: float = JOG_REPEAT_S, cart_jog_repeat_s: float | None = None) -> None:
+        """``jog_repeat_s`` / ``cart_jog_repeat_s``: period of the streamed joint / Cartesian
+        jog updates, s; both must stay below the controller's stream watchdog (20 ms by
+        default, 150 ms for a controller the GUI starts).  Every CARTJOG update is planned
+        anew by the controller, so fewer, longer updates move more smoothly."""
         self.link = link
         self.jog_repeat_s = jog_repeat_s
+        self.cart_jog_repeat_s = jog_repeat_s if cart_jog_repeat_s is None else cart_jog_repeat_s
         self.log: EventLog = link.log
         self.mode_label = mode_label
         self.program_dir = program_dir or Path.cwd()
@@ -137,17 +142,18 @@ class Commander:
 
     # ---- jogging ----
 
-    def jog_press(self, make_command: Callable[[], str]) -> None:
-        """Start streaming a jog (``make_command`` builds each datagram) until :meth:`jog_release`."""
+    def jog_press(self, make_command: Callable[[], str], period_s: float | None = None) -> None:
+        """Start streaming a jog (``make_command`` builds each datagram, sent every
+        ``period_s``, default :attr:`jog_repeat_s`) until :meth:`jog_release`."""
         self.jog_release(send_stop=False)
-        self._hold = asyncio.ensure_future(self._hold_loop(make_command))
+        self._hold = asyncio.ensure_future(self._hold_loop(make_command, period_s or self.jog_repeat_s))
 
-    async def _hold_loop(self, make_command: Callable[[], str]) -> None:
+    async def _hold_loop(self, make_command: Callable[[], str], period_s: float) -> None:
         try:
             self.link.send("STREAM|ON", label="STREAM ON", quiet=True)
             while True:
                 self.link.send(make_command(), label="jog", quiet=True)  # only refusals are logged
-                await asyncio.sleep(self.jog_repeat_s)
+                await asyncio.sleep(period_s)
         except LinkError as exc:
             self.log.error(f"jog stopped: {exc}")
 
@@ -311,6 +317,17 @@ class ProgramRunner:
 # ------------------------------------------------------------------------------------------
 
 
+def arm_frames(angles_deg: Any, tool: str = "default") -> Any:
+    """The 8 drawing frames (base, 1..5, flange, TCP) from ``parolkit.kinematics.fk_frames``
+    with the controller's current tool (the default TCP if the name is unknown here)."""
+    from parolkit.kinematics import fk_frames
+
+    try:
+        return fk_frames(angles_deg, None if tool == "default" else tool)
+    except (ParolkitError, KeyError, ValueError):
+        return fk_frames(angles_deg, None)
+
+
 def _fmt_ms(v: float | None) -> str:
     return "n/a" if v is None else f"{v:.2f} ms"
 
@@ -333,6 +350,7 @@ class CommanderPage:
         self._prog_version = -1
         self._errors: dict[int, str] = {}
         self._cart_key: tuple | None = None
+        self._held_button: ui.button | None = None
         self.joint_buttons: dict[tuple[int, int], ui.button] = {}
         self.cart_buttons: dict[CartAxis, ui.button] = {}
         self.build()
@@ -510,10 +528,23 @@ class CommanderPage:
             .classes("text-xs text-slate-500")
 
     def _hold_button(self, button: ui.button, press: Callable[[], None]) -> None:
-        button.on("mousedown", lambda _: press())
-        button.on("touchstart", lambda _: press())
+        def down(_: Any) -> None:
+            self._held_button = button
+            press()
+            if self.c.jogging:
+                button.classes(add="pk-held")
+
+        button.on("mousedown", down)
+        button.on("touchstart", down)
         for ev in ("mouseup", "mouseleave", "touchend", "touchcancel"):
-            button.on(ev, lambda _: self.c.jog_release())
+            button.on(ev, lambda _: self.release())
+
+    def release(self) -> None:
+        """End a held jog (button, key, blur) and drop the held-button highlight."""
+        self.c.jog_release()
+        if self._held_button is not None:
+            self._held_button.classes(remove="pk-held")
+            self._held_button = None
 
     def build_gripper(self) -> None:
         with ui.row().classes("w-full gap-6 items-start no-wrap"):
@@ -610,6 +641,7 @@ class CommanderPage:
                            f"step {JOINT_NAMES[joint]} {direction * float(self.step_deg):+g}°")
             return
         jog = JointJog(joint, direction, float(self.speed))
+        self.c.log.info(f"jog {JOINT_NAMES[joint]}{'+' if direction > 0 else '−'} at {self.speed:g} %")
         self.c.jog_press(jog.command)
 
     def cart_press(self, axis: CartAxis) -> None:
@@ -623,13 +655,15 @@ class CommanderPage:
                            f"step {self.frame.value} {axis.value} {step:g}{'°' if axis.is_rotation else ' mm'}")
             return
         jog = CartJog(self.frame, axis, float(self.speed))
-        self.c.jog_press(jog.command)
+        self.c.log.info(f"jog {self.frame.value} {axis.value} at {self.speed:g} %")
+        period = self.c.cart_jog_repeat_s
+        self.c.jog_press(lambda: jog.command(max(JOG_DURATION_S, 3 * period)), period)
 
     def on_key(self, e: Any) -> None:
         args = e.args if isinstance(e.args, dict) else {}
         key, down = args.get("key", ""), bool(args.get("down"))
         if key == "blur" or not down:
-            self.c.jog_release()
+            self.release()
             return
         b = key_action(key)
         if b is None:
@@ -762,7 +796,7 @@ class CommanderPage:
         if st is None or st.seq == self._last_seq:
             return
         self._last_seq = st.seq
-        frames = geometry.dh_frames(st.angles)
+        frames = arm_frames(st.angles, st.tool)
         with self.scene._batch_calls():  # one websocket message per update
             for g, t in zip(self.groups, frames):
                 pos, rot = geometry.frame_pose_for_scene(t)
@@ -783,7 +817,7 @@ class CommanderPage:
         self._last_plan_seq = key
         s = geometry.SCENE_SCALE / 1000.0
         if show and plan.target_angles:
-            for g, t in zip(self.ghost, geometry.dh_frames(plan.target_angles)):
+            for g, t in zip(self.ghost, arm_frames(plan.target_angles, st.tool)):
                 pos, rot = geometry.frame_pose_for_scene(t)
                 g.move(*pos).rotate_R(rot).visible(True)
         else:

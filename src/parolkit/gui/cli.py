@@ -177,7 +177,9 @@ def main(args: argparse.Namespace) -> int:
     link = ControllerLink(ctl_host, ctl_port, ack_port, every_n_ticks=2)  # 50 Hz status for a 30 fps view
     # our own controller has a 150 ms stream watchdog: 20 Hz jog updates are plenty; a
     # controller we connect to has its own (20 ms by default): send every control tick
-    commander = Commander(link, mode_label=mode, jog_repeat_s=0.05 if proc is not None else 0.01)
+    own = proc is not None
+    commander = Commander(link, mode_label=mode, jog_repeat_s=0.05 if own else 0.01,
+                          cart_jog_repeat_s=0.1 if own else 0.01)
     root = build_app(commander)
     print(f"parolkit commander on http://{host}:{http_port}/", file=sys.stderr, flush=True)
     try:

@@ -1,5 +1,8 @@
 """The arm as simple solids generated from the DH table (no mesh files).
 
+The live view places them with ``parolkit.kinematics.fk_frames`` (same frame order);
+:func:`dh_frames` is a dependency-free twin used for the initial pose and in tests.
+
 Frames (index): 0 base, 1..5 the DH frames 1..5, 6 the flange (DH frame 6 with row 6's d and
 a set to 0), 7 the TCP (the full row 6: the original commander's tool point).  Every solid is
 rigidly attached to one frame, so a live update only moves 8 frames.
@@ -163,5 +166,5 @@ def arm_solids(model: RobotModel = PAROL6, *, min_length: float = 1e-6) -> list[
 
 def frame_pose_for_scene(t: Mat4) -> tuple[list[float], list[list[float]]]:
     """(translation in scene units, 3x3 rotation) of one 4x4 frame in metres."""
-    return ([t[0][3] * SCENE_SCALE, t[1][3] * SCENE_SCALE, t[2][3] * SCENE_SCALE],
-            [[t[i][j] for j in range(3)] for i in range(3)])
+    return ([float(t[0][3]) * SCENE_SCALE, float(t[1][3]) * SCENE_SCALE, float(t[2][3]) * SCENE_SCALE],
+            [[float(t[i][j]) for j in range(3)] for i in range(3)])
