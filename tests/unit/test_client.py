@@ -140,6 +140,10 @@ class FakeController:
 
         threading.Thread(target=send, daemon=True).start()
 
+    def ack(self, cmd_id: str, status: str, details: str = "") -> None:
+        """Send one ack by hand (for tests that must act between two acks)."""
+        self.sock.sendto(f"ACK|{cmd_id}|{status}|{details}".encode(), ("127.0.0.1", self.ack_port))
+
     def wait_for(self, prefix: str, timeout: float = 2.0) -> list[str]:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
@@ -489,9 +493,11 @@ def test_robot_move_waits_for_completed_and_sends_extension_fields(robot, fake):
 
 
 def test_robot_wait_false_returns_a_handle_after_the_first_ack(robot, fake):
-    fake.delay_s = 0.1
+    fake.acks["MOVECART"] = [("QUEUED", "Position 1 in queue")]  # the rest comes by hand
     h = robot.move_cart([0, 250, 200, -90, 0, -90], duration=1, wait=False)
     assert h.command == "MOVECART" and h.status() is AckStatus.QUEUED and not h.done()
+    fake.ack(h.id, "EXECUTING")
+    fake.ack(h.id, "COMPLETED")
     assert h.result(timeout=2).ok and h.done()
 
 
@@ -503,9 +509,9 @@ def test_robot_failures_raise_with_the_controller_reason(robot, fake):
     fake.acks["HOME"] = [("INVALID", "HOME takes 0 arguments, got 1")]
     with pytest.raises(CommandInvalid, match="HOME takes 0 arguments"):
         robot.home()
-    fake.acks["DELAY"] = [("QUEUED", ""), ("CANCELLED", "stopped by STOP")]
-    fake.delay_s = 0.05  # the handle is returned after QUEUED, before CANCELLED
-    h = robot.delay(3, wait=False)
+    fake.acks["DELAY"] = [("QUEUED", "")]
+    h = robot.delay(3, wait=False)  # returned after QUEUED
+    fake.ack(h.id, "CANCELLED", "stopped by STOP")
     with pytest.raises(CommandCancelled, match="stopped by STOP"):
         h.result(timeout=2)
 
@@ -581,10 +587,13 @@ def test_subscribe_renews_and_unsubscribes(robot, fake, monkeypatch):
     monkeypatch.setattr(robot_mod, "SUBSCRIBE_RENEW_S", 0.1)
     with robot.subscribe(every_n=5) as sub:
         got = [sub.next(timeout=1).seq for _ in range(3)]
-        time.sleep(0.35)
+        deadline = time.monotonic() + 3
+        while len([t for t in fake.received if t.startswith("SUBSCRIBE|")]) < 3:
+            assert time.monotonic() < deadline, "the subscription was not renewed"
+            time.sleep(0.02)
     assert got == [0, 1, 2]
     subs = [t for t in fake.received if t.startswith("SUBSCRIBE|")]
-    assert len(subs) >= 3 and subs[0] == f"SUBSCRIBE|{sub.port}|5"
+    assert subs[0] == f"SUBSCRIBE|{sub.port}|5" and len(set(subs)) == 1
     assert fake.wait_for("UNSUBSCRIBE")[0] == f"UNSUBSCRIBE|{sub.port}"
 
 
@@ -607,9 +616,10 @@ def test_async_robot_shares_the_methods_and_errors(fake):
             fake.acks["HOME"] = [("QUEUED", ""), ("FAILED", "board not connected")]
             with pytest.raises(CommandFailed, match="board not connected"):
                 await r.home()
-            fake.delay_s = 0.05
+            fake.acks["DELAY"] = [("QUEUED", "")]
             h = await r.delay(1, wait=False)
-            assert h.status() is AckStatus.QUEUED
+            assert h.status() is AckStatus.QUEUED and not h.done()
+            fake.ack(h.id, "COMPLETED")
             assert (await h.result(timeout=2)).ok
             with pytest.raises(ParolkitValueError):
                 r.move_joints([0] * 5, duration=1)
