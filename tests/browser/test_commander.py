@@ -63,7 +63,8 @@ def hold(page, testid: str, seconds: float) -> None:
     button.hover()
     page.mouse.down()
     try:
-        page.locator(f"[data-testid='{testid}'].pk-held").wait_for(timeout=5000)
+        wait_until(lambda: page.locator(f"[data-testid='{testid}'].pk-held").count() > 0, 5,
+                   what=f"{testid} held")
         page.wait_for_timeout(int(seconds * 1000))
     finally:
         page.mouse.up()
