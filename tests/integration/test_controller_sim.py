@@ -200,3 +200,25 @@ def test_250_hz_runs_moves_and_headless_commander_is_the_same_program(tmp_path):
         proc.terminate()
         proc.communicate(timeout=10)
     assert proc.returncode == 0
+
+
+def test_acks_also_reach_the_sending_socket_so_robot_with_an_ephemeral_ack_port_works(controller):
+    from parolkit import Robot
+
+    robot = Robot(controller.host, controller.port, ack_port=0, timeout=5.0)
+    try:
+        result = robot.move_joints([90, -85, 175, 0, 0, 180], duration=1.5, wait=True, timeout=10)
+        assert result.status.name == "COMPLETED"
+        assert robot.angles()[1] == pytest.approx(-85, abs=0.05)
+    finally:
+        robot.close()
+
+
+def test_a_command_sent_right_after_stops_ack_is_not_cancelled_by_that_stop(client):
+    client.send("MOVEJOINT|90|-80|170|0|0|180|5|None")
+    for _ in range(3):
+        stop = client.send("STOP")
+        assert client.acks.terminal(stop, 5)[0] == "COMPLETED"
+        cid = client.send("DELAY|0.05")
+        status, details = client.acks.terminal(cid, 5)
+        assert status == "COMPLETED", details

@@ -564,7 +564,12 @@ def test_robot_argument_errors_are_parolkit_value_errors_and_send_nothing(robot,
     with pytest.raises(ParolkitValueError, match="timeout must be"):
         robot.home(timeout=-1)
     time.sleep(0.05)
-    assert fake.received == []
+    assert fake.received == ["ACK_HERE"]  # only the registration sent at creation
+
+
+def test_robot_registers_its_socket_for_acks_on_creation(robot, fake):
+    time.sleep(0.05)
+    assert fake.received[:1] == ["ACK_HERE"]
 
 
 def test_signed_joint_numbers_map_to_jog_indices(robot, fake):

@@ -120,7 +120,7 @@ INVALID = [
     ("SMOOTH_CIRCLE|0,250|20|XY|WRF|CURRENT|DURATION|3|0", "center must be 3 comma-separated numbers, got 2"),
     ("SMOOTH_CIRCLE|0,250,150|20|XW|WRF|CURRENT|DURATION|3|0", "plane must be one of XY|XZ|YZ"),
     ("SMOOTH_SPLINE|3|WRF|CURRENT|DURATION|3|0,250,150,-90,0,-90|10,260,150,-90,0,-90",
-     "n = 3 waypoints announced, 2 given"),
+     "n = 3 waypoints announced, 2 fields given (expected 3 poses x,y,z,A,B,C or 18 single numbers)"),
     ("SMOOTH_BLEND|3|0.5|WRF|CURRENT|DURATION|None|LINE|0,250,150,-90,0,-90|1", "3 segments announced, 1 given"),
     ("DELAY|-1", "seconds = -1 s is out of range [0, 3600] s"),
     ("STREAM|MAYBE", "STREAM takes ON|OFF"),
@@ -180,3 +180,20 @@ def test_random_bytes_never_crash_the_parser(data):
         parse_datagram(data)
     except CommandError:
         pass
+
+
+def test_spline_waypoints_may_also_come_as_six_separate_fields_each():
+    from parolkit.protocol.commands import parse_datagram
+
+    joined = parse_datagram("SMOOTH_SPLINE|2|WRF|CURRENT|DURATION|3|10,250,200,-90,0,-90|20,240,210,-90,0,-90")
+    split = parse_datagram("SMOOTH_SPLINE|2|WRF|CURRENT|DURATION|3|10|250|200|-90|0|-90|20|240|210|-90|0|-90")
+    assert joined.command == split.command
+
+
+def test_spline_with_the_wrong_number_of_waypoint_fields_names_both_forms():
+    import pytest
+
+    from parolkit.protocol.commands import CommandError, parse_datagram
+
+    with pytest.raises(CommandError, match="2 waypoints announced, 3 fields given"):
+        parse_datagram("SMOOTH_SPLINE|2|WRF|CURRENT|DURATION|3|1,2,3,4,5,6|1,2,3,4,5,6|1,2,3,4,5,6")

@@ -260,6 +260,8 @@ class AsyncRobot(RobotCommands):
                     f"{exc.strerror}; use ack_port=0 for an ephemeral port") from None
             self._transport = transport
             self.ack_port = transport.get_extra_info("sockname")[1]
+            # (ext) ask the controller to send this socket the acks of what it sends
+            self._send("ACK_HERE")
 
     def _send(self, text: str) -> None:
         if self._transport is None or self._closed:

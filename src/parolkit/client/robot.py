@@ -13,8 +13,8 @@
 
 One UDP socket carries commands, queries, their replies and the acknowledgements; a
 background thread receives and sorts them.  ``ack_port=0`` (default) binds an ephemeral
-port: query replies always come back to it, acks only from a controller that also acks the
-sender's port.  Give ``ack_port=<the controller's --ack-port>`` (5002 by default) to listen
+port: query replies always come back to it, and so do acks, because the Robot registers
+its socket with the controller's (ext) ``ACK_HERE`` command.  Give ``ack_port=<the controller's --ack-port>`` (5002 by default) to listen
 where the original protocol sends acks (one program per machine can hold that port).
 
 Every method is documented in :class:`parolkit.client.core.RobotCommands`; errors are the
@@ -226,6 +226,9 @@ class Robot(RobotCommands):
         self._reader = threading.Thread(target=self._read_loop, daemon=True,
                                         name=f"parolkit-robot-{self.ack_port}")
         self._reader.start()
+        # (ext) ask the controller to send this socket the acks of what it sends (it also
+        # sends them to its fixed ack port, where robot_api scripts listen)
+        self._send("ACK_HERE")
 
     # ---- plumbing ----
     def _send(self, text: str) -> None:

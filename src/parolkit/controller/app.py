@@ -306,26 +306,31 @@ class Controller:
     def immediate(self, cmd: C.Command, addr: tuple[str, int]) -> tuple[AckStatus, str]:
         """Apply an immediate command; returns the ack status and details for its ID."""
         ex = self.executor
+        # wait for the loop to apply them (a few ticks at most) so the ack means "done"
+        wait_s = max(0.5, 10.0 / self.config.controller.rate_hz)
+
+        def apply(action, ok_details: str) -> tuple[AckStatus, str]:
+            if ex.post_and_wait(action, wait_s):
+                return AckStatus.COMPLETED, ok_details
+            return AckStatus.FAILED, (
+                f"the control loop did not confirm {cmd.name} within {wait_s:g} s "
+                "(it is still applied at the next tick)")
+
         if isinstance(cmd, C.Stop):
-            ex.post(ex.do_stop)
-            return AckStatus.COMPLETED, "stopped"
+            return apply(ex.do_stop, "stopped")
         if isinstance(cmd, C.EStop):
-            ex.post(lambda: ex.do_estop("software E-stop (ESTOP command)"))
-            return AckStatus.COMPLETED, "E-stop latched: send ENABLE to release"
+            return apply(lambda: ex.do_estop("software E-stop (ESTOP command)"),
+                         "E-stop latched: send ENABLE to release")
         if isinstance(cmd, C.Enable):
             if self.snapshot.estop_pressed or ex.estop_pressed:
                 return AckStatus.FAILED, "hardware E-stop is still pressed: release it first"
-            ex.post(ex.do_enable)
-            return AckStatus.COMPLETED, "enabled"
+            return apply(ex.do_enable, "enabled")
         if isinstance(cmd, C.Disable):
-            ex.post(ex.do_disable)
-            return AckStatus.COMPLETED, "disabled"
+            return apply(ex.do_disable, "disabled")
         if isinstance(cmd, C.ClearError):
-            ex.post(ex.do_clear_error)
-            return AckStatus.COMPLETED, "error cleared"
+            return apply(ex.do_clear_error, "error cleared")
         if isinstance(cmd, C.StreamMode):
-            ex.post(lambda: ex.set_stream_mode(cmd.on))
-            return AckStatus.COMPLETED, f"stream mode {'on' if cmd.on else 'off'}"
+            return apply(lambda: ex.set_stream_mode(cmd.on), f"stream mode {'on' if cmd.on else 'off'}")
         if isinstance(cmd, C.SetPort):
             if self.loop is None:
                 return AckStatus.FAILED, "the board link is not running"

@@ -156,7 +156,8 @@ class Executor:
 
     # ------------------------------------------------------------------ server-thread API
 
-    def new_job(self, command: C.Command, command_id: str | None, ack_addr: tuple[str, int] | None) -> Job:
+    def new_job(self, command: C.Command, command_id: str | None,
+                ack_addr: tuple[tuple[str, int], ...] | None) -> Job:
         with self._lock:
             self._seq += 1
             return Job(self._seq, command, command_id, ack_addr, time.monotonic())
@@ -202,6 +203,21 @@ class Executor:
     def post(self, action: Callable[[], None]) -> None:
         """Run ``action`` in the loop thread at the start of the next tick."""
         self._requests.put(action)
+
+    def post_and_wait(self, action: Callable[[], None], timeout: float) -> bool:
+        """Like :meth:`post`, then wait until the loop has run it (True) or ``timeout`` s
+        passed (False; the action still runs at the next tick).  Used for immediate commands,
+        so their ack means "done": a command sent after STOP's ack is never cancelled by it."""
+        done = threading.Event()
+
+        def run() -> None:
+            try:
+                action()
+            finally:
+                done.set()
+
+        self._requests.put(run)
+        return done.wait(timeout)
 
     # immediate actions (run in the loop thread via post)
 

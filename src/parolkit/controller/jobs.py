@@ -35,7 +35,8 @@ class Job:
     command: Command
     command_id: str | None
     #: (host, port) acks go to; None for internal jobs (start-up homing)
-    ack_addr: tuple[str, int] | None
+    #: where acks go: one or more (host, port) pairs, or None without a command ID
+    ack_addr: tuple[tuple[str, int], ...] | None
     accepted_at: float
     #: set by the planner: start/final joint angles (deg) the plan assumes, or None
     start_deg: tuple[float, ...] | None = None

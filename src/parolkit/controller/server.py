@@ -32,6 +32,10 @@ SUBSCRIPTION_TTL_S = 10.0
 MAX_SUBSCRIBERS = 16
 
 
+#: a UDP (host, port) pair
+Address = tuple[str, int]
+
+
 class Outbox:
     """Sends datagrams (acks) in FIFO order from its own thread."""
 
@@ -49,8 +53,14 @@ class Outbox:
         self._q.put(None)
         self._thread.join(2.0)
 
-    def put(self, text: str, addr: tuple[str, int]) -> None:
-        self._q.put((text.encode("utf-8"), addr))
+    def put(self, text: str, addr: "Address | tuple[Address, ...]") -> None:
+        """Queue ``text`` for one address or for each of a tuple of addresses (an ack route)."""
+        data = text.encode("utf-8")
+        if addr and isinstance(addr[0], tuple):
+            for a in addr:  # type: ignore[union-attr]
+                self._q.put((data, a))
+        else:
+            self._q.put((data, addr))  # type: ignore[arg-type]
 
     def flush(self, timeout: float = 1.0) -> None:
         end = time.monotonic() + timeout
@@ -175,10 +185,16 @@ class StatusStream:
 class UdpServer:
     """The command socket and its thread."""
 
+    #: at most this many ACK_HERE sockets are remembered
+    MAX_ACK_HERE = 256
+
     def __init__(self, controller: "Controller", sock: socket.socket, ack_port: int) -> None:
         self.c = controller
         self.sock = sock
         self.ack_port = ack_port
+        #: sockets that asked for their acks (ACK_HERE), oldest first
+        self._ack_here: dict[Address, None] = {}
+        self._ack_here_lock = threading.Lock()
         self._running = False
         self._thread = threading.Thread(target=self._run, name="parolkit-udp", daemon=True)
         self.received = 0
@@ -216,8 +232,21 @@ class UdpServer:
 
     # ------------------------------------------------------------------ helpers
 
-    def _ack_addr(self, addr: tuple[str, int]) -> tuple[str, int]:
-        return (addr[0], self.ack_port)
+    def ack_here(self, addr: Address) -> None:
+        """(ext ACK_HERE) acks of commands from ``addr`` also go to ``addr`` itself."""
+        with self._ack_here_lock:
+            self._ack_here.pop(addr, None)
+            self._ack_here[addr] = None
+            while len(self._ack_here) > self.MAX_ACK_HERE:  # bounded: oldest forgotten first
+                self._ack_here.pop(next(iter(self._ack_here)))
+
+    def _ack_addr(self, addr: Address) -> tuple[Address, ...]:
+        """Where the acks of a command from ``addr`` go: the sender's host at the ack port (the
+        original protocol), plus the sending socket itself if it asked with ACK_HERE."""
+        primary = (addr[0], self.ack_port)
+        if addr[1] != self.ack_port and addr in self._ack_here:
+            return (primary, (addr[0], addr[1]))
+        return (primary,)
 
     def _reply(self, text: str, addr: tuple[str, int]) -> None:
         try:
@@ -264,6 +293,10 @@ class UdpServer:
         if cmd.KIND is C.CommandKind.QUERY:
             self._reply(c.answer_query(cmd.name), addr)  # type: ignore[arg-type]
             self._immediate_ack(cid, addr, AckStatus.COMPLETED)
+            return
+        if isinstance(cmd, C.AckHere):
+            self.ack_here(addr)
+            self._immediate_ack(cid, addr, AckStatus.COMPLETED, "acks also go to this socket")
             return
         if cmd.KIND is C.CommandKind.IMMEDIATE:
             status, details = c.immediate(cmd, addr)

@@ -371,6 +371,15 @@ class Stop(Command):
 
 
 @dataclass(frozen=True)
+class AckHere(Command):
+    """(ext) Acks of commands sent from this socket also go back to this socket (besides the
+    ack port), so a client listening where it sends from needs no fixed ack port."""
+
+    NAME: ClassVar[str] = "ACK_HERE"
+    KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+
+
+@dataclass(frozen=True)
 class Enable(Command):
     """Enable the robot (board 101); clears a released E-stop latch and a latched error."""
 
@@ -871,9 +880,15 @@ def _p_spline(a: Sequence[str], m: RobotModel) -> Command:
     if len(a) < 5:
         raise CommandError(f"SMOOTH_SPLINE takes n|frame|start|timing|value|pose x n, got {len(a)} arguments")
     n = _integer(a[0], "n (waypoints)", 2, MAX_WAYPOINTS)
-    if len(a) != 5 + n:
-        raise CommandError(f"SMOOTH_SPLINE: n = {n} waypoints announced, {len(a) - 5} given")
-    wps = tuple(_pose_field(p, f"waypoint {i + 1}") for i, p in enumerate(a[5:]))
+    fields = list(a[5:])
+    if len(fields) == 6 * n and n > 1 and not any("," in f for f in fields):
+        # also accepted: every waypoint as six separate fields x|y|z|A|B|C
+        fields = [",".join(fields[6 * i : 6 * i + 6]) for i in range(n)]
+    if len(fields) != n:
+        raise CommandError(
+            f"SMOOTH_SPLINE: n = {n} waypoints announced, {len(a) - 5} fields given "
+            f"(expected {n} poses x,y,z,A,B,C or {6 * n} single numbers)")
+    wps = tuple(_pose_field(p, f"waypoint {i + 1}") for i, p in enumerate(fields))
     return SmoothSpline(waypoints=wps, **_smooth_common(a[1:5]))
 
 
@@ -1014,6 +1029,7 @@ _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "SMOOTH_HELIX": _p_helix,
     "SMOOTH_BLEND": _p_blend,
     "STOP": _no_args(Stop),
+    "ACK_HERE": _no_args(AckHere),
     "ENABLE": _no_args(Enable),
     "DISABLE": _no_args(Disable),
     "CLEAR_ERROR": _no_args(ClearError),
