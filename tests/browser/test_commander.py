@@ -63,14 +63,14 @@ def hold(page, testid: str, seconds: float) -> None:
     button.hover()
     page.mouse.down()
     try:
-        wait_until(lambda: page.locator(f"[data-testid='{testid}'].pk-held").count() > 0, 5,
+        wait_until(lambda: page.locator(f"[data-testid='{testid}'].pk-held").count() > 0, 12,
                    what=f"{testid} held")
         page.wait_for_timeout(int(seconds * 1000))
     finally:
         page.mouse.up()
 
 
-def settled(page, testid: str, timeout: float = 4.0) -> float:
+def settled(page, testid: str, timeout: float = 8.0) -> float:
     """The readout once it stopped changing (two reads 0.4 s apart agree); fails if it keeps
     changing for ``timeout`` s (i.e. the robot did not stop)."""
     prev = number(page, testid)
@@ -156,11 +156,16 @@ def test_estop_latches_until_enable(page):
 def test_keyboard_jogs_and_escape_is_estop(page):
     wait_ready(page)
     page.get_by_test_id("help-button").click()
-    page.get_by_text("Keyboard shortcuts", exact=True).wait_for(timeout=5000)
-    assert page.get_by_text("E-STOP (software stop, latched until Enable)").is_visible()
-    page.keyboard.press("Escape")  # closes the dialog, and Esc is also the E-STOP key
-    wait_until(lambda: state(page) == "E-STOP", 10, what="E-STOP from the Esc key")
-    page.get_by_text("Keyboard shortcuts", exact=True).wait_for(state="hidden", timeout=5000)
+    title = page.get_by_text("Keyboard shortcuts", exact=True)
+    try:
+        title.wait_for(timeout=15000)
+        assert page.get_by_text("E-STOP (software stop, latched until Enable)").is_visible()
+        page.keyboard.press("Escape")  # closes the dialog, and Esc is also the E-STOP key
+        wait_until(lambda: state(page) == "E-STOP", 15, what="E-STOP from the Esc key")
+        title.wait_for(state="hidden", timeout=15000)
+    finally:
+        if title.is_visible():  # never leave the dialog over the page for the next tests
+            page.get_by_role("button", name="Close").click()
     page.get_by_test_id("btn-enable").click()
     wait_ready(page, 20)
     page.mouse.click(5, 5)  # focus the page, not an input

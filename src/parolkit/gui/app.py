@@ -694,7 +694,7 @@ class CommanderPage:
         self.set_program(text + line + "\n")
 
     def on_edit(self, *_: Any) -> None:
-        text = self.editor.value or ""
+        """Re-colour the text; old error marks go (their lines may have moved): Check again."""
         self._errors = {}
         self._refresh_decorations()
 
