@@ -25,7 +25,7 @@ functions; the conversions themselves only reject values that cannot be represen
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np

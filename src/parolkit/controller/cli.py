@@ -18,7 +18,6 @@ import signal
 import socket
 import sys
 import threading
-from pathlib import Path
 
 __all__ = ["register", "run", "build_overrides"]
 

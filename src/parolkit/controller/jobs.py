@@ -9,7 +9,7 @@ frame, its terminal status.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 from parolkit.protocol.commands import AckStatus, Command

@@ -97,7 +97,9 @@ def start_controller_process(serial_port: str | None, udp_port: int, ack_port: i
     watchdog to :data:`GUI_STREAM_WATCHDOG_S`."""
     import tempfile
 
-    args = [sys.executable, "-m", "parolkit", "serve", "--udp-port", str(udp_port), "--ack-port", str(ack_port)]
+    from parolkit.client.launch import spawn_controller
+
+    args = ["--udp-port", str(udp_port), "--ack-port", str(ack_port)]
     args += ["--port", serial_port] if serial_port else ["--sim"]
     generated: Path | None = None
     if config is None:
@@ -106,7 +108,7 @@ def start_controller_process(serial_port: str | None, udp_port: int, ack_port: i
             f.write(f"[controller]\nstream_watchdog_s = {GUI_STREAM_WATCHDOG_S}\n")
         config = generated = Path(name)
     args += ["--config", str(config)]
-    proc = subprocess.Popen(args, env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    proc = spawn_controller(args)
     proc.generated_config = generated  # type: ignore[attr-defined]  # removed by stop_controller_process
     deadline = time.monotonic() + ready_timeout
     while time.monotonic() < deadline:

@@ -23,12 +23,12 @@ from __future__ import annotations
 import json
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 from typing import Callable, ClassVar, Sequence
 
 from parolkit.errors import ParolkitValueError
-from parolkit.robot import JOINT_NAMES, NUM_JOINTS, PAROL6, RobotModel
+from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
 
 __all__ = [
     "MAX_DATAGRAM_BYTES",

@@ -24,7 +24,7 @@ returns the wire value unchanged.
 from __future__ import annotations
 
 import operator
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from enum import IntEnum, IntFlag
 from typing import Sequence
 

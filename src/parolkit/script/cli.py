@@ -14,7 +14,6 @@ is not formatted (``fmt --check``); 2 bad command line; 130 interrupted (Ctrl-C 
 from __future__ import annotations
 
 import argparse
-import os
 import socket
 import subprocess
 import sys
@@ -225,14 +224,14 @@ class _SimController:
     def __init__(self, config: str | None) -> None:
         self.port = _free_udp_port()
         self.ack_port = _free_udp_port()
-        cmd = [sys.executable, "-m", "parolkit", "serve", "--sim",
-               "--udp-port", str(self.port), "--ack-port", str(self.ack_port)]
+        from parolkit.client.launch import spawn_controller
+
+        serve_args = ["--sim", "--udp-port", str(self.port), "--ack-port", str(self.ack_port)]
         if config:
-            cmd += ["--config", config]
+            serve_args += ["--config", config]
         # the controller's log goes to a file (a pipe nobody reads would fill up and block it)
         self.log = tempfile.TemporaryFile()
-        self.proc = subprocess.Popen(cmd, stdout=self.log, stderr=subprocess.STDOUT,
-                                     env=dict(os.environ, PYTHONUNBUFFERED="1"))
+        self.proc = spawn_controller(serve_args, stdout=self.log, stderr=subprocess.STDOUT)
 
     def log_tail(self, lines: int = 15) -> str:
         self.log.seek(0)
