@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import math
 import threading
 import time
 from pathlib import Path
@@ -202,7 +201,6 @@ class ProgramRunner:
         self.robot: Any = None
         #: errors of the last run (check or the failing line), shown inline by the page
         self.errors: list[Any] = []
-        self._loop: asyncio.AbstractEventLoop | None = None
         self.thread: threading.Thread | None = None
         self.current_line: int | None = None
         self.state = "idle"  # idle, running, paused, error
@@ -241,20 +239,16 @@ class ProgramRunner:
             self.version += 1
             return []
         link = self.commander.link
-        # the controller sends acks to one port: hand it to the runner's client while it runs
-        link.release_ack_port()
-        await asyncio.sleep(0.05)  # the transport closes its socket on the next loop turn
         try:
-            robot = Robot(host=link.host, port=link.port, ack_port=link.ack_port)
+            # its own ephemeral socket: the controller acks it there (ACK_HERE)
+            robot = Robot(host=link.host, port=link.port, ack_port=0)
         except (OSError, ParolkitError) as exc:
-            asyncio.ensure_future(link.bind_ack_port())
             self.state = "error"
             self.message = f"cannot start the program client: {exc}"
             self.commander.log.error(self.message)
             self.version += 1
             return []
         self.robot = robot
-        self._loop = asyncio.get_running_loop()
         self.interpreter = Interpreter(result.program, robot, on_line=self._on_line, step=step)
         self.errors = []
         self.state = "running"
@@ -291,8 +285,6 @@ class ProgramRunner:
             robot, self.robot = self.robot, None
             if robot is not None:
                 robot.close()
-            link = self.commander.link
-            self._loop.call_soon_threadsafe(lambda: asyncio.ensure_future(link.bind_ack_port()))
             self.version += 1
 
     @property

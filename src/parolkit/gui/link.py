@@ -115,7 +115,13 @@ class _Receiver(asyncio.DatagramProtocol):
 
 
 class ControllerLink:
-    """UDP link to one controller at ``host:port``; acks arrive on ``ack_port`` (bound here)."""
+    """UDP link to one controller at ``host:port``.
+
+    Acks come back to the link's own command socket: it registers that socket with the
+    controller's (ext) ``ACK_HERE`` command (renewed with every status subscription, so a
+    restarted controller learns it again).  ``ack_port`` is the controller's fixed ack port,
+    kept for information; the link does not occupy it, so scripts and the program runner can.
+    """
 
     def __init__(self, host: str, port: int, ack_port: int, *, every_n_ticks: int = 3,
                  event_log: EventLog | None = None, history_s: float = 30.0) -> None:
@@ -135,7 +141,6 @@ class ControllerLink:
         self._reply: asyncio.Future | None = None
         self._cmd: asyncio.DatagramTransport | None = None
         self._status_tr: asyncio.DatagramTransport | None = None
-        self._ack_tr: asyncio.DatagramTransport | None = None
         self._tasks: list[asyncio.Task] = []
         self._plan_seq_seen: int | None = None
         self._was_up = False
@@ -156,31 +161,9 @@ class ControllerLink:
         self._cmd, _ = await loop.create_datagram_endpoint(lambda: _Receiver(self._on_reply), sock=self._cmd_sock)
         self._status_tr, _ = await loop.create_datagram_endpoint(
             lambda: _Receiver(self._on_status), local_addr=(local, 0))
-        await self.bind_ack_port()
+        self._raw_send("ACK_HERE")  # acks of our commands come back to the command socket
         self._tasks.append(asyncio.create_task(self._subscription_loop()))
         self.log.info(f"connecting to controller at {self.host}:{self.port}")
-
-    async def bind_ack_port(self) -> bool:
-        """Listen for acks on :attr:`ack_port` (True on success; logs a warning otherwise)."""
-        if self._ack_tr is not None:
-            return True
-        loop = asyncio.get_running_loop()
-        try:
-            ack_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            ack_sock.bind(("127.0.0.1" if self.host in ("127.0.0.1", "localhost") else "0.0.0.0", self.ack_port))
-            self._ack_tr, _ = await loop.create_datagram_endpoint(lambda: _Receiver(self._on_ack), sock=ack_sock)
-            return True
-        except OSError as exc:
-            self.log.add(f"cannot listen for acknowledgements on UDP {self.ack_port}: {exc}; "
-                         "commands are sent without acks", Level.WARNING)
-            return False
-
-    def release_ack_port(self) -> None:
-        """Stop listening on the ack port so another client (the program runner) can bind it;
-        commands are sent without IDs until :meth:`bind_ack_port`."""
-        if self._ack_tr is not None:
-            self._ack_tr.close()
-            self._ack_tr = None
 
     async def close(self) -> None:
         for t in self._tasks:
@@ -197,7 +180,7 @@ class ControllerLink:
                 self._raw_send(f"UNSUBSCRIBE|{port}")
             except LinkError:
                 pass
-        for tr in (self._cmd, self._status_tr, self._ack_tr):
+        for tr in (self._cmd, self._status_tr):
             if tr is not None:
                 tr.close()
 
@@ -207,6 +190,7 @@ class ControllerLink:
         while True:
             try:
                 self._raw_send(f"SUBSCRIBE|{port}|{self.every_n_ticks}")
+                self._raw_send("ACK_HERE")
             except LinkError as exc:
                 log.warning("subscribe failed: %s", exc)
             # check quickly until the first status arrives, then renew every RENEW_S
@@ -229,7 +213,7 @@ class ControllerLink:
 
     def _on_reply(self, data: bytes, addr: Any) -> None:
         text = data.decode("utf-8", errors="replace")
-        if text.upper().startswith("ACK|"):  # acks from a controller that sends them here
+        if text.upper().startswith("ACK|"):  # acks come here (ACK_HERE)
             self._on_ack(data, addr)
             return
         if text.upper().startswith("STATUS_JSON|") and (self._reply is None or self._reply.done()):
@@ -337,7 +321,7 @@ class ControllerLink:
         """Send one command. With ``track`` it gets an ID and its terminal ack is logged
         (labelled ``label``; with ``quiet`` only FAILED / INVALID acks are logged); returns
         the ID (None when untracked)."""
-        if not track or self._ack_tr is None:
+        if not track:
             self._raw_send(text)
             return None
         cid = new_command_id()
@@ -353,7 +337,7 @@ class ControllerLink:
         fut: asyncio.Future = loop.create_future()
         cid = self.send(text, label=label)
         if cid is None:
-            raise LinkError("acknowledgements are unavailable (ack port not bound)")
+            raise LinkError("internal: a tracked command got no ID")
         self._waiters[cid] = fut
         try:
             return await asyncio.wait_for(fut, timeout)
