@@ -31,6 +31,7 @@ from parolkit.kinematics.types import Branch, IKError, IKFailure
 __all__ = ["solve_independent", "solve_continuous", "targets_from_poses"]
 
 _PI = math.pi
+_HALF_PI = math.pi / 2
 _RAD = 180.0 / math.pi
 _DEG = math.pi / 180.0
 _K0 = A2 * A2 + L3 * L3
@@ -201,7 +202,12 @@ def _fit_narrow(theta: np.ndarray, j: int):
     Returns (t, valid).  Values within LIMIT_TOL outside the range are snapped onto it.
     """
     lo = LIM_LO[j] - LIMIT_TOL
-    t = theta - TWO_PI * np.floor((theta - lo) * _INV_2PI)  # in [lo - tol, lo - tol + 2pi)
+    # t = theta - 2pi floor((theta - lo) / 2pi), in [lo - tol, lo - tol + 2pi); in place
+    t = theta - lo
+    t *= _INV_2PI
+    np.floor(t, out=t)
+    t *= TWO_PI
+    np.subtract(theta, t, out=t)
     valid = t <= LIM_HI[j] + LIMIT_TOL
     np.clip(t, LIM_LO[j], LIM_HI[j], out=t)
     return t, valid
@@ -269,28 +275,41 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
     want_el = None if branch is None else branch.elbow
     want_fl = None if branch is None else branch.wrist_flip
     w1, w2, w3, w4, w5, w6 = WEIGHTS
-    for back in (False, True):
-        if want_sh is not None and (want_sh == "back") != back:
-            continue
-        q1, ok = _fit_narrow(base + _PI if back else base, 0)
+    # Per sample, the shoulder and elbow nearer the seed are tried first (as single IK does),
+    # so the first pass usually finds the final answer and the later passes prune almost
+    # every sample at their J1 / J3 terms.  The pass order only affects the work: ties are
+    # resolved towards the lower branch index, whatever order the branches were tried in.
+    if want_sh is not None:
+        shoulder_passes = (want_sh == "back",)
+    else:
+        dd = base - seed_cols[0]
+        dd -= TWO_PI * np.floor(dd * _INV_2PI + 0.5)
+        pref_back = np.abs(dd) > _HALF_PI
+        shoulder_passes = (pref_back, ~pref_back)
+    if want_el is not None:
+        elbow_passes = (want_el == "down",)
+    else:
+        dd = seed_cols[2] - PHI3
+        dd = dd - TWO_PI * np.floor(dd * _INV_2PI + 0.5)
+        pref_down = dd > 0.0
+        elbow_passes = (pref_down, ~pref_down if per_sample else not pref_down)
+    for back_all in shoulder_passes:
+        # back_all: a bool or a bool array over all N samples
+        q1, ok = _fit_narrow(base + _PI * back_all, 0)
         e = q1 - seed_cols[0]
         d1 = w1 * e * e
-        ok &= d1 < best_d
-        if back:
-            rr = -rho
-            c1 = -c1f
-            s1 = -s1f
-        else:
-            rr = rho
-            c1 = c1f
-            s1 = s1f
-        X = rr - A1
+        ok &= d1 <= best_d
+        sg_all = 1.0 - 2.0 * back_all  # +1 front, -1 back (exact sign flips below)
+        X = rho * sg_all - A1
         c = (X * X + Yall * Yall - _K0) * _INV_2A2L
         ok &= np.abs(c) <= 1.0 + _REACH_EPS
         idx = np.nonzero(ok)[0]
         if idx.size == 0:
             continue
         # --- restrict everything to the samples this shoulder can still improve
+        scalar_back = np.ndim(back_all) == 0
+        back_i = back_all if scalar_back else back_all[idx]
+        sg_i = sg_all if scalar_back else sg_all[idx]
         q1 = q1[idx]
         d1 = d1[idx]
         X = X[idx]
@@ -300,42 +319,43 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
         delta = np.arccos(c)
         sdel = np.sqrt(1.0 - c * c)
         atan_y = np.arctan2(Y, X)
-        for down in (False, True):
-            if want_el is not None and (want_el == "down") != down:
-                continue
-            q3, ok3 = _fit_narrow(PHI3 + delta if down else PHI3 - delta, 2)
+        for down_all in elbow_passes:
+            scalar_down = np.ndim(down_all) == 0
+            down = down_all if scalar_down else down_all[idx]
+            es = 2.0 * down - 1.0  # elbow sign on delta: -1 up, +1 down
+            q3, ok3 = _fit_narrow(PHI3 + es * delta, 2)
             e = q3 - sd[2]
             d13 = d1 + w3 * e * e
             bound = best_d[idx]
-            ok3 &= d13 < bound
+            ok3 &= d13 <= bound
             # stage 1: keep only the samples where this elbow fits J3 and can still win
             s1i = np.nonzero(ok3)[0]
             if s1i.size == 0:
                 continue
+            back, sg = back_i, sg_i
             if s1i.size != ok3.size:
                 q3, d13, bound = q3[s1i], d13[s1i], bound[s1i]
                 cc, sdl, Xs, Ys, aty = c[s1i], sdel[s1i], X[s1i], Y[s1i], atan_y[s1i]
                 where = idx[s1i]
                 sds = [col[s1i] for col in sd] if per_sample else sd
                 q1s = q1[s1i]
+                if not scalar_back:
+                    back, sg = back[s1i], sg[s1i]
+                if not scalar_down:
+                    down, es = down[s1i], es[s1i]
             else:
                 cc, sdl, Xs, Ys, aty = c, sdel, X, Y, atan_y
                 where = idx
                 sds = sd
                 q1s = q1
-                s1i = None
-            if down:
-                c3 = _COS_PHI3 * cc - _SIN_PHI3 * sdl
-                s3 = _SIN_PHI3 * cc + _COS_PHI3 * sdl
-            else:
-                c3 = _COS_PHI3 * cc + _SIN_PHI3 * sdl
-                s3 = _SIN_PHI3 * cc - _COS_PHI3 * sdl
+            c3 = _COS_PHI3 * cc - es * (_SIN_PHI3 * sdl)
+            s3 = _SIN_PHI3 * cc + es * (_COS_PHI3 * sdl)
             u = A2 + A3 * c3 + D4 * s3
             v = D4 * c3 - A3 * s3
             q2, ok2 = _fit_narrow(aty - np.arctan2(v, u), 1)
             e = q2 - sds[1]
             d123 = d13 + w2 * e * e
-            ok2 &= d123 < bound
+            ok2 &= d123 <= bound
             # stage 2: ... and fits J2
             sub = np.nonzero(ok2)[0]
             if sub.size == 0:
@@ -346,9 +366,13 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 sds = [col[sub] for col in sds] if per_sample else sds
                 q1s = q1s[sub]
                 where = where[sub]
+                if not scalar_back:
+                    back, sg = back[sub], sg[sub]
+                if not scalar_down:
+                    down = down[sub]
             # the orientation part only for the samples that survived: N = Rz(-q1) R
-            cw = c1[where]
-            sw = s1[where]
+            cw = c1f[where] * sg
+            sw = s1f[where] * sg
             a00, a10, a02, a12 = r00[where], r10[where], r02[where], r12[where]
             b20, b21, b22 = r20[where], r21[where], r22[where]
             m_n00 = cw * a00 + sw * a10
@@ -409,7 +433,12 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 flip, q4, q6, d = opts[0]
                 q5 = -be if flip else be
                 flips = 1 if flip else 0
-            better = d < best_d[where]
+            b_idx = 4 * back + 2 * down + flips  # index into _BRANCHES (int or int array)
+            prev = best_d[where]
+            better = d < prev
+            tie = d == prev
+            if tie.any():  # equal distance: the lower branch index wins (index-order semantics)
+                better |= tie & (b_idx < best_b[where])
             if better.all():
                 tgt = where
                 sel = slice(None)
@@ -418,10 +447,8 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                     continue
                 tgt = where[better]
                 sel = better
-                if not np.isscalar(flips):
-                    flips = flips[better]
             best_d[tgt] = d[sel]
-            best_b[tgt] = 4 * back + 2 * down + flips
+            best_b[tgt] = b_idx if np.ndim(b_idx) == 0 else b_idx[sel]
             best_q[0, tgt] = q1s[sel]
             best_q[1, tgt] = q2[sel]
             best_q[2, tgt] = q3[sel]
