@@ -17,6 +17,7 @@ Timing rules (the seed's, see docs/motion.md):
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -30,7 +31,7 @@ from parolkit.motion.moves import (
 )
 from parolkit.motion.profiles import (
     POLY_PEAK_ACCEL, POLY_PEAK_SPEED, TRAP3_PEAK_ACCEL, TRAP3_PEAK_SPEED, ScalarProfile,
-    ruckig_unit_profile, trapezoid_for_limits,
+    ruckig_unit_profile, sampled_basis, trapezoid_for_limits,
 )
 from parolkit.motion.trajectory import Trajectory
 from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
@@ -91,7 +92,7 @@ def plan(
         start = np.array(start_deg, dtype=float)
     except (TypeError, ValueError):
         start = np.zeros(0)
-    if start.shape != (6,) or not np.all(np.isfinite(start)):
+    if start.shape != (6,) or not all(map(math.isfinite, start.tolist())):
         raise ParolkitValueError(f"start_deg must be 6 finite joint angles (deg), got {start_deg!r}")
     try:
         return _dispatch(move, start, model, tool, rate)
@@ -102,6 +103,9 @@ def plan(
 
 def _dispatch(move: object, start: np.ndarray, model: RobotModel, tool: object, rate: float) -> Trajectory:
     if isinstance(move, JointMove):
+        fast = _fast_timed(move, start, move.target_deg, model, rate)
+        if fast is not None:
+            return fast
         return _plan_joint_target(move, start, np.asarray(move.target_deg), model, rate,
                                   MOVEJOINT_DEFAULT_PCT)
     if isinstance(move, PoseMove):
@@ -186,7 +190,10 @@ def hold(move, start: np.ndarray, target: np.ndarray, model: RobotModel, rate: f
 
 
 def _check_target(name: str, target: np.ndarray, model: RobotModel, what: str = "target") -> None:
-    lim = validate.model_arrays(model).safe_deg
+    ma = validate.model_arrays(model)
+    if (target >= ma.safe_lo).all() and (target <= ma.safe_hi).all():
+        return
+    lim = ma.safe_deg
     bad = np.nonzero((target < lim[:, 0]) | (target > lim[:, 1]))[0]
     if len(bad):
         j = int(bad[0])
@@ -213,11 +220,61 @@ def _plan_pose(move: PoseMove, start: np.ndarray, model: RobotModel, tool: objec
             move.name, f"pose {_fmt_pose(move.pose)} is not reachable: {exc.reason}",
             joint=exc.joint, value=exc.value,
         ) from exc
+    fast = _fast_timed(move, start, target.tolist(), model, rate)
+    if fast is not None:
+        return fast
     return _plan_joint_target(move, start, target, model, rate, MOVEPOSE_DEFAULT_PCT)
 
 
 def _fmt_pose(pose: Sequence[float]) -> str:
     return "[" + ", ".join(f"{v:g}" for v in pose) + "]"
+
+
+_DURATION_NOTE = "duration given: it overrides speed and acceleration percentages"
+
+
+def _fast_timed(
+    move: JointMove | PoseMove, start: np.ndarray, target: Sequence[float], model: RobotModel,
+    rate: float,
+) -> Trajectory | None:
+    """The common case of :func:`_plan_joint_target` (a duration with the POLY or TRAP
+    profile, target inside the range, moving, fast enough) with the per-joint checks done on
+    plain Python floats (6 values: cheaper than numpy calls).  Returns None whenever anything
+    else applies (a refusal, a hold, another profile): the general path then plans it,
+    with its messages.  Same arithmetic, so the same decisions, as the general path."""
+    T = move.duration_s
+    if T is None:
+        return None
+    profile = move.profile
+    if profile is None or profile is Profile.POLY:
+        kind, kv, ka = "poly", POLY_PEAK_SPEED, POLY_PEAK_ACCEL
+    elif profile is Profile.TRAP:
+        kind, kv, ka = "trap", TRAP3_PEAK_SPEED, TRAP3_PEAK_ACCEL
+    else:
+        return None
+    ma = validate.model_arrays(model)
+    if not validate.inside(target, ma.safe_lo_list, ma.safe_hi_list):
+        return None
+    dist_max = 0.0
+    tv = 0.0
+    for q0, q1, k, v in zip(start.tolist(), target, ma.spd_list, ma.vmax_list):
+        d = abs((q1 - q0) * k)  # steps
+        if d > dist_max:
+            dist_max = d
+        tj = kv * d / v
+        if tj > tv:
+            tv = tj
+    if dist_max < 0.5:
+        return None  # already there: hold
+    tmin = max(tv, math.sqrt(ka * dist_max / ma.amax))
+    T = float(T)
+    if T < tmin * (1.0 - 1e-9):
+        return None  # refused by the general path, with the limiting joint
+    notes = (_DURATION_NOTE,) if move.speed_pct is not None or move.accel_pct is not None else ()
+    target_arr = np.array(target, dtype=float)
+    return _monotonic_trajectory(move, kind, T, T / 3.0 if kind == "trap" else 0.0, start,
+                                 target_arr, target_arr - start, model, ma, rate, move.tracking,
+                                 notes)
 
 
 def _plan_joint_target(
@@ -238,7 +295,7 @@ def _plan_joint_target(
         return hold(move, start, target, model, rate, tracking)
     if move.duration_s is not None:
         if move.speed_pct is not None or move.accel_pct is not None:
-            notes.append("duration given: it overrides speed and acceleration percentages")
+            notes.append(_DURATION_NOTE)
         prof, T = _timed_profile(name, move.profile or Profile.POLY, float(move.duration_s), dist,
                                  vmax, amax, start, delta, spd)
     else:
@@ -249,9 +306,12 @@ def _plan_joint_target(
             a_pct = SPEED_ONLY_ACCEL_PCT if move.speed_pct is not None else default_pct[1]
         prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, vmax,
                                    amax, start, delta, spd, model, notes)
+    if isinstance(prof, ScalarProfile) and prof.kind in ("poly", "trap"):
+        return _monotonic_trajectory(move, prof.kind, prof.T, prof.ta, start, target, delta, model,
+                                     ma, rate, tracking, notes)
     t = sample_times(T, rate)
-    proven = isinstance(prof, ScalarProfile) and prof.kind in ("poly", "trap")
-    if isinstance(prof, ScalarProfile):
+    proven = False
+    if isinstance(prof, ScalarProfile):  # Ruckig: not monotonic in general, checked in full
         s, sd, _ = prof(t)
         q = start + s[:, None] * delta
         qd = sd[:, None] * delta
@@ -264,15 +324,72 @@ def _plan_joint_target(
                             notes=notes, target_deg=target, proven=proven)
 
 
+def _monotonic_trajectory(
+    move: object, kind: str, T: float, ta: float, start: np.ndarray, target: np.ndarray,
+    delta: np.ndarray,
+    model: RobotModel, ma: validate.ModelArrays, rate: float, tracking: Tracking,
+    notes: Sequence[str],
+) -> Trajectory:
+    """The Trajectory of a synchronised poly / trap move (``kind``, duration ``T`` s,
+    trapezoid acceleration time ``ta`` s), validated analytically.
+
+    ``q(t) = start + s(t) * delta`` with ``s`` monotonic from 0 to 1 (the sampled basis is
+    cached per profile and rate), so:
+
+    * positions: every sample lies between the start and the target (up to a few ulps).  The
+      target was checked against the safe limits (whose float steps are within 0.499 steps of
+      the step limits) and if the start's float steps are within 0.4995 steps of them too,
+      every rounded sample is inside the step limits.  Otherwise the samples are checked one
+      by one (same error as before: the first offending sample).
+    * speeds and accelerations: the caller chose the duration from the closed-form peaks
+      (quintic 1.875 |d| / T and 5.7735 |d| / T^2; trapezoid 1 / (T - ta) and
+      1 / (ta (T - ta))) against every joint's maxima.  Sampled speeds cannot exceed the
+      continuous peak (the limits are whole steps/s, so rounding cannot cross them either)
+      and finite differences over one tick cannot exceed the peak |s''| (mean-value theorem),
+      including the first tick from rest and the final stop (speed 0 at or after ``T``).
+
+    ``tests/unit/test_motion_joint.py`` checks this against a sample-by-sample scan.
+    """
+    t, basis, speed = sampled_basis(kind, T, ta, rate)
+    n = len(t)
+    spd = ma.steps_per_deg
+    m = np.empty((2, 6))
+    m[0] = start
+    m[1] = delta
+    q = np.dot(basis, m)  # start + s * delta (deg)
+    q[-1] = target
+    m *= spd
+    steps_f = np.dot(basis, m)  # the same in steps
+    steps_f[-1] = target * spd
+    if not validate.inside(m[0].tolist(), ma.round_lo_list, ma.round_hi_list):
+        validate.check_positions(move.name, t, np.rint(steps_f).astype(np.int64), model)
+    np.rint(steps_f, out=steps_f)
+    pos = steps_f.astype(np.int64)
+    sp_f = np.dot(speed, m[1:])  # s' * delta (steps/s); the basis ends at speed 0
+    np.rint(sp_f, out=sp_f)
+    sp = sp_f.astype(np.int64)
+    return Trajectory._trusted(t, pos, sp, _commands(n, tracking.value), rate, move, tuple(notes),
+                               start, model, q)
+
+
+@lru_cache(maxsize=128)
+def _commands(n: int, value: int) -> np.ndarray:
+    """(n,) read-only uint8 array of the board command ``value`` (shared between plans)."""
+    out = np.full(n, value, dtype=np.uint8)
+    out.setflags(write=False)
+    return out
+
+
 def _min_duration(kind: str, dist: np.ndarray, vmax: np.ndarray, amax: float) -> tuple[float, int, str]:
     """Shortest duration for a synchronised poly/trap(1/3) move; the limiting joint and why."""
     kv, ka = (POLY_PEAK_SPEED, POLY_PEAK_ACCEL) if kind == "poly" else (TRAP3_PEAK_SPEED, TRAP3_PEAK_ACCEL)
     tv = kv * dist / vmax
     ta = np.sqrt(ka * dist / amax)
-    jv, ja = int(np.argmax(tv)), int(np.argmax(ta))
-    if tv[jv] >= ta[ja]:
-        return float(tv[jv]), jv, "speed"
-    return float(ta[ja]), ja, "acceleration"
+    tv_max = tv.max()
+    ta_max = ta.max()
+    if tv_max >= ta_max:
+        return float(tv_max), int(tv.argmax()), "speed"
+    return float(ta_max), int(ta.argmax()), "acceleration"
 
 
 def _timed_profile(

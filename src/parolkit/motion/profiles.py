@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -31,6 +32,7 @@ __all__ = [
     "trapezoid",
     "trapezoid_for_limits",
     "ruckig_unit_profile",
+    "sampled_basis",
 ]
 
 #: Quintic peak speed x T / distance.
@@ -91,6 +93,36 @@ class ScalarProfile:
         if self.kind == "trap":
             return trapezoid(t, self.T, self.ta)
         return _eval_piecewise_jerk(t, self)
+
+
+@lru_cache(maxsize=256)
+def sampled_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tick times and the unit profile sampled at them, cached and read-only.
+
+    ``kind`` "poly" or "trap" (``ta``: the trapezoid's acceleration time, s), duration ``T``
+    (s), control rate ``rate_hz`` (Hz).  Returns ``(t, basis, speed)``:
+
+    * ``t`` (N,): the tick times 1/rate, 2/rate, ... up to the first tick at or after ``T``
+      (s; the planner's ``sample_times``);
+    * ``basis`` (N, 2): columns ``1`` and ``s(t)`` (1), so that a synchronised joint move is
+      one matrix product ``basis @ [q0; q1 - q0]``;
+    * ``speed`` (N, 1): ``s'(t)`` (1/s) with the LAST value set to exactly 0 (a
+      point-to-point move ends at rest on its target): ``speed @ [q1 - q0]`` gives the speeds.
+
+    (A (N, 2) @ (2, 6) product is several times faster than broadcasting an (N,) column
+    against a (6,) row: numpy's broadcast inner loop would run only 6 elements long.)
+    """
+    n = max(1, int(math.ceil(T * rate_hz - 1e-6)))
+    t = np.arange(1, n + 1, dtype=float) / rate_hz
+    s, sd, _ = ScalarProfile(kind, T, ta)(t)
+    basis = np.empty((n, 2))
+    basis[:, 0] = 1.0
+    basis[:, 1] = s
+    speed = np.array(sd, dtype=float).reshape(n, 1)
+    speed[-1] = 0.0
+    for a in (t, basis, speed):
+        a.setflags(write=False)
+    return t, basis, speed
 
 
 def quintic(t: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

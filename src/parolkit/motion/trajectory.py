@@ -68,6 +68,28 @@ class Trajectory:
                 f"{self.positions.shape}, speeds {self.speeds.shape}, commands {self.commands.shape}"
             )
 
+    @classmethod
+    def _trusted(
+        cls, t: np.ndarray, positions: np.ndarray, speeds: np.ndarray, commands: np.ndarray,
+        rate_hz: float, move: object, notes: tuple[str, ...], start_deg: np.ndarray,
+        model: RobotModel, planned_deg: np.ndarray | None,
+    ) -> "Trajectory":
+        """Internal constructor for arrays the planner built itself with the right dtypes and
+        shapes (t float (N,), positions/speeds int64 (N, 6), commands uint8 (N,), start_deg
+        float (6,), planned_deg float (N, 6)): they are frozen in place, not converted or
+        re-checked.  Arrays may be shared read-only caches (t, commands).  User code builds
+        Trajectories with the normal constructor, which converts and validates."""
+        for a in (positions, speeds, start_deg):
+            a.setflags(write=False)
+        if planned_deg is not None:
+            planned_deg.setflags(write=False)
+        obj = object.__new__(cls)
+        obj.__dict__.update(
+            t=t, positions=positions, speeds=speeds, commands=commands, rate_hz=rate_hz,
+            move=move, notes=notes, start_deg=start_deg, model=model, planned_deg=planned_deg,
+        )
+        return obj
+
     def __repr__(self) -> str:
         return (f"Trajectory({self.name}, {len(self)} samples at {self.rate_hz:g} Hz, "
                 f"{self.duration:.3f} s, notes={list(self.notes)!r})")

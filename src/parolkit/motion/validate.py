@@ -29,8 +29,23 @@ class ModelArrays:
         self.vmax = np.asarray(model.max_speed_steps_s, dtype=float)
         self.vmax_jog = np.asarray(model.max_jog_speed_steps_s, dtype=float)
         self.amax = float(model.accel_range_steps_s2[1])
+        self.safe_lo = self.safe_deg[:, 0].copy()
+        self.safe_hi = self.safe_deg[:, 1].copy()
+        # float step positions that round (np.rint) into the step limits with room to spare
+        # for a few ulps of arithmetic: [lo - 0.4995, hi + 0.4995]
+        self.round_lo = self.lim_lo - 0.4995
+        self.round_hi = self.lim_hi + 0.4995
+        # the same as Python float lists: per-plan checks on 6 values are several times
+        # faster in plain Python than as numpy calls (each numpy reduction costs microseconds)
+        self.spd_list = self.steps_per_deg.tolist()
+        self.safe_lo_list = self.safe_lo.tolist()
+        self.safe_hi_list = self.safe_hi.tolist()
+        self.round_lo_list = self.round_lo.tolist()
+        self.round_hi_list = self.round_hi.tolist()
+        self.vmax_list = self.vmax.tolist()
         for a in (self.steps_per_deg, self.limits_steps, self.lim_lo, self.lim_hi, self.safe_deg,
-                  self.vmax, self.vmax_jog):
+                  self.vmax, self.vmax_jog, self.safe_lo, self.safe_hi, self.round_lo,
+                  self.round_hi):
             a.setflags(write=False)
 
 
@@ -47,6 +62,14 @@ def model_arrays(model: RobotModel) -> ModelArrays:
         _CACHE.clear()
     _CACHE[id(model)] = (model, arrays)
     return arrays
+
+
+def inside(values: list[float], lo: list[float], hi: list[float]) -> bool:
+    """``lo[j] <= values[j] <= hi[j]`` for every j (False for NaN); plain Python floats."""
+    for v, a, b in zip(values, lo, hi):
+        if not a <= v <= b:
+            return False
+    return True
 
 
 def _first(mask: np.ndarray) -> tuple[int, int] | None:
