@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP_RUN  := $(VENV)/.stamp-run
 STAMP_DEV  := $(VENV)/.stamp-dev
 
-.PHONY: run test test-fast bench clean venv
+.PHONY: run test test-fast bench screenshot clean venv
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -34,6 +34,11 @@ test: $(STAMP_DEV)
 ## make test-fast: unit tests only
 test-fast: $(STAMP_DEV)
 	$(PY) -m pytest -q tests/unit
+
+## make screenshot: regenerate docs/images/commander.png with the browser test suite
+screenshot: $(STAMP_DEV)
+	./scripts/ensure-chromium.sh
+	PAROLKIT_UPDATE_SCREENSHOT=1 $(PY) -m pytest -q tests/browser
 
 ## make bench: run every benchmark script and print its figures
 bench: $(STAMP_DEV)

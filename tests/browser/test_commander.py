@@ -7,6 +7,7 @@ robot enabled, homed and idle for the next).
 from __future__ import annotations
 
 import re
+import os
 import time
 from pathlib import Path
 
@@ -16,7 +17,13 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = REPO_ROOT / "test-artifacts" / "browser"
-README_IMAGE = REPO_ROOT / "docs" / "images" / "commander.png"
+# `make screenshot` (PAROLKIT_UPDATE_SCREENSHOT=1) writes the README's screenshot; a plain
+# `make test` writes it under test-artifacts/ so a test run never modifies tracked files
+README_IMAGE = (
+    REPO_ROOT / "docs" / "images" / "commander.png"
+    if os.environ.get("PAROLKIT_UPDATE_SCREENSHOT") == "1"
+    else ARTIFACTS / "commander.png"
+)
 
 
 _PAGE = None  # the module's page, for the GUI log in failure messages
