@@ -1,0 +1,140 @@
+"""The fast joint-space path validates analytically (monotonic profile, closed-form peaks):
+these tests prove it agrees with a brute-force, sample-by-sample scan of the same arrays."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from parolkit.motion import JointMove, PlanningError, Trajectory, plan, validate
+from parolkit.motion.planner import sample_times
+from parolkit.motion.profiles import ScalarProfile, quintic
+from parolkit.robot import PAROL6
+
+SPD = PAROL6.steps_per_deg
+VMAX = np.asarray(PAROL6.max_speed_steps_s, dtype=float)
+AMAX = float(PAROL6.accel_range_steps_s2[1])
+_safe = PAROL6.safe_limits_deg
+_pub = PAROL6.limits_deg_array
+# targets inside the safe range; starts up to 1 deg beyond the published range on either side
+# (so the sample-by-sample fallback for a start outside the limits is exercised too)
+_targets = st.tuples(*[st.floats(float(lo), float(hi)) for lo, hi in _safe])
+_starts = st.tuples(*[st.floats(float(lo) - 1.0, float(hi) + 1.0) for lo, hi in _pub])
+
+
+def _brute_force(start, target, kind, T, rate):
+    """The arrays the straightforward way (evaluate the profile at every tick, broadcast),
+    and the verdict of the full scans in :mod:`parolkit.motion.validate` (None = accepted,
+    else the PlanningError message)."""
+    t = sample_times(T, rate)
+    s, sd, _ = ScalarProfile(kind, T, T / 3.0 if kind == "trap" else 0.0)(t)
+    delta = target - start
+    q = start + s[:, None] * delta
+    q[-1] = target
+    qd = sd[:, None] * delta
+    qd[-1] = 0.0
+    pos = np.rint(q * SPD).astype(np.int64)
+    sp_f = qd * SPD
+    try:
+        validate.check_positions("MoveJoint", t, pos, PAROL6)
+        validate.check_speeds("MoveJoint", t, sp_f, PAROL6)
+        validate.check_accels("MoveJoint", t, sp_f, PAROL6, rate)
+    except PlanningError as exc:
+        return t, pos, np.rint(sp_f).astype(np.int64), str(exc)
+    return t, pos, np.rint(sp_f).astype(np.int64), None
+
+
+def _continuous_overload(start, target, kind, T) -> float:
+    """Largest (peak speed / max speed, peak |accel| / max accel) over the joints, from the
+    profile evaluated on a dense grid (20001 points), not from the closed-form peaks."""
+    tt = np.linspace(0.0, T, 20001)
+    if kind == "poly":
+        _, sd, sdd = quintic(tt, T)
+    else:
+        _, sd, sdd = ScalarProfile("trap", T, T / 3.0)(tt)
+    dist = np.abs((target - start) * SPD)
+    return float(max(np.max(np.abs(sd).max() * dist / VMAX), np.abs(sdd).max() * dist.max() / AMAX))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(start=_starts, target=_targets, duration=st.floats(0.02, 6.0),
+       kind=st.sampled_from(["poly", "trap"]), rate=st.sampled_from([100.0, 250.0, 40.0]))
+def test_analytic_validation_agrees_with_a_brute_force_scan(start, target, duration, kind, rate):
+    start = np.array(start)
+    target = np.array(target)
+    if np.abs((target - start) * SPD).max() < 0.5:
+        return  # a hold, not a move (tested elsewhere)
+    move = JointMove(target, duration_s=duration, profile=kind)
+    t, pos, sp, verdict = _brute_force(start, target, kind, duration, rate)
+    try:
+        tr = plan(move, start, rate_hz=rate)
+    except PlanningError as exc:
+        msg = str(exc)
+        if "too fast" in msg:
+            # refused from the closed-form peaks: the continuous profile does exceed a limit
+            # (the samples may straddle the peak, so the scan need not see it)
+            assert _continuous_overload(start, target, kind, duration) > 1.0 - 1e-6
+        else:
+            # a position outside the range: exactly the scan's first offending sample
+            assert msg == verdict
+        return
+    # accepted: the scan of the same samples finds nothing either ...
+    assert verdict is None, verdict
+    assert _continuous_overload(start, target, kind, duration) <= 1.0 + 1e-6
+    # ... and the arrays are the brute-force ones (the matrix product may round differently
+    # in the last ulp, which can move a sample that sits on a half step by one step)
+    assert np.array_equal(tr.t, t)
+    assert np.abs(tr.positions - pos).max() <= 1 and np.abs(tr.speeds - sp).max() <= 1
+    assert np.array_equal(tr.positions[-1], pos[-1]) and np.all(tr.speeds[-1] == 0)
+    lim = PAROL6.limits_steps_array
+    assert np.all(tr.positions >= lim[:, 0]) and np.all(tr.positions <= lim[:, 1])
+    assert np.all(np.abs(tr.speeds) <= VMAX)
+    acc = np.abs(np.diff(np.vstack([np.zeros(6), tr.speeds.astype(float)]), axis=0)) * rate
+    assert np.all(acc <= AMAX * (1 + validate.ACCEL_TOLERANCE) + rate)  # + integer rounding
+    lo, hi = np.minimum(start, target), np.maximum(start, target)
+    span = np.abs(target - start) * 1e-12 + 1e-9
+    assert np.all(tr.planned_deg >= lo - span) and np.all(tr.planned_deg <= hi + span)
+    assert np.array_equal(tr.planned_deg[-1], target)
+
+
+def test_start_outside_the_range_is_refused_at_the_first_offending_sample_as_before():
+    start = np.array(PAROL6.standby_deg, dtype=float)
+    start[1] = PAROL6.limits_deg_array[1, 0] - 0.5  # J2 below its lower limit
+    target = start.copy()
+    target[1] = PAROL6.safe_limits_deg[1, 0] + 0.5  # 1 deg up, back inside
+    with pytest.raises(PlanningError, match=r"J2 = .* deg .* is below the lower limit") as info:
+        plan(JointMove(target, duration_s=2.0), start)
+    assert info.value.time_s == pytest.approx(0.01)
+
+
+def test_planned_arrays_are_read_only_and_shared_caches_cannot_be_changed():
+    start = np.array(PAROL6.standby_deg, dtype=float)
+    a = plan(JointMove([60, -80, 170, 10, 5, 170], duration_s=2.0), start)
+    b = plan(JointMove([70, -85, 175, 0, 0, 160], duration_s=2.0), start)
+    for arr in (a.t, a.positions, a.speeds, a.commands, a.planned_deg, a.start_deg):
+        assert not arr.flags.writeable
+        with pytest.raises(ValueError):
+            arr[0] = 0
+    # a second plan of the same duration has its own positions, the same (read-only) times
+    assert not np.array_equal(a.positions, b.positions) and np.array_equal(a.t, b.t)
+    # the caller's start array is not frozen by planning
+    assert start.flags.writeable
+
+
+def test_user_built_trajectory_is_still_converted_and_checked():
+    tr = Trajectory(t=[0.01, 0.02], positions=[[0] * 6, [1] * 6], speeds=[[0] * 6] * 2,
+                    commands=[156, 156], rate_hz=100.0, move="test")
+    assert tr.positions.dtype == np.int64 and tr.commands.dtype == np.uint8
+    with pytest.raises(ValueError, match="inconsistent trajectory arrays"):
+        Trajectory(t=[0.01], positions=[[0] * 6] * 2, speeds=[[0] * 6] * 2, commands=[156] * 2,
+                   rate_hz=100.0, move="test")
+
+
+def test_move_already_at_its_target_with_a_duration_takes_exactly_that_long():
+    start = np.array(PAROL6.standby_deg, dtype=float)
+    for duration in (0.5, 1.234, 4.0):
+        tr = plan(JointMove(start, duration_s=duration), start)
+        assert tr.duration == pytest.approx(duration, abs=0.01 - 1e-9)
+        assert tr.duration >= duration - 1e-9 and np.all(tr.speeds == 0)
