@@ -16,21 +16,11 @@ from pathlib import Path
 
 import pytest
 
+from parolkit.client.launch import die_with_parent
+
 REPO_ROOT = Path(__file__).resolve().parent.parent
 DATA_DIR = REPO_ROOT / "tests" / "data"
 ARTIFACTS_DIR = REPO_ROOT / "test-artifacts"
-
-
-def _die_with_parent() -> None:
-    """Child-process hook: SIGTERM the child when the test process dies (Linux), so a killed
-    or timed-out test run never leaves controllers running."""
-    try:
-        import ctypes
-        import signal
-
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except Exception:
-        pass
 
 
 def free_udp_port() -> int:
@@ -109,7 +99,7 @@ def start_controller(
     with open(log_path, "wb") as log:
         proc = subprocess.Popen(
             args, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
-            preexec_fn=_die_with_parent,
+            preexec_fn=die_with_parent,
         )
     cp = ControllerProcess(proc, "127.0.0.1", port, ack_port, args, log_path)
     deadline = time.monotonic() + ready_timeout

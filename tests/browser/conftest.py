@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from parolkit.client.launch import die_with_parent
+
 REPO_ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = REPO_ROOT / "test-artifacts" / "browser"
 CHROMIUM = os.environ.get("PAROLKIT_CHROMIUM", "/usr/bin/chromium")
@@ -40,7 +42,8 @@ def gui_url():
     env.pop("PYTEST_CURRENT_TEST", None)  # NiceGUI would switch to its own screen-test mode
     with open(log_path, "wb") as log:
         proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", "--sim", "--http-port", str(port),
-                                 "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT)
+                                 "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
+                                preexec_fn=die_with_parent)
     url = f"http://127.0.0.1:{port}/"
     deadline = time.monotonic() + 40
     while True:

@@ -11,6 +11,8 @@ import time
 from pathlib import Path
 
 import pytest
+
+from parolkit.client.launch import die_with_parent
 import serial
 
 from parolkit.board import BoardEmulator, PtyBoardServer
@@ -213,7 +215,8 @@ def test_board_sim_command_serves_a_plain_pyserial_script_and_obeys_ctl_and_sigt
     proc = subprocess.Popen(
         [sys.executable, "-m", "parolkit", "board-sim", "--link", str(link), "--speedup", "50",
          "--in2", "1"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
+        preexec_fn=die_with_parent)
     try:
         deadline = time.monotonic() + 10.0
         while not link.exists() and time.monotonic() < deadline:

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from parolkit.client.launch import die_with_parent
+
 from tests.conftest import REPO_ROOT, free_udp_port
 from tests.integration.test_controller_pty import TERMINAL, AckListener
 
@@ -108,6 +110,7 @@ def _run_ctl(args, timeout=15.0):
         [sys.executable, "-m", "parolkit", "serve", "--udp-port", str(port), "--ack-port", str(ack), *args],
         cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env={**__import__("os").environ, "PYTHONPATH": str(REPO_ROOT / "src")},
+        preexec_fn=die_with_parent,
     )
     return proc, port
 
@@ -180,7 +183,7 @@ def test_250_hz_runs_moves_and_headless_commander_is_the_same_program(tmp_path):
     args = [str(exe)] if exe.exists() else [sys.executable, "-c", "import sys; from parolkit.cli import serve_main; sys.exit(serve_main())"]
     proc = subprocess.Popen([*args, "--rate", "250", "--udp-port", str(port), "--ack-port", str(ack),
                              "--sim-speedup", "200"], cwd=REPO_ROOT, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=die_with_parent)
     acks = AckListener(ack)
     try:
         s = _wait_serial(port)
