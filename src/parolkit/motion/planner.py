@@ -257,7 +257,10 @@ def _fast_timed(
         return None
     dist_max = 0.0
     tv = 0.0
-    for q0, q1, k, v in zip(start.tolist(), target, ma.spd_list, ma.vmax_list):
+    for q0, q1, k, v, lo, hi in zip(start.tolist(), target, ma.spd_list, ma.vmax_list,
+                                    ma.round_lo_list, ma.round_hi_list):
+        if not lo <= q0 * k <= hi:
+            return None  # start outside the limits: the samples are checked one by one
         d = abs((q1 - q0) * k)  # steps
         if d > dist_max:
             dist_max = d
@@ -274,7 +277,7 @@ def _fast_timed(
     target_arr = np.array(target, dtype=float)
     return _monotonic_trajectory(move, kind, T, T / 3.0 if kind == "trap" else 0.0, start,
                                  target_arr, target_arr - start, model, ma, rate, move.tracking,
-                                 notes)
+                                 notes, start_inside=True)
 
 
 def _plan_joint_target(
@@ -328,7 +331,7 @@ def _monotonic_trajectory(
     move: object, kind: str, T: float, ta: float, start: np.ndarray, target: np.ndarray,
     delta: np.ndarray,
     model: RobotModel, ma: validate.ModelArrays, rate: float, tracking: Tracking,
-    notes: Sequence[str],
+    notes: Sequence[str], *, start_inside: bool = False,
 ) -> Trajectory:
     """The Trajectory of a synchronised poly / trap move (``kind``, duration ``T`` s,
     trapezoid acceleration time ``ta`` s), validated analytically.
@@ -339,8 +342,9 @@ def _monotonic_trajectory(
     * positions: every sample lies between the start and the target (up to a few ulps).  The
       target was checked against the safe limits (whose float steps are within 0.499 steps of
       the step limits) and if the start's float steps are within 0.4995 steps of them too,
-      every rounded sample is inside the step limits.  Otherwise the samples are checked one
-      by one (same error as before: the first offending sample).
+      every rounded sample is inside the step limits (``start_inside``: the caller has
+      checked that already).  Otherwise the samples are checked one by one (same error as
+      before: the first offending sample).
     * speeds and accelerations: the caller chose the duration from the closed-form peaks
       (quintic 1.875 |d| / T and 5.7735 |d| / T^2; trapezoid 1 / (T - ta) and
       1 / (ta (T - ta))) against every joint's maxima.  Sampled speeds cannot exceed the
@@ -361,7 +365,7 @@ def _monotonic_trajectory(
     m *= spd
     steps_f = np.dot(basis, m)  # the same in steps
     steps_f[-1] = target * spd
-    if not validate.inside(m[0].tolist(), ma.round_lo_list, ma.round_hi_list):
+    if not start_inside and not validate.inside(m[0].tolist(), ma.round_lo_list, ma.round_hi_list):
         validate.check_positions(move.name, t, np.rint(steps_f).astype(np.int64), model)
     np.rint(steps_f, out=steps_f)
     pos = steps_f.astype(np.int64)
