@@ -4,7 +4,9 @@ Four cases, each planned the parolkit way (``plan(move, start)``: timing, IK alo
 validation, steps) and the equivalent made with roboticstoolbox as the reference:
 
 * MoveJoint (3 s, 300 samples)            vs ``jtraj`` (the same 300 samples), bare and with
-  the same output (steps, steps/s, limit check)
+  the same output (steps, steps/s, limit check).  Bare ``jtraj`` computes floats only (no
+  steps, no limit check): that row is shown for information; the >= 10x comparison for
+  MoveJoint is the same-output row
 * MoveCart, a 200 mm straight line         vs ``ctraj`` + ``ikine_LM`` per sample
 * a 3-segment blended path (10 mm corners) vs ``mstraj`` (blended via points) + ``ikine_LM``
 * a 360 deg circle (r = 30 mm)             vs circle poses + ``ikine_LM`` per sample
@@ -153,8 +155,10 @@ def main() -> int:
         goal = targets.get(name)
         if goal is not None:
             print(f"target {name}: < {goal:g} ms -> {'met' if ours < goal else 'NOT met'} ({ours:.3f} ms)")
-    slow = [name for name, n, ours, ref in rows if ref / ours < 10]
-    print("all ratios >= 10x" if not slow else f"ratio below 10x: {', '.join(slow)}")
+    info_only = {"MoveJoint 3 s"}  # bare jtraj: not the same output (see the docstring)
+    slow = [name for name, n, ours, ref in rows if name not in info_only and ref / ours < 10]
+    print("(ratio of 'MoveJoint 3 s' is against bare jtraj, floats only: for information)")
+    print("all same-output ratios >= 10x" if not slow else f"ratio below 10x: {', '.join(slow)}")
     return 0
 
 
