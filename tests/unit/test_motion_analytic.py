@@ -138,3 +138,15 @@ def test_move_already_at_its_target_with_a_duration_takes_exactly_that_long():
         tr = plan(JointMove(start, duration_s=duration), start)
         assert tr.duration == pytest.approx(duration, abs=0.01 - 1e-9)
         assert tr.duration >= duration - 1e-9 and np.all(tr.speeds == 0)
+
+
+def test_long_moves_are_planned_without_the_basis_cache_and_end_on_target():
+    from parolkit.motion.profiles import BASIS_CACHE_MAX_SAMPLES
+
+    start = np.array(PAROL6.standby_deg, dtype=float)
+    target = [60, -80, 170, 10, 5, 170]
+    duration = 1.5 * BASIS_CACHE_MAX_SAMPLES / 100.0
+    tr = plan(JointMove(target, duration_s=duration, profile="trap"), start)
+    assert len(tr) == round(duration * 100) and tr.duration == pytest.approx(duration)
+    assert np.array_equal(tr.positions[-1], np.rint(np.array(target) * SPD).astype(np.int64))
+    assert not tr.t.flags.writeable and not tr.commands.flags.writeable

@@ -376,9 +376,18 @@ def _monotonic_trajectory(
                                start, model, q)
 
 
-@lru_cache(maxsize=128)
 def _commands(n: int, value: int) -> np.ndarray:
-    """(n,) read-only uint8 array of the board command ``value`` (shared between plans)."""
+    """(n,) read-only uint8 array of the board command ``value`` (shared between plans of up
+    to 4096 samples: bounded cache memory)."""
+    if n <= 4096:
+        return _cached_commands(n, value)
+    out = np.full(n, value, dtype=np.uint8)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=64)
+def _cached_commands(n: int, value: int) -> np.ndarray:
     out = np.full(n, value, dtype=np.uint8)
     out.setflags(write=False)
     return out

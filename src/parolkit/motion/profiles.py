@@ -95,7 +95,11 @@ class ScalarProfile:
         return _eval_piecewise_jerk(t, self)
 
 
-@lru_cache(maxsize=256)
+#: Moves with at most this many samples have their sampled basis cached (bounded memory:
+#: 64 entries of at most 4 x 8 bytes x 2000 samples).
+BASIS_CACHE_MAX_SAMPLES = 2000
+
+
 def sampled_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Tick times and the unit profile sampled at them, cached and read-only.
 
@@ -111,7 +115,19 @@ def sampled_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.nd
 
     (A (N, 2) @ (2, 6) product is several times faster than broadcasting an (N,) column
     against a (6,) row: numpy's broadcast inner loop would run only 6 elements long.)
+    Cached for up to :data:`BASIS_CACHE_MAX_SAMPLES` samples.
     """
+    if T * rate_hz <= BASIS_CACHE_MAX_SAMPLES:
+        return _cached_basis(kind, T, ta, rate_hz)
+    return _compute_basis(kind, T, ta, rate_hz)
+
+
+@lru_cache(maxsize=64)
+def _cached_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return _compute_basis(kind, T, ta, rate_hz)
+
+
+def _compute_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     n = max(1, int(math.ceil(T * rate_hz - 1e-6)))
     t = np.arange(1, n + 1, dtype=float) / rate_hz
     s, sd, _ = ScalarProfile(kind, T, ta)(t)
