@@ -261,10 +261,12 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
     ``seeds``: (6,) or (N, 6) radians.  Returns (q (N, 6) rad, ok (N,), branch index (N,)
     into ``_BRANCHES``, -1 where no solution).
 
-    A vectorised branch-and-bound: arms are tried front/up first; each later arm works only on
-    the samples where it is still in range (J1, reach, J3, J2) AND its partial joint distance
-    (J1, J3, J2 terms) is below the best complete solution found so far.  With a good seed
-    nearly every sample is settled by its first valid arm, so the other branches cost little.
+    A vectorised branch-and-bound: per sample the shoulder and elbow nearer the seed are tried
+    first; each later arm works only on the samples where it is still in range (J1, reach, J3,
+    J2) AND its partial joint distance (J1, J3, J2 terms) does not exceed the best complete
+    solution found so far.  With a good seed nearly every sample is settled by its first arm,
+    so the other branches cost little.  Equal distances go to the lower branch index, so the
+    result does not depend on the order in which the arms were tried.
     """
     if not all(_NARROW[:5]) or _NARROW[5]:  # pragma: no cover - PAROL6 ranges
         raise NotImplementedError("vectorised IK assumes J1..J5 narrower than 360 deg and J6 a full turn")
