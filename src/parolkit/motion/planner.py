@@ -484,7 +484,7 @@ def _percent_profile(
     # unit-path limits: the leading joint's mapped values, capped so every joint stays inside
     v_s = v_lead / d
     a_s = a_lead / d
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):  # a sub-normal distance caps at inf, as intended
         v_caps = np.where(moving, vmax / np.where(moving, dist, 1.0), np.inf)
         a_caps = np.where(moving, amax / np.where(moving, dist, 1.0), np.inf)
     jv = int(np.argmin(v_caps))
