@@ -40,16 +40,10 @@ def _joints_rad(joints_deg: object, name: str = "joints_deg"):
     return tuple(float(v) * _DEG for v in arr)
 
 
-def _flange_rad(q1, q2, q3, q4, q5, q6):
-    """Flange (= wrist centre) rotation (9 floats, row-major) and position (metres)."""
-    c1, s1 = math.cos(q1), math.sin(q1)
-    c2, s2 = math.cos(q2), math.sin(q2)
-    c3, s3 = math.cos(q3), math.sin(q3)
-    psi = q2 - q3
-    cp, sp = math.cos(psi), math.sin(psi)
-    c4, s4 = math.cos(q4), math.sin(q4)
-    c5, s5 = math.cos(q5), math.sin(q5)
-    c6, s6 = math.cos(q6), math.sin(q6)
+def _flange_from_trig(c1, s1, c2, s2, c3, s3, cp, sp, c4, s4, c5, s5, c6, s6):
+    """The closed-form flange pose from the joints' cosines/sines (``cp``, ``sp``: of
+    q2 - q3).  Plain arithmetic, so it serves floats (single pose) and numpy arrays (batch)
+    alike: rotation (9 entries, row-major) and position (3 entries, metres)."""
     # W = Rz(-q4) Ry(-q5) Rz(-q6)
     c4c5 = c4 * c5
     s4c5 = s4 * c5
@@ -80,6 +74,16 @@ def _flange_rad(q1, q2, q3, q4, q5, q6):
     r = A1 + u * c2 - v * s2
     pos = (r * c1, r * s1, D1 - (u * s2 + v * c2))
     return rot, pos
+
+
+def _flange_rad(q1, q2, q3, q4, q5, q6):
+    """Flange (= wrist centre) rotation (9 floats, row-major) and position (metres)."""
+    psi = q2 - q3
+    return _flange_from_trig(
+        math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2), math.cos(q3), math.sin(q3),
+        math.cos(psi), math.sin(psi), math.cos(q4), math.sin(q4), math.cos(q5), math.sin(q5),
+        math.cos(q6), math.sin(q6),
+    )
 
 
 def _tcp_rad(q, tool: Tool):
@@ -135,33 +139,7 @@ def _flange_batch(q_t: np.ndarray):
     s1, s2, s3, s4, s5, s6 = s
     cp = c2 * c3 + s2 * s3  # cos(q2 - q3)
     sp = s2 * c3 - c2 * s3
-    c4c5 = c4 * c5
-    s4c5 = s4 * c5
-    w00 = c4c5 * c6 - s4 * s6
-    w01 = c4c5 * s6 + s4 * c6
-    w02 = -c4 * s5
-    w10 = -s4c5 * c6 - c4 * s6
-    w11 = c4 * c6 - s4c5 * s6
-    w12 = s4 * s5
-    w20 = s5 * c6
-    w21 = s5 * s6
-    w22 = c5
-    a00 = cp * w00 + sp * w20
-    a01 = cp * w01 + sp * w21
-    a02 = cp * w02 + sp * w22
-    a20 = cp * w20 - sp * w00
-    a21 = cp * w21 - sp * w01
-    a22 = cp * w22 - sp * w02
-    rot = (
-        c1 * a00 - s1 * w10, c1 * a01 - s1 * w11, c1 * a02 - s1 * w12,
-        s1 * a00 + c1 * w10, s1 * a01 + c1 * w11, s1 * a02 + c1 * w12,
-        a20, a21, a22,
-    )
-    u = A2 + A3 * c3 + D4 * s3
-    v = D4 * c3 - A3 * s3
-    r = A1 + u * c2 - v * s2
-    pos = (r * c1, r * s1, D1 - (u * s2 + v * c2))
-    return rot, pos
+    return _flange_from_trig(c1, s1, c2, s2, c3, s3, cp, sp, c4, s4, c5, s5, c6, s6)
 
 
 def _tcp_batch(q_t: np.ndarray, tool: Tool):
