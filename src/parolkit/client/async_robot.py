@@ -40,16 +40,14 @@ from parolkit.client.core import (
     CommandResult,
     RobotCommands,
     RobotStatus,
+    bind_address,
+    check_port,
     parse_query_reply,
 )
 from parolkit.client.errors import CommandTimeout, ControllerUnreachable, RobotError
 from parolkit.errors import ParolkitValueError
 
 __all__ = ["AsyncRobot", "AsyncCommandHandle", "AsyncStatusSubscription"]
-
-
-def _bind_address(host: str) -> str:
-    return "127.0.0.1" if host in ("127.0.0.1", "localhost") else "0.0.0.0"
 
 
 class _Protocol(asyncio.DatagramProtocol):
@@ -131,7 +129,7 @@ class AsyncStatusSubscription:
         loop = asyncio.get_running_loop()
         self._transport, _ = await loop.create_datagram_endpoint(
             lambda: _StreamProtocol(self._queue),
-            local_addr=(_bind_address(self._robot.host), 0), family=socket.AF_INET)
+            local_addr=(bind_address(self._robot.host), 0), family=socket.AF_INET)
         self.port = self._transport.get_extra_info("sockname")[1]
         self._robot._send(wire.build_subscribe(self.port, self._every_n))
         self._renewer = asyncio.ensure_future(self._renew_loop())
@@ -211,9 +209,8 @@ class AsyncRobot(RobotCommands):
                  timeout: float = DEFAULT_TIMEOUT_S) -> None:
         if not isinstance(host, str) or not host:
             raise ParolkitValueError(f"host must be a host name or address, got {host!r}")
-        for value, name, low in ((port, "port", 1), (ack_port, "ack_port", 0)):
-            if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 65535:
-                raise ParolkitValueError(f"{name} must be an integer in {low}..65535, got {value!r}")
+        check_port(port, "port", 1)
+        check_port(ack_port, "ack_port", 0)
         if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or timeout <= 0:
             raise ParolkitValueError(f"timeout must be a number of seconds > 0, got {timeout!r}")
         self.host = host
@@ -252,7 +249,7 @@ class AsyncRobot(RobotCommands):
             try:
                 transport, _ = await loop.create_datagram_endpoint(
                     lambda: _Protocol(self),
-                    local_addr=(_bind_address(self.host), self._requested_ack_port),
+                    local_addr=(bind_address(self.host), self._requested_ack_port),
                     family=socket.AF_INET)
             except OSError as exc:
                 raise RobotError(

@@ -65,6 +65,19 @@ DEFAULT_TIMEOUT_S = 2.0
 SUBSCRIBE_RENEW_S = 3.0
 
 
+def bind_address(host: str) -> str:
+    """Local address for a client socket talking to ``host``: loopback for a local
+    controller, every interface otherwise."""
+    return "127.0.0.1" if host in ("127.0.0.1", "localhost") else "0.0.0.0"
+
+
+def check_port(port: Any, name: str, low: int) -> int:
+    """``port`` if it is an int in ``low``..65535, else ParolkitValueError naming ``name``."""
+    if isinstance(port, bool) or not isinstance(port, int) or not low <= port <= 65535:
+        raise ParolkitValueError(f"{name} must be an integer in {low}..65535, got {port!r}")
+    return port
+
+
 class AckStatus(str, Enum):
     """Acknowledgement status of a command (``ACK|ID|STATUS|details``)."""
 

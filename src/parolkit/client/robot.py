@@ -40,22 +40,14 @@ from parolkit.client.core import (
     CommandResult,
     RobotCommands,
     RobotStatus,
+    bind_address,
+    check_port,
     parse_query_reply,
 )
 from parolkit.client.errors import CommandTimeout, ControllerUnreachable, RobotError
 from parolkit.errors import ParolkitValueError
 
 __all__ = ["Robot", "CommandHandle", "StatusSubscription"]
-
-
-def _bind_address(host: str) -> str:
-    return "127.0.0.1" if host in ("127.0.0.1", "localhost") else "0.0.0.0"
-
-
-def _check_port(port: Any, name: str, low: int) -> int:
-    if isinstance(port, bool) or not isinstance(port, int) or not low <= port <= 65535:
-        raise ParolkitValueError(f"{name} must be an integer in {low}..65535, got {port!r}")
-    return port
 
 
 class CommandHandle:
@@ -104,7 +96,7 @@ class StatusSubscription:
         self._every_n = every_n
         self._timeout = timeout
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self._sock.bind((_bind_address(robot.host), 0))
+        self._sock.bind((bind_address(robot.host), 0))
         self.port: int = self._sock.getsockname()[1]
         self._closed = threading.Event()
         self._last_renew = 0.0
@@ -202,14 +194,14 @@ class Robot(RobotCommands):
         if not isinstance(host, str) or not host:
             raise ParolkitValueError(f"host must be a host name or address, got {host!r}")
         self.host = host
-        self.port = _check_port(port, "port", 1)
+        self.port = check_port(port, "port", 1)
         if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or timeout <= 0:
             raise ParolkitValueError(f"timeout must be a number of seconds > 0, got {timeout!r}")
         self.timeout = float(timeout)
         self._addr = (host, self.port)
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
-            self._sock.bind((_bind_address(host), _check_port(ack_port, "ack_port", 0)))
+            self._sock.bind((bind_address(host), check_port(ack_port, "ack_port", 0)))
         except OSError as exc:
             self._sock.close()
             raise RobotError(
