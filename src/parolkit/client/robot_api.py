@@ -1072,17 +1072,23 @@ def _query(request: str, tag: str) -> Optional[str]:
     return None
 
 
-def get_robot_pose_matrix() -> Optional[List[List[float]]]:
-    """The 4x4 tool pose as a list of 4 rows (translation in METRES), or None."""
-    payload = _query("GET_POSE", "POSE")
+def _query_values(request: str, tag: str, count: int, as_int: bool = False) -> Optional[list]:
+    """Query and parse ``count`` comma-separated numbers; None (message on stderr) when there
+    is no reply or the reply is malformed."""
+    payload = _query(request, tag)
     if payload is None:
         return None
     try:
-        m = parse_numbers(payload, 16, "POSE")
+        return _ints(payload, count, tag) if as_int else parse_numbers(payload, count, tag)
     except ValueError as exc:
         print(f"robot_api: {exc}", file=sys.stderr)
         return None
-    return [m[0:4], m[4:8], m[8:12], m[12:16]]
+
+
+def get_robot_pose_matrix() -> Optional[List[List[float]]]:
+    """The 4x4 tool pose as a list of 4 rows (translation in METRES), or None."""
+    m = _query_values("GET_POSE", "POSE", 16)
+    return None if m is None else [m[0:4], m[4:8], m[8:12], m[12:16]]
 
 
 def get_robot_pose() -> Optional[List[float]]:
@@ -1093,26 +1099,12 @@ def get_robot_pose() -> Optional[List[float]]:
 
 def get_robot_joint_angles() -> Optional[List[float]]:
     """[J1..J6] in degrees, or None."""
-    payload = _query("GET_ANGLES", "ANGLES")
-    if payload is None:
-        return None
-    try:
-        return parse_numbers(payload, 6, "ANGLES")
-    except ValueError as exc:
-        print(f"robot_api: {exc}", file=sys.stderr)
-        return None
+    return _query_values("GET_ANGLES", "ANGLES", 6)
 
 
 def get_robot_joint_speeds() -> Optional[List[float]]:
     """[J1..J6] joint speeds in steps/s, or None."""
-    payload = _query("GET_SPEEDS", "SPEEDS")
-    if payload is None:
-        return None
-    try:
-        return parse_numbers(payload, 6, "SPEEDS")
-    except ValueError as exc:
-        print(f"robot_api: {exc}", file=sys.stderr)
-        return None
+    return _query_values("GET_SPEEDS", "SPEEDS", 6)
 
 
 def _ints(payload: str, count: int, what: str) -> List[int]:
@@ -1122,13 +1114,8 @@ def _ints(payload: str, count: int, what: str) -> List[int]:
 
 def get_robot_io(verbose: bool = False) -> Optional[List[int]]:
     """[IN1, IN2, OUT1, OUT2, ESTOP] as 0/1 (ESTOP 0 = pressed), or None; ``verbose`` prints."""
-    payload = _query("GET_IO", "IO")
-    if payload is None:
-        return None
-    try:
-        io = _ints(payload, 5, "IO")
-    except ValueError as exc:
-        print(f"robot_api: {exc}", file=sys.stderr)
+    io = _query_values("GET_IO", "IO", 5, as_int=True)
+    if io is None:
         return None
     if verbose:
         print("--- I/O status ---")
@@ -1145,13 +1132,8 @@ def get_electric_gripper_status(verbose: bool = False) -> Optional[List[int]]:
     1 object while closing, 2 object while opening, 3 at position), 0x08 temperature error,
     0x04 timeout error, 0x02 E-stop/error, 0x01 calibrated.  ``verbose`` prints them.
     """
-    payload = _query("GET_GRIPPER", "GRIPPER")
-    if payload is None:
-        return None
-    try:
-        g = _ints(payload, 6, "GRIPPER")
-    except ValueError as exc:
-        print(f"robot_api: {exc}", file=sys.stderr)
+    g = _query_values("GET_GRIPPER", "GRIPPER", 6, as_int=True)
+    if g is None:
         return None
     if verbose:
         s = g[4]
