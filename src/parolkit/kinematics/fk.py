@@ -86,9 +86,9 @@ def _flange_rad(q1, q2, q3, q4, q5, q6):
     )
 
 
-def _tcp_rad(q, tool: Tool):
-    """TCP rotation (9 floats) and position (metres) for joint radians ``q``."""
-    r, p = _flange_rad(*q)
+def _apply_tool(r, p, tool: Tool):
+    """Flange rotation ``r`` (9 entries) and position ``p`` (3) -> TCP rotation and position.
+    Plain arithmetic: the entries may be floats (single pose) or numpy arrays (batch)."""
     tx, ty, tz = tool._t
     pos = (
         p[0] + r[0] * tx + r[1] * ty + r[2] * tz,
@@ -107,6 +107,12 @@ def _tcp_rad(q, tool: Tool):
         r[6] * t[2] + r[7] * t[5] + r[8] * t[8],
     )
     return rot, pos
+
+
+def _tcp_rad(q, tool: Tool):
+    """TCP rotation (9 floats) and position (metres) for joint radians ``q``."""
+    r, p = _flange_rad(*q)
+    return _apply_tool(r, p, tool)
 
 
 def fk(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray:
@@ -144,20 +150,7 @@ def _flange_batch(q_t: np.ndarray):
 
 def _tcp_batch(q_t: np.ndarray, tool: Tool):
     r, p = _flange_batch(q_t)
-    tx, ty, tz = tool._t
-    pos = (
-        p[0] + r[0] * tx + r[1] * ty + r[2] * tz,
-        p[1] + r[3] * tx + r[4] * ty + r[5] * tz,
-        p[2] + r[6] * tx + r[7] * ty + r[8] * tz,
-    )
-    if tool._identity_rot:
-        return r, pos
-    t = tool._rot
-    rot = tuple(
-        r[3 * i] * t[j] + r[3 * i + 1] * t[3 + j] + r[3 * i + 2] * t[6 + j]
-        for i in range(3) for j in range(3)
-    )
-    return rot, pos
+    return _apply_tool(r, p, tool)
 
 
 def fk_batch(joints_deg: object, tool: "str | Tool | None" = None, as_matrix: bool = False) -> np.ndarray:
