@@ -2,9 +2,10 @@
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
-# Re-install whenever pyproject.toml changes.
+# Re-install whenever the package metadata or a compiled kernel's C source changes.
 STAMP_RUN  := $(VENV)/.stamp-run
 STAMP_DEV  := $(VENV)/.stamp-dev
+INSTALL_DEPS := pyproject.toml setup.py $(wildcard src/parolkit/*/*.c)
 
 .PHONY: run test test-fast bench screenshot clean venv
 
@@ -12,11 +13,11 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 
-$(STAMP_RUN): pyproject.toml | $(PY)
+$(STAMP_RUN): $(INSTALL_DEPS) | $(PY)
 	$(PY) -m pip install -q -e .
 	touch $@
 
-$(STAMP_DEV): pyproject.toml | $(PY)
+$(STAMP_DEV): $(INSTALL_DEPS) | $(PY)
 	$(PY) -m pip install -q -e '.[dev]'
 	touch $(STAMP_RUN) $@
 
@@ -46,3 +47,4 @@ bench: $(STAMP_DEV)
 
 clean:
 	rm -rf $(VENV) build *.egg-info src/*.egg-info .pytest_cache
+	find src -name '*.so' -delete

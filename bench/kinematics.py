@@ -148,6 +148,15 @@ def main(argv: list[str] | None = None) -> int:
     print(f"ik single, warm seed     {_stats(ik_warm_us)}")
     ik_cold_us = _latency(ik, [(p,) for p in p_lists])
     print(f"ik single, cold (standby){_stats(ik_cold_us)}")
+    import importlib
+
+    from parolkit import _native
+
+    ikmod = importlib.import_module("parolkit.kinematics.ik")
+    print(f"(ik kernel: {_native.status()['parolkit.kinematics._cik']})")
+    dflt = get_tool(None)
+    ref_warm_us = _latency(lambda p, q: ikmod._ik_reference(p, q, dflt, None), list(zip(p_lists, q_lists)))
+    print(f"ik pure-Python reference {_stats(ref_warm_us)}   (warm; what runs without a C compiler)")
 
     rounds = _best_round_mean(
         {"ref": _trig_kernel, "fk": fk, "ik warm": ik, "ik cold": ik},

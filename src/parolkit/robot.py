@@ -261,7 +261,7 @@ class RobotModel:
 def _check_percent(value: float, name: str) -> float:
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParolkitValueError(f"{name} must be a number in 0..100, got {value!r}") from None
     if not math.isfinite(v) or not 0.0 <= v <= 100.0:
         raise ParolkitValueError(f"{name} must be in 0..100 %, got {value!r}")
@@ -288,7 +288,7 @@ def as_joint_array(values: object, name: str = "joints", *, allow_batch: bool = 
     """
     try:
         arr = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParolkitValueError(f"{name} must be numbers, got {values!r}") from None
     if arr.ndim == 1 and arr.shape[0] == NUM_JOINTS:
         pass

@@ -18,7 +18,10 @@ the seed's value and J6 takes the rest; on the shoulder singularity (wrist centr
 axis) J1 keeps the seed's value.  Unreachable or out-of-limit targets raise :class:`IKError`
 with the reason (out of reach by N mm; Jn would be X deg > limit).
 
-All computations of one pose run in plain Python floats (no numpy per call).
+All computations of one pose run in plain floats (no numpy per call).  :func:`ik` runs the
+compiled copy of this file's hot path (``_cik.c``, the same steps in the same floating-point
+order) when it is built; this file is the reference, used for everything else and whenever the
+kernel is missing (see :mod:`parolkit._native`).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import math
 
 import numpy as np
 
+from parolkit import _native
 from parolkit.errors import ParolkitValueError
 from parolkit.kinematics.fk import _joints_rad
 from parolkit.kinematics.model import (
@@ -84,6 +88,23 @@ _INF = math.inf
 _PHI3_IN_RANGE = PHI3 + TWO_PI * math.ceil((LIM_LO[2] - PHI3) / TWO_PI)
 _INV_2PI = 1.0 / TWO_PI
 _ELBOWS = ("up", "down")
+_SHOULDER_CODE = {None: -1, "front": 0, "back": 1}
+_ELBOW_CODE = {None: -1, "up": 0, "down": 1}
+_FLIP_CODE = {None: -1, False: 0, True: 1}
+
+
+def _native_constants() -> tuple[float, ...]:
+    """Every constant the compiled kernel uses, in the order ``_cik.c`` reads them."""
+    return (A1, A2, A3, D1, D4, _K0, _INV_2A2L, PHI3, _PHI3_IN_RANGE, _INV_2PI, _HI6_LOW_TWIN,
+            WRIST_SINGULAR_EPS, SHOULDER_SINGULAR_EPS, _REACH_EPS, _DEG, _RAD,
+            *LIM_LO, *LIM_HI, *STANDBY_RAD, LIMIT_TOL, *WEIGHTS)
+
+
+_cik = _native.load("parolkit.kinematics._cik")
+if _cik is not None:
+    _cik.configure(_native_constants())
+#: True when :func:`ik` runs the compiled kernel.
+NATIVE = _cik is not None
 
 
 def _clamp(x: float, lo: float, hi: float) -> float:
@@ -419,7 +440,7 @@ def _target_slow(pose: object):
     """Validate an unusual pose argument with a precise error, then convert it."""
     try:
         arr = np.asarray(pose, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         arr = None
     if arr is not None and arr.shape == (4, 4):
         return _target_matrix(arr)
@@ -475,7 +496,28 @@ def ik(pose: object, seed_deg: object = None, tool: "str | Tool | None" = None,
 
     Raises :class:`IKError` (out of reach, joint limits, malformed input).
     """
-    rf, pf = _target_flange(pose, _DEFAULT_TOOL if tool is None else get_tool(tool))
+    tool_obj = _DEFAULT_TOOL if tool is None else get_tool(tool)
+    if _cik is not None:
+        if config is None:
+            sh = el = fl = -1
+        else:
+            br = _branch(config)
+            sh, el, fl = _SHOULDER_CODE[br.shoulder], _ELBOW_CODE[br.elbow], _FLIP_CODE[br.wrist_flip]
+        if type(pose) is np.ndarray and pose.shape == (6,):
+            pose = pose.tolist()
+        if type(seed_deg) is np.ndarray and seed_deg.shape == (6,):
+            seed_deg = seed_deg.tolist()
+        out = np.empty(6)
+        if _cik.ik(pose, seed_deg, tool_obj._native, sh, el, fl, out) == 1:
+            return out
+        # 0 (no solution: diagnose() says why) or -1 (input the kernel does not take)
+    return _ik_reference(pose, seed_deg, tool_obj, config)
+
+
+def _ik_reference(pose: object, seed_deg: object, tool_obj: Tool, config: "Branch | str | None") -> np.ndarray:
+    """:func:`ik` in pure Python (the reference of the compiled kernel; also its fallback,
+    and the path that explains failures and malformed input)."""
+    rf, pf = _target_flange(pose, tool_obj)
     seed = STANDBY_RAD if seed_deg is None else _seed(seed_deg)
     if config is None:
         br = None

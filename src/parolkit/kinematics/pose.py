@@ -75,7 +75,7 @@ def as_pose_array(pose: object, name: str = "pose", *, allow_batch: bool = True)
     """Validate ``[x, y, z mm, A, B, C deg]`` (or an ``(N, 6)`` batch) as a float64 array."""
     try:
         arr = np.asarray(pose, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParolkitValueError(f"{name} must be numbers [x, y, z mm, A, B, C deg], got {pose!r}") from None
     if not (arr.shape == (6,) or (allow_batch and arr.ndim == 2 and arr.shape[1] == 6)):
         want = "[x, y, z, A, B, C] or an (N, 6) array" if allow_batch else "[x, y, z, A, B, C]"
@@ -96,7 +96,7 @@ def as_matrix_array(matrix: object, name: str = "matrix", *, allow_batch: bool =
     """
     try:
         arr = np.asarray(matrix, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParolkitValueError(f"{name} must be a 4x4 matrix of numbers") from None
     if not (arr.shape == (4, 4) or (allow_batch and arr.ndim == 3 and arr.shape[1:] == (4, 4))):
         raise ParolkitValueError(f"{name} must be a 4x4 matrix{' or (N, 4, 4)' if allow_batch else ''}, "

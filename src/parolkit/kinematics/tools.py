@@ -42,6 +42,7 @@ class Tool:
     _rot: tuple[float, ...] = field(init=False, repr=False)
     _t: tuple[float, float, float] = field(init=False, repr=False)
     _identity_rot: bool = field(init=False, repr=False)
+    _native: tuple[float, ...] = field(init=False, repr=False)  # for the compiled IK kernel
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -53,6 +54,7 @@ class Tool:
         object.__setattr__(self, "_rot", rot)
         object.__setattr__(self, "_t", (float(m[0, 3]), float(m[1, 3]), float(m[2, 3])))
         object.__setattr__(self, "_identity_rot", bool(np.array_equal(m[:3, :3], np.eye(3))))
+        object.__setattr__(self, "_native", (1.0 if self._identity_rot else 0.0, *rot, *self._t))
 
     @classmethod
     def from_pose(cls, name: str, pose: object) -> "Tool":

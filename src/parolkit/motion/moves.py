@@ -147,7 +147,7 @@ def _num(value: object, name: str) -> float:
         raise ParolkitValueError(f"{name} must be a number, got {value!r}")
     try:
         v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParolkitValueError(f"{name} must be a number, got {value!r}") from None
     if not math.isfinite(v):
         raise ParolkitValueError(f"{name} must be a finite number, got {value!r}")

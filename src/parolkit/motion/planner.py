@@ -59,7 +59,7 @@ _TOL = 1e-9
 def _rate(rate_hz: float) -> float:
     try:
         r = float(rate_hz)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParolkitValueError(f"rate_hz must be a number in 1..1000 Hz, got {rate_hz!r}") from None
     if not math.isfinite(r) or not 1.0 <= r <= 1000.0:
         raise ParolkitValueError(f"rate_hz must be in 1..1000 Hz, got {rate_hz!r}")
@@ -90,7 +90,7 @@ def plan(
     rate = _rate(rate_hz)
     try:
         start = np.array(start_deg, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         start = np.zeros(0)
     if start.shape != (6,) or not all(map(math.isfinite, start.tolist())):
         raise ParolkitValueError(f"start_deg must be 6 finite joint angles (deg), got {start_deg!r}")

@@ -1,0 +1,20 @@
+"""Build of the optional compiled kernels (everything else is configured in pyproject.toml).
+
+The kernels are speed-ups only: each has a pure-Python reference in the same package that runs
+when the extension is missing (``optional=True``: no C compiler, e.g. a Windows machine
+without build tools, still installs parolkit) or when ``PAROLKIT_PURE_PYTHON=1`` is set.
+"""
+
+import sys
+
+from setuptools import Extension, setup
+
+# Same floating-point order as the Python reference: no fused multiply-add contraction.
+_ARGS = [] if sys.platform == "win32" else ["-O2", "-ffp-contract=off", "-fno-fast-math"]
+
+setup(
+    ext_modules=[
+        Extension("parolkit.kinematics._cik", ["src/parolkit/kinematics/_cik.c"],
+                  extra_compile_args=_ARGS, optional=True),
+    ],
+)
