@@ -14,11 +14,15 @@ validation, steps) and the equivalent made with roboticstoolbox as the reference
 (``ikine_LM`` here is roboticstoolbox's C++ ``ik_LM``, its fastest numerical solver.)
 
 The reference computes the same number of samples as our plan.  Figures are medians of
-several runs of CPU time (``time.process_time``: the machine may be shared, wall time would
-measure the neighbours); the ratio is reference / ours (how many times faster parolkit is).
+CPU time (``time.process_time``: the machine may be shared, wall time would measure the
+neighbours) per call, each sample a loop of calls long enough (>= ~2 ms) for the clock's own
+cost not to count, parolkit and the reference measured in alternating rounds so both see
+the same load; the ratio is reference / ours (how many times faster parolkit is).
+The script also says whether the compiled kernels (parolkit._native) or the pure-Python
+references ran.
 Targets from the issue: MoveJoint < 1 ms, 200 mm MoveCart < 5 ms, every ratio >= 10.
 
-Usage: ``python bench/planning.py [--repeat N]``
+Usage: ``python bench/planning.py [--rounds N] [--rounds-slow N]``
 """
 
 from __future__ import annotations
@@ -30,14 +34,27 @@ import time
 import numpy as np
 
 
-def _median_ms(fn, repeat: int) -> float:
-    fn()  # warm-up (imports, caches)
-    times = []
-    for _ in range(repeat):
+def _compare_ms(ours, ref, rounds: int) -> tuple[float, float]:
+    """Median CPU ms per call of ``ours`` and ``ref``, measured in ``rounds`` alternating
+    rounds; each round times a loop of calls lasting about 2 ms or more (one call if longer)."""
+    ours()  # warm-up (imports, caches)
+    ref()
+
+    def calls_for(fn) -> int:
         t0 = time.process_time()
         fn()
-        times.append(time.process_time() - t0)
-    return statistics.median(times) * 1e3
+        one = max(time.process_time() - t0, 1e-7)
+        return max(1, min(1000, int(2e-3 / one)))
+
+    k_ours, k_ref = calls_for(ours), calls_for(ref)
+    a, b = [], []
+    for _ in range(rounds):
+        for fn, k, out in ((ours, k_ours, a), (ref, k_ref, b)):
+            t0 = time.process_time()
+            for _ in range(k):
+                fn()
+            out.append((time.process_time() - t0) / k)
+    return statistics.median(a) * 1e3, statistics.median(b) * 1e3
 
 
 def _rtb_robot():
@@ -62,8 +79,9 @@ def _ikine_path(robot, poses, q0) -> np.ndarray:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=15, help="runs per figure for parolkit")
-    ap.add_argument("--repeat-ref", type=int, default=3, help="runs per figure for the reference")
+    ap.add_argument("--rounds", type=int, default=15, help="alternating rounds per fast case")
+    ap.add_argument("--rounds-slow", type=int, default=3,
+                    help="rounds per case whose reference takes a second (IK per sample)")
     args = ap.parse_args()
 
     import roboticstoolbox as rtb
@@ -87,8 +105,8 @@ def main() -> int:
     target = np.array([40.0, -80.0, 160.0, 30.0, 10.0, 120.0])
     mj = JointMove(target, duration_s=3.0)
     n = len(plan(mj, start))
-    ours = _median_ms(lambda: plan(mj, start), args.repeat * 10)
-    ref = _median_ms(lambda: rtb.jtraj(q0, np.radians(target), n), args.repeat * 10)
+    ours, ref = _compare_ms(lambda: plan(mj, start), lambda: rtb.jtraj(q0, np.radians(target), n),
+                            args.rounds * 2)
     rows.append(("MoveJoint 3 s", n, ours, ref))
     lim = PAROL6.limits_steps_array
     spd = PAROL6.steps_per_deg
@@ -101,8 +119,8 @@ def main() -> int:
         ok = np.all((pos >= lim[:, 0]) & (pos <= lim[:, 1])) and np.all(np.abs(vel) <= PAROL6.max_speed_steps_s)
         return pos, vel, ok
 
-    ref2 = _median_ms(ref_joint_equivalent, args.repeat * 10)
-    rows.append(("MoveJoint (+steps)", n, ours, ref2))
+    ours2, ref2 = _compare_ms(lambda: plan(mj, start), ref_joint_equivalent, args.rounds * 2)
+    rows.append(("MoveJoint (+steps)", n, ours2, ref2))
 
     # 2. MoveCart 200 mm
     mc = CartMove([x + 200.0, y, z - 20.0, A, B, C])
@@ -110,8 +128,8 @@ def main() -> int:
     n = len(tr)
     T0 = SE3(kin.fk_matrix(start), check=False)
     T1 = SE3(kin.pose_to_matrix(mc.pose), check=False)
-    ours = _median_ms(lambda: plan(mc, start), args.repeat)
-    ref = _median_ms(lambda: _ikine_path(robot, rtb.ctraj(T0, T1, n), q0), args.repeat_ref)
+    ours, ref = _compare_ms(lambda: plan(mc, start), lambda: _ikine_path(robot, rtb.ctraj(T0, T1, n), q0),
+                            args.rounds_slow)
     rows.append(("MoveCart 200 mm", n, ours, ref))
 
     # 3. three blended segments
@@ -127,8 +145,7 @@ def main() -> int:
         poses = [SE3.Rt(R0, p, check=False) for p in pts]
         return _ikine_path(robot, poses, q0)
 
-    ours = _median_ms(lambda: plan(bm, start), args.repeat)
-    ref = _median_ms(ref_blend, args.repeat_ref)
+    ours, ref = _compare_ms(lambda: plan(bm, start), ref_blend, args.rounds_slow)
     rows.append(("Blend 3 segments", n, ours, ref))
 
     # 4. full circle
@@ -142,11 +159,13 @@ def main() -> int:
         poses = [SE3.Rt(R0, p * 1e-3, check=False) for p in pts]
         return _ikine_path(robot, poses, q0)
 
-    ours = _median_ms(lambda: plan(cm, start), args.repeat)
-    ref = _median_ms(ref_circle, args.repeat_ref)
+    ours, ref = _compare_ms(lambda: plan(cm, start), ref_circle, args.rounds_slow)
     rows.append(("Circle 360 deg", n, ours, ref))
 
+    from parolkit import _native
+
     print(f"reference robot FK matches parolkit's default TCP to {fk_diff:.1e} (m / rotation)")
+    print("kernels: " + ", ".join(f"{k.rsplit('.', 1)[-1]} {v}" for k, v in _native.status().items()))
     print(f"{'case':<20}{'samples':>8}{'parolkit ms':>13}{'reference ms':>14}{'ratio':>8}")
     for name, n, ours, ref in rows:
         print(f"{name:<20}{n:>8d}{ours:>13.3f}{ref:>14.2f}{ref / ours:>7.1f}x")

@@ -22,6 +22,7 @@ from typing import Sequence
 
 import numpy as np
 
+from parolkit import _native
 from parolkit.errors import ParolkitValueError
 from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
@@ -253,12 +254,14 @@ def _fast_timed(
     else:
         return None
     ma = validate.model_arrays(model)
-    if not validate.inside(target, ma.safe_lo_list, ma.safe_hi_list):
-        return None
     dist_max = 0.0
     tv = 0.0
-    for q0, q1, k, v, lo, hi in zip(start.tolist(), target, ma.spd_list, ma.vmax_list,
-                                    ma.round_lo_list, ma.round_hi_list):
+    start_l = start.tolist()
+    for q0, q1, k, v, lo, hi, tlo, thi in zip(start_l, target, ma.spd_list, ma.vmax_list,
+                                              ma.round_lo_list, ma.round_hi_list,
+                                              ma.safe_lo_list, ma.safe_hi_list):
+        if not tlo <= q1 <= thi:
+            return None  # target outside the range: refused by the general path
         if not lo <= q0 * k <= hi:
             return None  # start outside the limits: the samples are checked one by one
         d = abs((q1 - q0) * k)  # steps
@@ -274,10 +277,9 @@ def _fast_timed(
     if T < tmin * (1.0 - 1e-9):
         return None  # refused by the general path, with the limiting joint
     notes = (_DURATION_NOTE,) if move.speed_pct is not None or move.accel_pct is not None else ()
-    target_arr = np.array(target, dtype=float)
     return _monotonic_trajectory(move, kind, T, T / 3.0 if kind == "trap" else 0.0, start,
-                                 target_arr, target_arr - start, model, ma, rate, move.tracking,
-                                 notes, start_inside=True)
+                                 start_l, list(target), model, ma, rate, move.tracking, notes,
+                                 start_inside=True)
 
 
 def _plan_joint_target(
@@ -310,8 +312,8 @@ def _plan_joint_target(
         prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, vmax,
                                    amax, start, delta, spd, model, notes)
     if isinstance(prof, ScalarProfile) and prof.kind in ("poly", "trap"):
-        return _monotonic_trajectory(move, prof.kind, prof.T, prof.ta, start, target, delta, model,
-                                     ma, rate, tracking, notes)
+        return _monotonic_trajectory(move, prof.kind, prof.T, prof.ta, start, start.tolist(),
+                                     target.tolist(), model, ma, rate, tracking, notes)
     t = sample_times(T, rate)
     proven = False
     if isinstance(prof, ScalarProfile):  # Ruckig: not monotonic in general, checked in full
@@ -328,9 +330,8 @@ def _plan_joint_target(
 
 
 def _monotonic_trajectory(
-    move: object, kind: str, T: float, ta: float, start: np.ndarray, target: np.ndarray,
-    delta: np.ndarray,
-    model: RobotModel, ma: validate.ModelArrays, rate: float, tracking: Tracking,
+    move: object, kind: str, T: float, ta: float, start: np.ndarray, start_l: list[float],
+    target: list[float], model: RobotModel, ma: validate.ModelArrays, rate: float, tracking: Tracking,
     notes: Sequence[str], *, start_inside: bool = False,
 ) -> Trajectory:
     """The Trajectory of a synchronised poly / trap move (``kind``, duration ``T`` s,
@@ -356,24 +357,42 @@ def _monotonic_trajectory(
     """
     t, basis, speed = sampled_basis(kind, T, ta, rate)
     n = len(t)
-    spd = ma.steps_per_deg
-    m = np.empty((2, 6))
-    m[0] = start
-    m[1] = delta
+    q, pos, sp = _fill(basis, speed, start_l, target, ma.spd_list, n)
+    if not start_inside and not validate.inside([a * k for a, k in zip(start_l, ma.spd_list)],
+                                                ma.round_lo_list, ma.round_hi_list):
+        validate.check_positions(move.name, t, pos, model)
+    return Trajectory._trusted(t, pos, sp, _commands(n, tracking.value), rate, move, tuple(notes),
+                               start, model, q)
+
+
+def _fill_reference(basis: np.ndarray, speed: np.ndarray, start: list[float], target: list[float],
+                    spd: list[float], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The arrays of ``q = start + s * (target - start)`` (deg; the last row exactly the
+    target), its positions in steps and its speeds in steps/s (``s' * delta``), from the
+    sampled profile ``basis`` (columns 1, s) and ``speed`` (s').  The reference of the
+    compiled ``_csamples.fill`` (used when that is not built)."""
+    m = np.array((start, target))
+    m[1] -= m[0]  # delta
     q = np.dot(basis, m)  # start + s * delta (deg)
     q[-1] = target
     m *= spd
     steps_f = np.dot(basis, m)  # the same in steps
-    steps_f[-1] = target * spd
-    if not start_inside and not validate.inside(m[0].tolist(), ma.round_lo_list, ma.round_hi_list):
-        validate.check_positions(move.name, t, np.rint(steps_f).astype(np.int64), model)
+    steps_f[-1] = np.multiply(target, spd)
     np.rint(steps_f, out=steps_f)
     pos = steps_f.astype(np.int64)
     sp_f = np.dot(speed, m[1:])  # s' * delta (steps/s); the basis ends at speed 0
     np.rint(sp_f, out=sp_f)
-    sp = sp_f.astype(np.int64)
-    return Trajectory._trusted(t, pos, sp, _commands(n, tracking.value), rate, move, tuple(notes),
-                               start, model, q)
+    return q, pos, sp_f.astype(np.int64)
+
+
+def _fill_native(basis: np.ndarray, speed: np.ndarray, start: list[float], target: list[float],
+                 spd: list[float], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_fill_reference` in one pass of compiled code."""
+    return _csamples.fill(basis, speed, start, target, spd)
+
+
+_csamples = _native.load("parolkit.motion._csamples")
+_fill = _fill_reference if _csamples is None else _fill_native
 
 
 def _commands(n: int, value: int) -> np.ndarray:

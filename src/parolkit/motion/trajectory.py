@@ -79,10 +79,9 @@ class Trajectory:
         float (6,), planned_deg float (N, 6)): they are frozen in place, not converted or
         re-checked.  Arrays may be shared read-only caches (t, commands).  User code builds
         Trajectories with the normal constructor, which converts and validates."""
-        for a in (positions, speeds, start_deg):
-            a.setflags(write=False)
-        if planned_deg is not None:
-            planned_deg.setflags(write=False)
+        for a in (positions, speeds, start_deg, planned_deg):
+            if a is not None and a.flags.writeable:  # (the compiled planner's are read-only)
+                a.setflags(write=False)
         obj = object.__new__(cls)
         obj.__dict__.update(
             t=t, positions=positions, speeds=speeds, commands=commands, rate_hz=rate_hz,
