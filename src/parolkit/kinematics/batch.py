@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from parolkit.errors import ParolkitValueError
 from parolkit.kinematics.model import (
     A1, A2, A3, D1, D4, L3, LIM_HI, LIM_HI_ARR, LIM_LO, LIM_LO_ARR, LIMIT_TOL, PHI3, TWO_PI,
     WEIGHTS,
@@ -69,9 +70,19 @@ _SIN_PHI3 = math.sin(PHI3)
 # ---------------------------------------------------------------------------------------------
 
 
+def _as_float_array(poses: object) -> np.ndarray:
+    if isinstance(poses, np.ndarray):
+        return poses
+    try:
+        return np.asarray(poses, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise ParolkitValueError("poses must be numbers: an (N, 6) array of [x, y, z mm, A, B, C deg] "
+                                 "or (N, 4, 4) matrices in metres") from None
+
+
 def targets_from_poses(poses: object, tool: Tool):
     """``(N, 6)`` mm/deg or ``(N, 4, 4)`` m TCP poses -> flange rotation (9 arrays) + wrist centre (3)."""
-    arr = np.asarray(poses, dtype=float) if not isinstance(poses, np.ndarray) else poses
+    arr = _as_float_array(poses)
     if arr.ndim == 3 or arr.shape == (4, 4):
         m = as_matrix_array(arr, "poses")
         if m.ndim == 2:
