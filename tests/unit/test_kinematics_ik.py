@@ -417,3 +417,10 @@ def test_batch_singular_samples_keep_the_seed_free_angle_in_both_modes():
     path = ik_batch(np.array([fk(wrist)] * 4), seed_deg=[20, -80, 170, 35, 0, 100])
     np.testing.assert_allclose(path[:, 3], 35.0, atol=1e-9)
     assert_same_pose(fk_batch(path), np.array([fk(wrist)] * 4))
+
+
+@pytest.mark.parametrize("poses", ["abc", [[1, 2, "x", 4, 5, 6]], [[1, 2, 3]], None, [[1e400] * 6],
+                                   [[10**400, 0, 0, 0, 0, 0]]])
+def test_batch_garbage_gets_a_clear_error(poses):
+    with pytest.raises(IKError, match="poses"):
+        ik_batch(poses, continuous=False)
