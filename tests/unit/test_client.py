@@ -2,7 +2,8 @@
 
 ``FakeController`` binds 127.0.0.1:0, records every datagram that arrives, answers queries
 the way docs/protocol.md specifies and sends acks to (sender address, ack_port) with a script
-of statuses chosen per command name.  Fast checks; the real controller is exercised in
+of statuses chosen per command name, and also to the sender itself once it sent the (ext)
+``ACK_HERE`` (unless that is the ack port, as the controller does).  Fast checks; the real controller is exercised in
 tests/integration/test_client_*.py.
 """
 
@@ -27,6 +28,7 @@ from parolkit.client.errors import (
     CommandTimeout,
     ControllerUnreachable,
     ReplyError,
+    RobotError,
 )
 from parolkit.client.robot import Robot
 from parolkit.errors import ParolkitValueError
@@ -74,6 +76,8 @@ class FakeController:
         self.speeds = [0, 0, 0, 0, 0, 0]
         self.silent = False
         self.query_error: str | None = None
+        self.ack_here: set = set()
+        self.honour_ack_here = True  # False: a controller that acks only its ack port
         self._stop = False
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
@@ -121,6 +125,9 @@ class FakeController:
             reply = f"ERROR|{self.query_error}" if self.query_error else replies[name]
             self.sock.sendto(reply.encode(), addr)
             return
+        if name == "ACK_HERE" and cid is None:
+            self.ack_here.add(addr)
+            return
         if name == "SUBSCRIBE":
             port = int(parts[1])
             for seq in range(3):
@@ -132,11 +139,16 @@ class FakeController:
         script = self.acks.get(name, [("QUEUED", "Position 1 in queue"), ("EXECUTING", ""),
                                       ("COMPLETED", "")])
 
+        also = addr if (self.honour_ack_here and addr in self.ack_here
+                        and addr[1] != self.ack_port) else None
+
         def send() -> None:
             for status, details in script:
                 if self.delay_s:
                     time.sleep(self.delay_s)
                 self.sock.sendto(f"ACK|{cid}|{status}|{details}".encode(), (addr[0], self.ack_port))
+                if also is not None:
+                    self.sock.sendto(f"ACK|{cid}|{status}|{details}".encode(), also)
 
         threading.Thread(target=send, daemon=True).start()
 
@@ -517,7 +529,8 @@ def test_robot_failures_raise_with_the_controller_reason(robot, fake):
 
 
 def test_robot_without_any_ack_raises_command_timeout_naming_the_ports(fake):
-    with Robot(port=fake.port, ack_port=0, timeout=0.3) as r:  # fake acks go elsewhere
+    fake.honour_ack_here = False  # acks go to the fake's ack port only, not to this socket
+    with Robot(port=fake.port, ack_port=0, timeout=0.3) as r:
         with pytest.raises(CommandTimeout) as info:
             r.home()
         assert f"port {r.ack_port}" in str(info.value)
@@ -683,3 +696,130 @@ def test_one_robot_shared_by_threads_matches_every_reply_and_ack(robot, fake):
     with ThreadPoolExecutor(6) as pool:
         list(pool.map(worker, range(6)))
     assert len([t for t in fake.received if "|DELAY|" in t]) == 40
+
+
+# ============================================================================================
+# additions used by the browser commander (and open to every client user)
+# ============================================================================================
+
+
+def test_status_state_is_an_enum_that_still_equals_its_string():
+    from parolkit.client.core import RobotState
+
+    st = RobotStatus.from_json(STATUS_OBJECT)
+    assert st.state is RobotState.IDLE and st.state == "IDLE"
+    assert str(st.state) == "IDLE" and f"{st.state}" == "IDLE"
+    assert RobotStatus.from_json(dict(STATUS_OBJECT, state="moving")).state is RobotState.MOVING
+    with pytest.raises(ReplyError, match="state must be one of IDLE, MOVING, HOMING.*got 'FLYING'"):
+        RobotStatus.from_json(dict(STATUS_OBJECT, state="FLYING"))
+
+
+@pytest.mark.parametrize("changes, movable", [
+    ({}, True),
+    ({"enabled": False, "state": "DISABLED"}, False),
+    ({"homed": [True] * 5 + [False], "all_homed": False}, False),
+    ({"estop_latched": True, "state": "ESTOP"}, False),
+    ({"estop_pressed": True}, False),
+    ({"state": "ERROR"}, False),
+    ({"state": "DISCONNECTED"}, False),
+    ({"state": "MOVING"}, True),
+])
+def test_can_move_needs_enabled_homed_no_estop_and_no_error_state(changes, movable):
+    assert RobotStatus.from_json(dict(STATUS_OBJECT, **changes)).can_move is movable
+
+
+@pytest.mark.parametrize("status_byte, text", [(0x00, "idle"), (0x80, "active"), (0x81, "calibrated"),
+                                               (0x83, "error")])
+def test_gripper_status_text_summarises_the_status_byte(status_byte, text):
+    gripper = dict(STATUS_OBJECT["gripper"], status=status_byte)
+    assert RobotStatus.from_json(dict(STATUS_OBJECT, gripper=gripper)).gripper.status_text == text
+
+
+def test_error_info_any_is_true_for_a_bit_or_a_message():
+    assert not RobotStatus.from_json(STATUS_OBJECT).errors.any
+    pos = dict(STATUS_OBJECT["errors"], position=[False, True, False, False, False, False])
+    assert RobotStatus.from_json(dict(STATUS_OBJECT, errors=pos)).errors.any
+    msg = dict(STATUS_OBJECT["errors"], message="J2 position error")
+    assert RobotStatus.from_json(dict(STATUS_OBJECT, errors=msg)).errors.any
+
+
+@pytest.mark.parametrize("field, value, needle", [
+    ("angles", [1, 2, 3], "angles must be a list of 6 finite numbers, got [1, 2, 3]"),
+    ("angles", [1, 2, 3, 4, 5, float("nan")], "angles must be a list of 6 finite numbers"),
+    ("pose", [0, 1, 2, 3, 4, "x"], "pose must be a list of 6 finite numbers"),
+    ("speeds_deg_s", [0] * 7, "speeds_deg_s must be a list of 6 finite numbers"),
+    ("homed", [True] * 3, "homed must be a list of 6 booleans"),
+])
+def test_a_malformed_status_vector_is_named_with_its_value(field, value, needle):
+    with pytest.raises(ReplyError) as info:
+        RobotStatus.from_json(dict(STATUS_OBJECT, **{field: value}))
+    assert needle in str(info.value)
+
+
+def test_send_nowait_returns_the_id_at_once_and_listeners_see_each_ack(fake):
+    async def main():
+        async with AsyncRobot(port=fake.port, ack_port=0, timeout=1.0) as r:  # acks via ACK_HERE
+            seen = []
+            r.add_ack_listener(lambda rec: seen.append((rec.id, rec.latest[0].value)))
+            r.add_ack_listener(lambda rec: 1 / 0)  # a broken listener is logged, nothing more
+            fake.acks["JOG"] = [("QUEUED", ""), ("EXECUTING", ""), ("COMPLETED", "")]
+            h = r.send_nowait("JOG|2|30|0.2|None")
+            assert h.command == "JOG" and h.status() is None  # nothing awaited yet
+            assert (await h.result(timeout=2)).ok
+            assert [s for i, s in seen if i == h.id] == ["QUEUED", "EXECUTING", "COMPLETED"]
+            assert fake.wait_for("|JOG|")[0] == f"{h.id}|JOG|2|30|0.2|None"
+            with pytest.raises(ParolkitValueError, match="one non-empty command line"):
+                r.send_nowait("JOG|1\nSTOP")
+
+    asyncio.run(main())
+
+
+def test_send_nowait_before_open_is_a_clear_error():
+    with pytest.raises(RobotError, match="not open"):
+        AsyncRobot(port=free_udp_port()).send_nowait("STOP")
+
+
+def test_subscription_renewal_repeats_ack_here_for_a_restarted_controller(fake):
+    async def main():
+        async with AsyncRobot(port=fake.port, ack_port=0, timeout=1.0) as r:
+            async with r.subscribe(every_n=2) as sub:
+                await sub.next(timeout=1)
+                fake.ack_here.clear()  # the controller restarted and forgot us
+                fake.received.clear()
+                sub.renew()
+                await asyncio.sleep(0.1)
+                assert f"SUBSCRIBE|{sub.port}|2" in fake.received and "ACK_HERE" in fake.received
+                fake.acks["STOP"] = [("COMPLETED", "")]
+                assert (await r.stop()).ok  # its acks reach this socket again
+
+    asyncio.run(main())
+
+
+def test_a_bad_datagram_never_stops_the_async_robot_or_its_subscription(fake):
+    async def main():
+        async with AsyncRobot(port=fake.port, ack_port=0, timeout=1.0) as r:
+            junk = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            try:
+                for garbage in (b"\xff\xfe", b"ACK|", b"ACK|x|", b"STATUS_JSON|{"):
+                    junk.sendto(garbage, ("127.0.0.1", r.ack_port))
+                await asyncio.sleep(0.05)
+                assert await r.angles() == (90.0, -90.0, 180.0007, 0.0, 0.0, 180.0)
+                async with r.subscribe(every_n=1, timeout=1) as sub:
+                    await sub.next(timeout=1)
+                    junk.sendto(b"STATUS_JSON|{not json", ("127.0.0.1", sub.port))
+                    junk.sendto(("STATUS_JSON|" + json.dumps(dict(STATUS_OBJECT, angles=[1]))).encode(),
+                                ("127.0.0.1", sub.port))
+                    await asyncio.sleep(0.05)
+                    outcomes = []
+                    for _ in range(4):  # seq 1 and 2 (sent at SUBSCRIBE), then the two bad ones
+                        try:
+                            outcomes.append((await sub.next(timeout=1)).seq)
+                        except ReplyError as exc:
+                            outcomes.append(str(exc).split(":")[0])
+                    assert outcomes == [1, 2, "STATUS_JSON", "status"]
+                    sub.renew()
+                    assert (await sub.next(timeout=1)).seq == 0  # still subscribed and parsing
+            finally:
+                junk.close()
+
+    asyncio.run(main())

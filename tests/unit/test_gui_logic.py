@@ -7,6 +7,8 @@ import math
 
 import pytest
 
+from parolkit.client.core import QUERIES, PlanInfo, RobotState, RobotStatus, parse_query_reply
+from parolkit.client.errors import ReplyError
 from parolkit.errors import ParolkitValueError
 from parolkit.gui import geometry
 from parolkit.gui.eventlog import EventLog, Level, level_of_ack
@@ -26,16 +28,7 @@ from parolkit.gui.jog import (
     matrix_to_rpy,
     rpy_to_matrix,
 )
-from parolkit.gui.link import Ack, Plan, new_command_id
-from parolkit.gui.status import (
-    RobotState,
-    RobotStatus,
-    format_angles,
-    format_loop,
-    format_pose,
-    parse_status_datagram,
-    state_badge,
-)
+from parolkit.gui.status import format_angles, format_loop, format_pose, state_badge
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.robot import PAROL6
 
@@ -58,45 +51,22 @@ STATUS = {
 }
 
 
-# ---- status model ----
+# ---- the status the page reads (the client's RobotStatus) ----
 
-def test_status_json_becomes_typed_values():
-    st = RobotStatus.from_json(STATUS)
-    assert st.state is RobotState.IDLE and st.all_homed and st.can_move
+def test_the_page_reads_the_clients_typed_status():
+    st = parse_query_reply(QUERIES["status"], "STATUS_JSON|" + json.dumps(STATUS))
+    assert st.seq == 1234 and st.state is RobotState.IDLE and st.all_homed and st.can_move
     assert st.angles == (90.0, -90.0, 180.0, 0.0, 0.0, 180.0)
-    assert st.io.out1 == 1 and st.io.in2 == 1 and st.io.estop == 1
-    assert st.gripper.position == 12 and st.gripper.status_text == "calibrated"
+    assert st.io.out1 and st.io.in2 and not st.io.estop_pressed
     assert st.errors.position[1] and st.errors.any
-    assert st.board.simulated and st.board.timing_ms == 10.0
     assert st.command.name == "MOVEJOINT" and st.command.progress == pytest.approx(0.42)
-    assert st.loop.period_p99_ms == pytest.approx(10.4) and st.plan_seq == 7
 
 
-def test_status_datagram_round_trip():
-    st = parse_status_datagram("STATUS_JSON|" + json.dumps(STATUS))
-    assert st.seq == 1234
-
-
-@pytest.mark.parametrize("field, value, message", [
-    ("angles", [1, 2, 3], "angles must be a list of 6"),
-    ("state", "FLYING", "status.state must be one of"),
-    ("angles", [1, 2, 3, 4, 5, float("nan")], "angles[5] must be a finite number"),
-])
-def test_malformed_status_names_the_field(field, value, message):
-    bad = dict(STATUS, **{field: value})
-    with pytest.raises(ParolkitValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
-        RobotStatus.from_json(bad)
-
-
-def test_missing_io_field_is_named():
-    bad = dict(STATUS, io={"in1": 0})
-    with pytest.raises(ParolkitValueError, match="io.in2 is missing"):
-        RobotStatus.from_json(bad)
-
-
-def test_non_status_datagram_rejected():
-    with pytest.raises(ParolkitValueError, match="STATUS_JSON"):
-        parse_status_datagram("PONG|SERIAL=1")
+def test_a_malformed_status_is_a_reply_error_naming_the_field():
+    with pytest.raises(ReplyError, match="angles must be a list of 6"):
+        RobotStatus.from_json(dict(STATUS, angles=[1, 2, 3]))
+    with pytest.raises(ReplyError, match="expected a STATUS_JSON"):
+        parse_query_reply(QUERIES["status"], "PONG|SERIAL=1")
 
 
 def test_readout_formatting_units():
@@ -104,6 +74,9 @@ def test_readout_formatting_units():
     pose = format_pose([0, 262.574, 288.75, -90, 0, -90])
     assert pose[1] == "+262.57 mm" and pose[3] == "-90.000°"
     assert format_loop(RobotStatus.from_json(STATUS).loop).startswith("100 Hz · p50 10.00 ms")
+    # fields the controller did not send are left out, not shown as zeros
+    assert format_loop(RobotStatus.from_json(dict(STATUS, loop={"rate_hz": 99.5})).loop) == "100 Hz"
+    assert format_loop(RobotStatus.from_json(dict(STATUS, loop=None)).loop) == "n/a"
 
 
 def test_state_badge_priorities():
@@ -240,20 +213,13 @@ def test_event_log_is_bounded_and_timestamped():
     assert level_of_ack("INVALID") is Level.ERROR and level_of_ack("CANCELLED") is Level.WARNING
 
 
-def test_command_ids_follow_the_protocol():
-    for _ in range(200):
-        cid = new_command_id()
-        assert len(cid) == 8 and cid != cid.upper()
-
-
-def test_ack_and_plan_parsing():
-    ack = Ack.parse("ACK|1a2b3c4d|INVALID|J1 = 200 deg out of range")
-    assert ack.terminal and ack.details.startswith("J1")
-    assert not Ack.parse("ACK|1a2b3c4d|QUEUED|Position 1 in queue").terminal
-    plan = Plan.parse('PLAN|{"seq": 3, "command": "MOVEJOINT", "target_angles": [1,2,3,4,5,6], '
-                      '"tcp_path": [[1,2,3],[4,5,6]]}')
+def test_the_plan_the_scene_draws_comes_from_the_clients_plan_query():
+    plan = parse_query_reply(QUERIES["plan_info"], 'PLAN|{"seq": 3, "command": "MOVEJOINT", '
+                             '"target_angles": [1,2,3,4,5,6], "tcp_path": [[1,2,3],[4,5,6]]}')
+    assert isinstance(plan, PlanInfo)
     assert plan.target_angles == (1, 2, 3, 4, 5, 6) and len(plan.tcp_path) == 2
-    idle = Plan.parse('PLAN|{"seq": 0, "command": null, "target_angles": null, "tcp_path": null}')
+    idle = parse_query_reply(QUERIES["plan_info"],
+                             'PLAN|{"seq": 0, "command": null, "target_angles": null, "tcp_path": null}')
     assert idle.target_angles is None and idle.tcp_path == ()
 
 

@@ -20,14 +20,25 @@ command and query is awaited::
 Arguments are checked when the method is called (a bad value raises
 ``ParolkitValueError`` before anything is awaited or sent).  One datagram endpoint carries
 commands, queries, replies and acks (``ack_port=0``: ephemeral).
+
+For applications that drive the robot from an event loop (the browser commander does):
+
+* :meth:`AsyncRobot.send_nowait` sends an already built command body with a fresh ID and
+  returns its :class:`AsyncCommandHandle` at once, without waiting for any ack;
+* :meth:`AsyncRobot.add_ack_listener` calls a function with the :class:`AckRecord` of every
+  ack of our commands as it arrives;
+* :meth:`AsyncRobot.register_for_acks` (re)sends the (ext) ``ACK_HERE`` registration; a
+  status subscription repeats it with every renewal, so a restarted controller sends our
+  acks to this socket again.
 """
 
 from __future__ import annotations
 
 import asyncio
+import logging
 import socket
 import time
-from typing import Any, AsyncIterator, Dict, Optional
+from typing import Any, AsyncIterator, Callable, Dict, List, Optional
 
 from parolkit.client import robot_api as wire
 from parolkit.client.core import (
@@ -49,13 +60,18 @@ from parolkit.errors import ParolkitValueError
 
 __all__ = ["AsyncRobot", "AsyncCommandHandle", "AsyncStatusSubscription"]
 
+log = logging.getLogger(__name__)
+
 
 class _Protocol(asyncio.DatagramProtocol):
     def __init__(self, owner: "AsyncRobot") -> None:
         self.owner = owner
 
     def datagram_received(self, data: bytes, addr: Any) -> None:
-        self.owner._on_datagram(data.decode("utf-8", "replace"))
+        try:
+            self.owner._on_datagram(data.decode("utf-8", "replace"))
+        except Exception:  # one bad datagram (or listener) must never stop the endpoint
+            log.exception("datagram from %s could not be handled", addr)
 
     def error_received(self, exc: Exception) -> None:  # ICMP unreachable etc.: keep going
         pass
@@ -109,8 +125,11 @@ class AsyncStatusSubscription:
     """Async iterator of :class:`RobotStatus` from the SUBSCRIBE stream (renewed every 3 s).
 
     ``async with robot.subscribe(...) as stream: async for status in stream: ...``
-    Iteration raises :class:`ControllerUnreachable` after ``timeout`` s without a status.
-    At most ``buffer`` statuses are buffered; older ones are dropped for a slow consumer.
+    Iteration raises :class:`ControllerUnreachable` after ``timeout`` s without a status
+    and :class:`~parolkit.client.errors.ReplyError` for a malformed status datagram; both
+    leave the subscription usable (call ``next()`` again).  At most ``buffer`` statuses are
+    buffered; older ones are dropped for a slow consumer.  Every renewal also repeats the
+    robot's ``ACK_HERE`` registration (:meth:`AsyncRobot.register_for_acks`).
     """
 
     def __init__(self, robot: "AsyncRobot", every_n: int, timeout: float, buffer: int = 64) -> None:
@@ -131,18 +150,26 @@ class AsyncStatusSubscription:
             lambda: _StreamProtocol(self._queue),
             local_addr=(bind_address(self._robot.host), 0), family=socket.AF_INET)
         self.port = self._transport.get_extra_info("sockname")[1]
-        self._robot._send(wire.build_subscribe(self.port, self._every_n))
+        self.renew()
         self._renewer = asyncio.ensure_future(self._renew_loop())
         return self
+
+    def renew(self) -> None:
+        """Send ``SUBSCRIBE`` (and ``ACK_HERE``) now; done every :data:`SUBSCRIBE_RENEW_S` s
+        anyway.  Call it to pick up a restarted controller sooner.  Send errors are ignored
+        (the next renewal retries)."""
+        if self._closed or self.port is None:
+            return
+        try:
+            self._robot._send(wire.build_subscribe(self.port, self._every_n))
+            self._robot.register_for_acks()
+        except (OSError, RobotError):
+            pass
 
     async def _renew_loop(self) -> None:
         while not self._closed:
             await asyncio.sleep(SUBSCRIBE_RENEW_S)
-            if not self._closed:
-                try:
-                    self._robot._send(wire.build_subscribe(self.port, self._every_n))
-                except (OSError, RobotError):
-                    pass
+            self.renew()
 
     async def next(self, timeout: Optional[float] = None) -> RobotStatus:
         """The next status (waits up to ``timeout`` s, default the subscription's); raises
@@ -227,6 +254,7 @@ class AsyncRobot(RobotCommands):
         self._open_lock: Optional[asyncio.Lock] = None
         self._last_heard = 0.0
         self._closed = False
+        self._ack_listeners: List[Callable[[AckRecord], None]] = []
 
     # ---- plumbing ----
     async def open(self) -> "AsyncRobot":
@@ -257,8 +285,42 @@ class AsyncRobot(RobotCommands):
                     f"{exc.strerror}; use ack_port=0 for an ephemeral port") from None
             self._transport = transport
             self.ack_port = transport.get_extra_info("sockname")[1]
-            # (ext) ask the controller to send this socket the acks of what it sends
-            self._send("ACK_HERE")
+            self.register_for_acks()
+
+    @property
+    def is_open(self) -> bool:
+        """True between :meth:`open` and :meth:`close`."""
+        return self._transport is not None and not self._closed
+
+    def register_for_acks(self) -> None:
+        """(ext) Send ``ACK_HERE``: the controller then sends the acks of the commands we send
+        to this client's socket (besides its fixed ack port).  Sent on open and with every
+        status-subscription renewal; call it again after a controller restart otherwise."""
+        self._send("ACK_HERE")
+
+    def add_ack_listener(self, listener: Callable[[AckRecord], None]) -> None:
+        """Call ``listener(record)`` for every new ack of a command we sent (``record.latest``
+        is the (AckStatus, details) just received; ``record.terminal`` is set by the last).
+        It runs in the event loop; an exception it raises is logged, not propagated."""
+        self._ack_listeners.append(listener)
+
+    def remove_ack_listener(self, listener: Callable[[AckRecord], None]) -> None:
+        """Stop calling ``listener`` (no error if it was not registered)."""
+        if listener in self._ack_listeners:
+            self._ack_listeners.remove(listener)
+
+    def send_nowait(self, body: str) -> AsyncCommandHandle:
+        """Send an already built command body (``JOG|...``, ``robot_api.build_*`` output) with
+        a fresh command ID and return its handle at once, without waiting for any ack.
+
+        For streams of commands (jogging) and user interfaces; acks arrive at the handle and
+        at the ack listeners.  The robot must be open (``await robot.open()``); raises
+        :class:`RobotError` otherwise."""
+        if not isinstance(body, str) or not body.strip() or "\n" in body:
+            raise ParolkitValueError(f"body must be one non-empty command line, got {body!r}")
+        record, text = self._acks.new(body)
+        self._send(text)
+        return AsyncCommandHandle(self, record)
 
     def _send(self, text: str) -> None:
         if self._transport is None or self._closed:
@@ -272,9 +334,18 @@ class AsyncRobot(RobotCommands):
     def _on_datagram(self, text: str) -> None:
         self._last_heard = time.monotonic()
         if text.startswith("ACK|"):
+            parsed = wire.parse_ack(text)
+            known = self._acks.get(parsed[0]) if parsed else None
+            before = len(known.history) if known is not None else 0
             rec = self._acks.on_datagram(text)
             if rec is None:
                 return
+            if len(rec.history) > before:  # a new ack (not a repeat after the terminal one)
+                for listener in list(self._ack_listeners):
+                    try:
+                        listener(rec)
+                    except Exception:
+                        log.exception("ack listener %r failed", listener)
             fut = self._first.pop(rec.id, None)
             if fut is not None and not fut.done():
                 fut.set_result(None)

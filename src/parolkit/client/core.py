@@ -36,6 +36,7 @@ from parolkit.errors import ParolkitValueError
 
 __all__ = [
     "AckStatus",
+    "RobotState",
     "CommandResult",
     "Pose",
     "IOState",
@@ -114,6 +115,24 @@ class CommandResult:
         return self.status.terminal
 
 
+class RobotState(str, Enum):
+    """What the controller is doing (the status ``state`` field).
+
+    A ``str`` enum: ``status.state == "IDLE"`` and ``str(status.state) == "IDLE"`` both hold,
+    so code comparing with the plain strings keeps working."""
+
+    IDLE = "IDLE"
+    MOVING = "MOVING"
+    HOMING = "HOMING"
+    DISABLED = "DISABLED"
+    ESTOP = "ESTOP"
+    ERROR = "ERROR"
+    DISCONNECTED = "DISCONNECTED"
+
+    def __str__(self) -> str:
+        return self.value
+
+
 class Pose(NamedTuple):
     """Tool pose: x, y, z in mm; a, b, c in degrees with R = Rx(c) * Ry(b) * Rz(a)."""
 
@@ -167,6 +186,17 @@ class GripperState:
     @property
     def object_detected(self) -> bool:
         return self.object_code in (1, 2)
+
+    @property
+    def status_text(self) -> str:
+        """One-word summary for a readout: 'error', 'calibrated', 'active' or 'idle'."""
+        if self.error:
+            return "error"
+        if self.calibrated:
+            return "calibrated"
+        if self.activated:
+            return "active"
+        return "idle"
 
 
 def _f(d: Dict[str, Any], key: str, default: float = 0.0) -> float:
@@ -237,7 +267,12 @@ class ErrorInfo:
     def from_dict(cls, d: Dict[str, Any]) -> "ErrorInfo":
         return cls(temperature=tuple(bool(x) for x in d.get("temperature", (False,) * 6)),
                    position=tuple(bool(x) for x in d.get("position", (False,) * 6)),
-                   timeout_error=_i(d, "timeout_error"), message=d.get("message"))
+                   timeout_error=_i(d, "timeout_error"), message=d.get("message") or None)
+
+    @property
+    def any(self) -> bool:
+        """True when any temperature/position bit is set or an error message is latched."""
+        return any(self.temperature) or any(self.position) or bool(self.message)
 
 
 @dataclass(frozen=True)
@@ -278,7 +313,7 @@ class RobotStatus:
 
     seq: int
     time: float
-    state: str
+    state: RobotState
     enabled: bool
     homed: Tuple[bool, ...]
     all_homed: bool
@@ -305,24 +340,38 @@ class RobotStatus:
         """True while a command runs or any joint speed is non-zero."""
         return self.command is not None or any(abs(s) > 0 for s in self.speeds)
 
+    @property
+    def can_move(self) -> bool:
+        """True when motion commands can run: enabled, all joints homed, no E-stop (pressed
+        or latched) and the state is not ERROR, ESTOP or DISCONNECTED."""
+        return (self.enabled and self.all_homed and not self.estop_latched
+                and not self.estop_pressed
+                and self.state not in (RobotState.ERROR, RobotState.DISCONNECTED, RobotState.ESTOP))
+
     @classmethod
     def from_json(cls, obj: Dict[str, Any]) -> "RobotStatus":
-        """Build from the decoded status object; ``ReplyError`` names a missing/bad field."""
+        """Build from the decoded status object; ``ReplyError`` names a missing or bad field
+        (e.g. ``status: angles must be a list of 6 finite numbers, got [1, 2]``)."""
         if not isinstance(obj, dict):
             raise ReplyError(f"status: expected a JSON object, got {type(obj).__name__}")
         try:
-            angles = tuple(float(a) for a in obj["angles"])
-            pose = obj.get("pose") or [0.0] * 6
-            homed = tuple(bool(h) for h in obj.get("homed", (False,) * 6))
+            raw_state = obj["state"]
+            try:
+                state = RobotState(str(raw_state).upper())
+            except ValueError:
+                allowed = ", ".join(s.value for s in RobotState)
+                raise ReplyError(f"status: state must be one of {allowed}, got {raw_state!r}") from None
+            homed = _flags(obj.get("homed", (False,) * 6), "homed")
             return cls(
-                seq=_i(obj, "seq"), time=_f(obj, "time"), state=str(obj["state"]),
+                seq=_i(obj, "seq"), time=_f(obj, "time"), state=state,
                 enabled=bool(obj.get("enabled", False)), homed=homed,
                 all_homed=bool(obj.get("all_homed", all(homed))),
                 estop_pressed=bool(obj.get("estop_pressed", False)),
                 estop_latched=bool(obj.get("estop_latched", False)),
-                angles=angles, pose=Pose(*(float(v) for v in pose)),
-                speeds=tuple(float(s) for s in obj.get("speeds", (0.0,) * 6)),
-                speeds_deg_s=tuple(float(s) for s in obj.get("speeds_deg_s", (0.0,) * 6)),
+                angles=_vector(obj["angles"], "angles"),
+                pose=Pose(*_vector(obj.get("pose") or [0.0] * 6, "pose")),
+                speeds=_vector(obj.get("speeds", (0.0,) * 6), "speeds"),
+                speeds_deg_s=_vector(obj.get("speeds_deg_s", (0.0,) * 6), "speeds_deg_s"),
                 io=_io_from_dict(obj.get("io") or {}),
                 gripper=_gripper_from_dict(obj.get("gripper") or {}),
                 errors=ErrorInfo.from_dict(obj.get("errors") or {}),
@@ -334,8 +383,23 @@ class RobotStatus:
             )
         except KeyError as exc:
             raise ReplyError(f"status: field {exc.args[0]!r} is missing") from None
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, AttributeError) as exc:
             raise ReplyError(f"status: malformed field ({exc})") from None
+
+
+def _vector(value: Any, name: str, n: int = 6) -> Tuple[float, ...]:
+    """``value`` as a tuple of ``n`` finite floats, else ReplyError naming ``name``."""
+    ok = isinstance(value, (list, tuple)) and len(value) == n and all(
+        not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) for v in value)
+    if not ok:
+        raise ReplyError(f"status: {name} must be a list of {n} finite numbers, got {value!r}")
+    return tuple(float(v) for v in value)
+
+
+def _flags(value: Any, name: str, n: int = 6) -> Tuple[bool, ...]:
+    if not isinstance(value, (list, tuple)) or len(value) != n:
+        raise ReplyError(f"status: {name} must be a list of {n} booleans, got {value!r}")
+    return tuple(bool(v) for v in value)
 
 
 @dataclass(frozen=True)

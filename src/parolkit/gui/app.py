@@ -16,6 +16,8 @@ from typing import Any, Callable
 
 from nicegui import app, ui
 
+from parolkit.client.core import RobotStatus
+from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError, ParolkitValueError
 from parolkit.gui import geometry
 from parolkit.gui.eventlog import EventLog, Level
@@ -35,10 +37,9 @@ from parolkit.gui.jog import (
     key_action,
     key_label,
 )
-from parolkit.gui.link import ControllerLink, LinkError
+from parolkit.gui.link import ControllerLink
 from parolkit.gui.status import (
     POSE_LABELS,
-    RobotStatus,
     format_angles,
     format_loop,
     format_pose,
@@ -153,7 +154,7 @@ class Commander:
             while True:
                 self.link.send(make_command(), label="jog", quiet=True)  # only refusals are logged
                 await asyncio.sleep(period_s)
-        except LinkError as exc:
+        except RobotError as exc:
             self.log.error(f"jog stopped: {exc}")
 
     def jog_release(self, *, send_stop: bool = True) -> None:
@@ -164,9 +165,9 @@ class Commander:
         self._hold = None
         if send_stop:
             try:
-                self.link.send("STOP", track=False)
-                self.link.send("STREAM|OFF", track=False)
-            except LinkError as exc:
+                self.link.send("STOP", quiet=True)
+                self.link.send("STREAM|OFF", quiet=True)
+            except RobotError as exc:
                 self.log.error(f"jog release: {exc}")
 
     @property
@@ -179,7 +180,7 @@ class Commander:
         try:
             self.link.send(text, label=label)
             self.log.info(f"sent {label or text}")
-        except (LinkError, OSError) as exc:
+        except (RobotError, OSError) as exc:
             self.log.error(f"{label or text}: {exc}")
 
     def estop(self) -> None:
@@ -188,7 +189,7 @@ class Commander:
         try:
             self.link.send("ESTOP", label="E-STOP")
             self.log.error("software E-STOP sent")
-        except LinkError as exc:
+        except RobotError as exc:
             self.log.error(f"E-STOP could not be sent: {exc}")
 
 
@@ -847,7 +848,7 @@ class CommanderPage:
                 v = getattr(io, key)
                 self.io_leds[key].set_content(f"<span class='pk-led{' on' if v else ''}'></span> "
                                               f"<span class='pk-mono'>{'HIGH' if v else 'LOW'}</span>")
-            pressed = io.estop == 0
+            pressed = io.estop_pressed
             self.io_leds["estop"].set_content(
                 f"<span class='pk-led{' bad' if pressed or st.estop_latched else ' on'}'></span> <span class='pk-mono'>"
                 f"{'PRESSED' if pressed else 'released'}{' · latched' if st.estop_latched else ''}</span>")

@@ -71,15 +71,16 @@ def _free_udp_port() -> int:
         return s.getsockname()[1]
 
 
-def _ping(port: int, timeout: float) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.settimeout(timeout)
-        s.sendto(b"PING", ("127.0.0.1", port))
-        try:
-            data, _ = s.recvfrom(1024)
-        except OSError:
-            return False
-        return data.startswith(b"PONG")
+def _answers_ping(robot) -> bool:
+    """True when the controller behind ``robot`` (a client :class:`Robot`) answers PING
+    (with its board link up or not)."""
+    from parolkit.client.errors import RobotError
+
+    try:
+        robot.ping()
+    except RobotError:
+        return False
+    return True
 
 
 #: Stream watchdog (s) of a controller the GUI starts itself.  The GUI's jog stream is sent
@@ -110,13 +111,16 @@ def start_controller_process(serial_port: str | None, udp_port: int, ack_port: i
     args += ["--config", str(config)]
     proc = spawn_controller(args)
     proc.generated_config = generated  # type: ignore[attr-defined]  # removed by stop_controller_process
+    from parolkit.client.robot import Robot
+
     deadline = time.monotonic() + ready_timeout
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            stop_controller_process(proc)
-            raise RuntimeError(f"the controller exited with code {proc.returncode} (command: {' '.join(args)})")
-        if _ping(udp_port, 0.2):
-            return proc
+    with Robot("127.0.0.1", udp_port, ack_port=0, timeout=0.2) as robot:
+        while time.monotonic() < deadline:
+            if proc.poll() is not None:
+                stop_controller_process(proc)
+                raise RuntimeError(f"the controller exited with code {proc.returncode} (command: {' '.join(args)})")
+            if _answers_ping(robot):
+                return proc
     stop_controller_process(proc)
     raise RuntimeError(f"the controller did not answer PING within {ready_timeout:g} s")
 
