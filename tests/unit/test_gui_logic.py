@@ -343,3 +343,79 @@ def test_geometry_frames_agree_with_the_kinematics_package():
 
     for q in ([90, -90, 180, 0, 0, 180], [95, -89, 179.5, -31, -4, 202], [-100, -120, 250, 80, 60, 20]):
         assert np.allclose(np.array(geometry.dh_frames(q)), fk_frames(q), atol=1e-12)
+
+
+# ---- the controller link (a thin layer over AsyncRobot), against a real UDP socket ----
+
+def test_controller_link_logs_acks_tracks_the_plan_and_survives_bad_data_and_restarts():
+    import asyncio
+    import socket
+    import time
+
+    from parolkit.gui.link import ControllerLink
+    from tests.unit.test_client import STATUS_OBJECT, FakeController
+
+    fake = FakeController()
+
+    async def until(cond, timeout=2.0, what="condition"):
+        deadline = time.monotonic() + timeout
+        while not cond():
+            assert time.monotonic() < deadline, f"timed out waiting for {what}"
+            await asyncio.sleep(0.01)
+
+    async def main():
+        events = EventLog()
+        link = ControllerLink("127.0.0.1", fake.port, fake.ack_port, every_n_ticks=2, event_log=events)
+        lines = lambda: [e.text for e in events.tail(200)]  # noqa: E731
+        await link.start()
+        try:
+            # the fake answers SUBSCRIBE with three statuses (plan_seq 7): link up, plan fetched
+            await until(lambda: link.link_up and link.plan is not None, what="link up and plan")
+            assert link.status.seq == 2 and link.plan.command == "MOVECART" and len(link.history) == 3
+            sub_port = link._sub.port
+            assert f"SUBSCRIBE|{sub_port}|2" in fake.received and "ACK_HERE" in fake.received
+            # acks come back to the link's own socket (ACK_HERE) and are logged by label
+            fake.acks["MOVEPOSE"] = [("QUEUED", ""), ("FAILED", "IK failed: out of reach")]
+            cid = link.send("MOVEPOSE|0|250|200|-90|0|-90|2|None", label="step X +5 mm")
+            assert len(cid) == 8
+            await until(lambda: "step X +5 mm failed: IK failed: out of reach" in lines(), what="failure logged")
+            fake.acks["JOG"] = [("COMPLETED", "")]
+            link.send("JOG|0|30|0.2|None", label="jog", quiet=True)  # quiet success: no line
+            fake.acks["CARTJOG"] = [("INVALID", "speed% = 150 % is out of range")]
+            link.send("CARTJOG|WRF|X+|150|0.2", label="jog", quiet=True)  # quiet refusal: logged
+            await until(lambda: any(m.startswith("jog invalid") for m in lines()), what="refusal logged")
+            assert "jog completed" not in lines()
+            # one bad datagram is reported once; the next good status is taken
+            junk = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            count = link.status_count
+            for _ in range(2):
+                junk.sendto(b"STATUS_JSON|{oops", ("127.0.0.1", sub_port))
+            junk.sendto(("STATUS_JSON|" + json.dumps(dict(STATUS_OBJECT, seq=99))).encode(),
+                        ("127.0.0.1", sub_port))
+            junk.close()
+            await until(lambda: link.status_count > count, what="the good status after the bad ones")
+            assert link.status.seq == 99
+            assert sum(m.startswith("bad status datagram") for m in lines()) == 1
+            # the controller goes quiet: link lost, SUBSCRIBE + ACK_HERE retried every 0.25 s ...
+            fake.silent = True
+            await until(lambda: "controller link lost: no status for 1 s" in lines(), timeout=3,
+                        what="link lost")
+            assert not link.link_up
+            fake.received.clear()
+            await asyncio.sleep(0.8)
+            assert fake.received.count(f"SUBSCRIBE|{sub_port}|2") >= 2 and "ACK_HERE" in fake.received
+            # ... so a restarted controller is picked up again at once
+            fake.silent = False
+            await until(lambda: link.link_up, what="link up again")
+            assert sum(m.startswith("controller link up") for m in lines()) == 2
+        finally:
+            await link.close()
+        assert fake.wait_for("UNSUBSCRIBE")[0] == f"UNSUBSCRIBE|{sub_port}"
+
+    try:
+        asyncio.run(main())
+        # the link never occupied the controller's fixed ack port: it is free to bind
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.bind(("127.0.0.1", fake.ack_port))
+    finally:
+        fake.close()

@@ -57,7 +57,7 @@ class ControllerLink:
         self.host, self.port, self.ack_port = host, int(port), int(ack_port)
         self.every_n_ticks = every_n_ticks
         self.robot = AsyncRobot(host, self.port, ack_port=0, timeout=1.0)
-        self.log = event_log or EventLog()
+        self.log = event_log if event_log is not None else EventLog()
         self.status: RobotStatus | None = None
         self.status_monotonic = 0.0
         self.status_count = 0
