@@ -88,16 +88,15 @@ def test_the_arrays_are_fresh_and_read_only():
 
 
 def test_huge_values_round_like_numpy():
-    """Far outside any range (the planner refuses such a start afterwards) the kernel switches
-    from its fast rounding (exact below 2**50) to llrint: still numpy's values, to the last
-    bits numpy's matrix product (which may fuse multiply-adds) leaves."""
+    """Far outside any range (the planner refuses such a start afterwards): still numpy's
+    values, to the last bits numpy's matrix product (which may fuse multiply-adds) leaves."""
     start = [1e13, -1e14, 3e15, 0.0, 0.0, 0.0]
     target = [0.0, -90.0, 180.0, 0.0, 0.0, 180.0]
     (q_r, p_r, s_r), (q_g, p_g, s_g) = both("poly", 0.5, 0.0, 100.0, start, target)
     np.testing.assert_allclose(q_g, q_r, rtol=1e-12)
     np.testing.assert_allclose(p_g, p_r, rtol=1e-12)
     np.testing.assert_allclose(s_g, s_r, rtol=1e-12)
-    assert np.abs(p_g).max() > 2**50  # the llrint branch ran
+    assert np.abs(p_g).max() > 2**50  # beyond where every float is an exact half-integer
     with pytest.raises(PlanningError, match="MoveJoint refused"):
         plan(JointMove(target, duration_s=0.5), start)
 

@@ -26,21 +26,6 @@
 #include <stdint.h>
 #include <string.h>
 
-/* Round to nearest, ties to even, for |x| < 2^50: adding 1.5 * 2^52 leaves the rounded
- * integer in the low mantissa bits (IEEE double, default rounding mode).  Unlike llrint
- * this vectorises. */
-#define ROUND_LIMIT 1125899906842624.0 /* 2^50 */
-static inline int64_t
-round_small(double x)
-{
-    const double magic = 6755399441055744.0; /* 1.5 * 2^52 */
-    double y = x + magic;
-    int64_t bits, mbits;
-    memcpy(&bits, &y, 8);
-    memcpy(&mbits, &magic, 8);
-    return bits - mbits;
-}
-
 static int
 six_floats(PyObject *obj, const char *name, double out[6])
 {
@@ -99,42 +84,19 @@ fill_arrays(const double *restrict basis, const double *restrict speed,
             const double *restrict target, const double *restrict spd, double *restrict q,
             int64_t *restrict pos, int64_t *restrict sp, Py_ssize_t n)
 {
-    double s0[6], sd[6], big = 0.0, vmax = 0.0;
+    double s0[6], sd[6];
     for (int j = 0; j < 6; j++) {
         s0[j] = start[j] * spd[j];
         sd[j] = delta[j] * spd[j];
-        double m = fabs(s0[j]) + fabs(sd[j]);
-        big = m > big ? m : big;
     }
-    for (Py_ssize_t i = 0; i < n; i++) {
-        double a = fabs(speed[i]);
-        vmax = a > vmax ? a : vmax;
-    }
-    double sdmax = 0.0;
-    for (int j = 0; j < 6; j++)
-        sdmax = fabs(sd[j]) > sdmax ? fabs(sd[j]) : sdmax;
-    /* s in [0, 1]: every value is below big (positions) or vmax * sdmax (speeds) */
-    if (big < ROUND_LIMIT && vmax * sdmax < ROUND_LIMIT && isfinite(big) && isfinite(vmax)) {
-        for (Py_ssize_t i = 0; i < n - 1; i++) {
-            double s = basis[2 * i + 1], ds = speed[i];
-            double *qi = q + 6 * i;
-            int64_t *pi = pos + 6 * i, *si = sp + 6 * i;
-            for (int j = 0; j < 6; j++) {
-                qi[j] = start[j] + s * delta[j];
-                pi[j] = round_small(s0[j] + s * sd[j]);
-                si[j] = round_small(ds * sd[j]);
-            }
-        }
-    } else { /* huge values (a start far outside the range, refused later): llrint */
-        for (Py_ssize_t i = 0; i < n - 1; i++) {
-            double s = basis[2 * i + 1], ds = speed[i];
-            double *qi = q + 6 * i;
-            int64_t *pi = pos + 6 * i, *si = sp + 6 * i;
-            for (int j = 0; j < 6; j++) {
-                qi[j] = start[j] + s * delta[j];
-                pi[j] = (int64_t)llrint(s0[j] + s * sd[j]);
-                si[j] = (int64_t)llrint(ds * sd[j]);
-            }
+    for (Py_ssize_t i = 0; i < n - 1; i++) {
+        double s = basis[2 * i + 1], ds = speed[i];
+        double *qi = q + 6 * i;
+        int64_t *pi = pos + 6 * i, *si = sp + 6 * i;
+        for (int j = 0; j < 6; j++) {
+            qi[j] = start[j] + s * delta[j];
+            pi[j] = (int64_t)llrint(s0[j] + s * sd[j]);
+            si[j] = (int64_t)llrint(ds * sd[j]);
         }
     }
     {
