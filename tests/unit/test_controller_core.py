@@ -380,6 +380,38 @@ def test_streamed_cartesian_jog_is_refused_before_homing():
         r.close()
 
 
+def test_a_held_streamed_cartesian_jog_continues_from_the_commanded_position(rig):
+    """Each update of a held CARTJOG is planned from where the running jog last commanded the
+    board, not from the measured joints (which lag behind the board's position loop): the
+    commanded TCP moves down steadily, never steps back, and covers the jog speed's distance."""
+    from parolkit.kinematics import fk
+
+    rig.submit("aaaa0001|MOVEJOINT|60|-80|170|10|40|170|1|None")  # off the wrist singularity
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    rig.ex.post(lambda: rig.ex.set_stream_mode(True))
+    rig.tick()
+    first = len(rig.frames)
+    updates = 40
+    for k in range(updates):
+        cid = f"bbbb{k:04d}"
+        rig.submit(f"{cid}|CARTJOG|WRF|Z-|50|0.2")
+        end = time.monotonic() + 5.0  # the planner thread plans it; the loop then takes it over
+        while rig.ex.active is None or rig.ex.active.command_id != cid:
+            assert time.monotonic() < end, f"update {k} never took over; acks {rig.acks[-3:]}"
+            time.sleep(0.0005)
+            if rig.ex.active is None or rig.ex.active.command_id != cid:
+                rig.tick()
+        rig.tick()
+    frames = rig.frames[first:]
+    z = np.array([fk(np.array(f.positions) / PAROL6.steps_per_deg)[2] for f in frames
+                  if f.command == BoardCommand.GOTO and any(f.speeds)])
+    dz = np.diff(z)
+    v = PAROL6.cart_linear_speed_from_percent(50) / RATE  # mm per tick
+    assert len(z) >= updates
+    assert dz.max() <= 0.05 * v, f"the commanded TCP stepped back by {dz.max():.3f} mm"
+    assert -dz.sum() >= 0.9 * v * (len(z) - 1), f"covered {-dz.sum():.2f} mm in {len(z)} ticks"
+
+
 def test_status_filter_holds_back_a_corrupted_frame_but_follows_a_confirmed_jump():
     f = StatusFilter(PAROL6, RATE)
     a = _status()

@@ -317,7 +317,7 @@ class Executor:
     def _next_to_plan(self) -> tuple[Job, tuple[float, ...], bool] | None:
         """(job, start, is_stream) of the first job that needs a plan now, under the lock."""
         if self._stream_cart is not None and self._measured is not None and self._homed:
-            return self._stream_cart, self._measured, True
+            return self._stream_cart, self._stream_start(self._stream_cart), True
         prev = self._chain_start()
         for job in list(self.queue)[:PLAN_AHEAD]:
             cmd = job.command
@@ -342,6 +342,21 @@ class Executor:
                 return None
             return job, prev, False
         return None
+
+    def _stream_start(self, job: Job) -> tuple[float, ...]:
+        """Where a streamed Cartesian jog starts (deg), under the lock: where the running
+        streamed jog last commanded the board, so a held jog continues smoothly; the measured
+        joints only when none runs.  (The measured position lags the commanded one by the
+        board's position loop: planning every update from it stepped back each time, and a
+        held jog covered a fraction of its distance.)"""
+        act = self.activity
+        if self.active is not None and self.active.streamed and isinstance(act, TrajectoryActivity):
+            steps = act.commanded()
+            if steps is not None:
+                job.stream_anchor = (act, act.i)
+                return tuple(p / s for p, s in zip(steps, self._spd))
+        job.stream_anchor = None
+        return self._measured  # type: ignore[return-value]
 
     def _planner_main(self) -> None:
         try:
@@ -507,6 +522,10 @@ class Executor:
                 self.active = None
                 self.activity = None
             self._activate(job, now)
+            anchor = job.stream_anchor
+            if anchor is not None and anchor[0] is old_act and isinstance(self.activity, TrajectoryActivity):
+                # planned from old_act's sample anchor[1] - 1; old_act would send old_act.i next
+                self.activity.skip(old_act.i - anchor[1])  # type: ignore[union-attr]
 
     def _speed_plan(self, cmd: C.Command) -> tuple[tuple[int, ...], int, str | None]:
         """Steps/s per joint and tick count of JOG / MULTIJOG / SPEEDJOINT."""

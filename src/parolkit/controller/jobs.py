@@ -49,6 +49,9 @@ class Job:
     notes: tuple[str, ...] = ()
     #: streaming jog (replaces the previous one instead of queueing)
     streamed: bool = False
+    #: streamed Cartesian jog planned from where the running streamed jog was commanded:
+    #: (that jog's activity, its sample index then), to line the two up when it takes over
+    stream_anchor: tuple[object, int] | None = None
     terminal: AckStatus | None = None
 
     @property
@@ -113,6 +116,18 @@ class TrajectoryActivity(Activity):
 
     def touch(self, now: float) -> None:
         self.last_update = now
+
+    def commanded(self) -> tuple[int, ...] | None:
+        """Position (steps) of the last sample sent to the board; None before the first."""
+        if self.i == 0 or self.n == 0:
+            return None
+        return tuple(self.positions[min(self.i, self.n) - 1])
+
+    def skip(self, k: int) -> None:
+        """Start ``k`` samples in (at most at the last one): a streamed jog planned from
+        another's commanded position ``k`` ticks before it took over continues where that
+        one would be now, instead of stepping back by ``k`` ticks."""
+        self.i = max(0, min(int(k), self.n - 1))
 
     def step(self, ctx: TickContext) -> Step:
         if self.streamed and ctx.stream_mode and ctx.now - self.last_update > ctx.watchdog_s:
