@@ -226,6 +226,25 @@ def test_speed_streams_end_with_a_zero_speed_frame(rig):
     assert any(f.speeds[0] > 0 for f in jogs)
 
 
+def test_a_speed_stream_lasts_its_duration_in_time_even_when_ticks_come_late(rig):
+    """The board keeps the last speed until the next frame: with ticks 50 ms late (a stalled
+    machine) a 0.4 s SPEEDJOINT must still end after about 0.4 s, not after 40 late ticks."""
+    rig.submit("aaaa0001|SPEEDJOINT|10|0|0|0|0|0|0.4")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    t0 = rig.now - 1.0 / RATE  # the tick that activated it sent the first speed frame
+    late = 0.05
+    while rig.terminal("aaaa0001") is None:
+        rig.loop._tick(rig.now)
+        rig.frames.append(rig.loop.last_frame)
+        rig.loop.tick_count += 1
+        rig.now += late
+        rig.emu.advance(late)
+        assert rig.now - t0 < 2.0, "the speed stream did not end"
+    ended = rig.now - late - t0
+    assert 0.4 <= ended <= 0.4 + late + 1e-9
+    assert rig.frames[-1].command == BoardCommand.JOG and rig.frames[-1].speeds == (0,) * 6
+
+
 def test_stop_during_a_speed_stream_sends_zero_speed_first(rig):
     rig.submit("aaaa0001|JOG|0|50|2|None")
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))

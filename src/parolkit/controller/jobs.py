@@ -159,9 +159,12 @@ class TrajectoryActivity(Activity):
 class SpeedActivity(Activity):
     """Constant joint speeds (board 123) for a number of ticks; JOG, MULTIJOG, SPEEDJOINT.
 
-    Stops early (COMPLETED, details say why) when a joint would reach its limit within
-    ``stop_lookahead_ticks`` (homed robots only) or, in stream mode, when updates stop.
-    Always ends with a zero-speed frame.
+    The board keeps a speed until the next frame, so the distance moved is speed x the TIME
+    the stream lasts: it ends after ``ticks`` ticks or, when ticks come late (a stalled
+    machine), as soon as ``ticks / rate`` seconds have passed since it started, whichever
+    is first.  Stops early (COMPLETED, details say why) when a joint would reach its limit
+    within ``stop_lookahead_ticks`` (homed robots only) or, in stream mode, when updates
+    stop.  Always ends with a zero-speed frame.
     """
 
     streams_speed = True
@@ -172,6 +175,7 @@ class SpeedActivity(Activity):
         self.ticks = max(1, int(ticks))
         self.i = 0
         self.streamed = streamed
+        self.started = started
         self.last_update = started
         self.lookahead = stop_lookahead_ticks
 
@@ -182,6 +186,7 @@ class SpeedActivity(Activity):
         self.speeds = tuple(int(v) for v in speeds_steps_s)
         self.ticks = max(1, int(ticks))
         self.i = 0
+        self.started = now
         self.last_update = now
 
     def _stop(self, ctx: TickContext, details: str) -> Step:
@@ -191,7 +196,7 @@ class SpeedActivity(Activity):
     def step(self, ctx: TickContext) -> Step:
         if self.streamed and ctx.stream_mode and ctx.now - self.last_update > ctx.watchdog_s:
             return self._stop(ctx, "stream watchdog: no update, jog stopped")
-        if self.i >= self.ticks:
+        if self.i >= self.ticks or (self.i and ctx.now - self.started >= (self.ticks - 0.5) / ctx.rate_hz):
             return self._stop(ctx, "")
         st = ctx.status
         if ctx.homed and st is not None:
