@@ -14,7 +14,7 @@ from __future__ import annotations
 
 __all__ = ["Robot", "AsyncRobot", "RobotError", "CommandFailed", "CommandInvalid",
            "CommandCancelled", "CommandTimeout", "ControllerUnreachable", "CommandResult",
-           "AckStatus", "RobotStatus"]
+           "AckStatus", "RobotStatus", "RobotState", "PlanInfo"]
 
 _WHERE = {
     "Robot": "parolkit.client.robot",
@@ -28,6 +28,8 @@ _WHERE = {
     "CommandResult": "parolkit.client.core",
     "AckStatus": "parolkit.client.core",
     "RobotStatus": "parolkit.client.core",
+    "RobotState": "parolkit.client.core",
+    "PlanInfo": "parolkit.client.core",
 }
 
 

@@ -4,8 +4,9 @@
                  [--host 127.0.0.1] [--no-browser]
 
 With ``--sim`` (the default) or ``--port`` a ``parolkit serve`` subprocess is started on
-free UDP ports and stopped with the GUI.  ``--connect`` uses a running controller (acks are
-received on ``--ack-port``, 5002 by default, as the controller sends them).
+free UDP ports and stopped with the GUI.  ``--connect`` uses a running controller.  The GUI
+receives its acks on its own socket (``ACK_HERE``), never on the controller's ack port
+(``--ack-port`` only sets that port for a controller the GUI starts).
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ def register(subparsers: argparse._SubParsersAction, name: str = "gui") -> argpa
     src.add_argument("--port", metavar="DEV", help="start a controller on this serial port (real robot)")
     src.add_argument("--connect", metavar="HOST:PORT", type=parse_host_port, help="use a running controller")
     p.add_argument("--ack-port", type=_port, default=None,
-                   help="UDP port acks are received on (default: a free port for a started controller, 5002 with --connect)")
+                   help="ack port of a controller the GUI starts (default: a free port); the GUI itself gets its "
+                        "acks on its own socket (ACK_HERE), so with --connect this is informational only")
     p.add_argument("--http-port", type=_port, default=None, help="HTTP port of the GUI (default from config: 8080)")
     p.add_argument("--host", default=None,
                    help="address the GUI binds (default 127.0.0.1; anything else exposes robot control to the network)")
