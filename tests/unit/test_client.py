@@ -729,10 +729,15 @@ def test_can_move_needs_enabled_homed_no_estop_and_no_error_state(changes, movab
 
 
 @pytest.mark.parametrize("status_byte, text", [(0x00, "idle"), (0x80, "active"), (0x81, "calibrated"),
-                                               (0x83, "error")])
+                                               (0x83, "error"), (0x85, "error"), (0x89, "error")])
 def test_gripper_status_text_summarises_the_status_byte(status_byte, text):
     gripper = dict(STATUS_OBJECT["gripper"], status=status_byte)
-    assert RobotStatus.from_json(dict(STATUS_OBJECT, gripper=gripper)).gripper.status_text == text
+    g = RobotStatus.from_json(dict(STATUS_OBJECT, gripper=gripper)).gripper
+    assert g.status_text == text
+    # any_error is the controller's gripper.error field: E-stop, timeout or temperature bit
+    assert g.any_error == (text == "error")
+    assert (g.error, g.timeout_error, g.temperature_error) == (
+        bool(status_byte & 2), bool(status_byte & 4), bool(status_byte & 8))
 
 
 def test_error_info_any_is_true_for_a_bit_or_a_message():

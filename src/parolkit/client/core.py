@@ -188,9 +188,26 @@ class GripperState:
         return self.object_code in (1, 2)
 
     @property
+    def temperature_error(self) -> bool:
+        """Over-temperature bit (0x08) of the status byte."""
+        return bool(self.status_byte & 0x08)
+
+    @property
+    def timeout_error(self) -> bool:
+        """Timeout bit (0x04) of the status byte."""
+        return bool(self.status_byte & 0x04)
+
+    @property
+    def any_error(self) -> bool:
+        """Any of the E-stop (0x02), timeout (0x04) or temperature (0x08) bits: the
+        controller's ``gripper.error`` status field."""
+        return bool(self.status_byte & 0x0E)
+
+    @property
     def status_text(self) -> str:
-        """One-word summary for a readout: 'error', 'calibrated', 'active' or 'idle'."""
-        if self.error:
+        """One-word summary for a readout: 'error' (:attr:`any_error`), 'calibrated',
+        'active' or 'idle'."""
+        if self.any_error:
             return "error"
         if self.calibrated:
             return "calibrated"
