@@ -16,7 +16,7 @@ from typing import Any, Callable
 
 from nicegui import app, ui
 
-from parolkit.client.core import RobotStatus
+from parolkit.client.core import RobotState, RobotStatus
 from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError, ParolkitValueError
 from parolkit.gui import geometry
@@ -803,7 +803,9 @@ class CommanderPage:
 
     def _update_plan(self, st: RobotStatus) -> None:
         plan = self.link.plan
-        show = plan is not None and st.moving and plan.seq == st.plan_seq
+        # the ghost and path show while the robot is in motion (state MOVING or HOMING)
+        moving = st.state in (RobotState.MOVING, RobotState.HOMING)
+        show = plan is not None and moving and plan.seq == st.plan_seq
         key = (plan.seq if plan else None, show)
         if key == self._last_plan_seq:
             return
