@@ -14,9 +14,9 @@ Control a running one (the control socket defaults to ``LINK.ctl``)::
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import threading
+
+from parolkit._shutdown import ShutdownRequest
 
 __all__ = ["register", "run"]
 
@@ -103,13 +103,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"board-sim: {exc}", file=sys.stderr)
         return 2
 
-    stop = threading.Event()
-
-    def _on_signal(signum: int, _frame: object) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGINT, _on_signal)
-    signal.signal(signal.SIGTERM, _on_signal)
+    shutdown = ShutdownRequest().install()
     try:
         control.start()  # before the pty: once the link path exists, the control socket works
         server.start()
@@ -121,8 +115,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"board-sim: PAROL6 board on {args.link} -> {server.device} "
           f"(control: {control_path}; homing speedup {args.speedup:g})", flush=True)
     try:
-        while not stop.wait(0.2):
-            pass
+        shutdown.wait()
     finally:
         control.stop()
         server.stop()

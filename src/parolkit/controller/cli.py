@@ -14,10 +14,11 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import socket
 import sys
 import threading
+
+from parolkit._shutdown import ShutdownRequest
 
 __all__ = ["register", "run", "build_overrides"]
 
@@ -144,13 +145,7 @@ def run(args: argparse.Namespace) -> int:
     log = logging.getLogger("parolkit.controller")
     # a short GIL switch interval keeps the tick on time while other threads compute
     sys.setswitchinterval(0.0005)
-    stop = threading.Event()
-
-    def on_signal(signum, frame):  # noqa: ARG001
-        stop.set()
-
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    shutdown = ShutdownRequest().install()
     # Listen (and answer PING) before the heavy imports: numpy alone can take most of the
     # 1.5 s start-up budget on a busy machine.
     bind, udp_port = _early_address(args)
@@ -206,8 +201,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"parolkit controller listening on udp://{host}:{port} (board: {ctl.board_description}, "
           f"{ctl.rate_hz:g} Hz, acks to port {cfg.controller.ack_port})", flush=True)
     try:
-        while not stop.wait(0.5):
-            pass
+        shutdown.wait()
     finally:
         log.info("shutting down: stopping motion, disabling the robot, closing the port")
         ctl.stop()
