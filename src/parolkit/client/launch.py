@@ -27,7 +27,9 @@ def die_with_parent() -> None:
 
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
-        pass
+        return
+    if os.getppid() == 1:  # the parent died before the prctl: nobody will signal us
+        os._exit(1)
 
 
 def spawn_controller(serve_args: Sequence[str], *, stdout: IO | int | None = None,
