@@ -179,11 +179,21 @@ class Executor:
                 self.active is None or self.active.streamed
             ):
                 job.streamed = True
+                if self.active is not None and self.active.streamed and self.activity is not None:
+                    # an update arrived: the client still holds the jog (the watchdog counts
+                    # from here, not from when a CARTJOG's plan is ready)
+                    self.activity.touch(self._now)
                 if isinstance(cmd, C.CartJog):
                     if not self._homed or self._measured is None:
                         self._ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
                         return
                     old = self._stream_cart
+                    if old is not None and old.command == cmd:
+                        # the same jog already waits for its plan: superseding it would restart
+                        # planning with every update and, with updates faster than planning,
+                        # no plan would ever take over
+                        self._ack(job, AckStatus.COMPLETED, "merged into the same jog waiting for its plan")
+                        return
                     self._stream_cart = job
                     if old is not None:
                         self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog before it started")
