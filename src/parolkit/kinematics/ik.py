@@ -384,46 +384,7 @@ def _target(pose: object):
 
 
 def _target_flange(pose: object, tool: Tool):
-    """Pose -> flange rotation (9 floats) and wrist centre (3 floats, m) for ``tool``.
-
-    The common case (six numbers, a tool without rotation such as the default TCP) is one
-    straight run of float arithmetic; everything else goes through :func:`_target`.
-    """
-    if type(pose) is np.ndarray and pose.shape == (6,):
-        pose = pose.tolist()
-    if (type(pose) is list or type(pose) is tuple) and len(pose) == 6 and tool._identity_rot:
-        try:
-            x, y, z, a, b, c = pose
-            x *= 1e-3
-            y *= 1e-3
-            z *= 1e-3
-            a *= _DEG
-            b *= _DEG
-            c *= _DEG
-            if _isfinite(x + y + z + a + b + c):
-                ca = _cos(a)
-                sa = _sin(a)
-                cb = _cos(b)
-                sb = _sin(b)
-                cc = _cos(c)
-                sc = _sin(c)
-                scsb = sc * sb
-                ccsb = cc * sb
-                r00 = cb * ca
-                r01 = -cb * sa
-                r10 = cc * sa + scsb * ca
-                r11 = cc * ca - scsb * sa
-                r12 = -sc * cb
-                r20 = sc * sa - ccsb * ca
-                r21 = sc * ca + ccsb * sa
-                r22 = cc * cb
-                tx, ty, tz = tool._t
-                return ((r00, r01, sb, r10, r11, r12, r20, r21, r22),
-                        (x - (r00 * tx + r01 * ty + sb * tz),
-                         y - (r10 * tx + r11 * ty + r12 * tz),
-                         z - (r20 * tx + r21 * ty + r22 * tz)))
-        except (TypeError, ValueError, OverflowError):
-            pass  # the general path below produces the precise error
+    """Pose -> flange rotation (9 floats) and wrist centre (3 floats, m) for ``tool``."""
     r, p = _target(pose)
     return _flange_target(r, p, tool)
 
@@ -465,16 +426,6 @@ def _seed(seed_deg: object):
     """Seed joint angles in degrees (None = standby) -> six radians."""
     if seed_deg is None:
         return STANDBY_RAD
-    if type(seed_deg) is np.ndarray and seed_deg.shape == (6,):
-        seed_deg = seed_deg.tolist()
-    if (type(seed_deg) is list or type(seed_deg) is tuple) and len(seed_deg) == 6:
-        try:
-            q1, q2, q3, q4, q5, q6 = seed_deg
-            out = (q1 * _DEG, q2 * _DEG, q3 * _DEG, q4 * _DEG, q5 * _DEG, q6 * _DEG)
-            if _isfinite(out[0] + out[1] + out[2] + out[3] + out[4] + out[5]):
-                return out
-        except (TypeError, ValueError, OverflowError):
-            pass
     try:
         return _joints_rad(seed_deg, "seed_deg")
     except ParolkitValueError as exc:
