@@ -828,3 +828,17 @@ def test_a_bad_datagram_never_stops_the_async_robot_or_its_subscription(fake):
                 junk.close()
 
     asyncio.run(main())
+
+
+def test_ack_book_counts_exactly_one_terminal_ack_and_reports_repeats_as_nothing_new():
+    from parolkit.client.core import AckBook
+
+    book = AckBook()
+    rec, text = book.new("JOG|2|30|0.2|None")
+    cid = text.split("|", 1)[0]
+    assert book.on_datagram(f"ACK|{cid}|QUEUED|") is rec
+    assert book.on_datagram(f"ACK|{cid}|COMPLETED|done") is rec
+    assert book.on_datagram(f"ACK|{cid}|FAILED|late duplicate") is None  # listeners see nothing
+    assert rec.terminal == (AckStatus.COMPLETED, "done") and len(rec.history) == 2
+    assert book.on_datagram("ACK|zzzz9999|COMPLETED|") is None and book.unmatched == 1
+    assert book.on_datagram("PONG") is None

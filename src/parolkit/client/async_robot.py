@@ -334,18 +334,14 @@ class AsyncRobot(RobotCommands):
     def _on_datagram(self, text: str) -> None:
         self._last_heard = time.monotonic()
         if text.startswith("ACK|"):
-            parsed = wire.parse_ack(text)
-            known = self._acks.get(parsed[0]) if parsed else None
-            before = len(known.history) if known is not None else 0
             rec = self._acks.on_datagram(text)
             if rec is None:
                 return
-            if len(rec.history) > before:  # a new ack (not a repeat after the terminal one)
-                for listener in list(self._ack_listeners):
-                    try:
-                        listener(rec)
-                    except Exception:
-                        log.exception("ack listener %r failed", listener)
+            for listener in list(self._ack_listeners):
+                try:
+                    listener(rec)
+                except Exception:
+                    log.exception("ack listener %r failed", listener)
             fut = self._first.pop(rec.id, None)
             if fut is not None and not fut.done():
                 fut.set_result(None)

@@ -613,7 +613,8 @@ class AckBook:
         return self._records.get(cmd_id)
 
     def on_datagram(self, text: str) -> Optional[AckRecord]:
-        """Feed a received datagram; returns the updated record if it was one of our acks."""
+        """Feed a received datagram; returns the record it added an ack to, or None (not an
+        ack, somebody else's command, or a repeat after the command's terminal ack)."""
         ack = wire.parse_ack(text)
         if ack is None:
             return None
@@ -627,7 +628,7 @@ class AckBook:
         except ValueError:
             status, details = AckStatus.FAILED, f"unknown ack status {status_text!r}: {details}"
         if rec.terminal is not None:
-            return rec  # exactly one terminal ack counts
+            return None  # exactly one terminal ack counts
         if rec.first_at is None:
             rec.first_at = time.monotonic()
         rec.history.append((status, details))
