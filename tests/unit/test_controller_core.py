@@ -309,6 +309,39 @@ def test_gripper_calibrate_is_sent_in_exactly_one_frame(rig):
     assert rig.frames[-1].io & 0x10  # OUT2 on
 
 
+def test_output_completes_only_once_the_board_reports_the_new_level(rig):
+    """COMPLETED means the board's status shows the output, so a GET_IO after the ack reads it."""
+    at_ack: dict[tuple[str, AckStatus], tuple[int, tuple[bool, bool]]] = {}
+    sink = rig.ex._send_ack
+
+    def recording_sink(job, status, details):  # what the controller knew when it acked
+        at_ack[(job.command_id, status)] = (rig.loop.tick_count, rig.loop.status.outputs)
+        sink(job, status, details)
+
+    rig.ex._send_ack = recording_sink
+    for cid, action, want in (("aaaa0001", "open", (True, False)), ("aaaa0002", "close", (False, False))):
+        rig.submit(f"{cid}|PNEUMATICGRIPPER|{action}|1")
+        rig.run_until(lambda: rig.terminal(cid) is not None)
+        assert rig.terminal(cid) is AckStatus.COMPLETED
+        started, before = at_ack[(cid, AckStatus.EXECUTING)]
+        done, reported = at_ack[(cid, AckStatus.COMPLETED)]
+        assert before != want and reported == want
+        assert done > started  # never on the tick whose frame carries the new level
+
+
+def test_output_fails_when_the_board_never_reports_it():
+    from parolkit.controller.jobs import OutputActivity, TickContext
+
+    act = OutputActivity(2, True, timeout_ticks=5)
+    silent = StatusFrame(positions=PAROL6.standby_steps, homed=0xFF, io=0x0F)  # OUT2 stays off
+    ctx = TickContext(tick=0, now=0.0, rate_hz=RATE, status=silent, homed=True, stream_mode=False,
+                      watchdog_s=0.02, limits_steps=PAROL6.limits_steps)
+    steps = [act.step(ctx) for _ in range(6)]
+    assert all(s.done is None for s in steps[:5])
+    assert steps[5].done is AckStatus.FAILED
+    assert steps[5].details == "the board did not report OUT2 = 1 within 0.05 s"
+
+
 def test_plan_failure_is_reported_as_failed_when_its_turn_comes(rig):
     rig.submit("aaaa0001|MOVEPOSE|900|0|0|0|0|0|1|None")  # far out of reach
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)

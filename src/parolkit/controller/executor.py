@@ -31,6 +31,7 @@ from parolkit.controller.jobs import (
     HomeActivity,
     Job,
     OneShotActivity,
+    OutputActivity,
     SpeedActivity,
     Step,
     TickContext,
@@ -54,6 +55,8 @@ AckSink = Callable[[Job, AckStatus, str], None]
 START_TOLERANCE_DEG = 0.5
 #: an SSG-48 calibration that takes longer than this FAILS, s
 GRIPPER_CALIBRATE_TIMEOUT_S = 10.0
+#: PNEUMATICGRIPPER FAILS if the board has not reported the new output level by then, s
+OUTPUT_REPORT_TIMEOUT_S = 0.5
 #: how many queued jobs the planner plans ahead
 PLAN_AHEAD = 4
 
@@ -581,8 +584,9 @@ class Executor:
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
         elif isinstance(cmd, C.PneumaticGripper):
-            self.outputs[cmd.port - 1] = cmd.action == "open"  # as the original: open = output on
-            act = OneShotActivity()
+            on = cmd.action == "open"  # as the original: open = output on
+            self.outputs[cmd.port - 1] = on
+            act = OutputActivity(cmd.port, on, ticks_for(OUTPUT_REPORT_TIMEOUT_S, self.rate_hz))
         elif isinstance(cmd, C.ElectricGripper):
             g = self.gripper
             if cmd.action == "move":

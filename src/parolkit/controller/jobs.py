@@ -273,6 +273,34 @@ class OneShotActivity(Activity):
         return Step(BoardCommand.IDLE, gripper_mode=self.mode, done=AckStatus.COMPLETED)
 
 
+class OutputActivity(Activity):
+    """Drive OUT1/OUT2 (the frame already carries the new level) and complete when the board's
+    status reports that level, so a GET_IO after COMPLETED reads what was asked. FAILED after
+    ``timeout_ticks`` without that report (a board that does not echo its outputs, or a link
+    dropping every reply)."""
+
+    def __init__(self, port: int, on: bool, timeout_ticks: int) -> None:
+        self.port = port
+        self.on = on
+        self.timeout_ticks = timeout_ticks
+        self.i = 0
+
+    def step(self, ctx: TickContext) -> Step:
+        self.i += 1
+        st = ctx.status
+        # the status read before this tick answers the frame sent in an earlier tick, which
+        # already carried the new level; the first tick has not sent it yet
+        if self.i >= 2 and st is not None and st.outputs[self.port - 1] == self.on:
+            self.progress = 1.0
+            return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
+        if self.i > self.timeout_ticks:
+            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
+                        details=f"the board did not report OUT{self.port} = {int(self.on)} within "
+                                f"{self.timeout_ticks / ctx.rate_hz:g} s")
+        self.progress = min(0.99, self.i / max(1, self.timeout_ticks))
+        return Step(BoardCommand.IDLE)
+
+
 class GripperCalibrateActivity(Activity):
     """Send the one-shot CALIBRATE mode in exactly one frame, then wait until the gripper
     reports "calibrated" (FAILED after ``timeout_ticks``: no gripper, or it did not answer)."""
