@@ -524,3 +524,39 @@ def test_wait_input_completes_when_the_input_matches_and_fails_on_timeout(rig):
     rig.submit("aaaa0002|WAIT_INPUT|1|1|0.1")
     rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
     assert rig.terminal("aaaa0002") is AckStatus.FAILED
+
+
+# ---------------------------------------------------------------------------------- outbox
+
+
+def test_outbox_holds_acks_until_the_last_release_and_keeps_their_order():
+    import socket
+
+    from parolkit.controller.server import Outbox
+
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(0.3)
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    box = Outbox(tx)
+    box.start()
+    try:
+        dest = rx.getsockname()
+        box.hold()
+        box.hold()  # a second holder (the tick and a datagram handler at once)
+        box.put("ACK|a|QUEUED|", dest)
+        box.put("ACK|a|EXECUTING|", (dest, dest))  # an ack route of two addresses
+        box.release()
+        with pytest.raises(socket.timeout):
+            rx.recvfrom(100)  # still held by the other holder
+        box.put("ACK|a|COMPLETED|", dest)
+        box.release()
+        box.release()  # one too many is harmless
+        got = [rx.recvfrom(100)[0].decode() for _ in range(4)]
+        assert got == ["ACK|a|QUEUED|", "ACK|a|EXECUTING|", "ACK|a|EXECUTING|", "ACK|a|COMPLETED|"]
+        box.put("ACK|b|COMPLETED|", dest)  # not held: sent at once
+        assert rx.recvfrom(100)[0] == b"ACK|b|COMPLETED|"
+    finally:
+        box.stop()
+        tx.close()
+        rx.close()

@@ -65,6 +65,8 @@ class Controller:
         self.server: UdpServer
         self.stream: StatusStream
         self._snapshot: Snapshot | None = None
+        self._publish_lock = threading.Lock()
+        self._tick_holds_acks = False  # only the loop thread reads or writes it
         self._stopped = threading.Event()
         self.board_description = "emulated board" if config.serial.simulated else str(config.serial.port)
 
@@ -136,6 +138,7 @@ class Controller:
         self.executor.stop()
         self.server.stop()
         self.stream.stop()
+        self._release_tick_acks()  # acks of a tick that ended without publishing (loop stopped)
         self.outbox.flush(0.5)
         self.outbox.stop()
         if self.sock is not None:
@@ -189,6 +192,10 @@ class Controller:
             if status in (AckStatus.FAILED,) and job.command_id is None:
                 log.warning("%s failed: %s", job.name, details)
             return
+        if not self._tick_holds_acks and self.loop is not None and self.loop.in_loop_thread():
+            # an ack from the tick waits for the snapshot that _on_tick publishes at its end
+            self.outbox.hold()
+            self._tick_holds_acks = True
         self.outbox.put(format_ack(job.command_id, status, details), job.ack_addr)
 
     # ------------------------------------------------------------------ snapshot
@@ -211,21 +218,39 @@ class Controller:
         return RobotState.IDLE
 
     def _on_tick(self, loop: ControlLoop) -> None:
-        ex = self.executor
-        a = ex.active
-        act = ex.activity
-        info = CommandInfo(a.command_id, a.name, act.progress if act else 0.0) if a is not None else None
-        self._snapshot = Snapshot(
-            seq=loop.tick_count, time=time.monotonic() - loop.start_time, state=self._state(ex, loop),
-            enabled=ex.enabled, estop_pressed=ex.estop_pressed, estop_latched=ex.estop_latched,
-            status=loop.status or loop.last_status,
-            board=BoardInfo(loop.link_up and loop.status is not None,
-                            bool(getattr(loop.transport, "simulated", False)), loop.transport.description),
-            error=ex.error, command=info, queue=len(ex.queue), stream_mode=ex.stream_mode,
-            tool=self.tool_name, plan_seq=ex.plan_seq, outputs=(ex.outputs[0], ex.outputs[1]),
-            steps_per_deg=self._spd, pose_provider=self._pose_provider, loop_view=self._loop_dict,
-        )
+        try:
+            self.publish()
+        finally:
+            self._release_tick_acks()
         self.stream.notify(loop.tick_count)
+
+    def _release_tick_acks(self) -> None:
+        if self._tick_holds_acks:
+            self._tick_holds_acks = False
+            self.outbox.release()
+
+    def publish(self) -> None:
+        """Build the status snapshot queries answer from. Called after every tick and after a
+        datagram changed the executor; built under a lock, so the last one published has seen
+        every change made before it was built."""
+        loop = self.loop
+        if loop is None:
+            return
+        with self._publish_lock:
+            ex = self.executor
+            a = ex.active
+            act = ex.activity
+            info = CommandInfo(a.command_id, a.name, act.progress if act else 0.0) if a is not None else None
+            self._snapshot = Snapshot(
+                seq=loop.tick_count, time=time.monotonic() - loop.start_time, state=self._state(ex, loop),
+                enabled=ex.enabled, estop_pressed=ex.estop_pressed, estop_latched=ex.estop_latched,
+                status=loop.status or loop.last_status,
+                board=BoardInfo(loop.link_up and loop.status is not None,
+                                bool(getattr(loop.transport, "simulated", False)), loop.transport.description),
+                error=ex.error, command=info, queue=len(ex.queue), stream_mode=ex.stream_mode,
+                tool=self.tool_name, plan_seq=ex.plan_seq, outputs=(ex.outputs[0], ex.outputs[1]),
+                steps_per_deg=self._spd, pose_provider=self._pose_provider, loop_view=self._loop_dict,
+            )
 
     @property
     def _spd(self) -> tuple[float, ...]:

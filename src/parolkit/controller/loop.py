@@ -279,6 +279,10 @@ class ControlLoop:
                 break
             time.sleep(0.0002)
 
+    def in_loop_thread(self) -> bool:
+        """True when called from the tick thread."""
+        return self._thread is not None and threading.current_thread() is self._thread
+
     @staticmethod
     def _raise_priority() -> bool:
         """Ask the OS to prefer the tick thread (nice -10); needs the privilege, else no-op."""

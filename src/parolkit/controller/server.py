@@ -37,11 +37,19 @@ Address = tuple[str, int]
 
 
 class Outbox:
-    """Sends datagrams (acks) in FIFO order from its own thread."""
+    """Sends datagrams (acks) in FIFO order from its own thread.
+
+    :meth:`hold` / :meth:`release` (nestable, from any thread) keep what is put in between
+    back until the last release, in order: the controller holds its acks until the status
+    snapshot shows what they report, so a query sent after an ack never reads an older state.
+    """
 
     def __init__(self, sock: socket.socket) -> None:
         self.sock = sock
         self._q: SimpleQueue[tuple[bytes, tuple[str, int]] | None] = SimpleQueue()
+        self._hold_lock = threading.Lock()
+        self._holds = 0
+        self._held: list[tuple[bytes, tuple[str, int]]] = []
         self._thread = threading.Thread(target=self._run, name="parolkit-outbox", daemon=True)
         self.sent = 0
         self.errors = 0
@@ -56,11 +64,29 @@ class Outbox:
     def put(self, text: str, addr: "Address | tuple[Address, ...]") -> None:
         """Queue ``text`` for one address or for each of a tuple of addresses (an ack route)."""
         data = text.encode("utf-8")
-        if addr and isinstance(addr[0], tuple):
-            for a in addr:  # type: ignore[union-attr]
-                self._q.put((data, a))
-        else:
-            self._q.put((data, addr))  # type: ignore[arg-type]
+        items = [(data, a) for a in addr] if addr and isinstance(addr[0], tuple) else [(data, addr)]
+        with self._hold_lock:
+            if self._holds:
+                self._held.extend(items)  # type: ignore[arg-type]
+                return
+            for item in items:
+                self._q.put(item)  # type: ignore[arg-type]
+
+    def hold(self) -> None:
+        """Keep datagrams back until the matching :meth:`release`."""
+        with self._hold_lock:
+            self._holds += 1
+
+    def release(self) -> None:
+        """End one :meth:`hold`; the last one sends everything held, in order."""
+        with self._hold_lock:
+            if self._holds == 0:
+                return
+            self._holds -= 1
+            if self._holds == 0:
+                for item in self._held:
+                    self._q.put(item)
+                self._held.clear()
 
     def flush(self, timeout: float = 1.0) -> None:
         end = time.monotonic() + timeout
@@ -298,12 +324,18 @@ class UdpServer:
             self.ack_here(addr)
             self._immediate_ack(cid, addr, AckStatus.COMPLETED, "acks also go to this socket")
             return
-        if cmd.KIND is C.CommandKind.IMMEDIATE:
-            status, details = c.immediate(cmd, addr)
-            self._immediate_ack(cid, addr, status, details)
-            return
-        job = c.executor.new_job(cmd, cid, self._ack_addr(addr) if cid is not None else None)
-        c.executor.submit(job)
+        # the acks wait for a snapshot that shows the change they report (Outbox.hold)
+        c.outbox.hold()
+        try:
+            if cmd.KIND is C.CommandKind.IMMEDIATE:
+                status, details = c.immediate(cmd, addr)
+                self._immediate_ack(cid, addr, status, details)
+            else:
+                job = c.executor.new_job(cmd, cid, self._ack_addr(addr) if cid is not None else None)
+                c.executor.submit(job)
+            c.publish()
+        finally:
+            c.outbox.release()
 
 
 def _looks_like_query(data: bytes) -> bool:
