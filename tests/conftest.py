@@ -23,6 +23,19 @@ DATA_DIR = REPO_ROOT / "tests" / "data"
 ARTIFACTS_DIR = REPO_ROOT / "test-artifacts"
 
 
+def wait_until(predicate, timeout: float = 10.0, interval: float = 0.02, what: str = "condition"):
+    """Poll ``predicate`` until it returns something true (returned), else fail after ``timeout``
+    s. For post-conditions that take a few ticks: a fixed sleep is too short on a loaded machine."""
+    deadline = time.monotonic() + timeout
+    while True:
+        last = predicate()
+        if last:
+            return last
+        if time.monotonic() > deadline:
+            raise AssertionError(f"{what} not reached within {timeout:g} s (last: {last!r})")
+        time.sleep(interval)
+
+
 def free_udp_port() -> int:
     """A UDP port that was free a moment ago on 127.0.0.1."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:

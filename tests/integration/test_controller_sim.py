@@ -14,7 +14,7 @@ import pytest
 
 from parolkit.client.launch import die_with_parent
 
-from tests.conftest import REPO_ROOT, free_udp_port
+from tests.conftest import REPO_ROOT, free_udp_port, wait_until
 from tests.integration.test_controller_pty import TERMINAL, AckListener
 
 
@@ -95,10 +95,13 @@ def test_streaming_cartesian_jog_moves_while_updated_and_stops_when_updates_stop
         time.sleep(0.02)
     for cid in ids:
         assert client.acks.terminal(cid, 5)[0] in ("COMPLETED", "FAILED")
-    time.sleep(0.2)
-    st = client.json("GET_STATUS_JSON")
+
+    def stopped():
+        st = client.json("GET_STATUS_JSON")
+        return st if st["speeds"] == [0] * 6 and st["command"] is None else None
+
+    st = wait_until(stopped, what="the jog stopping once updates stop")
     assert st["pose"][2] < z0 - 2.0  # it moved down while updates came
-    assert st["speeds"] == [0, 0, 0, 0, 0, 0] and st["command"] is None
     completed = [client.acks.terminal(c)[0] for c in ids].count("COMPLETED")
     assert completed >= len(ids) // 2
     client.send("STREAM|OFF")
@@ -225,3 +228,4 @@ def test_a_command_sent_right_after_stops_ack_is_not_cancelled_by_that_stop(clie
         cid = client.send("DELAY|0.05")
         status, details = client.acks.terminal(cid, 5)
         assert status == "COMPLETED", details
+

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import start_controller
+from conftest import start_controller, wait_until
 from parolkit.client.robot import Robot
 from parolkit.script import Interpreter, InterpreterState, parse
 
@@ -29,14 +29,6 @@ def robot(tmp_path_factory):
 
 def program(text: str):
     return parse(text, "test.rbt").unwrap()
-
-
-def wait_for(predicate, timeout: float = 10.0) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError("condition not reached in time")
-        time.sleep(0.01)
 
 
 def test_home_input_and_speedjoint_run_in_order(robot):
@@ -104,7 +96,7 @@ def test_stop_during_a_move_sends_stop_and_leaves_the_robot_short_of_the_target(
     prog = program(f"Begin()\nMoveJoint({', '.join(map(str, target))}, t=6)\nDelay(5)\nEnd()")
     interp = Interpreter(prog, robot)
     interp.start()
-    wait_for(lambda: interp.current_line == 2 and interp.state is InterpreterState.RUNNING)
+    wait_until(lambda: interp.current_line == 2 and interp.state is InterpreterState.RUNNING)
     time.sleep(1.0)
     t0 = time.monotonic()
     interp.stop()
@@ -112,11 +104,10 @@ def test_stop_during_a_move_sends_stop_and_leaves_the_robot_short_of_the_target(
     assert time.monotonic() - t0 < 3.0
     assert result.state is InterpreterState.STOPPED
     assert interp.current_line is None
-    time.sleep(0.3)
+    wait_until(lambda: max(abs(s) for s in robot.speeds()) == 0, what="the robot standing still")
     j1 = robot.angles()[0]
     assert 41.0 < j1 < 89.5, j1  # moved, but was stopped well before the target
     assert robot.status().queue == 0
-    assert max(abs(s) for s in robot.speeds()) == 0
 
 
 A = [85.0, -92.0, 178.0, 2.0, 2.0, 178.0]
@@ -130,13 +121,13 @@ def test_single_step_runs_one_command_per_step_and_pauses_between(robot):
                    f"MoveJoint({', '.join(map(str, B))}, t=1)\nEnd()")
     interp = Interpreter(prog, robot, step=True, on_state=states.append)
     interp.start()
-    wait_for(lambda: interp.state is InterpreterState.PAUSED)
+    wait_until(lambda: interp.state is InterpreterState.PAUSED)
     assert interp.current_line == 1
     interp.step()  # Begin()
-    wait_for(lambda: interp.state is InterpreterState.PAUSED and interp.current_line == 2)
+    wait_until(lambda: interp.state is InterpreterState.PAUSED and interp.current_line == 2)
     np.testing.assert_allclose(robot.angles(), STANDBY, atol=0.05)
     interp.step()  # the first move
-    wait_for(lambda: interp.state is InterpreterState.PAUSED and interp.current_line == 3)
+    wait_until(lambda: interp.state is InterpreterState.PAUSED and interp.current_line == 3)
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)
     time.sleep(0.3)
     assert interp.current_line == 3 and interp.state is InterpreterState.PAUSED  # stays paused
@@ -179,7 +170,7 @@ def test_endless_loop_runs_until_stopped(robot):
     prog = program("Begin()\nDelay(0.05)\nLoop()")
     interp = Interpreter(prog, robot, on_line=lambda p: passes.append(p.iteration))
     interp.start()
-    wait_for(lambda: interp.iteration >= 3)
+    wait_until(lambda: interp.iteration >= 3)
     interp.stop()
     result = interp.wait(10)
     assert result.state is InterpreterState.STOPPED
