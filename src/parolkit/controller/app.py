@@ -66,7 +66,7 @@ class Controller:
         self.stream: StatusStream
         self._snapshot: Snapshot | None = None
         self._publish_lock = threading.Lock()
-        self._tick_holds_acks = False  # only the loop thread reads or writes it
+        self._tick_holds_acks = False  # the loop thread owns it (stop() only after the loop ended)
         self._stopped = threading.Event()
         self.board_description = "emulated board" if config.serial.simulated else str(config.serial.port)
 
