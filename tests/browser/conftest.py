@@ -56,10 +56,16 @@ def gui_url():
         except OSError:
             pass
         if time.monotonic() > deadline:
-            proc.terminate()
+            _stop(proc)
             pytest.fail(f"parolkit gui did not serve {url} within 40 s:\n{log_path.read_text(errors='replace')}")
         time.sleep(0.2)
     yield url
+    _stop(proc)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    """SIGTERM, then SIGKILL if the GUI has not exited 15 s later (its controller child follows
+    it either way: die_with_parent)."""
     proc.terminate()
     try:
         proc.wait(15)

@@ -20,8 +20,10 @@ def _args(**kw) -> argparse.Namespace:
 
 
 def test_flags_become_config_overrides_and_unset_flags_stay_none():
-    o = cli.build_overrides(_args(rate=250, udp_port=6001, no_home=True, port="/dev/ttyACM0"))
+    o = cli.build_overrides(_args(rate=250, udp_port=6001, no_home=True, port="/dev/ttyACM0",
+                                  stream_watchdog=0.15))
     assert o["controller"]["rate_hz"] == 250 and o["controller"]["udp_port"] == 6001
+    assert o["controller"]["stream_watchdog_s"] == 0.15
     assert o["controller"]["home_on_start"] is False and o["controller"]["bind"] is None
     assert o["serial"] == {"port": "/dev/ttyACM0"}
 

@@ -38,6 +38,8 @@ def register(subparsers, name: str = "serve") -> argparse.ArgumentParser:
     p.add_argument("--ack-port", type=int, metavar="N", help="UDP port acks are sent to (default 5002)")
     p.add_argument("--config", metavar="FILE", help="TOML configuration file")
     p.add_argument("--sim-speedup", type=float, metavar="X", help="homing time scale of the simulated board")
+    p.add_argument("--stream-watchdog", type=float, metavar="S",
+                   help="stop a streamed jog this long after its last update, s (default 0.02)")
     p.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"],
                    help="log level (default INFO)")
     p.set_defaults(func=run)
@@ -52,6 +54,7 @@ def build_overrides(args: argparse.Namespace) -> dict:
         "udp_port": args.udp_port,
         "ack_port": args.ack_port,
         "sim_homing_speedup": args.sim_speedup,
+        "stream_watchdog_s": args.stream_watchdog,
     }
     if args.no_home:
         ctl["home_on_start"] = False

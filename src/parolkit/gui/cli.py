@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import ipaddress
-import os
 import socket
 import subprocess
 import sys
@@ -90,31 +89,25 @@ def _answers_ping(robot) -> bool:
 #: 20 ms default and a held jog would stutter.  Release sends STOP at once, so this only
 #: bounds how long motion continues if the GUI process itself stalls.
 GUI_STREAM_WATCHDOG_S = 0.15
+#: On SIGTERM / Ctrl+C, open pages get this long (s) to close before the web server stops anyway.
+GRACEFUL_SHUTDOWN_S = 3.0
 
 
 def start_controller_process(serial_port: str | None, udp_port: int, ack_port: int,
                              config: Path | None = None, ready_timeout: float = 20.0) -> subprocess.Popen:
     """Start ``parolkit serve`` and wait until it answers PING; raises RuntimeError otherwise.
 
-    Without a user ``config`` the controller gets a generated one that only sets the stream
-    watchdog to :data:`GUI_STREAM_WATCHDOG_S`."""
-    import tempfile
-
+    Its stream watchdog is :data:`GUI_STREAM_WATCHDOG_S` (the flag wins over ``config``): the
+    GUI's jog cadence for a controller of its own is made for it."""
     from parolkit.client.launch import spawn_controller
+    from parolkit.client.robot import Robot
 
     args = ["--udp-port", str(udp_port), "--ack-port", str(ack_port)]
     args += ["--port", serial_port] if serial_port else ["--sim"]
-    generated: Path | None = None
-    if config is None:
-        fd, name = tempfile.mkstemp(prefix="parolkit-gui-", suffix=".toml")
-        with os.fdopen(fd, "w") as f:
-            f.write(f"[controller]\nstream_watchdog_s = {GUI_STREAM_WATCHDOG_S}\n")
-        config = generated = Path(name)
-    args += ["--config", str(config)]
+    args += ["--stream-watchdog", str(GUI_STREAM_WATCHDOG_S)]
+    if config is not None:
+        args += ["--config", str(config)]
     proc = spawn_controller(args)
-    proc.generated_config = generated  # type: ignore[attr-defined]  # removed by stop_controller_process
-    from parolkit.client.robot import Robot
-
     deadline = time.monotonic() + ready_timeout
     with Robot("127.0.0.1", udp_port, ack_port=0, timeout=0.2) as robot:
         while time.monotonic() < deadline:
@@ -128,7 +121,8 @@ def start_controller_process(serial_port: str | None, udp_port: int, ack_port: i
 
 
 def stop_controller_process(proc: subprocess.Popen) -> None:
-    """Terminate a controller started by :func:`start_controller_process` and clean up."""
+    """Terminate a controller started by :func:`start_controller_process` (SIGTERM: it stops
+    motion and disables the robot), SIGKILL if it has not exited 10 s later."""
     if proc.poll() is None:
         proc.terminate()
         try:
@@ -136,9 +130,6 @@ def stop_controller_process(proc: subprocess.Popen) -> None:
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait(5)
-    generated = getattr(proc, "generated_config", None)
-    if generated is not None:
-        generated.unlink(missing_ok=True)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -189,11 +180,21 @@ def main(args: argparse.Namespace) -> int:
     commander = Commander(link, mode_label=mode, jog_repeat_s=0.05 if own else 0.01,
                           cart_jog_repeat_s=0.1 if own else 0.01)
     root = build_app(commander)
+    if proc is not None:
+        from nicegui import app
+
+        # uvicorn ends the process by re-raising SIGTERM / SIGINT after the app's shutdown
+        # handlers, so the ``finally`` below is not reached then: stop the controller here
+        # (after build_app's handler closed the link)
+        app.on_shutdown(lambda: stop_controller_process(proc))
     print(f"parolkit commander on http://{host}:{http_port}/", file=sys.stderr, flush=True)
     try:
         ui.run(root, host=host, port=http_port, title="parolkit commander", reload=False,
                show=not args.no_browser, show_welcome_message=False, dark=True, favicon="🦾",
-               reconnect_timeout=30.0)
+               reconnect_timeout=30.0,
+               # SIGTERM / Ctrl+C: give open pages this long to close, then stop anyway (by
+               # default uvicorn waits for every connection, forever if a browser froze)
+               timeout_graceful_shutdown=GRACEFUL_SHUTDOWN_S)
     finally:
         if proc is not None:
             stop_controller_process(proc)
