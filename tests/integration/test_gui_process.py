@@ -65,7 +65,13 @@ def test_sigterm_stops_the_gui_and_its_controller_while_a_page_holds_a_long_poll
                      "Host: 127.0.0.1\r\n\r\n".encode())
         time.sleep(0.5)
         proc.send_signal(signal.SIGTERM)
-        proc.wait(GRACEFUL_SHUTDOWN_S + 10)  # raises if it waited for the poll (24 s)
+        try:
+            proc.wait(GRACEFUL_SHUTDOWN_S + 10)  # uvicorn's default waits for the poll (24 s)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGUSR1)  # the GUI prints its threads' stacks to its log
+            time.sleep(1.0)
+            raise AssertionError("the GUI did not exit:\n" + (tmp_path / "gui.log").read_text(errors="replace")) \
+                from None
         log = (tmp_path / "gui.log").read_text(errors="replace")
         # uvicorn re-raises the signal once the app has shut down
         assert proc.returncode in (0, -signal.SIGTERM), log

@@ -419,3 +419,49 @@ def test_controller_link_logs_acks_tracks_the_plan_and_survives_bad_data_and_res
             s.bind(("127.0.0.1", fake.ack_port))
     finally:
         fake.close()
+
+
+def test_link_tasks_are_cancelled_again_until_they_end():
+    """A task that swallows a cancellation (as asyncio.wait_for can on Python 3.11) still ends,
+    and one that never ends does not hold the caller beyond the limit."""
+    import asyncio
+
+    from parolkit.gui.link import _cancel_all
+
+    async def main():
+        swallowed = []
+
+        async def stubborn():
+            while True:
+                try:
+                    await asyncio.sleep(10)
+                except asyncio.CancelledError:
+                    if not swallowed:
+                        swallowed.append(True)  # the race: carry on as if nothing happened
+                        continue
+                    raise
+
+        released = []
+
+        async def immortal():  # ignores every cancellation until the test releases it
+            while not released:
+                try:
+                    await asyncio.sleep(10)
+                except asyncio.CancelledError:
+                    continue
+
+        a = asyncio.ensure_future(stubborn())
+        await asyncio.sleep(0)
+        await asyncio.wait_for(_cancel_all([a]), 2)
+        assert a.cancelled() and swallowed
+        b = asyncio.ensure_future(immortal())
+        await asyncio.sleep(0)
+        t0 = asyncio.get_running_loop().time()
+        await _cancel_all([b], limit_s=0.3)
+        assert not b.done() and asyncio.get_running_loop().time() - t0 < 2
+        released.append(True)
+        b.cancel()
+        await asyncio.wait([b], timeout=2)
+        assert b.done()
+
+    asyncio.run(main())

@@ -12,7 +12,9 @@ receives its acks on its own socket (``ACK_HERE``), never on the controller's ac
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import ipaddress
+import signal
 import socket
 import subprocess
 import sys
@@ -180,6 +182,8 @@ def main(args: argparse.Namespace) -> int:
     commander = Commander(link, mode_label=mode, jog_repeat_s=0.05 if own else 0.01,
                           cart_jog_repeat_s=0.1 if own else 0.01)
     root = build_app(commander)
+    if hasattr(signal, "SIGUSR1"):  # `kill -USR1 PID` prints every thread's stack to stderr
+        faulthandler.register(signal.SIGUSR1, all_threads=True)
     if proc is not None:
         from nicegui import app
 

@@ -86,13 +86,7 @@ class ControllerLink:
 
     async def close(self) -> None:
         """Stop watching, unsubscribe and close the client (idempotent)."""
-        for t in self._tasks:
-            t.cancel()
-        for t in self._tasks:
-            try:
-                await t
-            except (asyncio.CancelledError, Exception):
-                pass
+        await _cancel_all(self._tasks)
         self._tasks.clear()
         if self._sub is not None:
             await self._sub.close()
@@ -215,3 +209,24 @@ class ControllerLink:
         if quiet:
             self._quiet.add(handle.id)
         return handle.id
+
+
+async def _cancel_all(tasks: list[asyncio.Task], limit_s: float = 2.0) -> None:
+    """Cancel ``tasks`` and wait until they have ended, cancelling again while they run: on
+    Python 3.11 ``asyncio.wait_for`` (used by a subscription's ``next``) can swallow a
+    cancellation that arrives just as its datagram does (a race fixed in 3.12), and a plain
+    ``await task`` would then wait forever, holding up the commander's shutdown. Gives up
+    after ``limit_s``."""
+    pending = set(tasks)
+    deadline = time.monotonic() + limit_s
+    while pending:
+        for t in pending:
+            t.cancel()
+        done, pending = await asyncio.wait(pending, timeout=0.05)
+        for t in done:
+            if not t.cancelled() and t.exception() is not None:
+                log.debug("link task ended with %r", t.exception())
+        if pending and time.monotonic() > deadline:
+            log.warning(
+                "%d link task(s) did not stop within %g s", len(pending), limit_s)
+            return
