@@ -11,7 +11,8 @@ import pytest
 from parolkit.board import BoardEmulator
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
-from parolkit.controller.loop import ControlLoop, StatusFilter
+from parolkit.controller.inbox import Submission
+from parolkit.controller.loop import ControlLoop, StatusFilter, TickOutput
 from parolkit.controller.stats import Histogram
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import AckStatus, parse_datagram
@@ -29,9 +30,9 @@ class Rig:
         self.emu = BoardEmulator(clock="virtual", start_homed=homed, homing_speedup=200, **emu_kw)
         self.transport = EmulatorTransport(emulator=self.emu)
         self.transport.open()
-        self.acks: list[tuple[str | None, str, AckStatus, str]] = []
-        self.ex = Executor(model=PAROL6, rate_hz=RATE, queue_size=queue_size, watchdog_s=0.02,
-                           send_ack=lambda j, s, d: self.acks.append((j.command_id, j.name, s, d)))
+        self.acks: list[tuple[str | None, AckStatus, str]] = []
+        self.outputs: list[TickOutput] = []
+        self.ex = Executor(model=PAROL6, rate_hz=RATE, queue_size=queue_size, watchdog_s=0.02)
         self.guard = SafetyGuard(PAROL6, RATE)
         self.loop = ControlLoop(transport=self.transport, executor=self.ex, guard=self.guard, rate_hz=RATE,
                                 link_timeout_ticks=3, reply_wait_fraction=0.0)
@@ -43,22 +44,41 @@ class Rig:
     def close(self) -> None:
         self.ex.stop()
 
-    def tick(self, n: int = 1) -> None:
+    def tick(self, n: int = 1, dt: float = 1.0 / RATE) -> None:
+        """``n`` ticks, each ``dt`` s of board time after the one before."""
         for _ in range(n):
-            self.loop._tick(self.now)
-            if self.loop.last_frame is not None:
-                self.frames.append(self.loop.last_frame)
+            out = self.loop.tick(self.now)
+            self.outputs.append(out)
+            self._record(out.acks)
+            if out.frame is not None:
+                self.frames.append(out.frame)
             self.loop.tick_count += 1
-            self.now += 1.0 / RATE
+            self.now += dt
             if self.emu.plugged:
-                self.emu.advance(1.0 / RATE)
+                self.emu.advance(dt)
+
+    def _record(self, acks) -> None:
+        self.acks.extend((a.command_id, a.status, a.details) for a in acks)
+
+    def send(self, text: str, seq: int = 0, port: int = 1) -> None:
+        """A datagram from 127.0.0.1:``port`` as the server hands it over: applied at the next
+        tick."""
+        p = parse_datagram(text)
+        src = ("127.0.0.1", port)
+        sub = Submission(p.command, p.command_id, (src,) if p.command_id else None, src, seq)
+        if isinstance(p.command, (C.EStop, C.Stop, C.Disable)):
+            self.loop.inbox.put_safety(sub)
+        else:
+            self.loop.inbox.put(sub)
 
     def submit(self, text: str) -> None:
+        """Apply a command now, as the loop thread does (acks recorded at once)."""
         p = parse_datagram(text)
-        self.ex.submit(self.ex.new_job(p.command, p.command_id, ("127.0.0.1", 1)))
+        self.ex.apply(Submission(p.command, p.command_id, (("127.0.0.1", 1),), ("127.0.0.1", 1)))
+        self._record(self.ex.take_acks())
 
     def statuses(self, cid: str) -> list[AckStatus]:
-        return [a[2] for a in self.acks if a[0] == cid]
+        return [a[1] for a in self.acks if a[0] == cid]
 
     def run_until(self, cond, max_ticks: int = 2000, wall_s: float = 20.0) -> None:
         end = time.monotonic() + wall_s
@@ -104,7 +124,7 @@ def test_commands_run_in_order_each_planned_from_the_previous_end(rig):
     rig.submit("aaaa0002|DELAY|0.1")
     rig.submit("aaaa0003|MOVEJOINT|80|-90|170|0|0|180|1.5|None")
     rig.run_until(lambda: rig.terminal("aaaa0003") is not None)
-    done = [a[0] for a in rig.acks if a[2] is AckStatus.COMPLETED]
+    done = [a[0] for a in rig.acks if a[1] is AckStatus.COMPLETED]
     assert done == ["aaaa0001", "aaaa0002", "aaaa0003"], rig.acks
     assert np.allclose(rig.angles, [80, -90, 170, 0, 0, 180], atol=0.05)
 
@@ -114,7 +134,7 @@ def test_stop_mid_move_cancels_active_and_queued_and_holds(rig):
     rig.submit("aaaa0002|MOVEJOINT|90|-90|180|0|0|180|2|None")
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     rig.tick(50)
-    rig.ex.post(rig.ex.do_stop)
+    rig.send("STOP")
     rig.tick(3)
     assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
     assert rig.terminal("aaaa0002") is AckStatus.CANCELLED
@@ -142,7 +162,7 @@ def test_estop_press_cancels_sends_disable_every_tick_and_latches_until_release_
     # released but not re-enabled: still latched, still DISABLE
     assert rig.ex.estop_latched
     assert all(f.command == BoardCommand.DISABLE for f in rig.frames[-5:])
-    rig.ex.post(rig.ex.do_enable)
+    rig.send("ENABLE")
     rig.tick(3)
     assert not rig.ex.estop_latched
     assert any(f.command == BoardCommand.ENABLE for f in rig.frames[-3:])
@@ -150,10 +170,10 @@ def test_estop_press_cancels_sends_disable_every_tick_and_latches_until_release_
 
 
 def test_software_estop_latches_like_the_hardware_one(rig):
-    rig.ex.post(lambda: rig.ex.do_estop("test"))
+    rig.send("ESTOP")
     rig.tick(5)
     assert all(f.command == BoardCommand.DISABLE for f in rig.frames[-4:])
-    rig.ex.post(rig.ex.do_enable)
+    rig.send("ENABLE")
     rig.tick(2)
     assert not rig.ex.estop_latched
 
@@ -165,7 +185,7 @@ def test_unplugged_link_cancels_motion_within_three_ticks_and_reconnects(rig):
     rig.emu.unplug()
     rig.tick(3)
     assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
-    assert "link lost" in rig.acks[-1][3]
+    assert "link lost" in rig.acks[-1][2]
     assert not rig.loop.link_up and rig.ex.error
     rig.tick()
     rig.submit("aaaa0002|DELAY|0.1")  # refused while the link is down
@@ -197,7 +217,7 @@ def test_motion_is_refused_until_homed_but_jog_is_allowed():
         r.submit("aaaa0002|JOG|0|20|0.2|None")
         r.run_until(lambda: r.terminal("aaaa0002") is not None)
         assert r.terminal("aaaa0001") is AckStatus.FAILED
-        assert "not homed" in [a for a in r.acks if a[0] == "aaaa0001"][-1][3]
+        assert "not homed" in [a for a in r.acks if a[0] == "aaaa0001"][-1][2]
         assert r.terminal("aaaa0002") is AckStatus.COMPLETED
         jog = [f for f in r.frames if f.command == BoardCommand.JOG]
         assert jog and any(f.speeds[0] > 0 for f in jog)
@@ -234,11 +254,7 @@ def test_a_speed_stream_lasts_its_duration_in_time_even_when_ticks_come_late(rig
     t0 = rig.now - 1.0 / RATE  # the tick that activated it sent the first speed frame
     late = 0.05
     while rig.terminal("aaaa0001") is None:
-        rig.loop._tick(rig.now)
-        rig.frames.append(rig.loop.last_frame)
-        rig.loop.tick_count += 1
-        rig.now += late
-        rig.emu.advance(late)
+        rig.tick(dt=late)
         assert rig.now - t0 < 2.0, "the speed stream did not end"
     ended = rig.now - late - t0
     assert 0.4 <= ended <= 0.4 + late + 1e-9
@@ -250,14 +266,14 @@ def test_stop_during_a_speed_stream_sends_zero_speed_first(rig):
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     rig.tick(5)
     n = len(rig.frames)
-    rig.ex.post(rig.ex.do_stop)
+    rig.send("STOP")
     rig.tick(2)
     after = rig.frames[n:]
     assert after[0].command == BoardCommand.JOG and after[0].speeds == (0,) * 6
 
 
 def test_stream_jog_watchdog_stops_motion_within_two_ticks(rig):
-    rig.ex.post(lambda: rig.ex.set_stream_mode(True))
+    rig.send("STREAM|ON")
     rig.tick()
     rig.submit("aaaa0001|JOG|0|50|5|None")
     rig.tick(1)
@@ -269,7 +285,7 @@ def test_stream_jog_watchdog_stops_motion_within_two_ticks(rig):
 
 
 def test_newer_stream_jog_supersedes_the_previous_one(rig):
-    rig.ex.post(lambda: rig.ex.set_stream_mode(True))
+    rig.send("STREAM|ON")
     rig.tick()
     rig.submit("aaaa0001|JOG|0|50|5|None")
     rig.tick()
@@ -283,7 +299,7 @@ def test_newer_stream_jog_supersedes_the_previous_one(rig):
 def test_jog_stops_at_the_joint_limit(rig):
     rig.submit("aaaa0001|JOG|0|100|60|None")  # J1 positive for a minute: hits +123 deg
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None, max_ticks=6000)
-    detail = [a for a in rig.acks if a[0] == "aaaa0001"][-1][3]
+    detail = [a for a in rig.acks if a[0] == "aaaa0001"][-1][2]
     assert "upper limit of J1" in detail
     assert rig.angles[0] <= PAROL6.limits_deg[0][1]
     assert rig.guard.violations == 0  # the jog stopped itself before the guard had to
@@ -295,7 +311,7 @@ def test_queue_full_refuses_with_failed_never_drops():
         for i in range(5):
             r.submit(f"aaaa000{i}|DELAY|1")
         assert [r.terminal(f"aaaa000{i}") for i in range(5)][3:] == [AckStatus.FAILED, AckStatus.FAILED]
-        assert "queue full" in r.acks[-1][3]
+        assert "queue full" in r.acks[-1][2]
     finally:
         r.close()
 
@@ -311,21 +327,16 @@ def test_gripper_calibrate_is_sent_in_exactly_one_frame(rig):
 
 def test_output_completes_only_once_the_board_reports_the_new_level(rig):
     """COMPLETED means the board's status shows the output, so a GET_IO after the ack reads it."""
-    at_ack: dict[tuple[str, AckStatus], tuple[int, tuple[bool, bool]]] = {}
-    sink = rig.ex._send_ack
-
-    def recording_sink(job, status, details):  # what the controller knew when it acked
-        at_ack[(job.command_id, status)] = (rig.loop.tick_count, rig.loop.status.outputs)
-        sink(job, status, details)
-
-    rig.ex._send_ack = recording_sink
     for cid, action, want in (("aaaa0001", "open", (True, False)), ("aaaa0002", "close", (False, False))):
-        rig.submit(f"{cid}|PNEUMATICGRIPPER|{action}|1")
+        rig.send(f"{cid}|PNEUMATICGRIPPER|{action}|1")
         rig.run_until(lambda: rig.terminal(cid) is not None)
+        # what the controller published with each ack: the tick's snapshot
+        at_ack = {(a.command_id, a.status): (o.snapshot.seq, o.snapshot.status.outputs)
+                  for o in rig.outputs for a in o.acks}
         assert rig.terminal(cid) is AckStatus.COMPLETED
-        started, before = at_ack[(cid, AckStatus.EXECUTING)]
+        started, _ = at_ack[(cid, AckStatus.EXECUTING)]
         done, reported = at_ack[(cid, AckStatus.COMPLETED)]
-        assert before != want and reported == want
+        assert reported == want  # published with the COMPLETED ack: the board's report
         assert done > started  # never on the tick whose frame carries the new level
 
 
@@ -409,12 +420,12 @@ def test_histogram_percentiles_match_numpy_within_one_bin():
 
 
 def test_commands_sent_while_disabled_fail_until_enable(rig):
-    rig.ex.post(rig.ex.do_disable)
+    rig.send("DISABLE")
     rig.tick(2)
     assert rig.frames[-1].command == BoardCommand.DISABLE
     rig.submit("aaaa0001|DELAY|0.1")
     assert rig.terminal("aaaa0001") is AckStatus.FAILED
-    rig.ex.post(rig.ex.do_enable)
+    rig.send("ENABLE")
     rig.tick(2)
     rig.submit("aaaa0002|DELAY|0.05")
     rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
@@ -424,7 +435,7 @@ def test_commands_sent_while_disabled_fail_until_enable(rig):
 def test_streamed_cartesian_jog_is_refused_before_homing():
     r = Rig(homed=False)
     try:
-        r.ex.post(lambda: r.ex.set_stream_mode(True))
+        r.send("STREAM|ON")
         r.tick()
         r.submit("aaaa0001|CARTJOG|WRF|Z+|20|0.5")
         assert r.terminal("aaaa0001") is AckStatus.FAILED
@@ -439,7 +450,7 @@ def _hold_cartesian_jog(rig, ticks: int, pause_s: float, burst: int = 1) -> list
     as when updates come faster than planning.  Returns the motion frames."""
     rig.submit("aaaa0001|MOVEJOINT|60|-80|170|10|40|170|1|None")  # off the wrist singularity
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
-    rig.ex.post(lambda: rig.ex.set_stream_mode(True))
+    rig.send("STREAM|ON")
     rig.tick()
     first = len(rig.frames)
     for k in range(ticks):
@@ -476,9 +487,9 @@ def test_a_held_cartesian_jog_keeps_moving_when_updates_come_faster_than_plannin
     whenever a plan is ready it takes over where the running one is."""
     frames = _hold_cartesian_jog(rig, 60, pause_s=0.002, burst=2)
     second = [a for a in rig.acks if a[0] is not None and a[0].startswith("0001")]
-    merged = [a for a in second if a[2] is AckStatus.COMPLETED
-              and a[3] == "merged into the same jog waiting for its plan"]
-    watchdog = [a for a in rig.acks if "watchdog" in a[3]]
+    merged = [a for a in second if a[1] is AckStatus.COMPLETED
+              and a[2] == "merged into the same jog waiting for its plan"]
+    watchdog = [a for a in rig.acks if "watchdog" in a[2]]
     dz = np.diff(_tcp_z(frames))
     v = PAROL6.cart_linear_speed_from_percent(50) / RATE
     assert len(merged) == len(second) == 60 and not watchdog
@@ -529,34 +540,154 @@ def test_wait_input_completes_when_the_input_matches_and_fails_on_timeout(rig):
 # ---------------------------------------------------------------------------------- outbox
 
 
-def test_outbox_holds_acks_until_the_last_release_and_keeps_their_order():
+def test_outbox_sends_in_order_to_every_address_of_a_route():
     import socket
 
+    from parolkit.controller.inbox import Ack
     from parolkit.controller.server import Outbox
 
     rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rx.bind(("127.0.0.1", 0))
-    rx.settimeout(0.3)
+    rx.settimeout(2.0)
     tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     box = Outbox(tx)
     box.start()
     try:
         dest = rx.getsockname()
-        box.hold()
-        box.hold()  # a second holder (the tick and a datagram handler at once)
         box.put("ACK|a|QUEUED|", dest)
-        box.put("ACK|a|EXECUTING|", (dest, dest))  # an ack route of two addresses
-        box.release()
-        with pytest.raises(socket.timeout):
-            rx.recvfrom(100)  # still held by the other holder
-        box.put("ACK|a|COMPLETED|", dest)
-        box.release()
-        box.release()  # one too many is harmless
+        box.send_acks([Ack("a", (dest, dest), AckStatus.EXECUTING), Ack("a", (dest,), AckStatus.COMPLETED, "x")])
         got = [rx.recvfrom(100)[0].decode() for _ in range(4)]
-        assert got == ["ACK|a|QUEUED|", "ACK|a|EXECUTING|", "ACK|a|EXECUTING|", "ACK|a|COMPLETED|"]
-        box.put("ACK|b|COMPLETED|", dest)  # not held: sent at once
-        assert rx.recvfrom(100)[0] == b"ACK|b|COMPLETED|"
+        assert got == ["ACK|a|QUEUED|", "ACK|a|EXECUTING|", "ACK|a|EXECUTING|", "ACK|a|COMPLETED|x"]
     finally:
         box.stop()
         tx.close()
         rx.close()
+
+
+# ------------------------------------------------------------- ack after snapshot, safety lane
+
+
+def _effect_shown(snap, cid: str, status: AckStatus, text: str) -> bool:
+    """Does ``snap`` (published with the ack) show what ``status`` of command ``text`` reports?"""
+    name = text.split("|")[1]
+    cmd = snap.command
+    if status is AckStatus.QUEUED:
+        return snap.queue >= 1 or (cmd is not None and cmd.command_id == cid)
+    if status is AckStatus.EXECUTING:
+        return cmd is not None and cmd.command_id == cid
+    if status is AckStatus.CANCELLED:
+        return cmd is None or cmd.command_id != cid
+    assert status is AckStatus.COMPLETED, (cid, status)
+    if cmd is not None and cmd.command_id == cid:
+        return False  # a finished command is no longer shown as active
+    return {
+        "ENABLE": lambda: snap.enabled and not snap.estop_latched,
+        "DISABLE": lambda: not snap.enabled and snap.state.value == "DISABLED",
+        "ESTOP": lambda: snap.estop_latched and snap.state.value == "ESTOP",
+        "STOP": lambda: snap.queue == 0 and snap.command is None,
+        "CLEAR_ERROR": lambda: snap.error is None,
+        "STREAM": lambda: snap.stream_mode is (text.endswith("ON")),
+        "PNEUMATICGRIPPER": lambda: snap.status.outputs[0] is text.split("|")[2].startswith("open"),
+        "MOVEJOINT": lambda: np.allclose(snap.angles_deg, [float(v) for v in text.split("|")[2:8]], atol=0.05),
+        "HOME": lambda: all(snap.homed) and np.allclose(snap.angles_deg, PAROL6.standby_deg, atol=0.05),
+        "DELAY": lambda: True,
+        "SPEEDJOINT": lambda: True,
+        "JOG": lambda: True,
+    }[name]()
+
+
+def test_every_ack_leaves_with_the_snapshot_that_shows_its_effect():
+    """By construction: a tick returns its acks together with the snapshot built after them, and
+    the loop publishes that snapshot before it sends them.  Checked for every command kind."""
+    r = Rig(homed=False)
+    try:
+        script = [
+            "k0000001|HOME", "k0000002|MOVEJOINT|80|-90|170|5|5|175|1|None", "k0000003|DELAY|0.05",
+            "k0000004|PNEUMATICGRIPPER|open|1", "k0000005|PNEUMATICGRIPPER|close|1",
+            "k0000006|SPEEDJOINT|5|0|0|0|0|0|0.1", "k0000007|JOG|0|50|0.1|None", "k0000008|STREAM|ON",
+            "k0000009|STREAM|OFF", "k0000010|CLEAR_ERROR", "k0000011|DISABLE", "k0000012|ENABLE",
+            "k0000013|MOVEJOINT|90|-90|180|0|0|180|3|None", "k0000014|STOP",
+            "k0000015|MOVEJOINT|90|-80|180|0|0|180|3|None", "k0000016|ESTOP", "k0000017|ENABLE",
+        ]
+        texts = {t.split("|")[0]: t for t in script}
+        for text in script:
+            cid = text.split("|")[0]
+            r.send(text)
+            r.run_until(lambda cid=cid: r.terminal(cid) is not None or (
+                text.endswith("3|None") and AckStatus.EXECUTING in r.statuses(cid)), max_ticks=3000)
+        r.tick(3)
+        checked = 0
+        for out in r.outputs:
+            for a in out.acks:
+                assert _effect_shown(out.snapshot, a.command_id, a.status, texts[a.command_id]), (
+                    f"{a.command_id} {a.status.value} left with a snapshot that does not show it")
+                checked += 1
+        seen = {(a.command_id, a.status) for o in r.outputs for a in o.acks}
+        assert ("k0000013", AckStatus.CANCELLED) in seen and ("k0000015", AckStatus.CANCELLED) in seen
+        assert all((c, AckStatus.COMPLETED) in seen for c in texts if c not in ("k0000013", "k0000015"))
+        assert checked >= 35  # every ack of the script above
+    finally:
+        r.close()
+
+
+def test_estop_in_the_safety_lane_goes_out_in_the_next_frame_whatever_waits_beside_it(rig):
+    rig.submit("aaaa0001|MOVEJOINT|90|-80|170|0|0|180|3|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    for k in range(300):  # a flood from ten sources, far more than a tick takes
+        rig.send("STREAM|OFF", port=100 + k % 10)
+    rig.send("bbbb0001|ESTOP")
+    rig.tick()
+    assert rig.frames[-1].command == BoardCommand.DISABLE
+    assert rig.statuses("bbbb0001") == [AckStatus.COMPLETED]
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert len(rig.loop.inbox) == 300 - rig.loop.inbox.max_taken  # the rest waits its turn
+
+
+def test_a_safety_command_arriving_while_the_frame_is_made_replaces_that_frame(rig):
+    """The first frame written after ESTOP arrives carries it, even mid-tick."""
+    rig.submit("aaaa0001|MOVEJOINT|90|-80|170|0|0|180|3|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    check = rig.loop.guard.check
+    arrived = []
+
+    def check_then_estop_arrives(frame, *a, **kw):
+        res = check(frame, *a, **kw)
+        if not arrived:  # the datagram lands after the motion frame was composed and guarded
+            arrived.append(frame)
+            rig.send("bbbb0001|ESTOP")
+        return res
+
+    rig.loop.guard.check = check_then_estop_arrives
+    rig.tick()
+    assert arrived[0].command == BoardCommand.GOTO
+    assert rig.frames[-1].command == BoardCommand.DISABLE
+    assert rig.statuses("bbbb0001") == [AckStatus.COMPLETED]
+
+
+def test_a_command_received_before_a_stop_that_overtook_it_is_cancelled_by_it(rig):
+    rig.send("cccc0001|STOP", seq=10)
+    rig.send("aaaa0001|MOVEJOINT|90|-80|170|0|0|180|3|None", seq=9)  # sent first, arrives later
+    rig.send("aaaa0002|ENABLE", seq=8)
+    rig.send("aaaa0003|MOVEJOINT|90|-80|170|0|0|180|1|None", seq=11)  # after the STOP: runs
+    rig.tick()
+    assert rig.statuses("cccc0001") == [AckStatus.COMPLETED]
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert "STOP received after it" in [a for a in rig.acks if a[0] == "aaaa0001"][-1][2]
+    assert rig.terminal("aaaa0002") is AckStatus.CANCELLED
+    assert rig.statuses("aaaa0003") == [AckStatus.QUEUED]
+
+
+def test_command_inbox_takes_sources_in_turn_and_refuses_a_full_lane():
+    from parolkit.controller.inbox import CommandInbox
+
+    box = CommandInbox(max_waiting_per_source=3, max_taken_per_tick=4)
+    a, b = ("127.0.0.1", 1), ("127.0.0.1", 2)
+    mk = lambda src, n: Submission(C.Delay(0.1), f"id{n:06d}", ((src[0], 5002),), src, n)  # noqa: E731
+    assert all(box.put(mk(a, n)) for n in range(3))
+    assert not box.put(mk(a, 3)) and box.refused == 1
+    assert box.put(mk(b, 4))
+    box.put_safety(Submission(C.Stop(), None, None, b, 5))
+    assert box.safety_waiting
+    assert [s.seq for s in box.take_safety()] == [5] and not box.safety_waiting
+    assert [s.seq for s in box.take()] == [0, 4, 1, 2]  # a, b, a, a: b is not behind a's backlog
+    assert len(box) == 0

@@ -1,5 +1,11 @@
 """Wiring: one :class:`Controller` = transport + executor + guard + loop + UDP server.
 
+Data flows one way: the server hands parsed commands to the loop through a
+:class:`~parolkit.controller.inbox.CommandInbox`; the loop returns each tick's
+:class:`~parolkit.controller.loop.TickOutput`, which :meth:`Controller._publish` stores (the
+snapshot) before it sends the acks.  The server reads the latest snapshot; it never waits for
+a tick and never calls into the loop.
+
 Start-up order keeps the first PONG fast: bind the UDP socket and start answering first
 (PING works before the board link is up), then open the board link and start the loop; the
 motion/kinematics imports happen in the planner thread, off the start-up path.
@@ -18,12 +24,12 @@ from typing import Sequence
 from parolkit.config import Config
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
-from parolkit.controller.jobs import Job
-from parolkit.controller.loop import ControlLoop
+from parolkit.controller.inbox import CommandInbox, Submission
+from parolkit.controller.loop import ControlLoop, TickOutput
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
-from parolkit.controller.state import BoardInfo, CommandInfo, RobotState, Snapshot
+from parolkit.controller.state import BoardInfo, RobotState, Snapshot
 from parolkit.protocol import commands as C
-from parolkit.protocol.commands import AckStatus, dumps, format_ack
+from parolkit.protocol.commands import dumps
 from parolkit.protocol.frames import StatusFrame
 
 __all__ = ["Controller", "is_loopback"]
@@ -54,8 +60,6 @@ class Controller:
         self.rate_hz = float(cs.rate_hz)
         self._transport = transport
         self.home_on_start = cs.home_on_start if home_on_start is None else home_on_start
-        self.tool_name = "default"
-        self._tool_obj: object | None = None
         self._kin = None
         self.started_at = time.monotonic()
         self.sock: socket.socket | None = None
@@ -65,8 +69,7 @@ class Controller:
         self.server: UdpServer
         self.stream: StatusStream
         self._snapshot: Snapshot | None = None
-        self._publish_lock = threading.Lock()
-        self._tick_holds_acks = False  # the loop thread owns it (stop() only after the loop ended)
+        self.inbox = CommandInbox()
         self._stopped = threading.Event()
         self.board_description = "emulated board" if config.serial.simulated else str(config.serial.port)
 
@@ -98,11 +101,12 @@ class Controller:
         self.outbox = Outbox(self.sock)
         self.executor = Executor(
             model=self.config.robot, rate_hz=self.rate_hz, queue_size=cs.queue_size,
-            watchdog_s=cs.stream_watchdog_s, send_ack=self._send_ack, tool_provider=self.tool,
+            watchdog_s=cs.stream_watchdog_s, tool_provider=self.tool,
             homing_timeout_s=max(10.0, 180.0 / (cs.sim_homing_speedup if self.config.serial.simulated else 1.0)),
         )
-        self.stream = StatusStream(self.sock, self)
-        self.server = UdpServer(self, self.sock, cs.ack_port)
+        self.stream = StatusStream(self.sock, lambda: self.snapshot)
+        self.server = UdpServer(self.sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
+                                stream=self.stream, answerer=self, ack_port=cs.ack_port)
         self.outbox.start()
         self.server.start()  # PING answers from here on (SERIAL=0 until the link is up)
         self.stream.start()
@@ -120,13 +124,15 @@ class Controller:
         guard = SafetyGuard(self.config.robot, self.rate_hz)
         self.loop = ControlLoop(
             transport=transport, executor=self.executor, guard=guard, rate_hz=self.rate_hz,
-            link_timeout_ticks=cs.link_timeout_ticks, on_tick=self._on_tick,
+            link_timeout_ticks=cs.link_timeout_ticks, inbox=self.inbox, publish=self._publish,
+            pose_provider=self._pose_provider,
         )
+        self.loop.server_view = self.server.overload_view
         self.executor.start()
         self.loop.start()
         threading.Thread(target=self._warm_up, name="parolkit-warmup", daemon=True).start()
         if self.home_on_start and getattr(transport, "simulated", False):
-            self.executor.submit(self.executor.new_job(C.Home(), None, None))
+            self.inbox.put(Submission(C.Home(), None, None, ("controller", 0)))
 
     def stop(self) -> None:
         """Stop motion, send a DISABLE frame, close the port, stop the threads."""
@@ -138,7 +144,7 @@ class Controller:
         self.executor.stop()
         self.server.stop()
         self.stream.stop()
-        self._release_tick_acks()  # acks of a tick that ended without publishing (loop stopped)
+        self.outbox.send_acks(self.executor.take_acks())  # the shutdown's CANCELLED acks
         self.outbox.flush(0.5)
         self.outbox.stop()
         if self.sock is not None:
@@ -171,10 +177,20 @@ class Controller:
 
     def tool(self) -> object:
         """The current tool object (kinematics), resolved lazily."""
-        if self._tool_obj is None:
-            _, tools = self._kinematics()
-            self._tool_obj = tools.get_tool(self.tool_name, self.config)
-        return self._tool_obj
+        ex = self.executor
+        obj = ex.tool_obj
+        if obj is None:
+            obj = ex.tool_obj = self.resolve_tool(ex.tool_name)
+        return obj
+
+    def resolve_tool(self, name: str) -> object:
+        """The kinematics tool called ``name`` (config ``[tools.NAME]`` or built in)."""
+        _, tools = self._kinematics()
+        return tools.get_tool(name, self.config)
+
+    @property
+    def tool_name(self) -> str:
+        return self.executor.tool_name if hasattr(self, "executor") else "default"
 
     def _pose_provider(self, angles: Sequence[float], tool_name: str):
         fk, tools = self._kinematics()
@@ -183,74 +199,14 @@ class Controller:
         pose = fk.fk(list(angles), tool)
         return tuple(float(v) for v in pose), tuple(float(v) for v in m.ravel())
 
-    # ------------------------------------------------------------------ acks
+    # ------------------------------------------------------------------ publication
 
-    def _send_ack(self, job: Job, status: AckStatus, details: str) -> None:
-        if status.terminal or status is AckStatus.EXECUTING:
-            log.debug("job %d %s (%s): %s %s", job.seq, job.name, job.command_id, status.value, details)
-        if job.command_id is None or job.ack_addr is None:
-            if status in (AckStatus.FAILED,) and job.command_id is None:
-                log.warning("%s failed: %s", job.name, details)
-            return
-        if not self._tick_holds_acks and self.loop is not None and self.loop.in_loop_thread():
-            # an ack from the tick waits for the snapshot that _on_tick publishes at its end
-            self.outbox.hold()
-            self._tick_holds_acks = True
-        self.outbox.put(format_ack(job.command_id, status, details), job.ack_addr)
-
-    # ------------------------------------------------------------------ snapshot
-
-    def _state(self, ex: Executor, loop: ControlLoop) -> RobotState:
-        if not loop.link_up or loop.status is None:
-            return RobotState.DISCONNECTED
-        if ex.estop_latched or ex.estop_pressed:
-            return RobotState.ESTOP
-        if not ex.enabled:
-            return RobotState.DISABLED
-        a = ex.active
-        if a is not None:
-            if isinstance(a.command, C.Home):
-                return RobotState.HOMING
-            if a.command.is_motion:
-                return RobotState.MOVING
-        if ex.error:
-            return RobotState.ERROR
-        return RobotState.IDLE
-
-    def _on_tick(self, loop: ControlLoop) -> None:
-        try:
-            self.publish()
-        finally:
-            self._release_tick_acks()
-        self.stream.notify(loop.tick_count)
-
-    def _release_tick_acks(self) -> None:
-        if self._tick_holds_acks:
-            self._tick_holds_acks = False
-            self.outbox.release()
-
-    def publish(self) -> None:
-        """Build the status snapshot queries answer from. Called after every tick and after a
-        datagram changed the executor; built under a lock, so the last one published has seen
-        every change made before it was built."""
-        loop = self.loop
-        if loop is None:
-            return
-        with self._publish_lock:
-            ex = self.executor
-            a = ex.active
-            act = ex.activity
-            info = CommandInfo(a.command_id, a.name, act.progress if act else 0.0) if a is not None else None
-            self._snapshot = Snapshot(
-                seq=loop.tick_count, time=time.monotonic() - loop.start_time, state=self._state(ex, loop),
-                enabled=ex.enabled, estop_pressed=ex.estop_pressed, estop_latched=ex.estop_latched,
-                status=loop.status or loop.last_status,
-                board=BoardInfo(loop.link_up and loop.status is not None,
-                                bool(getattr(loop.transport, "simulated", False)), loop.transport.description),
-                error=ex.error, command=info, queue=len(ex.queue), stream_mode=ex.stream_mode,
-                tool=self.tool_name, plan_seq=ex.plan_seq, outputs=(ex.outputs[0], ex.outputs[1]),
-                steps_per_deg=self._spd, pose_provider=self._pose_provider, loop_view=self._loop_dict,
-            )
+    def _publish(self, out: TickOutput) -> None:
+        """(loop thread) The tick's snapshot first, then its acks: a client that reads the
+        status after an ack always sees what the ack reported."""
+        self._snapshot = out.snapshot
+        self.outbox.send_acks(out.acks)
+        self.stream.notify(out.snapshot.seq)
 
     @property
     def _spd(self) -> tuple[float, ...]:
@@ -325,59 +281,3 @@ class Controller:
         if name == "GET_QUEUE":
             return "QUEUE|" + dumps(self.executor.queue_view())
         return C.format_error(f"unknown query {name}")
-
-    # ------------------------------------------------------------------ immediate commands
-
-    def immediate(self, cmd: C.Command, addr: tuple[str, int]) -> tuple[AckStatus, str]:
-        """Apply an immediate command; returns the ack status and details for its ID."""
-        ex = self.executor
-        # wait for the loop to apply them (a few ticks at most) so the ack means "done"
-        wait_s = max(0.5, 10.0 / self.config.controller.rate_hz)
-
-        def apply(action, ok_details: str) -> tuple[AckStatus, str]:
-            if ex.post_and_wait(action, wait_s):
-                return AckStatus.COMPLETED, ok_details
-            return AckStatus.FAILED, (
-                f"the control loop did not confirm {cmd.name} within {wait_s:g} s "
-                "(it is still applied at the next tick)")
-
-        if isinstance(cmd, C.Stop):
-            return apply(ex.do_stop, "stopped")
-        if isinstance(cmd, C.EStop):
-            return apply(lambda: ex.do_estop("software E-stop (ESTOP command)"),
-                         "E-stop latched: send ENABLE to release")
-        if isinstance(cmd, C.Enable):
-            if self.snapshot.estop_pressed or ex.estop_pressed:
-                return AckStatus.FAILED, "hardware E-stop is still pressed: release it first"
-            return apply(ex.do_enable, "enabled")
-        if isinstance(cmd, C.Disable):
-            return apply(ex.do_disable, "disabled")
-        if isinstance(cmd, C.ClearError):
-            return apply(ex.do_clear_error, "error cleared")
-        if isinstance(cmd, C.StreamMode):
-            return apply(lambda: ex.set_stream_mode(cmd.on), f"stream mode {'on' if cmd.on else 'off'}")
-        if isinstance(cmd, C.SetPort):
-            if self.loop is None:
-                return AckStatus.FAILED, "the board link is not running"
-            if ex.active is not None or ex.queue:
-                return AckStatus.FAILED, "robot is busy: STOP before switching the port"
-            loop, port = self.loop, cmd.port
-            ex.post(lambda: loop.request_port(port))
-            return AckStatus.COMPLETED, f"switching to {cmd.port}"
-        if isinstance(cmd, C.SetTool):
-            try:
-                _, tools = self._kinematics()
-                obj = tools.get_tool(cmd.tool, self.config)
-            except Exception as exc:
-                return AckStatus.INVALID, f"SET_TOOL: {exc}"
-            if ex.active is not None or ex.queue:
-                return AckStatus.FAILED, "robot is busy: the tool can change only when idle"
-            self.tool_name, self._tool_obj = cmd.tool, obj
-            return AckStatus.COMPLETED, f"tool {cmd.tool}"
-        if isinstance(cmd, C.Subscribe):
-            err = self.stream.subscribe((addr[0], cmd.port), cmd.every_n_ticks)
-            return (AckStatus.FAILED, err) if err else (AckStatus.COMPLETED, "subscribed")
-        if isinstance(cmd, C.Unsubscribe):
-            self.stream.unsubscribe((addr[0], cmd.port))
-            return AckStatus.COMPLETED, "unsubscribed"
-        return AckStatus.INVALID, f"{cmd.name} is not an immediate command"

@@ -2,12 +2,15 @@
 
 Threads and ownership:
 
-* the **server thread** calls :meth:`Executor.submit` (queued commands), :meth:`post`
-  (immediate actions, run at the start of the next tick) and the read-only views;
+* the **loop thread** calls :meth:`tick` once per tick with the commands the server handed
+  over (:class:`~parolkit.controller.inbox.Submission`, safety commands first): it applies
+  them (immediate commands at once, the rest queued), activates the next job when its plan is
+  ready and asks the active activity for this tick's frame.  Every ack is collected, never
+  sent from here: the loop takes them with :meth:`take_acks` and sends them only after it
+  published the snapshot that shows what they report;
 * the **planner thread** plans queued motion jobs ahead of time, each from the final joints of
   the job before it (or from the measured joints when nothing is ahead), and CARTJOG streams;
-* the **loop thread** calls :meth:`tick` once per tick: it runs posted actions, activates the
-  next job when its plan is ready and asks the active activity for this tick's frame.
+* any thread may read the views (:meth:`queue_view`, :meth:`plan_view`).
 
 Planning never happens in the tick.  A job whose plan assumed a start the robot is not at (a
 jog or a speed-tracked move ended elsewhere) is sent back to the planner; the loop holds still
@@ -21,8 +24,8 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass
-from queue import SimpleQueue
-from typing import Callable, Sequence
+from queue import Empty, SimpleQueue
+from typing import Callable, Iterable, Sequence
 
 from parolkit.controller.jobs import (
     Activity,
@@ -39,17 +42,18 @@ from parolkit.controller.jobs import (
     WaitInputActivity,
     ticks_for,
 )
+from parolkit.controller.inbox import Ack, Submission
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand, GripperCommandBits, GripperMode, StatusFrame
 from parolkit.robot import RobotModel
 
-__all__ = ["Executor", "AckSink", "START_TOLERANCE_DEG"]
+__all__ = ["Executor", "START_TOLERANCE_DEG", "SAFETY_COMMANDS"]
 
 log = logging.getLogger("parolkit.controller")
 
-#: (job, status, details) -> None; must not block (the controller queues the datagram)
-AckSink = Callable[[Job, AckStatus, str], None]
+#: commands that take the safety lane: applied before anything else, whatever the traffic
+SAFETY_COMMANDS = (C.EStop, C.Stop, C.Disable)
 
 #: a planned move may start this far (deg, any joint) from the measured joints
 START_TOLERANCE_DEG = 0.5
@@ -92,7 +96,6 @@ class Executor:
         rate_hz: float,
         queue_size: int,
         watchdog_s: float,
-        send_ack: AckSink,
         tool_provider: Callable[[], object] | None = None,
         homing_timeout_s: float = 180.0,
     ) -> None:
@@ -100,7 +103,6 @@ class Executor:
         self.rate_hz = rate_hz
         self.queue_size = queue_size
         self.watchdog_s = watchdog_s
-        self._send_ack = send_ack
         self.tool_provider = tool_provider or (lambda: None)
         self.homing_timeout_s = homing_timeout_s
         self._lock = threading.RLock()
@@ -108,7 +110,18 @@ class Executor:
         self.queue: deque[Job] = deque()
         self.active: Job | None = None
         self.activity: Activity | None = None
-        self._requests: SimpleQueue[Callable[[], None]] = SimpleQueue()
+        #: acks produced since the loop last took them (any thread appends, under the lock)
+        self._acks: list[Ack] = []
+        #: streamed CARTJOG jobs the planner finished, for the loop to switch to
+        self._planned_streams: SimpleQueue[Job] = SimpleQueue()
+        #: the tool in use (name, and its kinematics object once resolved)
+        self.tool_name = "default"
+        self.tool_obj: object | None = None
+        #: SET_PORT accepted: the port the loop should switch to (the loop clears it)
+        self.requested_port: str | None = None
+        #: receive number of the newest safety command applied (see :meth:`apply`)
+        self._safety_seq = 0
+        self._safety_name = ""
         self._seq = 0
         self.plan_seq = 0
         self.stream_mode = False
@@ -155,7 +168,20 @@ class Executor:
             return
         if status.terminal:
             job.terminal = status
-        self._send_ack(job, status, details)
+            log.debug("job %d %s (%s): %s %s", job.seq, job.name, job.command_id, status.value, details)
+        if job.command_id is None or job.ack_addr is None:
+            if status is AckStatus.FAILED:
+                log.warning("%s failed: %s", job.name, details)
+            return
+        with self._lock:
+            self._acks.append(Ack(job.command_id, job.ack_addr, status, details))
+
+    def take_acks(self) -> list[Ack]:
+        """Every ack produced since the last call, in order (the loop sends them after it
+        published the snapshot of the same tick)."""
+        with self._lock:
+            acks, self._acks = self._acks, []
+        return acks
 
     # ------------------------------------------------------------------ server-thread API
 
@@ -202,7 +228,7 @@ class Executor:
                         self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog before it started")
                     self._plan_cv.notify_all()
                 else:
-                    self._requests.put(lambda: self._stream_replace(job))
+                    self._stream_replace(job)
                 return
             if len(self.queue) >= self.queue_size:
                 self._ack(job, AckStatus.FAILED,
@@ -213,26 +239,63 @@ class Executor:
             self._ack(job, AckStatus.QUEUED, f"Position {ahead} in queue")
             self._plan_cv.notify_all()
 
-    def post(self, action: Callable[[], None]) -> None:
-        """Run ``action`` in the loop thread at the start of the next tick."""
-        self._requests.put(action)
+    def apply(self, sub: Submission) -> None:
+        """(loop thread) Apply one command from the server: an immediate command at once (its
+        ack COMPLETED, FAILED or INVALID), any other queued (or refused) as :meth:`submit`."""
+        cmd = sub.command
+        job = self.new_job(cmd, sub.command_id, sub.route)
+        if isinstance(cmd, SAFETY_COMMANDS):
+            if sub.seq > self._safety_seq:
+                self._safety_seq, self._safety_name = sub.seq, cmd.name
+        elif sub.seq and sub.seq < self._safety_seq and (
+            cmd.KIND is not C.CommandKind.IMMEDIATE or isinstance(cmd, (C.Enable, C.ClearError))
+        ):
+            # received before a STOP / ESTOP / DISABLE that overtook it in the safety lane:
+            # that command cancels it, as if it had been applied in arrival order
+            self._ack(job, AckStatus.CANCELLED, f"{self._safety_name} received after it")
+            return
+        if cmd.KIND is not C.CommandKind.IMMEDIATE:
+            self.submit(job)
+            return
+        status, details = self._immediate(cmd, sub)
+        self._ack(job, status, details)
 
-    def post_and_wait(self, action: Callable[[], None], timeout: float) -> bool:
-        """Like :meth:`post`, then wait until the loop has run it (True) or ``timeout`` s
-        passed (False; the action still runs at the next tick).  Used for immediate commands,
-        so their ack means "done": a command sent after STOP's ack is never cancelled by it."""
-        done = threading.Event()
+    def _immediate(self, cmd: C.Command, sub: Submission) -> tuple[AckStatus, str]:
+        if isinstance(cmd, C.Stop):
+            self.do_stop()
+            return AckStatus.COMPLETED, "stopped"
+        if isinstance(cmd, C.EStop):
+            self.do_estop("software E-stop (ESTOP command)")
+            return AckStatus.COMPLETED, "E-stop latched: send ENABLE to release"
+        if isinstance(cmd, C.Disable):
+            self.do_disable()
+            return AckStatus.COMPLETED, "disabled"
+        if isinstance(cmd, C.Enable):
+            if self.estop_pressed:
+                return AckStatus.FAILED, "hardware E-stop is still pressed: release it first"
+            self.do_enable()
+            return AckStatus.COMPLETED, "enabled"
+        if isinstance(cmd, C.ClearError):
+            self.do_clear_error()
+            return AckStatus.COMPLETED, "error cleared"
+        if isinstance(cmd, C.StreamMode):
+            self.set_stream_mode(cmd.on)
+            return AckStatus.COMPLETED, f"stream mode {'on' if cmd.on else 'off'}"
+        if isinstance(cmd, C.SetPort):
+            if self.active is not None or self.queue:
+                return AckStatus.FAILED, "robot is busy: STOP before switching the port"
+            self.requested_port = cmd.port
+            return AckStatus.COMPLETED, f"switching to {cmd.port}"
+        if isinstance(cmd, C.SetTool):
+            if sub.tool is None:
+                return AckStatus.INVALID, f"SET_TOOL: tool {cmd.tool!r} was not resolved"
+            if self.active is not None or self.queue:
+                return AckStatus.FAILED, "robot is busy: the tool can change only when idle"
+            self.tool_name, self.tool_obj = cmd.tool, sub.tool
+            return AckStatus.COMPLETED, f"tool {cmd.tool}"
+        return AckStatus.INVALID, f"{cmd.name} is not a command the loop applies"
 
-        def run() -> None:
-            try:
-                action()
-            finally:
-                done.set()
-
-        self._requests.put(run)
-        return done.wait(timeout)
-
-    # immediate actions (run in the loop thread via post)
+    # immediate actions (loop thread)
 
     def cancel_all(self, reason: str) -> int:
         """Cancel the active job and every queued one (CANCELLED acks). Returns how many."""
@@ -409,7 +472,7 @@ class Executor:
                     self._ack(job, AckStatus.FAILED, err)
                     return
                 self._set_plan(job, start, traj)
-                self._requests.put(lambda j=job: self._stream_replace(j))
+                self._planned_streams.put(job)
                 return
             if job not in self.queue:
                 return  # cancelled while planning
@@ -647,19 +710,13 @@ class Executor:
         now: float,
         status: StatusFrame | None,
         link_up: bool,
+        commands: Iterable[Submission] = (),
     ) -> Step:
-        """This tick's frame content.  Runs posted actions first.  Loop thread only."""
+        """This tick's frame content, after taking in ``status`` and applying ``commands``
+        (the server's hand-off, safety commands first).  Loop thread only.  The acks this
+        produced wait in :meth:`take_acks`."""
         self._now = now
         self._link_up = link_up
-        while True:
-            try:
-                action = self._requests.get_nowait()
-            except Exception:
-                break
-            try:
-                action()
-            except Exception:  # an action must never kill the loop
-                log.exception("immediate action failed")
         if status is not None:
             self._homed = status.all_homed
             self._measured = tuple(p / s for p, s in zip(status.positions, self._spd))
@@ -673,6 +730,30 @@ class Executor:
                 if pressed and not self.estop_pressed:
                     self.do_estop("hardware E-stop pressed")
                 self.estop_pressed = pressed
+        for sub in commands:
+            try:
+                self.apply(sub)
+            except Exception as exc:  # a command must never kill the loop
+                log.exception("applying %s failed", sub.command.name)
+                if sub.command_id is not None and sub.route is not None:
+                    with self._lock:
+                        self._acks.append(Ack(sub.command_id, sub.route, AckStatus.FAILED, f"internal error: {exc}"))
+        while True:
+            try:
+                job = self._planned_streams.get_nowait()
+            except Empty:
+                break
+            self._stream_replace(job)
+        return self._step(tick, now, status, link_up)
+
+    def preempt(self, commands: Iterable[Submission], *, tick: int, now: float) -> Step:
+        """(loop thread) Safety commands that arrived after :meth:`tick` composed this tick's
+        frame: apply them and give the frame to send instead (held still, or DISABLE)."""
+        for sub in commands:
+            self.apply(sub)
+        return self._step(tick, now, self._last_status, self._link_up)
+
+    def _step(self, tick: int, now: float, status: StatusFrame | None, link_up: bool) -> Step:
         if self.estop_latched:
             return Step(BoardCommand.DISABLE)
         if self._pending_code is not None:
@@ -714,6 +795,10 @@ class Executor:
             self.activity = None
             self._ack(job, AckStatus.FAILED, f"safety guard: {reason}")
             self._plan_cv.notify_all()
+
+    @property
+    def steps_per_deg(self) -> tuple[float, ...]:
+        return self._spd
 
     @property
     def homed(self) -> bool:

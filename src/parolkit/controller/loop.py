@@ -1,10 +1,18 @@
 """The control loop: a fixed-rate, deadline-based tick.  Small and boring:
 
 1. read every byte the board sent, keep the newest status frame;
-2. ask the executor for this tick's frame content (no planning here);
-3. pass the frame through the safety guard;
+2. take the server's commands (safety lane first) and ask the executor for this tick's frame
+   content (no planning here);
+3. pass the frame through the safety guard; if a safety command arrived meanwhile, apply it
+   and guard its frame instead (the first frame written after ESTOP / STOP / DISABLE arrives
+   carries it);
 4. write it, wait briefly for the reply (round-trip time);
-5. publish a status snapshot; sleep until the next deadline.
+5. hand the :class:`TickOutput` (frame, acks, snapshot) to ``publish``, which stores the
+   snapshot before it sends the acks: an ack never reports what the status does not show yet.
+   Sleep until the next deadline.
+
+:meth:`ControlLoop.tick` is steps 1-4 as a function of the time, returning the value of step
+5; tests drive it directly.
 
 Deadlines are ``t0 + k * period`` (no drift).  A tick that starts more than one period late
 counts as an overrun and the missed deadlines are skipped (never a burst of catch-up frames).
@@ -21,18 +29,20 @@ import logging
 import os
 import threading
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Callable
 
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
+from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
+from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_snapshot
 from parolkit.controller.stats import LoopStats
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
 from parolkit.transport.base import LinkLostError, Transport, TransportError
 
-__all__ = ["ControlLoop"]
+__all__ = ["ControlLoop", "TickOutput"]
 
 log = logging.getLogger("parolkit.controller")
 
@@ -86,8 +96,21 @@ class StatusFilter:
         return False
 
 
+@dataclass(frozen=True, slots=True)
+class TickOutput:
+    """What one tick produced: the frame written (None when the link is down), the acks of
+    everything that happened in it, in order, and the snapshot that shows all of it."""
+
+    frame: CommandFrame | None
+    acks: tuple[Ack, ...]
+    snapshot: Snapshot
+
+
 class ControlLoop:
-    """Owns the transport, the guard and the tick thread."""
+    """Owns the transport, the guard and the tick thread.
+
+    ``publish(out)`` is called after every tick (loop thread); it must store
+    ``out.snapshot`` before it sends ``out.acks``."""
 
     def __init__(
         self,
@@ -97,7 +120,9 @@ class ControlLoop:
         guard: SafetyGuard,
         rate_hz: float,
         link_timeout_ticks: int,
-        on_tick: Callable[["ControlLoop"], None] | None = None,
+        inbox: CommandInbox | None = None,
+        publish: Callable[[TickOutput], None] | None = None,
+        pose_provider: PoseProvider | None = None,
         reply_wait_fraction: float = 0.4,
     ) -> None:
         self.transport = transport
@@ -106,7 +131,11 @@ class ControlLoop:
         self.rate_hz = rate_hz
         self.period = 1.0 / rate_hz
         self.link_timeout_ticks = link_timeout_ticks
-        self.on_tick = on_tick
+        self.inbox = inbox if inbox is not None else CommandInbox()
+        self.publish = publish
+        self.pose_provider = pose_provider
+        #: counters of the UDP server for the snapshot (set by whoever runs one)
+        self.server_view: Callable[[], dict] | None = None
         self.reply_wait = min(self.period * reply_wait_fraction, 0.003)
         self.stats = LoopStats(rate_hz)
         self.parser = StatusParser()
@@ -239,8 +268,11 @@ class ControlLoop:
             gripper_command=g.command, gripper_mode=step.gripper_mode,
         )
 
-    def _tick(self, now: float) -> None:
+    def tick(self, now: float) -> TickOutput:
+        """One tick at time ``now`` (monotonic s): read, decide, guard, write.  Returns what
+        to publish; the caller advances :attr:`tick_count`."""
         ex = self.executor
+        inbox = self.inbox
         if self.link_up:
             self._read()
             if self.link_up and self.tick_count - self._alive_tick >= self.link_timeout_ticks:
@@ -248,24 +280,39 @@ class ControlLoop:
         elif not self._reconnecting and now >= self._next_reconnect:
             self._reconnecting = True
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
+        commands = inbox.take_safety()
+        commands += inbox.take()
         step = ex.tick(tick=self.tick_count, now=now, status=self.status if self.link_up else None,
-                       link_up=self.link_up)
-        if not self.link_up:
-            return
+                       link_up=self.link_up, commands=commands)
+        if ex.requested_port is not None:
+            port, ex.requested_port = ex.requested_port, None
+            self.request_port(port)
+        frame = self._write(step, now) if self.link_up else None
+        return TickOutput(frame, tuple(ex.take_acks()), self.snapshot())
+
+    def _guarded(self, step: Step) -> CommandFrame:
+        ex = self.executor
         frame = self._compose(step)
         res = self.guard.check(frame, self.status, estop=ex.estop_latched or ex.estop_pressed,
                                homed=ex.homed, status_age_ticks=self.tick_count - self._last_status_tick)
         if res.violation is not None:
             log.error("safety guard replaced a %s frame: %s", frame.command, res.violation)
             ex.fail_active(res.violation)
+        return res.frame
+
+    def _write(self, step: Step, now: float) -> CommandFrame | None:
+        frame = self._guarded(step)
+        if self.inbox.safety_waiting:
+            # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
+            frame = self._guarded(self.executor.preempt(self.inbox.take_safety(), tick=self.tick_count, now=now))
         try:
             t_write = time.perf_counter()
-            self.transport.write(res.frame.encode())
-            self.last_frame = res.frame
+            self.transport.write(frame.encode())
+            self.last_frame = frame
             self.stats.frames_sent += 1
         except (LinkLostError, TransportError) as exc:
             self._lose_link(str(exc) or "write failed")
-            return
+            return None
         # wait briefly for the reply to measure the round trip and consume it this tick
         deadline = t_write + self.reply_wait
         got = self.stats.frames_received
@@ -278,10 +325,20 @@ class ControlLoop:
             if time.perf_counter() >= deadline:
                 break
             time.sleep(0.0002)
+        return frame
 
-    def in_loop_thread(self) -> bool:
-        """True when called from the tick thread."""
-        return self._thread is not None and threading.current_thread() is self._thread
+    def snapshot(self) -> Snapshot:
+        """The status snapshot as of now (built from this loop's and the executor's state)."""
+        transport = self.transport
+        board = BoardInfo(self.link_up and self.status is not None,
+                          bool(getattr(transport, "simulated", False)), transport.description)
+        return build_snapshot(
+            self.executor, seq=self.tick_count + 1, time=time.monotonic() - self.start_time,
+            link_up=self.link_up, status=self.status, last_status=self.last_status, board=board,
+            pose_provider=self.pose_provider, loop_view=self._loop_view, server_view=self.server_view)
+
+    def _loop_view(self) -> dict:
+        return self.stats.view(max_age_s=0.25).as_dict()
 
     @staticmethod
     def _raise_priority() -> bool:
@@ -314,15 +371,16 @@ class ControlLoop:
             if last_start is not None:
                 self.stats.period.add(now - last_start)
             last_start = now
+            out: TickOutput | None = None
             try:
-                self._tick(now)
+                out = self.tick(now)
             except Exception:  # the loop must survive anything
                 log.exception("tick %d failed", self.tick_count)
             self.tick_count += 1
             self.stats.ticks = self.tick_count
-            if self.on_tick is not None:
+            if out is not None and self.publish is not None:
                 try:
-                    self.on_tick(self)
+                    self.publish(out)
                 except Exception:
                     log.exception("status publication failed")
             self.stats.work.add(time.monotonic() - now)

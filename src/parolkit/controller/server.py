@@ -1,9 +1,17 @@
-"""UDP side of the controller: the command socket thread, the outbox and the status stream.
+"""UDP side of the controller: the command socket, the outbox and the status stream.
 
-* :class:`UdpServer` receives datagrams, parses them (:mod:`parolkit.protocol.commands`),
-  answers queries at once from the latest snapshot, applies immediate commands and queues the
-  rest.  Nothing a datagram contains can raise out of :meth:`UdpServer.handle`.
-* :class:`Outbox` sends acks in order from one thread (the loop never blocks on a socket).
+* :class:`UdpServer` has two threads.  The **receiver** only reads the socket: a safety
+  command (ESTOP, STOP, DISABLE) goes straight to the loop's safety lane, so the next frame
+  written carries it however much other traffic is waiting; everything else waits in a
+  bounded lane per source.  The **worker** takes one datagram from each source in turn
+  (round-robin: a flooding client cannot starve the others), parses it
+  (:mod:`parolkit.protocol.commands`), answers queries from the latest snapshot and hands
+  commands to the loop (:class:`~parolkit.controller.inbox.CommandInbox`).  Neither ever waits
+  for a tick.  A source over its share is refused with a "busy" ack (or ``ERROR|`` reply to
+  a query), never silently: the counts are in GET_STATUS (``OVERLOAD=``) and
+  GET_STATUS_JSON (``server``).  Nothing a datagram contains can raise out of
+  :meth:`UdpServer.handle`.
+* :class:`Outbox` sends acks and replies in order from one thread.
 * :class:`StatusStream` sends ``STATUS_JSON|{...}`` to subscribers every N ticks.
 """
 
@@ -13,43 +21,56 @@ import logging
 import socket
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
-from typing import TYPE_CHECKING
+from typing import Callable, Iterable, Protocol
 
+from parolkit.controller.executor import SAFETY_COMMANDS
+from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
+from parolkit.controller.state import Snapshot
 from parolkit.protocol import commands as C
-from parolkit.protocol.commands import AckStatus, CommandError, format_ack, format_error, parse_datagram
+from parolkit.protocol.commands import (
+    AckStatus,
+    CommandError,
+    format_ack,
+    format_error,
+    is_command_id,
+    parse_datagram,
+)
+from parolkit.robot import RobotModel
 
-if TYPE_CHECKING:  # pragma: no cover
-    from parolkit.controller.app import Controller
-
-__all__ = ["Outbox", "StatusStream", "UdpServer", "SUBSCRIPTION_TTL_S", "MAX_SUBSCRIBERS"]
+__all__ = [
+    "Outbox", "StatusStream", "UdpServer", "QueryAnswerer", "SUBSCRIPTION_TTL_S", "MAX_SUBSCRIBERS",
+    "MAX_DATAGRAMS_PER_SOURCE",
+]
 
 log = logging.getLogger("parolkit.controller")
 
 #: a subscription lapses this long after the last SUBSCRIBE, s
 SUBSCRIPTION_TTL_S = 10.0
 MAX_SUBSCRIBERS = 16
+#: datagrams of one source waiting for the worker; more are refused as busy
+MAX_DATAGRAMS_PER_SOURCE = 256
 
 
-#: a UDP (host, port) pair
-Address = tuple[str, int]
+class QueryAnswerer(Protocol):
+    """What the server needs from the rest of the controller: replies to queries (from the
+    latest snapshot and the read-only views) and a tool looked up by name (SET_TOOL's
+    kinematics work happens here, never in the tick)."""
+
+    def answer_query(self, name: str) -> str: ...
+
+    def resolve_tool(self, name: str) -> object: ...
 
 
 class Outbox:
-    """Sends datagrams (acks) in FIFO order from its own thread.
-
-    :meth:`hold` / :meth:`release` (nestable, from any thread) keep what is put in between
-    back until the last release, in order: the controller holds its acks until the status
-    snapshot shows what they report, so a query sent after an ack never reads an older state.
-    """
+    """Sends datagrams (acks, replies) in FIFO order from its own thread, so neither the loop
+    nor the server ever waits on a socket."""
 
     def __init__(self, sock: socket.socket) -> None:
         self.sock = sock
-        self._q: SimpleQueue[tuple[bytes, tuple[str, int]] | None] = SimpleQueue()
-        self._hold_lock = threading.Lock()
-        self._holds = 0
-        self._held: list[tuple[bytes, tuple[str, int]]] = []
+        self._q: SimpleQueue[tuple[bytes, Address] | None] = SimpleQueue()
         self._thread = threading.Thread(target=self._run, name="parolkit-outbox", daemon=True)
         self.sent = 0
         self.errors = 0
@@ -61,32 +82,18 @@ class Outbox:
         self._q.put(None)
         self._thread.join(2.0)
 
-    def put(self, text: str, addr: "Address | tuple[Address, ...]") -> None:
-        """Queue ``text`` for one address or for each of a tuple of addresses (an ack route)."""
+    def put(self, text: str, addr: "Address | AckRoute") -> None:
+        """Queue ``text`` for one address or for each address of an ack route."""
         data = text.encode("utf-8")
-        items = [(data, a) for a in addr] if addr and isinstance(addr[0], tuple) else [(data, addr)]
-        with self._hold_lock:
-            if self._holds:
-                self._held.extend(items)  # type: ignore[arg-type]
-                return
-            for item in items:
-                self._q.put(item)  # type: ignore[arg-type]
+        if addr and isinstance(addr[0], tuple):
+            for a in addr:
+                self._q.put((data, a))  # type: ignore[arg-type]
+        else:
+            self._q.put((data, addr))  # type: ignore[arg-type]
 
-    def hold(self) -> None:
-        """Keep datagrams back until the matching :meth:`release`."""
-        with self._hold_lock:
-            self._holds += 1
-
-    def release(self) -> None:
-        """End one :meth:`hold`; the last one sends everything held, in order."""
-        with self._hold_lock:
-            if self._holds == 0:
-                return
-            self._holds -= 1
-            if self._holds == 0:
-                for item in self._held:
-                    self._q.put(item)
-                self._held.clear()
+    def send_acks(self, acks: Iterable[Ack]) -> None:
+        for ack in acks:
+            self.put(ack.text, ack.route)
 
     def flush(self, timeout: float = 1.0) -> None:
         end = time.monotonic() + timeout
@@ -126,9 +133,9 @@ class _Subscriber:
 class StatusStream:
     """Status datagrams to subscribers, woken by the loop every tick."""
 
-    def __init__(self, sock: socket.socket, controller: "Controller") -> None:
+    def __init__(self, sock: socket.socket, snapshot: Callable[[], Snapshot]) -> None:
         self.sock = sock
-        self.controller = controller
+        self._snapshot = snapshot
         self._subs: dict[tuple[str, int], _Subscriber] = {}
         self._lock = threading.Lock()
         self._cv = threading.Condition()
@@ -196,7 +203,7 @@ class StatusStream:
             if not due:
                 continue
             try:
-                data = self.controller.snapshot.reply_status_json().encode()
+                data = self._snapshot().reply_status_json().encode()
             except Exception:
                 log.exception("status stream: building the status failed")
                 continue
@@ -209,35 +216,80 @@ class StatusStream:
 
 
 class UdpServer:
-    """The command socket and its thread."""
+    """The command socket, its receiver and its worker thread (see the module docstring)."""
 
     #: at most this many ACK_HERE sockets are remembered
     MAX_ACK_HERE = 256
 
-    def __init__(self, controller: "Controller", sock: socket.socket, ack_port: int) -> None:
-        self.c = controller
+    def __init__(
+        self,
+        sock: socket.socket,
+        *,
+        model: RobotModel,
+        inbox: CommandInbox,
+        outbox: Outbox,
+        stream: StatusStream,
+        answerer: QueryAnswerer,
+        ack_port: int,
+        max_waiting_per_source: int = MAX_DATAGRAMS_PER_SOURCE,
+    ) -> None:
         self.sock = sock
+        self.model = model
+        self.inbox = inbox
+        self.outbox = outbox
+        self.stream = stream
+        self.answerer = answerer
         self.ack_port = ack_port
+        self.max_waiting = max_waiting_per_source
         #: sockets that asked for their acks (ACK_HERE), oldest first
         self._ack_here: dict[Address, None] = {}
         self._ack_here_lock = threading.Lock()
+        # per-source lanes of raw datagrams, and the order the worker visits the sources
+        self._cv = threading.Condition()
+        self._lanes: dict[Address, deque[tuple[int, bytes]]] = {}
+        self._turn: deque[Address] = deque()
         self._running = False
-        self._thread = threading.Thread(target=self._run, name="parolkit-udp", daemon=True)
+        self._receiver = threading.Thread(target=self._receive, name="parolkit-udp-rx", daemon=True)
+        self._worker = threading.Thread(target=self._work, name="parolkit-udp", daemon=True)
+        #: datagrams received / not valid / refused because their source was over its share
         self.received = 0
         self.invalid = 0
+        self.shed = 0
+        #: commands refused with a busy ack (datagram lane or the loop's inbox full)
+        self.busy_acks = 0
+        self.safety_fast = 0
         self._log_window = 0.0
         self._log_count = 0
         self._suppressed = 0
 
     def start(self) -> None:
         self._running = True
-        self._thread.start()
+        self._receiver.start()
+        self._worker.start()
 
     def stop(self) -> None:
         self._running = False
-        self._thread.join(2.0)
+        with self._cv:
+            self._cv.notify_all()
+        self._receiver.join(2.0)
+        self._worker.join(2.0)
 
-    def _run(self) -> None:
+    def overload_view(self) -> dict[str, int]:
+        """Counters of refused traffic (GET_STATUS ``OVERLOAD=``, JSON ``server``)."""
+        return {
+            "received": self.received, "invalid": self.invalid, "shed": self.shed,
+            "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
+            "safety_fast": self.safety_fast,
+        }
+
+    @property
+    def overload(self) -> int:
+        """Datagrams refused for load so far (shed + commands refused by the inbox)."""
+        return self.shed + self.inbox.refused
+
+    # ------------------------------------------------------------------ receiver thread
+
+    def _receive(self) -> None:
         self.sock.settimeout(0.2)
         while self._running:
             try:
@@ -251,10 +303,72 @@ class UdpServer:
                 log.debug("recvfrom: %s", exc)
                 continue
             self.received += 1
+            seq = self.received  # receive order (only this thread writes it)
             try:
-                self.handle(data, addr)
+                if len(data) <= 80 and self._safety(data, addr, seq):
+                    continue
+            except Exception:  # nothing a datagram contains may stop the receiver
+                log.exception("safety check of a datagram from %s failed", addr)
+            with self._cv:
+                lane = self._lanes.get(addr)
+                if lane is None:
+                    lane = self._lanes[addr] = deque()
+                    self._turn.append(addr)
+                full = len(lane) >= self.max_waiting
+                if not full:
+                    lane.append((seq, data))
+                    self._cv.notify()
+            if full:
+                self._shed(data, addr, len(lane))
+
+    def _safety(self, data: bytes, addr: Address, seq: int) -> bool:
+        """ESTOP / STOP / DISABLE: to the loop's safety lane now (True); anything else False."""
+        up = data.upper()
+        if b"STOP" not in up and b"DISABLE" not in up:
+            return False
+        try:
+            parsed = parse_datagram(data, self.model)
+        except CommandError:
+            return False  # the worker answers it as invalid
+        if not isinstance(parsed.command, SAFETY_COMMANDS):
+            return False
+        cid = parsed.command_id
+        self.inbox.put_safety(Submission(parsed.command, cid, self._ack_addr(addr) if cid else None, addr, seq))
+        self.safety_fast += 1
+        return True
+
+    def _shed(self, data: bytes, addr: Address, waiting: int) -> None:
+        """Refuse a datagram of a source over its share, saying so where the protocol can."""
+        self.shed += 1
+        reason = (f"controller busy: {waiting} datagrams from {addr[0]}:{addr[1]} are waiting; "
+                  "slow down and send again")
+        head = data[:40].split(b"|", 1)[0].strip().decode("ascii", "replace")
+        if is_command_id(head):
+            self.busy_acks += 1
+            self.outbox.put(format_ack(head, AckStatus.FAILED, reason), self._ack_addr(addr))
+        elif _looks_like_query(data):
+            self.outbox.put(format_error(reason), addr)
+
+    # ------------------------------------------------------------------ worker thread
+
+    def _work(self) -> None:
+        while True:
+            with self._cv:
+                while self._running and not self._turn:
+                    self._cv.wait(0.2)
+                if not self._running:
+                    return
+                src = self._turn.popleft()
+                lane = self._lanes[src]
+                seq, data = lane.popleft()
+                if lane:
+                    self._turn.append(src)  # its next datagram after every other source's
+                else:
+                    del self._lanes[src]
+            try:
+                self.handle(data, src, seq)
             except Exception:  # nothing a datagram contains may stop the server
-                log.exception("handling a datagram from %s failed", addr)
+                log.exception("handling a datagram from %s failed", src)
 
     # ------------------------------------------------------------------ helpers
 
@@ -266,7 +380,7 @@ class UdpServer:
             while len(self._ack_here) > self.MAX_ACK_HERE:  # bounded: oldest forgotten first
                 self._ack_here.pop(next(iter(self._ack_here)))
 
-    def _ack_addr(self, addr: Address) -> tuple[Address, ...]:
+    def _ack_addr(self, addr: Address) -> AckRoute:
         """Where the acks of a command from ``addr`` go: the sender's host at the ack port (the
         original protocol), plus the sending socket itself if it asked with ACK_HERE."""
         primary = (addr[0], self.ack_port)
@@ -274,13 +388,13 @@ class UdpServer:
             return (primary, (addr[0], addr[1]))
         return (primary,)
 
-    def _reply(self, text: str, addr: tuple[str, int]) -> None:
+    def _reply(self, text: str, addr: Address) -> None:
         try:
             self.sock.sendto(text.encode("utf-8"), addr)
         except OSError as exc:
             log.debug("reply to %s failed: %s", addr, exc)
 
-    def _log_invalid(self, addr: tuple[str, int], message: str) -> None:
+    def _log_invalid(self, addr: Address, message: str) -> None:
         now = time.monotonic()
         if now - self._log_window >= 1.0:
             if self._suppressed:
@@ -293,23 +407,24 @@ class UdpServer:
         else:
             self._suppressed += 1
 
-    def _immediate_ack(self, command_id: str | None, addr: tuple[str, int], status: AckStatus,
-                       details: str = "") -> None:
+    def _ack(self, command_id: str | None, addr: Address, status: AckStatus, details: str = "") -> None:
+        """An ack that reports nothing the status shows (queries, ACK_HERE, SUBSCRIBE, INVALID,
+        busy): sent at once."""
         if command_id is not None:
-            self.c.outbox.put(format_ack(command_id, status, details), self._ack_addr(addr))
+            self.outbox.put(format_ack(command_id, status, details), self._ack_addr(addr))
 
     # ------------------------------------------------------------------ dispatch
 
-    def handle(self, data: bytes, addr: tuple[str, int]) -> None:
-        """Handle one datagram from ``addr`` (replies, acks, queueing)."""
-        c = self.c
+    def handle(self, data: bytes, addr: Address, seq: int = 0) -> None:
+        """Handle one datagram from ``addr``, the ``seq``-th received (replies, acks,
+        hand-off to the loop)."""
         try:
-            parsed = parse_datagram(data, c.config.robot)
+            parsed = parse_datagram(data, self.model)
         except CommandError as exc:
             self.invalid += 1
             self._log_invalid(addr, str(exc))
             if exc.command_id is not None:
-                self.c.outbox.put(format_ack(exc.command_id, AckStatus.INVALID, str(exc)), self._ack_addr(addr))
+                self._ack(exc.command_id, addr, AckStatus.INVALID, str(exc))
             elif _looks_like_query(data):
                 # (ext) an invalid query without an ID gets ERROR|details to the sender
                 self._reply(format_error(str(exc)), addr)
@@ -317,25 +432,37 @@ class UdpServer:
         cmd = parsed.command
         cid = parsed.command_id
         if cmd.KIND is C.CommandKind.QUERY:
-            self._reply(c.answer_query(cmd.name), addr)  # type: ignore[arg-type]
-            self._immediate_ack(cid, addr, AckStatus.COMPLETED)
+            self._reply(self.answerer.answer_query(cmd.name), addr)
+            self._ack(cid, addr, AckStatus.COMPLETED)
             return
         if isinstance(cmd, C.AckHere):
             self.ack_here(addr)
-            self._immediate_ack(cid, addr, AckStatus.COMPLETED, "acks also go to this socket")
+            self._ack(cid, addr, AckStatus.COMPLETED, "acks also go to this socket")
             return
-        # the acks wait for a snapshot that shows the change they report (Outbox.hold)
-        c.outbox.hold()
-        try:
-            if cmd.KIND is C.CommandKind.IMMEDIATE:
-                status, details = c.immediate(cmd, addr)
-                self._immediate_ack(cid, addr, status, details)
-            else:
-                job = c.executor.new_job(cmd, cid, self._ack_addr(addr) if cid is not None else None)
-                c.executor.submit(job)
-            c.publish()
-        finally:
-            c.outbox.release()
+        if isinstance(cmd, C.Subscribe):
+            err = self.stream.subscribe((addr[0], cmd.port), cmd.every_n_ticks)
+            self._ack(cid, addr, *((AckStatus.FAILED, err) if err else (AckStatus.COMPLETED, "subscribed")))
+            return
+        if isinstance(cmd, C.Unsubscribe):
+            self.stream.unsubscribe((addr[0], cmd.port))
+            self._ack(cid, addr, AckStatus.COMPLETED, "unsubscribed")
+            return
+        tool = None
+        if isinstance(cmd, C.SetTool):
+            try:
+                tool = self.answerer.resolve_tool(cmd.tool)
+            except Exception as exc:
+                self._ack(cid, addr, AckStatus.INVALID, f"SET_TOOL: {exc}")
+                return
+        route = self._ack_addr(addr) if cid is not None else None
+        sub = Submission(cmd, cid, route, addr, seq, tool)
+        if isinstance(cmd, SAFETY_COMMANDS):
+            self.inbox.put_safety(sub)
+        elif not self.inbox.put(sub):
+            self.busy_acks += 1 if cid is not None else 0
+            self._ack(cid, addr, AckStatus.FAILED,
+                      f"controller busy: {self.inbox.max_waiting} commands from {addr[0]}:{addr[1]} "
+                      "wait for the control loop; slow down and send again")
 
 
 def _looks_like_query(data: bytes) -> bool:

@@ -11,12 +11,16 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
+from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps, format_floats
 from parolkit.protocol.frames import IOBits, StatusFrame
 
-__all__ = ["RobotState", "CommandInfo", "BoardInfo", "Snapshot", "PoseProvider"]
+if TYPE_CHECKING:  # pragma: no cover
+    from parolkit.controller.executor import Executor
+
+__all__ = ["RobotState", "CommandInfo", "BoardInfo", "Snapshot", "PoseProvider", "build_snapshot"]
 
 
 class RobotState(str, Enum):
@@ -65,7 +69,7 @@ class Snapshot:
     __slots__ = (
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
         "error", "command", "queue", "stream_mode", "tool", "plan_seq", "outputs", "loop_view",
-        "_steps_per_deg", "_pose_provider", "_lock", "_angles", "_pose", "_matrix",
+        "server_view", "_steps_per_deg", "_pose_provider", "_lock", "_angles", "_pose", "_matrix",
     )
 
     def __init__(
@@ -89,6 +93,7 @@ class Snapshot:
         steps_per_deg: Sequence[float],
         pose_provider: PoseProvider | None,
         loop_view: Callable[[], dict],
+        server_view: Callable[[], dict] | None = None,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -106,6 +111,7 @@ class Snapshot:
         self.plan_seq = plan_seq
         self.outputs = outputs
         self.loop_view = loop_view
+        self.server_view = server_view
         self._steps_per_deg = steps_per_deg
         self._pose_provider = pose_provider
         self._lock = threading.Lock()
@@ -206,8 +212,14 @@ class Snapshot:
             f"|IO={','.join(str(v) for v in self.io_values)}|GRIPPER={self._gripper_csv()}"
             f"|STATE={self.state.value}|HOMED={','.join(str(int(h)) for h in self.homed)}"
             f"|ESTOP={int(self.estop_pressed or self.estop_latched)}|QUEUE={self.queue}"
-            f"|CMD={cmd}|ERROR={err}"
+            f"|CMD={cmd}|ERROR={err}|OVERLOAD={self.overload}"
         )
+
+    @property
+    def overload(self) -> int:
+        """Datagrams and commands the server refused for load so far (0 without a server)."""
+        v = self.server_view() if self.server_view is not None else {}
+        return int(v.get("shed", 0)) + int(v.get("inbox_refused", 0))
 
     def as_dict(self) -> dict:
         s = self.status
@@ -247,6 +259,7 @@ class Snapshot:
                 "timing_ms": round(s.timing_s * 1e3, 3), "xtr": s.xtr,
             },
             "loop": self.loop_view(),
+            "server": self.server_view() if self.server_view is not None else {},
             "command": self.command.as_dict() if self.command else None,
             "queue": self.queue,
             "stream_mode": self.stream_mode,
@@ -256,3 +269,51 @@ class Snapshot:
 
     def reply_status_json(self) -> str:
         return "STATUS_JSON|" + dumps(self.as_dict())
+
+
+def robot_state(ex: "Executor", link_up: bool) -> RobotState:
+    """The controller's state from the executor's (``link_up``: a status frame of the current
+    link session exists)."""
+    if not link_up:
+        return RobotState.DISCONNECTED
+    if ex.estop_latched or ex.estop_pressed:
+        return RobotState.ESTOP
+    if not ex.enabled:
+        return RobotState.DISABLED
+    a = ex.active
+    if a is not None:
+        if isinstance(a.command, C.Home):
+            return RobotState.HOMING
+        if a.command.is_motion:
+            return RobotState.MOVING
+    if ex.error:
+        return RobotState.ERROR
+    return RobotState.IDLE
+
+
+def build_snapshot(
+    ex: "Executor",
+    *,
+    seq: int,
+    time: float,
+    link_up: bool,
+    status: StatusFrame | None,
+    last_status: StatusFrame | None,
+    board: BoardInfo,
+    pose_provider: PoseProvider | None,
+    loop_view: Callable[[], dict],
+    server_view: Callable[[], dict] | None = None,
+) -> Snapshot:
+    """The snapshot of the executor's state with the board's latest ``status`` (loop thread;
+    ``last_status`` is shown while the link is down)."""
+    a = ex.active
+    act = ex.activity
+    info = CommandInfo(a.command_id, a.name, act.progress if act else 0.0) if a is not None else None
+    return Snapshot(
+        seq=seq, time=time, state=robot_state(ex, link_up and status is not None),
+        enabled=ex.enabled, estop_pressed=ex.estop_pressed, estop_latched=ex.estop_latched,
+        status=status or last_status, board=board, error=ex.error, command=info, queue=len(ex.queue),
+        stream_mode=ex.stream_mode, tool=ex.tool_name, plan_seq=ex.plan_seq,
+        outputs=(ex.outputs[0], ex.outputs[1]), steps_per_deg=ex.steps_per_deg,
+        pose_provider=pose_provider, loop_view=loop_view, server_view=server_view,
+    )
