@@ -27,7 +27,7 @@ from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import CommandInbox, Submission
 from parolkit.controller.loop import ControlLoop, TickOutput
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
-from parolkit.controller.state import BoardInfo, RobotState, Snapshot
+from parolkit.controller.state import SNAPSHOT_QUERIES, BoardInfo, RobotState, Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps
 from parolkit.protocol.frames import StatusFrame
@@ -239,23 +239,8 @@ class Controller:
     # ------------------------------------------------------------------ queries
 
     def answer_query(self, name: str) -> str:
-        s = self.snapshot
-        if name == "PING":
-            return s.reply_ping()
-        if name == "GET_ANGLES":
-            return s.reply_angles()
-        if name == "GET_POSE":
-            return s.reply_pose()
-        if name == "GET_IO":
-            return s.reply_io()
-        if name == "GET_GRIPPER":
-            return s.reply_gripper()
-        if name == "GET_SPEEDS":
-            return s.reply_speeds()
-        if name == "GET_STATUS":
-            return s.reply_status()
-        if name == "GET_STATUS_JSON":
-            return s.reply_status_json()
+        if name in SNAPSHOT_QUERIES:
+            return self.snapshot.reply(name)
         if name == "GET_LOOP_STATS":
             extra = self._loop_dict()
             extra["guard_replaced_frames"] = self.loop.guard.replaced_frames if self.loop else 0

@@ -1,13 +1,14 @@
 """UDP side of the controller: the command socket, the outbox and the status stream.
 
-* :class:`UdpServer` has two threads.  The **receiver** only reads the socket: a safety
-  command (ESTOP, STOP, DISABLE) goes straight to the loop's safety lane, so the next frame
-  written carries it however much other traffic is waiting; everything else waits in a
-  bounded lane per source.  The **worker** takes one datagram from each source in turn
-  (round-robin: a flooding client cannot starve the others), parses it
-  (:mod:`parolkit.protocol.commands`), answers queries from the latest snapshot and hands
-  commands to the loop (:class:`~parolkit.controller.inbox.CommandInbox`).  Neither ever waits
-  for a tick.  A source over its share is refused with a "busy" ack (or ``ERROR|`` reply to
+* :class:`UdpServer` has one thread that alternates two jobs.  It **drains** the socket
+  (every datagram waiting, without blocking): a safety command (ESTOP, STOP, DISABLE) goes
+  straight to the loop's safety lane, so the next frame written carries it however much other
+  traffic is waiting; everything else waits in a bounded lane per source.  Then it **serves**
+  a few datagrams, one from each source in turn (round-robin: a flooding client cannot starve
+  the others): parse (:mod:`parolkit.protocol.commands`), answer queries from the latest
+  snapshot, hand commands to the loop (:class:`~parolkit.controller.inbox.CommandInbox`), and
+  drains again.  It never waits for a tick, and no datagram changes threads on its way (a
+  hand-over costs a GIL switch, which is what delays replies under load).  A source over its share is refused with a "busy" ack (or ``ERROR|`` reply to
   a query), never silently: the counts are in GET_STATUS (``OVERLOAD=``) and
   GET_STATUS_JSON (``server``).  Nothing a datagram contains can raise out of
   :meth:`UdpServer.handle`.
@@ -50,8 +51,13 @@ log = logging.getLogger("parolkit.controller")
 #: a subscription lapses this long after the last SUBSCRIBE, s
 SUBSCRIPTION_TTL_S = 10.0
 MAX_SUBSCRIBERS = 16
-#: datagrams of one source waiting for the worker; more are refused as busy
+#: datagrams of one source waiting to be served; more are refused as busy
 MAX_DATAGRAMS_PER_SOURCE = 256
+#: datagrams served between two drains of the socket (bounds how long a safety command waits
+#: in the kernel's queue: SERVE_BATCH times the slowest datagram, well under a millisecond)
+SERVE_BATCH = 8
+#: at most this many datagrams are read in one drain before serving again
+DRAIN_MAX = 512
 
 
 class QueryAnswerer(Protocol):
@@ -203,7 +209,7 @@ class StatusStream:
             if not due:
                 continue
             try:
-                data = self._snapshot().reply_status_json().encode()
+                data = self._snapshot().reply("GET_STATUS_JSON").encode()
             except Exception:
                 log.exception("status stream: building the status failed")
                 continue
@@ -244,13 +250,16 @@ class UdpServer:
         #: sockets that asked for their acks (ACK_HERE), oldest first
         self._ack_here: dict[Address, None] = {}
         self._ack_here_lock = threading.Lock()
-        # per-source lanes of raw datagrams, and the order the worker visits the sources
-        self._cv = threading.Condition()
+        # per-source lanes of (receive number, datagram), and the order sources are served in
+        # (server thread only)
         self._lanes: dict[Address, deque[tuple[int, bytes]]] = {}
         self._turn: deque[Address] = deque()
         self._running = False
-        self._receiver = threading.Thread(target=self._receive, name="parolkit-udp-rx", daemon=True)
-        self._worker = threading.Thread(target=self._work, name="parolkit-udp", daemon=True)
+        self._thread = threading.Thread(target=self._serve, name="parolkit-udp", daemon=True)
+        # the same socket, never waiting: Python polls a socket with a timeout before every
+        # read even with MSG_DONTWAIT, so draining reads through a non-blocking twin
+        self._nowait = sock.dup()
+        self._nowait.setblocking(False)
         #: datagrams received / not valid / refused because their source was over its share
         self.received = 0
         self.invalid = 0
@@ -264,15 +273,12 @@ class UdpServer:
 
     def start(self) -> None:
         self._running = True
-        self._receiver.start()
-        self._worker.start()
+        self._thread.start()
 
     def stop(self) -> None:
         self._running = False
-        with self._cv:
-            self._cv.notify_all()
-        self._receiver.join(2.0)
-        self._worker.join(2.0)
+        self._thread.join(2.0)
+        self._nowait.close()
 
     def overload_view(self) -> dict[str, int]:
         """Counters of refused traffic (GET_STATUS ``OVERLOAD=``, JSON ``server``)."""
@@ -287,39 +293,69 @@ class UdpServer:
         """Datagrams refused for load so far (shed + commands refused by the inbox)."""
         return self.shed + self.inbox.refused
 
-    # ------------------------------------------------------------------ receiver thread
+    # ------------------------------------------------------------------ the server thread
 
-    def _receive(self) -> None:
+    def _serve(self) -> None:
         self.sock.settimeout(0.2)
         while self._running:
-            try:
-                data, addr = self.sock.recvfrom(65535)
-            except socket.timeout:
-                continue
-            except OSError as exc:
-                if not self._running:
-                    return
-                # e.g. ICMP port unreachable reported on Linux: ignore and go on
-                log.debug("recvfrom: %s", exc)
-                continue
-            self.received += 1
-            seq = self.received  # receive order (only this thread writes it)
-            try:
-                if len(data) <= 80 and self._safety(data, addr, seq):
+            if not self._turn:
+                try:  # nothing to serve: sleep until a datagram comes
+                    data, addr = self.sock.recvfrom(65535)
+                except socket.timeout:
                     continue
-            except Exception:  # nothing a datagram contains may stop the receiver
-                log.exception("safety check of a datagram from %s failed", addr)
-            with self._cv:
-                lane = self._lanes.get(addr)
-                if lane is None:
-                    lane = self._lanes[addr] = deque()
-                    self._turn.append(addr)
-                full = len(lane) >= self.max_waiting
-                if not full:
-                    lane.append((seq, data))
-                    self._cv.notify()
-            if full:
-                self._shed(data, addr, len(lane))
+                except OSError as exc:
+                    if not self._running:
+                        return
+                    # e.g. ICMP port unreachable reported on Linux: ignore and go on
+                    log.debug("recvfrom: %s", exc)
+                    continue
+                self._take_in(data, addr)
+            self._drain()
+            for _ in range(SERVE_BATCH):
+                if not self._turn:
+                    break
+                src = self._turn.popleft()
+                lane = self._lanes[src]
+                seq, data = lane.popleft()
+                if lane:
+                    self._turn.append(src)  # its next datagram after every other source's
+                else:
+                    del self._lanes[src]
+                try:
+                    self.handle(data, src, seq)
+                except Exception:  # nothing a datagram contains may stop the server
+                    log.exception("handling a datagram from %s failed", src)
+
+    def _drain(self) -> None:
+        """Read every datagram waiting in the socket (at most DRAIN_MAX), without blocking."""
+        recv = self._nowait.recvfrom
+        for _ in range(DRAIN_MAX):
+            try:
+                data, addr = recv(65535)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:
+                log.debug("recvfrom: %s", exc)
+                return
+            self._take_in(data, addr)
+
+    def _take_in(self, data: bytes, addr: Address) -> None:
+        """A datagram just read: the safety lane, its source's lane, or refused as busy."""
+        self.received += 1
+        seq = self.received  # receive order
+        try:
+            if len(data) <= 80 and self._safety(data, addr, seq):
+                return
+        except Exception:  # nothing a datagram contains may stop the server
+            log.exception("safety check of a datagram from %s failed", addr)
+        lane = self._lanes.get(addr)
+        if lane is None:
+            lane = self._lanes[addr] = deque()
+            self._turn.append(addr)
+        if len(lane) >= self.max_waiting:
+            self._shed(data, addr, len(lane))
+        else:
+            lane.append((seq, data))
 
     def _safety(self, data: bytes, addr: Address, seq: int) -> bool:
         """ESTOP / STOP / DISABLE: to the loop's safety lane now (True); anything else False."""
@@ -345,30 +381,10 @@ class UdpServer:
         head = data[:40].split(b"|", 1)[0].strip().decode("ascii", "replace")
         if is_command_id(head):
             self.busy_acks += 1
-            self.outbox.put(format_ack(head, AckStatus.FAILED, reason), self._ack_addr(addr))
+            for a in self._ack_addr(addr):
+                self._reply(format_ack(head, AckStatus.FAILED, reason), a)
         elif _looks_like_query(data):
-            self.outbox.put(format_error(reason), addr)
-
-    # ------------------------------------------------------------------ worker thread
-
-    def _work(self) -> None:
-        while True:
-            with self._cv:
-                while self._running and not self._turn:
-                    self._cv.wait(0.2)
-                if not self._running:
-                    return
-                src = self._turn.popleft()
-                lane = self._lanes[src]
-                seq, data = lane.popleft()
-                if lane:
-                    self._turn.append(src)  # its next datagram after every other source's
-                else:
-                    del self._lanes[src]
-            try:
-                self.handle(data, src, seq)
-            except Exception:  # nothing a datagram contains may stop the server
-                log.exception("handling a datagram from %s failed", src)
+            self._reply(format_error(reason), addr)
 
     # ------------------------------------------------------------------ helpers
 
@@ -409,9 +425,11 @@ class UdpServer:
 
     def _ack(self, command_id: str | None, addr: Address, status: AckStatus, details: str = "") -> None:
         """An ack that reports nothing the status shows (queries, ACK_HERE, SUBSCRIBE, INVALID,
-        busy): sent at once."""
+        busy): sent at once, from this thread."""
         if command_id is not None:
-            self.outbox.put(format_ack(command_id, status, details), self._ack_addr(addr))
+            text = format_ack(command_id, status, details)
+            for a in self._ack_addr(addr):
+                self._reply(text, a)
 
     # ------------------------------------------------------------------ dispatch
 

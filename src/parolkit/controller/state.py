@@ -20,7 +20,8 @@ from parolkit.protocol.frames import IOBits, StatusFrame
 if TYPE_CHECKING:  # pragma: no cover
     from parolkit.controller.executor import Executor
 
-__all__ = ["RobotState", "CommandInfo", "BoardInfo", "Snapshot", "PoseProvider", "build_snapshot"]
+__all__ = ["RobotState", "CommandInfo", "BoardInfo", "Snapshot", "PoseProvider", "build_snapshot",
+           "SNAPSHOT_QUERIES"]
 
 
 class RobotState(str, Enum):
@@ -69,7 +70,7 @@ class Snapshot:
     __slots__ = (
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
         "error", "command", "queue", "stream_mode", "tool", "plan_seq", "outputs", "loop_view",
-        "server_view", "_steps_per_deg", "_pose_provider", "_lock", "_angles", "_pose", "_matrix",
+        "server_view", "_steps_per_deg", "_pose_provider", "_lock", "_angles", "_pose", "_matrix", "_replies",
     )
 
     def __init__(
@@ -118,6 +119,7 @@ class Snapshot:
         self._angles: tuple[float, ...] | None = None
         self._pose: tuple[float, ...] | None = None
         self._matrix: tuple[float, ...] | None = None
+        self._replies: dict[str, str] = {}
 
     # ---- derived values (cached) ----
 
@@ -177,6 +179,14 @@ class Snapshot:
         )
 
     # ---- reply formats (docs/protocol.md) ----
+
+    def reply(self, query: str) -> str:
+        """The reply to a status query (one of :data:`SNAPSHOT_QUERIES`), formatted once per
+        snapshot: a burst of queries within one tick costs one formatting."""
+        text = self._replies.get(query)
+        if text is None:
+            text = self._replies[query] = getattr(self, SNAPSHOT_QUERIES[query])()
+        return text
 
     def reply_angles(self) -> str:
         return "ANGLES|" + format_floats(self.angles_deg)
@@ -269,6 +279,14 @@ class Snapshot:
 
     def reply_status_json(self) -> str:
         return "STATUS_JSON|" + dumps(self.as_dict())
+
+
+#: status queries answered from the snapshot alone -> the method that formats the reply
+SNAPSHOT_QUERIES = {
+    "PING": "reply_ping", "GET_ANGLES": "reply_angles", "GET_POSE": "reply_pose", "GET_IO": "reply_io",
+    "GET_GRIPPER": "reply_gripper", "GET_SPEEDS": "reply_speeds", "GET_STATUS": "reply_status",
+    "GET_STATUS_JSON": "reply_status_json",
+}
 
 
 def robot_state(ex: "Executor", link_up: bool) -> RobotState:
