@@ -6,6 +6,13 @@ success rate of each solver, and ratios.  Also the cold import time of parolkit.
 
     .venv/bin/python bench/kinematics.py [--n 10000] [--seed 0] [--no-rtb]
 
+Seeds: "warm" is the answer itself (a numerical solver's best case: ``ik_LM`` converges in
+one iteration), "near" every joint 1 deg from it (as a path's previous sample would be),
+"cold" none (parolkit's standby preference; ``ik_LM`` draws random starts).  The reference
+is ``ik_LM`` called on the robot's ETS (the documented C++ solver; ``DHRobot.ik_LM`` would
+rebuild the ETS on every call), and, for information, the C++ entry point under it without
+its Python wrapper (``IK_LM_c``, not public API).
+
 Success means: the solver reports success, every joint lies inside the SAFE joint limits
 exactly as returned (no re-wrapping by the caller), and FK of the answer matches the target
 to 1e-6 mm / 1e-6 deg.  roboticstoolbox is a dev-only dependency used only here and in tests.
@@ -22,6 +29,9 @@ import sys
 import time
 
 import numpy as np
+
+#: The "near" seed: every joint this far (deg) from the answer, clipped to the limits.
+NEAR_SEED_DEG = 1.0
 
 
 def _import_time(module: str, repeat: int = 5) -> tuple[float, float]:
@@ -150,6 +160,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"ik single, warm seed     {_stats(ik_warm_us)}")
     ik_cold_us = _latency(ik, [(p,) for p in p_lists])
     print(f"ik single, cold (standby){_stats(ik_cold_us)}")
+    # a seed that is not the answer itself (the answer is the best case of a numerical
+    # solver: it converges at once), as a path's previous sample would be
+    near = np.clip(qs + NEAR_SEED_DEG, lim[:, 0], lim[:, 1])
+    near_lists = near.tolist()
+    ik_near_us = _latency(ik, list(zip(p_lists, near_lists)))
+    print(f"ik single, near seed     {_stats(ik_near_us)}   (near: every joint {NEAR_SEED_DEG:g} deg from the answer)")
     import importlib
 
     from parolkit import _native
@@ -185,18 +201,21 @@ def main(argv: list[str] | None = None) -> int:
           f"(1e-6 deg) in {same_q.mean() * 100:.2f} %")
 
     fk_tp = _throughput(lambda: fk_batch(qs), n)
-    print(f"fk_batch                 {fk_tp:12,.0f} poses/s")
+    fk_mat_tp = _throughput(lambda: fk_batch(qs, as_matrix=True), n)
+    print(f"fk_batch                 {fk_tp:12,.0f} poses/s   (4x4 matrices: {fk_mat_tp:,.0f} poses/s)")
     tool = get_tool(None)
     rot, pos = targets_from_poses(poses, tool)
     seeds_rad = np.radians(qs)
     core_tp = _throughput(lambda: solve_independent(rot, pos, seeds_rad, None), n)
     ikb_warm_tp = _throughput(lambda: ik_batch(poses, qs), n)
     ikb_cold_tp = _throughput(lambda: ik_batch(poses, continuous=False), n)
+    ikb_near_tp = _throughput(lambda: ik_batch(poses, near), n)
     bw = ik_batch(poses, qs)
     bc = ik_batch(poses, continuous=False)
     print(f"ik_batch, seed per pose  {ikb_warm_tp:12,.0f} poses/s   (solver core without "
           f"pose conversion: {core_tp:,.0f} poses/s)")
     print(f"ik_batch, cold (standby) {ikb_cold_tp:12,.0f} poses/s")
+    print(f"ik_batch, near seed      {ikb_near_tp:12,.0f} poses/s")
     # a smooth path: continuous mode
     t = np.linspace(0.0, 1.0, n)[:, None]
     q_a = np.array([60.0, -110.0, 200.0, -40.0, 40.0, 60.0])
@@ -240,12 +259,36 @@ def main(argv: list[str] | None = None) -> int:
     qs_rad = np.radians(qs)
     rtb_fk_us = _latency(ets.eval, [(q,) for q in qs_rad])
     print(f"fk single (ets.eval)     {_stats(rtb_fk_us)}")
+    rtb_fk_tp = _throughput(lambda: ets.eval(qs_rad), n)
+    print(f"fk batch (ets.eval of the (n, 6) array, one C++ call) {rtb_fk_tp:12,.0f} poses/s")
     mats_list = list(mats)
     lm_warm_us = _latency(lambda T, q0: ets.ik_LM(T, q0=q0), list(zip(mats_list, qs_rad)))
     print(f"ik_LM single, warm seed  {_stats(lm_warm_us)}")
+    near_rad = np.radians(near)
+    lm_near_us = _latency(lambda T, q0: ets.ik_LM(T, q0=q0), list(zip(mats_list, near_rad)))
+    print(f"ik_LM single, near seed  {_stats(lm_near_us)}")
     np.random.seed(args.seed)
     lm_cold_us = _latency(lambda T: ets.ik_LM(T), [(T,) for T in mats_list])
     print(f"ik_LM single, cold       {_stats(lm_cold_us)}")
+    # The C++ entry point under ets.ik_LM, without its Python wrapper (argument checks and
+    # the IKSolution object): NOT public API (it needs the private ets._fknm), printed as
+    # the lower bound of what any Python caller of roboticstoolbox's solver can get.
+    raw_warm_us = raw_near_us = None
+    try:
+        from roboticstoolbox.ets.fknm import IK_LM_c
+        from roboticstoolbox.robot.IK import check_mask
+
+        fknm, mask = ets._fknm, check_mask(None)
+
+        def raw(T, q0):
+            return IK_LM_c(fknm, T, q0, 30, 100, 1e-6, True, mask, 1.0, "chan")
+
+        raw_warm_us = _latency(raw, list(zip(mats_list, qs_rad)))
+        raw_near_us = _latency(raw, list(zip(mats_list, near_rad)))
+        print(f"IK_LM_c, warm seed       {_stats(raw_warm_us)}   (the C++ entry without the wrapper)")
+        print(f"IK_LM_c, near seed       {_stats(raw_near_us)}")
+    except (ImportError, AttributeError, TypeError) as exc:
+        print(f"(IK_LM_c not callable in this roboticstoolbox version: {exc})")
 
     def run_lm(q0s):
         sol = np.empty((n, 6))
@@ -263,10 +306,14 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     lm_cold, f_cold = run_lm(None)
     lm_cold_tp = n / (time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    run_lm(near_rad)
+    lm_near_tp = n / (time.perf_counter() - t0)
     ok_lm_warm = f_warm & in_limits(lm_warm) & reaches(lm_warm)
     ok_lm_cold = f_cold & in_limits(lm_cold) & reaches(lm_cold)
     print(f"ik_LM loop, warm         {lm_warm_tp:12,.0f} poses/s  (no batch API: a Python loop)")
     print(f"ik_LM loop, cold         {lm_cold_tp:12,.0f} poses/s")
+    print(f"ik_LM loop, near seed    {lm_near_tp:12,.0f} poses/s")
     loose_warm = f_warm & in_limits(lm_warm) & reaches(lm_warm, 1.0, 1.0)
     loose_cold = f_cold & in_limits(lm_cold) & reaches(lm_cold, 1.0, 1.0)
     print(f"ik_LM success, reported by ik_LM:              warm {f_warm.mean() * 100:6.2f} %, "
@@ -277,10 +324,17 @@ def main(argv: list[str] | None = None) -> int:
           f"cold {ok_lm_cold.mean() * 100:6.2f} %  (ik_LM stops at its residual tolerance)")
 
     print("\n== ratios (rtb / parolkit; > 1 means parolkit is faster) ==")
-    print(f"fk single median         {med(rtb_fk_us) / med(fk_us):6.2f} x")
-    print(f"ik single median, warm   {med(lm_warm_us) / med(ik_warm_us):6.2f} x")
+    print(f"fk single median         {med(rtb_fk_us) / med(fk_us):6.2f} x (our fk returns a pose, ets.eval a matrix)")
+    print(f"fk batch                 {fk_mat_tp / rtb_fk_tp:6.2f} x (both 4x4 matrices)")
+    print(f"ik single median, warm   {med(lm_warm_us) / med(ik_warm_us):6.2f} x (seed = the answer: ik_LM's best case)")
+    print(f"ik single median, near   {med(lm_near_us) / med(ik_near_us):6.2f} x")
     print(f"ik single median, cold   {med(lm_cold_us) / med(ik_cold_us):6.2f} x")
+    if raw_warm_us is not None:
+        print(f"ik single median vs the C++ entry IK_LM_c (not public): warm "
+              f"{med(raw_warm_us) / med(ik_warm_us):.2f} x, near seed "
+              f"{med(raw_near_us) / med(ik_near_us):.2f} x")
     print(f"ik throughput, warm      {ikb_warm_tp / lm_warm_tp:6.1f} x (parolkit batch vs ik_LM loop)")
+    print(f"ik throughput, near seed{ikb_near_tp / lm_near_tp:6.1f} x")
     print(f"ik throughput, cold      {ikb_cold_tp / lm_cold_tp:6.1f} x")
 
     print_targets()
