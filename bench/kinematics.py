@@ -59,6 +59,22 @@ def _latency(fn, args_list) -> np.ndarray:
     return out / 1e3
 
 
+def _latency_interleaved(pairs) -> list[np.ndarray]:
+    """Per-call latency (us) of each ``(fn, args_list)`` in ``pairs`` (lists of equal length),
+    the calls interleaved: every function's call i, then every function's call i + 1, so
+    all see the same load on a shared machine."""
+    clock = time.perf_counter_ns
+    n = len(pairs[0][1])
+    outs = [np.empty(n) for _ in pairs]
+    for i in range(n):
+        for (fn, args_list), out in zip(pairs, outs):
+            args = args_list[i]
+            t0 = clock()
+            fn(*args)
+            out[i] = clock() - t0
+    return [out / 1e3 for out in outs]
+
+
 def _best_round_mean(fns: dict, args: dict, rounds: int = 40, size: int = 100) -> dict:
     """Per-call mean (us) of the fastest of ``rounds`` interleaved rounds of ``size`` calls.
 
@@ -259,23 +275,12 @@ def main(argv: list[str] | None = None) -> int:
              for r, lm in zip(PAROL6.dh, lim)]
     ets = rtb.DHRobot(links, name="PAROL6").ets()
     qs_rad = np.radians(qs)
-    rtb_fk_us = _latency(ets.eval, [(q,) for q in qs_rad])
-    print(f"fk single (ets.eval)     {_stats(rtb_fk_us)}")
-    rtb_fk_tp = _throughput(lambda: ets.eval(qs_rad), n)
-    print(f"fk batch (ets.eval of the (n, 6) array, one C++ call) {rtb_fk_tp:12,.0f} poses/s")
     mats_list = list(mats)
-    lm_warm_us = _latency(lambda T, q0: ets.ik_LM(T, q0=q0), list(zip(mats_list, qs_rad)))
-    print(f"ik_LM single, warm seed  {_stats(lm_warm_us)}")
     near_rad = np.radians(near)
-    lm_near_us = _latency(lambda T, q0: ets.ik_LM(T, q0=q0), list(zip(mats_list, near_rad)))
-    print(f"ik_LM single, near seed  {_stats(lm_near_us)}")
-    np.random.seed(args.seed)
-    lm_cold_us = _latency(lambda T: ets.ik_LM(T), [(T,) for T in mats_list])
-    print(f"ik_LM single, cold       {_stats(lm_cold_us)}")
     # The C++ entry point under ets.ik_LM, without its Python wrapper (argument checks and
-    # the IKSolution object): NOT public API (it needs the private ets._fknm), printed as
-    # the lower bound of what any Python caller of roboticstoolbox's solver can get.
-    raw_warm_us = raw_near_us = None
+    # the IKSolution object): NOT public API (it needs the private ets._fknm), timed for
+    # information, as the lower bound of what any Python caller of that solver can get.
+    raw = None
     try:
         from roboticstoolbox.ets.fknm import IK_LM_c
         from roboticstoolbox.robot.IK import check_mask
@@ -285,12 +290,34 @@ def main(argv: list[str] | None = None) -> int:
         def raw(T, q0):
             return IK_LM_c(fknm, T, q0, 30, 100, 1e-6, True, mask, 1.0, "chan")
 
-        raw_warm_us = _latency(raw, list(zip(mats_list, qs_rad)))
-        raw_near_us = _latency(raw, list(zip(mats_list, near_rad)))
-        print(f"IK_LM_c, warm seed       {_stats(raw_warm_us)}   (the C++ entry without the wrapper)")
-        print(f"IK_LM_c, near seed       {_stats(raw_near_us)}")
+        raw(mats_list[0], qs_rad[0])
     except (ImportError, AttributeError, TypeError) as exc:
+        raw = None
         print(f"(IK_LM_c not callable in this roboticstoolbox version: {exc})")
+
+    # single calls, ours and the reference's interleaved pose by pose (both see the same
+    # load; the parolkit section above timed ours alone): the ratios use these
+    print("single calls interleaved with parolkit's on the same pose (median / p99):")
+    fk_i, rtb_fk_us = _latency_interleaved([(fk, [(q,) for q in q_lists]),
+                                            (ets.eval, [(q,) for q in qs_rad])])
+    print(f"fk single (ets.eval)     {_stats(rtb_fk_us)}   parolkit fk {_stats(fk_i)}")
+    warm_args = list(zip(mats_list, qs_rad))
+    near_args = list(zip(mats_list, near_rad))
+    pairs = [(ik, list(zip(p_lists, q_lists))), (lambda T, q0: ets.ik_LM(T, q0=q0), warm_args)]
+    ik_w_i, lm_warm_us, *raw_w = _latency_interleaved(pairs + ([(raw, warm_args)] if raw else []))
+    print(f"ik_LM single, warm seed  {_stats(lm_warm_us)}   parolkit {_stats(ik_w_i)}")
+    pairs = [(ik, list(zip(p_lists, near_lists))), (lambda T, q0: ets.ik_LM(T, q0=q0), near_args)]
+    ik_n_i, lm_near_us, *raw_n = _latency_interleaved(pairs + ([(raw, near_args)] if raw else []))
+    print(f"ik_LM single, near seed  {_stats(lm_near_us)}   parolkit {_stats(ik_n_i)}")
+    np.random.seed(args.seed)
+    ik_c_i, lm_cold_us = _latency_interleaved([(ik, [(p,) for p in p_lists]),
+                                               (lambda T: ets.ik_LM(T), [(T,) for T in mats_list])])
+    print(f"ik_LM single, cold       {_stats(lm_cold_us)}   parolkit {_stats(ik_c_i)}")
+    if raw:
+        print(f"IK_LM_c, warm seed       {_stats(raw_w[0])}   (the C++ entry without the wrapper)")
+        print(f"IK_LM_c, near seed       {_stats(raw_n[0])}")
+    rtb_fk_tp = _throughput(lambda: ets.eval(qs_rad), n)
+    print(f"fk batch (ets.eval of the (n, 6) array, one C++ call) {rtb_fk_tp:12,.0f} poses/s")
 
     def run_lm(q0s):
         sol = np.empty((n, 6))
@@ -331,15 +358,14 @@ def main(argv: list[str] | None = None) -> int:
           f"cold {ok_lm_cold.mean() * 100:6.2f} %  (ik_LM stops at its residual tolerance)")
 
     print("\n== ratios (rtb / parolkit; > 1 means parolkit is faster) ==")
-    print(f"fk single median         {med(rtb_fk_us) / med(fk_us):6.2f} x (our fk returns a pose, ets.eval a matrix)")
+    print(f"fk single median         {med(rtb_fk_us) / med(fk_i):6.2f} x (our fk returns a pose, ets.eval a matrix)")
     print(f"fk batch                 {fk_mat_tp / rtb_fk_tp:6.2f} x (both 4x4 matrices)")
-    print(f"ik single median, warm   {med(lm_warm_us) / med(ik_warm_us):6.2f} x (seed = the answer: ik_LM's best case)")
-    print(f"ik single median, near   {med(lm_near_us) / med(ik_near_us):6.2f} x")
-    print(f"ik single median, cold   {med(lm_cold_us) / med(ik_cold_us):6.2f} x")
-    if raw_warm_us is not None:
+    print(f"ik single median, warm   {med(lm_warm_us) / med(ik_w_i):6.2f} x (seed = the answer: ik_LM's best case)")
+    print(f"ik single median, near   {med(lm_near_us) / med(ik_n_i):6.2f} x")
+    print(f"ik single median, cold   {med(lm_cold_us) / med(ik_c_i):6.2f} x")
+    if raw:
         print(f"ik single median vs the C++ entry IK_LM_c (not public): warm "
-              f"{med(raw_warm_us) / med(ik_warm_us):.2f} x, near seed "
-              f"{med(raw_near_us) / med(ik_near_us):.2f} x")
+              f"{med(raw_w[0]) / med(ik_w_i):.2f} x, near seed {med(raw_n[0]) / med(ik_n_i):.2f} x")
     print(f"ik throughput, warm      {ikb_warm_tp / lm_warm_tp:6.1f} x (parolkit batch vs ik_LM loop)")
     print(f"ik throughput, near seed{ikb_near_tp / lm_near_tp:6.1f} x")
     print(f"ik throughput, cold      {ikb_cold_tp / lm_cold_tp:6.1f} x")
