@@ -287,10 +287,11 @@ def main(argv: list[str] | None = None) -> int:
 
         fknm, mask = ets._fknm, check_mask(None)
 
-        def raw(T, q0):
+        def raw_call(T, q0):
             return IK_LM_c(fknm, T, q0, 30, 100, 1e-6, True, mask, 1.0, "chan")
 
-        raw(mats_list[0], qs_rad[0])
+        raw_call(mats_list[0], qs_rad[0])
+        raw = raw_call
     except (ImportError, AttributeError, TypeError) as exc:
         raw = None
         print(f"(IK_LM_c not callable in this roboticstoolbox version: {exc})")
