@@ -6,6 +6,13 @@ success rate of each solver, and ratios.  Also the cold import time of parolkit.
 
     .venv/bin/python bench/kinematics.py [--n 10000] [--seed 0] [--no-rtb]
 
+Seeds: "warm" is the answer itself (a numerical solver's best case: ``ik_LM`` converges in
+one iteration), "near" every joint 1 deg from it (as a path's previous sample would be),
+"cold" none (parolkit's standby preference; ``ik_LM`` draws random starts).  The reference
+is ``ik_LM`` called on the robot's ETS (the documented C++ solver; ``DHRobot.ik_LM`` would
+rebuild the ETS on every call), and, for information, the C++ entry point under it without
+its Python wrapper (``IK_LM_c``, not public API).
+
 Success means: the solver reports success, every joint lies inside the SAFE joint limits
 exactly as returned (no re-wrapping by the caller), and FK of the answer matches the target
 to 1e-6 mm / 1e-6 deg.  roboticstoolbox is a dev-only dependency used only here and in tests.
@@ -22,6 +29,11 @@ import sys
 import time
 
 import numpy as np
+
+#: The "near" seed: every joint this far (deg) from the answer, clipped to the limits.
+NEAR_SEED_DEG = 1.0
+#: Repeats of the cold batch / loop (best of; the others take the best of 15 on both sides).
+COLD_REPEAT = 3
 
 
 def _import_time(module: str, repeat: int = 5) -> tuple[float, float]:
@@ -45,6 +57,22 @@ def _latency(fn, args_list) -> np.ndarray:
         fn(*args)
         out[i] = clock() - t0
     return out / 1e3
+
+
+def _latency_interleaved(pairs) -> list[np.ndarray]:
+    """Per-call latency (us) of each ``(fn, args_list)`` in ``pairs`` (lists of equal length),
+    the calls interleaved: every function's call i, then every function's call i + 1, so
+    all see the same load on a shared machine."""
+    clock = time.perf_counter_ns
+    n = len(pairs[0][1])
+    outs = [np.empty(n) for _ in pairs]
+    for i in range(n):
+        for (fn, args_list), out in zip(pairs, outs):
+            args = args_list[i]
+            t0 = clock()
+            fn(*args)
+            out[i] = clock() - t0
+    return [out / 1e3 for out in outs]
 
 
 def _best_round_mean(fns: dict, args: dict, rounds: int = 40, size: int = 100) -> dict:
@@ -150,6 +178,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"ik single, warm seed     {_stats(ik_warm_us)}")
     ik_cold_us = _latency(ik, [(p,) for p in p_lists])
     print(f"ik single, cold (standby){_stats(ik_cold_us)}")
+    # a seed that is not the answer itself (the answer is the best case of a numerical
+    # solver: it converges at once), as a path's previous sample would be
+    near = np.clip(qs + NEAR_SEED_DEG, lim[:, 0], lim[:, 1])
+    near_lists = near.tolist()
+    ik_near_us = _latency(ik, list(zip(p_lists, near_lists)))
+    print(f"ik single, near seed     {_stats(ik_near_us)}   (near: every joint {NEAR_SEED_DEG:g} deg from the answer)")
     import importlib
 
     from parolkit import _native
@@ -185,18 +219,21 @@ def main(argv: list[str] | None = None) -> int:
           f"(1e-6 deg) in {same_q.mean() * 100:.2f} %")
 
     fk_tp = _throughput(lambda: fk_batch(qs), n)
-    print(f"fk_batch                 {fk_tp:12,.0f} poses/s")
+    fk_mat_tp = _throughput(lambda: fk_batch(qs, as_matrix=True), n)
+    print(f"fk_batch                 {fk_tp:12,.0f} poses/s   (4x4 matrices: {fk_mat_tp:,.0f} poses/s)")
     tool = get_tool(None)
     rot, pos = targets_from_poses(poses, tool)
     seeds_rad = np.radians(qs)
     core_tp = _throughput(lambda: solve_independent(rot, pos, seeds_rad, None), n)
     ikb_warm_tp = _throughput(lambda: ik_batch(poses, qs), n)
-    ikb_cold_tp = _throughput(lambda: ik_batch(poses, continuous=False), n)
+    ikb_cold_tp = _throughput(lambda: ik_batch(poses, continuous=False), n, repeat=COLD_REPEAT)
+    ikb_near_tp = _throughput(lambda: ik_batch(poses, near), n)
     bw = ik_batch(poses, qs)
     bc = ik_batch(poses, continuous=False)
     print(f"ik_batch, seed per pose  {ikb_warm_tp:12,.0f} poses/s   (solver core without "
           f"pose conversion: {core_tp:,.0f} poses/s)")
     print(f"ik_batch, cold (standby) {ikb_cold_tp:12,.0f} poses/s")
+    print(f"ik_batch, near seed      {ikb_near_tp:12,.0f} poses/s")
     # a smooth path: continuous mode
     t = np.linspace(0.0, 1.0, n)[:, None]
     q_a = np.array([60.0, -110.0, 200.0, -40.0, 40.0, 60.0])
@@ -238,14 +275,50 @@ def main(argv: list[str] | None = None) -> int:
              for r, lm in zip(PAROL6.dh, lim)]
     ets = rtb.DHRobot(links, name="PAROL6").ets()
     qs_rad = np.radians(qs)
-    rtb_fk_us = _latency(ets.eval, [(q,) for q in qs_rad])
-    print(f"fk single (ets.eval)     {_stats(rtb_fk_us)}")
     mats_list = list(mats)
-    lm_warm_us = _latency(lambda T, q0: ets.ik_LM(T, q0=q0), list(zip(mats_list, qs_rad)))
-    print(f"ik_LM single, warm seed  {_stats(lm_warm_us)}")
+    near_rad = np.radians(near)
+    # The C++ entry point under ets.ik_LM, without its Python wrapper (argument checks and
+    # the IKSolution object): NOT public API (it needs the private ets._fknm), timed for
+    # information, as the lower bound of what any Python caller of that solver can get.
+    raw = None
+    try:
+        from roboticstoolbox.ets.fknm import IK_LM_c
+        from roboticstoolbox.robot.IK import check_mask
+
+        fknm, mask = ets._fknm, check_mask(None)
+
+        def raw_call(T, q0):
+            return IK_LM_c(fknm, T, q0, 30, 100, 1e-6, True, mask, 1.0, "chan")
+
+        raw_call(mats_list[0], qs_rad[0])
+        raw = raw_call
+    except (ImportError, AttributeError, TypeError) as exc:
+        raw = None
+        print(f"(IK_LM_c not callable in this roboticstoolbox version: {exc})")
+
+    # single calls, ours and the reference's interleaved pose by pose (both see the same
+    # load; the parolkit section above timed ours alone): the ratios use these
+    print("single calls interleaved with parolkit's on the same pose (median / p99):")
+    fk_i, rtb_fk_us = _latency_interleaved([(fk, [(q,) for q in q_lists]),
+                                            (ets.eval, [(q,) for q in qs_rad])])
+    print(f"fk single (ets.eval)     {_stats(rtb_fk_us)}   parolkit fk {_stats(fk_i)}")
+    warm_args = list(zip(mats_list, qs_rad))
+    near_args = list(zip(mats_list, near_rad))
+    pairs = [(ik, list(zip(p_lists, q_lists))), (lambda T, q0: ets.ik_LM(T, q0=q0), warm_args)]
+    ik_w_i, lm_warm_us, *raw_w = _latency_interleaved(pairs + ([(raw, warm_args)] if raw else []))
+    print(f"ik_LM single, warm seed  {_stats(lm_warm_us)}   parolkit {_stats(ik_w_i)}")
+    pairs = [(ik, list(zip(p_lists, near_lists))), (lambda T, q0: ets.ik_LM(T, q0=q0), near_args)]
+    ik_n_i, lm_near_us, *raw_n = _latency_interleaved(pairs + ([(raw, near_args)] if raw else []))
+    print(f"ik_LM single, near seed  {_stats(lm_near_us)}   parolkit {_stats(ik_n_i)}")
     np.random.seed(args.seed)
-    lm_cold_us = _latency(lambda T: ets.ik_LM(T), [(T,) for T in mats_list])
-    print(f"ik_LM single, cold       {_stats(lm_cold_us)}")
+    ik_c_i, lm_cold_us = _latency_interleaved([(ik, [(p,) for p in p_lists]),
+                                               (lambda T: ets.ik_LM(T), [(T,) for T in mats_list])])
+    print(f"ik_LM single, cold       {_stats(lm_cold_us)}   parolkit {_stats(ik_c_i)}")
+    if raw:
+        print(f"IK_LM_c, warm seed       {_stats(raw_w[0])}   (the C++ entry without the wrapper)")
+        print(f"IK_LM_c, near seed       {_stats(raw_n[0])}")
+    rtb_fk_tp = _throughput(lambda: ets.eval(qs_rad), n)
+    print(f"fk batch (ets.eval of the (n, 6) array, one C++ call) {rtb_fk_tp:12,.0f} poses/s")
 
     def run_lm(q0s):
         sol = np.empty((n, 6))
@@ -256,17 +329,26 @@ def main(argv: list[str] | None = None) -> int:
             flag[i] = bool(res.success)
         return np.degrees(sol), flag
 
-    np.random.seed(args.seed + 1)
-    t0 = time.perf_counter()
-    lm_warm, f_warm = run_lm(qs_rad)
-    lm_warm_tp = n / (time.perf_counter() - t0)
-    t0 = time.perf_counter()
-    lm_cold, f_cold = run_lm(None)
-    lm_cold_tp = n / (time.perf_counter() - t0)
+    def loop_tp(q0s, repeat: int):
+        """Best of ``repeat`` loops over all poses (poses/s), the statistic ``_throughput``
+        takes of parolkit's batch runs, with the same number of repeats (15 warm / near, 3
+        cold: a cold loop takes seconds).  The random starts are the same in every repeat."""
+        best = math.inf
+        for _ in range(repeat):
+            np.random.seed(args.seed + 1)
+            t0 = time.perf_counter()
+            result = run_lm(q0s)
+            best = min(best, time.perf_counter() - t0)
+        return n / best, result
+
+    lm_warm_tp, (lm_warm, f_warm) = loop_tp(qs_rad, 15)
+    lm_cold_tp, (lm_cold, f_cold) = loop_tp(None, COLD_REPEAT)
+    lm_near_tp, _ = loop_tp(near_rad, 15)
     ok_lm_warm = f_warm & in_limits(lm_warm) & reaches(lm_warm)
     ok_lm_cold = f_cold & in_limits(lm_cold) & reaches(lm_cold)
     print(f"ik_LM loop, warm         {lm_warm_tp:12,.0f} poses/s  (no batch API: a Python loop)")
     print(f"ik_LM loop, cold         {lm_cold_tp:12,.0f} poses/s")
+    print(f"ik_LM loop, near seed    {lm_near_tp:12,.0f} poses/s")
     loose_warm = f_warm & in_limits(lm_warm) & reaches(lm_warm, 1.0, 1.0)
     loose_cold = f_cold & in_limits(lm_cold) & reaches(lm_cold, 1.0, 1.0)
     print(f"ik_LM success, reported by ik_LM:              warm {f_warm.mean() * 100:6.2f} %, "
@@ -277,10 +359,16 @@ def main(argv: list[str] | None = None) -> int:
           f"cold {ok_lm_cold.mean() * 100:6.2f} %  (ik_LM stops at its residual tolerance)")
 
     print("\n== ratios (rtb / parolkit; > 1 means parolkit is faster) ==")
-    print(f"fk single median         {med(rtb_fk_us) / med(fk_us):6.2f} x")
-    print(f"ik single median, warm   {med(lm_warm_us) / med(ik_warm_us):6.2f} x")
-    print(f"ik single median, cold   {med(lm_cold_us) / med(ik_cold_us):6.2f} x")
+    print(f"fk single median         {med(rtb_fk_us) / med(fk_i):6.2f} x (our fk returns a pose, ets.eval a matrix)")
+    print(f"fk batch                 {fk_mat_tp / rtb_fk_tp:6.2f} x (both 4x4 matrices)")
+    print(f"ik single median, warm   {med(lm_warm_us) / med(ik_w_i):6.2f} x (seed = the answer: ik_LM's best case)")
+    print(f"ik single median, near   {med(lm_near_us) / med(ik_n_i):6.2f} x")
+    print(f"ik single median, cold   {med(lm_cold_us) / med(ik_c_i):6.2f} x")
+    if raw:
+        print(f"ik single median vs the C++ entry IK_LM_c (not public): warm "
+              f"{med(raw_w[0]) / med(ik_w_i):.2f} x, near seed {med(raw_n[0]) / med(ik_n_i):.2f} x")
     print(f"ik throughput, warm      {ikb_warm_tp / lm_warm_tp:6.1f} x (parolkit batch vs ik_LM loop)")
+    print(f"ik throughput, near seed{ikb_near_tp / lm_near_tp:6.1f} x")
     print(f"ik throughput, cold      {ikb_cold_tp / lm_cold_tp:6.1f} x")
 
     print_targets()
