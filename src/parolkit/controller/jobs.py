@@ -23,6 +23,10 @@ __all__ = [
 
 _ZERO6 = (0, 0, 0, 0, 0, 0)
 
+#: a trajectory's samples as Python lists: per-tick positions and speeds (steps, 6 joints
+#: each) and board command codes
+Samples = tuple[list[list[int]], list[list[int]], list[int]]
+
 
 @dataclass
 class Job:
@@ -45,7 +49,7 @@ class Job:
     plan_error: str | None = None
     trajectory: object | None = None
     #: trajectory samples as Python lists (positions, speeds, commands), built off the tick
-    samples: tuple[list, list, list] | None = None
+    samples: Samples | None = None
     notes: tuple[str, ...] = ()
     #: streaming jog (replaces the previous one instead of queueing)
     streamed: bool = False
@@ -103,7 +107,7 @@ class Activity:
 class TrajectoryActivity(Activity):
     """Play a planned trajectory one sample per tick, then settle on the target (156)."""
 
-    def __init__(self, samples: tuple[list, list, list], *, settle_ticks: int, settle_tol_steps: int = 4,
+    def __init__(self, samples: Samples, *, settle_ticks: int, settle_tol_steps: int = 4,
                  streamed: bool = False, started: float = 0.0) -> None:
         self.positions, self.speeds, self.commands = samples
         self.n = len(self.positions)

@@ -30,7 +30,7 @@ import os
 import threading
 import time
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import Any, Callable
 
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
@@ -40,6 +40,7 @@ from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_s
 from parolkit.controller.stats import LoopStats
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
+from parolkit.robot import RobotModel
 from parolkit.transport.base import LinkLostError, Transport, TransportError
 
 __all__ = ["ControlLoop", "TickOutput"]
@@ -59,7 +60,7 @@ class StatusFilter:
     and accepted only when the NEXT frame agrees with it; a corrupted one never does.
     """
 
-    def __init__(self, model, rate_hz: float) -> None:
+    def __init__(self, model: RobotModel, rate_hz: float) -> None:
         self._vlim = tuple(min(50_000.0, 3.0 * float(v)) for v in model.max_speed_steps_s)
         self._period = 1.0 / rate_hz
         self.reset()
@@ -135,7 +136,7 @@ class ControlLoop:
         self.publish = publish
         self.pose_provider = pose_provider
         #: counters of the UDP server for the snapshot (set by whoever runs one)
-        self.server_view: Callable[[], dict] | None = None
+        self.server_view: Callable[[], dict[str, Any]] | None = None
         self.reply_wait = min(self.period * reply_wait_fraction, 0.003)
         self.stats = LoopStats(rate_hz)
         self.parser = StatusParser()
@@ -337,7 +338,7 @@ class ControlLoop:
             link_up=self.link_up, status=self.status, last_status=self.last_status, board=board,
             pose_provider=self.pose_provider, loop_view=self._loop_view, server_view=self.server_view)
 
-    def _loop_view(self) -> dict:
+    def _loop_view(self) -> dict[str, Any]:
         return self.stats.view(max_age_s=0.25).as_dict()
 
     @staticmethod

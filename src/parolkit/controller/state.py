@@ -11,7 +11,7 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps, format_floats
@@ -44,7 +44,7 @@ class CommandInfo:
     name: str
     progress: float
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {"id": self.command_id, "name": self.name, "progress": round(self.progress, 4)}
 
 
@@ -93,8 +93,8 @@ class Snapshot:
         outputs: tuple[bool, bool],
         steps_per_deg: Sequence[float],
         pose_provider: PoseProvider | None,
-        loop_view: Callable[[], dict],
-        server_view: Callable[[], dict] | None = None,
+        loop_view: Callable[[], dict[str, Any]],
+        server_view: Callable[[], dict[str, Any]] | None = None,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -231,7 +231,7 @@ class Snapshot:
         v = self.server_view() if self.server_view is not None else {}
         return int(v.get("shed", 0)) + int(v.get("inbox_refused", 0))
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         s = self.status
         g = s.gripper
         io = self.io_values
@@ -319,8 +319,8 @@ def build_snapshot(
     last_status: StatusFrame | None,
     board: BoardInfo,
     pose_provider: PoseProvider | None,
-    loop_view: Callable[[], dict],
-    server_view: Callable[[], dict] | None = None,
+    loop_view: Callable[[], dict[str, Any]],
+    server_view: Callable[[], dict[str, Any]] | None = None,
 ) -> Snapshot:
     """The snapshot of the executor's state with the board's latest ``status`` (loop thread;
     ``last_status`` is shown while the link is down)."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
+from typing import Any
 
 __all__ = ["Histogram", "LoopStats", "LoopStatsView"]
 
@@ -94,7 +95,7 @@ class LoopStatsView:
     implausible_frames: int
     link_losses: int
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
 
 
