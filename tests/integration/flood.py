@@ -253,10 +253,11 @@ def pct(xs: list[float], q: float) -> float:
     return s[min(len(s) - 1, max(0, math.ceil(len(s) * q / 100.0) - 1))]
 
 
-def ms(x: float) -> str:
+def ms(x: float, inf: str = "lost") -> str:
+    """``x`` s in ms; ``inf`` names an infinite value (a reply or frame that never came)."""
     if math.isnan(x):
         return "n/a"
-    return "lost" if math.isinf(x) else f"{x * 1e3:.2f} ms"
+    return inf if math.isinf(x) else f"{x * 1e3:.2f} ms"
 
 
 class Flooder:
@@ -477,7 +478,11 @@ class SecondClient:
         return sent
 
     def judge_estops(self, sent: list[float]) -> list[EstopResult]:
-        """Count, in the board's frame log, the frames after each send before the first DISABLE."""
+        """Count, in the board's frame log, the frames after each send before the first DISABLE.
+
+        A DISABLE that an earlier, late ESTOP caused can be taken for a later one's, which then
+        looks faster than it was; the verdict stays right: that earlier ESTOP was itself more
+        than a re-ENABLE late (at least 0.35 s), so it fails."""
         frames = self.frames(min(sent) - 1.0) if sent else []
         results = []
         for t_send in sent:
@@ -630,7 +635,8 @@ def estop_line(name: str, estops: list[EstopResult]) -> str:
     before = Counter(e.before for e in estops)
     return (f"  {name}: the DISABLE was frame [{', '.join(marks)}] after the send; ticks p50 "
             f"{t(pct(ticks, 50))} p99 {t(pct(ticks, 99))} max {t(max(ticks))}; ms p50 "
-            f"{ms(pct(lat, 50))} p99 {ms(pct(lat, 99))} max {ms(max(lat))}; board's last frame "
+            f"{ms(pct(lat, 50), 'never')} p99 {ms(pct(lat, 99), 'never')} max {ms(max(lat), 'never')}; "
+            f"board's last frame "
             f"before the send by command {dict(before)}")
 
 
