@@ -675,7 +675,8 @@ def report(run: FloodRun) -> list[str]:
         f"  kernel drops at the controller's socket: {run.controller_drops:,}; at the ack recorder's: "
         f"{run.acks['drops']} (buffer {run.ack_rcvbuf:,} B; {run.acks['datagrams']:,} acks recorded)",
         "ESTOP -> the first DISABLE frame the board received (frame N after the send; "
-        "'-' = the board was still disabled at the send, 'never' = no DISABLE came):",
+        "'-' = the board was still disabled at the send, 'never' = no DISABLE came; once ESTOPs "
+        "are late, a later one may see an earlier one's DISABLE: then N is a lower bound):",
         estop_line("reference, no flood", run.reference.estops),
         estop_line(f"under the flood ({len(run.flood.estops)} ESTOPs)", run.flood.estops),
         "PING round trip of the second client:",
