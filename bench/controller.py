@@ -1,5 +1,6 @@
 """Controller benchmark: loop timing at 100 and 250 Hz against the pty emulator, query round
-trip, command-to-first-frame latency, start-up time to the first PONG, and RSS.
+trip, command-to-first-frame latency, start-up time to the first PONG, RSS, and a flood phase
+(issue 11: ESTOP-to-board latency, PING and lost replies while another client floods).
 
 Every figure is printed next to a reference measured in the same run on the same machine:
 
@@ -7,9 +8,11 @@ Every figure is printed next to a reference measured in the same run on the same
   process at the same rate, at the same time as the controller;
 * query round trip: a minimal Python UDP echo server in its own process, queried the same way;
 * command-to-first-frame: half a tick period (the expected wait for the next tick);
-* start-up: ``python -c pass`` (the interpreter floor).
+* start-up: ``python -c pass`` (the interpreter floor);
+* flood: the same second client (ESTOP cycles, PINGs) for the same time without the flood.
 
-    python bench/controller.py [--duration 60] [--rates 100,250]
+    python bench/controller.py [--duration 60] [--rates 100,250] [--phases startup,loop,flood]
+                               [--flood-rate 20000] [--flood-duration 10] [--flood-estops 20]
 """
 
 from __future__ import annotations
@@ -28,8 +31,10 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "src"))
+sys.path.insert(0, str(REPO))
 
 from parolkit.board import BoardEmulator, PtyBoardServer  # noqa: E402
+from tests.integration import flood  # noqa: E402  (the flood rig the acceptance test uses)
 
 ENV = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO / "src"))
 
@@ -227,17 +232,88 @@ def bench_loop(rate: float, duration: float, tmp: Path) -> None:
     print(f"  controller RSS {rss / 1024:.1f} MiB")
 
 
+# ------------------------------------------------------------------------------ flood phase
+
+
+def bench_flood(rate: float, duration: float, estops: int, seed: int, tmp: Path) -> None:
+    """Issue 11's scenario, as tests/integration/test_flood_estop.py runs it, with figures only:
+    ``board-sim --frame-log`` and the controller in their own processes, a flooder process
+    (valid immediate commands, queries, garbage), the second client here (ESTOP at random
+    moments, re-ENABLE and a new move after each, PINGs all the time).  The reference is the
+    same second client for the same time and number of ESTOPs without the flood."""
+    print(f"== flood: {rate:,.0f} datagrams/s for {duration:g} s from another process; the second "
+          f"client sends ESTOP at {estops} random moments and PINGs throughout (reference: the "
+          f"same without the flood, first)")
+    link = tmp / "p6-flood"
+    board = subprocess.Popen([sys.executable, "-m", "parolkit", "board-sim", "--link", str(link), "--start-homed",
+                              "--frame-log", "50000"], env=ENV, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+    ctl = rec = None
+    try:
+        end = time.monotonic() + 20
+        while not link.exists() and time.monotonic() < end:
+            time.sleep(0.02)
+        port, ack = free_port(), free_port()
+        cfg = tmp / "flood.toml"
+        cfg.write_text("[controller]\nlink_timeout_ticks = 50\n")
+        ctl = subprocess.Popen([sys.executable, "-m", "parolkit", "serve", "--port", str(link), "--udp-port",
+                                str(port), "--ack-port", str(ack), "--config", str(cfg)],
+                               env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        s.settimeout(0.5)
+        addr = ("127.0.0.1", port)
+        while time.monotonic() < end:
+            data, _ = query(s, addr, b"PING")
+            if data == b"PONG|SERIAL=1":
+                break
+            time.sleep(0.05)
+        rec = flood.AckRecorder(ack)
+        run = flood.run_flood(port, rec, f"{link}.ctl", rate=rate, duration=duration, estops=estops,
+                              reference_s=duration, reference_estops=estops, seed=seed)
+        s.settimeout(2.0)
+        data, _ = query(s, addr, b"GET_LOOP_STATS")
+        stats = json.loads(data.split(b"|", 1)[1]) if data else {}
+        s.close()
+        for line in flood.report(run):
+            print(" ", line)
+        print(f"   controller after the run: datagrams received {stats.get('datagrams_received')}, invalid "
+              f"{stats.get('datagrams_invalid')}; loop period p99 {stats.get('period_p99_ms')} ms, max "
+              f"{stats.get('period_max_ms')} ms, overruns {stats.get('overruns')}")
+    finally:
+        if rec is not None:
+            rec.kill()
+        if ctl is not None:
+            ctl.terminate()
+            ctl.wait(10)
+        board.terminate()
+        board.wait(10)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per loop phase (default 60)")
     ap.add_argument("--rates", default="100,250", help="loop rates in Hz (default 100,250)")
     ap.add_argument("--startup-runs", type=int, default=5)
+    ap.add_argument("--phases", default="startup,loop,flood",
+                    help="which phases to run, comma-separated (default startup,loop,flood)")
+    ap.add_argument("--flood-rate", type=float, default=20_000.0, help="flood datagrams/s (default 20000)")
+    ap.add_argument("--flood-duration", type=float, default=10.0, help="flood seconds (default 10)")
+    ap.add_argument("--flood-estops", type=int, default=20, help="ESTOPs per phase (default 20)")
+    ap.add_argument("--flood-seed", type=int, default=11, help="seed of the flood mix and ESTOP moments")
     args = ap.parse_args()
+    phases = {p.strip() for p in args.phases.split(",") if p.strip()}
+    unknown = phases - {"startup", "loop", "flood"}
+    if unknown:
+        ap.error(f"--phases: unknown {sorted(unknown)} (startup, loop, flood)")
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at start")
-    bench_startup(args.startup_runs)
+    if "startup" in phases:
+        bench_startup(args.startup_runs)
     with tempfile.TemporaryDirectory() as d:
-        for r in args.rates.split(","):
-            bench_loop(float(r), args.duration, Path(d))
+        if "loop" in phases:
+            for r in args.rates.split(","):
+                bench_loop(float(r), args.duration, Path(d))
+        if "flood" in phases:
+            bench_flood(args.flood_rate, args.flood_duration, args.flood_estops, args.flood_seed, Path(d))
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
     return 0
 

@@ -4,11 +4,13 @@ Serve::
 
     parolkit board-sim --link /tmp/p6 [--speedup N] [--estop-pressed] [--in1 0|1] [--in2 0|1]
                        [--gripper-object WIDTH_MM] [--control PATH] [--start-homed]
+                       [--frame-log SIZE]
 
 Control a running one (the control socket defaults to ``LINK.ctl``)::
 
     parolkit board-sim --link /tmp/p6 --ctl "estop 1"
     parolkit board-sim --link /tmp/p6 --ctl status
+    parolkit board-sim --link /tmp/p6 --ctl "frames last=5"     # needs --frame-log
 """
 
 from __future__ import annotations
@@ -47,6 +49,18 @@ def _width(text: str) -> float:
     return v
 
 
+def _frame_log_size(text: str) -> int:
+    from parolkit.board.pty_server import FRAME_LOG_MAX
+
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of frames 1..{FRAME_LOG_MAX}, got {text!r}") from None
+    if not 1 <= v <= FRAME_LOG_MAX:
+        raise argparse.ArgumentTypeError(f"must be 1..{FRAME_LOG_MAX} frames, got {text}")
+    return v
+
+
 def register(subparsers: argparse._SubParsersAction, name: str) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         name,
@@ -66,6 +80,9 @@ def register(subparsers: argparse._SubParsersAction, name: str) -> argparse.Argu
                    help="an object WIDTH mm wide sits between the gripper jaws")
     p.add_argument("--start-homed", action="store_true",
                    help="power up already homed (not stock; saves the homing run)")
+    p.add_argument("--frame-log", type=_frame_log_size, default=0, metavar="SIZE",
+                   help="keep the last SIZE command frames received, with their time.monotonic() "
+                   "receive times, for the control command 'frames' (off by default)")
     p.add_argument("--control", metavar="PATH", default=None,
                    help="control socket path (default: LINK.ctl)")
     p.add_argument("--ctl", metavar="COMMAND", default=None,
@@ -97,8 +114,8 @@ def run(args: argparse.Namespace) -> int:
                             in1=args.in1, in2=args.in2, start_homed=args.start_homed)
         if args.gripper_object is not None:
             emu.place_object(args.gripper_object)
-        server = PtyBoardServer(emu, args.link)
-        control = ControlServer(emu, control_path)
+        server = PtyBoardServer(emu, args.link, frame_log_size=args.frame_log)
+        control = ControlServer(emu, control_path, frame_log=server.frame_log)
     except ParolkitError as exc:
         print(f"board-sim: {exc}", file=sys.stderr)
         return 2

@@ -16,6 +16,9 @@ command                         effect
 ``faults clear``                perfect link again
 ``powercycle``                  counters 0, homed 0x03, enabled (joints stay where they are)
 ``status``                      ``ok {json}`` with positions, homed, IO, gripper, faults ...
+``frames since=T after=N``      ``ok {json}`` the command frames received after monotonic
+``frames last=N limit=N``       time T / sequence number N (the newest N, at most N); needs
+                                the frame log (``board-sim --frame-log SIZE``)
 ``help``                        the list of commands
 ==============================  ============================================================
 """
@@ -23,14 +26,19 @@ command                         effect
 from __future__ import annotations
 
 import json
+import math
 import os
 import socket
 import threading
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from parolkit.board.emulator import BoardEmulator
 from parolkit.board.faults import LinkFaults
 from parolkit.errors import ParolkitError, ParolkitValueError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from parolkit.board.pty_server import FrameLog
 
 __all__ = ["execute_control", "ControlServer", "send_control", "ControlError", "CONTROL_HELP"]
 
@@ -38,7 +46,8 @@ CONTROL_HELP = (
     "estop 0|1; in1 0|1; in2 0|1; object WIDTH_MM|none; unplug; replug; "
     "errors temp|pos J1..J6 ...; errors clear; "
     "faults [drop=P] [corrupt=P] [delay=S] [silent=0|1] [dir=to_board|from_board|both]; "
-    "faults clear; powercycle; status; help"
+    "faults clear; powercycle; status; "
+    "frames [since=MONOTONIC_S] [after=SEQ] [last=N] [limit=N] (with --frame-log); help"
 )
 
 
@@ -54,8 +63,12 @@ def _flag(word: str, what: str) -> bool:
     raise ParolkitValueError(f"{what}: expected 0 or 1, got {word!r}")
 
 
-def execute_control(emu: BoardEmulator, text: str) -> str:
-    """Run one control command on ``emu``; returns the reply text (never raises for bad input)."""
+def execute_control(emu: BoardEmulator, text: str, *, frame_log: "FrameLog | None" = None) -> str:
+    """Run one control command on ``emu``; returns the reply text (never raises for bad input).
+
+    ``frame_log`` (the pty server's :class:`~parolkit.board.pty_server.FrameLog`) answers
+    ``frames``; without it ``frames`` replies with an error saying how to switch it on.
+    """
     words = text.strip().split()
     if not words:
         return "error: empty command (try 'help')"
@@ -65,6 +78,8 @@ def execute_control(emu: BoardEmulator, text: str) -> str:
             return "ok " + CONTROL_HELP
         if cmd == "status":
             return "ok " + json.dumps(emu.describe())
+        if cmd == "frames":
+            return _frames(frame_log, args)
         if cmd in ("estop", "in1", "in2"):
             if len(args) != 1:
                 return f"error: '{cmd}' needs one argument 0 or 1"
@@ -138,18 +153,49 @@ def execute_control(emu: BoardEmulator, text: str) -> str:
     return f"error: unknown command {cmd!r} (try 'help')"
 
 
+def _frames(frame_log: "FrameLog | None", args: list[str]) -> str:
+    if frame_log is None:
+        return "error: the frame log is off (start board-sim with --frame-log SIZE)"
+    kw: dict[str, object] = {}
+    for a in args:
+        key, sep, val = a.partition("=")
+        key = key.lower()
+        if not sep or key not in ("since", "after", "last", "limit"):
+            return f"error: frames arguments are since=S, after=SEQ, last=N, limit=N; got {a!r}"
+        if key == "since":
+            try:
+                t = float(val)
+            except ValueError:
+                t = math.nan
+            if not math.isfinite(t):
+                return f"error: frames since must be a time.monotonic() value in s, got {val!r}"
+            kw[key] = t
+        else:
+            try:
+                n = int(val)
+            except ValueError:
+                return f"error: frames {key} must be an integer, got {val!r}"
+            if key == "after" and n < 0:
+                return f"error: frames after must be a sequence number >= 0, got {n}"
+            kw[key] = n
+    return "ok " + json.dumps(frame_log.query(**kw), separators=(",", ":"))  # type: ignore[arg-type]
+
+
 def _mask_to_joints(mask: int) -> list[int]:
     return [i + 1 for i in range(6) if mask & (0x80 >> i)]
 
 
 class ControlServer:
-    """Serves :func:`execute_control` on a Unix datagram socket at ``path`` (in a thread)."""
+    """Serves :func:`execute_control` on a Unix datagram socket at ``path`` (in a thread);
+    ``frame_log`` answers the ``frames`` command (see :func:`execute_control`)."""
 
-    def __init__(self, emulator: BoardEmulator, path: str | os.PathLike[str]) -> None:
+    def __init__(self, emulator: BoardEmulator, path: str | os.PathLike[str], *,
+                 frame_log: "FrameLog | None" = None) -> None:
         if not isinstance(emulator, BoardEmulator):
             raise ParolkitValueError(
                 f"emulator must be a BoardEmulator, got {type(emulator).__name__}")
         self.emulator = emulator
+        self.frame_log = frame_log
         self.path = Path(path)
         self._sock: socket.socket | None = None
         self._thread: threading.Thread | None = None
@@ -188,7 +234,8 @@ class ControlServer:
                 continue
             except OSError:
                 break
-            reply = execute_control(self.emulator, data.decode("utf-8", errors="replace"))
+            reply = execute_control(self.emulator, data.decode("utf-8", errors="replace"),
+                                    frame_log=self.frame_log)
             if addr:
                 try:
                     sock.sendto(reply.encode(), addr)

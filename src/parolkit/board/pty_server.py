@@ -8,6 +8,13 @@ e.g. ``/tmp/p6``) at its slave device and moves bytes between the master side an
 Unplug / replug (``emulator.unplug()``): the server closes the pty and removes the symlink, so
 the PC side sees EOF / EIO exactly as when a USB cable is pulled; replug creates a NEW pty and
 re-points the symlink (like a re-enumerated USB device): the PC must re-open the path.
+
+Frame log (opt-in, ``frame_log_size=N``): :class:`FrameLog` keeps the last N command frames
+that arrived on the pty, each with its ``time.monotonic()`` receive time (CLOCK_MONOTONIC,
+the same clock in every process on the machine) and its command code, so a test in another
+process can tell which frame the board received after a moment it noted itself.  Frames are
+recorded as they arrive on the wire, before any injected link fault; the board's behaviour
+does not change.
 """
 
 from __future__ import annotations
@@ -15,14 +22,25 @@ from __future__ import annotations
 import os
 import select
 import threading
+import time
 import tty
+from collections import deque
 from pathlib import Path
 
 from parolkit.board.emulator import BoardEmulator, ClockMode
 from parolkit.errors import ParolkitError, ParolkitValueError
+from parolkit.protocol.frames import COMMAND_LEN
+from parolkit.protocol.stream import FrameParser
 from parolkit.transport.base import LinkLostError
 
-__all__ = ["PtyBoardServer", "PtyServerError"]
+__all__ = ["PtyBoardServer", "PtyServerError", "FrameLog", "FRAME_LOG_MAX", "FRAME_QUERY_MAX"]
+
+#: largest frame log a board-sim keeps (frames; 10 minutes at 100 Hz take 60,000)
+FRAME_LOG_MAX = 100_000
+#: most frames one :meth:`FrameLog.query` returns (keeps a control reply under 64 KiB)
+FRAME_QUERY_MAX = 2000
+#: offset of the command byte in a 56-byte PC -> board frame (header 4 + payload 36)
+_COMMAND_OFFSET = 4 + 36
 
 
 class PtyServerError(ParolkitError):
@@ -51,15 +69,94 @@ def _point_symlink(link: Path, target: str) -> None:
         raise PtyServerError(f"cannot create symlink {link} -> {target}: {exc}") from exc
 
 
+class _RawCommandFrame:
+    """Frame type for the log's parser: keeps the 56 bytes instead of decoding every field."""
+
+    @staticmethod
+    def decode(raw: bytes) -> bytes:
+        return raw
+
+
+class FrameLog:
+    """The last ``size`` command frames received, as ``(seq, t, command)``.
+
+    ``seq`` counts every frame since the log was made (1 = the first), so a gap between two
+    queries shows as a jump; ``t`` is ``time.monotonic()`` when the read that completed the
+    frame returned (s); ``command`` is the frame's command byte (``BoardCommand`` values:
+    101 ENABLE, 102 DISABLE, 156 GO TO, ...).  Frames are found by the board's own rule
+    (start bytes, LEN 52, end bytes ``01 02``), so garbage never shows up as a frame.
+    Thread-safe: the pty thread feeds it, the control thread queries it.
+    """
+
+    def __init__(self, size: int) -> None:
+        if isinstance(size, bool) or not isinstance(size, int) or not 1 <= size <= FRAME_LOG_MAX:
+            raise ParolkitValueError(f"frame log size must be an integer 1..{FRAME_LOG_MAX}, got {size!r}")
+        self.size = size
+        self._ring: deque[tuple[int, float, int]] = deque(maxlen=size)
+        self._parser: FrameParser = FrameParser(_RawCommandFrame, COMMAND_LEN, None)  # type: ignore[type-var]
+        self._lock = threading.Lock()
+        #: frames recorded since the log was made (the newest frame's ``seq``)
+        self.total = 0
+
+    def feed(self, data: bytes, t: float) -> None:
+        """Bytes that arrived at ``t`` (``time.monotonic()``): record every frame they complete."""
+        with self._lock:
+            for raw in self._parser.iter_feed(data):
+                self.total += 1
+                self._ring.append((self.total, t, raw[_COMMAND_OFFSET]))
+
+    def new_stream(self) -> None:
+        """A new pty: forget a partial frame of the old one (recorded frames stay)."""
+        with self._lock:
+            self._parser.reset()
+
+    def query(self, *, since: float | None = None, after: int | None = None, last: int | None = None,
+              limit: int = FRAME_QUERY_MAX) -> dict[str, object]:
+        """Frames oldest first: received after time ``since`` (s, monotonic) and after sequence
+        number ``after``; with ``last`` only the newest ``last`` of those; at most ``limit``.
+
+        Returns ``{"size", "total", "oldest", "more", "frames": [[seq, t, command], ...]}``:
+        ``oldest`` is the oldest ``seq`` still held (frames before it were overwritten) and
+        ``more`` says that frames after the last one returned match too (ask again with
+        ``after`` = its ``seq``).
+        """
+        for name, v in (("last", last), ("limit", limit)):
+            if v is not None and (isinstance(v, bool) or not isinstance(v, int)
+                                  or not 1 <= v <= FRAME_QUERY_MAX):
+                raise ParolkitValueError(f"{name} must be an integer 1..{FRAME_QUERY_MAX}, got {v!r}")
+        with self._lock:
+            frames = list(self._ring)
+            total = self.total
+        oldest = frames[0][0] if frames else total + 1
+        if after is not None:
+            frames = [f for f in frames if f[0] > after]
+        if since is not None:
+            frames = [f for f in frames if f[1] > since]
+        if last is not None:
+            frames = frames[-last:]
+        more = len(frames) > limit
+        frames = frames[:limit]
+        return {
+            "size": self.size,
+            "total": total,
+            "oldest": oldest,
+            "more": more,
+            "frames": [[seq, round(t, 6), cmd] for seq, t, cmd in frames],
+        }
+
+
 class PtyBoardServer:
     """Bridges ``emulator`` to a pty whose slave is symlinked at ``link_path``.
 
     Use as a context manager or call :meth:`start` / :meth:`stop`.  A real-time emulator's
     loop is started if it is not running.  ``device`` is the current slave path
-    (``/dev/pts/N``); ``link_path`` always points at it while plugged.
+    (``/dev/pts/N``); ``link_path`` always points at it while plugged.  With
+    ``frame_log_size=N`` the last N command frames received are kept in ``frame_log``
+    (:class:`FrameLog`; ``None`` without).
     """
 
-    def __init__(self, emulator: BoardEmulator, link_path: str | os.PathLike[str]) -> None:
+    def __init__(self, emulator: BoardEmulator, link_path: str | os.PathLike[str], *,
+                 frame_log_size: int = 0) -> None:
         if not isinstance(emulator, BoardEmulator):
             raise ParolkitValueError(
                 f"emulator must be a BoardEmulator, got {type(emulator).__name__}")
@@ -84,6 +181,11 @@ class PtyBoardServer:
         self.bytes_out = 0
         #: board output lost because the PC side did not read (pty buffer full)
         self.bytes_discarded = 0
+        if isinstance(frame_log_size, bool) or not isinstance(frame_log_size, int) or frame_log_size < 0:
+            raise ParolkitValueError(
+                f"frame_log_size must be 0 (off) or a number of frames 1..{FRAME_LOG_MAX}, got {frame_log_size!r}")
+        #: the received command frames (opt-in), or None
+        self.frame_log: FrameLog | None = FrameLog(frame_log_size) if frame_log_size else None
 
     # ---- lifecycle ---------------------------------------------------------------------------
     def start(self) -> "PtyBoardServer":
@@ -148,6 +250,8 @@ class PtyBoardServer:
             raise
         with self._lock:
             self._master, self._slave, self.device = master, slave, name
+        if self.frame_log is not None:
+            self.frame_log.new_stream()
 
     def _close_pty(self) -> None:
         with self._lock:
@@ -209,6 +313,8 @@ class PtyBoardServer:
                 if master in ready:
                     data = os.read(master, 65536)
                     if data:
+                        if self.frame_log is not None:
+                            self.frame_log.feed(data, time.monotonic())
                         self.bytes_in += len(data)
                         emu.write(data)
                 out = emu.read()

@@ -1,0 +1,138 @@
+"""Issue 11's acceptance test: a flood from one client delays nothing that matters to another.
+
+Real parts only: ``parolkit board-sim --frame-log`` on a real pty (its own process), the real
+``parolkit serve --port PTY`` controller (its own process), real UDP sockets, a flooder process
+and an ack-recorder process (``tests/integration/flood.py``), and this test process as the
+second client.
+
+One client floods 20,000 datagrams/s for 10 s (valid immediate commands, queries, garbage;
+about a third carry an ID).  The second client sends ``ESTOP`` at 20 random moments, each
+time re-ENABLEs 0.1 s later and starts a new slow MOVEJOINT, and measures PING round trips all
+the time.  Judged:
+
+* ESTOP: by the board's frames, not by wall time: of the frames the board received after the
+  ESTOP was sent, the first DISABLE (102) must be the first or the second (at most 1 frame
+  before it), every one of the 20 times; and before each send the board's last frame must not
+  already be DISABLE (otherwise the re-ENABLE had not reached it and the ESTOP proves nothing).
+* PING: the second client's round trip p99 <= 5 ms over the flood (a PING unanswered within
+  1 s counts as infinitely late).
+* acks: every ID'd datagram of either client (that the flooder's ``sendto`` accepted) gets
+  exactly one terminal ack (COMPLETED, FAILED -- a "busy" refusal is one --, CANCELLED or
+  INVALID), recorded on the controller's ack port after the flood has settled.
+
+A short phase without the flood runs first, in the same run, as the reference; its figures are
+printed next to the flood's (not judged).  On failure the message carries every figure.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from parolkit.client.launch import die_with_parent
+from tests.conftest import REPO_ROOT, start_controller, wait_until
+from tests.integration import flood
+
+FLOOD_RATE = 20_000       # datagrams/s
+FLOOD_S = 10.0
+ESTOPS = 20
+MAX_FRAMES_BEFORE_DISABLE = 1   # the DISABLE is the first or second frame after the send
+PING_P99_LIMIT_S = 0.005
+REFERENCE_S, REFERENCE_ESTOPS = 1.6, 3
+SETTLE_QUIET_S, SETTLE_MAX_S = 3.0, 40.0
+#: PAROLKIT_FLOOD_SEED=N repeats a run's ESTOP moments and flood mix
+SEED = int(os.environ.get("PAROLKIT_FLOOD_SEED", "11"))
+
+
+class Rig:
+    """board-sim (frame log on) on a real pty + the controller on it + the ack recorder."""
+
+    def __init__(self, tmp_path: Path) -> None:
+        self.link = tmp_path / "p6"
+        self.board_log = open(tmp_path / "board-sim.log", "wb")
+        self.board = subprocess.Popen(
+            [sys.executable, "-m", "parolkit", "board-sim", "--link", str(self.link), "--start-homed",
+             "--frame-log", "20000"], stdout=self.board_log, stderr=subprocess.STDOUT, cwd=REPO_ROOT,
+            preexec_fn=die_with_parent)
+        self.ctl = None
+        self.acks = None
+        wait_until(lambda: self.board.poll() is not None or self.link.exists(), 10, what="board-sim's pty")
+        assert self.board.poll() is None, (tmp_path / "board-sim.log").read_text()
+        # the 2 cores are shared with the flood: allow 50 silent ticks before "link lost", as the
+        # other pty tests do (link-loss detection is not what this test is about)
+        cfg = tmp_path / "controller.toml"
+        cfg.write_text("[controller]\nlink_timeout_ticks = 50\n")
+        self.ctl = start_controller(["--port", str(self.link), "--config", str(cfg)], log_dir=tmp_path,
+                                    wait_homed=False)
+        wait_until(lambda: self.ctl.query("PING", 0.5) == "PONG|SERIAL=1", 20, what="the board link")
+        wait_until(lambda: "HOMED=1,1,1,1,1,1" in (self.ctl.query("GET_STATUS", 0.5) or ""), 10,
+                   what="homed (board-sim --start-homed)")
+        self.acks = flood.AckRecorder(self.ctl.ack_port)
+
+    def close(self) -> None:
+        if self.acks is not None:
+            self.acks.kill()
+        if self.ctl is not None:
+            self.ctl.stop()
+        if self.board.poll() is None:
+            self.board.send_signal(signal.SIGTERM)
+            try:
+                self.board.wait(10)
+            except subprocess.TimeoutExpired:
+                self.board.kill()
+                self.board.wait(5)
+        self.board_log.close()
+
+
+@pytest.fixture
+def rig(tmp_path):
+    r = Rig(tmp_path)
+    yield r
+    r.close()
+
+
+@pytest.mark.slow
+def test_a_20000_per_second_flood_never_delays_estop_ping_or_an_ack_of_another_client(rig):
+    run = flood.run_flood(rig.ctl.port, rig.acks, f"{rig.link}.ctl", rate=FLOOD_RATE, duration=FLOOD_S,
+                          estops=ESTOPS, reference_s=REFERENCE_S, reference_estops=REFERENCE_ESTOPS,
+                          seed=SEED, settle_quiet_s=SETTLE_QUIET_S, settle_max_s=SETTLE_MAX_S)
+    alive = rig.ctl.proc.poll() is None
+    stats = rig.ctl.query("GET_LOOP_STATS", 2.0) if alive else None
+    lines = flood.report(run)
+    bad = [(k, e) for k, e in enumerate(run.flood.estops)
+           if not e.armed or e.frames_before is None or e.frames_before > MAX_FRAMES_BEFORE_DISABLE]
+    flood_start = run.flood.t0
+    lines += [f"    ESTOP {k + 1} at +{e.t_send - flood_start:.2f} s: {e.describe()}" for k, e in bad]
+    lines.append(f"controller {'alive' if alive else 'DEAD'}; loop stats after the run: {stats}")
+    text = "\n".join(lines)
+
+    pings = run.flood_pings
+    p99 = flood.pct(pings, 99)
+    own, theirs = run.client_acks(), run.flooder_acks()
+    failures = []
+    if not alive:
+        failures.append("the controller died")
+    if not run.flood_covered_estops():
+        failures.append("the flood did not cover every ESTOP (the flooder started late or stopped early)")
+    if run.flooder["rate"] < 0.9 * FLOOD_RATE:
+        failures.append(f"the flooder reached only {run.flooder['rate']:,.0f}/s: this run did not "
+                        f"test a {FLOOD_RATE:,}/s flood")
+    if bad:
+        failures.append(f"{len(bad)} of {len(run.flood.estops)} ESTOPs: the DISABLE was not among the "
+                        f"first {MAX_FRAMES_BEFORE_DISABLE + 1} frames the board received after the send")
+    if not p99 <= PING_P99_LIMIT_S:
+        failures.append(f"PING p99 under the flood {flood.ms(p99)} > {PING_P99_LIMIT_S * 1e3:g} ms")
+    if not own.ok or not theirs.ok:
+        failures.append(f"ID'd commands without exactly one terminal ack: second client "
+                        f"{len(own.missing)} missing / {len(own.duplicate)} more than one, flooder "
+                        f"{len(theirs.missing):,} missing / {len(theirs.duplicate)} more than one"
+                        + (" (the ack recorder's socket dropped acks: some are the test's)"
+                           if run.acks["drops"] else ""))
+    if failures:
+        pytest.fail("; ".join(failures) + "\n" + text, pytrace=False)
+    print(text)
