@@ -20,7 +20,7 @@ from __future__ import annotations
 __all__ = ["Controller"]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> type:
     if name == "Controller":
         from parolkit.controller.app import Controller
 

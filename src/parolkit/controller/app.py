@@ -19,7 +19,8 @@ import socket
 import sys
 import threading
 import time
-from typing import Sequence
+from types import ModuleType
+from typing import Any, Sequence
 
 from parolkit.config import Config
 from parolkit.controller.executor import Executor
@@ -31,6 +32,7 @@ from parolkit.controller.state import SNAPSHOT_QUERIES, BoardInfo, RobotState, S
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps
 from parolkit.protocol.frames import StatusFrame
+from parolkit.transport.base import Transport
 
 __all__ = ["Controller", "is_loopback"]
 
@@ -54,13 +56,14 @@ class Controller:
     the config names (``serial.port``; None = the in-process emulator).
     """
 
-    def __init__(self, config: Config, *, transport=None, home_on_start: bool | None = None) -> None:
+    def __init__(self, config: Config, *, transport: Transport | None = None,
+                 home_on_start: bool | None = None) -> None:
         self.config = config
         cs = config.controller
         self.rate_hz = float(cs.rate_hz)
         self._transport = transport
         self.home_on_start = cs.home_on_start if home_on_start is None else home_on_start
-        self._kin = None
+        self._kin: tuple[ModuleType, ModuleType] | None = None
         self.started_at = time.monotonic()
         self.sock: socket.socket | None = None
         self.outbox: Outbox
@@ -91,7 +94,8 @@ class Controller:
                 "authentication; anyone who can send UDP to it can move the robot", cs.bind)
             print(f"WARNING: listening on {cs.bind}, not loopback: anyone on the network can move the robot",
                   file=sys.stderr, flush=True)
-        return self.sock.getsockname()[:2]
+        host, port = self.sock.getsockname()[:2]
+        return str(host), int(port)
 
     def start(self) -> None:
         cs = self.config.controller
@@ -159,7 +163,7 @@ class Controller:
 
     # ------------------------------------------------------------------ tools / kinematics
 
-    def _kinematics(self):
+    def _kinematics(self) -> tuple[ModuleType, ModuleType]:
         if self._kin is None:
             import importlib
 
@@ -192,7 +196,7 @@ class Controller:
     def tool_name(self) -> str:
         return self.executor.tool_name if hasattr(self, "executor") else "default"
 
-    def _pose_provider(self, angles: Sequence[float], tool_name: str):
+    def _pose_provider(self, angles: Sequence[float], tool_name: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         fk, tools = self._kinematics()
         tool = tools.get_tool(tool_name, self.config)
         m = fk.fk_matrix(list(angles), tool)
@@ -216,7 +220,7 @@ class Controller:
             self._spd_cache = v
         return v
 
-    def _loop_dict(self) -> dict:
+    def _loop_dict(self) -> dict[str, Any]:
         if self.loop is None:
             return {}
         return self.loop.stats.view(max_age_s=0.25).as_dict()

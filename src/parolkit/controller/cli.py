@@ -23,7 +23,8 @@ from parolkit._shutdown import ShutdownRequest
 __all__ = ["register", "run", "build_overrides"]
 
 
-def register(subparsers, name: str = "serve") -> argparse.ArgumentParser:
+def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]",
+             name: str = "serve") -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         name, help="run the headless controller (UDP server + fixed-rate loop)",
         description="The PAROL6 headless controller: UDP text commands in, board frames out.",
@@ -46,9 +47,9 @@ def register(subparsers, name: str = "serve") -> argparse.ArgumentParser:
     return p
 
 
-def build_overrides(args: argparse.Namespace) -> dict:
+def build_overrides(args: argparse.Namespace) -> dict[str, dict[str, object]]:
     """CLI flags as a config override table (None = not given)."""
-    ctl = {
+    ctl: dict[str, object] = {
         "rate_hz": args.rate,
         "bind": args.bind,
         "udp_port": args.udp_port,
@@ -58,7 +59,7 @@ def build_overrides(args: argparse.Namespace) -> dict:
     }
     if args.no_home:
         ctl["home_on_start"] = False
-    out: dict = {"controller": ctl}
+    out: dict[str, dict[str, object]] = {"controller": ctl}
     if args.port:
         out["serial"] = {"port": args.port}
     return out
@@ -172,17 +173,17 @@ def run(args: argparse.Namespace) -> int:
         print(f"parolkit serve: {exc}", file=sys.stderr)
         if early is not None:
             early.stop()
-            sock.close()
+            early.sock.close()
         return 2
     if args.sim and cfg.serial.port is not None:
         import dataclasses
 
         cfg = dataclasses.replace(cfg, serial=dataclasses.replace(cfg.serial, port=None))
     cs = cfg.controller
-    if sock is None or (bind, udp_port) != (cs.bind, cs.udp_port):
+    if early is None or (bind, udp_port) != (cs.bind, cs.udp_port):
         if early is not None:
             early.stop()
-            sock.close()
+            early.sock.close()
         try:
             sock = _bind(cs.bind, cs.udp_port)
         except OSError as exc:
@@ -194,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
 
     ctl = Controller(cfg)
     early.stop()
-    host, port = ctl.bind(sock)
+    host, port = ctl.bind(early.sock)
     try:
         ctl.start()
     except ParolkitError as exc:

@@ -91,11 +91,11 @@ class Outbox:
     def put(self, text: str, addr: "Address | AckRoute") -> None:
         """Queue ``text`` for one address or for each address of an ack route."""
         data = text.encode("utf-8")
-        if addr and isinstance(addr[0], tuple):
-            for a in addr:
-                self._q.put((data, a))  # type: ignore[arg-type]
-        else:
-            self._q.put((data, addr))  # type: ignore[arg-type]
+        if isinstance(addr[0], str):  # one (host, port)
+            self._q.put((data, (addr[0], int(addr[1]))))
+            return
+        for a in addr:
+            self._q.put((data, a))
 
     def send_acks(self, acks: Iterable[Ack]) -> None:
         for ack in acks:
