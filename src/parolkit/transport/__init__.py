@@ -7,6 +7,7 @@ All implement :class:`parolkit.transport.base.Transport` and move the same codec
 * :class:`EmulatorTransport` (``emulator=None, **emulator_options``): the in-process
   :class:`parolkit.board.BoardEmulator`; ``.emulator`` gives tests and the simulator control.
 * :class:`FaultyTransport` (``inner, drop_rate=, corrupt_rate=, delay_s=, silent=, seed=``).
+* :class:`SpyTransport` (``inner, log="-", raw=False``): logs every frame both ways, decoded.
 * :func:`open_transport` (``port: str | None, **kw``): ``None`` -> emulator, else serial.
 
 Names are resolved lazily so that importing :mod:`parolkit.transport.base` stays cheap and
@@ -27,6 +28,7 @@ __all__ = [
     "SerialTransport",
     "EmulatorTransport",
     "FaultyTransport",
+    "SpyTransport",
     "open_transport",
 ]
 
@@ -34,6 +36,7 @@ _LAZY = {
     "SerialTransport": "parolkit.transport.serial_port",
     "EmulatorTransport": "parolkit.transport.emulated",
     "FaultyTransport": "parolkit.transport.faulty",
+    "SpyTransport": "parolkit.transport.spy",
     "open_transport": "parolkit.transport.factory",
 }
 
