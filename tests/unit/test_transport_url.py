@@ -177,3 +177,19 @@ def test_parsing_a_url_imports_neither_pyserial_nor_the_emulator_nor_numpy() -> 
                          cwd=REPO)
     assert out.stdout.strip() == "[]"
 
+
+
+def test_config_serial_port_takes_a_url_and_reports_a_bad_one_at_load_time(tmp_path: Path) -> None:
+    from parolkit.config import SerialSettings, load_config
+
+    assert SerialSettings(port="sim://?speedup=50").simulated
+    assert SerialSettings(port="spy+faulty+sim://?log=-").simulated
+    assert not SerialSettings(port="spy+/dev/ttyACM0?log=frames.log").simulated
+    assert not SerialSettings(port="COM3").simulated
+    f = tmp_path / "parolkit.toml"
+    f.write_text('[serial]\nport = "faulty+sim://?drop=5"\n')
+    with pytest.raises(ParolkitValueError,
+                       match=r"\[serial\]: serial.port: faulty\+ option drop='5' is not allowed"):
+        load_config(f)
+    with pytest.raises(ParolkitValueError, match="serial.port must be a device path .* or a transport URL"):
+        SerialSettings(port=" ")
