@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -21,6 +22,7 @@ from parolkit.transport import (
     parse_transport_url,
     transport_for_url,
 )
+from parolkit.transport.schemes import SCHEMES
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -193,3 +195,11 @@ def test_config_serial_port_takes_a_url_and_reports_a_bad_one_at_load_time(tmp_p
         load_config(f)
     with pytest.raises(ParolkitValueError, match="serial.port must be a device path .* or a transport URL"):
         SerialSettings(port=" ")
+
+
+def test_docs_list_every_scheme_and_option() -> None:
+    doc = (REPO / "docs" / "transport.md").read_text()
+    for scheme in SCHEMES.values():
+        assert f"`{scheme.prefix}" in doc, scheme.prefix
+        for opt in scheme.options:
+            assert re.search(rf"^\| `{opt.name}` \|", doc, re.M), f"{scheme.prefix} {opt.name}"
