@@ -133,6 +133,16 @@ def test_defaults_fill_gaps_only_and_are_skipped_for_schemes_not_in_the_url() ->
         parse_transport_url("sim://").with_options(defaults={"speedup": 0})
 
 
+def test_get_returns_the_effective_value_of_an_option() -> None:
+    url = parse_transport_url("faulty+sim://?drop=0.5").with_options(
+        defaults={"speedup": 20, "baud": 9600})
+    assert url.get("speedup") == 20.0 and url.get("homing_speedup") == 20.0
+    assert url.get("drop") == 0.5
+    assert url.get("flip", 0.0) == 0.0  # not given: the default asked for
+    assert url.get("baud", "n/a") == "n/a"  # no serial link in this URL
+    assert url.get("bogus") is None
+
+
 def test_transport_for_url_builds_the_chain_outermost_first_without_opening_it(tmp_path: Path) -> None:
     log = tmp_path / "f.log"
     t = transport_for_url(f"spy+faulty+sim://?log={log}&drop=0.5&seed=3&clock=virtual&speedup=7")

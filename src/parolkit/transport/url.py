@@ -100,6 +100,18 @@ class TransportURL:
     def layer(self, scheme: str) -> Layer | None:
         return next((la for la in self.layers if la.scheme.name == scheme), None)
 
+    def get(self, name: str, default: object = None) -> object:
+        """The value this URL gives option ``name`` (URL name or keyword alias), else
+        ``default`` (also when the option's scheme is not in the URL).  E.g. the effective
+        homing speed-up: ``url.with_options(defaults=...).get("speedup", 1.0)``."""
+        owner = owner_of(name)
+        layer = self.layer(owner.name) if owner is not None else None
+        if owner is None or layer is None:
+            return default
+        opt = owner.option(name)
+        assert opt is not None
+        return layer.options.get(opt.name, default)
+
     def _allowed(self) -> str:
         names = [name for la in self.layers for name in la.scheme.option_names]
         return ", ".join(names)
