@@ -7,6 +7,7 @@ prints what the board answered::
 
     parolkit board-test --sim jog --joint 3 --speed 1000 --seconds 2
     parolkit board-test --port /dev/ttyACM0 out 1 on
+    parolkit board-test --port 'spy+/dev/ttyACM0?log=-' monitor   # every frame, decoded
     parolkit board-test --sim --speedup 50 home
     parolkit board-test --sim gripper calibrate
     parolkit board-test --sim gripper move 200 100 400
@@ -429,11 +430,14 @@ def register(subparsers, name: str = "board-test") -> argparse.ArgumentParser:
         description="Exercise one PAROL6 board function at a time, talking to the board directly "
                     "(not through the controller). Without an ACTION: interactive menu.")
     link = parser.add_mutually_exclusive_group()
-    link.add_argument("--port", help="serial device of the board, e.g. /dev/ttyACM0 or a board-sim pty")
+    link.add_argument("--port", help="the board link: a serial device (/dev/ttyACM0, a board-sim pty) "
+                                     "or a transport URL (sim://, 'spy+/dev/ttyACM0?log=-', "
+                                     "'faulty+sim://?drop=0.01'; see docs/transport.md)")
     link.add_argument("--sim", action="store_true", help="use the in-process emulated board (default)")
-    parser.add_argument("--speedup", type=float, default=1.0,
-                        help="--sim only: homing time scale 1..1000 (default 1 = real time)")
-    parser.add_argument("--baud", type=int, default=3_000_000, help="serial baud (default 3000000)")
+    parser.add_argument("--speedup", type=float, default=None,
+                        help="simulated board only: homing time scale 1..1000 (default 1 = real time)")
+    parser.add_argument("--baud", type=int, default=None,
+                        help="serial link only: baud (default 3000000)")
     parser.add_argument("--rate", type=float, default=100.0, help="frame rate, Hz (default 100)")
     _add_actions(parser)
     parser.set_defaults(func=main)
@@ -519,17 +523,16 @@ def interactive(tester: BoardTester, read_line: Callable[[str], str] = input) ->
 
 def main(args: argparse.Namespace) -> int:
     """Entry point of ``parolkit board-test``; returns the exit code."""
-    from parolkit.transport import TransportError, open_transport
+    from parolkit.transport import TransportError, open_transport, parse_transport_url
 
-    if args.port and args.speedup != 1.0:
-        print("board-test: --speedup applies to the simulated board (--sim) only; a real board "
-              "homes at its own pace", file=sys.stderr)
-        return 2
     try:
-        if args.port:
-            transport = open_transport(args.port, baud=args.baud)
-        else:
-            transport = open_transport(None, homing_speedup=args.speedup)
+        url = parse_transport_url(args.port or "sim://")
+        if args.speedup is not None and not url.simulated:
+            print("board-test: --speedup applies to the simulated board (--sim) only; a real board "
+                  "homes at its own pace", file=sys.stderr)
+            return 2
+        # flags given on the command line override the URL's options
+        transport = open_transport(url, speedup=args.speedup, baud=args.baud)
     except (TransportError, ParolkitValueError) as exc:
         print(f"board-test: {exc}", file=sys.stderr)
         return 2

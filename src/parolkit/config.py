@@ -40,6 +40,7 @@ from parolkit.errors import ParolkitValueError
 
 if TYPE_CHECKING:  # importing this module stays numpy-free; the model loads with Config()
     from parolkit.robot import RobotModel
+    from parolkit.transport.url import TransportURL
 
 __all__ = [
     "ControllerSettings",
@@ -99,19 +100,39 @@ class ControllerSettings:
 
 @dataclass(frozen=True)
 class SerialSettings:
-    """The board link. ``port=None`` means the in-process simulated board."""
+    """The board link.
+
+    ``port``: None means the in-process simulated board; otherwise a transport URL
+    (docs/transport.md): a device path (``/dev/ttyACM0``, ``COM3``), ``sim://?speedup=20``,
+    ``serial:///dev/ttyACM0?baud=3000000``, ``spy+/dev/ttyACM0?log=frames.log``,
+    ``faulty+sim://?drop=0.01``.  It is checked here (schemes, options, values) so a typo is
+    reported at start-up.  ``baud`` applies when the URL names a serial link and sets no baud.
+    """
 
     port: str | None = None
     baud: int = 3_000_000
 
     def __post_init__(self) -> None:
-        if self.port is not None and (not isinstance(self.port, str) or not self.port):
-            raise ParolkitValueError("serial.port must be a device path such as /dev/ttyACM0")
+        if self.port is not None:
+            if not isinstance(self.port, str) or not self.port.strip():
+                raise ParolkitValueError(
+                    "serial.port must be a device path such as /dev/ttyACM0 or a transport URL "
+                    f"such as sim:// (see docs/transport.md), got {self.port!r}")
+            self._parsed_port()
         _int_range(self.baud, "serial.baud", 1200, 12_000_000)
+
+    def _parsed_port(self) -> "TransportURL":
+        from parolkit.transport.url import TransportURLError, parse_transport_url
+
+        try:
+            return parse_transport_url(self.port or "sim://")
+        except TransportURLError as exc:
+            raise ParolkitValueError(f"serial.port: {exc}") from None
 
     @property
     def simulated(self) -> bool:
-        return self.port is None
+        """True when the link is the in-process emulated board (no port, or a ``sim://`` URL)."""
+        return self.port is None or self._parsed_port().simulated
 
 
 @dataclass(frozen=True)

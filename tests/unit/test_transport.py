@@ -95,7 +95,7 @@ def test_open_transport_none_gives_an_open_emulator_link():
 def test_open_transport_reports_a_missing_serial_port_by_name():
     with pytest.raises(TransportError, match="/nonexistent/ttyPAROL"):
         open_transport("/nonexistent/ttyPAROL")
-    with pytest.raises(ParolkitValueError, match="port"):
+    with pytest.raises(ParolkitValueError, match="empty transport URL"):
         open_transport("")
 
 
@@ -152,6 +152,16 @@ def test_faulty_transport_delay_and_silence():
         assert time.monotonic() - t0 >= 0.09  # 50 ms out + 50 ms back
         t.set_faults(silent=True)
         assert roundtrip(t) == []
+
+
+def test_faulty_transport_names_its_inner_link_and_refuses_use_when_closed():
+    t = FaultyTransport(EmulatorTransport(clock="virtual"), drop_rate=1.0)
+    assert t.description == "faulty+emulated board" and t.simulated
+    # every byte would be dropped, so the inner link never sees the call: the wrapper checks
+    with pytest.raises(TransportError, match="faulty\\+emulated board: the link is not open"):
+        t.write(IDLE)
+    with pytest.raises(TransportError, match="not open"):
+        t.read()
 
 
 def test_faulty_transport_checks_its_arguments():

@@ -31,7 +31,10 @@ def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]",
     )
     src = p.add_mutually_exclusive_group()
     src.add_argument("--sim", action="store_true", help="in-process simulated board (default without --port)")
-    src.add_argument("--port", metavar="DEV", help="serial device of the board, e.g. /dev/ttyACM0 or a board-sim pty")
+    src.add_argument("--port", metavar="DEV",
+                     help="the board link: a serial device (/dev/ttyACM0, a board-sim pty) or a "
+                          "transport URL (sim://, 'spy+/dev/ttyACM0?log=frames.log', "
+                          "'faulty+sim://?drop=0.01'; see docs/transport.md)")
     p.add_argument("--no-home", action="store_true", help="do not home the simulated board at start-up")
     p.add_argument("--rate", type=float, metavar="HZ", help="control loop rate in Hz (default 100)")
     p.add_argument("--bind", metavar="ADDR", help="address to listen on (default 127.0.0.1)")

@@ -54,7 +54,9 @@ def register(subparsers: argparse._SubParsersAction, name: str = "gui") -> argpa
                                           "gripper, RBTscript editor).")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--sim", action="store_true", help="start a controller with the simulated robot (default)")
-    src.add_argument("--port", metavar="DEV", help="start a controller on this serial port (real robot)")
+    src.add_argument("--port", metavar="DEV",
+                     help="start a controller on this board link: a serial device (real robot) "
+                          "or a transport URL (see docs/transport.md)")
     src.add_argument("--connect", metavar="HOST:PORT", type=parse_host_port, help="use a running controller")
     p.add_argument("--ack-port", type=_port, default=None,
                    help="ack port of a controller the GUI starts (default: a free port); the GUI itself gets its "

@@ -7,10 +7,9 @@ from typing import Any
 
 from parolkit.board.faults import ByteFaultInjector, LinkFaults, faults_from_options
 from parolkit.errors import ParolkitValueError
-from parolkit.transport.base import Transport
+from parolkit.transport.base import Transport, TransportError
 
 __all__ = ["FaultyTransport"]
-
 
 
 class FaultyTransport(Transport):
@@ -55,7 +54,7 @@ class FaultyTransport(Transport):
 
     @property
     def description(self) -> str:
-        return f"{self.inner.description} (fault injection)"
+        return f"faulty+{self.inner.description}"
 
     @property
     def is_open(self) -> bool:
@@ -69,7 +68,14 @@ class FaultyTransport(Transport):
     def close(self) -> None:
         self.inner.close()
 
+    def _check_open(self) -> None:
+        # checked here, not left to the inner link: with a delay or drop_rate=1 no byte may
+        # reach it, and a closed link must still refuse the call
+        if not self.inner.is_open:
+            raise TransportError(f"{self.description}: the link is not open (call open())")
+
     def write(self, data: bytes) -> None:
+        self._check_open()
         now = time.monotonic()
         self._tx.push(bytes(data), now)
         out = self._tx.pop(now)
@@ -77,6 +83,7 @@ class FaultyTransport(Transport):
             self.inner.write(out)
 
     def read(self) -> bytes:
+        self._check_open()
         now = time.monotonic()
         # flush delayed outgoing bytes that became due
         out = self._tx.pop(now)
