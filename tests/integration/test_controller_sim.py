@@ -71,6 +71,17 @@ def test_malformed_datagrams_get_invalid_acks_naming_the_field_and_never_stop_th
     assert client.acks.terminal("abcdef12", 5)[0] == "COMPLETED"
 
 
+def test_set_port_accepts_only_a_serial_device_so_a_client_cannot_make_the_controller_write_files(
+        client, tmp_path):
+    target = tmp_path / "written-by-a-datagram.log"
+    for port in (f"spy+/dev/ttyACM0?log={target}", "sim://", "faulty+sim://", "nope://x"):
+        cid = client.send(f"SET_PORT|{port}")
+        status, details = client.acks.terminal(cid, 5)
+        assert status == "INVALID" and details.startswith("SET_PORT: "), (port, details)
+    assert not target.exists()
+    assert client.query("PING") == "PONG|SERIAL=1"  # still on its board
+
+
 def test_get_plan_describes_the_active_motion(client):
     cid = client.send("MOVEJOINT|60|-80|170|10|10|170|2|None")
     client.acks.wait_status(cid, "EXECUTING")

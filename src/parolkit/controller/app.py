@@ -33,6 +33,7 @@ from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps
 from parolkit.protocol.frames import StatusFrame
 from parolkit.transport.base import Transport
+from parolkit.transport.url import parse_transport_url
 
 __all__ = ["Controller", "is_loopback"]
 
@@ -74,7 +75,11 @@ class Controller:
         self._snapshot: Snapshot | None = None
         self.inbox = CommandInbox()
         self._stopped = threading.Event()
-        self.board_description = "emulated board" if config.serial.simulated else str(config.serial.port)
+        #: the board link's URL (``serial.port``; ``sim://`` without one), with the config's
+        #: baud rate and simulated homing speed-up as defaults the URL may override
+        self.link_url = parse_transport_url(config.serial.port or "sim://").with_options(
+            defaults={"baud": config.serial.baud, "speedup": cs.sim_homing_speedup})
+        self.board_description = "emulated board" if self.link_url.simulated else str(config.serial.port)
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -106,7 +111,7 @@ class Controller:
         self.executor = Executor(
             model=self.config.robot, rate_hz=self.rate_hz, queue_size=cs.queue_size,
             watchdog_s=cs.stream_watchdog_s, tool_provider=self.tool,
-            homing_timeout_s=max(10.0, 180.0 / (cs.sim_homing_speedup if self.config.serial.simulated else 1.0)),
+            homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
         )
         self.stream = StatusStream(self.sock, lambda: self.snapshot)
         self.server = UdpServer(self.sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
@@ -118,10 +123,7 @@ class Controller:
         if transport is None:
             from parolkit.transport import open_transport
 
-            if self.config.serial.simulated:
-                transport = open_transport(None, homing_speedup=cs.sim_homing_speedup)
-            else:
-                transport = open_transport(self.config.serial.port, baud=self.config.serial.baud)
+            transport = open_transport(self.link_url)
         elif not transport.is_open:
             transport.open()
         self.board_description = transport.description
@@ -137,6 +139,11 @@ class Controller:
         threading.Thread(target=self._warm_up, name="parolkit-warmup", daemon=True).start()
         if self.home_on_start and getattr(transport, "simulated", False):
             self.inbox.put(Submission(C.Home(), None, None, ("controller", 0)))
+
+    def _homing_speedup(self) -> float:
+        """How much faster than the real board the simulated board homes (1 for a real one)."""
+        url = self.link_url
+        return float(url.get("speedup", 1.0) or 1.0) if url.simulated else 1.0  # type: ignore[arg-type]
 
     def stop(self) -> None:
         """Stop motion, send a DISABLE frame, close the port, stop the threads."""
@@ -232,7 +239,7 @@ class Controller:
             # before the first tick: a neutral snapshot (link down)
             s = Snapshot(
                 seq=0, time=0.0, state=RobotState.DISCONNECTED, enabled=True, estop_pressed=False,
-                estop_latched=False, status=StatusFrame(), board=BoardInfo(False, self.config.serial.simulated,
+                estop_latched=False, status=StatusFrame(), board=BoardInfo(False, self.link_url.simulated,
                                                                            self.board_description),
                 error=None, command=None, queue=0, stream_mode=False, tool=self.tool_name, plan_seq=0,
                 outputs=(False, False), steps_per_deg=self._spd, pose_provider=self._pose_provider,

@@ -202,7 +202,9 @@ class ControlLoop:
             if port is not None:
                 from parolkit.transport import open_transport
 
-                new = open_transport(port)  # SET_PORT: keep trying this port until it opens
+                # SET_PORT: keep trying this port until it opens.  A serial device only: a
+                # datagram must not choose an emulator or a spy+ link that writes files
+                new = open_transport(port, allowed_schemes={"serial"})
                 if self.port_request == port:
                     self.port_request = None
                 try:

@@ -40,6 +40,8 @@ from parolkit.protocol.commands import (
     parse_datagram,
 )
 from parolkit.robot import RobotModel
+from parolkit.transport.options import TransportURLError
+from parolkit.transport.url import parse_transport_url
 
 __all__ = [
     "Outbox", "StatusStream", "UdpServer", "QueryAnswerer", "SUBSCRIPTION_TTL_S", "MAX_SUBSCRIBERS",
@@ -466,6 +468,11 @@ class UdpServer:
             self._ack(cid, addr, AckStatus.COMPLETED, "unsubscribed")
             return
         tool = None
+        if isinstance(cmd, C.SetPort):
+            bad = _serial_port_error(cmd.port)
+            if bad is not None:
+                self._ack(cid, addr, AckStatus.INVALID, f"SET_PORT: {bad}")
+                return
         if isinstance(cmd, C.SetTool):
             try:
                 tool = self.answerer.resolve_tool(cmd.tool)
@@ -481,6 +488,18 @@ class UdpServer:
             self._ack(cid, addr, AckStatus.FAILED,
                       f"controller busy: {self.inbox.max_waiting} commands from {addr[0]}:{addr[1]} "
                       "wait for the control loop; slow down and send again")
+
+
+def _serial_port_error(port: str) -> str | None:
+    """Why a client may not switch the board link to ``port`` (None: it may).  Only a serial
+    device: a datagram must not choose the emulator or a ``spy+`` link that writes files."""
+    try:
+        schemes = parse_transport_url(port).schemes
+    except TransportURLError as exc:
+        return str(exc)
+    if list(schemes) != ["serial"]:
+        return f"{port!r} is not a serial device (a client may switch only to a serial port)"
+    return None
 
 
 def _looks_like_query(data: bytes) -> bool:
