@@ -28,10 +28,6 @@ import numpy as np
 
 from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
-from parolkit.motion.moves import (
-    CART_JOG_AXES, ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove,
-    CircleMove, Frame, HelixMove, LineSegment, Plane, Profile, SplineMove, Tracking,
-)
 from parolkit.motion.paths import (
     Arc, Line, Path, Segment, Spline, blend_corners, rot_about, rotation_angle,
 )
@@ -40,6 +36,10 @@ from parolkit.motion.profiles import (
     ScalarProfile, ruckig_unit_profile,
 )
 from parolkit.motion.trajectory import Trajectory
+from parolkit.moves import (
+    ArcCenterMove, ArcParamMove, BlendMove, CartAxis, CartJog, CartMove, CartRelTRFMove,
+    CircleMove, Frame, HelixMove, JointMove, LineSegment, Plane, Profile, SplineMove, Tracking,
+)
 from parolkit.robot import JOINT_NAMES, RobotModel
 
 __all__ = [
@@ -109,7 +109,8 @@ def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, 
     kin = _kin()
     t0 = np.asarray(kin.fk_matrix(start, tool), dtype=float)
     p0, r0 = t0[:3, 3] * 1e3, t0[:3, :3]
-    is_rot, ax, sign = CART_JOG_AXES[move.axis]
+    jog_axis = CartAxis.parse(move.axis)
+    is_rot, ax, sign = jog_axis.is_rotation, jog_axis.index, jog_axis.sign
     axis = np.eye(3)[ax] if move.frame is Frame.WRF else r0[:, ax]
     T = float(move.duration_s)
     n = max(1, int(math.ceil(T * rate_hz - 1e-6)))
@@ -487,7 +488,6 @@ def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking,
     target = np.array(start, dtype=float)
     target[3] += d
     target[5] -= d
-    from parolkit.motion.moves import JointMove
     from parolkit.motion.planner import MOVEJOINT_DEFAULT_PCT, _plan_joint_target
 
     lim = model.safe_limits_deg

@@ -26,15 +26,15 @@ from parolkit import _native
 from parolkit.errors import ParolkitValueError
 from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
-from parolkit.motion.moves import (
-    ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove, CircleMove,
-    HelixMove, JointJog, JointMove, PoseMove, Profile, SpeedJointMove, SplineMove, Tracking,
-)
 from parolkit.motion.profiles import (
     POLY_PEAK_ACCEL, POLY_PEAK_SPEED, TRAP3_PEAK_ACCEL, TRAP3_PEAK_SPEED, ScalarProfile,
     ruckig_unit_profile, sampled_basis, trapezoid_for_limits,
 )
 from parolkit.motion.trajectory import Trajectory
+from parolkit.moves import (
+    ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove, CircleMove,
+    HelixMove, JointJog, JointMove, PoseMove, Profile, SpeedJointMove, SplineMove, Tracking,
+)
 from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
 
 __all__ = [
@@ -173,7 +173,7 @@ def build_trajectory(
         pos = np.vstack([pos, pos[-1:]])
         sp = np.vstack([sp, np.zeros((1, 6), dtype=np.int64)])
         planned = np.vstack([planned, planned[-1:]])
-    commands = np.full(len(t), tracking.value, dtype=np.uint8)
+    commands = np.full(len(t), tracking.board_command, dtype=np.uint8)
     return Trajectory(t=t, positions=pos, speeds=sp, commands=commands, rate_hz=rate, move=move,
                       notes=tuple(notes), start_deg=start, model=model, planned_deg=planned)
 
@@ -361,7 +361,7 @@ def _monotonic_trajectory(
     if not start_inside and not validate.inside([a * k for a, k in zip(start_l, ma.spd_list)],
                                                 ma.round_lo_list, ma.round_hi_list):
         validate.check_positions(move.name, t, pos, model)
-    return Trajectory._trusted(t, pos, sp, _commands(n, tracking.value), rate, move, tuple(notes),
+    return Trajectory._trusted(t, pos, sp, _commands(n, tracking.board_command), rate, move, tuple(notes),
                                start, model, q)
 
 
@@ -579,7 +579,7 @@ def _constant_speed(
                 t = np.array([1.0 / rate])
                 pos = np.rint(start * spd).astype(np.int64)[None, :]
                 return Trajectory(t=t, positions=pos, speeds=np.zeros((1, 6), dtype=np.int64),
-                                  commands=np.full(1, Tracking.SPEED.value, dtype=np.uint8),
+                                  commands=np.full(1, Tracking.SPEED.board_command, dtype=np.uint8),
                                   rate_hz=rate, move=move, notes=tuple(notes), start_deg=start,
                                   model=model)
             T = th
@@ -610,7 +610,7 @@ def _constant_speed(
     pos = np.rint(q * spd).astype(np.int64)
     validate.check_positions(name, t, pos, model)
     return Trajectory(t=t, positions=pos, speeds=spdr,
-                      commands=np.full(len(t), Tracking.SPEED.value, dtype=np.uint8),
+                      commands=np.full(len(t), Tracking.SPEED.board_command, dtype=np.uint8),
                       rate_hz=rate, move=move, notes=tuple(notes), start_deg=start, model=model,
                       planned_deg=q)
 
