@@ -209,7 +209,7 @@ def effective_timing(cmd: Command) -> Timing:
       3.6 s) and for joint-space moves ``a`` (default: MoveJoint 27 %, MovePose 30 %).
     """
     from parolkit.motion.cartesian import DEFAULT_CART_SPEED_PCT
-    from parolkit.motion.planner import MOVEJOINT_DEFAULT_PCT, MOVEPOSE_DEFAULT_PCT
+    from parolkit.motion.joint import MOVEJOINT_DEFAULT_PCT, MOVEPOSE_DEFAULT_PCT
 
     if cmd.duration_s is not None:
         return Timing(cmd.duration_s, None, None)
