@@ -206,8 +206,9 @@ class CartAxis(str, Enum):
         return 1 if self.value.endswith("+") else -1
 
     @property
-    def index(self) -> int:
-        """0..2 for X/Y/Z (the translation or rotation axis)."""
+    def axis_index(self) -> int:
+        """0..2 for X/Y/Z (the translation or rotation axis).  (Not ``index``: that is
+        ``str.index``, which a str enum must keep.)"""
         return "XYZ".index(self.value.rstrip("+-")[-1])
 
     @classmethod

@@ -18,7 +18,7 @@ from queue import Empty, SimpleQueue
 from typing import TYPE_CHECKING
 
 from parolkit.protocol import commands as C
-from parolkit.protocol.commands import AckStatus, CommandError, format_ack, format_error, parse_datagram
+from parolkit.protocol.commands import AckStatus, DatagramError, format_ack, format_error, parse_datagram
 
 if TYPE_CHECKING:  # pragma: no cover
     from parolkit.controller.app import Controller
@@ -305,7 +305,7 @@ class UdpServer:
         c = self.c
         try:
             parsed = parse_datagram(data, c.config.robot)
-        except CommandError as exc:
+        except DatagramError as exc:
             self.invalid += 1
             self._log_invalid(addr, str(exc))
             if exc.command_id is not None:

@@ -112,7 +112,7 @@ def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, 
     t0 = np.asarray(kin.fk_matrix(start, tool), dtype=float)
     p0, r0 = t0[:3, 3] * 1e3, t0[:3, :3]
     jog_axis = CartAxis.parse(move.axis)
-    is_rot, ax, sign = jog_axis.is_rotation, jog_axis.index, jog_axis.sign
+    is_rot, ax, sign = jog_axis.is_rotation, jog_axis.axis_index, jog_axis.sign
     axis = np.eye(3)[ax] if move.frame is Frame.WRF else r0[:, ax]
     T = float(move.duration_s)
     n = max(1, int(math.ceil(T * rate_hz - 1e-6)))
