@@ -133,9 +133,9 @@ def _cache_hits() -> int | None:
     """Hits so far of the planner's MoveJoint caches (sampled basis, command column), or
     None if they are not where this script expects them."""
     try:
-        from parolkit.motion import planner, profiles
+        from parolkit.motion import joint, profiles
 
-        return profiles._cached_basis.cache_info().hits + planner._cached_commands.cache_info().hits
+        return profiles._cached_basis.cache_info().hits + joint._cached_commands.cache_info().hits
     except AttributeError:
         return None
 

@@ -1,8 +1,52 @@
-"""Exceptions shared by every part of parolkit.
+"""Exceptions shared by every part of parolkit, and the map of all of them.
 
-Each exception says what went wrong and, where it helps, what to do.  They all derive from
-:class:`ParolkitError`; value problems also derive from :class:`ValueError` so generic code
-that catches ``ValueError`` keeps working.
+Each exception says what went wrong and, where it helps, what to do.  Every parolkit
+exception derives from :class:`ParolkitError`; value problems also derive from
+:class:`ValueError` so generic code that catches ``ValueError`` keeps working.  The one
+exception outside the tree is the standard-library client's, which may not import parolkit.
+
+The whole tree (``tests/unit/test_error_tree.py`` checks that every exception class of the
+package is drawn here, under its real base class, and that no two share a name)::
+
+    Exception
+    +-- ParolkitError                     parolkit.errors: base of every parolkit error
+    |   +-- ParolkitValueError            parolkit.errors: a value is malformed or out of range
+    |   |   |                             (also a ValueError; the message names it)
+    |   |   +-- JointLimitError           parolkit.errors: a joint position/speed outside its range
+    |   |   +-- IKError                   parolkit.kinematics: no IK solution inside the limits
+    |   |   +-- FrameError                parolkit.protocol.frames: bytes that are not a board frame
+    |   |   +-- DatagramError             parolkit.protocol.commands: a UDP datagram that is not a
+    |   |                                 valid command (the controller answers INVALID / ERROR)
+    |   +-- PlanningError                 parolkit.motion: a move refused before anything moved
+    |   +-- ProgramError                  parolkit.script: an RBTscript program with errors (all of
+    |   |                                 them, as ScriptError diagnostics; those are not exceptions)
+    |   +-- TransportError                parolkit.transport: a byte link could not be opened or used
+    |   |   +-- LinkLostError             parolkit.transport: the link went away while in use
+    |   |   +-- TransportURLError         parolkit.transport: a malformed link URL or option (the
+    |   |                                 message names the part; also a ParolkitValueError)
+    |   +-- PtyServerError                parolkit.board.pty_server: the emulator's pty could not be set up
+    |   +-- ControlError                  parolkit.board.control: the board-sim control channel failed
+    |   +-- BoardTestError                parolkit.boardtest: a board test action could not complete
+    |   +-- RobotError                    parolkit.client.errors: base of the object API's errors
+    |       +-- CommandNotCompleted       a command ended without COMPLETED (command_id, command,
+    |       |   |                         status, reason: the controller's words)
+    |       |   +-- CommandFailed         FAILED: accepted but could not be executed
+    |       |   +-- CommandInvalid        INVALID: refused; the reason names the field (also a ValueError)
+    |       |   +-- CommandCancelled      CANCELLED: by STOP, E-stop or a lost board link
+    |       |   +-- CommandTimeout        no terminal acknowledgement in time (it may still run)
+    |       +-- ControllerUnreachable     the controller did not answer
+    |       +-- ReplyError                a malformed reply, or an ERROR|... answer
+    +-- OSError
+        +-- AckPortBusyError              parolkit.client.robot_api: the acknowledgement port is taken
+                                          (robot_api is standard library only: not a ParolkitError)
+
+Two private exceptions never leave their module (control flow, not errors):
+``parolkit.script.parser._Reject`` (stop building a line whose errors are recorded) and
+``parolkit.script.interpreter._Stopped`` (the run was stopped).
+
+Where to catch what: a script driving the robot catches :class:`RobotError` (or one of its
+subclasses); code calling planning, kinematics or parsing functions directly catches
+:class:`ParolkitError` (``ParolkitValueError`` for bad arguments).
 """
 
 from __future__ import annotations

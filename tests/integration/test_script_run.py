@@ -78,12 +78,12 @@ def test_seed_example_runs_to_completion_and_ends_on_the_last_target(path, examp
     final = np.asarray(result.final_deg)
     np.testing.assert_allclose(final, report.final_deg, atol=TOLERANCE_DEG)
     if moves and isinstance(moves[-1], MoveJoint):
-        np.testing.assert_allclose(final, moves[-1].joints_deg, atol=TOLERANCE_DEG)
+        np.testing.assert_allclose(final, moves[-1].move.target_deg, atol=TOLERANCE_DEG)
     if moves and isinstance(moves[-1], MoveCart):
         # the tool ends at the last MoveCart target (position within 0.5 mm)
         from parolkit.kinematics import fk
 
-        np.testing.assert_allclose(np.asarray(fk(final))[:3], moves[-1].pose[:3], atol=0.5)
+        np.testing.assert_allclose(np.asarray(fk(final))[:3], moves[-1].move.pose[:3], atol=0.5)
 
 
 def _motion_fingerprint(cp):

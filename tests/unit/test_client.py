@@ -213,7 +213,7 @@ BUILDS = [
     (lambda: robot_api.build_jog(3, 50, duration=1.0), "Jog"),
     (lambda: robot_api.build_jog(9, 50, distance_deg=10), "Jog"),
     (lambda: robot_api.build_multijog([0, 8], [10, 20], 1.5), "MultiJog"),
-    (lambda: robot_api.build_cartjog("trf", "rz+", 30, 1), "CartJog"),
+    (lambda: robot_api.build_cartjog("trf", "rz+", 30, 1), "CartJogCommand"),
     (lambda: robot_api.build_pneumatic_gripper("open", 1), "PneumaticGripper"),
     (lambda: robot_api.build_electric_gripper("calibrate"), "ElectricGripper"),
     (lambda: robot_api.build_electric_gripper("move", 100, 150, 200), "ElectricGripper"),
@@ -259,7 +259,7 @@ def test_move_joint_datagram_keeps_the_original_field_order_and_the_values():
     text = robot_api.build_move_joint([90, -90, 160, 12, 12, 180.25], duration=5.5)
     assert text == "MOVEJOINT|90|-90|160|12|12|180.25|5.5|None"
     cmd = parse_datagram(text.encode()).command
-    assert tuple(cmd.angles_deg) == (90, -90, 160, 12, 12, 180.25)
+    assert tuple(cmd.move.target_deg) == (90, -90, 160, 12, 12, 180.25)
 
 
 def test_extension_fields_are_only_appended_when_given():

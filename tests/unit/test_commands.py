@@ -6,8 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from parolkit import moves
 from parolkit.protocol import commands as C
-from parolkit.protocol.commands import AckStatus, CommandError, parse_datagram
+from parolkit.protocol.commands import AckStatus, DatagramError, parse_datagram
 
 
 def parse(text):
@@ -23,7 +24,7 @@ VALID = [
     ("JOG|7|50|1|None", C.Jog),
     ("JOG|0|50|None|10", C.Jog),
     ("MULTIJOG|0,7,2|50,40,30|1.5", C.MultiJog),
-    ("CARTJOG|TRF|RZ-|20|0.5", C.CartJog),
+    ("CARTJOG|TRF|RZ-|20|0.5", C.CartJogCommand),
     ("HOME", C.Home),
     ("DELAY|0.2", C.Delay),
     ("PNEUMATICGRIPPER|open|1", C.PneumaticGripper),
@@ -69,21 +70,58 @@ def test_movejoint_fields_keep_edge_units_and_extensions():
     p = parse("1a2b3c4d|movejoint|90|-90|160|12|12|180|None|50|30|trap|speed")
     c = p.command
     assert p.command_id == "1a2b3c4d"
-    assert c.angles_deg == (90, -90, 160, 12, 12, 180)
-    assert (c.duration_s, c.speed_pct, c.accel_pct) == (None, 50, 30)
-    assert c.profile is C.Profile.TRAP and c.tracking is C.Tracking.SPEED
+    m = c.move
+    assert isinstance(m, moves.JointMove)
+    assert m.target_deg == (90, -90, 160, 12, 12, 180)
+    assert (m.duration_s, m.speed_pct, m.accel_pct) == (None, 50, 30)
+    assert m.profile is moves.Profile.TRAP and m.tracking is moves.Tracking.SPEED
 
 
 def test_jog_index_rule_maps_6_to_11_to_negative_directions():
-    assert parse("JOG|7|50|1|None").command.joint == 1
-    assert parse("JOG|7|50|1|None").command.direction == -1
-    assert parse("JOG|5|50|1|None").command.direction == 1
+    assert parse("JOG|7|50|1|None").command.move.joints == (1,)
+    assert parse("JOG|7|50|1|None").command.move.directions == (-1,)
+    assert parse("JOG|5|50|1|None").command.move.directions == (1,)
+    assert parse("JOG|7|50|1|None").command.move.wire_indices == (7,)
 
 
 def test_blend_segments_are_split_on_empty_fields():
     c = parse(VALID[22][0]).command
-    assert [s.kind for s in c.segments] == ["LINE", "ARC"]
-    assert c.timing_value == pytest.approx(2.0)  # None = sum of segment durations
+    assert [type(s) for s in c.move.segments] == [moves.LineSegment, moves.ArcCenterMove]
+    assert c.move.duration_s == pytest.approx(2.0)  # None = sum of segment durations
+    assert c.move.speed_pct is None and c.move.frame is moves.Frame.WRF
+
+
+def test_every_motion_command_carries_the_move_the_planner_gets():
+    """The executor plans ``command.move`` as it is: no field-by-field conversion."""
+    expected = {
+        C.MoveJoint: moves.JointMove, C.MovePose: moves.PoseMove, C.MoveCart: moves.CartMove,
+        C.MoveCartRelTRF: moves.CartRelTRFMove, C.Jog: moves.JointJog, C.MultiJog: moves.JointJog,
+        C.CartJogCommand: moves.CartJog, C.SpeedJoint: moves.SpeedJointMove,
+        C.SmoothCircle: moves.CircleMove, C.SmoothArcCenter: moves.ArcCenterMove,
+        C.SmoothArcParam: moves.ArcParamMove, C.SmoothSpline: moves.SplineMove,
+        C.SmoothHelix: moves.HelixMove, C.SmoothBlend: moves.BlendMove,
+    }
+    seen = set()
+    for text, cls in VALID:
+        cmd = parse(text).command
+        if cls in expected:
+            assert cmd.is_motion and isinstance(cmd.move, expected[cls]), text
+            seen.add(cls)
+    assert seen == set(expected)
+
+
+def test_smooth_timing_becomes_the_moves_duration_or_speed():
+    circle = parse("SMOOTH_CIRCLE|0,250,150|20|XZ|TRF|CURRENT|DURATION|3|1").command.move
+    assert (circle.duration_s, circle.speed_pct) == (3.0, None)
+    assert circle.plane is moves.Plane.XZ and circle.frame is moves.Frame.TRF and circle.clockwise
+    arc = parse("SMOOTH_ARC_CENTER|10,250,150,-90,0,-90|0,250,150|WRF|NONE|SPEED|40|1").command.move
+    assert (arc.duration_s, arc.speed_pct, arc.start_pose) == (None, 40.0, None)
+
+
+def test_cartjog_carries_the_canonical_axis_and_frame():
+    jog = parse("CARTJOG|trf|rz-|20|0.5").command.move
+    assert jog.frame is moves.Frame.TRF and jog.axis is moves.CartAxis.RZ_NEG
+    assert (jog.speed_pct, jog.duration_s) == (20.0, 0.5)
 
 
 def test_an_id_is_8_chars_not_all_upper_case():
@@ -111,6 +149,10 @@ INVALID = [
     ("JOG|1|50|None|None", "neither was given"),
     ("MULTIJOG|0,6|50,50|1", "J1 is given both + and -"),
     ("MULTIJOG|0,1|50|1", "speeds must have one value per joint index (2), got 1"),
+    ("SMOOTH_ARC_PARAM|10,250,150,-90,0,-90|30|-90|WRF|CURRENT|DURATION|2|0",
+     "angle (deg) = -90 deg is out of range (0, 360) deg"),
+    ("SMOOTH_HELIX|0,250,150|20|1|500|WRF|CURRENT|DURATION|4|1",
+     "SMOOTH_HELIX: height_mm / pitch_mm must be at most 100 turns, got 500"),
     ("CARTJOG|WRF|Q+|50|1", "axis must be one of"),
     ("CARTJOG|BASE|X+|50|1", "frame must be one of WRF|TRF"),
     ("PNEUMATICGRIPPER|open|3", "port = 3 is out of range 1..2"),
@@ -133,22 +175,22 @@ INVALID = [
 
 @pytest.mark.parametrize("text,needle", INVALID, ids=[f"invalid{i}" for i in range(len(INVALID))])
 def test_invalid_datagrams_name_the_field_and_the_allowed_range(text, needle):
-    with pytest.raises(CommandError) as ei:
+    with pytest.raises(DatagramError) as ei:
         parse(text)
     assert needle in str(ei.value)
 
 
 def test_invalid_datagram_with_an_id_carries_the_id_for_the_ack():
-    with pytest.raises(CommandError) as ei:
+    with pytest.raises(DatagramError) as ei:
         parse("abcd1234|MOVEJOINT|190|-90|160|12|12|180|1|None")
     assert ei.value.command_id == "abcd1234"
     assert ei.value.name == "MOVEJOINT"
 
 
 def test_non_utf8_and_oversized_datagrams_are_refused():
-    with pytest.raises(CommandError, match="not UTF-8"):
+    with pytest.raises(DatagramError, match="not UTF-8"):
         parse_datagram(b"\xff\xfeMOVE")
-    with pytest.raises(CommandError, match="at most 65000"):
+    with pytest.raises(DatagramError, match="at most 65000"):
         parse_datagram(b"A" * 65_001)
 
 
@@ -169,7 +211,7 @@ _fields = st.sampled_from(list(C.COMMAND_NAMES) + ["1a2b3c4d", "None", "", "nan"
 def test_no_datagram_makes_the_parser_raise_anything_but_command_error(parts):
     try:
         parse_datagram("|".join(parts))
-    except CommandError:
+    except DatagramError:
         pass
 
 
@@ -178,7 +220,7 @@ def test_no_datagram_makes_the_parser_raise_anything_but_command_error(parts):
 def test_random_bytes_never_crash_the_parser(data):
     try:
         parse_datagram(data)
-    except CommandError:
+    except DatagramError:
         pass
 
 
@@ -193,7 +235,7 @@ def test_spline_waypoints_may_also_come_as_six_separate_fields_each():
 def test_spline_with_the_wrong_number_of_waypoint_fields_names_both_forms():
     import pytest
 
-    from parolkit.protocol.commands import CommandError, parse_datagram
+    from parolkit.protocol.commands import DatagramError, parse_datagram
 
-    with pytest.raises(CommandError, match="2 waypoints announced, 3 fields given"):
+    with pytest.raises(DatagramError, match="2 waypoints announced, 3 fields given"):
         parse_datagram("SMOOTH_SPLINE|2|WRF|CURRENT|DURATION|3|1,2,3,4,5,6|1,2,3,4,5,6|1,2,3,4,5,6")

@@ -15,12 +15,9 @@ from parolkit.gui.eventlog import EventLog, Level, level_of_ack
 from parolkit.gui.highlight import TokenKind, line_decorations, mark_decorations, tokenize
 from parolkit.gui.jog import (
     KEYMAP,
-    CartAxis,
-    CartJog,
-    Frame,
-    JointJog,
     cart_jog_blocked,
     cart_step_command,
+    jog_command,
     jog_target_pose,
     joint_jog_blocked,
     joint_step_target,
@@ -30,6 +27,7 @@ from parolkit.gui.jog import (
 )
 from parolkit.gui.status import format_angles, format_loop, format_pose, state_badge
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
+from parolkit.moves import CartAxis, CartJog, Frame, JointJog
 from parolkit.robot import PAROL6
 
 STATUS = {
@@ -93,23 +91,33 @@ def test_state_badge_priorities():
 # ---- jog logic ----
 
 def test_joint_jog_wire_index_and_command():
-    assert JointJog(2, 1, 30).command(0.2) == "JOG|2|30|0.2|None"
-    assert JointJog(2, -1, 30).command(0.2) == "JOG|8|30|0.2|None"
+    assert jog_command(JointJog.single(2, 1, 30, duration_s=0.2)) == "JOG|2|30|0.2|None"
+    assert jog_command(JointJog.single(2, -1, 30, duration_s=0.2)) == "JOG|8|30|0.2|None"
+    assert jog_command(JointJog.single(0, 1, 30, distance_deg=5)) == "JOG|0|30|None|5"
+    assert jog_command(JointJog((0, 2), (1, -1), (30, 40.5), 0.2)) == "MULTIJOG|0,8|30,40.5|0.2"
 
 
 @pytest.mark.parametrize("kwargs, msg", [
-    (dict(joint=6, direction=1, speed_percent=10), "joint must be an index 0..5"),
-    (dict(joint=0, direction=0, speed_percent=10), "direction must be"),
-    (dict(joint=0, direction=1, speed_percent=120), r"speed_percent must be in \(0, 100\]"),
+    (dict(joint=6, direction=1, speed_pct=10), r"joints\[0\] must be an integer 0..5"),
+    (dict(joint=0, direction=0, speed_pct=10), r"directions\[0\] must be \+1 or -1"),
+    (dict(joint=0, direction=1, speed_pct=120), r"speed_pct\[0\] must be in \(0, 100\]"),
 ])
 def test_bad_jog_is_refused(kwargs, msg):
     with pytest.raises(ParolkitValueError, match=msg):
-        JointJog(**kwargs)
+        JointJog.single(**kwargs, duration_s=0.2)
 
 
 def test_cart_jog_command_in_both_frames():
-    assert CartJog(Frame.TRF, CartAxis.RZ_NEG, 50).command(0.2) == "CARTJOG|TRF|RZ-|50|0.2"
-    assert CartJog(Frame.WRF, CartAxis.X_POS, 5).command(0.2) == "CARTJOG|WRF|X+|5|0.2"
+    assert jog_command(CartJog(Frame.TRF, CartAxis.RZ_NEG, 50, 0.2)) == "CARTJOG|TRF|RZ-|50|0.2"
+    assert jog_command(CartJog(Frame.WRF, CartAxis.X_POS, 5, 0.2)) == "CARTJOG|WRF|X+|5|0.2"
+
+
+def test_jog_commands_parse_back_to_the_same_jog():
+    from parolkit.protocol.commands import parse_datagram
+
+    for jog in (JointJog.single(4, -1, 12.5, duration_s=0.2), JointJog((1, 3), (1, 1), (10, 20), 1.5),
+                CartJog(Frame.TRF, CartAxis.RY_POS, 7, 0.3)):
+        assert parse_datagram(jog_command(jog)).command.move == jog
 
 
 def test_jog_buttons_blocked_at_limits_only_in_that_direction():

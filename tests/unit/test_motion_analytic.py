@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from parolkit.motion import JointMove, PlanningError, Trajectory, plan, validate
-from parolkit.motion.planner import sample_times
+from parolkit.motion.joint import sample_times
 from parolkit.motion.profiles import ScalarProfile, quintic
 from parolkit.robot import PAROL6
 

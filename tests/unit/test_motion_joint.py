@@ -141,7 +141,7 @@ def test_target_outside_joint_range_is_refused_before_planning():
 
 def test_speed_tracking_streams_command_123_and_ends_with_zero_speed():
     tr = plan(JointMove([70, -80, 170, 0, 0, 180], duration_s=2, tracking="speed"), STANDBY)
-    assert set(tr.commands.tolist()) == {Tracking.SPEED.value} == {123}
+    assert set(tr.commands.tolist()) == {Tracking.SPEED.board_command} == {123}
     assert np.all(tr.speeds[-1] == 0)
 
 

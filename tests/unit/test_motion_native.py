@@ -1,6 +1,6 @@
 """The compiled sample fill (_csamples.c) builds the same joint-move arrays as the numpy reference.
 
-``planner._fill`` is the compiled kernel when it is built; ``planner._fill_reference`` is the
+``joint._fill`` is the compiled kernel when it is built; ``joint._fill_reference`` is the
 numpy code it replaces (and the fallback without a C compiler).  Positions and speeds must be
 identical step for step, the planned angles equal to float rounding, so a MoveJoint is the
 same motion either way.
@@ -24,7 +24,7 @@ from parolkit.motion import JointMove, PlanningError, plan
 from parolkit.motion.profiles import sampled_basis
 from parolkit.robot import PAROL6
 
-planner = importlib.import_module("parolkit.motion.planner")
+joint = importlib.import_module("parolkit.motion.joint")
 LIM = PAROL6.safe_limits_deg
 SPD = PAROL6.steps_per_deg.tolist()
 PURE = os.environ.get("PAROLKIT_PURE_PYTHON", "") not in ("", "0")
@@ -33,8 +33,8 @@ PURE = os.environ.get("PAROLKIT_PURE_PYTHON", "") not in ("", "0")
 def both(kind, T, ta, rate, start, target):
     _t, basis, speed = sampled_basis(kind, T, ta, rate)
     n = len(basis)
-    ref = planner._fill_reference(basis, speed, start, target, SPD, n)
-    got = planner._fill(basis, speed, start, target, SPD, n)
+    ref = joint._fill_reference(basis, speed, start, target, SPD, n)
+    got = joint._fill(basis, speed, start, target, SPD, n)
     return ref, got
 
 
@@ -50,7 +50,7 @@ def assert_same(ref, got):
 def test_the_kernel_is_built_in_this_checkout():
     if PURE:
         pytest.skip("PAROLKIT_PURE_PYTHON is set")
-    assert planner._csamples is not None, (
+    assert joint._csamples is not None, (
         "the compiled sample fill is missing: "
         f"{_native.status().get('parolkit.motion._csamples')}; `pip install -e .` needs a C compiler")
 
@@ -77,8 +77,8 @@ def test_the_arrays_are_fresh_and_read_only():
     start = [0.0, -90.0, 180.0, 0.0, 0.0, 180.0]
     target = [10.0, -80.0, 170.0, 5.0, 5.0, 170.0]
     _t, basis, speed = sampled_basis("poly", 1.0, 0.0, 100.0)
-    a = planner._fill(basis, speed, start, target, SPD, len(basis))
-    b = planner._fill(basis, speed, start, target, SPD, len(basis))
+    a = joint._fill(basis, speed, start, target, SPD, len(basis))
+    b = joint._fill(basis, speed, start, target, SPD, len(basis))
     for x, y in zip(a, b):
         assert x is not y and not np.shares_memory(x, y)
     tr = plan(JointMove(target, duration_s=1.0), start)
@@ -104,7 +104,7 @@ def test_huge_values_round_like_numpy():
 @pytest.mark.skipif(PURE, reason="PAROLKIT_PURE_PYTHON is set")
 def test_kernel_rejects_malformed_arguments_with_a_message():
     _t, basis, speed = sampled_basis("poly", 1.0, 0.0, 100.0)
-    fill = planner._csamples.fill
+    fill = joint._csamples.fill
     ok = [0.0] * 6
     with pytest.raises(TypeError, match="takes 5 arguments"):
         fill(basis, speed, ok, ok)

@@ -50,7 +50,7 @@ def test_tcp_path_is_subsampled_forward_kinematics_from_start_to_end():
 
 def test_cartesian_speed_tracking_streams_123_and_ends_at_rest():
     tr = plan(CartMove(kin.fk(START) + np.array([20, 0, 0, 0, 0, 0]), tracking="speed"), START)
-    assert set(tr.commands.tolist()) == {Tracking.SPEED.value}
+    assert set(tr.commands.tolist()) == {Tracking.SPEED.board_command}
     assert np.all(tr.speeds[-1] == 0)
 
 

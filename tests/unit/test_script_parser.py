@@ -79,11 +79,12 @@ def test_seed_cartesian_example_values_are_exact():
     program = load(REPO / "examples" / "cartesian_trf.rbt")
     move = program.commands[2]
     assert isinstance(move, MoveJoint)
-    assert move.joints_deg == (90.0, -90.0, 180.001, 0.0, 0.0, 180.0)
-    assert move.duration_s == 4.0 and move.profile is None and move.tracking is Tracking.POSITION
+    assert move.move.target_deg == (90.0, -90.0, 180.001, 0.0, 0.0, 180.0)
+    assert move.move.duration_s == 4.0 and move.move.profile is None
+    assert move.move.tracking is Tracking.POSITION
     cart = program.commands[4]
     assert isinstance(cart, MoveCart)
-    assert cart.pose == (0.0, 263.23, 161.241, -90.0, 0.0, -89.499)
+    assert cart.move.pose == (0.0, 263.23, 161.241, -90.0, 0.0, -89.499)
     assert (cart.line, cart.col) == (5, 1)
     assert cart.text == "MoveCart(0.0,263.23,161.241,-90.0,0.0,-89.499)"
 
@@ -92,33 +93,35 @@ def test_seed_cartesian_example_values_are_exact():
 
 
 def test_movejoint_seed_forms():
-    m = only("MoveJoint(0,-90,180,0,0,180,t=4)")
-    assert m.joints_deg[1] == -90 and m.duration_s == 4 and m.speed_pct is None
-    m = only("MoveJoint(0,-90,180,0,0,180,v=50,a=50)")
+    m = only("MoveJoint(0,-90,180,0,0,180,t=4)").move
+    assert m.target_deg[1] == -90 and m.duration_s == 4 and m.speed_pct is None
+    m = only("MoveJoint(0,-90,180,0,0,180,v=50,a=50)").move
     assert (m.speed_pct, m.accel_pct, m.duration_s) == (50, 50, None)
-    m = only("MoveJoint(0,-90,180,0,0,180)")
+    m = only("MoveJoint(0,-90,180,0,0,180)").move
     assert (m.speed_pct, m.accel_pct, m.duration_s, m.profile) == (None, None, None, None)
-    m = only("MoveJoint(0,-90,180,0,0,180,speed)")
+    m = only("MoveJoint(0,-90,180,0,0,180,speed)").move
     assert m.tracking is Tracking.SPEED
 
 
 def test_move_profile_words_func_keyword_and_quotes():
-    assert only("MoveJoint(0,-90,180,0,0,180,t=2,trap)").profile is Profile.TRAP
-    assert only('MoveJoint(0,-90,180,0,0,180,t=2,"poly")').profile is Profile.POLY
-    assert only("MoveJoint(0,-90,180,0,0,180,t=2,func=trap)").profile is Profile.TRAP
-    assert only("MovePose(0,250,300,-90,0,-90,t=2,ruckig,speed)").profile is Profile.RUCKIG
-    m = only("MovePose(0, 250, 300, -90, 0, -90, v=20, a=10, trap, speed)")
-    assert isinstance(m, MovePose) and m.pose == (0, 250, 300, -90, 0, -90)
+    assert only("MoveJoint(0,-90,180,0,0,180,t=2,trap)").move.profile is Profile.TRAP
+    assert only('MoveJoint(0,-90,180,0,0,180,t=2,"poly")').move.profile is Profile.POLY
+    assert only("MoveJoint(0,-90,180,0,0,180,t=2,func=trap)").move.profile is Profile.TRAP
+    assert only("MovePose(0,250,300,-90,0,-90,t=2,ruckig,speed)").move.profile is Profile.RUCKIG
+    s = only("MovePose(0, 250, 300, -90, 0, -90, v=20, a=10, trap, speed)")
+    assert isinstance(s, MovePose) and s.move.pose == (0, 250, 300, -90, 0, -90)
+    m = s.move
     assert (m.speed_pct, m.accel_pct, m.profile, m.tracking) == (20, 10, Profile.TRAP, Tracking.SPEED)
 
 
 def test_cartesian_moves_take_duration_speed_profile_and_tracking():
     m = only("MoveCart(0,263,161,-90,0,-89.5,t=9,trap)")
-    assert isinstance(m, MoveCart) and m.duration_s == 9 and m.profile is Profile.TRAP
+    assert isinstance(m, MoveCart) and m.move.duration_s == 9 and m.move.profile is Profile.TRAP
     m = only("MoveCartRelTRF(-80,0,0,0,0,0)")
-    assert isinstance(m, MoveCartRelTRF) and m.delta == (-80, 0, 0, 0, 0, 0) and m.duration_s is None
+    assert isinstance(m, MoveCartRelTRF) and m.move.delta == (-80, 0, 0, 0, 0, 0)
+    assert m.move.duration_s is None
     m = only("MoveCartRelTRF(0,0,0,0,45,0,v=30,speed)")
-    assert m.speed_pct == 30 and m.tracking is Tracking.SPEED
+    assert m.move.speed_pct == 30 and m.move.tracking is Tracking.SPEED
 
 
 def test_io_gripper_delay_home_speedjoint():
@@ -137,7 +140,8 @@ def test_io_gripper_delay_home_speedjoint():
     assert isinstance(only("Gripper_cal()"), GripperCalibrate)
     assert isinstance(only("Home()"), Home)
     s = only("SpeedJoint(5, 0, 0, 0, 0, -5, t=2)")
-    assert isinstance(s, SpeedJoint) and s.speeds_deg_s == (5, 0, 0, 0, 0, -5) and s.duration_s == 2
+    assert isinstance(s, SpeedJoint) and s.move.speeds_deg_s == (5, 0, 0, 0, 0, -5)
+    assert s.move.duration_s == 2
 
 
 def test_whitespace_comments_blank_lines_and_case_are_allowed():
@@ -157,7 +161,7 @@ def test_whitespace_comments_blank_lines_and_case_are_allowed():
     kinds = [type(c).__name__ for c in result.program.commands]
     assert kinds == ["Begin", "MoveJoint", "Delay", "GripperCalibrate", "Delay", "End"]
     move = result.program.commands[1]
-    assert (move.line, move.col, move.duration_s) == (5, 2, 3.0)
+    assert (move.line, move.col, move.move.duration_s) == (5, 2, 3.0)
 
 
 # ---- errors ---------------------------------------------------------------------------------

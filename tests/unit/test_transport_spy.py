@@ -15,7 +15,7 @@ from parolkit.board import BoardEmulator
 from parolkit.errors import ParolkitValueError
 from parolkit.protocol import BoardCommand, CommandFrame, StatusFrame, StatusParser
 from parolkit.transport import EmulatorTransport, LinkLostError, SpyTransport, TransportError
-from parolkit.transport.framelog import Direction, StreamSplitter, format_frame
+from parolkit.transport.framelog import SpyDirection, StreamSplitter, format_frame
 
 ENABLE = CommandFrame(command=BoardCommand.ENABLE, positions=(1, -2, 3, -4, 5, -6)).encode()
 IDLE = CommandFrame(command=BoardCommand.IDLE).encode()
@@ -163,7 +163,7 @@ STATUS = StatusFrame(xtr=101, positions=(1, 2, 3, 4, 5, 6)).encode()
        st.integers(min_value=1, max_value=64))
 def test_the_splitter_accounts_for_every_byte_in_order(chunks: list[bytes], cut: int) -> None:
     stream = b"".join(chunks)
-    splitter = StreamSplitter(Direction.FROM_BOARD)
+    splitter = StreamSplitter(SpyDirection.FROM_BOARD)
     parser = StatusParser()
     pieces = []
     for i in range(0, len(stream), cut):

@@ -12,7 +12,7 @@ Attributes are loaded lazily so ``import parolkit.client`` stays cheap.
 
 from __future__ import annotations
 
-__all__ = ["Robot", "AsyncRobot", "RobotError", "CommandFailed", "CommandInvalid",
+__all__ = ["Robot", "AsyncRobot", "RobotError", "CommandNotCompleted", "CommandFailed", "CommandInvalid",
            "CommandCancelled", "CommandTimeout", "ControllerUnreachable", "CommandResult",
            "AckStatus", "RobotStatus", "RobotState", "PlanInfo"]
 
@@ -20,6 +20,7 @@ _WHERE = {
     "Robot": "parolkit.client.robot",
     "AsyncRobot": "parolkit.client.async_robot",
     "RobotError": "parolkit.client.errors",
+    "CommandNotCompleted": "parolkit.client.errors",
     "CommandFailed": "parolkit.client.errors",
     "CommandInvalid": "parolkit.client.errors",
     "CommandCancelled": "parolkit.client.errors",

@@ -562,7 +562,7 @@ _ERRORS = {
 
 def result_or_raise(cmd_id: str, command: str, status: AckStatus, details: str) -> CommandResult:
     """A :class:`CommandResult` for COMPLETED/QUEUED/EXECUTING; raise the matching
-    :class:`~parolkit.client.errors.CommandError` for FAILED, INVALID and CANCELLED."""
+    :class:`~parolkit.client.errors.CommandNotCompleted` for FAILED, INVALID and CANCELLED."""
     exc = _ERRORS.get(status)
     if exc is not None:
         raise exc(cmd_id, command, status.value, details)
@@ -585,7 +585,7 @@ class AckRecord:
         return self.history[-1] if self.history else None
 
     def result(self) -> CommandResult:
-        """Result (terminal, or latest intermediate); raises the CommandError for failures."""
+        """Result (terminal, or latest intermediate); raises the CommandNotCompleted subclass for failures."""
         status, details = self.terminal or self.latest or (AckStatus.QUEUED, "")
         return result_or_raise(self.id, self.command, status, details)
 

@@ -8,11 +8,11 @@ for word from the acknowledgement (``ACK|ID|FAILED|reason``)::
     except CommandFailed as exc:
         print(exc.reason)        # e.g. "IK: pose out of reach ..."
 
-Hierarchy::
+Hierarchy (the whole parolkit tree is drawn in :mod:`parolkit.errors`)::
 
     ParolkitError
       RobotError
-        CommandError (command_id, command, status, reason)
+        CommandNotCompleted (command_id, command, status, reason)
           CommandFailed      FAILED: the controller could not execute it
           CommandInvalid     INVALID: parse/validation error (also a ValueError)
           CommandCancelled   CANCELLED: STOP, E-stop or link lost
@@ -22,15 +22,21 @@ Hierarchy::
 
 Client-side argument checks raise :class:`parolkit.errors.ParolkitValueError` before
 anything is sent.
+
+``CommandError``, the old name of :class:`CommandNotCompleted`, still works here but is
+deprecated (a DeprecationWarning says so): it was also the name of the controller's parse
+error, a different thing.
 """
 
 from __future__ import annotations
+
+import warnings
 
 from parolkit.errors import ParolkitError
 
 __all__ = [
     "RobotError",
-    "CommandError",
+    "CommandNotCompleted",
     "CommandFailed",
     "CommandInvalid",
     "CommandCancelled",
@@ -44,8 +50,8 @@ class RobotError(ParolkitError):
     """Base class of every object-API error."""
 
 
-class CommandError(RobotError):
-    """A command ended without COMPLETED.
+class CommandNotCompleted(RobotError):
+    """A command ended without COMPLETED (or no terminal acknowledgement came in time).
 
     Attributes: ``command_id`` (8 characters), ``command`` (its name, e.g. ``MOVEJOINT``),
     ``status`` (the ack status text or ``TIMEOUT``), ``reason`` (the controller's details).
@@ -60,19 +66,19 @@ class CommandError(RobotError):
                          else f"{command} [{command_id}] {status}")
 
 
-class CommandFailed(CommandError):
+class CommandFailed(CommandNotCompleted):
     """FAILED: the controller accepted the command but could not execute it (reason given)."""
 
 
-class CommandInvalid(CommandError, ValueError):
+class CommandInvalid(CommandNotCompleted, ValueError):
     """INVALID: the controller refused the command; the reason names the field and range."""
 
 
-class CommandCancelled(CommandError):
+class CommandCancelled(CommandNotCompleted):
     """CANCELLED: by STOP, E-stop or a lost board link (the reason says which)."""
 
 
-class CommandTimeout(CommandError):
+class CommandTimeout(CommandNotCompleted):
     """No terminal acknowledgement within the timeout.  The command may still be running:
     send ``stop()`` to cancel it."""
 
@@ -83,3 +89,17 @@ class ControllerUnreachable(RobotError):
 
 class ReplyError(RobotError):
     """The controller's reply was malformed or an ``ERROR|...`` answer (message included)."""
+
+
+def __getattr__(name: str) -> type[CommandNotCompleted]:
+    """``CommandError``: deprecated alias of :class:`CommandNotCompleted` (for code written
+    against parolkit 0.1's object API)."""
+    if name == "CommandError":
+        warnings.warn(
+            "parolkit.client.errors.CommandError is deprecated: catch CommandNotCompleted "
+            "(the same class) instead",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return CommandNotCompleted
+    raise AttributeError(f"module 'parolkit.client.errors' has no attribute {name!r}")

@@ -79,7 +79,8 @@ __all__ = [
     "build_wait_input", "build_smooth_circle", "build_smooth_arc_center",
     "build_smooth_arc_param", "build_smooth_spline", "build_smooth_helix", "build_smooth_blend",
     "build_stream", "build_set_tool", "build_set_port", "build_subscribe", "build_unsubscribe",
-    "CARTESIAN_AXES", "FRAMES", "PLANES", "PROFILES", "TRACKING_MODES", "SEGMENT_TYPES",
+    "CARTESIAN_AXES", "FRAMES", "PLANES", "PROFILES", "TRACKING_MODES", "TIMING_MODES",
+    "SEGMENT_TYPES",
 ]
 
 #: Controller address.
@@ -91,13 +92,25 @@ ACK_PORT = 5002
 #: Seconds a query waits for its reply.
 QUERY_TIMEOUT = 2.0
 
-#: Acknowledgement statuses after which a command is finished.
+# The words of the protocol.  This module may not import the rest of parolkit, so these are
+# copies of the parolkit.moves / parolkit.protocol.commands enums and tables;
+# tests/unit/test_vocabulary.py asserts that each copy agrees with its original.
+
+#: Acknowledgement statuses after which a command is finished (protocol ``AckStatus``).
 TERMINAL_STATUSES = frozenset({"COMPLETED", "FAILED", "CANCELLED", "INVALID"})
+#: Cartesian jog axes (``CartAxis``).
 CARTESIAN_AXES = ("X+", "X-", "Y+", "Y-", "Z+", "Z-", "RX+", "RX-", "RY+", "RY-", "RZ+", "RZ-")
+#: Reference frames (``Frame``).
 FRAMES = ("WRF", "TRF")
+#: Circle planes (``Plane``).
 PLANES = ("XY", "XZ", "YZ")
+#: Velocity profiles (``Profile``).
 PROFILES = ("poly", "trap", "ruckig", "toppra")
+#: Tracking modes (``Tracking``).
 TRACKING_MODES = ("position", "speed")
+#: How a smooth path is timed: a duration in s or a path speed in % (``Timing``).
+TIMING_MODES = ("DURATION", "SPEED")
+#: SMOOTH_BLEND segment types (protocol ``BLEND_SEGMENT_KINDS``).
 SEGMENT_TYPES = ("LINE", "CIRCLE", "ARC", "SPLINE")
 
 #: Gripper ranges accepted by the SSG-48 as the controller drives it.
@@ -259,7 +272,8 @@ def _start_field(start_pose: Any) -> str:
 
 def _timing_fields(duration: Any, speed_percentage: Any) -> str:
     d, s = _one_timing(duration, speed_percentage)
-    return f"DURATION|{format_value(d)}" if d is not None else f"SPEED|{format_value(s)}"
+    by_duration, by_speed = TIMING_MODES
+    return f"{by_duration}|{format_value(d)}" if d is not None else f"{by_speed}|{format_value(s)}"
 
 
 # =============================================================================================
@@ -523,7 +537,7 @@ def build_smooth_blend(segments: Any, blend_time: Any = 0.5, frame: Any = "WRF",
         raise ValueError("segments must hold at least 1 segment")
     bt = _number(blend_time, "blend_time", 0.0)
     if duration is None and speed_percentage is None:
-        timing = "DURATION|None"
+        timing = f"{TIMING_MODES[0]}|None"
     else:
         timing = _timing_fields(duration, speed_percentage)
     return _join("SMOOTH_BLEND", len(segs), bt, _choice(frame, "frame", FRAMES),

@@ -65,11 +65,11 @@ OUTPUT_REPORT_TIMEOUT_S = 0.5
 PLAN_AHEAD = 4
 
 _TRAJECTORY_COMMANDS = (
-    C.MoveJoint, C.MovePose, C.MoveCart, C.MoveCartRelTRF, C.CartJog, C.SmoothCircle,
+    C.MoveJoint, C.MovePose, C.MoveCart, C.MoveCartRelTRF, C.CartJogCommand, C.SmoothCircle,
     C.SmoothArcCenter, C.SmoothArcParam, C.SmoothSpline, C.SmoothHelix, C.SmoothBlend,
 )
 _SPEED_COMMANDS = (C.Jog, C.MultiJog, C.SpeedJoint)
-_STREAMABLE = (C.Jog, C.MultiJog, C.CartJog)
+_STREAMABLE = (C.Jog, C.MultiJog, C.CartJogCommand)
 
 
 def needs_plan(cmd: C.Command) -> bool:
@@ -212,7 +212,7 @@ class Executor:
                     # an update arrived: the client still holds the jog (the watchdog counts
                     # from here, not from when a CARTJOG's plan is ready)
                     self.activity.touch(self._now)
-                if isinstance(cmd, C.CartJog):
+                if isinstance(cmd, C.CartJogCommand):
                     if not self._homed or self._measured is None:
                         self._ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
                         return
@@ -491,64 +491,19 @@ class Executor:
         job.planned = True
 
     def to_move(self, cmd: C.Command) -> object:
-        """The :mod:`parolkit.motion` request for a command."""
-        m = self._motion
-        if m is None:
-            import parolkit.motion as m  # type: ignore[no-redef]
-
-            self._motion = m
-
-        def prof(p):
-            return p.value if p is not None else None
-
-        if isinstance(cmd, C.MoveJoint):
-            return m.JointMove(cmd.angles_deg, cmd.duration_s, cmd.speed_pct, cmd.accel_pct,
-                               prof(cmd.profile), cmd.tracking.value)
-        if isinstance(cmd, C.MovePose):
-            return m.PoseMove(cmd.pose, cmd.duration_s, cmd.speed_pct, cmd.accel_pct,
-                              prof(cmd.profile), cmd.tracking.value)
-        if isinstance(cmd, C.MoveCart):
-            return m.CartMove(cmd.pose, cmd.duration_s, cmd.speed_pct, prof(cmd.profile), cmd.tracking.value)
-        if isinstance(cmd, C.MoveCartRelTRF):
-            return m.CartRelTRFMove(cmd.delta, cmd.duration_s, cmd.speed_pct, prof(cmd.profile),
-                                    cmd.tracking.value)
-        if isinstance(cmd, C.CartJog):
-            return m.CartJog(cmd.frame.value, cmd.axis, cmd.speed_pct, cmd.duration_s)
-        if isinstance(cmd, C._Smooth):
-            timing = {"duration_s": cmd.timing_value if cmd.timing is C.Timing.DURATION else None,
-                      "speed_pct": cmd.timing_value if cmd.timing is C.Timing.SPEED else None}
-            common = {"frame": cmd.frame.value, "start_pose": cmd.start, **timing}
-            if isinstance(cmd, C.SmoothCircle):
-                return m.CircleMove(cmd.center, cmd.radius_mm, cmd.plane.value, clockwise=cmd.clockwise, **common)
-            if isinstance(cmd, C.SmoothArcCenter):
-                return m.ArcCenterMove(cmd.end_pose, cmd.center, clockwise=cmd.clockwise, **common)
-            if isinstance(cmd, C.SmoothArcParam):
-                return m.ArcParamMove(cmd.end_pose, cmd.radius_mm, cmd.angle_deg, clockwise=cmd.clockwise, **common)
-            if isinstance(cmd, C.SmoothHelix):
-                return m.HelixMove(cmd.center, cmd.radius_mm, cmd.pitch_mm, cmd.height_mm,
-                                   clockwise=cmd.clockwise, **common)
-            if isinstance(cmd, C.SmoothSpline):
-                return m.SplineMove(cmd.waypoints, **common)
-            if isinstance(cmd, C.SmoothBlend):
-                segs = []
-                for s in cmd.segments:
-                    if s.kind == "LINE":
-                        segs.append(m.LineSegment(s.end_pose))
-                    elif s.kind == "CIRCLE":
-                        segs.append(m.CircleMove(s.center, s.radius_mm, s.plane.value, clockwise=s.clockwise,
-                                                 frame=cmd.frame.value, duration_s=s.duration_s))
-                    elif s.kind == "ARC":
-                        segs.append(m.ArcCenterMove(s.end_pose, s.center, clockwise=s.clockwise,
-                                                    frame=cmd.frame.value, duration_s=s.duration_s))
-                    else:
-                        segs.append(m.SplineMove(s.waypoints, frame=cmd.frame.value, duration_s=s.duration_s))
-                return m.BlendMove(segs, blend_time_s=cmd.blend_time_s, **common)
-        raise TypeError(f"{cmd.name} is not a planned motion command")
+        """The :mod:`parolkit.moves` value object a planned motion command carries."""
+        if not needs_plan(cmd):
+            raise TypeError(f"{cmd.name} is not a planned motion command")
+        return cmd.move  # type: ignore[attr-defined]
 
     def _plan(self, cmd: C.Command, start: Sequence[float]) -> tuple[object | None, str | None]:
         try:
             move = self.to_move(cmd)
             m = self._motion
+            if m is None:
+                import parolkit.motion as m  # type: ignore[no-redef]
+
+                self._motion = m
             traj = m.plan(move, start, model=self.model, tool=self.tool_provider(), rate_hz=self.rate_hz)
             if len(traj) == 0:
                 return None, "the move plans to zero samples"
@@ -577,12 +532,12 @@ class Executor:
                 self._plan_cv.notify_all()
                 return
             cmd = job.command
-            if isinstance(cmd, C.CartJog) and not self._homed:
+            if isinstance(cmd, C.CartJogCommand) and not self._homed:
                 self._ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
                 return
             old, old_act = self.active, self.activity
             if (
-                old is not None and isinstance(old_act, SpeedActivity) and not isinstance(cmd, C.CartJog)
+                old is not None and isinstance(old_act, SpeedActivity) and not isinstance(cmd, C.CartJogCommand)
             ):
                 speeds, ticks, err = self._speed_plan(cmd)
                 if err is not None:
@@ -608,25 +563,28 @@ class Executor:
         m = self.model
         speeds = [0] * 6
         if isinstance(cmd, C.Jog):
-            v = float(m.jog_speed_from_percent(cmd.speed_pct)[cmd.joint])
-            speeds[cmd.joint] = int(round(v)) * cmd.direction
+            jog = cmd.move
+            joint, direction = jog.joints[0], jog.directions[0]
+            v = float(m.jog_speed_from_percent(jog.speed_pct[0])[joint])
+            speeds[joint] = int(round(v)) * direction
             secs = []
-            if cmd.duration_s is not None:
-                secs.append(cmd.duration_s)
-            if cmd.distance_deg is not None:
-                secs.append(cmd.distance_deg * self._spd[cmd.joint] / max(v, 1e-9))
+            if jog.duration_s is not None:
+                secs.append(jog.duration_s)
+            if jog.distance_deg is not None:
+                secs.append(jog.distance_deg * self._spd[joint] / max(v, 1e-9))
             return tuple(speeds), ticks_for(min(secs), self.rate_hz), None
         if isinstance(cmd, C.MultiJog):
+            jog = cmd.move
             table = m.jog_speed_from_percent(100.0)
-            for (j, d), pct in zip(cmd.joints, cmd.speeds_pct):
+            for j, d, pct in zip(jog.joints, jog.directions, jog.speed_pct):
                 speeds[j] = int(round(float(table[j]) * pct / 100.0)) * d
-            return tuple(speeds), ticks_for(cmd.duration_s, self.rate_hz), None
+            return tuple(speeds), ticks_for(jog.duration_s, self.rate_hz), None
         if isinstance(cmd, C.SpeedJoint):
-            for j, v in enumerate(cmd.speeds_deg_s):
+            for j, v in enumerate(cmd.move.speeds_deg_s):
                 speeds[j] = int(round(v * self._spd[j]))
                 if abs(speeds[j]) > m.max_speed_steps_s[j]:
                     return (), 0, f"J{j + 1} speed {v:g} deg/s exceeds the maximum"
-            return tuple(speeds), ticks_for(cmd.duration_s, self.rate_hz), None
+            return tuple(speeds), ticks_for(cmd.move.duration_s, self.rate_hz), None
         return (), 0, f"{cmd.name} is not a speed command"
 
     def _activate(self, job: Job, now: float) -> None:

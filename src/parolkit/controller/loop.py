@@ -37,7 +37,7 @@ from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
 from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_snapshot
-from parolkit.controller.stats import LoopStats
+from parolkit.controller.stats import LoopMetrics
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
 from parolkit.robot import RobotModel
@@ -138,7 +138,7 @@ class ControlLoop:
         #: counters of the UDP server for the snapshot (set by whoever runs one)
         self.server_view: Callable[[], dict[str, Any]] | None = None
         self.reply_wait = min(self.period * reply_wait_fraction, 0.003)
-        self.stats = LoopStats(rate_hz)
+        self.stats = LoopMetrics(rate_hz)
         self.parser = StatusParser()
         #: newest status frame of the current link session (None right after (re)connecting)
         self.status: StatusFrame | None = None

@@ -33,7 +33,7 @@ from parolkit.controller.state import Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
     AckStatus,
-    CommandError,
+    DatagramError,
     format_ack,
     format_error,
     is_command_id,
@@ -366,7 +366,7 @@ class UdpServer:
             return False
         try:
             parsed = parse_datagram(data, self.model)
-        except CommandError:
+        except DatagramError:
             return False  # the worker answers it as invalid
         if not isinstance(parsed.command, SAFETY_COMMANDS):
             return False
@@ -440,7 +440,7 @@ class UdpServer:
         hand-off to the loop)."""
         try:
             parsed = parse_datagram(data, self.model)
-        except CommandError as exc:
+        except DatagramError as exc:
             self.invalid += 1
             self._log_invalid(addr, str(exc))
             if exc.command_id is not None:

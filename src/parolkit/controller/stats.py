@@ -1,7 +1,7 @@
 """Loop statistics: tick period and serial round trip, kept as fixed-bin histograms.
 
 Recording is O(1) per tick (one list increment, no allocation); percentiles are computed from
-the histogram on request, over the whole run since the last :meth:`LoopStats.reset`.
+the histogram on request, over the whole run since the last :meth:`LoopMetrics.reset`.
 Bin width 10 us up to 200 ms; anything longer goes to the last bin (and ``max`` is exact).
 """
 
@@ -11,7 +11,7 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["Histogram", "LoopStats", "LoopStatsView"]
+__all__ = ["Histogram", "LoopMetrics", "LoopStatsView"]
 
 _BIN_S = 10e-6
 _NBINS = 20_000  # 200 ms
@@ -99,7 +99,7 @@ class LoopStatsView:
         return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
 
 
-class LoopStats:
+class LoopMetrics:
     """Mutable statistics owned by the loop thread; :meth:`view` may be called from any thread.
 
     ``period``: time between successive tick starts; ``rtt``: write of a command frame to the

@@ -26,12 +26,9 @@ from parolkit.gui.jog import (
     JOG_DURATION_S,
     JOG_REPEAT_S,
     KEYMAP,
-    CartAxis,
-    CartJog,
-    Frame,
-    JointJog,
     cart_jog_blocked,
     cart_step_command,
+    jog_command,
     joint_jog_blocked,
     joint_step_target,
     key_action,
@@ -47,6 +44,7 @@ from parolkit.gui.status import (
     state_badge,
 )
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
+from parolkit.moves import CartAxis, CartJog, Frame, JointJog
 from parolkit.robot import JOINT_NAMES, PAROL6
 
 __all__ = ["Commander", "CommanderPage", "build_app"]
@@ -633,9 +631,9 @@ class CommanderPage:
             self.c.command("MOVEJOINT|" + "|".join(f"{v:.4f}" for v in target) + f"|None|{self.speed:g}|{self.accel:g}",
                            f"step {JOINT_NAMES[joint]} {direction * float(self.step_deg):+g}°")
             return
-        jog = JointJog(joint, direction, float(self.speed))
+        jog = JointJog.single(joint, direction, float(self.speed), duration_s=JOG_DURATION_S)
         self.c.log.info(f"jog {JOINT_NAMES[joint]}{'+' if direction > 0 else '−'} at {self.speed:g} %")
-        self.c.jog_press(jog.command)
+        self.c.jog_press(lambda: jog_command(jog))
 
     def cart_press(self, axis: CartAxis) -> None:
         st = self.link.status
@@ -647,10 +645,10 @@ class CommanderPage:
             self.c.command(cart_step_command(st.pose, self.frame, axis, step, float(self.speed)),
                            f"step {self.frame.value} {axis.value} {step:g}{'°' if axis.is_rotation else ' mm'}")
             return
-        jog = CartJog(self.frame, axis, float(self.speed))
-        self.c.log.info(f"jog {self.frame.value} {axis.value} at {self.speed:g} %")
         period = self.c.cart_jog_repeat_s
-        self.c.jog_press(lambda: jog.command(max(JOG_DURATION_S, 3 * period)), period)
+        cart_jog = CartJog(self.frame, axis, float(self.speed), max(JOG_DURATION_S, 3 * period))
+        self.c.log.info(f"jog {self.frame.value} {axis.value} at {self.speed:g} %")
+        self.c.jog_press(lambda: jog_command(cart_jog), period)
 
     def on_key(self, e: Any) -> None:
         args = e.args if isinstance(e.args, dict) else {}

@@ -4,23 +4,24 @@ Units: joint angles in deg, positions in mm, orientations in deg, speeds/acceler
 A *continuous* jog is streamed (``STREAM|ON``, then a JOG/CARTJOG with a short duration
 every :data:`JOG_REPEAT_S` while the button is held); a *step* jog is one MOVEJOINT /
 MOVECART / MOVECARTRELTRF to a target a fixed increment away.
+
+Jogs are the :mod:`parolkit.moves` value objects (:class:`~parolkit.moves.JointJog`,
+:class:`~parolkit.moves.CartJog`, with :class:`~parolkit.moves.Frame` and
+:class:`~parolkit.moves.CartAxis`); :func:`jog_command` writes one as its datagram.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import Enum
 from typing import Callable, Sequence
 
 from parolkit.errors import ParolkitValueError
+from parolkit.moves import CartAxis, CartJog, Frame, JointJog
 from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
 
 __all__ = [
-    "Frame",
-    "CartAxis",
-    "JointJog",
-    "CartJog",
+    "jog_command",
     "JOG_REPEAT_S",
     "JOG_DURATION_S",
     "LIMIT_MARGIN_DEG",
@@ -46,43 +47,6 @@ JOG_DURATION_S = 0.2
 LIMIT_MARGIN_DEG = 0.05
 
 
-class Frame(str, Enum):
-    """Cartesian jog reference frame: world (base) or tool."""
-
-    WRF = "WRF"
-    TRF = "TRF"
-
-
-class CartAxis(str, Enum):
-    """A Cartesian jog direction (protocol spelling)."""
-
-    X_POS = "X+"
-    X_NEG = "X-"
-    Y_POS = "Y+"
-    Y_NEG = "Y-"
-    Z_POS = "Z+"
-    Z_NEG = "Z-"
-    RX_POS = "RX+"
-    RX_NEG = "RX-"
-    RY_POS = "RY+"
-    RY_NEG = "RY-"
-    RZ_POS = "RZ+"
-    RZ_NEG = "RZ-"
-
-    @property
-    def is_rotation(self) -> bool:
-        return self.value.startswith("R")
-
-    @property
-    def sign(self) -> int:
-        return 1 if self.value.endswith("+") else -1
-
-    @property
-    def index(self) -> int:
-        """0..2 for X/Y/Z (translation or rotation axis)."""
-        return "XYZ".index(self.value.rstrip("+-")[-1])
-
-
 def _percent(value: float, name: str) -> float:
     v = float(value)
     if not math.isfinite(v) or not 0.0 < v <= 100.0:
@@ -96,46 +60,20 @@ def _joint(joint: int) -> int:
     return joint
 
 
-@dataclass(frozen=True)
-class JointJog:
-    """Continuous jog of one joint. ``direction`` +1/-1, ``speed_percent`` (0, 100]."""
-
-    joint: int
-    direction: int
-    speed_percent: float
-
-    def __post_init__(self) -> None:
-        _joint(self.joint)
-        if self.direction not in (1, -1):
-            raise ParolkitValueError(f"direction must be +1 or -1, got {self.direction!r}")
-        _percent(self.speed_percent, "speed_percent")
-
-    @property
-    def wire_index(self) -> int:
-        """Protocol joint index: 0..5 positive, 6..11 negative."""
-        return self.joint if self.direction > 0 else self.joint + 6
-
-    def command(self, duration_s: float = JOG_DURATION_S) -> str:
-        """The JOG datagram body (no ID)."""
-        return f"JOG|{self.wire_index}|{self.speed_percent:g}|{duration_s:g}|None"
-
-
-@dataclass(frozen=True)
-class CartJog:
-    """Continuous Cartesian jog along/about one axis of ``frame``; speed in (0, 100] %."""
-
-    frame: Frame
-    axis: CartAxis
-    speed_percent: float
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.frame, Frame) or not isinstance(self.axis, CartAxis):
-            raise ParolkitValueError("frame must be a Frame and axis a CartAxis")
-        _percent(self.speed_percent, "speed_percent")
-
-    def command(self, duration_s: float = JOG_DURATION_S) -> str:
-        """The CARTJOG datagram body (no ID)."""
-        return f"CARTJOG|{self.frame.value}|{self.axis.value}|{self.speed_percent:g}|{duration_s:g}"
+def jog_command(jog: JointJog | CartJog) -> str:
+    """The datagram body (no ID) of a jog: ``JOG`` for one joint, ``MULTIJOG`` for several,
+    ``CARTJOG`` for a Cartesian jog.  Numbers in their shortest form (``30``, ``0.2``)."""
+    if isinstance(jog, CartJog):
+        frame, axis = Frame.parse(jog.frame), CartAxis.parse(jog.axis)
+        return f"CARTJOG|{frame.value}|{axis.value}|{jog.speed_pct:g}|{jog.duration_s:g}"
+    if len(jog.joints) == 1:
+        duration = "None" if jog.duration_s is None else f"{jog.duration_s:g}"
+        distance = "None" if jog.distance_deg is None else f"{jog.distance_deg:g}"
+        return f"JOG|{jog.wire_indices[0]}|{jog.speed_pct[0]:g}|{duration}|{distance}"
+    # several joints: JointJog guarantees duration_s (a distance is for one joint only)
+    indices = ",".join(str(i) for i in jog.wire_indices)
+    speeds = ",".join(f"{p:g}" for p in jog.speed_pct)
+    return f"MULTIJOG|{indices}|{speeds}|{jog.duration_s:g}"
 
 
 def joint_jog_blocked(angles_deg: Sequence[float], joint: int, direction: int,
@@ -211,12 +149,12 @@ def jog_target_pose(pose: Sequence[float], frame: Frame, axis: CartAxis, step: f
     r = rpy_to_matrix(a, b, c)
     sgn_step = axis.sign * step
     if axis.is_rotation:
-        d = _rot(axis.index, sgn_step)
+        d = _rot(axis.axis_index, sgn_step)
         r = _mul(d, r) if frame is Frame.WRF else _mul(r, d)
         a, b, c = matrix_to_rpy(r)
     else:
         v = [0.0, 0.0, 0.0]
-        v[axis.index] = sgn_step
+        v[axis.axis_index] = sgn_step
         if frame is Frame.TRF:
             v = [sum(r[i][k] * v[k] for k in range(3)) for i in range(3)]
         x, y, z = x + v[0], y + v[1], z + v[2]
@@ -259,7 +197,7 @@ def cart_step_command(pose: Sequence[float], frame: Frame, axis: CartAxis, step:
         raise ParolkitValueError(f"step must be a positive number (mm or deg), got {step!r}")
     _percent(speed_percent, "speed_percent")
     delta = [0.0] * 6
-    delta[(3 if axis.is_rotation else 0) + axis.index] = axis.sign * step
+    delta[(3 if axis.is_rotation else 0) + axis.axis_index] = axis.sign * step
     if frame is Frame.TRF:
         return "MOVECARTRELTRF|" + "|".join(f"{v:g}" for v in delta) + f"|None|{speed_percent:g}"
     target = jog_target_pose(pose, frame, axis, step)

@@ -2,13 +2,18 @@
 
 One entry point, :func:`plan`; see docs/motion.md for the rules (the seed's) and numbers.
 Heavy libraries (ruckig, toppra, matplotlib, the kinematics) load only when first needed.
+
+The move value objects and the words they use (``Profile``, ``Tracking``, ``Frame``, ...) are
+defined once in :mod:`parolkit.moves` (shared with the protocol, RBTscript and the GUI) and
+re-exported here, so ``from parolkit.motion import JointMove, plan`` keeps working.
 """
 
 from parolkit.motion.errors import PlanningError
-from parolkit.motion.moves import (
+from parolkit.moves import (
     ArcCenterMove,
     ArcParamMove,
     BlendMove,
+    CartAxis,
     CartJog,
     CartMove,
     CartRelTRFMove,
@@ -37,6 +42,7 @@ __all__ = [
     "Tracking",
     "Frame",
     "Plane",
+    "CartAxis",
     "JointMove",
     "PoseMove",
     "CartMove",

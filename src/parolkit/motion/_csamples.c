@@ -162,7 +162,7 @@ cs_fill(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 static PyMethodDef cs_methods[] = {
     {"fill", (PyCFunction)(void (*)(void))cs_fill, METH_FASTCALL,
      "fill(basis, speed, start, target, spd) -> (q, pos, sp): the read-only arrays of a "
-     "synchronised joint move (see planner._fill_reference, the reference)."},
+     "synchronised joint move (see joint._fill_reference, the reference)."},
     {NULL, NULL, 0, NULL},
 };
 

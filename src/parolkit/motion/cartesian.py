@@ -28,18 +28,20 @@ import numpy as np
 
 from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
-from parolkit.motion.moves import (
-    CART_JOG_AXES, ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove,
-    CircleMove, Frame, HelixMove, LineSegment, Plane, Profile, SplineMove, Tracking,
+from parolkit.motion.joint import (
+    MOVEJOINT_DEFAULT_PCT, build_trajectory, hold, plan_joint_target, sample_times,
 )
 from parolkit.motion.paths import (
     Arc, Line, Path, Segment, Spline, blend_corners, rot_about, rotation_angle,
 )
-from parolkit.motion.planner import build_trajectory, sample_times
 from parolkit.motion.profiles import (
     ScalarProfile, ruckig_unit_profile,
 )
 from parolkit.motion.trajectory import Trajectory
+from parolkit.moves import (
+    ArcCenterMove, ArcParamMove, BlendMove, CartAxis, CartJog, CartMove, CartRelTRFMove,
+    CircleMove, Frame, HelixMove, JointMove, LineSegment, Plane, Profile, SplineMove, Tracking,
+)
 from parolkit.robot import JOINT_NAMES, RobotModel
 
 __all__ = [
@@ -109,7 +111,8 @@ def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, 
     kin = _kin()
     t0 = np.asarray(kin.fk_matrix(start, tool), dtype=float)
     p0, r0 = t0[:3, 3] * 1e3, t0[:3, :3]
-    is_rot, ax, sign = CART_JOG_AXES[move.axis]
+    jog_axis = CartAxis.parse(move.axis)
+    is_rot, ax, sign = jog_axis.is_rotation, jog_axis.axis_index, jog_axis.sign
     axis = np.eye(3)[ax] if move.frame is Frame.WRF else r0[:, ax]
     T = float(move.duration_s)
     n = max(1, int(math.ceil(T * rate_hz - 1e-6)))
@@ -400,8 +403,6 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
     base = max(path.length / v_lin, math.degrees(path.angle) / w_ang)
     notes: list[str] = []
     if base < 1e-9:
-        from parolkit.motion.planner import hold
-
         return hold(move, start, np.asarray(start, dtype=float), model, rate_hz, tracking)
     unwind = _unwind_wrist(move, path, start, model, tool, rate_hz, tracking)
     if unwind is not None:
@@ -487,8 +488,6 @@ def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking,
     target = np.array(start, dtype=float)
     target[3] += d
     target[5] -= d
-    from parolkit.motion.moves import JointMove
-    from parolkit.motion.planner import MOVEJOINT_DEFAULT_PCT, _plan_joint_target
 
     lim = model.safe_limits_deg
     if not lim[5, 0] <= target[5] <= lim[5, 1]:
@@ -497,7 +496,7 @@ def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking,
             target[5] = alt
     jm = JointMove(target, tracking=tracking)
     try:
-        tr = _plan_joint_target(jm, np.asarray(start, dtype=float), target, model, rate_hz,
+        tr = plan_joint_target(jm, np.asarray(start, dtype=float), target, model, rate_hz,
                                 pct or MOVEJOINT_DEFAULT_PCT)
     except PlanningError as exc:
         raise PlanningError(move.name, f"the path starts on the wrist singularity and J4/J6 cannot "

@@ -1,61 +1,39 @@
 """``plan(move, start_deg) -> Trajectory``: the one planning entry point.
 
-Joint-space moves (MoveJoint, MovePose, SpeedJoint, joint jogs) are planned here; Cartesian
-moves and smooth paths in :mod:`parolkit.motion.cartesian` (imported when first needed).
-
-Timing rules (the seed's, see docs/motion.md):
-
-* ``duration_s`` given: exactly that long (rounded UP to whole ticks; the profile itself lasts
-  exactly ``duration_s``), default POLY; if a joint would exceed its speed or acceleration
-  limit the move is REFUSED (the message gives the shortest feasible duration).
-* ``speed_pct`` / ``accel_pct``: trapezoid on the leading joint (the one with the most steps
-  to go), all joints synchronised; when another joint could not follow, the leading joint is
-  slowed and a note says so.
-* neither: MoveJoint v=45 %, a=27 %; MovePose v=50 %, a=30 % (trapezoid).
+Joint-space moves (MoveJoint, MovePose, SpeedJoint, joint jogs) are planned in
+:mod:`parolkit.motion.joint`; Cartesian moves and smooth paths in
+:mod:`parolkit.motion.cartesian` (imported when first needed: it needs the kinematics).
+The timing rules are in those modules' docstrings and in docs/motion.md.
 """
 
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
 
-from parolkit import _native
 from parolkit.errors import ParolkitValueError
-from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
-from parolkit.motion.moves import (
-    ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove, CircleMove,
-    HelixMove, JointJog, JointMove, PoseMove, Profile, SpeedJointMove, SplineMove, Tracking,
-)
-from parolkit.motion.profiles import (
-    POLY_PEAK_ACCEL, POLY_PEAK_SPEED, TRAP3_PEAK_ACCEL, TRAP3_PEAK_SPEED, ScalarProfile,
-    ruckig_unit_profile, sampled_basis, trapezoid_for_limits,
+from parolkit.motion.joint import (
+    MOVEJOINT_DEFAULT_PCT, MOVEPOSE_DEFAULT_PCT, RUCKIG_JERK_TIME_S, SPEED_ONLY_ACCEL_PCT,
+    plan_joint_jog, plan_joint_move, plan_pose_move, plan_speed_joint,
 )
 from parolkit.motion.trajectory import Trajectory
-from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
+from parolkit.moves import (
+    ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove, CircleMove,
+    HelixMove, JointJog, JointMove, PoseMove, SpeedJointMove, SplineMove,
+)
+from parolkit.robot import PAROL6, RobotModel
 
 __all__ = [
     "plan",
+    # the joint-space defaults, defined in parolkit.motion.joint
     "MOVEJOINT_DEFAULT_PCT",
     "MOVEPOSE_DEFAULT_PCT",
     "SPEED_ONLY_ACCEL_PCT",
     "RUCKIG_JERK_TIME_S",
 ]
-
-#: MoveJoint with only targets: (speed %, accel %) of the original software.
-MOVEJOINT_DEFAULT_PCT = (45.0, 27.0)
-#: MovePose with only a pose: (speed %, accel %).
-MOVEPOSE_DEFAULT_PCT = (50.0, 30.0)
-#: Acceleration % used when only a speed % is given (the original UDP MOVEJOINT rule).
-SPEED_ONLY_ACCEL_PCT = 50.0
-#: Ruckig jerk limit = acceleration limit / this time (s): full acceleration within 0.1 s.
-RUCKIG_JERK_TIME_S = 0.1
-
-_TOL = 1e-9
-
 
 def _rate(rate_hz: float) -> float:
     try:
@@ -65,12 +43,6 @@ def _rate(rate_hz: float) -> float:
     if not math.isfinite(r) or not 1.0 <= r <= 1000.0:
         raise ParolkitValueError(f"rate_hz must be in 1..1000 Hz, got {rate_hz!r}")
     return r
-
-
-def sample_times(duration: float, rate_hz: float) -> np.ndarray:
-    """Tick times 1/rate, 2/rate, ... up to the first tick at or after ``duration`` (s)."""
-    n = max(1, int(math.ceil(duration * rate_hz - 1e-6)))
-    return np.arange(1, n + 1, dtype=float) / rate_hz
 
 
 def plan(
@@ -104,17 +76,13 @@ def plan(
 
 def _dispatch(move: object, start: np.ndarray, model: RobotModel, tool: object, rate: float) -> Trajectory:
     if isinstance(move, JointMove):
-        fast = _fast_timed(move, start, move.target_deg, model, rate)
-        if fast is not None:
-            return fast
-        return _plan_joint_target(move, start, np.asarray(move.target_deg), model, rate,
-                                  MOVEJOINT_DEFAULT_PCT)
+        return plan_joint_move(move, start, model, rate)
     if isinstance(move, PoseMove):
-        return _plan_pose(move, start, model, tool, rate)
+        return plan_pose_move(move, start, model, tool, rate)
     if isinstance(move, SpeedJointMove):
-        return _plan_speed_joint(move, start, model, rate)
+        return plan_speed_joint(move, start, model, rate)
     if isinstance(move, JointJog):
-        return _plan_joint_jog(move, start, model, rate)
+        return plan_joint_jog(move, start, model, rate)
     if not isinstance(move, _CARTESIAN_MOVES):
         raise ParolkitValueError(
             f"move must be one of {', '.join(c.__name__ for c in (JointMove, PoseMove, SpeedJointMove, JointJog) + _CARTESIAN_MOVES)}, "
@@ -131,507 +99,3 @@ _CARTESIAN_MOVES = (
     CartMove, CartRelTRFMove, CartJog, CircleMove, ArcCenterMove, ArcParamMove, HelixMove,
     SplineMove, BlendMove,
 )
-
-# ---------------------------------------------------------------------------------------------
-# building and checking the arrays
-# ---------------------------------------------------------------------------------------------
-
-
-def build_trajectory(
-    move: object, t: np.ndarray, q_deg: np.ndarray, qd_deg_s: np.ndarray, *,
-    start: np.ndarray, model: RobotModel, rate: float, tracking: Tracking,
-    notes: Sequence[str] = (), target_deg: np.ndarray | None = None, jog: bool = False,
-    check_accel: bool = True, hint: str = "", proven: bool = False,
-) -> Trajectory:
-    """Round to steps, validate (positions, speeds, accelerations) and wrap in a Trajectory.
-
-    ``target_deg``: the last sample is set exactly to it (POSITION tracking ends on target).
-    SPEED tracking gets a trailing zero-speed sample when the last speed is not zero.
-    ``proven``: the caller has bounded the peak speed and acceleration analytically (a
-    synchronised poly / trap profile checked against every joint's maxima); the sampled
-    values cannot exceed those peaks (the speed limits are whole steps/s, so rounding cannot
-    cross them either), so only the positions are checked sample by sample.
-    """
-    name = getattr(move, "name", type(move).__name__)
-    spd = validate.model_arrays(model).steps_per_deg
-    steps_f = q_deg * spd
-    pos = np.rint(steps_f).astype(np.int64)
-    if target_deg is not None:
-        pos[-1] = np.rint(np.asarray(target_deg) * spd).astype(np.int64)
-    sp_f = qd_deg_s * spd
-    validate.check_positions(name, t, pos, model)
-    if not proven:
-        validate.check_speeds(name, t, sp_f, model, jog=jog, hint=hint)
-        if check_accel:
-            validate.check_accels(name, t, sp_f, model, rate, hint=hint)
-    sp = np.rint(sp_f).astype(np.int64)
-    planned = q_deg
-    if target_deg is not None:
-        planned[-1] = target_deg
-    if tracking is Tracking.SPEED and np.any(sp[-1] != 0):
-        t = np.append(t, t[-1] + 1.0 / rate)
-        pos = np.vstack([pos, pos[-1:]])
-        sp = np.vstack([sp, np.zeros((1, 6), dtype=np.int64)])
-        planned = np.vstack([planned, planned[-1:]])
-    commands = np.full(len(t), tracking.value, dtype=np.uint8)
-    return Trajectory(t=t, positions=pos, speeds=sp, commands=commands, rate_hz=rate, move=move,
-                      notes=tuple(notes), start_deg=start, model=model, planned_deg=planned)
-
-
-def hold(move, start: np.ndarray, target: np.ndarray, model: RobotModel, rate: float,
-         tracking: Tracking) -> Trajectory:
-    """A move that is already at its target: one sample, or, when it has a duration, the
-    target held for that long (a program's timing stays what the user wrote)."""
-    duration = getattr(move, "duration_s", None)
-    t = sample_times(duration, rate) if duration else np.array([1.0 / rate])
-    q = np.repeat(np.asarray(target, dtype=float)[None, :], len(t), axis=0)
-    note = "already at target" + (f": holding it for {duration:g} s" if duration else "")
-    return build_trajectory(move, t, q, np.zeros_like(q), start=start, model=model, rate=rate,
-                            tracking=tracking, notes=[note], target_deg=target, proven=True)
-
-
-def _check_target(name: str, target: np.ndarray, model: RobotModel, what: str = "target") -> None:
-    ma = validate.model_arrays(model)
-    if (target >= ma.safe_lo).all() and (target <= ma.safe_hi).all():
-        return
-    lim = ma.safe_deg
-    bad = np.nonzero((target < lim[:, 0]) | (target > lim[:, 1]))[0]
-    if len(bad):
-        j = int(bad[0])
-        raise PlanningError(
-            name,
-            f"{what} {JOINT_NAMES[j]} = {target[j]:.3f} deg is outside the joint range "
-            f"{lim[j, 0]:.3f} .. {lim[j, 1]:.3f} deg",
-            joint=j, value=float(target[j]),
-        )
-
-
-# ---------------------------------------------------------------------------------------------
-# joint-space point-to-point (MoveJoint, MovePose)
-# ---------------------------------------------------------------------------------------------
-
-
-def _plan_pose(move: PoseMove, start: np.ndarray, model: RobotModel, tool: object, rate: float) -> Trajectory:
-    from parolkit import kinematics
-
-    try:
-        target = np.asarray(kinematics.ik(move.pose, seed_deg=start, tool=tool), dtype=float)
-    except kinematics.IKError as exc:  # an unreachable pose
-        raise PlanningError(
-            move.name, f"pose {_fmt_pose(move.pose)} is not reachable: {exc.reason}",
-            joint=exc.joint, value=exc.value,
-        ) from exc
-    fast = _fast_timed(move, start, target.tolist(), model, rate)
-    if fast is not None:
-        return fast
-    return _plan_joint_target(move, start, target, model, rate, MOVEPOSE_DEFAULT_PCT)
-
-
-def _fmt_pose(pose: Sequence[float]) -> str:
-    return "[" + ", ".join(f"{v:g}" for v in pose) + "]"
-
-
-_DURATION_NOTE = "duration given: it overrides speed and acceleration percentages"
-
-
-def _fast_timed(
-    move: JointMove | PoseMove, start: np.ndarray, target: Sequence[float], model: RobotModel,
-    rate: float,
-) -> Trajectory | None:
-    """The common case of :func:`_plan_joint_target` (a duration with the POLY or TRAP
-    profile, target inside the range, moving, fast enough) with the per-joint checks done on
-    plain Python floats (6 values: cheaper than numpy calls).  Returns None whenever anything
-    else applies (a refusal, a hold, another profile): the general path then plans it,
-    with its messages.  Same arithmetic, so the same decisions, as the general path."""
-    T = move.duration_s
-    if T is None:
-        return None
-    profile = move.profile
-    if profile is None or profile is Profile.POLY:
-        kind, kv, ka = "poly", POLY_PEAK_SPEED, POLY_PEAK_ACCEL
-    elif profile is Profile.TRAP:
-        kind, kv, ka = "trap", TRAP3_PEAK_SPEED, TRAP3_PEAK_ACCEL
-    else:
-        return None
-    ma = validate.model_arrays(model)
-    dist_max = 0.0
-    tv = 0.0
-    start_l = start.tolist()
-    for q0, q1, k, v, lo, hi, tlo, thi in zip(start_l, target, ma.spd_list, ma.vmax_list,
-                                              ma.round_lo_list, ma.round_hi_list,
-                                              ma.safe_lo_list, ma.safe_hi_list):
-        if not tlo <= q1 <= thi:
-            return None  # target outside the range: refused by the general path
-        if not lo <= q0 * k <= hi:
-            return None  # start outside the limits: the samples are checked one by one
-        d = abs((q1 - q0) * k)  # steps
-        if d > dist_max:
-            dist_max = d
-        tj = kv * d / v
-        if tj > tv:
-            tv = tj
-    if dist_max < 0.5:
-        return None  # already there: hold
-    tmin = max(tv, math.sqrt(ka * dist_max / ma.amax))
-    T = float(T)
-    if T < tmin * (1.0 - 1e-9):
-        return None  # refused by the general path, with the limiting joint
-    notes = (_DURATION_NOTE,) if move.speed_pct is not None or move.accel_pct is not None else ()
-    return _monotonic_trajectory(move, kind, T, T / 3.0 if kind == "trap" else 0.0, start,
-                                 start_l, list(target), model, ma, rate, move.tracking, notes,
-                                 start_inside=True)
-
-
-def _plan_joint_target(
-    move: JointMove | PoseMove, start: np.ndarray, target: np.ndarray, model: RobotModel,
-    rate: float, default_pct: tuple[float, float],
-) -> Trajectory:
-    name = move.name
-    _check_target(name, target, model)
-    ma = validate.model_arrays(model)
-    spd = ma.steps_per_deg
-    delta = target - start  # deg
-    dist = np.abs(delta * spd)  # steps
-    vmax = ma.vmax
-    amax = ma.amax
-    notes: list[str] = []
-    tracking = move.tracking
-    if dist.max() < 0.5:  # already there (less than half a step on every joint)
-        return hold(move, start, target, model, rate, tracking)
-    if move.duration_s is not None:
-        if move.speed_pct is not None or move.accel_pct is not None:
-            notes.append(_DURATION_NOTE)
-        prof, T = _timed_profile(name, move.profile or Profile.POLY, float(move.duration_s), dist,
-                                 vmax, amax, start, delta, spd)
-    else:
-        v_pct = move.speed_pct if move.speed_pct is not None else default_pct[0]
-        if move.accel_pct is not None:
-            a_pct = move.accel_pct
-        else:
-            a_pct = SPEED_ONLY_ACCEL_PCT if move.speed_pct is not None else default_pct[1]
-        prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, vmax,
-                                   amax, start, delta, spd, model, notes)
-    if isinstance(prof, ScalarProfile) and prof.kind in ("poly", "trap"):
-        return _monotonic_trajectory(move, prof.kind, prof.T, prof.ta, start, start.tolist(),
-                                     target.tolist(), model, ma, rate, tracking, notes)
-    t = sample_times(T, rate)
-    proven = False
-    if isinstance(prof, ScalarProfile):  # Ruckig: not monotonic in general, checked in full
-        s, sd, _ = prof(t)
-        q = start + s[:, None] * delta
-        qd = sd[:, None] * delta
-    else:  # TOPP-RA result on the straight joint path
-        q, qd, _ = prof.evaluate(t)
-        q = np.array(q, dtype=float)
-        qd = np.array(qd, dtype=float)
-    qd[-1] = 0.0
-    return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate, tracking=tracking,
-                            notes=notes, target_deg=target, proven=proven)
-
-
-def _monotonic_trajectory(
-    move: object, kind: str, T: float, ta: float, start: np.ndarray, start_l: list[float],
-    target: list[float], model: RobotModel, ma: validate.ModelArrays, rate: float, tracking: Tracking,
-    notes: Sequence[str], *, start_inside: bool = False,
-) -> Trajectory:
-    """The Trajectory of a synchronised poly / trap move (``kind``, duration ``T`` s,
-    trapezoid acceleration time ``ta`` s), validated analytically.
-
-    ``q(t) = start + s(t) * delta`` with ``s`` monotonic from 0 to 1 (the sampled basis is
-    cached per profile and rate), so:
-
-    * positions: every sample lies between the start and the target (up to a few ulps).  The
-      target was checked against the safe limits (whose float steps are within 0.499 steps of
-      the step limits) and if the start's float steps are within 0.4995 steps of them too,
-      every rounded sample is inside the step limits (``start_inside``: the caller has
-      checked that already).  Otherwise the samples are checked one by one (same error as
-      before: the first offending sample).
-    * speeds and accelerations: the caller chose the duration from the closed-form peaks
-      (quintic 1.875 |d| / T and 5.7735 |d| / T^2; trapezoid 1 / (T - ta) and
-      1 / (ta (T - ta))) against every joint's maxima.  Sampled speeds cannot exceed the
-      continuous peak (the limits are whole steps/s, so rounding cannot cross them either)
-      and finite differences over one tick cannot exceed the peak |s''| (mean-value theorem),
-      including the first tick from rest and the final stop (speed 0 at or after ``T``).
-
-    ``tests/unit/test_motion_joint.py`` checks this against a sample-by-sample scan.
-    """
-    t, basis, speed = sampled_basis(kind, T, ta, rate)
-    n = len(t)
-    q, pos, sp = _fill(basis, speed, start_l, target, ma.spd_list, n)
-    if not start_inside and not validate.inside([a * k for a, k in zip(start_l, ma.spd_list)],
-                                                ma.round_lo_list, ma.round_hi_list):
-        validate.check_positions(move.name, t, pos, model)
-    return Trajectory._trusted(t, pos, sp, _commands(n, tracking.value), rate, move, tuple(notes),
-                               start, model, q)
-
-
-def _fill_reference(basis: np.ndarray, speed: np.ndarray, start: list[float], target: list[float],
-                    spd: list[float], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The arrays of ``q = start + s * (target - start)`` (deg; the last row exactly the
-    target), its positions in steps and its speeds in steps/s (``s' * delta``), from the
-    sampled profile ``basis`` (columns 1, s) and ``speed`` (s').  The reference of the
-    compiled ``_csamples.fill`` (used when that is not built)."""
-    m = np.array((start, target))
-    m[1] -= m[0]  # delta
-    q = np.dot(basis, m)  # start + s * delta (deg)
-    q[-1] = target
-    m *= spd
-    steps_f = np.dot(basis, m)  # the same in steps
-    steps_f[-1] = np.multiply(target, spd)
-    np.rint(steps_f, out=steps_f)
-    pos = steps_f.astype(np.int64)
-    sp_f = np.dot(speed, m[1:])  # s' * delta (steps/s); the basis ends at speed 0
-    np.rint(sp_f, out=sp_f)
-    return q, pos, sp_f.astype(np.int64)
-
-
-def _fill_native(basis: np.ndarray, speed: np.ndarray, start: list[float], target: list[float],
-                 spd: list[float], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_fill_reference` in one pass of compiled code."""
-    return _csamples.fill(basis, speed, start, target, spd)
-
-
-_csamples = _native.load("parolkit.motion._csamples")
-_fill = _fill_reference if _csamples is None else _fill_native
-
-
-def _commands(n: int, value: int) -> np.ndarray:
-    """(n,) read-only uint8 array of the board command ``value`` (shared between plans of up
-    to 4096 samples: bounded cache memory)."""
-    if n <= 4096:
-        return _cached_commands(n, value)
-    out = np.full(n, value, dtype=np.uint8)
-    out.setflags(write=False)
-    return out
-
-
-@lru_cache(maxsize=64)
-def _cached_commands(n: int, value: int) -> np.ndarray:
-    out = np.full(n, value, dtype=np.uint8)
-    out.setflags(write=False)
-    return out
-
-
-def _min_duration(kind: str, dist: np.ndarray, vmax: np.ndarray, amax: float) -> tuple[float, int, str]:
-    """Shortest duration for a synchronised poly/trap(1/3) move; the limiting joint and why."""
-    kv, ka = (POLY_PEAK_SPEED, POLY_PEAK_ACCEL) if kind == "poly" else (TRAP3_PEAK_SPEED, TRAP3_PEAK_ACCEL)
-    tv = kv * dist / vmax
-    ta = np.sqrt(ka * dist / amax)
-    tv_max = tv.max()
-    ta_max = ta.max()
-    if tv_max >= ta_max:
-        return float(tv_max), int(tv.argmax()), "speed"
-    return float(ta_max), int(ta.argmax()), "acceleration"
-
-
-def _timed_profile(
-    name: str, profile: Profile, T: float, dist: np.ndarray, vmax: np.ndarray, amax: float,
-    start: np.ndarray, delta: np.ndarray, spd: np.ndarray,
-):
-    """Profile lasting exactly ``T`` s, or a refusal when a joint cannot keep up."""
-    if profile in (Profile.POLY, Profile.TRAP):
-        kind = "poly" if profile is Profile.POLY else "trap"
-        tmin, j, why = _min_duration(kind, dist, vmax, amax)
-        if T < tmin * (1.0 - 1e-9):
-            _refuse_too_fast(name, kind, T, tmin, j, why, dist, vmax, amax)
-        return (ScalarProfile("poly", T) if kind == "poly" else ScalarProfile("trap", T, T / 3.0)), T
-    if profile is Profile.RUCKIG:
-        with np.errstate(divide="ignore"):
-            v_s = float(np.min(vmax / dist))
-            a_s = float(np.min(amax / dist))
-        j_s = a_s / RUCKIG_JERK_TIME_S
-        prof = ruckig_unit_profile(v_s, a_s, j_s, min_duration=T)
-        if prof.T > T * (1.0 + 1e-6):
-            raise PlanningError(
-                name,
-                f"too fast for t={T:g} s: the jerk-limited profile needs at least {prof.T:.3f} s "
-                f"within the joint speed/acceleration limits; give t >= {math.ceil(prof.T * 100) / 100:.2f} s",
-            )
-        return prof, T
-    # TOPP-RA on the straight joint-space line
-    from parolkit.motion.topp import toppra_parameterize
-
-    res = toppra_parameterize(np.array([0.0, 1.0]), np.vstack([start, start + delta]),
-                              vmax / spd, amax / spd, duration=T)
-    if res is None or res.duration > T * (1.0 + 1e-6):
-        need = "no feasible timing" if res is None else f"at least {res.duration:.3f} s"
-        raise PlanningError(name, f"too fast for t={T:g} s: TOPP-RA finds {need} within the joint limits")
-    return res, T
-
-
-def _refuse_too_fast(name, kind, T, tmin, j, why, dist, vmax, amax) -> None:
-    if why == "speed":
-        k = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
-        value = k * dist[j] / T
-        t_at = T / 2.0 if kind == "poly" else T / 3.0
-        detail = f"{JOINT_NAMES[j]} would need a speed of {value:.0f} steps/s (maximum {vmax[j]:.0f} steps/s)"
-    else:
-        k = POLY_PEAK_ACCEL if kind == "poly" else TRAP3_PEAK_ACCEL
-        value = k * dist[j] / T**2
-        t_at = T * (0.5 - 0.5 / math.sqrt(3.0)) if kind == "poly" else 1.0 / 100.0
-        detail = (f"{JOINT_NAMES[j]} would need an acceleration of {value:.0f} steps/s^2 "
-                  f"(maximum {amax:.0f} steps/s^2)")
-    raise PlanningError(
-        name,
-        f"too fast for t={T:g} s with the {kind} profile: {detail}; "
-        f"give t >= {math.ceil(tmin * 100 - 1e-6) / 100:.2f} s",
-        time_s=t_at, joint=j, value=value,
-    )
-
-
-def _percent_profile(
-    name: str, profile: Profile, v_pct: float, a_pct: float, dist: np.ndarray, vmax: np.ndarray,
-    amax: float, start: np.ndarray, delta: np.ndarray, spd: np.ndarray, model: RobotModel,
-    notes: list[str],
-):
-    """Leading-joint v/a profile with every joint synchronised (finishing together)."""
-    lead = int(np.argmax(dist))
-    v_lead = float(model.speed_from_percent(v_pct)[lead])
-    a_lead = float(model.accel_from_percent(a_pct))
-    if profile is Profile.TOPPRA:
-        # time-optimal: every joint within its own mapped speed and the mapped acceleration
-        from parolkit.motion.topp import toppra_parameterize
-
-        v_joint = np.minimum(model.speed_from_percent(v_pct), vmax) / spd
-        res = toppra_parameterize(np.array([0.0, 1.0]), np.vstack([start, start + delta]),
-                                  v_joint, np.full(6, a_lead) / spd)
-        if res is None:
-            raise PlanningError(name, "TOPP-RA finds no feasible timing within the joint limits")
-        return res, res.duration
-    d = dist[lead]
-    moving = dist > 0.0
-    # unit-path limits: the leading joint's mapped values, capped so every joint stays inside
-    v_s = v_lead / d
-    a_s = a_lead / d
-    with np.errstate(divide="ignore", over="ignore"):  # a sub-normal distance caps at inf, as intended
-        v_caps = np.where(moving, vmax / np.where(moving, dist, 1.0), np.inf)
-        a_caps = np.where(moving, amax / np.where(moving, dist, 1.0), np.inf)
-    jv = int(np.argmin(v_caps))
-    if v_caps[jv] < v_s * (1.0 - 1e-12):
-        notes.append(
-            f"leading joint {JOINT_NAMES[lead]} slowed from {v_lead:.0f} to {v_caps[jv] * d:.0f} steps/s: "
-            f"{JOINT_NAMES[jv]} speed limit {vmax[jv]:.0f} steps/s (all joints finish together)"
-        )
-        v_s = float(v_caps[jv])
-    ja = int(np.argmin(a_caps))
-    if a_caps[ja] < a_s * (1.0 - 1e-12):
-        a_s = float(a_caps[ja])
-    if profile is Profile.TRAP:
-        T, ta = trapezoid_for_limits(1.0, v_s, a_s)
-        if abs(ta - T / 2.0) < 1e-12 and 1.0 / ta < 0.95 * v_s:
-            notes.append(
-                f"triangular profile: {JOINT_NAMES[lead]} peaks at {d / ta:.0f} steps/s before "
-                f"reaching {v_s * d:.0f} steps/s"
-            )
-        return ScalarProfile("trap", T, ta), T
-    if profile is Profile.POLY:
-        T = max(POLY_PEAK_SPEED / v_s, math.sqrt(POLY_PEAK_ACCEL / a_s))
-        return ScalarProfile("poly", T), T
-    prof = ruckig_unit_profile(v_s, a_s, a_s / RUCKIG_JERK_TIME_S)
-    return prof, prof.T
-
-
-# ---------------------------------------------------------------------------------------------
-# constant-speed streams (SpeedJoint, joint jogs): board command 123
-# ---------------------------------------------------------------------------------------------
-
-
-def _constant_speed(
-    move: object, start: np.ndarray, v_deg_s: np.ndarray, T: float, model: RobotModel,
-    rate: float, *, jog: bool, notes: Sequence[str] = (),
-) -> Trajectory:
-    """Constant joint speeds for ``T`` s (the last tick scaled so the integral is exact), then
-    a zero-speed sample.  Positions are where the joints are expected at each tick.
-
-    A jog (``jog=True``) that would leave a joint's range stops exactly at the limit and says
-    so in the notes (``"stopped at the upper limit of J2 ..."``); a SpeedJoint is refused.
-    """
-    name = getattr(move, "name", type(move).__name__)
-    spd = model.steps_per_deg
-    sp_f = v_deg_s * spd
-    mx = np.asarray(model.max_jog_speed_steps_s if jog else model.max_speed_steps_s, dtype=float)
-    over = np.nonzero(np.abs(sp_f) > mx * (1 + 1e-9))[0]
-    if len(over):
-        j = int(over[0])
-        kind = "maximum jog speed" if jog else "maximum speed"
-        raise PlanningError(
-            name, f"{JOINT_NAMES[j]} speed {abs(sp_f[j]):.0f} steps/s ({abs(v_deg_s[j]):.3f} deg/s) "
-            f"exceeds the {kind} {mx[j]:.0f} steps/s ({mx[j] / spd[j]:.3f} deg/s)",
-            time_s=1.0 / rate, joint=j, value=float(v_deg_s[j]),
-        )
-    # where would the joints leave their range?  Jogs stop there (with a note), other moves
-    # are refused with the longest allowed duration.
-    lim = model.safe_limits_deg
-    end = start + v_deg_s * T
-    bad = np.nonzero((end < lim[:, 0]) | (end > lim[:, 1]))[0]
-    notes = list(notes)
-    if len(bad):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bound = np.where(v_deg_s > 0, lim[:, 1], lim[:, 0])
-            t_hit = np.where(v_deg_s != 0, (bound - start) / v_deg_s, np.inf)
-        j = int(bad[np.argmin(t_hit[bad])])
-        th = max(0.0, float(t_hit[j]))
-        side = "upper" if v_deg_s[j] > 0 else "lower"
-        if jog:
-            notes.append(f"stopped at the {side} limit of {JOINT_NAMES[j]} "
-                         f"({bound[j]:.3f} deg) after {th:.3f} s")
-            if th * rate < 1e-6:
-                t = np.array([1.0 / rate])
-                pos = np.rint(start * spd).astype(np.int64)[None, :]
-                return Trajectory(t=t, positions=pos, speeds=np.zeros((1, 6), dtype=np.int64),
-                                  commands=np.full(1, Tracking.SPEED.value, dtype=np.uint8),
-                                  rate_hz=rate, move=move, notes=tuple(notes), start_deg=start,
-                                  model=model)
-            T = th
-        else:
-            raise PlanningError(
-            name,
-                f"{JOINT_NAMES[j]} would reach {end[j]:.3f} deg, beyond its range "
-                f"{lim[j, 0]:.3f} .. {lim[j, 1]:.3f} deg (it gets there after {th:.3f} s; "
-                f"the longest allowed duration is {math.floor(th * rate) / rate:.2f} s)",
-                time_s=th, joint=j, value=float(end[j]),
-            )
-    n_full = int(math.floor(T * rate + 1e-9))
-    frac = T * rate - n_full
-    if frac < 1e-6:
-        frac = 0.0
-    n = n_full + (1 if frac > 0 else 0)
-    scale = np.ones(n)
-    if frac > 0:
-        scale[-1] = frac
-    speeds = np.outer(scale, v_deg_s)  # deg/s applied during each tick
-    # sample k's speed acts during the tick ending at t[k]; its position is where the joints
-    # are at t[k] (start + the speeds so far); the trailing zero-speed sample holds the end
-    travelled = np.cumsum(speeds, axis=0) / rate
-    q = start + np.vstack([travelled, travelled[-1:]])
-    t = np.arange(1, n + 2, dtype=float) / rate
-    qd = np.vstack([speeds, np.zeros((1, 6))])
-    spdr = np.rint(qd * spd).astype(np.int64)
-    pos = np.rint(q * spd).astype(np.int64)
-    validate.check_positions(name, t, pos, model)
-    return Trajectory(t=t, positions=pos, speeds=spdr,
-                      commands=np.full(len(t), Tracking.SPEED.value, dtype=np.uint8),
-                      rate_hz=rate, move=move, notes=tuple(notes), start_deg=start, model=model,
-                      planned_deg=q)
-
-
-def _plan_speed_joint(move: SpeedJointMove, start: np.ndarray, model: RobotModel, rate: float) -> Trajectory:
-    return _constant_speed(move, start, np.asarray(move.speeds_deg_s, dtype=float),
-                           float(move.duration_s), model, rate, jog=False)
-
-
-def _plan_joint_jog(move: JointJog, start: np.ndarray, model: RobotModel, rate: float) -> Trajectory:
-    spd = model.steps_per_deg
-    v = np.zeros(6)
-    for j, d, p in zip(move.joints, move.directions, move.speed_pct):
-        v[j] = d * float(model.jog_speed_from_percent(p)[j]) / spd[j]
-    notes = []
-    T = move.duration_s
-    if move.distance_deg is not None:
-        j = move.joints[0]
-        t_dist = move.distance_deg / abs(v[j])
-        if T is None or t_dist < T:
-            T = t_dist
-            if move.duration_s is not None:
-                notes.append(f"jog ends after {move.distance_deg:g} deg ({t_dist:.3f} s), before duration_s")
-    return _constant_speed(move, start, v, float(T), model, rate, jog=True, notes=notes)

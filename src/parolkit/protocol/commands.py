@@ -12,8 +12,14 @@ The wire format (``docs/protocol.md``)::
   edge units (names say which); the controller converts to SI / steps further in.
 
 :func:`parse_datagram` returns a :class:`Parsed` (the optional ID and the command object) or
-raises :class:`CommandError` whose message names the field and the allowed range, and which
+raises :class:`DatagramError` whose message names the field and the allowed range, and which
 carries the ID when one was recognised (so the controller can send an INVALID ack).
+
+A motion command carries its move as a :mod:`parolkit.moves` value object (``MOVEJOINT`` ->
+``MoveJoint(move=JointMove(...))``): the planner gets ``command.move`` as it is.  The words of
+the wire (``Profile``, ``Tracking``, ``Frame``, ``Plane``, ``Timing``, ``CartAxis``) are the
+enums of :mod:`parolkit.moves`, re-exported here.  The wire ranges are checked first (their
+messages name the wire field); the move's own checks then apply as well.
 
 Nothing here clamps, wraps or guesses: a value outside its range is an error.
 """
@@ -25,15 +31,39 @@ import math
 import re
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable, ClassVar, Sequence
+from typing import Any, Callable, ClassVar, Sequence, TypeVar
 
 from parolkit.errors import ParolkitValueError
+from parolkit.moves import (
+    MAX_DURATION_S,
+    ArcCenterMove,
+    ArcParamMove,
+    BlendMove,
+    BlendSegment,
+    CartAxis,
+    CartJog,
+    CartMove,
+    CartRelTRFMove,
+    CircleMove,
+    Frame,
+    HelixMove,
+    JointJog,
+    JointMove,
+    LineSegment,
+    Plane,
+    PoseMove,
+    Profile,
+    SpeedJointMove,
+    SplineMove,
+    Timing,
+    Tracking,
+)
 from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
 
 __all__ = [
     "MAX_DATAGRAM_BYTES",
     "MAX_DURATION_S",
-    "CommandError",
+    "DatagramError",
     "CommandKind",
     "AckStatus",
     "Profile",
@@ -41,6 +71,8 @@ __all__ = [
     "Frame",
     "Plane",
     "Timing",
+    "CartAxis",
+    "BLEND_SEGMENT_KINDS",
     "Command",
     "Query",
     "Stop",
@@ -59,7 +91,7 @@ __all__ = [
     "MoveCartRelTRF",
     "Jog",
     "MultiJog",
-    "CartJog",
+    "CartJogCommand",
     "Home",
     "Delay",
     "PneumaticGripper",
@@ -71,7 +103,6 @@ __all__ = [
     "SmoothArcParam",
     "SmoothSpline",
     "SmoothHelix",
-    "BlendSegment",
     "SmoothBlend",
     "Parsed",
     "QUERY_NAMES",
@@ -86,8 +117,6 @@ __all__ = [
 
 #: Largest datagram accepted, bytes.
 MAX_DATAGRAM_BYTES = 65_000
-#: Longest duration any timed command may ask for, s.
-MAX_DURATION_S = 3600.0
 #: Largest Cartesian coordinate accepted on the wire, mm (reachability is checked by IK later).
 MAX_COORD_MM = 10_000.0
 #: Most waypoints a spline may carry.
@@ -98,14 +127,18 @@ _NUM_RE = re.compile(r"^[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?$")
 _INT_RE = re.compile(r"^[+-]?\d+$")
 
 
-class CommandError(ParolkitValueError):
+_E = TypeVar("_E", bound=Enum)
+
+
+class DatagramError(ParolkitValueError):
     """A datagram that is not a valid command.  ``str(exc)`` names the field and the range.
 
-    ``command_id`` is the datagram's ID when one was recognised (INVALID ack goes there),
-    ``name`` the command name when known.
+    ``command_id`` is the datagram's ID when one was recognised (the controller sends the
+    INVALID ack there; without an ID it answers ``ERROR|message``), ``name`` the command name
+    when known.  The sender fixes the datagram (see docs/protocol.md) and sends it again.
     """
 
-    def __init__(self, message: str, *, command_id: str | None = None, name: str | None = None):
+    def __init__(self, message: str, *, command_id: str | None = None, name: str | None = None) -> None:
         super().__init__(message)
         self.message = message
         self.command_id = command_id
@@ -135,49 +168,12 @@ class AckStatus(str, Enum):
 
     @property
     def terminal(self) -> bool:
+        """True for COMPLETED, FAILED, CANCELLED and INVALID (exactly one per command)."""
         return self in (AckStatus.COMPLETED, AckStatus.FAILED, AckStatus.CANCELLED, AckStatus.INVALID)
 
 
-class Profile(str, Enum):
-    """Velocity profile requested for a move (None on the wire = the planner's default)."""
-
-    POLY = "poly"
-    TRAP = "trap"
-    RUCKIG = "ruckig"
-    TOPPRA = "toppra"
-
-
-class Tracking(str, Enum):
-    """How a trajectory is streamed to the board: positions (156) or speeds (123)."""
-
-    POSITION = "position"
-    SPEED = "speed"
-
-
-class Frame(str, Enum):
-    """Reference frame of Cartesian jogs and smooth paths."""
-
-    WRF = "WRF"
-    TRF = "TRF"
-
-
-class Plane(str, Enum):
-    """Plane of a circle."""
-
-    XY = "XY"
-    XZ = "XZ"
-    YZ = "YZ"
-
-
-class Timing(str, Enum):
-    """Timing mode of smooth paths: a total duration (s) or a speed percentage."""
-
-    DURATION = "DURATION"
-    SPEED = "SPEED"
-
-
 # ---------------------------------------------------------------------------------------------
-# field parsing helpers (each raises CommandError naming the field)
+# field parsing helpers (each raises DatagramError naming the field)
 # ---------------------------------------------------------------------------------------------
 
 
@@ -188,10 +184,10 @@ def _given(text: str) -> bool:
 def _number(text: str, fname: str) -> float:
     s = text.strip()
     if not _NUM_RE.match(s):
-        raise CommandError(f"{fname} must be a decimal number, got {text!r}")
+        raise DatagramError(f"{fname} must be a decimal number, got {text!r}")
     v = float(s)
     if not math.isfinite(v):
-        raise CommandError(f"{fname} must be a finite number, got {text!r}")
+        raise DatagramError(f"{fname} must be a finite number, got {text!r}")
     return v
 
 
@@ -201,36 +197,37 @@ def _ranged(text: str, fname: str, lo: float, hi: float, *, lo_open: bool = Fals
     if bad:
         lb = "(" if lo_open else "["
         u = f" {unit}" if unit else ""
-        raise CommandError(f"{fname} = {v:g}{u} is out of range {lb}{lo:g}, {hi:g}]{u}")
+        raise DatagramError(f"{fname} = {v:g}{u} is out of range {lb}{lo:g}, {hi:g}]{u}")
     return v
 
 
-def _opt_ranged(text: str, fname: str, lo: float, hi: float, **kw) -> float | None:
-    return _ranged(text, fname, lo, hi, **kw) if _given(text) else None
+def _opt_ranged(text: str, fname: str, lo: float, hi: float, *, lo_open: bool = False,
+                unit: str = "") -> float | None:
+    return _ranged(text, fname, lo, hi, lo_open=lo_open, unit=unit) if _given(text) else None
 
 
 def _integer(text: str, fname: str, lo: int, hi: int) -> int:
     s = text.strip()
     if not _INT_RE.match(s):
-        raise CommandError(f"{fname} must be an integer in {lo}..{hi}, got {text!r}")
+        raise DatagramError(f"{fname} must be an integer in {lo}..{hi}, got {text!r}")
     v = int(s)
     if not lo <= v <= hi:
-        raise CommandError(f"{fname} = {v} is out of range {lo}..{hi}")
+        raise DatagramError(f"{fname} = {v} is out of range {lo}..{hi}")
     return v
 
 
-def _choice(text: str, fname: str, enum: type[Enum], *, upper: bool = True) -> Enum:
+def _choice(text: str, fname: str, enum: type[_E], *, upper: bool = True) -> _E:
     s = text.strip()
     s = s.upper() if upper else s.lower()
     for member in enum:
         if member.value == s:
             return member
     allowed = "|".join(m.value for m in enum)
-    raise CommandError(f"{fname} must be one of {allowed}, got {text!r}")
+    raise DatagramError(f"{fname} must be one of {allowed}, got {text!r}")
 
 
-def _opt_choice(text: str, fname: str, enum: type[Enum], **kw) -> Enum | None:
-    return _choice(text, fname, enum, **kw) if _given(text) else None
+def _opt_choice(text: str, fname: str, enum: type[_E], *, upper: bool = True) -> _E | None:
+    return _choice(text, fname, enum, upper=upper) if _given(text) else None
 
 
 def _flag01(text: str, fname: str) -> bool:
@@ -239,13 +236,13 @@ def _flag01(text: str, fname: str) -> bool:
         return True
     if s in ("0", "FALSE"):
         return False
-    raise CommandError(f"{fname} must be 0 or 1, got {text!r}")
+    raise DatagramError(f"{fname} must be 0 or 1, got {text!r}")
 
 
 def _numbers(text: str, fname: str, count: int) -> tuple[float, ...]:
     parts = text.split(",")
     if len(parts) != count:
-        raise CommandError(f"{fname} must be {count} comma-separated numbers, got {len(parts)}")
+        raise DatagramError(f"{fname} must be {count} comma-separated numbers, got {len(parts)}")
     return tuple(_number(p, f"{fname}[{i}]") for i, p in enumerate(parts))
 
 
@@ -256,12 +253,12 @@ def _check_pose(values: Sequence[float], fname: str, *, relative: bool = False) 
     for i, v in enumerate(values):
         if i < 3:
             if abs(v) > MAX_COORD_MM:
-                raise CommandError(
+                raise DatagramError(
                     f"{fname}: {_POSE_NAMES[i]} = {v:g} mm is out of range "
                     f"[{-MAX_COORD_MM:g}, {MAX_COORD_MM:g}] mm"
                 )
         elif abs(v) > 360.0:
-            raise CommandError(f"{fname}: {_POSE_NAMES[i]} = {v:g} deg is out of range [-360, 360] deg")
+            raise DatagramError(f"{fname}: {_POSE_NAMES[i]} = {v:g} deg is out of range [-360, 360] deg")
     return tuple(values)
 
 
@@ -297,18 +294,19 @@ def _pct(text: str, fname: str = "speed%", *, lo_open: bool = False) -> float:
     return _ranged(text, fname, 0.0, 100.0, lo_open=lo_open, unit="%")
 
 
-def _opt_pct(text: str, fname: str = "speed%", **kw) -> float | None:
-    return _pct(text, fname, **kw) if _given(text) else None
+def _opt_pct(text: str, fname: str = "speed%", *, lo_open: bool = False) -> float | None:
+    return _pct(text, fname, lo_open=lo_open) if _given(text) else None
 
 
 def _duration_xor_speed(duration: float | None, speed: float | None) -> None:
     if duration is None and speed is None:
-        raise CommandError("give exactly one of duration (s) and speed% (0..100): neither was given")
+        raise DatagramError("give exactly one of duration (s) and speed% (0..100): neither was given")
     if duration is not None and speed is not None:
-        raise CommandError("give exactly one of duration (s) and speed% (0..100): both were given")
+        raise DatagramError("give exactly one of duration (s) and speed% (0..100): both were given")
 
 
 def _timing_value(timing: Timing, text: str) -> float:
+    """The value of a smooth path's timing field: a duration (s) or a speed (%)."""
     if timing is Timing.DURATION:
         return _duration(text, "timing value (DURATION)")
     return _pct(text, "timing value (SPEED %)", lo_open=True)
@@ -319,7 +317,7 @@ def _nargs(args: Sequence[str], name: str, lo: int, hi: int | None = None) -> No
     n = len(args)
     if not lo <= n <= hi:
         want = f"{lo}" if lo == hi else f"{lo}..{hi}"
-        raise CommandError(f"{name} takes {want} arguments, got {n}")
+        raise DatagramError(f"{name} takes {want} arguments, got {n}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -459,6 +457,8 @@ class Unsubscribe(Command):
 
 @dataclass(frozen=True)
 class _Motion(Command):
+    """A command that moves joints; ``move`` (each subclass's field) is its value object."""
+
     @property
     def is_motion(self) -> bool:
         return True
@@ -466,87 +466,58 @@ class _Motion(Command):
 
 @dataclass(frozen=True)
 class MoveJoint(_Motion):
-    """Joint-space move to ``angles_deg``; exactly one of ``duration_s`` / ``speed_pct``."""
+    """``MOVEJOINT``: joint-space move to ``move.target_deg``; exactly one of duration / speed."""
 
-    angles_deg: tuple[float, ...] = ()
-    duration_s: float | None = None
-    speed_pct: float | None = None
-    accel_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    move: JointMove
     NAME: ClassVar[str] = "MOVEJOINT"
 
 
 @dataclass(frozen=True)
 class MovePose(_Motion):
-    """IK at the target pose (mm, deg), joint-space path."""
+    """``MOVEPOSE``: IK at the target pose (mm, deg), joint-space path."""
 
-    pose: tuple[float, ...] = ()
-    duration_s: float | None = None
-    speed_pct: float | None = None
-    accel_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    move: PoseMove
     NAME: ClassVar[str] = "MOVEPOSE"
 
 
 @dataclass(frozen=True)
 class MoveCart(_Motion):
-    """Straight line in Cartesian space to ``pose`` (mm, deg)."""
+    """``MOVECART``: straight line in Cartesian space to ``move.pose`` (mm, deg)."""
 
-    pose: tuple[float, ...] = ()
-    duration_s: float | None = None
-    speed_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    move: CartMove
     NAME: ClassVar[str] = "MOVECART"
 
 
 @dataclass(frozen=True)
 class MoveCartRelTRF(_Motion):
-    """Relative straight line in the tool frame: ``delta`` (mm, deg)."""
+    """``MOVECARTRELTRF``: relative straight line in the tool frame by ``move.delta`` (mm, deg)."""
 
-    delta: tuple[float, ...] = ()
-    duration_s: float | None = None
-    speed_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    move: CartRelTRFMove
     NAME: ClassVar[str] = "MOVECARTRELTRF"
 
 
 @dataclass(frozen=True)
 class Jog(_Motion):
-    """Jog one joint: ``joint`` 0..5, ``direction`` +1/-1, for a duration and/or a distance."""
+    """``JOG``: jog one joint (``move.joints`` has one entry) for a duration and/or a distance."""
 
-    joint: int = 0
-    direction: int = 1
-    speed_pct: float = 0.0
-    duration_s: float | None = None
-    distance_deg: float | None = None
+    move: JointJog
     NAME: ClassVar[str] = "JOG"
 
 
 @dataclass(frozen=True)
 class MultiJog(_Motion):
-    """Jog several joints at once: ``joints`` ((joint, direction), ...), one speed % each."""
+    """``MULTIJOG``: jog several joints at once for ``move.duration_s``, one speed % each."""
 
-    joints: tuple[tuple[int, int], ...] = ()
-    speeds_pct: tuple[float, ...] = ()
-    duration_s: float = 0.0
+    move: JointJog
     NAME: ClassVar[str] = "MULTIJOG"
 
 
-_CART_AXES = ("X+", "X-", "Y+", "Y-", "Z+", "Z-", "RX+", "RX-", "RY+", "RY-", "RZ+", "RZ-")
-
-
 @dataclass(frozen=True)
-class CartJog(_Motion):
-    """Cartesian jog along/about one axis of WRF or TRF (axis like ``X+`` or ``RZ-``)."""
+class CartJogCommand(_Motion):
+    """``CARTJOG``: Cartesian jog along/about one axis of WRF or TRF (the :class:`CartJog`
+    value object it carries says which, how fast and how long)."""
 
-    frame: Frame = Frame.WRF
-    axis: str = "X+"
-    speed_pct: float = 0.0
-    duration_s: float = 0.0
+    move: CartJog
     NAME: ClassVar[str] = "CARTJOG"
 
 
@@ -587,10 +558,9 @@ class ElectricGripper(Command):
 
 @dataclass(frozen=True)
 class SpeedJoint(_Motion):
-    """(ext) Constant joint speeds in deg/s for ``duration_s``, then zero speed."""
+    """(ext) ``SPEEDJOINT``: constant joint speeds (deg/s) for ``move.duration_s``, then zero."""
 
-    speeds_deg_s: tuple[float, ...] = ()
-    duration_s: float = 0.0
+    move: SpeedJointMove
     NAME: ClassVar[str] = "SPEEDJOINT"
 
 
@@ -605,74 +575,56 @@ class WaitInput(Command):
 
 
 @dataclass(frozen=True)
-class _Smooth(_Motion):
-    frame: Frame = Frame.WRF
-    start: tuple[float, ...] | None = None
-    timing: Timing = Timing.DURATION
-    #: seconds for DURATION, percent for SPEED
-    timing_value: float = 1.0
+class SmoothCircle(_Motion):
+    """``SMOOTH_CIRCLE``: a full circle (the wire's timing is ``move.duration_s`` / ``speed_pct``)."""
 
-
-@dataclass(frozen=True)
-class SmoothCircle(_Smooth):
-    center: tuple[float, ...] = (0.0, 0.0, 0.0)
-    radius_mm: float = 1.0
-    plane: Plane = Plane.XY
-    clockwise: bool = False
+    move: CircleMove
     NAME: ClassVar[str] = "SMOOTH_CIRCLE"
 
 
 @dataclass(frozen=True)
-class SmoothArcCenter(_Smooth):
-    end_pose: tuple[float, ...] = ()
-    center: tuple[float, ...] = (0.0, 0.0, 0.0)
-    clockwise: bool = False
+class SmoothArcCenter(_Motion):
+    """``SMOOTH_ARC_CENTER``: an arc to an end pose around a centre."""
+
+    move: ArcCenterMove
     NAME: ClassVar[str] = "SMOOTH_ARC_CENTER"
 
 
 @dataclass(frozen=True)
-class SmoothArcParam(_Smooth):
-    end_pose: tuple[float, ...] = ()
-    radius_mm: float = 1.0
-    angle_deg: float = 90.0
-    clockwise: bool = False
+class SmoothArcParam(_Motion):
+    """``SMOOTH_ARC_PARAM``: an arc to an end pose of a given radius and angle."""
+
+    move: ArcParamMove
     NAME: ClassVar[str] = "SMOOTH_ARC_PARAM"
 
 
 @dataclass(frozen=True)
-class SmoothSpline(_Smooth):
-    waypoints: tuple[tuple[float, ...], ...] = ()
+class SmoothSpline(_Motion):
+    """``SMOOTH_SPLINE``: a cubic spline through the waypoints."""
+
+    move: SplineMove
     NAME: ClassVar[str] = "SMOOTH_SPLINE"
 
 
 @dataclass(frozen=True)
-class SmoothHelix(_Smooth):
-    center: tuple[float, ...] = (0.0, 0.0, 0.0)
-    radius_mm: float = 1.0
-    pitch_mm: float = 1.0
-    height_mm: float = 1.0
-    clockwise: bool = False
+class SmoothHelix(_Motion):
+    """``SMOOTH_HELIX``: a helix around a vertical (frame Z) axis."""
+
+    move: HelixMove
     NAME: ClassVar[str] = "SMOOTH_HELIX"
 
 
-@dataclass(frozen=True)
-class BlendSegment:
-    """One segment of SMOOTH_BLEND.  ``kind`` LINE|CIRCLE|ARC|SPLINE; fields by kind (mm, deg, s)."""
-
-    kind: str
-    duration_s: float
-    end_pose: tuple[float, ...] | None = None
-    center: tuple[float, ...] | None = None
-    radius_mm: float | None = None
-    plane: Plane | None = None
-    clockwise: bool = False
-    waypoints: tuple[tuple[float, ...], ...] = ()
+#: SMOOTH_BLEND segment words and the segment each becomes (in the blend's frame).
+BLEND_SEGMENT_KINDS: dict[str, type[BlendSegment]] = {
+    "LINE": LineSegment, "CIRCLE": CircleMove, "ARC": ArcCenterMove, "SPLINE": SplineMove,
+}
 
 
 @dataclass(frozen=True)
-class SmoothBlend(_Smooth):
-    segments: tuple[BlendSegment, ...] = ()
-    blend_time_s: float = 0.5
+class SmoothBlend(_Motion):
+    """``SMOOTH_BLEND``: segments joined with rounded corners, timed as one move."""
+
+    move: BlendMove
     NAME: ClassVar[str] = "SMOOTH_BLEND"
 
 
@@ -699,13 +651,15 @@ def _joint_angles(args: Sequence[str], model: RobotModel) -> tuple[float, ...]:
     for i, v in enumerate(vals):
         lo, hi = float(lim[i, 0]), float(lim[i, 1])
         if not lo <= v <= hi:
-            raise CommandError(
+            raise DatagramError(
                 f"{JOINT_NAMES[i]} angle = {v:g} deg is out of range [{lo:.4f}, {hi:.4f}] deg"
             )
     return vals
 
 
-def _move_tail(args: Sequence[str], *, with_accel: bool):
+def _move_tail(
+    args: Sequence[str], *, with_accel: bool,
+) -> tuple[float | None, float | None, float | None, Profile | None, Tracking]:
     """duration|speed% then optional (ext) accel%|profile|tracking (accel only for joint moves)."""
     duration = _opt_duration(args[0])
     speed = _opt_pct(args[1], lo_open=True)
@@ -722,25 +676,25 @@ def _move_tail(args: Sequence[str], *, with_accel: bool):
 def _p_movejoint(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "MOVEJOINT", 8, 11)
     duration, speed, accel, profile, tracking = _move_tail(a[6:], with_accel=True)
-    return MoveJoint(_joint_angles(a, m), duration, speed, accel, profile, tracking)
+    return MoveJoint(JointMove(_joint_angles(a, m), duration, speed, accel, profile, tracking))
 
 
 def _p_movepose(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "MOVEPOSE", 8, 11)
     duration, speed, accel, profile, tracking = _move_tail(a[6:], with_accel=True)
-    return MovePose(_pose_args(a, "pose"), duration, speed, accel, profile, tracking)
+    return MovePose(PoseMove(_pose_args(a, "pose"), duration, speed, accel, profile, tracking))
 
 
 def _p_movecart(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "MOVECART", 8, 10)
     duration, speed, _, profile, tracking = _move_tail(a[6:], with_accel=False)
-    return MoveCart(_pose_args(a, "pose"), duration, speed, profile, tracking)
+    return MoveCart(CartMove(_pose_args(a, "pose"), duration, speed, profile, tracking))
 
 
 def _p_movecartrel(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "MOVECARTRELTRF", 8, 10)
     duration, speed, _, profile, tracking = _move_tail(a[6:], with_accel=False)
-    return MoveCartRelTRF(_pose_args(a, "delta"), duration, speed, profile, tracking)
+    return MoveCartRelTRF(CartRelTRFMove(_pose_args(a, "delta"), duration, speed, profile, tracking))
 
 
 def _jog_index(text: str, fname: str) -> tuple[int, int]:
@@ -755,8 +709,8 @@ def _p_jog(a: Sequence[str], m: RobotModel) -> Command:
     duration = _opt_duration(a[2])
     distance = _opt_ranged(a[3], "distance_deg", 0.0, 720.0, lo_open=True, unit="deg")
     if duration is None and distance is None:
-        raise CommandError("JOG needs a duration (s) and/or a distance_deg: neither was given")
-    return Jog(joint, direction, speed, duration, distance)
+        raise DatagramError("JOG needs a duration (s) and/or a distance_deg: neither was given")
+    return Jog(JointJog.single(joint, direction, speed, duration_s=duration, distance_deg=distance))
 
 
 def _p_multijog(a: Sequence[str], m: RobotModel) -> Command:
@@ -764,9 +718,9 @@ def _p_multijog(a: Sequence[str], m: RobotModel) -> Command:
     idx_parts = a[0].split(",")
     spd_parts = a[1].split(",")
     if not 1 <= len(idx_parts) <= 6:
-        raise CommandError(f"joint indices must be 1..6 comma-separated values, got {len(idx_parts)}")
+        raise DatagramError(f"joint indices must be 1..6 comma-separated values, got {len(idx_parts)}")
     if len(spd_parts) != len(idx_parts):
-        raise CommandError(
+        raise DatagramError(
             f"speeds must have one value per joint index ({len(idx_parts)}), got {len(spd_parts)}"
         )
     joints = tuple(_jog_index(p, f"joint index[{i}]") for i, p in enumerate(idx_parts))
@@ -774,19 +728,21 @@ def _p_multijog(a: Sequence[str], m: RobotModel) -> Command:
     for j, d in joints:
         if j in seen:
             what = "both + and -" if seen[j] != d else "twice"
-            raise CommandError(f"joint {JOINT_NAMES[j]} is given {what} in one MULTIJOG")
+            raise DatagramError(f"joint {JOINT_NAMES[j]} is given {what} in one MULTIJOG")
         seen[j] = d
     speeds = tuple(_pct(p, f"speed%[{i}]", lo_open=True) for i, p in enumerate(spd_parts))
-    return MultiJog(joints, speeds, _duration(a[2]))
+    return MultiJog(JointJog(tuple(j for j, _ in joints), tuple(d for _, d in joints), speeds,
+                             duration_s=_duration(a[2])))
 
 
 def _p_cartjog(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "CARTJOG", 4)
     frame = _choice(a[0], "frame", Frame)
-    axis = a[1].strip().upper()
-    if axis not in _CART_AXES:
-        raise CommandError(f"axis must be one of {' '.join(_CART_AXES)}, got {a[1]!r}")
-    return CartJog(frame, axis, _pct(a[2], lo_open=True), _duration(a[3]))
+    word = a[1].strip().upper()
+    axis = next((ax for ax in CartAxis if ax.value == word), None)
+    if axis is None:
+        raise DatagramError(f"axis must be one of {' '.join(ax.value for ax in CartAxis)}, got {a[1]!r}")
+    return CartJogCommand(CartJog(frame, axis, _pct(a[2], lo_open=True), _duration(a[3])))
 
 
 def _p_home(a: Sequence[str], m: RobotModel) -> Command:
@@ -803,7 +759,7 @@ def _p_pneumatic(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "PNEUMATICGRIPPER", 2)
     action = a[0].strip().lower()
     if action not in ("open", "close"):
-        raise CommandError(f"action must be open|close, got {a[0]!r}")
+        raise DatagramError(f"action must be open|close, got {a[0]!r}")
     return PneumaticGripper(action, _integer(a[1], "port", 1, 2))
 
 
@@ -812,7 +768,7 @@ def _p_electric(a: Sequence[str], m: RobotModel) -> Command:
     raw = a[0].strip().lower()
     action = "move" if raw in ("", "none") else raw
     if action not in ("move", "calibrate", "clear_error"):
-        raise CommandError(f"action must be move|calibrate|clear_error|None, got {a[0]!r}")
+        raise DatagramError(f"action must be move|calibrate|clear_error|None, got {a[0]!r}")
     rest = list(a[1:]) + ["None"] * (4 - len(a))
     pos = _integer(rest[0], "position", 0, 255) if _given(rest[0]) else 255
     speed = _integer(rest[1], "speed", 0, 255) if _given(rest[1]) else 150
@@ -827,7 +783,7 @@ def _p_speedjoint(a: Sequence[str], m: RobotModel) -> Command:
     for i in range(6):
         hi = float(mx[i])
         speeds.append(_ranged(a[i], f"{JOINT_NAMES[i]} speed (deg/s)", -hi, hi, unit="deg/s"))
-    return SpeedJoint(tuple(speeds), _duration(a[6]))
+    return SpeedJoint(SpeedJointMove(tuple(speeds), _duration(a[6])))
 
 
 def _p_waitinput(a: Sequence[str], m: RobotModel) -> Command:
@@ -838,12 +794,13 @@ def _p_waitinput(a: Sequence[str], m: RobotModel) -> Command:
     return WaitInput(inp, state, timeout)
 
 
-def _smooth_common(args: Sequence[str]) -> dict:
-    """frame|start|timing|value (4 fields)."""
+def _smooth_common(args: Sequence[str]) -> dict[str, Any]:
+    """frame|start|timing|value (4 fields) as the move's keyword arguments."""
     frame = _choice(args[0], "frame", Frame)
     start = _start_field(args[1])
     timing = _choice(args[2], "timing", Timing)
-    return {"frame": frame, "start": start, "timing": timing, "timing_value": _timing_value(timing, args[3])}
+    duration_s, speed_pct = timing.fields(_timing_value(timing, args[3]))
+    return {"frame": frame, "start_pose": start, "duration_s": duration_s, "speed_pct": speed_pct}
 
 
 def _radius(text: str, fname: str = "radius (mm)") -> float:
@@ -852,94 +809,99 @@ def _radius(text: str, fname: str = "radius (mm)") -> float:
 
 def _p_circle(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SMOOTH_CIRCLE", 8)
-    return SmoothCircle(
-        center=_point_field(a[0], "center"), radius_mm=_radius(a[1]),
+    return SmoothCircle(CircleMove(
+        center_mm=_point_field(a[0], "center"), radius_mm=_radius(a[1]),
         plane=_choice(a[2], "plane", Plane), clockwise=_flag01(a[7], "clockwise"),
         **_smooth_common(a[3:7]),
-    )
+    ))
 
 
 def _p_arc_center(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SMOOTH_ARC_CENTER", 7)
-    return SmoothArcCenter(
-        end_pose=_pose_field(a[0], "end pose"), center=_point_field(a[1], "center"),
+    return SmoothArcCenter(ArcCenterMove(
+        end_pose=_pose_field(a[0], "end pose"), center_mm=_point_field(a[1], "center"),
         clockwise=_flag01(a[6], "clockwise"), **_smooth_common(a[2:6]),
-    )
+    ))
 
 
 def _p_arc_param(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SMOOTH_ARC_PARAM", 8)
-    return SmoothArcParam(
-        end_pose=_pose_field(a[0], "end pose"), radius_mm=_radius(a[1]),
-        angle_deg=_ranged(a[2], "angle (deg)", -720.0, 720.0, unit="deg"),
+    angle = _number(a[2], "angle (deg)")
+    if not 0.0 < angle < 360.0:  # the sweep; the direction is the clockwise flag
+        raise DatagramError(f"angle (deg) = {angle:g} deg is out of range (0, 360) deg")
+    return SmoothArcParam(ArcParamMove(
+        end_pose=_pose_field(a[0], "end pose"), radius_mm=_radius(a[1]), angle_deg=angle,
         clockwise=_flag01(a[7], "clockwise"), **_smooth_common(a[3:7]),
-    )
+    ))
 
 
 def _p_spline(a: Sequence[str], m: RobotModel) -> Command:
     if len(a) < 5:
-        raise CommandError(f"SMOOTH_SPLINE takes n|frame|start|timing|value|pose x n, got {len(a)} arguments")
+        raise DatagramError(f"SMOOTH_SPLINE takes n|frame|start|timing|value|pose x n, got {len(a)} arguments")
     n = _integer(a[0], "n (waypoints)", 2, MAX_WAYPOINTS)
     fields = list(a[5:])
     if len(fields) == 6 * n and n > 1 and not any("," in f for f in fields):
         # also accepted: every waypoint as six separate fields x|y|z|A|B|C
         fields = [",".join(fields[6 * i : 6 * i + 6]) for i in range(n)]
     if len(fields) != n:
-        raise CommandError(
+        raise DatagramError(
             f"SMOOTH_SPLINE: n = {n} waypoints announced, {len(a) - 5} fields given "
             f"(expected {n} poses x,y,z,A,B,C or {6 * n} single numbers)")
     wps = tuple(_pose_field(p, f"waypoint {i + 1}") for i, p in enumerate(fields))
-    return SmoothSpline(waypoints=wps, **_smooth_common(a[1:5]))
+    return SmoothSpline(SplineMove(waypoints=wps, **_smooth_common(a[1:5])))
 
 
 def _p_helix(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SMOOTH_HELIX", 9)
-    return SmoothHelix(
-        center=_point_field(a[0], "center"), radius_mm=_radius(a[1]),
+    return SmoothHelix(HelixMove(
+        center_mm=_point_field(a[0], "center"), radius_mm=_radius(a[1]),
         pitch_mm=_ranged(a[2], "pitch (mm)", 0.0, 1000.0, lo_open=True, unit="mm"),
         height_mm=_ranged(a[3], "height (mm)", -2000.0, 2000.0, unit="mm"),
         clockwise=_flag01(a[8], "clockwise"), **_smooth_common(a[4:8]),
-    )
+    ))
 
 
-def _blend_segment(fields: Sequence[str], k: int) -> BlendSegment:
+def _blend_segment(fields: Sequence[str], k: int, frame: Frame) -> tuple[BlendSegment, float]:
+    """One SMOOTH_BLEND segment (in the blend's ``frame``) and its duration (s, which only
+    counts towards the default total duration)."""
     where = f"segment {k + 1}"
     if not fields:
-        raise CommandError(f"{where} is empty")
+        raise DatagramError(f"{where} is empty")
     kind = fields[0].strip().upper()
     f = list(fields[1:])
-    try:
-        if kind == "LINE":
-            _nargs(f, f"{where} LINE (end pose|duration)", 2)
-            return BlendSegment("LINE", _duration(f[1], f"{where} duration"), end_pose=_pose_field(f[0], f"{where} end pose"))
-        if kind == "CIRCLE":
-            _nargs(f, f"{where} CIRCLE (center|radius|plane|duration|clockwise)", 5)
-            return BlendSegment(
-                "CIRCLE", _duration(f[3], f"{where} duration"), center=_point_field(f[0], f"{where} center"),
-                radius_mm=_radius(f[1], f"{where} radius (mm)"), plane=_choice(f[2], f"{where} plane", Plane),
-                clockwise=_flag01(f[4], f"{where} clockwise"),
-            )
-        if kind == "ARC":
-            _nargs(f, f"{where} ARC (end pose|center|duration|clockwise)", 4)
-            return BlendSegment(
-                "ARC", _duration(f[2], f"{where} duration"), end_pose=_pose_field(f[0], f"{where} end pose"),
-                center=_point_field(f[1], f"{where} center"), clockwise=_flag01(f[3], f"{where} clockwise"),
-            )
-        if kind == "SPLINE":
-            if len(f) < 2:
-                raise CommandError(f"{where} SPLINE takes duration|pose|pose|..., got {len(f)} fields")
-            wps = tuple(_pose_field(p, f"{where} waypoint {i + 1}") for i, p in enumerate(f[1:]))
-            if len(wps) < 2:
-                raise CommandError(f"{where} SPLINE needs at least 2 waypoints, got {len(wps)}")
-            return BlendSegment("SPLINE", _duration(f[0], f"{where} duration"), waypoints=wps)
-    except CommandError:
-        raise
-    raise CommandError(f"{where} type must be LINE|CIRCLE|ARC|SPLINE, got {fields[0]!r}")
+    if kind == "LINE":
+        _nargs(f, f"{where} LINE (end pose|duration)", 2)
+        return (LineSegment(_pose_field(f[0], f"{where} end pose")),
+                _duration(f[1], f"{where} duration"))
+    if kind == "CIRCLE":
+        _nargs(f, f"{where} CIRCLE (center|radius|plane|duration|clockwise)", 5)
+        duration = _duration(f[3], f"{where} duration")
+        return CircleMove(
+            _point_field(f[0], f"{where} center"), _radius(f[1], f"{where} radius (mm)"),
+            _choice(f[2], f"{where} plane", Plane), frame=frame, duration_s=duration,
+            clockwise=_flag01(f[4], f"{where} clockwise"),
+        ), duration
+    if kind == "ARC":
+        _nargs(f, f"{where} ARC (end pose|center|duration|clockwise)", 4)
+        duration = _duration(f[2], f"{where} duration")
+        return ArcCenterMove(
+            _pose_field(f[0], f"{where} end pose"), _point_field(f[1], f"{where} center"),
+            frame=frame, duration_s=duration, clockwise=_flag01(f[3], f"{where} clockwise"),
+        ), duration
+    if kind == "SPLINE":
+        if len(f) < 2:
+            raise DatagramError(f"{where} SPLINE takes duration|pose|pose|..., got {len(f)} fields")
+        wps = tuple(_pose_field(p, f"{where} waypoint {i + 1}") for i, p in enumerate(f[1:]))
+        if len(wps) < 2:
+            raise DatagramError(f"{where} SPLINE needs at least 2 waypoints, got {len(wps)}")
+        duration = _duration(f[0], f"{where} duration")
+        return SplineMove(wps, frame=frame, duration_s=duration), duration
+    raise DatagramError(f"{where} type must be {'|'.join(BLEND_SEGMENT_KINDS)}, got {fields[0]!r}")
 
 
 def _p_blend(a: Sequence[str], m: RobotModel) -> Command:
     if len(a) < 7:
-        raise CommandError(
+        raise DatagramError(
             f"SMOOTH_BLEND takes n|blend_time|frame|start|timing|value|segments, got {len(a)} arguments"
         )
     n = _integer(a[0], "n (segments)", 1, 100)
@@ -949,7 +911,7 @@ def _p_blend(a: Sequence[str], m: RobotModel) -> Command:
     timing = _choice(a[4], "timing", Timing)
     value = _timing_value(timing, a[5]) if _given(a[5]) else 0.0
     if timing is Timing.SPEED and value == 0.0:
-        raise CommandError("timing value (SPEED %) must be given for SPEED timing")
+        raise DatagramError("timing value (SPEED %) must be given for SPEED timing")
     segs_raw: list[list[str]] = [[]]
     for fld in a[6:]:
         if fld == "":
@@ -958,17 +920,21 @@ def _p_blend(a: Sequence[str], m: RobotModel) -> Command:
             segs_raw[-1].append(fld)
     segs_raw = [s for s in segs_raw if s]
     if len(segs_raw) != n:
-        raise CommandError(f"SMOOTH_BLEND: n = {n} segments announced, {len(segs_raw)} given (separate them with ||)")
-    segments = tuple(_blend_segment(s, k) for k, s in enumerate(segs_raw))
-    return SmoothBlend(segments=segments, blend_time_s=blend, frame=frame, start=start, timing=timing,
-                       timing_value=value if value else sum(s.duration_s for s in segments))
+        raise DatagramError(f"SMOOTH_BLEND: n = {n} segments announced, {len(segs_raw)} given (separate them with ||)")
+    parsed = [_blend_segment(s, k, frame) for k, s in enumerate(segs_raw)]
+    # value None with DURATION timing: the sum of the segment durations
+    duration_s, speed_pct = timing.fields(value if value else sum(d for _, d in parsed))
+    return SmoothBlend(BlendMove(
+        segments=tuple(seg for seg, _ in parsed), blend_time_s=blend, frame=frame,
+        start_pose=start, duration_s=duration_s, speed_pct=speed_pct,
+    ))
 
 
 def _p_stream(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "STREAM", 1)
     s = a[0].strip().upper()
     if s not in ("ON", "OFF", "1", "0"):
-        raise CommandError(f"STREAM takes ON|OFF, got {a[0]!r}")
+        raise DatagramError(f"STREAM takes ON|OFF, got {a[0]!r}")
     return StreamMode(s in ("ON", "1"))
 
 
@@ -976,7 +942,7 @@ def _p_setport(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SET_PORT", 1)
     port = a[0].strip()
     if not port or any(ord(c) < 32 for c in port):
-        raise CommandError(f"SET_PORT needs a device name such as /dev/ttyACM0, got {a[0]!r}")
+        raise DatagramError(f"SET_PORT needs a device name such as /dev/ttyACM0, got {a[0]!r}")
     return SetPort(port)
 
 
@@ -984,7 +950,7 @@ def _p_settool(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SET_TOOL", 1)
     name = a[0].strip()
     if not re.match(r"^[A-Za-z0-9_.-]{1,64}$", name):
-        raise CommandError(f"tool name must be 1..64 characters of [A-Za-z0-9_.-], got {a[0]!r}")
+        raise DatagramError(f"tool name must be 1..64 characters of [A-Za-z0-9_.-], got {a[0]!r}")
     return SetTool(name)
 
 
@@ -1051,27 +1017,31 @@ def is_command_id(text: str) -> bool:
 
 
 def parse_datagram(data: bytes | str, model: RobotModel | None = None) -> Parsed:
-    """Parse one datagram.  Raises :class:`CommandError` (with ``command_id`` when known)."""
+    """Parse one datagram.  Raises :class:`DatagramError` (with ``command_id`` when known).
+
+    A field outside its wire range is reported with the wire field's name; a motion command's
+    move then validates itself (e.g. a helix of more than 100 turns), its message prefixed
+    with the command name."""
     m = model or PAROL6
     if isinstance(data, (bytes, bytearray, memoryview)):
         if len(data) > MAX_DATAGRAM_BYTES:
-            raise CommandError(f"datagram is {len(data)} bytes, at most {MAX_DATAGRAM_BYTES} allowed")
+            raise DatagramError(f"datagram is {len(data)} bytes, at most {MAX_DATAGRAM_BYTES} allowed")
         try:
             text = bytes(data).decode("utf-8")
         except UnicodeDecodeError as exc:
-            raise CommandError(f"datagram is not UTF-8 text (byte {exc.start})") from None
+            raise DatagramError(f"datagram is not UTF-8 text (byte {exc.start})") from None
     else:
         text = data
     text = text.strip("\r\n\x00 ")
     if not text:
-        raise CommandError("empty datagram: expected [ID|]NAME|args")
+        raise DatagramError("empty datagram: expected [ID|]NAME|args")
     parts = text.split("|")
     command_id: str | None = None
     if is_command_id(parts[0].strip()):
         command_id = parts[0].strip()
         parts = parts[1:]
         if not parts:
-            raise CommandError("datagram has an ID but no command name", command_id=command_id)
+            raise DatagramError("datagram has an ID but no command name", command_id=command_id)
     raw_name = parts[0].strip()
     name = raw_name.upper()
     args = parts[1:]
@@ -1081,21 +1051,21 @@ def parse_datagram(data: bytes | str, model: RobotModel | None = None) -> Parsed
     try:
         if name in QUERY_NAMES:
             if args:
-                raise CommandError(f"{name} takes no arguments, got {len(args)}")
+                raise DatagramError(f"{name} takes no arguments, got {len(args)}")
             return Parsed(command_id, Query(name))
         parser = _PARSERS.get(name)
         if parser is None:
             shown = raw_name if len(raw_name) <= 40 else raw_name[:40] + "..."
             if not name:
-                raise CommandError("missing command name: expected [ID|]NAME|args")
-            raise CommandError(f"unknown command {shown!r}")
+                raise DatagramError("missing command name: expected [ID|]NAME|args")
+            raise DatagramError(f"unknown command {shown!r}")
         return Parsed(command_id, parser(args, m))
-    except CommandError as exc:
+    except DatagramError as exc:
         known = name in _PARSERS or name in QUERY_NAMES
         msg = exc.message if (not known or exc.message.startswith(name)) else f"{name}: {exc.message}"
-        raise CommandError(msg, command_id=command_id, name=name if known else None) from None
-    except ParolkitValueError as exc:  # e.g. a percent mapping of the robot model
-        raise CommandError(f"{name}: {exc}", command_id=command_id, name=name) from None
+        raise DatagramError(msg, command_id=command_id, name=name if known else None) from None
+    except ParolkitValueError as exc:  # a move's own checks, a percent mapping of the model
+        raise DatagramError(f"{name}: {exc}", command_id=command_id, name=name) from None
 
 
 # ---------------------------------------------------------------------------------------------

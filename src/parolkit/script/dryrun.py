@@ -17,12 +17,13 @@ duration, joints at the end), the errors and warnings, and the planned trajector
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Sequence
 
 import numpy as np
 
 from parolkit.errors import ParolkitError
+from parolkit.moves import JointMove, Move, PoseMove
 from parolkit.robot import NUM_JOINTS, PAROL6, RobotModel, check_joint_limits_steps
 from parolkit.script.program import (
     Begin,
@@ -46,7 +47,7 @@ from parolkit.script.program import (
     format_number,
 )
 
-__all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops", "Timing",
+__all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops", "MoveTiming",
            "effective_timing"]
 
 
@@ -190,16 +191,18 @@ class DryRunReport:
 
 
 @dataclass(frozen=True)
-class Timing:
+class MoveTiming:
     """The timing a move is sent and planned with: exactly one of ``duration_s`` (s) and
-    ``speed_pct`` (%), and ``accel_pct`` (%, joint-space moves with a speed only)."""
+    ``speed_pct`` (%), and ``accel_pct`` (%, joint-space moves with a speed only).
+
+    (Not :class:`parolkit.moves.Timing`, the wire's DURATION/SPEED word of smooth paths.)"""
 
     duration_s: float | None
     speed_pct: float | None
     accel_pct: float | None
 
 
-def effective_timing(cmd: Command) -> Timing:
+def effective_timing(cmd: MoveJoint | MovePose | MoveCart | MoveCartRelTRF) -> MoveTiming:
     """Resolve the language's defaults for a move, the ONE place both the dry run and the
     interpreter take them from (so the controller plans exactly what the dry run planned).
 
@@ -209,46 +212,37 @@ def effective_timing(cmd: Command) -> Timing:
       3.6 s) and for joint-space moves ``a`` (default: MoveJoint 27 %, MovePose 30 %).
     """
     from parolkit.motion.cartesian import DEFAULT_CART_SPEED_PCT
-    from parolkit.motion.planner import MOVEJOINT_DEFAULT_PCT, MOVEPOSE_DEFAULT_PCT
+    from parolkit.motion.joint import MOVEJOINT_DEFAULT_PCT, MOVEPOSE_DEFAULT_PCT
 
-    if cmd.duration_s is not None:
-        return Timing(cmd.duration_s, None, None)
-    if isinstance(cmd, (MoveJoint, MovePose)):
-        v_def, a_def = MOVEJOINT_DEFAULT_PCT if isinstance(cmd, MoveJoint) else MOVEPOSE_DEFAULT_PCT
-        return Timing(
+    move = cmd.move
+    if move.duration_s is not None:
+        return MoveTiming(move.duration_s, None, None)
+    if isinstance(move, (JointMove, PoseMove)):
+        v_def, a_def = MOVEJOINT_DEFAULT_PCT if isinstance(move, JointMove) else MOVEPOSE_DEFAULT_PCT
+        return MoveTiming(
             None,
-            cmd.speed_pct if cmd.speed_pct is not None else v_def,
-            cmd.accel_pct if cmd.accel_pct is not None else a_def,
+            move.speed_pct if move.speed_pct is not None else v_def,
+            move.accel_pct if move.accel_pct is not None else a_def,
         )
-    return Timing(None, cmd.speed_pct if cmd.speed_pct is not None else DEFAULT_CART_SPEED_PCT, None)
+    return MoveTiming(None, move.speed_pct if move.speed_pct is not None else DEFAULT_CART_SPEED_PCT, None)
 
 
-def motion_move(cmd: Command):
-    """The :mod:`parolkit.motion` move for a motion command (None for other commands).
+def motion_move(cmd: Command) -> Move | None:
+    """The :mod:`parolkit.moves` move a motion command is planned with (None for other
+    commands): the statement's move with the language's timing defaults resolved.
 
     ``t`` overrides ``v``/``a`` (the seed's rule), so a move with a duration carries no
     speed or acceleration."""
-    from parolkit import motion
-
     if isinstance(cmd, SpeedJoint):
-        return motion.SpeedJointMove(cmd.speeds_deg_s, cmd.duration_s)
+        return cmd.move
     if not isinstance(cmd, (MoveJoint, MovePose, MoveCart, MoveCartRelTRF)):
         return None
     timing = effective_timing(cmd)
-    common = dict(
-        duration_s=timing.duration_s,
-        speed_pct=timing.speed_pct,
-        profile=cmd.profile.value if cmd.profile is not None else None,
-        tracking=cmd.tracking.value,
-    )
-    accel = timing.accel_pct
-    if isinstance(cmd, MoveJoint):
-        return motion.JointMove(cmd.joints_deg, accel_pct=accel, **common)
-    if isinstance(cmd, MovePose):
-        return motion.PoseMove(cmd.pose, accel_pct=accel, **common)
-    if isinstance(cmd, MoveCart):
-        return motion.CartMove(cmd.pose, **common)
-    return motion.CartRelTRFMove(cmd.delta, **common)
+    move = cmd.move
+    if isinstance(move, (JointMove, PoseMove)):
+        return replace(move, duration_s=timing.duration_s, speed_pct=timing.speed_pct,
+                       accel_pct=timing.accel_pct)
+    return replace(move, duration_s=timing.duration_s, speed_pct=timing.speed_pct)
 
 
 def default_loops(program: Program) -> int:
@@ -355,7 +349,7 @@ def dry_run(
                 rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0, failed=True,
                                       note="refused"))
                 if isinstance(cmd, MoveJoint):
-                    state = np.asarray(cmd.joints_deg, dtype=float)
+                    state = np.asarray(cmd.move.target_deg, dtype=float)
                 continue
             except Exception as exc:  # a planner bug must not hide the other lines' results
                 add_error(cmd, f"{cmd.keyword}: the planner failed: {type(exc).__name__}: {exc}", iteration)

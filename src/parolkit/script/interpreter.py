@@ -61,6 +61,11 @@ __all__ = ["InterpreterState", "Progress", "RunResult", "Interpreter"]
 _log = logging.getLogger(__name__)
 
 
+def _word(value: enum.Enum | str | None) -> str | None:
+    """The wire word the client sends for a profile / tracking (None: not given)."""
+    return value.value if isinstance(value, enum.Enum) else value
+
+
 class InterpreterState(enum.Enum):
     """Life cycle: IDLE -> CHECKING -> RUNNING <-> PAUSED -> FINISHED | STOPPED | FAILED."""
 
@@ -332,23 +337,23 @@ class Interpreter:
         elif isinstance(cmd, (MoveJoint, MovePose)):
             tm = effective_timing(cmd)
             fn = r.move_joints if isinstance(cmd, MoveJoint) else r.move_pose
-            values = cmd.joints_deg if isinstance(cmd, MoveJoint) else cmd.pose
+            values = cmd.move.target_deg if isinstance(cmd, MoveJoint) else cmd.move.pose
             fn(
                 list(values), duration=tm.duration_s, speed=tm.speed_pct, accel=tm.accel_pct,
-                profile=cmd.profile.value if cmd.profile else None, tracking=cmd.tracking.value,
+                profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
                 wait=True, timeout=None,
             )
         elif isinstance(cmd, (MoveCart, MoveCartRelTRF)):
             tm = effective_timing(cmd)
             fn = r.move_cart if isinstance(cmd, MoveCart) else r.move_cart_rel_trf
-            values = cmd.pose if isinstance(cmd, MoveCart) else cmd.delta
+            values = cmd.move.pose if isinstance(cmd, MoveCart) else cmd.move.delta
             fn(
                 list(values), duration=tm.duration_s, speed=tm.speed_pct,
-                profile=cmd.profile.value if cmd.profile else None, tracking=cmd.tracking.value,
+                profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
                 wait=True, timeout=None,
             )
         elif isinstance(cmd, SpeedJoint):
-            r.speed_joint(list(cmd.speeds_deg_s), cmd.duration_s, wait=True, timeout=None)
+            r.speed_joint(list(cmd.move.speeds_deg_s), cmd.move.duration_s, wait=True, timeout=None)
         elif isinstance(cmd, Home):
             r.home(wait=True, timeout=None)
         elif isinstance(cmd, Output):

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from parolkit.moves import CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
 from parolkit.script.program import (
     Begin,
     Command,
@@ -45,13 +46,11 @@ from parolkit.script.program import (
     MovePose,
     Output,
     ParseResult,
-    Profile,
     Program,
     ProgramError,
     ScriptError,
     Severity,
     SpeedJoint,
-    Tracking,
     format_number,
 )
 
@@ -453,15 +452,17 @@ def _move_builder(cls, values_what: str, *, joint_values: bool, allow_va: bool, 
         if duration is not None and (speed is not None or accel is not None):
             which = " and ".join(k + "=" for k in ("v", "a") if k in seen)
             ln.warn(seen["t"].col, f"t= overrides {which}: the move takes exactly {format_number(duration)} s")
-        fields = dict(line=ln.line, col=col, text=ln.text, speed_pct=speed, accel_pct=accel,
-                      duration_s=duration, profile=profile, tracking=tracking)
         if ln.errors:
             raise _Reject
+        where = dict(line=ln.line, col=col, text=ln.text)
+        values = tuple(nums)
         if cls is MoveJoint:
-            return MoveJoint(joints_deg=tuple(nums), **fields)
-        if cls is MoveCartRelTRF:
-            return MoveCartRelTRF(delta=tuple(nums), **fields)
-        return cls(pose=tuple(nums), **fields)
+            return MoveJoint(move=JointMove(values, duration, speed, accel, profile, tracking), **where)
+        if cls is MovePose:
+            return MovePose(move=PoseMove(values, duration, speed, accel, profile, tracking), **where)
+        if cls is MoveCart:
+            return MoveCart(move=CartMove(values, duration, speed, profile, tracking), **where)
+        return MoveCartRelTRF(move=CartRelTRFMove(values, duration, speed, profile, tracking), **where)
 
     return build
 
@@ -487,7 +488,7 @@ def _build_speed_joint(ln: _Line, name: str, col: int, args: list[_Arg]) -> Comm
         raise _Reject
     if all(s == 0 for s in speeds):
         ln.warn(col, "all SpeedJoint speeds are 0: the robot holds still for the duration")
-    return SpeedJoint(line=ln.line, col=col, text=ln.text, speeds_deg_s=tuple(speeds), duration_s=duration)
+    return SpeedJoint(line=ln.line, col=col, text=ln.text, move=SpeedJointMove(tuple(speeds), duration))
 
 
 def _build_delay(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:

@@ -8,6 +8,12 @@ Units are those of the language: joint angles and pose angles in degrees, positi
 durations in seconds, speeds and accelerations in percent (0-100) of the joint's range,
 ``SpeedJoint`` speeds in deg/s, gripper current in mA.
 
+A move statement carries its move as a :mod:`parolkit.moves` value object, exactly as written
+(``MoveJoint(90, -90, 180, 0, 0, 180, v=50)`` -> ``MoveJoint(move=JointMove(..., speed_pct=50))``,
+unset options None = the language's defaults, resolved by
+:func:`parolkit.script.dryrun.effective_timing`).  ``Profile`` and ``Tracking`` are the
+:mod:`parolkit.moves` enums, re-exported here.
+
 This module imports nothing heavy; it is safe to use from the GUI and from tests.
 """
 
@@ -15,9 +21,10 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import ClassVar, Iterator
 
 from parolkit.errors import ParolkitError
+from parolkit.moves import CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
 
 __all__ = [
     "Severity",
@@ -98,22 +105,6 @@ class ProgramError(ParolkitError):
         n = len(self.errors)
         body = "\n".join(e.format() for e in self.errors)
         super().__init__(f"{n} error{'s' if n != 1 else ''} in program:\n{body}")
-
-
-class Profile(enum.Enum):
-    """Velocity profile word of a move (``poly``/``trap`` from the original; two extensions)."""
-
-    POLY = "poly"
-    TRAP = "trap"
-    RUCKIG = "ruckig"
-    TOPPRA = "toppra"
-
-
-class Tracking(enum.Enum):
-    """How the controller tracks a move: position + speed (default) or the speed curve only."""
-
-    POSITION = "position"
-    SPEED = "speed"
 
 
 def format_number(value: float) -> str:
@@ -239,102 +230,90 @@ class GripperCalibrate(Command):
     keyword: ClassVar[str] = "Gripper_cal"
 
 
-def _move_options(
-    speed_pct: float | None,
-    accel_pct: float | None,
-    duration_s: float | None,
-    profile: Profile | None,
-    tracking: Tracking,
-) -> list[str]:
+def _move_options(move: JointMove | PoseMove | CartMove | CartRelTRFMove) -> list[str]:
+    """The options of a move statement in canonical order: ``v=``, ``a=``, ``t=``, the profile
+    word and ``speed`` (SPEED tracking); unset options are left out."""
     out = []
-    if speed_pct is not None:
-        out.append(f"v={format_number(speed_pct)}")
-    if accel_pct is not None:
-        out.append(f"a={format_number(accel_pct)}")
-    if duration_s is not None:
-        out.append(f"t={format_number(duration_s)}")
-    if profile is not None:
-        out.append(profile.value)
-    if tracking is Tracking.SPEED:
+    if move.speed_pct is not None:
+        out.append(f"v={format_number(move.speed_pct)}")
+    accel = move.accel_pct if isinstance(move, (JointMove, PoseMove)) else None
+    if accel is not None:
+        out.append(f"a={format_number(accel)}")
+    if move.duration_s is not None:
+        out.append(f"t={format_number(move.duration_s)}")
+    if isinstance(move.profile, Profile):
+        out.append(move.profile.value)
+    if move.tracking is Tracking.SPEED:
         out.append("speed")
     return out
 
 
 @dataclass(frozen=True, kw_only=True)
-class _Move(Command):
-    """Common fields of the four move commands.
+class MoveJoint(Command):
+    """``MoveJoint(j1..j6, ...)``: joint-space move to ``move.target_deg`` (deg).
 
-    ``duration_s`` (s) overrides ``speed_pct``/``accel_pct`` (0-100 % of the leading joint's
-    range); ``profile`` None means the language's default for the case; ``tracking`` SPEED is
-    the trailing word ``speed``.
+    ``move``'s ``duration_s`` (s, ``t=``) overrides ``speed_pct``/``accel_pct`` (``v=``/``a=``,
+    0-100 % of the leading joint's range); ``profile`` None means the language's default;
+    ``tracking`` SPEED is the trailing word ``speed``.
     """
 
-    speed_pct: float | None = None
-    accel_pct: float | None = None
-    duration_s: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    move: JointMove
+    keyword: ClassVar[str] = "MoveJoint"
     moves: ClassVar[bool] = True
 
-    def _options(self) -> list[str]:
-        return _move_options(self.speed_pct, self.accel_pct, self.duration_s, self.profile, self.tracking)
-
-
-@dataclass(frozen=True, kw_only=True)
-class MoveJoint(_Move):
-    """``MoveJoint(j1..j6, ...)``: joint-space move to ``joints_deg`` (deg)."""
-
-    joints_deg: tuple[float, ...]
-    keyword: ClassVar[str] = "MoveJoint"
-
     def arguments(self) -> list[str]:
-        return [format_number(v) for v in self.joints_deg] + self._options()
+        return [format_number(v) for v in self.move.target_deg] + _move_options(self.move)
 
 
 @dataclass(frozen=True, kw_only=True)
-class MovePose(_Move):
-    """``MovePose(x, y, z, A, B, C, ...)``: IK once, joint-space path (mm, deg)."""
+class MovePose(Command):
+    """``MovePose(x, y, z, A, B, C, ...)``: IK once, joint-space path to ``move.pose`` (mm, deg)."""
 
-    pose: tuple[float, ...]
+    move: PoseMove
     keyword: ClassVar[str] = "MovePose"
+    moves: ClassVar[bool] = True
 
     def arguments(self) -> list[str]:
-        return [format_number(v) for v in self.pose] + self._options()
+        return [format_number(v) for v in self.move.pose] + _move_options(self.move)
 
 
 @dataclass(frozen=True, kw_only=True)
-class MoveCart(_Move):
-    """``MoveCart(x, y, z, A, B, C, ...)``: straight line in Cartesian space (mm, deg, WRF)."""
+class MoveCart(Command):
+    """``MoveCart(x, y, z, A, B, C, ...)``: straight line to ``move.pose`` (mm, deg, WRF)."""
 
-    pose: tuple[float, ...]
+    move: CartMove
     keyword: ClassVar[str] = "MoveCart"
+    moves: ClassVar[bool] = True
 
     def arguments(self) -> list[str]:
-        return [format_number(v) for v in self.pose] + self._options()
+        return [format_number(v) for v in self.move.pose] + _move_options(self.move)
 
 
 @dataclass(frozen=True, kw_only=True)
-class MoveCartRelTRF(_Move):
-    """``MoveCartRelTRF(dx, dy, dz, dA, dB, dC, ...)``: straight line relative to the tool frame."""
+class MoveCartRelTRF(Command):
+    """``MoveCartRelTRF(dx, dy, dz, dA, dB, dC, ...)``: straight line by ``move.delta``
+    relative to the tool frame (mm, deg)."""
 
-    delta: tuple[float, ...]
+    move: CartRelTRFMove
     keyword: ClassVar[str] = "MoveCartRelTRF"
+    moves: ClassVar[bool] = True
 
     def arguments(self) -> list[str]:
-        return [format_number(v) for v in self.delta] + self._options()
+        return [format_number(v) for v in self.move.delta] + _move_options(self.move)
 
 
 @dataclass(frozen=True, kw_only=True)
 class SpeedJoint(Command):
-    """``SpeedJoint(s1..s6, t=T)``: constant joint speeds (deg/s) for ``duration_s`` s."""
+    """``SpeedJoint(s1..s6, t=T)``: constant joint speeds ``move.speeds_deg_s`` (deg/s) for
+    ``move.duration_s`` s."""
 
-    speeds_deg_s: tuple[float, ...]
-    duration_s: float
+    move: SpeedJointMove
     keyword: ClassVar[str] = "SpeedJoint"
     moves: ClassVar[bool] = True
 
     def arguments(self) -> list[str]:
-        return [format_number(v) for v in self.speeds_deg_s] + [f"t={format_number(self.duration_s)}"]
+        return ([format_number(v) for v in self.move.speeds_deg_s]
+                + [f"t={format_number(self.move.duration_s)}"])
 
 
 #: The commands that move the arm.
@@ -362,7 +341,7 @@ class Program:
     def __len__(self) -> int:
         return len(self.commands)
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[Command]:
         return iter(self.commands)
 
 

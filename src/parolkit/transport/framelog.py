@@ -2,7 +2,7 @@
 
 :class:`StreamSplitter` cuts one direction's byte stream into whole frames and runs of bytes
 that are not a frame, in the order they crossed, using the protocol's own stream parser (so
-the log shows exactly what the controller's parser accepts and drops).  :class:`FrameLog`
+the log shows exactly what the controller's parser accepts and drops).  :class:`SpyLog`
 writes the lines.
 
 Line format (fields separated by one space)::
@@ -34,13 +34,13 @@ from parolkit.protocol.frames import (
 )
 from parolkit.protocol.stream import CommandParser, FrameParser, StatusParser
 
-__all__ = ["Direction", "Piece", "StreamSplitter", "FrameLog", "format_frame"]
+__all__ = ["SpyDirection", "Piece", "StreamSplitter", "SpyLog", "format_frame"]
 
 _BITFIELDS = frozenset({"affected", "io", "homed", "temperature_error", "position_error",
                         "gripper_status"})
 
 
-class Direction(str, Enum):
+class SpyDirection(str, Enum):
     """Which way bytes crossed the link, as shown in the log."""
 
     TO_BOARD = "PC>BOARD"
@@ -60,16 +60,16 @@ class Piece:
 class StreamSplitter:
     """Splits one direction's byte stream into frames and undecoded runs, in order.
 
-    ``StreamSplitter(Direction.TO_BOARD)`` parses command frames (the board's rules: CRC byte
-    not checked); ``Direction.FROM_BOARD`` status frames (the controller's rules: CRC byte
+    ``StreamSplitter(SpyDirection.TO_BOARD)`` parses command frames (the board's rules: CRC byte
+    not checked); ``SpyDirection.FROM_BOARD`` status frames (the controller's rules: CRC byte
     checked).  It mirrors the parser's buffer: every byte fed comes out exactly once, in a
     frame, in an undecoded run, or from :meth:`pending` (a frame still incomplete).
     """
 
-    def __init__(self, direction: Direction) -> None:
+    def __init__(self, direction: SpyDirection) -> None:
         self.direction = direction
         self._parser: FrameParser[CommandFrame] | FrameParser[StatusFrame]
-        if direction is Direction.TO_BOARD:
+        if direction is SpyDirection.TO_BOARD:
             self._parser = CommandParser()
             self._size = COMMAND_FRAME_SIZE
         else:
@@ -124,7 +124,7 @@ def format_frame(frame: CommandFrame | StatusFrame) -> str:
     return f"{type(frame).__name__} {fields}"
 
 
-class FrameLog:
+class SpyLog:
     """Writes log lines for both directions of one link to ``stream``.
 
     ``raw=True`` adds each frame's bytes in hex (``raw=ffffff34...``).  Counters
@@ -134,16 +134,16 @@ class FrameLog:
     def __init__(self, stream: TextIO, *, raw: bool = False) -> None:
         self.stream = stream
         self.raw = raw
-        self._splitters = {d: StreamSplitter(d) for d in Direction}
-        self.frames = {d: 0 for d in Direction}
-        self.undecoded_bytes = {d: 0 for d in Direction}
+        self._splitters = {d: StreamSplitter(d) for d in SpyDirection}
+        self.frames = {d: 0 for d in SpyDirection}
+        self.undecoded_bytes = {d: 0 for d in SpyDirection}
 
     @staticmethod
     def _stamp(mono_s: float, wall_s: float) -> str:
         wall = datetime.fromtimestamp(wall_s).astimezone().isoformat(timespec="microseconds")
         return f"{wall} {mono_s:.6f}"
 
-    def data(self, direction: Direction, data: bytes, mono_s: float, wall_s: float) -> None:
+    def data(self, direction: SpyDirection, data: bytes, mono_s: float, wall_s: float) -> None:
         """Log the bytes that crossed at ``mono_s`` (``time.monotonic()``) / ``wall_s``
         (``time.time()``): one line per frame or undecoded run they complete."""
         stamp = self._stamp(mono_s, wall_s)

@@ -16,7 +16,7 @@ from typing import TextIO
 
 from parolkit.errors import ParolkitValueError
 from parolkit.transport.base import Transport, TransportError
-from parolkit.transport.framelog import Direction, FrameLog
+from parolkit.transport.framelog import SpyDirection, SpyLog
 
 __all__ = ["SpyTransport"]
 
@@ -54,10 +54,10 @@ class SpyTransport(Transport):
         self.log_target: str | TextIO = log
         self.raw = raw
         self._lock = threading.Lock()
-        self._log: FrameLog | None = None
+        self._log: SpyLog | None = None
         self._owned_file: TextIO | None = None
-        self._frames = {d: 0 for d in Direction}
-        self._undecoded = {d: 0 for d in Direction}
+        self._frames = {d: 0 for d in SpyDirection}
+        self._undecoded = {d: 0 for d in SpyDirection}
 
     @property
     def description(self) -> str:
@@ -73,14 +73,14 @@ class SpyTransport(Transport):
         with self._lock:
             frames, undecoded = dict(self._frames), dict(self._undecoded)
             if self._log is not None:
-                for d in Direction:
+                for d in SpyDirection:
                     frames[d] += self._log.frames[d]
                     undecoded[d] += self._log.undecoded_bytes[d]
         return {
-            "frames_to_board": frames[Direction.TO_BOARD],
-            "frames_from_board": frames[Direction.FROM_BOARD],
-            "undecoded_to_board": undecoded[Direction.TO_BOARD],
-            "undecoded_from_board": undecoded[Direction.FROM_BOARD],
+            "frames_to_board": frames[SpyDirection.TO_BOARD],
+            "frames_from_board": frames[SpyDirection.FROM_BOARD],
+            "undecoded_to_board": undecoded[SpyDirection.TO_BOARD],
+            "undecoded_from_board": undecoded[SpyDirection.FROM_BOARD],
         }
 
     # ---- the log ------------------------------------------------------------------------------
@@ -96,7 +96,7 @@ class SpyTransport(Transport):
             self._owned_file = stream
         else:
             stream = target
-        self._log = FrameLog(stream, raw=self.raw)
+        self._log = SpyLog(stream, raw=self.raw)
 
     def _end_log(self, text: str) -> None:
         log, self._log = self._log, None
@@ -108,7 +108,7 @@ class SpyTransport(Transport):
             log.event(text, mono, wall)
             log.stream.flush()
         finally:
-            for d in Direction:
+            for d in SpyDirection:
                 self._frames[d] += log.frames[d]
                 self._undecoded[d] += log.undecoded_bytes[d]
             file, self._owned_file = self._owned_file, None
@@ -149,12 +149,12 @@ class SpyTransport(Transport):
             self.inner.write(data)
         except Exception as exc:
             with self._lock:
-                self._event(f"{Direction.TO_BOARD.value} write of {len(data)} bytes failed: "
+                self._event(f"{SpyDirection.TO_BOARD.value} write of {len(data)} bytes failed: "
                             f"{type(exc).__name__}: {exc}")
             raise
         with self._lock:
             if self._log is not None:
-                self._log.data(Direction.TO_BOARD, bytes(data), mono, wall)
+                self._log.data(SpyDirection.TO_BOARD, bytes(data), mono, wall)
 
     def read(self) -> bytes:
         self._check_open()
@@ -162,12 +162,12 @@ class SpyTransport(Transport):
             data = self.inner.read()
         except Exception as exc:
             with self._lock:
-                self._event(f"{Direction.FROM_BOARD.value} read failed: "
+                self._event(f"{SpyDirection.FROM_BOARD.value} read failed: "
                             f"{type(exc).__name__}: {exc}")
             raise
         if data:
             mono, wall = time.monotonic(), time.time()
             with self._lock:
                 if self._log is not None:
-                    self._log.data(Direction.FROM_BOARD, data, mono, wall)
+                    self._log.data(SpyDirection.FROM_BOARD, data, mono, wall)
         return data

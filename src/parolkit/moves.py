@@ -1,10 +1,24 @@
-"""Move requests: typed, validated value objects (units at the edge: deg, mm, %, s).
+"""The shared vocabulary of motion: the words (enums) and the move value objects.
 
-Every move validates its fields on construction and raises
-:class:`~parolkit.errors.ParolkitValueError` naming the field and the allowed range.  A move
-says WHAT to do; :func:`parolkit.motion.plan` decides HOW (profile, duration, samples).
+Every layer speaks about motion in these terms and no layer defines its own copy:
 
-Timing fields follow the seed's rules (``docs/motion.md``):
+* :mod:`parolkit.protocol.commands` parses a datagram into a command that CARRIES one of these
+  moves (``MOVEJOINT`` -> ``MoveJoint(move=JointMove(...))``);
+* :mod:`parolkit.motion` plans them (``plan(JointMove(...), start_deg)``) and re-exports them;
+* :mod:`parolkit.script` statements carry them (``MoveJoint(...)`` in a program);
+* :mod:`parolkit.gui` builds its jogs from them.
+
+The standard-library client (:mod:`parolkit.client.robot_api`) cannot import anything from the
+rest of the package, so it keeps plain copies of the words (``PROFILES``, ``FRAMES``, ...);
+``tests/unit/test_vocabulary.py`` asserts that those copies agree with the enums here.
+
+This module imports only the standard library and :mod:`parolkit.errors`: the controller's
+start-up path (protocol parsing) uses it without loading numpy-heavy motion code.
+
+Units at the edge: degrees, millimetres, percent (0-100), seconds.  Every move validates its
+fields on construction and raises :class:`~parolkit.errors.ParolkitValueError` naming the field
+and the allowed range.  A move says WHAT to do; :func:`parolkit.motion.plan` decides HOW
+(profile, duration, samples).  Timing fields follow the seed's rules (``docs/motion.md``):
 
 * ``duration_s`` given: the move lasts exactly that long (it overrides ``speed_pct`` and
   ``accel_pct``), default profile ``POLY``;
@@ -23,10 +37,13 @@ from typing import Sequence, Union
 from parolkit.errors import ParolkitValueError
 
 __all__ = [
+    "MAX_DURATION_S",
     "Profile",
     "Tracking",
     "Frame",
     "Plane",
+    "Timing",
+    "CartAxis",
     "JointMove",
     "PoseMove",
     "CartMove",
@@ -41,13 +58,24 @@ __all__ = [
     "SplineMove",
     "LineSegment",
     "BlendMove",
+    "BlendSegment",
     "Move",
-    "CART_JOG_AXES",
 ]
 
+#: Longest duration any timed move (or jog, delay, wait) may ask for, s.
+MAX_DURATION_S = 3600.0
 
-class Profile(Enum):
-    """Time-scaling profile.  ``None`` in a move means the seed's default for the case."""
+
+def _word(value: object) -> object:
+    """The wire word of ``value``: an enum's value, anything else unchanged."""
+    return value.value if isinstance(value, Enum) else value
+
+
+class Profile(str, Enum):
+    """Time-scaling profile of a move; ``None`` in a move means the seed's default for the case.
+
+    The values are the wire words (``MOVEJOINT|...|trap``, RBTscript ``trap``).
+    """
 
     POLY = "poly"  #: quintic polynomial: zero speed and acceleration at both ends
     TRAP = "trap"  #: trapezoidal speed (with a duration: 1/3 accelerate, 1/3 cruise, 1/3 brake)
@@ -55,14 +83,13 @@ class Profile(Enum):
     TOPPRA = "toppra"  #: time-optimal path parameterisation (TOPP-RA) within joint limits
 
     @classmethod
-    def parse(cls, value: "Profile | str | None") -> "Profile | None":
-        """Accept a Profile, its name/value in any case, or None."""
+    def parse(cls, value: Profile | str | None) -> Profile | None:
+        """Accept a Profile, its word in any case, ``"None"``/``""`` or None (= default)."""
         if value is None or isinstance(value, Profile):
             return value
-        if isinstance(value, Enum):  # another layer's enum with the same words
-            value = value.value
-        if isinstance(value, str):
-            key = value.strip().lower()
+        word = _word(value)
+        if isinstance(word, str):
+            key = word.strip().lower()
             if key in ("", "none"):
                 return None
             for p in cls:
@@ -73,43 +100,52 @@ class Profile(Enum):
         )
 
 
-class Tracking(Enum):
-    """How the board follows the trajectory."""
+class Tracking(str, Enum):
+    """How the board follows a trajectory.  The values are the wire words."""
 
-    POSITION = 156  #: position + feed-forward speed (board command 156): ends exactly on target
-    SPEED = 123  #: speed only (board command 123): smoother, may end slightly off target
+    POSITION = "position"  #: position + feed-forward speed (board command 156): ends exactly on target
+    SPEED = "speed"  #: speed only (board command 123): smoother, may end slightly off target
+
+    @property
+    def board_command(self) -> int:
+        """The board command code that streams this tracking: 156 (GOTO) or 123 (JOG), as in
+        :class:`parolkit.protocol.frames.BoardCommand` (a unit test checks they agree)."""
+        return 156 if self is Tracking.POSITION else 123
 
     @classmethod
-    def parse(cls, value: "Tracking | str | None") -> "Tracking":
+    def parse(cls, value: Tracking | str | None) -> Tracking:
+        """Accept a Tracking, ``"position"``/``"speed"`` in any case, or None (= POSITION)."""
         if value is None:
             return cls.POSITION
         if isinstance(value, Tracking):
             return value
-        if isinstance(value, Enum):  # another layer's enum with the same words
-            value = value.value
-        if isinstance(value, str) and value.strip().lower() in ("position", "speed"):
-            return cls.POSITION if value.strip().lower() == "position" else cls.SPEED
+        word = _word(value)
+        if isinstance(word, str):
+            key = word.strip().lower()
+            for t in cls:
+                if t.value == key:
+                    return t
         raise ParolkitValueError(f"tracking must be 'position' or 'speed', got {value!r}")
 
 
-class Frame(Enum):
-    """Reference frame: world (base) or the tool frame at the start of the move."""
+class Frame(str, Enum):
+    """Reference frame: the world (robot base) or the tool frame at the start of the move."""
 
     WRF = "WRF"
     TRF = "TRF"
 
     @classmethod
-    def parse(cls, value: "Frame | str") -> "Frame":
+    def parse(cls, value: Frame | str) -> Frame:
+        """Accept a Frame or ``"WRF"``/``"TRF"`` in any case."""
         if isinstance(value, Frame):
             return value
-        if isinstance(value, Enum):
-            value = value.value
-        if isinstance(value, str) and value.strip().upper() in ("WRF", "TRF"):
-            return cls(value.strip().upper())
+        word = _word(value)
+        if isinstance(word, str) and word.strip().upper() in ("WRF", "TRF"):
+            return cls(word.strip().upper())
         raise ParolkitValueError(f"frame must be WRF or TRF, got {value!r}")
 
 
-class Plane(Enum):
+class Plane(str, Enum):
     """Plane of a circle, with its normal: XY (+Z), XZ (+Y), YZ (+X)."""
 
     XY = "XY"
@@ -117,25 +153,79 @@ class Plane(Enum):
     YZ = "YZ"
 
     @classmethod
-    def parse(cls, value: "Plane | str") -> "Plane":
+    def parse(cls, value: Plane | str) -> Plane:
+        """Accept a Plane or ``"XY"``/``"XZ"``/``"YZ"`` in any case."""
         if isinstance(value, Plane):
             return value
-        if isinstance(value, Enum):
-            value = value.value
-        if isinstance(value, str) and value.strip().upper() in ("XY", "XZ", "YZ"):
-            return cls(value.strip().upper())
+        word = _word(value)
+        if isinstance(word, str) and word.strip().upper() in ("XY", "XZ", "YZ"):
+            return cls(word.strip().upper())
         raise ParolkitValueError(f"plane must be XY, XZ or YZ, got {value!r}")
 
 
-#: Cartesian jog axes: name -> (is_rotation, axis index 0..2, sign).
-CART_JOG_AXES: dict[str, tuple[bool, int, int]] = {
-    "X+": (False, 0, 1), "X-": (False, 0, -1),
-    "Y+": (False, 1, 1), "Y-": (False, 1, -1),
-    "Z+": (False, 2, 1), "Z-": (False, 2, -1),
-    "RX+": (True, 0, 1), "RX-": (True, 0, -1),
-    "RY+": (True, 1, 1), "RY-": (True, 1, -1),
-    "RZ+": (True, 2, 1), "RZ-": (True, 2, -1),
-}
+class Timing(str, Enum):
+    """How a smooth path's time is given on the wire (``SMOOTH_*|...|DURATION|3``): a total
+    duration in s or a path speed in percent.  A move object holds the same choice as
+    ``duration_s`` / ``speed_pct``; :meth:`fields` converts."""
+
+    DURATION = "DURATION"
+    SPEED = "SPEED"
+
+    def fields(self, value: float) -> tuple[float | None, float | None]:
+        """``(duration_s, speed_pct)`` of a move timed with ``value`` (s or %) in this mode."""
+        return (value, None) if self is Timing.DURATION else (None, value)
+
+
+class CartAxis(str, Enum):
+    """A Cartesian jog direction: along (X, Y, Z) or about (RX, RY, RZ) an axis, + or -.
+
+    The values are the wire words of ``CARTJOG``.  Rotations turn about the TCP.
+    """
+
+    X_POS = "X+"
+    X_NEG = "X-"
+    Y_POS = "Y+"
+    Y_NEG = "Y-"
+    Z_POS = "Z+"
+    Z_NEG = "Z-"
+    RX_POS = "RX+"
+    RX_NEG = "RX-"
+    RY_POS = "RY+"
+    RY_NEG = "RY-"
+    RZ_POS = "RZ+"
+    RZ_NEG = "RZ-"
+
+    @property
+    def is_rotation(self) -> bool:
+        """True for RX, RY, RZ (a rotation about the axis), False for a translation."""
+        return self.value.startswith("R")
+
+    @property
+    def sign(self) -> int:
+        """+1 or -1: the direction along / about the axis."""
+        return 1 if self.value.endswith("+") else -1
+
+    @property
+    def axis_index(self) -> int:
+        """0..2 for X/Y/Z (the translation or rotation axis).  (Not ``index``: that is
+        ``str.index``, which a str enum must keep.)"""
+        return "XYZ".index(self.value.rstrip("+-")[-1])
+
+    @classmethod
+    def parse(cls, value: CartAxis | str) -> CartAxis:
+        """Accept a CartAxis or its word (``"x+"``, ``"RZ-"``, ...) in any case."""
+        if isinstance(value, CartAxis):
+            return value
+        word = _word(value)
+        if isinstance(word, str):
+            key = word.strip().upper()
+            for a in cls:
+                if a.value == key:
+                    return a
+        raise ParolkitValueError(
+            f"axis must be one of {', '.join(a.value for a in cls)}, got {value!r}"
+        )
+
 
 # ---------------------------------------------------------------------------------------------
 # field validators (each names the field and the allowed range)
@@ -168,8 +258,8 @@ def _opt_duration(value: object, name: str = "duration_s") -> float | None:
     if value is None:
         return None
     v = _num(value, name)
-    if not 0.0 < v <= 3600.0:
-        raise ParolkitValueError(f"{name} must be in (0, 3600] s, got {value!r}")
+    if not 0.0 < v <= MAX_DURATION_S:
+        raise ParolkitValueError(f"{name} must be in (0, {MAX_DURATION_S:g}] s, got {value!r}")
     return v
 
 
@@ -312,7 +402,9 @@ class SpeedJointMove:
         object.__setattr__(self, "speeds_deg_s", _vec(self.speeds_deg_s, 6, "speeds_deg_s"))
         d = _opt_duration(self.duration_s)
         if d is None:
-            raise ParolkitValueError("duration_s is required for SpeedJoint (0 < t <= 3600 s)")
+            raise ParolkitValueError(
+                f"duration_s is required for SpeedJoint (0 < t <= {MAX_DURATION_S:g} s)"
+            )
         object.__setattr__(self, "duration_s", d)
 
 
@@ -370,26 +462,40 @@ class JointJog:
         object.__setattr__(self, "distance_deg", dist)
 
     @classmethod
+    def single(
+        cls, joint: int, direction: int, speed_pct: float, *, duration_s: float | None = None,
+        distance_deg: float | None = None,
+    ) -> JointJog:
+        """Jog one joint: ``joint`` 0..5 (0 = J1), ``direction`` +1 / -1, ``speed_pct`` (0, 100]."""
+        return cls((joint,), (direction,), (speed_pct,), duration_s, distance_deg)
+
+    @classmethod
     def from_index(
         cls, index: int, speed_pct: float, duration_s: float | None = None,
         distance_deg: float | None = None,
-    ) -> "JointJog":
+    ) -> JointJog:
         """The UDP JOG convention: index 0-5 = J1..J6 positive, 6-11 = negative."""
         if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 11:
             raise ParolkitValueError(f"joint index must be an integer 0..11, got {index!r}")
         return cls((index % 6,), (1 if index < 6 else -1,), (speed_pct,), duration_s, distance_deg)
+
+    @property
+    def wire_indices(self) -> tuple[int, ...]:
+        """The UDP JOG/MULTIJOG index of each jogged joint: 0-5 positive, 6-11 negative."""
+        return tuple(j if d > 0 else j + 6 for j, d in zip(self.joints, self.directions))
 
 
 @dataclass(frozen=True)
 class CartJog:
     """Cartesian jog along/about one axis of WRF or TRF at a constant speed for ``duration_s``.
 
-    ``axis``: X+ X- Y+ Y- Z+ Z- RX+ RX- RY+ RY- RZ+ RZ-; ``speed_pct`` (0, 100] maps to
-    2..60 mm/s (translations) or 0.7..25 deg/s (rotations).  Rotations turn about the TCP.
+    ``axis``: a :class:`CartAxis` or its word (X+ X- Y+ Y- Z+ Z- RX+ RX- RY+ RY- RZ+ RZ-);
+    ``speed_pct`` (0, 100] maps to 2..60 mm/s (translations) or 0.7..25 deg/s (rotations).
+    Rotations turn about the TCP.
     """
 
     frame: Frame | str
-    axis: str
+    axis: CartAxis | str
     speed_pct: float
     duration_s: float
 
@@ -397,16 +503,13 @@ class CartJog:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "frame", Frame.parse(self.frame))
-        ax = self.axis.strip().upper() if isinstance(self.axis, str) else self.axis
-        if ax not in CART_JOG_AXES:
-            raise ParolkitValueError(
-                f"axis must be one of {', '.join(CART_JOG_AXES)}, got {self.axis!r}"
-            )
-        object.__setattr__(self, "axis", ax)
+        object.__setattr__(self, "axis", CartAxis.parse(self.axis))
         object.__setattr__(self, "speed_pct", _opt_pct(self.speed_pct, "speed_pct", allow_zero=False))
         d = _opt_duration(self.duration_s)
         if d is None:
-            raise ParolkitValueError("duration_s is required for CartJog (0 < t <= 3600 s)")
+            raise ParolkitValueError(
+                f"duration_s is required for CartJog (0 < t <= {MAX_DURATION_S:g} s)"
+            )
         object.__setattr__(self, "duration_s", d)
 
 
@@ -591,7 +694,9 @@ class LineSegment:
         object.__setattr__(self, "pose", _pose(self.pose, "pose"))
 
 
-BlendSegment = Union[LineSegment, "CircleMove", "ArcCenterMove", "ArcParamMove", "SplineMove"]
+#: What a :class:`BlendMove` joins (each in the blend's frame; their own timing is ignored).
+BlendSegment = Union[LineSegment, CircleMove, ArcCenterMove, ArcParamMove, SplineMove]
+_BLEND_SEGMENT_TYPES = (LineSegment, CircleMove, ArcCenterMove, ArcParamMove, SplineMove)
 
 
 @dataclass(frozen=True)
@@ -601,10 +706,11 @@ class BlendMove:
 
     Corner rounding: ``blend_radius_mm`` (mm, distance from the corner where the rounding
     starts) or ``blend_time_s`` (s, converted with the path's mean speed: r = v * t / 2).
-    The segments' own timing fields are ignored; ``duration_s`` / ``speed_pct`` time the whole.
+    The segments' own timing and frame fields are ignored (every segment is in ``frame``);
+    ``duration_s`` / ``speed_pct`` time the whole.
     """
 
-    segments: Sequence[object]
+    segments: Sequence[BlendSegment]
     blend_radius_mm: float | None = None
     blend_time_s: float | None = None
     frame: Frame | str = Frame.WRF
@@ -621,7 +727,7 @@ class BlendMove:
         if not 1 <= len(segs) <= 100:
             raise ParolkitValueError(f"segments must hold 1..100 segments, got {len(segs)}")
         for i, s in enumerate(segs):
-            if not isinstance(s, (LineSegment, CircleMove, ArcCenterMove, ArcParamMove, SplineMove)):
+            if not isinstance(s, _BLEND_SEGMENT_TYPES):
                 raise ParolkitValueError(
                     f"segments[{i}] must be a LineSegment, CircleMove, ArcCenterMove, "
                     f"ArcParamMove or SplineMove, got {type(s).__name__}"
@@ -642,8 +748,8 @@ class BlendMove:
         _smooth_common(self)
 
 
+#: Every move :func:`parolkit.motion.plan` accepts.
 Move = Union[
     JointMove, PoseMove, CartMove, CartRelTRFMove, SpeedJointMove, JointJog, CartJog,
     CircleMove, ArcCenterMove, ArcParamMove, HelixMove, SplineMove, BlendMove,
 ]
-
