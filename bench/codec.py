@@ -29,9 +29,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from parolkit.board import BoardEmulator, PtyBoardServer  # noqa: E402
-from parolkit.protocol import CommandFrame, StatusFrame, StatusParser  # noqa: E402
-
+from parolkit.board import BoardEmulator, PtyBoardServer
+from parolkit.protocol import CommandFrame, StatusFrame, StatusParser
 
 # ---------------------------------------------------------------------------------------------
 # the naive reference: struct packing of the same layout (no validation, no value objects)

@@ -25,7 +25,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -33,8 +32,9 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(REPO))
 
-from parolkit.board import BoardEmulator, PtyBoardServer  # noqa: E402
 from tests.integration import flood  # noqa: E402  (the flood rig the acceptance test uses)
+
+from parolkit.board import BoardEmulator, PtyBoardServer  # noqa: E402
 
 ENV = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO / "src"))
 
@@ -88,7 +88,7 @@ def query(sock: socket.socket, addr, text: bytes) -> tuple[bytes | None, float]:
     sock.sendto(text, addr)
     try:
         data = sock.recvfrom(65535)[0]
-    except socket.timeout:
+    except TimeoutError:
         return None, float("nan")
     return data, time.perf_counter() - t
 

@@ -56,7 +56,7 @@ def udp_query(port: int, text: str, timeout: float = 1.0, host: str = "127.0.0.1
         s.sendto(text.encode(), (host, port))
         try:
             data, _ = s.recvfrom(65535)
-        except socket.timeout:
+        except TimeoutError:
             return None
         return data.decode(errors="replace")
 

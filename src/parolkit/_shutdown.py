@@ -23,7 +23,7 @@ class ShutdownRequest:
         #: the first signal number received, or None
         self.received: int | None = None
 
-    def install(self) -> "ShutdownRequest":
+    def install(self) -> ShutdownRequest:
         """Handle SIGINT and SIGTERM (main thread only, as ``signal.signal`` requires)."""
         signal.signal(signal.SIGTERM, self._on_signal)
         signal.signal(signal.SIGINT, self._on_signal)

@@ -28,8 +28,9 @@ import argparse
 import shlex
 import sys
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Optional, Sequence, TextIO
+from typing import TextIO
 
 from parolkit.errors import ParolkitError, ParolkitValueError
 from parolkit.protocol.frames import (
@@ -58,7 +59,7 @@ def _ms(ticks: int) -> float:
     return ticks * 1000.0 / TIMER_HZ
 
 
-def format_status(frame: Optional[StatusFrame], model: RobotModel = PAROL6, *,
+def format_status(frame: StatusFrame | None, model: RobotModel = PAROL6, *,
                   missed: int = 0, sent: int = 0) -> str:
     """A multi-line view of every telemetry field of one status frame."""
     if frame is None:
@@ -117,7 +118,7 @@ class BoardTester:
     is sent in every frame, as the original software does.
     """
 
-    def __init__(self, transport, rate_hz: float = 100.0, out: Optional[TextIO] = None,
+    def __init__(self, transport, rate_hz: float = 100.0, out: TextIO | None = None,
                  model: RobotModel = PAROL6) -> None:
         if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float)) or not 1 <= rate_hz <= 1000:
             raise ParolkitValueError(f"rate must be in 1..1000 Hz, got {rate_hz!r}")
@@ -126,7 +127,7 @@ class BoardTester:
         self.out = out if out is not None else sys.stdout
         self.model = model
         self.parser = StatusParser()
-        self.status: Optional[StatusFrame] = None
+        self.status: StatusFrame | None = None
         self.outputs = _Outputs()
         self.gripper = (0, 0, 100, 0)  # position, speed, current, command bits
         self.sent = 0
@@ -135,8 +136,8 @@ class BoardTester:
 
     # ---- frames ----
     def tick(self, command: int = BoardCommand.IDLE, *, speeds: Sequence[int] = (0,) * 6,
-             positions: Optional[Sequence[int]] = None,
-             gripper_mode: int = GripperMode.OPERATE) -> Optional[StatusFrame]:
+             positions: Sequence[int] | None = None,
+             gripper_mode: int = GripperMode.OPERATE) -> StatusFrame | None:
         """Send one frame, wait (until the end of this tick) for the reply, keep the rate."""
         if positions is None:
             positions = self.status.positions if self.status is not None else (0,) * 6
@@ -169,7 +170,7 @@ class BoardTester:
             time.sleep(delay)
         return got
 
-    def idle(self, seconds: float) -> Optional[StatusFrame]:
+    def idle(self, seconds: float) -> StatusFrame | None:
         """Idle frames (255) for ``seconds``; returns the latest status."""
         for _ in range(max(1, round(seconds / self.period))):
             self.tick()
@@ -330,8 +331,8 @@ class BoardTester:
                    f"error={g.estop_error} object_detection={st.object_detection}")
         return st
 
-    def monitor(self, seconds: Optional[float], refresh_s: float = 0.1,
-                live: Optional[bool] = None) -> Optional[StatusFrame]:
+    def monitor(self, seconds: float | None, refresh_s: float = 0.1,
+                live: bool | None = None) -> StatusFrame | None:
         """Idle frames and a live view of every telemetry field (``seconds=None``: until Ctrl-C).
 
         On a terminal the view redraws in place every ``refresh_s``; otherwise a block is

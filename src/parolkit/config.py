@@ -32,9 +32,10 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import TYPE_CHECKING, Any
 
 from parolkit.errors import ParolkitValueError
 
@@ -121,7 +122,7 @@ class SerialSettings:
             self._parsed_port()
         _int_range(self.baud, "serial.baud", 1200, 12_000_000)
 
-    def _parsed_port(self) -> "TransportURL":
+    def _parsed_port(self) -> TransportURL:
         from parolkit.transport.url import TransportURLError, parse_transport_url
 
         try:
@@ -162,7 +163,7 @@ class ToolSettings:
         object.__setattr__(self, "pose", tuple(float(v) for v in self.pose))
 
 
-def _stock_robot() -> "RobotModel":
+def _stock_robot() -> RobotModel:
     from parolkit.robot import PAROL6
 
     return PAROL6
@@ -183,14 +184,14 @@ def find_config_file(path: str | Path | None = None) -> Path | None:
 class Config:
     """Everything configurable, in one object."""
 
-    robot: "RobotModel" = field(default_factory=_stock_robot)
+    robot: RobotModel = field(default_factory=_stock_robot)
     controller: ControllerSettings = field(default_factory=ControllerSettings)
     serial: SerialSettings = field(default_factory=SerialSettings)
     gui: GuiSettings = field(default_factory=GuiSettings)
     tools: tuple[ToolSettings, ...] = ()
     source: str | None = None
 
-    def with_overrides(self, overrides: Mapping[str, Mapping[str, Any]]) -> "Config":
+    def with_overrides(self, overrides: Mapping[str, Mapping[str, Any]]) -> Config:
         """Apply ``{"controller": {"rate_hz": 250}, ...}``; ``None`` values are ignored."""
         return _apply(self, overrides, origin="command line")
 

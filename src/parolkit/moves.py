@@ -30,9 +30,10 @@ and the allowed range.  A move says WHAT to do; :func:`parolkit.motion.plan` dec
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Sequence, Union
+from typing import Union
 
 from parolkit.errors import ParolkitValueError
 
@@ -291,12 +292,12 @@ def _positive(value: object, name: str, unit: str) -> float:
 
 def _timing(obj: object) -> None:
     """Common fields: duration_s, speed_pct, profile, tracking."""
-    object.__setattr__(obj, "duration_s", _opt_duration(getattr(obj, "duration_s")))
+    object.__setattr__(obj, "duration_s", _opt_duration(obj.duration_s))
     object.__setattr__(
-        obj, "speed_pct", _opt_pct(getattr(obj, "speed_pct"), "speed_pct", allow_zero=True)
+        obj, "speed_pct", _opt_pct(obj.speed_pct, "speed_pct", allow_zero=True)
     )
-    object.__setattr__(obj, "profile", Profile.parse(getattr(obj, "profile")))
-    object.__setattr__(obj, "tracking", Tracking.parse(getattr(obj, "tracking")))
+    object.__setattr__(obj, "profile", Profile.parse(obj.profile))
+    object.__setattr__(obj, "tracking", Tracking.parse(obj.tracking))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -519,8 +520,8 @@ class CartJog:
 
 
 def _smooth_common(obj: object) -> None:
-    object.__setattr__(obj, "frame", Frame.parse(getattr(obj, "frame")))
-    object.__setattr__(obj, "start_pose", _opt_pose(getattr(obj, "start_pose"), "start_pose"))
+    object.__setattr__(obj, "frame", Frame.parse(obj.frame))
+    object.__setattr__(obj, "start_pose", _opt_pose(obj.start_pose, "start_pose"))
     _timing(obj)
 
 

@@ -25,8 +25,8 @@ functions; the conversions themselves only reject values that cannot be represen
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Sequence
 
 import numpy as np
 
@@ -166,7 +166,7 @@ class RobotModel:
         if len(self.dh) != NUM_JOINTS:
             raise ParolkitValueError("dh needs one row per joint")
 
-    def with_changes(self, **changes: object) -> "RobotModel":
+    def with_changes(self, **changes: object) -> RobotModel:
         """A copy with some fields replaced (validated like the original)."""
         return replace(self, **changes)
 

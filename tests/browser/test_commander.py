@@ -6,8 +6,8 @@ robot enabled, homed and idle for the next).
 
 from __future__ import annotations
 
-import re
 import os
+import re
 import time
 from pathlib import Path
 
@@ -41,7 +41,7 @@ def wait_until(predicate, timeout: float = 15.0, interval: float = 0.1, what: st
     if _PAGE is not None:
         try:
             log = "\nGUI log (newest first):\n" + _PAGE.get_by_test_id("log").inner_text(timeout=2000)
-        except Exception as exc:  # noqa: BLE001 - best effort diagnostics only
+        except Exception as exc:
             log = f"\n(GUI log unavailable: {exc})"
     raise AssertionError(f"timed out after {timeout} s waiting for {what} (last value {last!r}){log}")
 

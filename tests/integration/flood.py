@@ -129,7 +129,7 @@ def flood_main(argv: list[str]) -> int:
         while True:
             try:
                 d = recv(65535)
-            except socket.timeout:
+            except TimeoutError:
                 if done.is_set():
                     return
                 continue
@@ -210,7 +210,7 @@ def acks_main(argv: list[str]) -> int:
             raw.append(recv(65535))
             last = time.monotonic()
             continue
-        except socket.timeout:
+        except TimeoutError:
             pass
         if stop and (time.monotonic() - last >= stop["quiet"] or time.monotonic() >= stop["until"]):
             break
@@ -427,7 +427,7 @@ class SecondClient:
                 while not s.recv(65535).startswith(b"PONG"):
                     pass
                 self._pings.append((t, time.monotonic() - t))
-            except socket.timeout:
+            except TimeoutError:
                 self._pings.append((t, math.inf))
                 s.close()
                 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)

@@ -11,11 +11,10 @@ import time
 from pathlib import Path
 
 import pytest
-
-from parolkit.client.launch import die_with_parent
 import serial
 
 from parolkit.board import BoardEmulator, PtyBoardServer
+from parolkit.client.launch import die_with_parent
 from parolkit.protocol import BoardCommand, CommandFrame, StatusFrame, StatusParser
 from parolkit.transport import LinkLostError, SerialTransport
 

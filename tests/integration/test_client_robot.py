@@ -10,12 +10,12 @@ import asyncio
 import time
 
 import pytest
+from tests.conftest import start_controller
 
 from parolkit.client.async_robot import AsyncRobot
 from parolkit.client.core import AckStatus
 from parolkit.client.errors import CommandCancelled, CommandFailed, CommandInvalid
 from parolkit.client.robot import Robot
-from tests.conftest import start_controller
 
 STANDBY = [90, -90, 180, 0, 0, 180]
 #: away from the wrist singularity of the standby pose (J5 = 0): Cartesian paths are free here

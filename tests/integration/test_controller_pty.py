@@ -8,7 +8,6 @@ the pty with pyserial like a real ``/dev/ttyACM0``.  Acks are read on a real UDP
 from __future__ import annotations
 
 import json
-import random
 import socket
 import subprocess
 import sys
@@ -17,10 +16,10 @@ import time
 from collections import defaultdict
 
 import pytest
+from tests.conftest import start_controller, wait_until
 
 from parolkit.board import BoardEmulator, PtyBoardServer
 from parolkit.protocol.frames import BoardCommand
-from tests.conftest import start_controller, wait_until
 
 TERMINAL = {"COMPLETED", "FAILED", "CANCELLED", "INVALID"}
 
@@ -43,7 +42,7 @@ class AckListener:
         while not self._stop:
             try:
                 data, _ = self.sock.recvfrom(65535)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             except OSError:
                 return
@@ -131,7 +130,7 @@ class Bench:
                     r = self.sock.recvfrom(65535)[0].decode()
                     if want is None or r.startswith(want):
                         return r
-            except socket.timeout:
+            except TimeoutError:
                 continue
         return None
 
@@ -480,7 +479,7 @@ def test_status_stream_subscribers_get_one_datagram_per_n_ticks(bench):
     while time.monotonic() < end:
         try:
             got.append(sub.recvfrom(65535)[0].decode())
-        except socket.timeout:
+        except TimeoutError:
             break
     # one datagram every 10th tick: judged by the ticks the objects carry, not by wall time,
     # which a loaded machine stretches

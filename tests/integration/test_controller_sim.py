@@ -11,11 +11,10 @@ import time
 from pathlib import Path
 
 import pytest
+from tests.conftest import REPO_ROOT, free_udp_port, wait_until
+from tests.integration.test_controller_pty import AckListener
 
 from parolkit.client.launch import die_with_parent
-
-from tests.conftest import REPO_ROOT, free_udp_port, wait_until
-from tests.integration.test_controller_pty import TERMINAL, AckListener
 
 
 class Client:
@@ -36,7 +35,7 @@ class Client:
         self.sock.sendto(text.encode() if isinstance(text, str) else text, (self.ctl.host, self.ctl.port))
         try:
             return self.sock.recvfrom(65535)[0].decode()
-        except socket.timeout:
+        except TimeoutError:
             return None
 
     def json(self, q: str) -> dict:
@@ -138,7 +137,7 @@ def _wait_serial(port: int, timeout: float = 20.0) -> socket.socket:
         try:
             if s.recvfrom(100)[0] == b"PONG|SERIAL=1":
                 return s
-        except socket.timeout:
+        except TimeoutError:
             pass
     raise AssertionError("controller never reported SERIAL=1")
 
@@ -150,7 +149,7 @@ def _ask(s: socket.socket, port: int, q: bytes, prefix: str) -> str:
     while time.monotonic() < end:
         try:
             r = s.recvfrom(65535)[0].decode()
-        except socket.timeout:
+        except TimeoutError:
             s.sendto(q, ("127.0.0.1", port))
             continue
         if r.startswith(prefix):

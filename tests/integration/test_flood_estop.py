@@ -33,10 +33,10 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from parolkit.client.launch import die_with_parent
 from tests.conftest import REPO_ROOT, start_controller, wait_until
 from tests.integration import flood
+
+from parolkit.client.launch import die_with_parent
 
 FLOOD_RATE = 20_000       # datagrams/s
 FLOOD_S = 10.0

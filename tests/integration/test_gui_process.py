@@ -12,10 +12,10 @@ import sys
 import time
 import urllib.request
 
+from tests.conftest import REPO_ROOT, free_tcp_port, wait_until
+
 from parolkit.client.launch import die_with_parent
 from parolkit.gui.cli import GRACEFUL_SHUTDOWN_S, GUI_STREAM_WATCHDOG_S
-
-from tests.conftest import REPO_ROOT, free_tcp_port, wait_until
 
 
 def _children(pid: int) -> list[int]:

@@ -17,6 +17,7 @@ import threading
 import time
 
 import pytest
+from tests.conftest import free_udp_port
 
 from parolkit.client import robot_api
 from parolkit.client.async_robot import AsyncRobot
@@ -32,7 +33,6 @@ from parolkit.client.errors import (
 )
 from parolkit.client.robot import Robot
 from parolkit.errors import ParolkitValueError
-from tests.conftest import free_udp_port
 
 #: the 4x4 pose the fake reports (metres): the standby pose of the default tool
 STANDBY_MATRIX = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.26257, 1.0, 0.0, 0.0, 0.28875, 0, 0, 0, 1]
@@ -87,7 +87,7 @@ class FakeController:
         while not self._stop:
             try:
                 data, addr = self.sock.recvfrom(65535)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             except OSError:
                 return

@@ -17,7 +17,7 @@ from parolkit.controller.stats import Histogram
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import AckStatus, parse_datagram
 from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperMode, StatusFrame
-from parolkit.robot import PAROL6, deg_to_steps
+from parolkit.robot import PAROL6
 from parolkit.transport.emulated import EmulatorTransport
 
 RATE = 100.0

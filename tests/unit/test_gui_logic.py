@@ -360,8 +360,9 @@ def test_controller_link_logs_acks_tracks_the_plan_and_survives_bad_data_and_res
     import socket
     import time
 
-    from parolkit.gui.link import ControllerLink
     from tests.unit.test_client import STATUS_OBJECT, FakeController
+
+    from parolkit.gui.link import ControllerLink
 
     fake = FakeController()
 

@@ -14,8 +14,18 @@ import pytest
 from parolkit.config import Config, ToolSettings
 from parolkit.errors import ParolkitError, ParolkitValueError
 from parolkit.kinematics import (
-    TOOLS, Tool, fk, fk_batch, fk_frames, fk_matrix, get_tool, jacobian, manipulability,
-    matrix_to_pose, pose_to_matrix, singularity_distance,
+    TOOLS,
+    Tool,
+    fk,
+    fk_batch,
+    fk_frames,
+    fk_matrix,
+    get_tool,
+    jacobian,
+    manipulability,
+    matrix_to_pose,
+    pose_to_matrix,
+    singularity_distance,
 )
 from parolkit.robot import PAROL6
 

@@ -9,7 +9,17 @@ import pytest
 
 from parolkit.errors import ParolkitError
 from parolkit.kinematics import (
-    Branch, IKError, IKFailure, IKSolution, Tool, fk, fk_batch, fk_matrix, ik, ik_all, ik_batch,
+    Branch,
+    IKError,
+    IKFailure,
+    IKSolution,
+    Tool,
+    fk,
+    fk_batch,
+    fk_matrix,
+    ik,
+    ik_all,
+    ik_batch,
     pose_to_matrix,
 )
 from parolkit.kinematics.model import A1, A2, A3, D4

@@ -12,8 +12,18 @@ from hypothesis import strategies as st
 
 from parolkit import kinematics as kin
 from parolkit.motion import (
-    ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove, CircleMove,
-    HelixMove, LineSegment, PlanningError, SplineMove, plan,
+    ArcCenterMove,
+    ArcParamMove,
+    BlendMove,
+    CartJog,
+    CartMove,
+    CartRelTRFMove,
+    CircleMove,
+    HelixMove,
+    LineSegment,
+    PlanningError,
+    SplineMove,
+    plan,
 )
 from parolkit.robot import PAROL6
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -11,7 +9,14 @@ from hypothesis import strategies as st
 
 from parolkit.errors import ParolkitValueError
 from parolkit.motion import (
-    JointJog, JointMove, PlanningError, Profile, SpeedJointMove, Trajectory, Tracking, plan,
+    JointJog,
+    JointMove,
+    PlanningError,
+    Profile,
+    SpeedJointMove,
+    Tracking,
+    Trajectory,
+    plan,
 )
 from parolkit.robot import PAROL6, deg_to_steps
 

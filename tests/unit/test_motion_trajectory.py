@@ -8,7 +8,13 @@ import pytest
 from parolkit import kinematics as kin
 from parolkit.errors import ParolkitValueError
 from parolkit.motion import (
-    CartMove, JointMove, PlanningError, SpeedJointMove, Trajectory, Tracking, plan,
+    CartMove,
+    JointMove,
+    PlanningError,
+    SpeedJointMove,
+    Tracking,
+    Trajectory,
+    plan,
 )
 from parolkit.robot import PAROL6
 

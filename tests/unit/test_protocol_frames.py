@@ -8,6 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import DATA_DIR
+from parolkit.errors import ParolkitValueError
 from parolkit.protocol import (
     BoardCommand,
     CommandFrame,
@@ -18,9 +20,6 @@ from parolkit.protocol import (
     bits_to_byte,
     byte_to_bits,
 )
-from parolkit.errors import ParolkitValueError
-
-from conftest import DATA_DIR
 
 GOLDEN = json.loads((DATA_DIR / "serial_frames.json").read_text())
 

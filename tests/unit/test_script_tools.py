@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from parolkit.cli import main
-from parolkit.script import ProgramError, load, parse
 from parolkit.motion.cartesian import DEFAULT_CART_SPEED_PCT
+from parolkit.script import ProgramError, load, parse
 from parolkit.script.dryrun import dry_run, effective_timing
 from parolkit.script.formatter import format_program
 

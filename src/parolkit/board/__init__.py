@@ -46,7 +46,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):  # noqa: ANN202 - lazy: the pty server needs POSIX modules
+def __getattr__(name: str):
     if name == "PtyBoardServer":
         from parolkit.board.pty_server import PtyBoardServer
 

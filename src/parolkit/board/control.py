@@ -63,7 +63,7 @@ def _flag(word: str, what: str) -> bool:
     raise ParolkitValueError(f"{what}: expected 0 or 1, got {word!r}")
 
 
-def execute_control(emu: BoardEmulator, text: str, *, frame_log: "FrameLog | None" = None) -> str:
+def execute_control(emu: BoardEmulator, text: str, *, frame_log: FrameLog | None = None) -> str:
     """Run one control command on ``emu``; returns the reply text (never raises for bad input).
 
     ``frame_log`` (the pty server's :class:`~parolkit.board.pty_server.FrameLog`) answers
@@ -153,7 +153,7 @@ def execute_control(emu: BoardEmulator, text: str, *, frame_log: "FrameLog | Non
     return f"error: unknown command {cmd!r} (try 'help')"
 
 
-def _frames(frame_log: "FrameLog | None", args: list[str]) -> str:
+def _frames(frame_log: FrameLog | None, args: list[str]) -> str:
     if frame_log is None:
         return "error: the frame log is off (start board-sim with --frame-log SIZE)"
     kw: dict[str, object] = {}
@@ -190,7 +190,7 @@ class ControlServer:
     ``frame_log`` answers the ``frames`` command (see :func:`execute_control`)."""
 
     def __init__(self, emulator: BoardEmulator, path: str | os.PathLike[str], *,
-                 frame_log: "FrameLog | None" = None) -> None:
+                 frame_log: FrameLog | None = None) -> None:
         if not isinstance(emulator, BoardEmulator):
             raise ParolkitValueError(
                 f"emulator must be a BoardEmulator, got {type(emulator).__name__}")
@@ -201,7 +201,7 @@ class ControlServer:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
 
-    def start(self) -> "ControlServer":
+    def start(self) -> ControlServer:
         if self.path.exists() or self.path.is_symlink():
             if not self.path.is_socket():
                 raise ControlError(f"control path {self.path} exists and is not a socket")
@@ -230,7 +230,7 @@ class ControlServer:
         while not self._stop.is_set():
             try:
                 data, addr = sock.recvfrom(4096)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             except OSError:
                 break
@@ -256,7 +256,7 @@ class ControlServer:
         except OSError:
             pass
 
-    def __enter__(self) -> "ControlServer":
+    def __enter__(self) -> ControlServer:
         return self.start()
 
     def __exit__(self, *exc: object) -> None:
@@ -280,7 +280,7 @@ def send_control(path: str | os.PathLike[str], text: str, *, timeout_s: float = 
             raise ControlError(f"no board-sim control socket at {path}: {exc}") from exc
         try:
             data, _ = sock.recvfrom(65536)
-        except socket.timeout:
+        except TimeoutError:
             raise ControlError(f"no reply from the control socket {path} within {timeout_s} s") from None
         return data.decode("utf-8", errors="replace")
     finally:

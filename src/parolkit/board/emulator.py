@@ -29,9 +29,9 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable, Iterable, Sequence
 
 from parolkit.board.faults import ByteFaultInjector, LinkFaults, faults_from_options
 from parolkit.board.gripper import GripperState, SSG48Gripper
@@ -731,7 +731,7 @@ class BoardEmulator:
                            "from_board": vars_of(self._outbound.faults)},
             }
 
-    def __enter__(self) -> "BoardEmulator":
+    def __enter__(self) -> BoardEmulator:
         if self.clock is ClockMode.REALTIME:
             self.start()
         return self

@@ -28,9 +28,9 @@ homing runs ``speedup`` times faster; reported speeds are the real-time values).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Sequence
 
 from parolkit.board.steppers import Stepper
 from parolkit.errors import ParolkitValueError

@@ -188,7 +188,7 @@ class PtyBoardServer:
         self.frame_log: FrameLog | None = FrameLog(frame_log_size) if frame_log_size else None
 
     # ---- lifecycle ---------------------------------------------------------------------------
-    def start(self) -> "PtyBoardServer":
+    def start(self) -> PtyBoardServer:
         if self._thread is not None:
             return self
         self._wake_r, self._wake_w = os.pipe()
@@ -224,7 +224,7 @@ class PtyBoardServer:
             self.emulator.stop()
             self._started_loop = False
 
-    def __enter__(self) -> "PtyBoardServer":
+    def __enter__(self) -> PtyBoardServer:
         return self.start()
 
     def __exit__(self, *exc: object) -> None:

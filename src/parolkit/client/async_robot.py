@@ -38,7 +38,8 @@ import asyncio
 import logging
 import socket
 import time
-from typing import Any, AsyncIterator, Callable, Dict, List, Optional
+from collections.abc import AsyncIterator, Callable
+from typing import Any
 
 from parolkit.client import robot_api as wire
 from parolkit.client.core import (
@@ -64,7 +65,7 @@ log = logging.getLogger(__name__)
 
 
 class _Protocol(asyncio.DatagramProtocol):
-    def __init__(self, owner: "AsyncRobot") -> None:
+    def __init__(self, owner: AsyncRobot) -> None:
         self.owner = owner
 
     def datagram_received(self, data: bytes, addr: Any) -> None:
@@ -80,7 +81,7 @@ class _Protocol(asyncio.DatagramProtocol):
 class AsyncCommandHandle:
     """A command sent with ``wait=False``: ``id``, ``command``, ``status()``, ``await result()``."""
 
-    def __init__(self, robot: "AsyncRobot", record: AckRecord) -> None:
+    def __init__(self, robot: AsyncRobot, record: AckRecord) -> None:
         self._robot = robot
         self._record = record
 
@@ -92,14 +93,14 @@ class AsyncCommandHandle:
     def command(self) -> str:
         return self._record.command
 
-    def status(self) -> Optional[AckStatus]:
+    def status(self) -> AckStatus | None:
         latest = self._record.latest
         return None if latest is None else latest[0]
 
     def done(self) -> bool:
         return self._record.terminal is not None
 
-    async def result(self, timeout: Optional[float] = None) -> CommandResult:
+    async def result(self, timeout: float | None = None) -> CommandResult:
         return await self._robot._wait_terminal(self._record, timeout)
 
     def __repr__(self) -> str:
@@ -107,7 +108,7 @@ class AsyncCommandHandle:
 
 
 class _StreamProtocol(asyncio.DatagramProtocol):
-    def __init__(self, queue: "asyncio.Queue[Optional[str]]") -> None:
+    def __init__(self, queue: asyncio.Queue[str | None]) -> None:
         self.queue = queue
 
     def datagram_received(self, data: bytes, addr: Any) -> None:
@@ -132,18 +133,18 @@ class AsyncStatusSubscription:
     robot's ``ACK_HERE`` registration (:meth:`AsyncRobot.register_for_acks`).
     """
 
-    def __init__(self, robot: "AsyncRobot", every_n: int, timeout: float, buffer: int = 64) -> None:
+    def __init__(self, robot: AsyncRobot, every_n: int, timeout: float, buffer: int = 64) -> None:
         self._robot = robot
         self._every_n = every_n
         self._timeout = timeout
-        self._queue: "asyncio.Queue[Optional[str]]" = asyncio.Queue(maxsize=buffer)
-        self._transport: Optional[asyncio.DatagramTransport] = None
-        self._renewer: Optional[asyncio.Task] = None
-        self.port: Optional[int] = None
+        self._queue: asyncio.Queue[str | None] = asyncio.Queue(maxsize=buffer)
+        self._transport: asyncio.DatagramTransport | None = None
+        self._renewer: asyncio.Task | None = None
+        self.port: int | None = None
         self.received = 0
         self._closed = False
 
-    async def start(self) -> "AsyncStatusSubscription":
+    async def start(self) -> AsyncStatusSubscription:
         await self._robot._ensure_open()
         loop = asyncio.get_running_loop()
         self._transport, _ = await loop.create_datagram_endpoint(
@@ -171,7 +172,7 @@ class AsyncStatusSubscription:
             await asyncio.sleep(SUBSCRIBE_RENEW_S)
             self.renew()
 
-    async def next(self, timeout: Optional[float] = None) -> RobotStatus:
+    async def next(self, timeout: float | None = None) -> RobotStatus:
         """The next status (waits up to ``timeout`` s, default the subscription's); raises
         ``StopAsyncIteration`` once the subscription is closed."""
         if self._closed:
@@ -181,7 +182,7 @@ class AsyncStatusSubscription:
         wait = self._timeout if timeout is None else timeout
         try:
             text = await asyncio.wait_for(self._queue.get(), wait)
-        except asyncio.TimeoutError:
+        except TimeoutError:
             raise ControllerUnreachable(
                 f"no status from {self._robot.host}:{self._robot.port} within {wait:g} s "
                 "(is the controller running?)") from None
@@ -216,7 +217,7 @@ class AsyncStatusSubscription:
             self._queue.get_nowait()
         self._queue.put_nowait(None)  # wakes a consumer waiting in next()
 
-    async def __aenter__(self) -> "AsyncStatusSubscription":
+    async def __aenter__(self) -> AsyncStatusSubscription:
         if self._transport is None:
             await self.start()
         return self
@@ -244,20 +245,20 @@ class AsyncRobot(RobotCommands):
         self.port = port
         self.timeout = float(timeout)
         self._requested_ack_port = ack_port
-        self.ack_port: Optional[int] = None
-        self._transport: Optional[asyncio.DatagramTransport] = None
+        self.ack_port: int | None = None
+        self._transport: asyncio.DatagramTransport | None = None
         self._acks = AckBook()
-        self._first: Dict[str, asyncio.Future] = {}
-        self._final: Dict[str, asyncio.Future] = {}
-        self._pending_reply: Optional[tuple] = None  # (tag, future)
-        self._query_lock: Optional[asyncio.Lock] = None
-        self._open_lock: Optional[asyncio.Lock] = None
+        self._first: dict[str, asyncio.Future] = {}
+        self._final: dict[str, asyncio.Future] = {}
+        self._pending_reply: tuple | None = None  # (tag, future)
+        self._query_lock: asyncio.Lock | None = None
+        self._open_lock: asyncio.Lock | None = None
         self._last_heard = 0.0
         self._closed = False
-        self._ack_listeners: List[Callable[[AckRecord], None]] = []
+        self._ack_listeners: list[Callable[[AckRecord], None]] = []
 
     # ---- plumbing ----
-    async def open(self) -> "AsyncRobot":
+    async def open(self) -> AsyncRobot:
         """Open the datagram endpoint (idempotent)."""
         await self._ensure_open()
         return self
@@ -365,7 +366,7 @@ class AsyncRobot(RobotCommands):
             try:
                 self._send(request)
                 return await asyncio.wait_for(fut, timeout)
-            except asyncio.TimeoutError:
+            except TimeoutError:
                 raise ControllerUnreachable(
                     f"no {tag} reply from {self.host}:{self.port} within {timeout:g} s "
                     "(is the controller running?)") from None
@@ -376,11 +377,11 @@ class AsyncRobot(RobotCommands):
         q = QUERIES[name]
         return parse_query_reply(q, await self._request(q.request, q.tag, self.timeout))
 
-    def _command(self, body: str, wait: bool, timeout: Optional[float]) -> Any:
+    def _command(self, body: str, wait: bool, timeout: float | None) -> Any:
         # the datagram body is already built (and validated) by the caller: only I/O is async
         return self._command_async(body, wait, timeout)
 
-    async def _command_async(self, body: str, wait: bool, timeout: Optional[float]) -> Any:
+    async def _command_async(self, body: str, wait: bool, timeout: float | None) -> Any:
         await self._ensure_open()
         loop = asyncio.get_running_loop()
         record, text = self._acks.new(body)
@@ -390,7 +391,7 @@ class AsyncRobot(RobotCommands):
         limit = self.timeout if timeout is None else min(timeout, self.timeout)
         try:
             await asyncio.wait_for(asyncio.shield(first), limit)
-        except asyncio.TimeoutError:
+        except TimeoutError:
             self._first.pop(record.id, None)
             self._final.pop(record.id, None)
             raise CommandTimeout(
@@ -408,7 +409,7 @@ class AsyncRobot(RobotCommands):
             return record.result()
         return await self._wait_terminal(record, timeout)
 
-    async def _wait_terminal(self, record: AckRecord, timeout: Optional[float]) -> CommandResult:
+    async def _wait_terminal(self, record: AckRecord, timeout: float | None) -> CommandResult:
         if record.terminal is not None:
             return record.result()
         fut = self._final.get(record.id)
@@ -428,7 +429,7 @@ class AsyncRobot(RobotCommands):
                 wait = min(wait, left)
             try:
                 await asyncio.wait_for(asyncio.shield(fut), wait)
-            except asyncio.TimeoutError:
+            except TimeoutError:
                 if time.monotonic() - self._last_heard > self.timeout:
                     try:
                         await self._query("ping")
@@ -439,7 +440,7 @@ class AsyncRobot(RobotCommands):
         return record.result()
 
     # ---- status stream ----
-    def subscribe(self, every_n: int = 1, timeout: Optional[float] = None,
+    def subscribe(self, every_n: int = 1, timeout: float | None = None,
                   buffer: int = 64) -> AsyncStatusSubscription:
         """Status stream every ``every_n``-th tick; use with ``async with`` / ``async for``."""
         if isinstance(every_n, bool) or not isinstance(every_n, int) or every_n < 1:
@@ -468,7 +469,7 @@ class AsyncRobot(RobotCommands):
             self._transport.close()
             self._transport = None
 
-    async def __aenter__(self) -> "AsyncRobot":
+    async def __aenter__(self) -> AsyncRobot:
         await self._ensure_open()
         return self
 

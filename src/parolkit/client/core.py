@@ -21,9 +21,10 @@ import json
 import math
 import time
 from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any, Callable, Dict, NamedTuple, Optional, Sequence, Tuple
+from typing import Any, NamedTuple
 
 from parolkit.client import robot_api as wire
 from parolkit.client.errors import (
@@ -216,12 +217,12 @@ class GripperState:
         return "idle"
 
 
-def _f(d: Dict[str, Any], key: str, default: float = 0.0) -> float:
+def _f(d: dict[str, Any], key: str, default: float = 0.0) -> float:
     v = d.get(key, default)
     return float(v) if v is not None else default
 
 
-def _i(d: Dict[str, Any], key: str, default: int = 0) -> int:
+def _i(d: dict[str, Any], key: str, default: int = 0) -> int:
     v = d.get(key, default)
     return int(v) if v is not None else default
 
@@ -241,10 +242,10 @@ class LoopStats:
     frames_sent: int = 0
     frames_received: int = 0
     bytes_dropped: int = 0
-    raw: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> "LoopStats":
+    def from_dict(cls, d: dict[str, Any]) -> LoopStats:
         return cls(rate_hz=_f(d, "rate_hz"), ticks=_i(d, "ticks"),
                    period_p50_ms=_f(d, "period_p50_ms"), period_p99_ms=_f(d, "period_p99_ms"),
                    period_max_ms=_f(d, "period_max_ms"), overruns=_i(d, "overruns"),
@@ -265,7 +266,7 @@ class BoardInfo:
     xtr: int = 0
 
     @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> "BoardInfo":
+    def from_dict(cls, d: dict[str, Any]) -> BoardInfo:
         return cls(connected=bool(d.get("connected", False)), simulated=bool(d.get("simulated", False)),
                    port=str(d.get("port") or ""), timing_ticks=_i(d, "timing_ticks"),
                    timing_ms=_f(d, "timing_ms"), xtr=_i(d, "xtr"))
@@ -275,13 +276,13 @@ class BoardInfo:
 class ErrorInfo:
     """Error bits per joint and the latched error text (``message``; None when clear)."""
 
-    temperature: Tuple[bool, ...] = (False,) * 6
-    position: Tuple[bool, ...] = (False,) * 6
+    temperature: tuple[bool, ...] = (False,) * 6
+    position: tuple[bool, ...] = (False,) * 6
     timeout_error: int = 0
-    message: Optional[str] = None
+    message: str | None = None
 
     @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> "ErrorInfo":
+    def from_dict(cls, d: dict[str, Any]) -> ErrorInfo:
         return cls(temperature=tuple(bool(x) for x in d.get("temperature", (False,) * 6)),
                    position=tuple(bool(x) for x in d.get("position", (False,) * 6)),
                    timeout_error=_i(d, "timeout_error"), message=d.get("message") or None)
@@ -296,12 +297,12 @@ class ErrorInfo:
 class ActiveCommand:
     """The command being executed: ``progress`` 0..1 where the controller reports it."""
 
-    id: Optional[str]
+    id: str | None
     name: str
-    progress: Optional[float] = None
+    progress: float | None = None
 
     @classmethod
-    def from_dict(cls, d: Optional[Dict[str, Any]]) -> Optional["ActiveCommand"]:
+    def from_dict(cls, d: dict[str, Any] | None) -> ActiveCommand | None:
         if not d:
             return None
         p = d.get("progress")
@@ -309,13 +310,13 @@ class ActiveCommand:
                    progress=None if p is None else float(p))
 
 
-def _gripper_from_dict(d: Dict[str, Any]) -> GripperState:
+def _gripper_from_dict(d: dict[str, Any]) -> GripperState:
     return GripperState(id=_i(d, "id"), position=_i(d, "position"), speed=_i(d, "speed"),
                         current=_i(d, "current"), status_byte=_i(d, "status"),
                         object_detection=_i(d, "object_detection"))
 
 
-def _io_from_dict(d: Dict[str, Any]) -> IOState:
+def _io_from_dict(d: dict[str, Any]) -> IOState:
     return IOState(bool(d.get("in1", 0)), bool(d.get("in2", 0)), bool(d.get("out1", 0)),
                    bool(d.get("out2", 0)), not bool(d.get("estop", 1)))
 
@@ -332,25 +333,25 @@ class RobotStatus:
     time: float
     state: RobotState
     enabled: bool
-    homed: Tuple[bool, ...]
+    homed: tuple[bool, ...]
     all_homed: bool
     estop_pressed: bool
     estop_latched: bool
-    angles: Tuple[float, ...]
+    angles: tuple[float, ...]
     pose: Pose
-    speeds: Tuple[float, ...]
-    speeds_deg_s: Tuple[float, ...]
+    speeds: tuple[float, ...]
+    speeds_deg_s: tuple[float, ...]
     io: IOState
     gripper: GripperState
     errors: ErrorInfo
     board: BoardInfo
     loop: LoopStats
-    command: Optional[ActiveCommand]
+    command: ActiveCommand | None
     queue: int
     stream_mode: bool
     tool: str
     plan_seq: int
-    raw: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def moving(self) -> bool:
@@ -366,7 +367,7 @@ class RobotStatus:
                 and self.state not in (RobotState.ERROR, RobotState.DISCONNECTED, RobotState.ESTOP))
 
     @classmethod
-    def from_json(cls, obj: Dict[str, Any]) -> "RobotStatus":
+    def from_json(cls, obj: dict[str, Any]) -> RobotStatus:
         """Build from the decoded status object; ``ReplyError`` names a missing or bad field
         (e.g. ``status: angles must be a list of 6 finite numbers, got [1, 2]``)."""
         if not isinstance(obj, dict):
@@ -404,7 +405,7 @@ class RobotStatus:
             raise ReplyError(f"status: malformed field ({exc})") from None
 
 
-def _vector(value: Any, name: str, n: int = 6) -> Tuple[float, ...]:
+def _vector(value: Any, name: str, n: int = 6) -> tuple[float, ...]:
     """``value`` as a tuple of ``n`` finite floats, else ReplyError naming ``name``."""
     ok = isinstance(value, (list, tuple)) and len(value) == n and all(
         not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) for v in value)
@@ -413,7 +414,7 @@ def _vector(value: Any, name: str, n: int = 6) -> Tuple[float, ...]:
     return tuple(float(v) for v in value)
 
 
-def _flags(value: Any, name: str, n: int = 6) -> Tuple[bool, ...]:
+def _flags(value: Any, name: str, n: int = 6) -> tuple[bool, ...]:
     if not isinstance(value, (list, tuple)) or len(value) != n:
         raise ReplyError(f"status: {name} must be a list of {n} booleans, got {value!r}")
     return tuple(bool(v) for v in value)
@@ -424,12 +425,12 @@ class PlanInfo:
     """The active motion's plan: ``target_angles`` (deg) and ``tcp_path`` ([x, y, z] mm)."""
 
     seq: int
-    command: Optional[str]
-    target_angles: Optional[Tuple[float, ...]]
-    tcp_path: Tuple[Tuple[float, float, float], ...]
+    command: str | None
+    target_angles: tuple[float, ...] | None
+    tcp_path: tuple[tuple[float, float, float], ...]
 
     @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> "PlanInfo":
+    def from_dict(cls, d: dict[str, Any]) -> PlanInfo:
         ta = d.get("target_angles")
         return cls(seq=_i(d, "seq"), command=d.get("command"),
                    target_angles=None if ta is None else tuple(float(a) for a in ta),
@@ -440,11 +441,11 @@ class PlanInfo:
 class QueueInfo:
     """``active`` command and the ``queued`` ones as (id, name) pairs, oldest first."""
 
-    active: Optional[ActiveCommand]
-    queued: Tuple[Tuple[Optional[str], str], ...]
+    active: ActiveCommand | None
+    queued: tuple[tuple[str | None, str], ...]
 
     @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> "QueueInfo":
+    def from_dict(cls, d: dict[str, Any]) -> QueueInfo:
         return cls(active=ActiveCommand.from_dict(d.get("active")),
                    queued=tuple((q.get("id"), str(q.get("name", ""))) for q in d.get("queued") or ()))
 
@@ -454,7 +455,7 @@ class ToolInfo:
     """The selected tool: name and TCP pose in the flange frame (mm / deg)."""
 
     name: str
-    pose: Tuple[float, ...]
+    pose: tuple[float, ...]
 
 
 # =============================================================================================
@@ -462,7 +463,7 @@ class ToolInfo:
 # =============================================================================================
 
 
-def _numbers(payload: str, count: int, what: str) -> Tuple[float, ...]:
+def _numbers(payload: str, count: int, what: str) -> tuple[float, ...]:
     try:
         return tuple(wire.parse_numbers(payload, count, what))
     except ValueError as exc:
@@ -476,7 +477,7 @@ def _json(payload: str, what: str) -> Any:
         raise ReplyError(f"{what}: invalid JSON ({exc})") from None
 
 
-def _parse_pose_matrix(payload: str) -> Tuple[Tuple[float, ...], ...]:
+def _parse_pose_matrix(payload: str) -> tuple[tuple[float, ...], ...]:
     m = _numbers(payload, 16, "POSE")
     return (m[0:4], m[4:8], m[8:12], m[12:16])
 
@@ -515,7 +516,7 @@ class _Query(NamedTuple):
 
 
 #: name -> (request datagram, reply tag, parser of the payload)
-QUERIES: Dict[str, _Query] = {
+QUERIES: dict[str, _Query] = {
     "angles": _Query("GET_ANGLES", "ANGLES", lambda p: _numbers(p, 6, "ANGLES")),
     "pose": _Query("GET_POSE", "POSE", _parse_pose),
     "pose_matrix": _Query("GET_POSE", "POSE", _parse_pose_matrix),
@@ -577,11 +578,11 @@ class AckRecord:
     command: str
     sent_at: float
     history: list = field(default_factory=list)  # [(AckStatus, details), ...]
-    first_at: Optional[float] = None
-    terminal: Optional[Tuple[AckStatus, str]] = None
+    first_at: float | None = None
+    terminal: tuple[AckStatus, str] | None = None
 
     @property
-    def latest(self) -> Optional[Tuple[AckStatus, str]]:
+    def latest(self) -> tuple[AckStatus, str] | None:
         return self.history[-1] if self.history else None
 
     def result(self) -> CommandResult:
@@ -594,11 +595,11 @@ class AckBook:
     """Matches acks to the commands we sent (bounded history; not thread-safe by itself)."""
 
     def __init__(self, history: int = 2000) -> None:
-        self._records: "OrderedDict[str, AckRecord]" = OrderedDict()
+        self._records: OrderedDict[str, AckRecord] = OrderedDict()
         self._history = history
         self.unmatched = 0
 
-    def new(self, body: str) -> Tuple[AckRecord, str]:
+    def new(self, body: str) -> tuple[AckRecord, str]:
         """Register a command body; returns (record, datagram text with a fresh ID)."""
         cmd_id = wire.new_command_id()
         while cmd_id in self._records:
@@ -609,10 +610,10 @@ class AckBook:
             self._records.popitem(last=False)
         return rec, f"{cmd_id}|{body}"
 
-    def get(self, cmd_id: str) -> Optional[AckRecord]:
+    def get(self, cmd_id: str) -> AckRecord | None:
         return self._records.get(cmd_id)
 
-    def on_datagram(self, text: str) -> Optional[AckRecord]:
+    def on_datagram(self, text: str) -> AckRecord | None:
         """Feed a received datagram; returns the record it added an ack to, or None (not an
         ack, somebody else's command, or a repeat after the command's terminal ack)."""
         ack = wire.parse_ack(text)
@@ -652,7 +653,7 @@ def _check(build: Callable[..., str], *args: Any, **kwargs: Any) -> str:
         raise ParolkitValueError(str(exc)) from None
 
 
-def _opt_timeout(timeout: Optional[float]) -> Optional[float]:
+def _opt_timeout(timeout: float | None) -> float | None:
     if timeout is None:
         return None
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or \
@@ -686,49 +687,49 @@ class RobotCommands:
     first ack); ``CommandInvalid`` is still raised at once for a refused command.
     """
 
-    def _command(self, body: str, wait: bool, timeout: Optional[float]) -> Any:  # pragma: no cover
+    def _command(self, body: str, wait: bool, timeout: float | None) -> Any:  # pragma: no cover
         raise NotImplementedError
 
     def _query(self, name: str) -> Any:  # pragma: no cover
         raise NotImplementedError
 
     # ---- motion ----
-    def move_joints(self, angles: Sequence[float], duration: Optional[float] = None,
-                    speed: Optional[float] = None, accel: Optional[float] = None,
-                    profile: Optional[str] = None, tracking: Optional[str] = None,
-                    wait: bool = True, timeout: Optional[float] = None) -> Any:
+    def move_joints(self, angles: Sequence[float], duration: float | None = None,
+                    speed: float | None = None, accel: float | None = None,
+                    profile: str | None = None, tracking: str | None = None,
+                    wait: bool = True, timeout: float | None = None) -> Any:
         """Joint-space move to ``angles`` (deg) in ``duration`` s or at ``speed`` % (one of the
         two); ``accel`` %, ``profile`` poly|trap|ruckig|toppra, ``tracking`` position|speed."""
         return self._command(_check(wire.build_move_joint, angles, duration, speed, accel, profile,
                                     tracking), wait, _opt_timeout(timeout))
 
-    def move_pose(self, pose: Sequence[float], duration: Optional[float] = None,
-                  speed: Optional[float] = None, accel: Optional[float] = None,
-                  profile: Optional[str] = None, tracking: Optional[str] = None,
-                  wait: bool = True, timeout: Optional[float] = None) -> Any:
+    def move_pose(self, pose: Sequence[float], duration: float | None = None,
+                  speed: float | None = None, accel: float | None = None,
+                  profile: str | None = None, tracking: str | None = None,
+                  wait: bool = True, timeout: float | None = None) -> Any:
         """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK along a joint-space path."""
         return self._command(_check(wire.build_move_pose, pose, duration, speed, accel, profile,
                                     tracking), wait, _opt_timeout(timeout))
 
-    def move_cart(self, pose: Sequence[float], duration: Optional[float] = None,
-                  speed: Optional[float] = None, profile: Optional[str] = None,
-                  tracking: Optional[str] = None, wait: bool = True,
-                  timeout: Optional[float] = None) -> Any:
+    def move_cart(self, pose: Sequence[float], duration: float | None = None,
+                  speed: float | None = None, profile: str | None = None,
+                  tracking: str | None = None, wait: bool = True,
+                  timeout: float | None = None) -> Any:
         """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg)."""
         return self._command(_check(wire.build_move_cart, pose, duration, speed, profile, tracking),
                              wait, _opt_timeout(timeout))
 
-    def move_cart_rel_trf(self, delta: Sequence[float], duration: Optional[float] = None,
-                          speed: Optional[float] = None, profile: Optional[str] = None,
-                          tracking: Optional[str] = None, wait: bool = True,
-                          timeout: Optional[float] = None) -> Any:
+    def move_cart_rel_trf(self, delta: Sequence[float], duration: float | None = None,
+                          speed: float | None = None, profile: str | None = None,
+                          tracking: str | None = None, wait: bool = True,
+                          timeout: float | None = None) -> Any:
         """Relative straight-line move in the tool frame [dx, dy, dz, dA, dB, dC] (mm, deg)."""
         return self._command(_check(wire.build_move_cart_rel_trf, delta, duration, speed, profile,
                                     tracking), wait, _opt_timeout(timeout))
 
-    def jog_joint(self, joint: int, speed: float, duration: Optional[float] = None,
-                  distance: Optional[float] = None, wait: bool = False,
-                  timeout: Optional[float] = None) -> Any:
+    def jog_joint(self, joint: int, speed: float, duration: float | None = None,
+                  distance: float | None = None, wait: bool = False,
+                  timeout: float | None = None) -> Any:
         """Jog joint ``joint`` (1..6; negative -1..-6 for the negative direction) at ``speed``
         % of its jog speed for ``duration`` s and/or ``distance`` deg."""
         index = _jog_index(joint)
@@ -736,34 +737,34 @@ class RobotCommands:
                              _opt_timeout(timeout))
 
     def jog_multiple(self, joints: Sequence[int], speeds: Sequence[float], duration: float,
-                     wait: bool = False, timeout: Optional[float] = None) -> Any:
+                     wait: bool = False, timeout: float | None = None) -> Any:
         """Jog several joints (1..6 positive, -1..-6 negative) at ``speeds`` % for ``duration`` s."""
         idx = [_jog_index(j) for j in joints] if not isinstance(joints, (str, bytes)) else joints
         return self._command(_check(wire.build_multijog, idx, speeds, duration), wait,
                              _opt_timeout(timeout))
 
     def jog_cartesian(self, frame: str, axis: str, speed: float, duration: float,
-                      wait: bool = False, timeout: Optional[float] = None) -> Any:
+                      wait: bool = False, timeout: float | None = None) -> Any:
         """Cartesian jog in ``frame`` WRF|TRF along/about ``axis`` X+ ... RZ- at ``speed`` %."""
         return self._command(_check(wire.build_cartjog, frame, axis, speed, duration), wait,
                              _opt_timeout(timeout))
 
     def speed_joint(self, speeds_deg_s: Sequence[float], duration: float, wait: bool = True,
-                    timeout: Optional[float] = None) -> Any:
+                    timeout: float | None = None) -> Any:
         """Run the joints at constant ``speeds_deg_s`` (deg/s) for ``duration`` s."""
         return self._command(_check(wire.build_speed_joint, speeds_deg_s, duration), wait,
                              _opt_timeout(timeout))
 
-    def home(self, wait: bool = True, timeout: Optional[float] = None) -> Any:
+    def home(self, wait: bool = True, timeout: float | None = None) -> Any:
         """Run the board's homing sequence (completes when every joint is homed)."""
         return self._command(wire.build_home(), wait, _opt_timeout(timeout))
 
-    def delay(self, seconds: float, wait: bool = True, timeout: Optional[float] = None) -> Any:
+    def delay(self, seconds: float, wait: bool = True, timeout: float | None = None) -> Any:
         """Queue a pause of ``seconds``."""
         return self._command(_check(wire.build_delay, seconds), wait, _opt_timeout(timeout))
 
-    def wait_input(self, input_number: int, state: Any, input_timeout: Optional[float] = None,
-                   wait: bool = True, timeout: Optional[float] = None) -> Any:
+    def wait_input(self, input_number: int, state: Any, input_timeout: float | None = None,
+                   wait: bool = True, timeout: float | None = None) -> Any:
         """Queue a wait until IN``input_number`` (1|2) equals ``state``; the command FAILS
         (``CommandFailed``) when ``input_timeout`` s pass first."""
         st = 1 if _flag(state, "state") else 0
@@ -772,122 +773,122 @@ class RobotCommands:
 
     # ---- IO and grippers ----
     def set_output(self, output: int, state: Any, wait: bool = True,
-                   timeout: Optional[float] = None) -> Any:
+                   timeout: float | None = None) -> Any:
         """Set OUT1/OUT2 (``output`` 1|2) high (True) or low (False); queued like a move."""
         action = "open" if _flag(state, "state") else "close"
         return self._command(_check(wire.build_pneumatic_gripper, action, output), wait,
                              _opt_timeout(timeout))
 
     def pneumatic(self, action: str, port: int, wait: bool = True,
-                  timeout: Optional[float] = None) -> Any:
+                  timeout: float | None = None) -> Any:
         """Pneumatic gripper ``action`` open|close on output ``port`` 1|2."""
         return self._command(_check(wire.build_pneumatic_gripper, action, port), wait,
                              _opt_timeout(timeout))
 
     def gripper_move(self, position: int, speed: int = 150, current: int = 500,
-                     wait: bool = True, timeout: Optional[float] = None) -> Any:
+                     wait: bool = True, timeout: float | None = None) -> Any:
         """SSG-48: move to ``position`` 0..255 at ``speed`` 0..255 with ``current`` 100..1000 mA."""
         return self._command(_check(wire.build_electric_gripper, "move", position, speed, current),
                              wait, _opt_timeout(timeout))
 
-    def gripper_calibrate(self, wait: bool = True, timeout: Optional[float] = None) -> Any:
+    def gripper_calibrate(self, wait: bool = True, timeout: float | None = None) -> Any:
         """SSG-48: calibrate and activate."""
         return self._command(_check(wire.build_electric_gripper, "calibrate"), wait,
                              _opt_timeout(timeout))
 
-    def gripper_clear_error(self, wait: bool = True, timeout: Optional[float] = None) -> Any:
+    def gripper_clear_error(self, wait: bool = True, timeout: float | None = None) -> Any:
         """SSG-48: clear a gripper error."""
         return self._command(_check(wire.build_electric_gripper, "clear_error"), wait,
                              _opt_timeout(timeout))
 
     # ---- smooth paths (mm, deg; exactly one of duration s / speed %) ----
     def smooth_circle(self, center: Sequence[float], radius: float, plane: str = "XY",
-                      frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
-                      duration: Optional[float] = None, speed: Optional[float] = None,
+                      frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                      duration: float | None = None, speed: float | None = None,
                       clockwise: bool = False, wait: bool = True,
-                      timeout: Optional[float] = None) -> Any:
+                      timeout: float | None = None) -> Any:
         """Full circle of ``radius`` mm about ``center`` [x, y, z] mm in ``plane``."""
         return self._command(_check(wire.build_smooth_circle, center, radius, plane, frame,
                                     start_pose, duration, speed, clockwise), wait,
                              _opt_timeout(timeout))
 
     def smooth_arc_center(self, end_pose: Sequence[float], center: Sequence[float],
-                          frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
-                          duration: Optional[float] = None, speed: Optional[float] = None,
+                          frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                          duration: float | None = None, speed: float | None = None,
                           clockwise: bool = False, wait: bool = True,
-                          timeout: Optional[float] = None) -> Any:
+                          timeout: float | None = None) -> Any:
         """Arc to ``end_pose`` about ``center``."""
         return self._command(_check(wire.build_smooth_arc_center, end_pose, center, frame,
                                     start_pose, duration, speed, clockwise), wait,
                              _opt_timeout(timeout))
 
     def smooth_arc_param(self, end_pose: Sequence[float], radius: float, arc_angle: float,
-                         frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
-                         duration: Optional[float] = None, speed: Optional[float] = None,
+                         frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                         duration: float | None = None, speed: float | None = None,
                          clockwise: bool = False, wait: bool = True,
-                         timeout: Optional[float] = None) -> Any:
+                         timeout: float | None = None) -> Any:
         """Arc to ``end_pose`` with ``radius`` mm over ``arc_angle`` deg."""
         return self._command(_check(wire.build_smooth_arc_param, end_pose, radius, arc_angle,
                                     frame, start_pose, duration, speed, clockwise), wait,
                              _opt_timeout(timeout))
 
     def smooth_spline(self, waypoints: Sequence[Sequence[float]], frame: str = "WRF",
-                      start_pose: Optional[Sequence[float]] = None,
-                      duration: Optional[float] = None, speed: Optional[float] = None,
-                      wait: bool = True, timeout: Optional[float] = None) -> Any:
+                      start_pose: Sequence[float] | None = None,
+                      duration: float | None = None, speed: float | None = None,
+                      wait: bool = True, timeout: float | None = None) -> Any:
         """Cubic spline through ``waypoints`` (poses)."""
         return self._command(_check(wire.build_smooth_spline, waypoints, frame, start_pose,
                                     duration, speed), wait, _opt_timeout(timeout))
 
     def smooth_helix(self, center: Sequence[float], radius: float, pitch: float, height: float,
-                     frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
-                     duration: Optional[float] = None, speed: Optional[float] = None,
+                     frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                     duration: float | None = None, speed: float | None = None,
                      clockwise: bool = False, wait: bool = True,
-                     timeout: Optional[float] = None) -> Any:
+                     timeout: float | None = None) -> Any:
         """Helix about ``center``: ``radius``, ``pitch`` per turn, total ``height`` (mm)."""
         return self._command(_check(wire.build_smooth_helix, center, radius, pitch, height, frame,
                                     start_pose, duration, speed, clockwise), wait,
                              _opt_timeout(timeout))
 
-    def smooth_blend(self, segments: Sequence[Dict[str, Any]], blend_time: float = 0.5,
-                     frame: str = "WRF", start_pose: Optional[Sequence[float]] = None,
-                     duration: Optional[float] = None, speed: Optional[float] = None,
-                     wait: bool = True, timeout: Optional[float] = None) -> Any:
+    def smooth_blend(self, segments: Sequence[dict[str, Any]], blend_time: float = 0.5,
+                     frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                     duration: float | None = None, speed: float | None = None,
+                     wait: bool = True, timeout: float | None = None) -> Any:
         """Blend LINE/CIRCLE/ARC/SPLINE segment dicts into one path (see robot_api)."""
         return self._command(_check(wire.build_smooth_blend, segments, blend_time, frame,
                                     start_pose, duration, speed), wait, _opt_timeout(timeout))
 
     # ---- immediate control ----
-    def stop(self, timeout: Optional[float] = None) -> Any:
+    def stop(self, timeout: float | None = None) -> Any:
         """Cancel the active command and the queue (they end CANCELLED); hold position."""
         return self._command("STOP", True, _opt_timeout(timeout))
 
-    def enable(self, timeout: Optional[float] = None) -> Any:
+    def enable(self, timeout: float | None = None) -> Any:
         """Enable the robot (clears a released E-stop latch and a latched error)."""
         return self._command("ENABLE", True, _opt_timeout(timeout))
 
-    def disable(self, timeout: Optional[float] = None) -> Any:
+    def disable(self, timeout: float | None = None) -> Any:
         """Disable the robot."""
         return self._command("DISABLE", True, _opt_timeout(timeout))
 
-    def clear_error(self, timeout: Optional[float] = None) -> Any:
+    def clear_error(self, timeout: float | None = None) -> Any:
         """Clear a latched error."""
         return self._command("CLEAR_ERROR", True, _opt_timeout(timeout))
 
-    def estop(self, timeout: Optional[float] = None) -> Any:
+    def estop(self, timeout: float | None = None) -> Any:
         """Software E-stop: cancel everything, latched until :meth:`enable`."""
         return self._command("ESTOP", True, _opt_timeout(timeout))
 
-    def stream(self, on: Any, timeout: Optional[float] = None) -> Any:
+    def stream(self, on: Any, timeout: float | None = None) -> Any:
         """Streaming jog mode on/off (newest jog replaces the previous one)."""
         return self._command(_check(wire.build_stream, _flag(on, "on")), True,
                              _opt_timeout(timeout))
 
-    def set_tool(self, name: str, timeout: Optional[float] = None) -> Any:
+    def set_tool(self, name: str, timeout: float | None = None) -> Any:
         """Select the tool ``name`` (default, flange or one from the config)."""
         return self._command(_check(wire.build_set_tool, name), True, _opt_timeout(timeout))
 
-    def set_port(self, name: str, timeout: Optional[float] = None) -> Any:
+    def set_port(self, name: str, timeout: float | None = None) -> Any:
         """Switch the controller's serial port to ``name``."""
         return self._command(_check(wire.build_set_port, name), True, _opt_timeout(timeout))
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from typing import IO, Sequence
+from collections.abc import Sequence
+from typing import IO
 
 __all__ = ["die_with_parent", "spawn_controller"]
 

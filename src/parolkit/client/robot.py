@@ -27,7 +27,8 @@ import queue
 import socket
 import threading
 import time
-from typing import Any, Callable, Iterator, Optional
+from collections.abc import Callable, Iterator
+from typing import Any
 
 from parolkit.client import robot_api as wire
 from parolkit.client.core import (
@@ -53,7 +54,7 @@ __all__ = ["Robot", "CommandHandle", "StatusSubscription"]
 class CommandHandle:
     """A command sent with ``wait=False``: ``id``, ``command``, ``status()``, ``result()``."""
 
-    def __init__(self, robot: "Robot", record: AckRecord) -> None:
+    def __init__(self, robot: Robot, record: AckRecord) -> None:
         self._robot = robot
         self._record = record
 
@@ -65,7 +66,7 @@ class CommandHandle:
     def command(self) -> str:
         return self._record.command
 
-    def status(self) -> Optional[AckStatus]:
+    def status(self) -> AckStatus | None:
         """Latest acknowledgement status (None before the first ack)."""
         with self._robot._cond:
             latest = self._record.latest
@@ -75,7 +76,7 @@ class CommandHandle:
         with self._robot._cond:
             return self._record.terminal is not None
 
-    def result(self, timeout: Optional[float] = None) -> CommandResult:
+    def result(self, timeout: float | None = None) -> CommandResult:
         """Wait for the terminal ack (see ``wait=True``); raises like a waiting call."""
         return self._robot._wait_terminal(self._record, timeout)
 
@@ -90,8 +91,8 @@ class StatusSubscription:
     :class:`ControllerUnreachable` if no status arrives for ``timeout`` seconds.
     """
 
-    def __init__(self, robot: "Robot", every_n: int, timeout: float,
-                 callback: Optional[Callable[[RobotStatus], Any]] = None) -> None:
+    def __init__(self, robot: Robot, every_n: int, timeout: float,
+                 callback: Callable[[RobotStatus], Any] | None = None) -> None:
         self._robot = robot
         self._every_n = every_n
         self._timeout = timeout
@@ -105,7 +106,7 @@ class StatusSubscription:
         self._renewer = threading.Thread(target=self._renew_loop, daemon=True,
                                          name=f"parolkit-subscribe-{self.port}")
         self._renewer.start()
-        self._callback_thread: Optional[threading.Thread] = None
+        self._callback_thread: threading.Thread | None = None
         if callback is not None:
             self._callback_thread = threading.Thread(target=self._pump, args=(callback,),
                                                      daemon=True, name="parolkit-status-callback")
@@ -130,7 +131,7 @@ class StatusSubscription:
             if not self._closed.is_set():
                 raise
 
-    def next(self, timeout: Optional[float] = None) -> RobotStatus:
+    def next(self, timeout: float | None = None) -> RobotStatus:
         """The next status (waits up to ``timeout`` s, default the subscription's)."""
         wait = self._timeout if timeout is None else timeout
         deadline = time.monotonic() + wait
@@ -145,7 +146,7 @@ class StatusSubscription:
             self._sock.settimeout(min(left, 0.5))
             try:
                 data, _ = self._sock.recvfrom(65535)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             except OSError:
                 if self._closed.is_set():
@@ -174,7 +175,7 @@ class StatusSubscription:
             pass
         self._sock.close()
 
-    def __enter__(self) -> "StatusSubscription":
+    def __enter__(self) -> StatusSubscription:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -211,7 +212,7 @@ class Robot(RobotCommands):
         self._sock.settimeout(0.25)  # lets the reader thread notice close()
         self._cond = threading.Condition()
         self._acks = AckBook()
-        self._replies: "queue.Queue[str]" = queue.Queue()
+        self._replies: queue.Queue[str] = queue.Queue()
         self._query_lock = threading.Lock()
         self._last_heard = 0.0
         self._closed = False
@@ -237,7 +238,7 @@ class Robot(RobotCommands):
         while not self._closed:
             try:
                 data, _ = sock.recvfrom(65535)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             except OSError:
                 if self._closed:
@@ -280,7 +281,7 @@ class Robot(RobotCommands):
         q = QUERIES[name]
         return parse_query_reply(q, self._request(q.request, q.tag, self.timeout))
 
-    def _command(self, body: str, wait: bool, timeout: Optional[float]) -> Any:
+    def _command(self, body: str, wait: bool, timeout: float | None) -> Any:
         with self._cond:
             record, text = self._acks.new(body)
         self._send(text)
@@ -305,7 +306,7 @@ class Robot(RobotCommands):
                 return record.result()
         return self._wait_terminal(record, timeout)
 
-    def _wait_terminal(self, record: AckRecord, timeout: Optional[float]) -> CommandResult:
+    def _wait_terminal(self, record: AckRecord, timeout: float | None) -> CommandResult:
         start = time.monotonic()
         deadline = None if timeout is None else start + timeout
         probe_at = start + max(self.timeout, 1.0)
@@ -335,8 +336,8 @@ class Robot(RobotCommands):
             return record.result()
 
     # ---- status stream ----
-    def subscribe(self, every_n: int = 1, callback: Optional[Callable[[RobotStatus], Any]] = None,
-                  timeout: Optional[float] = None) -> StatusSubscription:
+    def subscribe(self, every_n: int = 1, callback: Callable[[RobotStatus], Any] | None = None,
+                  timeout: float | None = None) -> StatusSubscription:
         """Status stream: every ``every_n``-th control tick a :class:`RobotStatus`.
 
         Without ``callback``: iterate the returned subscription.  With ``callback``: it is
@@ -375,7 +376,7 @@ class Robot(RobotCommands):
         self._reader.join(1.0)
         self._sock.close()
 
-    def __enter__(self) -> "Robot":
+    def __enter__(self) -> Robot:
         return self
 
     def __exit__(self, *exc: object) -> None:

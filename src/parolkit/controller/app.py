@@ -19,8 +19,9 @@ import socket
 import sys
 import threading
 import time
+from collections.abc import Sequence
 from types import ModuleType
-from typing import Any, Sequence
+from typing import Any
 
 from parolkit.config import Config
 from parolkit.controller.executor import Executor
@@ -161,7 +162,7 @@ class Controller:
         if self.sock is not None:
             self.sock.close()
 
-    def __enter__(self) -> "Controller":
+    def __enter__(self) -> Controller:
         self.start()
         return self
 

@@ -23,7 +23,7 @@ from parolkit._shutdown import ShutdownRequest
 __all__ = ["register", "run", "build_overrides"]
 
 
-def register(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]",
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
              name: str = "serve") -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         name, help="run the headless controller (UDP server + fixed-rate loop)",
@@ -126,7 +126,7 @@ class EarlyPong(threading.Thread):
         while not self._done.is_set():
             try:
                 data, addr = self.sock.recvfrom(64, socket.MSG_PEEK)
-            except (socket.timeout, BlockingIOError):
+            except (TimeoutError, BlockingIOError):
                 continue
             except OSError:
                 return

@@ -23,10 +23,11 @@ import logging
 import threading
 import time
 from collections import deque
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
-from typing import Callable, Iterable, Sequence
 
+from parolkit.controller.inbox import Ack, Submission
 from parolkit.controller.jobs import (
     Activity,
     DelayActivity,
@@ -42,7 +43,6 @@ from parolkit.controller.jobs import (
     WaitInputActivity,
     ticks_for,
 )
-from parolkit.controller.inbox import Ack, Submission
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand, GripperCommandBits, GripperMode, StatusFrame
@@ -436,7 +436,7 @@ class Executor:
 
     def _planner_main(self) -> None:
         try:
-            import parolkit.motion as motion  # noqa: F401  (warm the import off the start-up path)
+            import parolkit.motion as motion
 
             self._motion = motion
         except Exception as exc:  # pragma: no cover - a broken install

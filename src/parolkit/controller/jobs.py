@@ -9,8 +9,8 @@ frame, its terminal status.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 from parolkit.protocol.commands import AckStatus, Command
 from parolkit.protocol.frames import BoardCommand, GripperMode, StatusFrame

@@ -29,8 +29,9 @@ import logging
 import os
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any, Callable
+from typing import Any
 
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard

@@ -23,9 +23,10 @@ import socket
 import threading
 import time
 from collections import deque
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
-from typing import Callable, Iterable, Protocol
+from typing import Protocol
 
 from parolkit.controller.executor import SAFETY_COMMANDS
 from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
@@ -90,7 +91,7 @@ class Outbox:
         self._q.put(None)
         self._thread.join(2.0)
 
-    def put(self, text: str, addr: "Address | AckRoute") -> None:
+    def put(self, text: str, addr: Address | AckRoute) -> None:
         """Queue ``text`` for one address or for each address of an ack route."""
         data = text.encode("utf-8")
         if isinstance(addr[0], str):  # one (host, port)
@@ -303,7 +304,7 @@ class UdpServer:
             if not self._turn:
                 try:  # nothing to serve: sleep until a datagram comes
                     data, addr = self.sock.recvfrom(65535)
-                except socket.timeout:
+                except TimeoutError:
                     continue
                 except OSError as exc:
                     if not self._running:

@@ -9,9 +9,10 @@ forward kinematics) are computed on first use and cached inside the snapshot.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps, format_floats
@@ -289,7 +290,7 @@ SNAPSHOT_QUERIES = {
 }
 
 
-def robot_state(ex: "Executor", link_up: bool) -> RobotState:
+def robot_state(ex: Executor, link_up: bool) -> RobotState:
     """The controller's state from the executor's (``link_up``: a status frame of the current
     link session exists)."""
     if not link_up:
@@ -310,7 +311,7 @@ def robot_state(ex: "Executor", link_up: bool) -> RobotState:
 
 
 def build_snapshot(
-    ex: "Executor",
+    ex: Executor,
     *,
     seq: int,
     time: float,

@@ -11,8 +11,9 @@ import asyncio
 import json
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from nicegui import app, ui
 
@@ -276,7 +277,7 @@ class ProgramRunner:
             self.state = "error"
             self.message = str(exc)
             self.commander.log.error(f"program stopped: {exc}")
-        except Exception as exc:  # noqa: BLE001 - shown to the user, never a silent crash
+        except Exception as exc:
             self.state = "error"
             self.message = f"{type(exc).__name__}: {exc}"
             self.commander.log.error(f"program crashed: {self.message}")

@@ -19,8 +19,8 @@ default grid of 1-unit cells is a 10 cm grid).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Sequence
 
 from parolkit.robot import PAROL6, DHRow, RobotModel
 

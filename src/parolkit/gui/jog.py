@@ -13,8 +13,8 @@ Jogs are the :mod:`parolkit.moves` value objects (:class:`~parolkit.moves.JointJ
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 from parolkit.errors import ParolkitValueError
 from parolkit.moves import CartAxis, CartJog, Frame, JointJog
@@ -167,7 +167,7 @@ PROBE_DEG = 2.0
 
 
 def cart_jog_blocked(pose: Sequence[float], angles_deg: Sequence[float], frame: Frame, axis: CartAxis,
-                     solve: "Callable[[Sequence[float], Sequence[float]], Sequence[float]]") -> bool:
+                     solve: Callable[[Sequence[float], Sequence[float]], Sequence[float]]) -> bool:
     """True when a Cartesian jog from ``pose`` along ``axis`` cannot go on: the pose a small
     step ahead has no IK solution inside the joint limits near the current joints.
 

@@ -14,8 +14,8 @@ import asyncio
 import logging
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from parolkit.client.async_robot import AsyncRobot, AsyncStatusSubscription
 from parolkit.client.core import AckRecord, PlanInfo, RobotState, RobotStatus

@@ -7,7 +7,7 @@ into the strings and badge colours the page shows (units: deg, mm, deg/s, ms).
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 from parolkit.client.core import LoopStats, RobotState, RobotStatus
 

@@ -5,8 +5,8 @@ Joint angles in degrees (3 decimals), positions in mm (3 decimals), angles in de
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 from parolkit.errors import ParolkitValueError
 

@@ -22,7 +22,19 @@ import numpy as np
 
 from parolkit.errors import ParolkitValueError
 from parolkit.kinematics.model import (
-    A1, A2, A3, D1, D4, L3, LIM_HI, LIM_HI_ARR, LIM_LO, LIM_LO_ARR, LIMIT_TOL, PHI3, TWO_PI,
+    A1,
+    A2,
+    A3,
+    D1,
+    D4,
+    L3,
+    LIM_HI,
+    LIM_HI_ARR,
+    LIM_LO,
+    LIM_LO_ARR,
+    LIMIT_TOL,
+    PHI3,
+    TWO_PI,
     WEIGHTS,
 )
 from parolkit.kinematics.pose import as_matrix_array, as_pose_array, cos_sin

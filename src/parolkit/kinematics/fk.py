@@ -115,7 +115,7 @@ def _tcp_rad(q, tool: Tool):
     return _apply_tool(r, p, tool)
 
 
-def fk(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray:
+def fk(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
     """TCP pose ``[x, y, z mm, A, B, C deg]`` (R = Rx(C) Ry(B) Rz(A)) for six joint angles in deg."""
     q = _joints_rad(joints_deg)
     rot, pos = _tcp_rad(q, _DEFAULT_TOOL if tool is None else get_tool(tool))
@@ -123,7 +123,7 @@ def fk(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray:
     return np.array((pos[0] * 1e3, pos[1] * 1e3, pos[2] * 1e3, a * _RAD, b * _RAD, c * _RAD))
 
 
-def fk_matrix(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray:
+def fk_matrix(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
     """4x4 base -> TCP transform in metres for six joint angles in degrees."""
     q = _joints_rad(joints_deg)
     r, p = _tcp_rad(q, get_tool(tool))
@@ -153,7 +153,7 @@ def _tcp_batch(q_t: np.ndarray, tool: Tool):
     return _apply_tool(r, p, tool)
 
 
-def fk_batch(joints_deg: object, tool: "str | Tool | None" = None, as_matrix: bool = False) -> np.ndarray:
+def fk_batch(joints_deg: object, tool: str | Tool | None = None, as_matrix: bool = False) -> np.ndarray:
     """Vectorised FK: ``(N, 6)`` joint degrees -> ``(N, 6)`` poses (mm/deg) or ``(N, 4, 4)`` (m)."""
     arr = as_joint_array(joints_deg, "joints_deg")
     if arr.ndim == 1:
@@ -183,7 +183,7 @@ def _dh_matrix(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
     ])
 
 
-def fk_frames(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray:
+def fk_frames(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
     """All link frames for drawing: ``(8, 4, 4)`` metres.
 
     Index 0 is the base (identity), 1..6 the DH frames of joints 1..6 with frame 6 = the

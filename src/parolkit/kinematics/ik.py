@@ -34,7 +34,19 @@ from parolkit import _native
 from parolkit.errors import ParolkitValueError
 from parolkit.kinematics.fk import _joints_rad
 from parolkit.kinematics.model import (
-    A1, A2, A3, D1, D4, L3, LIM_HI, LIM_LO, LIMIT_TOL, PHI3, STANDBY_RAD, TWO_PI, WEIGHTS,
+    A1,
+    A2,
+    A3,
+    D1,
+    D4,
+    L3,
+    LIM_HI,
+    LIM_LO,
+    LIMIT_TOL,
+    PHI3,
+    STANDBY_RAD,
+    TWO_PI,
+    WEIGHTS,
 )
 from parolkit.kinematics.pose import _rot_from_abc, as_matrix_array, as_pose_array
 from parolkit.kinematics.tools import DEFAULT_TOOL as _DEFAULT_TOOL
@@ -413,7 +425,7 @@ def _target_slow(pose: object):
     return _rot_from_abc(a * _DEG, b * _DEG, c * _DEG), (x * 1e-3, y * 1e-3, z * 1e-3)
 
 
-def _branch(config: "Branch | str | None") -> Branch | None:
+def _branch(config: Branch | str | None) -> Branch | None:
     if config is None or isinstance(config, Branch):
         return config
     if isinstance(config, str):
@@ -437,8 +449,8 @@ def _seed(seed_deg: object):
 # ---------------------------------------------------------------------------------------------
 
 
-def ik(pose: object, seed_deg: object = None, tool: "str | Tool | None" = None,
-       config: "Branch | str | None" = None) -> np.ndarray:
+def ik(pose: object, seed_deg: object = None, tool: str | Tool | None = None,
+       config: Branch | str | None = None) -> np.ndarray:
     """Joint angles (deg, inside the safe limits) reaching ``pose`` with the TCP of ``tool``.
 
     ``pose``: ``[x, y, z mm, A, B, C deg]`` or a 4x4 transform in metres.  ``seed_deg``: the
@@ -465,7 +477,7 @@ def ik(pose: object, seed_deg: object = None, tool: "str | Tool | None" = None,
     return _ik_reference(pose, seed_deg, tool_obj, config)
 
 
-def _ik_reference(pose: object, seed_deg: object, tool_obj: Tool, config: "Branch | str | None") -> np.ndarray:
+def _ik_reference(pose: object, seed_deg: object, tool_obj: Tool, config: Branch | str | None) -> np.ndarray:
     """:func:`ik` in pure Python (the reference of the compiled kernel; also its fallback,
     and the path that explains failures and malformed input)."""
     rf, pf = _target_flange(pose, tool_obj)
@@ -482,7 +494,7 @@ def _ik_reference(pose: object, seed_deg: object, tool_obj: Tool, config: "Branc
     return np.array((q[0] * _RAD, q[1] * _RAD, q[2] * _RAD, q[3] * _RAD, q[4] * _RAD, q[5] * _RAD))
 
 
-def ik_all(pose: object, tool: "str | Tool | None" = None, seed_deg: object = None) -> list[IKSolution]:
+def ik_all(pose: object, tool: str | Tool | None = None, seed_deg: object = None) -> list[IKSolution]:
     """Every in-limit IK solution (up to 8) of ``pose``, nearest to ``seed_deg`` first.
 
     Where a joint has two in-range representations (J6 = 0 / 360) the one closer to the seed
@@ -645,8 +657,8 @@ def _violation_any(theta: float, j: int) -> float:
 # ---------------------------------------------------------------------------------------------
 
 
-def ik_batch(poses: object, seed_deg: object = None, tool: "str | Tool | None" = None,
-             config: "Branch | str | None" = None, *, continuous: bool | None = None) -> np.ndarray:
+def ik_batch(poses: object, seed_deg: object = None, tool: str | Tool | None = None,
+             config: Branch | str | None = None, *, continuous: bool | None = None) -> np.ndarray:
     """IK for N poses at once: ``(N, 6)`` mm/deg or ``(N, 4, 4)`` m -> ``(N, 6)`` deg.
 
     With one seed (``(6,)``, default standby) the poses are treated as a path

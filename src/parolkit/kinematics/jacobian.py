@@ -17,7 +17,7 @@ __all__ = ["jacobian", "manipulability", "singularity_distance"]
 SINGULARITY_THRESHOLDS = (5.0, 20.0, 5.0)
 
 
-def jacobian(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray:
+def jacobian(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
     """Geometric Jacobian (6, 6) at the TCP, in the base frame.
 
     Column i maps joint i's rate (rad/s) to the TCP twist: rows 0..2 linear velocity in m/s,
@@ -33,7 +33,7 @@ def jacobian(joints_deg: object, tool: "str | Tool | None" = None) -> np.ndarray
     return jac
 
 
-def manipulability(joints_deg: object, tool: "str | Tool | None" = None) -> float:
+def manipulability(joints_deg: object, tool: str | Tool | None = None) -> float:
     """Yoshikawa manipulability ``sqrt(det(J J^T))`` (0 at a singularity).
 
     For the square 6x6 Jacobian this equals ``|det J|`` (computed that way: it keeps full

@@ -57,7 +57,7 @@ class Tool:
         object.__setattr__(self, "_native", (1.0 if self._identity_rot else 0.0, *rot, *self._t))
 
     @classmethod
-    def from_pose(cls, name: str, pose: object) -> "Tool":
+    def from_pose(cls, name: str, pose: object) -> Tool:
         """A tool from the TCP pose in the flange frame, ``[x, y, z mm, A, B, C deg]``."""
         arr = as_pose_array(pose, f"tool {name!r} pose", allow_batch=False)
         return cls(name, pose_to_matrix(arr))
@@ -107,7 +107,7 @@ def _user_tool(name: str, pose: tuple[float, ...]) -> Tool:
     return tool
 
 
-def get_tool(tool: "str | Tool | None" = None, config: "Config | None" = None) -> Tool:
+def get_tool(tool: str | Tool | None = None, config: Config | None = None) -> Tool:
     """Resolve a tool argument.
 
     ``None`` -> the default tool; a :class:`Tool` -> itself; a name -> a user tool from

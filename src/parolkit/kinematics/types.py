@@ -59,7 +59,7 @@ class Branch:
         """True when all three flags are pinned."""
         return self.shoulder is not None and self.elbow is not None and self.wrist_flip is not None
 
-    def matches(self, other: "Branch") -> bool:
+    def matches(self, other: Branch) -> bool:
         """True when every flag pinned in ``self`` equals the flag of ``other``."""
         return (
             (self.shoulder is None or self.shoulder == other.shoulder)
@@ -68,7 +68,7 @@ class Branch:
         )
 
     @classmethod
-    def parse(cls, text: str) -> "Branch":
+    def parse(cls, text: str) -> Branch:
         """Parse words such as ``"front up noflip"`` / ``"back,down,flip"`` (any order, any subset).
 
         Words: ``front``/``back``, ``up``/``down``, ``flip``/``noflip``.
@@ -162,7 +162,7 @@ class IKError(ParolkitValueError):
     def joint_name(self) -> str | None:
         return None if self.joint is None else _JOINT_NAMES[self.joint]
 
-    def with_sample(self, sample: int) -> "IKError":
+    def with_sample(self, sample: int) -> IKError:
         """A copy of this error tagged with a batch sample index."""
         return IKError(self.reason, kind=self.kind, sample=sample, joint=self.joint, value=self.value)
 

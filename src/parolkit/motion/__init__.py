@@ -9,6 +9,8 @@ re-exported here, so ``from parolkit.motion import JointMove, plan`` keeps worki
 """
 
 from parolkit.motion.errors import PlanningError
+from parolkit.motion.planner import plan
+from parolkit.motion.trajectory import Trajectory
 from parolkit.moves import (
     ArcCenterMove,
     ArcParamMove,
@@ -31,8 +33,6 @@ from parolkit.moves import (
     SplineMove,
     Tracking,
 )
-from parolkit.motion.planner import plan
-from parolkit.motion.trajectory import Trajectory
 
 __all__ = [
     "plan",

@@ -22,25 +22,51 @@ the nearest singularity.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
 from parolkit.motion.joint import (
-    MOVEJOINT_DEFAULT_PCT, build_trajectory, hold, plan_joint_target, sample_times,
+    MOVEJOINT_DEFAULT_PCT,
+    build_trajectory,
+    hold,
+    plan_joint_target,
+    sample_times,
 )
 from parolkit.motion.paths import (
-    Arc, Line, Path, Segment, Spline, blend_corners, rot_about, rotation_angle,
+    Arc,
+    Line,
+    Path,
+    Segment,
+    Spline,
+    blend_corners,
+    rot_about,
+    rotation_angle,
 )
 from parolkit.motion.profiles import (
-    ScalarProfile, ruckig_unit_profile,
+    ScalarProfile,
+    ruckig_unit_profile,
 )
 from parolkit.motion.trajectory import Trajectory
 from parolkit.moves import (
-    ArcCenterMove, ArcParamMove, BlendMove, CartAxis, CartJog, CartMove, CartRelTRFMove,
-    CircleMove, Frame, HelixMove, JointMove, LineSegment, Plane, Profile, SplineMove, Tracking,
+    ArcCenterMove,
+    ArcParamMove,
+    BlendMove,
+    CartAxis,
+    CartJog,
+    CartMove,
+    CartRelTRFMove,
+    CircleMove,
+    Frame,
+    HelixMove,
+    JointMove,
+    LineSegment,
+    Plane,
+    Profile,
+    SplineMove,
+    Tracking,
 )
 from parolkit.robot import JOINT_NAMES, RobotModel
 

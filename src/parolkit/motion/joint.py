@@ -20,8 +20,8 @@ Timing rules (the seed's, see docs/motion.md):
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import lru_cache
-from typing import Sequence
 
 import numpy as np
 
@@ -29,8 +29,14 @@ from parolkit import _native
 from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
 from parolkit.motion.profiles import (
-    POLY_PEAK_ACCEL, POLY_PEAK_SPEED, TRAP3_PEAK_ACCEL, TRAP3_PEAK_SPEED, ScalarProfile,
-    ruckig_unit_profile, sampled_basis, trapezoid_for_limits,
+    POLY_PEAK_ACCEL,
+    POLY_PEAK_SPEED,
+    TRAP3_PEAK_ACCEL,
+    TRAP3_PEAK_SPEED,
+    ScalarProfile,
+    ruckig_unit_profile,
+    sampled_basis,
+    trapezoid_for_limits,
 )
 from parolkit.motion.trajectory import Trajectory
 from parolkit.moves import JointJog, JointMove, PoseMove, Profile, SpeedJointMove, Tracking

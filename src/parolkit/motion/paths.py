@@ -13,8 +13,8 @@ a rotation spline for splines).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -290,7 +290,7 @@ class Path:
             np.linspace(0.0, 1.0, len(self.segments) + 1)
 
     @classmethod
-    def weighted(cls, segments: list[Segment], mm_per_rad: float) -> "Path":
+    def weighted(cls, segments: list[Segment], mm_per_rad: float) -> Path:
         """Weights max(length, angle * mm_per_rad): the slower of linear and angular governs."""
         return cls(segments, np.array([max(s.length, s.angle * mm_per_rad, 1e-12) for s in segments]))
 

@@ -9,20 +9,37 @@ The timing rules are in those modules' docstrings and in docs/motion.md.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from parolkit.errors import ParolkitValueError
 from parolkit.motion.errors import PlanningError
 from parolkit.motion.joint import (
-    MOVEJOINT_DEFAULT_PCT, MOVEPOSE_DEFAULT_PCT, RUCKIG_JERK_TIME_S, SPEED_ONLY_ACCEL_PCT,
-    plan_joint_jog, plan_joint_move, plan_pose_move, plan_speed_joint,
+    MOVEJOINT_DEFAULT_PCT,
+    MOVEPOSE_DEFAULT_PCT,
+    RUCKIG_JERK_TIME_S,
+    SPEED_ONLY_ACCEL_PCT,
+    plan_joint_jog,
+    plan_joint_move,
+    plan_pose_move,
+    plan_speed_joint,
 )
 from parolkit.motion.trajectory import Trajectory
 from parolkit.moves import (
-    ArcCenterMove, ArcParamMove, BlendMove, CartJog, CartMove, CartRelTRFMove, CircleMove,
-    HelixMove, JointJog, JointMove, PoseMove, SpeedJointMove, SplineMove,
+    ArcCenterMove,
+    ArcParamMove,
+    BlendMove,
+    CartJog,
+    CartMove,
+    CartRelTRFMove,
+    CircleMove,
+    HelixMove,
+    JointJog,
+    JointMove,
+    PoseMove,
+    SpeedJointMove,
+    SplineMove,
 )
 from parolkit.robot import PAROL6, RobotModel
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence, Union
 
 import numpy as np
 
@@ -14,7 +14,7 @@ __all__ = ["plot_trajectory"]
 
 
 def plot_trajectory(
-    traj_or_list: Union[Trajectory, Sequence[Trajectory]],
+    traj_or_list: Trajectory | Sequence[Trajectory],
     path_png: str | Path,
     *,
     title: str | None = None,

@@ -7,8 +7,8 @@ target in steps; SPEED tracking streams (board command 123) end with a zero-spee
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -73,7 +73,7 @@ class Trajectory:
         cls, t: np.ndarray, positions: np.ndarray, speeds: np.ndarray, commands: np.ndarray,
         rate_hz: float, move: object, notes: tuple[str, ...], start_deg: np.ndarray,
         model: RobotModel, planned_deg: np.ndarray | None,
-    ) -> "Trajectory":
+    ) -> Trajectory:
         """Internal constructor for arrays the planner built itself with the right dtypes and
         shapes (t float (N,), positions/speeds int64 (N, 6), commands uint8 (N,), start_deg
         float (6,), planned_deg float (N, 6)): they are frozen in place, not converted or
@@ -164,7 +164,7 @@ class Trajectory:
         return "\n".join(lines)
 
     @staticmethod
-    def concatenate(parts: Sequence["Trajectory"], move: object, notes: Sequence[str] = ()) -> "Trajectory":
+    def concatenate(parts: Sequence[Trajectory], move: object, notes: Sequence[str] = ()) -> Trajectory:
         """Play ``parts`` one after another as one trajectory for ``move``."""
         parts = [p for p in parts if len(p)]
         if not parts:

@@ -24,9 +24,9 @@ returns the wire value unchanged.
 from __future__ import annotations
 
 import operator
+from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from enum import IntEnum, IntFlag
-from typing import Sequence
 
 from parolkit.errors import ParolkitValueError
 
@@ -141,7 +141,7 @@ class GripperStatus:
     calibrated: bool
 
     @classmethod
-    def from_byte(cls, value: int) -> "GripperStatus":
+    def from_byte(cls, value: int) -> GripperStatus:
         v = _check_int(value, "gripper_status", _U8)
         return cls(
             activated=bool(v & 0x80),
@@ -328,7 +328,7 @@ class CommandFrame:
         return bytes(buf)
 
     @classmethod
-    def decode(cls, data: bytes, *, check_crc: bool = False) -> "CommandFrame":
+    def decode(cls, data: bytes, *, check_crc: bool = False) -> CommandFrame:
         """Parse exactly one 56-byte frame.  Raises :class:`FrameError` on a bad envelope.
 
         ``check_crc`` is off by default because the board never checks it.
@@ -442,7 +442,7 @@ class StatusFrame:
         return bytes(buf)
 
     @classmethod
-    def decode(cls, data: bytes, *, check_crc: bool = False) -> "StatusFrame":
+    def decode(cls, data: bytes, *, check_crc: bool = False) -> StatusFrame:
         """Parse exactly one 60-byte frame.  Raises :class:`FrameError` on a bad envelope."""
         _check_envelope(data, STATUS_LEN, BOARD_CRC if check_crc else None, "status frame")
         p = bytes(data[4:])

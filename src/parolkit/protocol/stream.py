@@ -22,8 +22,9 @@ needed to decide, so a stream of garbage cannot grow memory.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Generic, Iterator, TypeVar
+from typing import Generic, TypeVar
 
 from parolkit.protocol.frames import (
     BOARD_CRC,

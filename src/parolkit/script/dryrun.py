@@ -17,8 +17,8 @@ duration, joints at the end), the errors and warnings, and the planned trajector
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Sequence
 
 import numpy as np
 

@@ -25,9 +25,9 @@ import difflib
 import math
 import re
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from parolkit.moves import CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
 from parolkit.script.program import (
@@ -95,7 +95,7 @@ class Limits:
     gripper_current_ma: tuple[int, int] = (100, 1000)
 
     @classmethod
-    def from_model(cls, model=None, *, rate_hz: float = 100.0) -> "Limits":
+    def from_model(cls, model=None, *, rate_hz: float = 100.0) -> Limits:
         """Limits of a :class:`parolkit.robot.RobotModel` (default the stock PAROL6)."""
         from parolkit.robot import PAROL6
 
@@ -259,7 +259,7 @@ class _Arg:
     col: int
     raw: str
     key: str = ""
-    value: "_Arg | None" = None
+    value: _Arg | None = None
 
     @property
     def word(self) -> str:

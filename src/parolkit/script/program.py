@@ -20,8 +20,9 @@ This module imports nothing heavy; it is safe to use from the GUI and from tests
 from __future__ import annotations
 
 import enum
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import ClassVar, Iterator
+from typing import ClassVar
 
 from parolkit.errors import ParolkitError
 from parolkit.moves import CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking

@@ -66,7 +66,7 @@ class Transport(abc.ABC):
         self.close()
         self.open()
 
-    def __enter__(self) -> "Transport":
+    def __enter__(self) -> Transport:
         if not self.is_open:
             self.open()
         return self

@@ -67,7 +67,7 @@ class SerialTransport(Transport):
         if ser is not None:
             try:
                 ser.close()
-            except Exception:  # noqa: BLE001 - closing a vanished device may fail; it is gone
+            except Exception:
                 pass
 
     def _lost(self, exc: BaseException) -> LinkLostError:

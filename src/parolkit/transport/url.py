@@ -136,7 +136,7 @@ class TransportURL:
         return "".join(la.scheme.prefix for la in self.layers)
 
     def with_options(self, overrides: Mapping[str, object] | None = None,
-                     defaults: Mapping[str, object] | None = None) -> "TransportURL":
+                     defaults: Mapping[str, object] | None = None) -> TransportURL:
         """A copy with Python-side options added.  Names are URL names or keyword aliases.
 
         * ``overrides`` replace what the URL says; naming an option of a scheme that is not in
