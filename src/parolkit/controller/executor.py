@@ -19,6 +19,7 @@ until the new plan is ready.
 
 from __future__ import annotations
 
+import importlib
 import logging
 import threading
 import time
@@ -26,6 +27,8 @@ from collections import deque
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
+from types import ModuleType
+from typing import Any
 
 from parolkit.controller.inbox import Ack, Submission
 from parolkit.controller.jobs import (
@@ -143,7 +146,7 @@ class Executor:
         self._limits = tuple((int(lo), int(hi)) for lo, hi in model.limits_steps)
         self._running = False
         self._planner: threading.Thread | None = None
-        self._motion = None  # parolkit.motion, imported by the planner thread
+        self._motion: ModuleType | None = None  # parolkit.motion, imported by the planner thread
         self.planned_count = 0
         self.plan_time_s = 0.0
 
@@ -357,7 +360,7 @@ class Executor:
     def queue_length(self) -> int:
         return len(self.queue)
 
-    def queue_view(self) -> dict:
+    def queue_view(self) -> dict[str, Any]:
         with self._lock:
             a = self.active
             act = None
@@ -366,7 +369,7 @@ class Executor:
                        "progress": round(self.activity.progress, 4) if self.activity else 0.0}
             return {"active": act, "queued": [{"id": j.command_id, "name": j.name} for j in self.queue]}
 
-    def plan_view(self, tool: object = None) -> dict:
+    def plan_view(self, tool: object = None) -> dict[str, Any]:
         with self._lock:
             a = self.active
             traj = a.trajectory if a is not None else None
@@ -436,9 +439,7 @@ class Executor:
 
     def _planner_main(self) -> None:
         try:
-            import parolkit.motion as motion
-
-            self._motion = motion
+            self._motion_module()  # the import, off the start-up path
         except Exception as exc:  # pragma: no cover - a broken install
             log.error("motion planner unavailable: %s", exc)
         while self._running:
@@ -496,15 +497,18 @@ class Executor:
             raise TypeError(f"{cmd.name} is not a planned motion command")
         return cmd.move  # type: ignore[attr-defined]
 
+    def _motion_module(self) -> ModuleType:
+        """:mod:`parolkit.motion`, imported on first use (numpy, planners: not at start-up)."""
+        m = self._motion
+        if m is None:
+            m = self._motion = importlib.import_module("parolkit.motion")
+        return m
+
     def _plan(self, cmd: C.Command, start: Sequence[float]) -> tuple[object | None, str | None]:
         try:
             move = self.to_move(cmd)
-            m = self._motion
-            if m is None:
-                import parolkit.motion as m  # type: ignore[no-redef]
-
-                self._motion = m
-            traj = m.plan(move, start, model=self.model, tool=self.tool_provider(), rate_hz=self.rate_hz)
+            traj = self._motion_module().plan(move, start, model=self.model, tool=self.tool_provider(),
+                                              rate_hz=self.rate_hz)
             if len(traj) == 0:
                 return None, "the move plans to zero samples"
             return traj, None
@@ -578,6 +582,8 @@ class Executor:
             table = m.jog_speed_from_percent(100.0)
             for j, d, pct in zip(jog.joints, jog.directions, jog.speed_pct):
                 speeds[j] = int(round(float(table[j]) * pct / 100.0)) * d
+            if jog.duration_s is None:
+                return (), 0, "MULTIJOG needs a duration"
             return tuple(speeds), ticks_for(jog.duration_s, self.rate_hz), None
         if isinstance(cmd, C.SpeedJoint):
             for j, v in enumerate(cmd.move.speeds_deg_s):

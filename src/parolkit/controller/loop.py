@@ -175,8 +175,9 @@ class ControlLoop:
         try:
             if self.transport.is_open:
                 pos = self.status.positions if self.status else (0,) * 6
-                if self.last_frame is not None and self.last_frame.command == BoardCommand.JOG and any(self.last_frame.speeds):
-                    self.transport.write(replace(self.last_frame, speeds=(0,) * 6).encode())
+                last = self.last_frame
+                if last is not None and last.command == BoardCommand.JOG and any(last.speeds):
+                    self.transport.write(replace(last, speeds=(0,) * 6).encode())
                 self.transport.write(CommandFrame(positions=pos, command=BoardCommand.DISABLE).encode())
                 self._final_frame_sent = True
         except Exception as exc:

@@ -8,10 +8,10 @@
   the others): parse (:mod:`parolkit.protocol.commands`), answer queries from the latest
   snapshot, hand commands to the loop (:class:`~parolkit.controller.inbox.CommandInbox`), and
   drains again.  It never waits for a tick, and no datagram changes threads on its way (a
-  hand-over costs a GIL switch, which is what delays replies under load).  A source over its share is refused with a "busy" ack (or ``ERROR|`` reply to
-  a query), never silently: the counts are in GET_STATUS (``OVERLOAD=``) and
-  GET_STATUS_JSON (``server``).  Nothing a datagram contains can raise out of
-  :meth:`UdpServer.handle`.
+  hand-over costs a GIL switch, which is what delays replies under load).  A source over its
+  share is refused with a "busy" ack (or ``ERROR|`` reply to a query), never silently: the
+  counts are in GET_STATUS (``OVERLOAD=``) and GET_STATUS_JSON (``server``).  Nothing a
+  datagram contains can raise out of :meth:`UdpServer.handle`.
 * :class:`Outbox` sends acks and replies in order from one thread.
 * :class:`StatusStream` sends ``STATUS_JSON|{...}`` to subscribers every N ticks.
 """
