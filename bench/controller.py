@@ -209,7 +209,8 @@ def bench_loop(rate: float, duration: float, tmp: Path) -> None:
     emu.stop()
     period_ms = 1e3 / rate
     print(f"  period   p50 {stats.get('period_p50_ms', float('nan')):6.2f} ms  p99 "
-          f"{stats.get('period_p99_ms', float('nan')):6.2f} ms  max {stats.get('period_max_ms', float('nan')):7.2f} ms  "
+          f"{stats.get('period_p99_ms', float('nan')):6.2f} ms  "
+          f"max {stats.get('period_max_ms', float('nan')):7.2f} ms  "
           f"overruns {stats.get('overruns')}  ticks {stats.get('ticks')}")
     print(f"  bare deadline loop (reference, same time): p50 {ref['p50']:6.2f} ms  p99 {ref['p99']:6.2f} ms  "
           f"max {ref['max']:7.2f} ms  overruns {ref['overruns']}")

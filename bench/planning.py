@@ -302,7 +302,7 @@ def main() -> int:
     for name, text in checks:
         print(f"reference work, {name}: {text}")
     targets = {"MoveJoint, new T": 1.0, "MoveCart 200 mm": 5.0}
-    for name, n, ours, *_ in rows:
+    for name, _n, ours, *_ in rows:
         goal = targets.get(name)
         if goal is not None:
             print(f"target {name}: < {goal:g} ms -> {'met' if ours < goal else 'NOT met'} ({ours:.3f} ms)")

@@ -669,7 +669,8 @@ def report(run: FloodRun) -> list[str]:
         f"flood: {fl['sent']:,} datagrams in {fl['last_t'] - fl['first_t']:.2f} s ({fl['rate']:,.0f}/s, "
         f"target {run.rate:,.0f}/s; {len(fl['ids']):,} with an ID; {fl['over_long']} over-long; "
         f"kinds {fl['kinds']}); sendto errors {fl['send_errors']}; seed {run.seed}",
-        f"  replies to the flooder's {q:,} queries: {fl['query_replies']:,} ({100 * (1 - fl['query_replies'] / max(1, q)):.1f} % "
+        f"  replies to the flooder's {q:,} queries: {fl['query_replies']:,} "
+        f"({100 * (1 - fl['query_replies'] / max(1, q)):.1f} % "
         f"lost); all replies by kind {fl['replies']}; the flooder's own socket dropped {fl['drops']}",
         f"  kernel drops at the controller's socket: {run.controller_drops:,}; at the ack recorder's: "
         f"{run.acks['drops']} (buffer {run.ack_rcvbuf:,} B; {run.acks['datagrams']:,} acks recorded)",

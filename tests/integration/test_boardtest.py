@@ -17,7 +17,7 @@ def test_sim_jog_moves_the_joint_and_reports_the_steps(capsys):
     assert cli_main(["board-test", "--sim", "jog", "--joint", "3", "--speed", "1000",
                      "--seconds", "0.5"]) == 0
     out = capsys.readouterr().out
-    line = next(l for l in out.splitlines() if l.startswith("J3: "))
+    line = next(ln for ln in out.splitlines() if ln.startswith("J3: "))
     moved = int(line.split("moved ")[1].split()[0])
     assert 400 <= moved <= 750  # 1000 steps/s for 0.5 s (+ the stop frame's delay on a busy machine)
 

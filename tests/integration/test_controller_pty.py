@@ -339,7 +339,8 @@ def test_a_query_sent_after_an_ack_never_reads_an_older_state(bench):
 
 _FLOOD_SENDER = r"""
 import json, random, socket, sys, threading, time
-host, port, ack_port, duration, rate = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4]), int(sys.argv[5])
+host, port, ack_port = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+duration, rate = float(sys.argv[4]), int(sys.argv[5])
 acks = {}
 ack_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 ack_sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 23)

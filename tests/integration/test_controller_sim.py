@@ -193,7 +193,8 @@ def test_bad_config_is_refused_with_the_key_named(tmp_path):
 def test_250_hz_runs_moves_and_headless_commander_is_the_same_program(tmp_path):
     exe = Path(sys.executable).with_name("headless-commander")
     port, ack = free_udp_port(), free_udp_port()
-    args = [str(exe)] if exe.exists() else [sys.executable, "-c", "import sys; from parolkit.cli import serve_main; sys.exit(serve_main())"]
+    args = [str(exe)] if exe.exists() else [
+        sys.executable, "-c", "import sys; from parolkit.cli import serve_main; sys.exit(serve_main())"]
     proc = subprocess.Popen([*args, "--rate", "250", "--udp-port", str(port), "--ack-port", str(ack),
                              "--sim-speedup", "200"], cwd=REPO_ROOT, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, preexec_fn=die_with_parent)

@@ -27,7 +27,8 @@ ROBOT_API = REPO / "src" / "parolkit" / "client" / "robot_api.py"
 
 WRAPPER = r"""
 import json, runpy, sys, time, types
-workdir, port, ack_port, script, scale = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], float(sys.argv[5])
+workdir, port, ack_port = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+script, scale = sys.argv[4], float(sys.argv[5])
 sys.path.insert(0, workdir)
 import robot_api
 robot_api.configure(host="127.0.0.1", port=port, ack_port=ack_port)
@@ -73,7 +74,7 @@ def test_seed_example_runs_unchanged_and_every_call_returns_real_values(controll
     assert proc.returncode == 0, proc.stderr + controller.log()
     assert "robot_api:" not in proc.stderr, proc.stderr  # no query timed out or failed
     lines = proc.stdout.splitlines()
-    result = json.loads(next(l for l in lines if l.startswith("RESULT="))[len("RESULT="):])
+    result = json.loads(next(ln for ln in lines if ln.startswith("RESULT="))[len("RESULT="):])
     assert result["loaded"] == []  # standard library only
     calls = result["calls"]
     assert [c["name"] for c in calls] == EXPECTED_CALLS

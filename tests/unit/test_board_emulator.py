@@ -458,7 +458,7 @@ def test_corrupting_bytes_loses_some_frames_but_never_crashes_or_accepts_a_broke
     emu, pc = make(seed=7)
     emu.set_faults(corrupt_rate=0.01)
     got = 0
-    for i in range(300):
+    for _ in range(300):
         got += len(pc.send_raw(CommandFrame(command=BoardCommand.IDLE, io=0x20).encode()))
     assert 150 < got < 300
     assert emu.stats.bytes_corrupted_by_faults > 0

@@ -19,11 +19,11 @@ def test_format_status_shows_every_telemetry_field_with_units():
                         gripper_speed=1, gripper_current=450, gripper_status=0xB1, object_detection=1)
     text = format_status(frame, missed=2, sent=100)
     lines = text.splitlines()
-    j1 = next(l for l in lines if l.startswith("J1"))
+    j1 = next(ln for ln in lines if ln.startswith("J1"))
     assert "10240" in j1 and "90.000" in j1 and "yes" in j1
-    j2 = next(l for l in lines if l.startswith("J2"))
+    j2 = next(ln for ln in lines if ln.startswith("J2"))
     assert "-90.000" in j2 and "355" in j2 and "0.998" in j2  # 355 steps/s = 0.998 deg/s on J2
-    assert "ERR" in next(l for l in lines if l.startswith("J2"))  # temperature bit of J2 (0x40)
+    assert "ERR" in next(ln for ln in lines if ln.startswith("J2"))  # temperature bit of J2 (0x40)
     assert "IN1=1 IN2=0 OUT1=1 OUT2=0 ESTOP=released" in text
     assert "timing: 7031 ticks = 10.000 ms" in text and "xtr=156" in text
     assert "position=120" in text and "current=450 mA" in text and "status=0xB1" in text

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from parolkit.config import Config, load_config
@@ -70,5 +72,5 @@ def test_config_is_immutable_and_overrides_make_copies():
     cfg = Config()
     faster = cfg.with_overrides({"controller": {"rate_hz": 250.0}})
     assert cfg.controller.rate_hz == 100 and faster.controller.rate_hz == 250
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         cfg.controller.rate_hz = 5  # type: ignore[misc]

@@ -329,7 +329,7 @@ def test_output_completes_only_once_the_board_reports_the_new_level(rig):
     """COMPLETED means the board's status shows the output, so a GET_IO after the ack reads it."""
     for cid, action, want in (("aaaa0001", "open", (True, False)), ("aaaa0002", "close", (False, False))):
         rig.send(f"{cid}|PNEUMATICGRIPPER|{action}|1")
-        rig.run_until(lambda: rig.terminal(cid) is not None)
+        rig.run_until(lambda cid=cid: rig.terminal(cid) is not None)
         # what the controller published with each ack: the tick's snapshot
         at_ack = {(a.command_id, a.status): (o.snapshot.seq, o.snapshot.status.outputs)
                   for o in rig.outputs for a in o.acks}
@@ -613,7 +613,7 @@ def test_every_ack_leaves_with_the_snapshot_that_shows_its_effect():
         for text in script:
             cid = text.split("|")[0]
             r.send(text)
-            r.run_until(lambda cid=cid: r.terminal(cid) is not None or (
+            r.run_until(lambda cid=cid, text=text: r.terminal(cid) is not None or (
                 text.endswith("3|None") and AckStatus.EXECUTING in r.statuses(cid)), max_ticks=3000)
         r.tick(3)
         checked = 0

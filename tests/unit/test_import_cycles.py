@@ -185,21 +185,19 @@ def cycles_in(component: frozenset[str], graph: dict[str, list[Edge]], limit: in
     smallest module, the start repeated at the end), at most ``limit`` of them."""
     succ = {m: sorted({e.target for e in graph[m] if e.target in component}) for m in component}
     found: list[list[str]] = []
+    def walk(node: str, start: str, path: list[str]) -> None:
+        for nxt in succ[node]:
+            if len(found) >= limit or nxt < start:
+                continue
+            if nxt == start:
+                found.append([*path, start])
+            elif nxt not in path:
+                path.append(nxt)
+                walk(nxt, start, path)
+                path.pop()
+
     for start in sorted(component):
-        path = [start]
-
-        def walk(node: str) -> None:
-            for nxt in succ[node]:
-                if len(found) >= limit or nxt < start:
-                    continue
-                if nxt == start:
-                    found.append(path + [start])
-                elif nxt not in path:
-                    path.append(nxt)
-                    walk(nxt)
-                    path.pop()
-
-        walk(start)
+        walk(start, start, [start])
     return found
 
 

@@ -128,9 +128,14 @@ def test_pose_matrix_round_trip_on_random_poses():
 
 def test_rotation_order_is_rx_c_ry_b_rz_a():
     a, b, c = 20.0, 30.0, 40.0
-    rx = lambda t: np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
-    ry = lambda t: np.array([[math.cos(t), 0, math.sin(t)], [0, 1, 0], [-math.sin(t), 0, math.cos(t)]])
-    rz = lambda t: np.array([[math.cos(t), -math.sin(t), 0], [math.sin(t), math.cos(t), 0], [0, 0, 1]])
+    def rx(t):
+        return np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
+
+    def ry(t):
+        return np.array([[math.cos(t), 0, math.sin(t)], [0, 1, 0], [-math.sin(t), 0, math.cos(t)]])
+
+    def rz(t):
+        return np.array([[math.cos(t), -math.sin(t), 0], [math.sin(t), math.cos(t), 0], [0, 0, 1]])
     expected = rx(math.radians(c)) @ ry(math.radians(b)) @ rz(math.radians(a))
     m = pose_to_matrix([1, 2, 3, a, b, c])
     np.testing.assert_allclose(m[:3, :3], expected, atol=1e-15)
