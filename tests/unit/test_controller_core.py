@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 import pytest
+from tests.conftest import wait_until
 
 from parolkit.board import BoardEmulator
 from parolkit.controller.executor import Executor
@@ -691,3 +692,51 @@ def test_command_inbox_takes_sources_in_turn_and_refuses_a_full_lane():
     assert [s.seq for s in box.take_safety()] == [5] and not box.safety_waiting
     assert [s.seq for s in box.take()] == [0, 4, 1, 2]  # a, b, a, a: b is not behind a's backlog
     assert len(box) == 0
+
+
+# ------------------------------------------------------------------------------ plan ahead
+
+
+def _send_planned_ahead(rig, text: str, seq: int) -> bool:
+    """As the server does: start the plan while parsing, hand both to the next tick."""
+    p = parse_datagram(text)
+    pa = rig.ex.plan_ahead(p.command)
+    src = ("127.0.0.1", 1)
+    rig.loop.inbox.put(Submission(p.command, p.command_id, (src,), src, seq, None, pa))
+    return pa is not None
+
+
+def test_a_move_planned_ahead_starts_at_the_tick_that_takes_it_in(rig):
+    """Idle robot: the server starts planning while it parses, so the move does not wait a tick
+    for the planner (command -> first motion frame at the board)."""
+    assert _send_planned_ahead(rig, "aaaa0001|MOVEJOINT|80|-90|170|0|0|180|1|None", 1)
+    wait_until(lambda: rig.ex._ahead is not None and rig.ex._ahead.done, what="the plan made ahead")
+    rig.tick()
+    assert rig.statuses("aaaa0001") == [AckStatus.QUEUED, AckStatus.EXECUTING]
+    assert rig.frames[-1].command == BoardCommand.GOTO
+
+
+def test_moves_sent_together_while_idle_all_run_in_order_with_one_plan_ahead():
+    r = Rig()
+    try:
+        ids = [f"t000000{i}" for i in range(6)]
+        made = [_send_planned_ahead(r, f"{cid}|MOVEJOINT|{90 - 5 * (i % 2)}|-90|180|0|0|180|0.8|None", i + 1)
+                for i, cid in enumerate(ids)]
+        assert made[0]  # later ones may or may not get one: only one is made at a time
+        r.run_until(lambda: r.terminal(ids[-1]) is not None, max_ticks=3000)
+        assert [a[0] for a in r.acks if a[1] is AckStatus.COMPLETED] == ids
+    finally:
+        r.close()
+
+
+def test_a_plan_made_ahead_from_another_start_is_not_used(rig):
+    """Planned ahead from where the robot was; another move got in first: planned again."""
+    p = parse_datagram("aaaa0002|MOVEJOINT|80|-90|170|0|0|180|1|None")
+    pa = rig.ex.plan_ahead(p.command)
+    assert pa is not None
+    rig.submit("aaaa0001|MOVEJOINT|70|-90|170|0|0|180|1.5|None")  # queued first, elsewhere
+    src = ("127.0.0.1", 1)
+    rig.loop.inbox.put(Submission(p.command, p.command_id, (src,), src, 2, None, pa))
+    rig.run_until(lambda: rig.terminal("aaaa0002") is not None, max_ticks=3000)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED and rig.terminal("aaaa0002") is AckStatus.COMPLETED
+    assert np.allclose(rig.angles, [80, -90, 170, 0, 0, 180], atol=0.05)

@@ -27,6 +27,7 @@ from parolkit.config import Config
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import CommandInbox, Submission
+from parolkit.controller.jobs import PlanAhead
 from parolkit.controller.loop import ControlLoop, TickOutput
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
 from parolkit.controller.state import SNAPSHOT_QUERIES, BoardInfo, RobotState, Snapshot
@@ -199,6 +200,10 @@ class Controller:
         """The kinematics tool called ``name`` (config ``[tools.NAME]`` or built in)."""
         _, tools = self._kinematics()
         return tools.get_tool(name, self.config)
+
+    def plan_ahead(self, command: C.Command) -> PlanAhead | None:
+        """Start planning a motion command while the robot is idle (see PlanAhead)."""
+        return self.executor.plan_ahead(command)
 
     @property
     def tool_name(self) -> str:

@@ -39,6 +39,7 @@ from parolkit.controller.jobs import (
     Job,
     OneShotActivity,
     OutputActivity,
+    PlanAhead,
     SpeedActivity,
     Step,
     TickContext,
@@ -115,6 +116,9 @@ class Executor:
         self.activity: Activity | None = None
         #: acks produced since the loop last took them (any thread appends, under the lock)
         self._acks: list[Ack] = []
+        #: the plan started ahead by the server (see PlanAhead) until it is done; one at a time
+        self._ahead: PlanAhead | None = None
+        self._ahead_todo = False
         #: streamed CARTJOG jobs the planner finished, for the loop to switch to
         self._planned_streams: SimpleQueue[Job] = SimpleQueue()
         #: the tool in use (name, and its kinematics object once resolved)
@@ -194,6 +198,35 @@ class Executor:
             self._seq += 1
             return Job(self._seq, command, command_id, ack_addr, time.monotonic())
 
+    def plan_ahead(self, cmd: C.Command) -> PlanAhead | None:
+        """(server thread) Start planning ``cmd`` now if the robot is idle (see
+        :class:`PlanAhead`); the :class:`Submission` carries the handle to the tick."""
+        if not needs_plan(cmd) or self.stream_mode:
+            return None
+        with self._lock:
+            meas = self._measured
+            if (self.active is not None or self.queue or self._stream_cart is not None or not self._homed
+                    or meas is None or not self.enabled or self.estop_latched
+                    or (self._ahead is not None and not self._ahead.done)):
+                return None
+            pa = self._ahead = PlanAhead(cmd, meas, self.tool_name)
+            self._ahead_todo = True
+            self._plan_cv.notify_all()
+        return pa
+
+    def _attach_ahead(self, job: Job) -> None:
+        """(under the lock) Give ``job`` its plan made ahead, if there is a usable one."""
+        pa = job.ahead
+        if pa is None or not pa.done or job.planned or job not in self.queue:
+            return
+        job.ahead = None
+        if pa.tool_name != self.tool_name or self.queue[0] is not job or self.active is not None:
+            return  # the plan assumed another start or tool: planned as usual
+        if pa.error is not None:
+            job.start_deg, job.final_deg, job.planned, job.plan_error = pa.start, pa.start, True, pa.error
+        else:
+            self._set_plan(job, pa.start, pa.trajectory)
+
     def submit(self, job: Job) -> None:
         """Queue ``job`` (QUEUED ack) or refuse it (FAILED ack).  Streaming jogs replace."""
         cmd = job.command
@@ -240,6 +273,7 @@ class Executor:
             self.queue.append(job)
             ahead = len(self.queue) + (1 if self.active is not None else 0)
             self._ack(job, AckStatus.QUEUED, f"Position {ahead} in queue")
+            self._attach_ahead(job)
             self._plan_cv.notify_all()
 
     def apply(self, sub: Submission) -> None:
@@ -247,6 +281,10 @@ class Executor:
         ack COMPLETED, FAILED or INVALID), any other queued (or refused) as :meth:`submit`."""
         cmd = sub.command
         job = self.new_job(cmd, sub.command_id, sub.route)
+        pa = sub.ahead
+        if pa is not None and pa.command is cmd:
+            with self._lock:
+                job.ahead, pa.job = pa, job
         if isinstance(cmd, SAFETY_COMMANDS):
             if sub.seq > self._safety_seq:
                 self._safety_seq, self._safety_name = sub.seq, cmd.name
@@ -414,6 +452,8 @@ class Executor:
                 job.planned = True
                 job.final_deg = prev
                 continue
+            if job.ahead is not None and not job.ahead.done:
+                return None  # its plan is being made ahead: wait for it
             if job.planned and job.start_deg == prev:
                 prev = job.final_deg if job.plan_error is None else prev
                 continue
@@ -454,10 +494,24 @@ class Executor:
         with self._plan_cv:
             if not self._running:
                 return
-            item = self._next_to_plan()
-            if item is None:
+            pa = self._ahead if self._ahead_todo and self._stream_cart is None else None
+            self._ahead_todo = False
+            item = None if pa is not None else self._next_to_plan()
+            if pa is None and item is None:
                 self._plan_cv.wait(0.05)
                 return
+        if pa is not None:
+            t0 = time.perf_counter()
+            traj, err = self._plan(pa.command, pa.start)
+            dt = time.perf_counter() - t0
+            with self._lock:
+                self.planned_count += 1
+                self.plan_time_s += dt
+                pa.trajectory, pa.error, pa.done = traj, err, True
+                if pa.job is not None:
+                    self._attach_ahead(pa.job)
+            return
+        assert item is not None
         job, start, streamed = item
         t0 = time.perf_counter()
         traj, err = self._plan(job.command, start)

@@ -19,6 +19,7 @@ import threading
 from collections import deque
 from dataclasses import dataclass
 
+from parolkit.controller.jobs import PlanAhead
 from parolkit.protocol.commands import AckStatus, Command, format_ack
 
 __all__ = [
@@ -48,8 +49,9 @@ class Submission:
 
     ``seq`` numbers datagrams in the order the server received them: a safety command applied
     first cancels every command received before it that the loop had not applied yet.
-    ``tool`` carries what the server prepared off the tick: the resolved tool object of a
-    SET_TOOL (kinematics work never runs in the tick)."""
+    ``tool`` and ``ahead`` carry what the server prepared off the tick: the resolved tool
+    object of a SET_TOOL (kinematics work never runs in the tick), the plan of a motion
+    command started while the robot was idle."""
 
     command: Command
     command_id: str | None
@@ -57,6 +59,8 @@ class Submission:
     source: Address
     seq: int = 0
     tool: object | None = None
+    #: the plan the executor started ahead for it, if any
+    ahead: PlanAhead | None = None
 
 
 @dataclass(frozen=True, slots=True)

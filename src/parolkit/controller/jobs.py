@@ -17,7 +17,7 @@ from parolkit.protocol.frames import BoardCommand, GripperMode, StatusFrame
 from parolkit.robot import JOINT_NAMES
 
 __all__ = [
-    "Job", "Step", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity",
+    "Job", "PlanAhead", "Step", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity",
     "HomeActivity", "DelayActivity", "OneShotActivity", "WaitInputActivity", "GripperCalibrateActivity",
 ]
 
@@ -26,6 +26,27 @@ _ZERO6 = (0, 0, 0, 0, 0, 0)
 #: a trajectory's samples as Python lists: per-tick positions and speeds (steps, 6 joints
 #: each) and board command codes
 Samples = tuple[list[list[int]], list[list[int]], list[int]]
+
+
+class PlanAhead:
+    """A plan started when the server parsed a motion command, before the tick takes it in.
+
+    Only while the robot is idle (nothing active, queued or streaming): the plan starts from the
+    measured joints, so the job it belongs to can start at the very tick that takes it in
+    instead of waiting a tick for the planner.  If anything changed meanwhile (the robot moved,
+    another command got ahead of it, the tool changed), the plan is not used and the job is
+    planned as usual.  Fields are written under the executor lock."""
+
+    __slots__ = ("command", "start", "tool_name", "trajectory", "error", "done", "job")
+
+    def __init__(self, command: Command, start: tuple[float, ...], tool_name: str) -> None:
+        self.command = command
+        self.start = start
+        self.tool_name = tool_name
+        self.trajectory: object | None = None
+        self.error: str | None = None
+        self.done = False
+        self.job: Job | None = None
 
 
 @dataclass
@@ -57,6 +78,8 @@ class Job:
     #: (that jog's activity, its sample index then), to line the two up when it takes over
     stream_anchor: tuple[object, int] | None = None
     terminal: AckStatus | None = None
+    #: the plan made ahead for this job before it was queued, until used
+    ahead: PlanAhead | None = None
 
     @property
     def name(self) -> str:

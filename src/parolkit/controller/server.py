@@ -30,6 +30,7 @@ from typing import Protocol
 
 from parolkit.controller.executor import SAFETY_COMMANDS
 from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
+from parolkit.controller.jobs import PlanAhead
 from parolkit.controller.state import Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
@@ -65,12 +66,15 @@ DRAIN_MAX = 512
 
 class QueryAnswerer(Protocol):
     """What the server needs from the rest of the controller: replies to queries (from the
-    latest snapshot and the read-only views) and a tool looked up by name (SET_TOOL's
-    kinematics work happens here, never in the tick)."""
+    latest snapshot and the read-only views), a tool looked up by name (SET_TOOL's
+    kinematics work happens here, never in the tick) and a plan started ahead for a motion
+    command (the handle travels with it to the tick)."""
 
     def answer_query(self, name: str) -> str: ...
 
     def resolve_tool(self, name: str) -> object: ...
+
+    def plan_ahead(self, command: C.Command) -> PlanAhead | None: ...
 
 
 class Outbox:
@@ -481,10 +485,9 @@ class UdpServer:
                 self._ack(cid, addr, AckStatus.INVALID, f"SET_TOOL: {exc}")
                 return
         route = self._ack_addr(addr) if cid is not None else None
-        sub = Submission(cmd, cid, route, addr, seq, tool)
         if isinstance(cmd, SAFETY_COMMANDS):
-            self.inbox.put_safety(sub)
-        elif not self.inbox.put(sub):
+            self.inbox.put_safety(Submission(cmd, cid, route, addr, seq))
+        elif not self.inbox.put(Submission(cmd, cid, route, addr, seq, tool, self.answerer.plan_ahead(cmd))):
             self.busy_acks += 1 if cid is not None else 0
             self._ack(cid, addr, AckStatus.FAILED,
                       f"controller busy: {self.inbox.max_waiting} commands from {addr[0]}:{addr[1]} "
