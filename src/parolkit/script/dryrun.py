@@ -48,7 +48,8 @@ from parolkit.script.program import (
     format_number,
 )
 
-if TYPE_CHECKING:  # parolkit.motion is imported when the first move is planned
+if TYPE_CHECKING:  # parolkit.motion and the kinematics are imported when the first move is planned
+    from parolkit.kinematics.tools import Tool
     from parolkit.motion import Trajectory
 
 __all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops", "MoveTiming",
@@ -275,7 +276,7 @@ def dry_run(
     *,
     loops: int | None = None,
     model: RobotModel | None = None,
-    tool: object = None,
+    tool: str | Tool | None = None,
     rate_hz: float = 100.0,
 ) -> DryRunReport:
     """Plan every command of ``program`` and return a :class:`DryRunReport`.
