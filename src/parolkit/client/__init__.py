@@ -12,6 +12,22 @@ Attributes are loaded lazily so ``import parolkit.client`` stays cheap.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ loads them lazily
+    from parolkit.client.async_robot import AsyncRobot
+    from parolkit.client.core import AckStatus, CommandResult, PlanInfo, RobotState, RobotStatus
+    from parolkit.client.errors import (
+        CommandCancelled,
+        CommandFailed,
+        CommandInvalid,
+        CommandNotCompleted,
+        CommandTimeout,
+        ControllerUnreachable,
+        RobotError,
+    )
+    from parolkit.client.robot import Robot
+
 __all__ = ["Robot", "AsyncRobot", "RobotError", "CommandNotCompleted", "CommandFailed", "CommandInvalid",
            "CommandCancelled", "CommandTimeout", "ControllerUnreachable", "CommandResult",
            "AckStatus", "RobotStatus", "RobotState", "PlanInfo"]
@@ -34,7 +50,7 @@ _WHERE = {
 }
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> object:
     module = _WHERE.get(name)
     if module is None:
         raise AttributeError(f"module 'parolkit.client' has no attribute {name!r}")

@@ -139,7 +139,7 @@ class AsyncStatusSubscription:
         self._timeout = timeout
         self._queue: asyncio.Queue[str | None] = asyncio.Queue(maxsize=buffer)
         self._transport: asyncio.DatagramTransport | None = None
-        self._renewer: asyncio.Task | None = None
+        self._renewer: asyncio.Task[None] | None = None
         self.port: int | None = None
         self.received = 0
         self._closed = False
@@ -189,7 +189,8 @@ class AsyncStatusSubscription:
         if text is None:  # close() was called while we waited
             raise StopAsyncIteration
         self.received += 1
-        return parse_query_reply(QUERIES["status"], text)
+        status: RobotStatus = parse_query_reply(QUERIES["status"], text)
+        return status
 
     def __aiter__(self) -> AsyncIterator[RobotStatus]:
         return self
@@ -248,9 +249,9 @@ class AsyncRobot(RobotCommands):
         self.ack_port: int | None = None
         self._transport: asyncio.DatagramTransport | None = None
         self._acks = AckBook()
-        self._first: dict[str, asyncio.Future] = {}
-        self._final: dict[str, asyncio.Future] = {}
-        self._pending_reply: tuple | None = None  # (tag, future)
+        self._first: dict[str, asyncio.Future[None]] = {}
+        self._final: dict[str, asyncio.Future[None]] = {}
+        self._pending_reply: tuple[str, asyncio.Future[str]] | None = None  # (tag, future)
         self._query_lock: asyncio.Lock | None = None
         self._open_lock: asyncio.Lock | None = None
         self._last_heard = 0.0
@@ -353,15 +354,15 @@ class AsyncRobot(RobotCommands):
             return
         pending = self._pending_reply
         if pending is not None:
-            tag, fut = pending
-            if text.partition("|")[0] in (tag, "ERROR") and not fut.done():
-                fut.set_result(text)
+            tag, reply = pending
+            if text.partition("|")[0] in (tag, "ERROR") and not reply.done():
+                reply.set_result(text)
 
     async def _request(self, request: str, tag: str, timeout: float) -> str:
         await self._ensure_open()
         assert self._query_lock is not None
         async with self._query_lock:
-            fut = asyncio.get_running_loop().create_future()
+            fut: asyncio.Future[str] = asyncio.get_running_loop().create_future()
             self._pending_reply = (tag, fut)
             try:
                 self._send(request)
@@ -454,7 +455,7 @@ class AsyncRobot(RobotCommands):
         """Poll the status until no command is active or queued; returns that status."""
         deadline = time.monotonic() + timeout
         while True:
-            st = await self.status()
+            st: RobotStatus = await self.status()
             if st.command is None and st.queue == 0 and st.state not in ("MOVING", "HOMING"):
                 return st
             if time.monotonic() >= deadline:

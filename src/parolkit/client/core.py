@@ -427,7 +427,7 @@ class PlanInfo:
     seq: int
     command: str | None
     target_angles: tuple[float, ...] | None
-    tcp_path: tuple[tuple[float, float, float], ...]
+    tcp_path: tuple[tuple[float, ...], ...]  # points [x, y, z] mm
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PlanInfo:
@@ -577,7 +577,7 @@ class AckRecord:
     id: str
     command: str
     sent_at: float
-    history: list = field(default_factory=list)  # [(AckStatus, details), ...]
+    history: list[tuple[AckStatus, str]] = field(default_factory=list)  # [(AckStatus, details), ...]
     first_at: float | None = None
     terminal: tuple[AckStatus, str] | None = None
 

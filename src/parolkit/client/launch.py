@@ -33,8 +33,8 @@ def die_with_parent() -> None:
         os._exit(1)
 
 
-def spawn_controller(serve_args: Sequence[str], *, stdout: IO | int | None = None,
-                     stderr: IO | int | None = None) -> subprocess.Popen:
+def spawn_controller(serve_args: Sequence[str], *, stdout: IO[bytes] | int | None = None,
+                     stderr: IO[bytes] | int | None = None) -> subprocess.Popen[bytes]:
     """Run ``python -m parolkit serve SERVE_ARGS...`` tied to this process's lifetime."""
     cmd = [sys.executable, "-m", "parolkit", "serve", *serve_args]
     return subprocess.Popen(cmd, stdout=stdout, stderr=stderr, preexec_fn=die_with_parent,

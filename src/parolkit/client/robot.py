@@ -14,8 +14,9 @@
 One UDP socket carries commands, queries, their replies and the acknowledgements; a
 background thread receives and sorts them.  ``ack_port=0`` (default) binds an ephemeral
 port: query replies always come back to it, and so do acks, because the Robot registers
-its socket with the controller's (ext) ``ACK_HERE`` command.  Give ``ack_port=<the controller's --ack-port>`` (5002 by default) to listen
-where the original protocol sends acks (one program per machine can hold that port).
+its socket with the controller's (ext) ``ACK_HERE`` command.  Give
+``ack_port=<the controller's --ack-port>`` (5002 by default) to listen where the original
+protocol sends acks (one program per machine can hold that port).
 
 Every method is documented in :class:`parolkit.client.core.RobotCommands`; errors are the
 classes of :mod:`parolkit.client.errors`.
@@ -155,7 +156,8 @@ class StatusSubscription:
             text = data.decode("utf-8", "replace")
             if text.startswith("STATUS_JSON|"):
                 self.received += 1
-                return parse_query_reply(QUERIES["status"], text)
+                status: RobotStatus = parse_query_reply(QUERIES["status"], text)
+                return status
 
     def __iter__(self) -> Iterator[RobotStatus]:
         while True:
@@ -356,7 +358,7 @@ class Robot(RobotCommands):
         """Poll the status until no command is active or queued; returns that status."""
         deadline = time.monotonic() + timeout
         while True:
-            st = self.status()
+            st: RobotStatus = self.status()
             if st.command is None and st.queue == 0 and st.state not in ("MOVING", "HOMING"):
                 return st
             if time.monotonic() >= deadline:

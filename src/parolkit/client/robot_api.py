@@ -46,7 +46,7 @@ import threading
 import time
 import uuid
 from collections import OrderedDict
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 __all__ = [
     # configuration
@@ -180,7 +180,7 @@ def _int(value: Any, name: str, low: int, high: int) -> int:
     if isinstance(value, float) and value.is_integer():
         value = int(value)
     try:
-        v = value.__index__()
+        v: int = value.__index__()
     except (AttributeError, TypeError):
         raise ValueError(f"{name} must be an integer in {low}..{high}, got {value!r}") from None
     if not low <= v <= high:
@@ -285,7 +285,7 @@ def _move_fields(values: List[float], duration: Any, speed_percentage: Any,
                  accel_percentage: Any = None, profile: Any = None, tracking: Any = None,
                  *, with_accel: bool = True) -> str:
     d, s = _one_timing(duration, speed_percentage)
-    parts = [*values, d, s]
+    parts: List[Union[float, str, None]] = [*values, d, s]
     a = _percent(accel_percentage, "accel_percentage") if accel_percentage is not None else None
     p = _opt_choice(profile, "profile", PROFILES)
     t = _opt_choice(tracking, "tracking", TRACKING_MODES)
@@ -822,7 +822,8 @@ def send_and_wait(command_string: str, timeout: float = 2.0,
     return _tracker.wait(cmd_id, t)
 
 
-def _dispatch(command: str, wait_for_ack: bool, timeout: float, non_blocking: bool) -> Any:
+def _dispatch(command: str, wait_for_ack: bool, timeout: float,
+              non_blocking: bool) -> Union[Dict[str, Any], str]:
     if wait_for_ack:
         return send_and_wait(command, timeout, non_blocking)
     return send_robot_command(command)
@@ -855,7 +856,7 @@ def get_tracking_stats() -> Dict[str, Any]:
 
 def move_robot_joints(angles: List[float], duration: Optional[float] = None,
                       speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                      timeout: float = 2.0, non_blocking: bool = False):
+                      timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Joint-space move to ``angles`` (J1..J6, deg) in ``duration`` s or at ``speed_percentage``."""
     return _dispatch(build_move_joint(angles, duration, speed_percentage), wait_for_ack, timeout,
                      non_blocking)
@@ -863,7 +864,7 @@ def move_robot_joints(angles: List[float], duration: Optional[float] = None,
 
 def move_robot_pose(pose: List[float], duration: Optional[float] = None,
                     speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                    timeout: float = 2.0, non_blocking: bool = False):
+                    timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK, joint-space path."""
     return _dispatch(build_move_pose(pose, duration, speed_percentage), wait_for_ack, timeout,
                      non_blocking)
@@ -871,7 +872,7 @@ def move_robot_pose(pose: List[float], duration: Optional[float] = None,
 
 def move_robot_cartesian(pose: List[float], duration: Optional[float] = None,
                          speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                         timeout: float = 2.0, non_blocking: bool = False):
+                         timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg)."""
     return _dispatch(build_move_cart(pose, duration, speed_percentage), wait_for_ack, timeout,
                      non_blocking)
@@ -880,7 +881,7 @@ def move_robot_cartesian(pose: List[float], duration: Optional[float] = None,
 def move_robot_cartesian_rel_trf(delta: List[float], duration: Optional[float] = None,
                                  speed_percentage: Optional[float] = None,
                                  wait_for_ack: bool = False, timeout: float = 2.0,
-                                 non_blocking: bool = False):
+                                 non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Relative straight-line move in the tool frame: [dx, dy, dz, dA, dB, dC] (mm, deg)."""
     return _dispatch(build_move_cart_rel_trf(delta, duration, speed_percentage), wait_for_ack,
                      timeout, non_blocking)
@@ -888,7 +889,7 @@ def move_robot_cartesian_rel_trf(delta: List[float], duration: Optional[float] =
 
 def jog_robot_joint(joint_index: int, speed_percentage: float, duration: Optional[float] = None,
                     distance_deg: Optional[float] = None, wait_for_ack: bool = False,
-                    timeout: float = 2.0, non_blocking: bool = False):
+                    timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Jog one joint: index 0-5 = J1-J6 positive, 6-11 = J1-J6 negative; for ``duration`` s
     and/or ``distance_deg`` degrees at ``speed_percentage`` of its jog speed."""
     return _dispatch(build_jog(joint_index, speed_percentage, duration, distance_deg),
@@ -897,20 +898,21 @@ def jog_robot_joint(joint_index: int, speed_percentage: float, duration: Optiona
 
 def jog_multiple_joints(joints: List[int], speeds: List[float], duration: float,
                         wait_for_ack: bool = False, timeout: float = 2.0,
-                        non_blocking: bool = False):
+                        non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Jog several joints at once (indices as :func:`jog_robot_joint`, speeds in %)."""
     return _dispatch(build_multijog(joints, speeds, duration), wait_for_ack, timeout, non_blocking)
 
 
 def jog_cartesian(frame: str, axis: str, speed_percentage: float, duration: float,
-                  wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False):
+                  wait_for_ack: bool = False, timeout: float = 2.0,
+                  non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Cartesian jog in ``frame`` ('WRF'/'TRF') along/about ``axis`` ('X+' ... 'RZ-')."""
     return _dispatch(build_cartjog(frame, axis, speed_percentage, duration), wait_for_ack, timeout,
                      non_blocking)
 
 
 def control_pneumatic_gripper(action: str, port: int, wait_for_ack: bool = False,
-                              timeout: float = 2.0, non_blocking: bool = False):
+                              timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Open/close the pneumatic gripper on output ``port`` (1 or 2)."""
     return _dispatch(build_pneumatic_gripper(action, port), wait_for_ack, timeout, non_blocking)
 
@@ -918,7 +920,7 @@ def control_pneumatic_gripper(action: str, port: int, wait_for_ack: bool = False
 def control_electric_gripper(action: str, position: Optional[int] = 255,
                              speed: Optional[int] = 150, current: Optional[int] = 500,
                              wait_for_ack: bool = False, timeout: float = 2.0,
-                             non_blocking: bool = False):
+                             non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """SSG-48 gripper: ``action`` 'move' or 'calibrate' (or 'clear_error');
     position 0..255, speed 0..255, current 100..1000 mA."""
     return _dispatch(build_electric_gripper(action, position, speed, current), wait_for_ack,
@@ -926,18 +928,19 @@ def control_electric_gripper(action: str, position: Optional[int] = 255,
 
 
 def delay_robot(duration: float, wait_for_ack: bool = False, timeout: float = 2.0,
-                non_blocking: bool = False):
+                non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Queue a pause of ``duration`` seconds."""
     return _dispatch(build_delay(duration), wait_for_ack, timeout, non_blocking)
 
 
-def home_robot(wait_for_ack: bool = False, timeout: float = 30.0, non_blocking: bool = False):
+def home_robot(wait_for_ack: bool = False, timeout: float = 30.0,
+               non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Run the board's homing sequence."""
     return _dispatch(build_home(), wait_for_ack, timeout, non_blocking)
 
 
 def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,
-                        non_blocking: bool = False):
+                        non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Cancel the active command and clear the queue; the robot holds position."""
     return _dispatch("STOP", wait_for_ack, timeout, non_blocking)
 
@@ -945,7 +948,8 @@ def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,
 def smooth_circle(center: List[float], radius: float, plane: str = "XY", frame: str = "WRF",
                   start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
                   speed_percentage: Optional[float] = None, clockwise: bool = False,
-                  wait_for_ack: bool = False, timeout: float = 10.0, non_blocking: bool = False):
+                  wait_for_ack: bool = False, timeout: float = 10.0,
+                  non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Full circle of ``radius`` mm about ``center`` [x, y, z] mm in ``plane``."""
     return _dispatch(build_smooth_circle(center, radius, plane, frame, start_pose, duration,
                                          speed_percentage, clockwise),
@@ -956,7 +960,7 @@ def smooth_arc_center(end_pose: List[float], center: List[float], frame: str = "
                       start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
                       speed_percentage: Optional[float] = None, clockwise: bool = False,
                       wait_for_ack: bool = False, timeout: float = 10.0,
-                      non_blocking: bool = False):
+                      non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Arc to ``end_pose`` about ``center`` [x, y, z] mm."""
     return _dispatch(build_smooth_arc_center(end_pose, center, frame, start_pose, duration,
                                              speed_percentage, clockwise),
@@ -968,7 +972,7 @@ def smooth_arc_parametric(end_pose: List[float], radius: float, arc_angle: float
                           duration: Optional[float] = None,
                           speed_percentage: Optional[float] = None, clockwise: bool = False,
                           wait_for_ack: bool = False, timeout: float = 10.0,
-                          non_blocking: bool = False):
+                          non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Arc to ``end_pose`` with ``radius`` mm and ``arc_angle`` degrees."""
     return _dispatch(build_smooth_arc_param(end_pose, radius, arc_angle, frame, start_pose,
                                             duration, speed_percentage, clockwise),
@@ -978,7 +982,7 @@ def smooth_arc_parametric(end_pose: List[float], radius: float, arc_angle: float
 def smooth_spline(waypoints: List[List[float]], frame: str = "WRF",
                   start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
                   speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                  timeout: float = 10.0, non_blocking: bool = False):
+                  timeout: float = 10.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Cubic spline through ``waypoints`` (poses [x, y, z, A, B, C] in mm/deg)."""
     return _dispatch(build_smooth_spline(waypoints, frame, start_pose, duration, speed_percentage),
                      wait_for_ack, timeout, non_blocking)
@@ -988,7 +992,7 @@ def smooth_helix(center: List[float], radius: float, pitch: float, height: float
                  frame: str = "WRF", start_pose: Optional[List[float]] = None,
                  duration: Optional[float] = None, speed_percentage: Optional[float] = None,
                  clockwise: bool = False, wait_for_ack: bool = False, timeout: float = 10.0,
-                 non_blocking: bool = False):
+                 non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Helix about ``center`` (mm): ``radius``, ``pitch`` per turn and total ``height`` in mm."""
     return _dispatch(build_smooth_helix(center, radius, pitch, height, frame, start_pose, duration,
                                         speed_percentage, clockwise),
@@ -998,7 +1002,7 @@ def smooth_helix(center: List[float], radius: float, pitch: float, height: float
 def smooth_blend(segments: List[Dict[str, Any]], blend_time: float = 0.5, frame: str = "WRF",
                  start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
                  speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                 timeout: float = 15.0, non_blocking: bool = False):
+                 timeout: float = 15.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Blend LINE/CIRCLE/ARC/SPLINE segments into one path (see :func:`build_smooth_blend`)."""
     return _dispatch(build_smooth_blend(segments, blend_time, frame, start_pose, duration,
                                         speed_percentage),
@@ -1008,36 +1012,39 @@ def smooth_blend(segments: List[Dict[str, Any]], blend_time: float = 0.5, frame:
 # ---- extensions (parolkit controller) ----
 
 
-def enable_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False):
+def enable_robot(wait_for_ack: bool = False, timeout: float = 2.0,
+                 non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """ENABLE: enable the robot; clears a released E-stop latch and a latched error."""
     return _dispatch("ENABLE", wait_for_ack, timeout, non_blocking)
 
 
-def disable_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False):
+def disable_robot(wait_for_ack: bool = False, timeout: float = 2.0,
+                  non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """DISABLE the robot (no steps generated)."""
     return _dispatch("DISABLE", wait_for_ack, timeout, non_blocking)
 
 
 def clear_robot_error(wait_for_ack: bool = False, timeout: float = 2.0,
-                      non_blocking: bool = False):
+                      non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """CLEAR_ERROR: clear a latched error."""
     return _dispatch("CLEAR_ERROR", wait_for_ack, timeout, non_blocking)
 
 
-def estop_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False):
+def estop_robot(wait_for_ack: bool = False, timeout: float = 2.0,
+                non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """**(ext)** software E-stop (latched until :func:`enable_robot`)."""
     return _dispatch("ESTOP", wait_for_ack, timeout, non_blocking)
 
 
 def speed_robot_joints(speeds_deg_s: List[float], duration: float, wait_for_ack: bool = False,
-                       timeout: float = 2.0, non_blocking: bool = False):
+                       timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """**(ext)** constant joint speeds (deg/s, J1..J6) for ``duration`` s."""
     return _dispatch(build_speed_joint(speeds_deg_s, duration), wait_for_ack, timeout, non_blocking)
 
 
 def wait_robot_input(input_number: int, state: int, input_timeout: Optional[float] = None,
                      wait_for_ack: bool = False, timeout: float = 2.0,
-                     non_blocking: bool = False):
+                     non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """**(ext)** queue a wait until IN``input_number`` equals ``state`` (FAILED after
     ``input_timeout`` s)."""
     return _dispatch(build_wait_input(input_number, state, input_timeout), wait_for_ack, timeout,
@@ -1045,13 +1052,13 @@ def wait_robot_input(input_number: int, state: int, input_timeout: Optional[floa
 
 
 def set_robot_tool(name: str, wait_for_ack: bool = False, timeout: float = 2.0,
-                   non_blocking: bool = False):
+                   non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """**(ext)** select a tool by name ('default', 'flange' or one from the config)."""
     return _dispatch(build_set_tool(name), wait_for_ack, timeout, non_blocking)
 
 
 def set_stream_mode(on: bool, wait_for_ack: bool = False, timeout: float = 2.0,
-                    non_blocking: bool = False):
+                    non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Streaming jog mode on/off (newest jog replaces the previous one)."""
     return _dispatch(build_stream(on), wait_for_ack, timeout, non_blocking)
 
@@ -1086,7 +1093,13 @@ def _query(request: str, tag: str) -> Optional[str]:
     return None
 
 
-def _query_values(request: str, tag: str, count: int, as_int: bool = False) -> Optional[list]:
+@overload
+def _query_values(request: str, tag: str, count: int,
+                  as_int: Literal[False] = False) -> Optional[List[float]]: ...
+@overload
+def _query_values(request: str, tag: str, count: int, as_int: Literal[True]) -> Optional[List[int]]: ...
+def _query_values(request: str, tag: str, count: int,
+                  as_int: bool = False) -> Union[List[float], List[int], None]:
     """Query and parse ``count`` comma-separated numbers; None (message on stderr) when there
     is no reply or the reply is malformed."""
     payload = _query(request, tag)
@@ -1164,13 +1177,17 @@ def get_electric_gripper_status(verbose: bool = False) -> Optional[List[int]]:
 def is_robot_stopped(threshold_speed: float = 2.0) -> bool:
     """True when every joint speed is below ``threshold_speed`` steps/s (False if no reply)."""
     speeds = get_robot_joint_speeds()
-    return bool(speeds) and max(abs(s) for s in speeds) < threshold_speed
+    if not speeds:
+        return False
+    return max(abs(s) for s in speeds) < threshold_speed
 
 
 def is_estop_pressed() -> bool:
     """True when the hardware E-stop is pressed (False if no reply)."""
     io = get_robot_io()
-    return bool(io) and io[4] == 0
+    if not io:
+        return False
+    return io[4] == 0
 
 
 def get_robot_status() -> Optional[Dict[str, Any]]:

@@ -12,8 +12,9 @@ import json
 import threading
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nicegui import app, ui
 
@@ -47,6 +48,12 @@ from parolkit.gui.status import (
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.moves import CartAxis, CartJog, Frame, JointJog
 from parolkit.robot import JOINT_NAMES, PAROL6
+
+if TYPE_CHECKING:
+    from nicegui.elements.scene.scene_object3d import Object3D
+
+    from parolkit.client.robot import Robot
+    from parolkit.script.interpreter import Interpreter
 
 __all__ = ["Commander", "CommanderPage", "build_app"]
 
@@ -136,7 +143,7 @@ class Commander:
         self.log: EventLog = link.log
         self.mode_label = mode_label
         self.program_dir = program_dir or Path.cwd()
-        self._hold: asyncio.Task | None = None
+        self._hold: asyncio.Task[None] | None = None
         self.program = ProgramRunner(self)
 
     # ---- jogging ----
@@ -197,8 +204,8 @@ class ProgramRunner:
 
     def __init__(self, commander: Commander) -> None:
         self.commander = commander
-        self.interpreter: Any = None
-        self.robot: Any = None
+        self.interpreter: Interpreter | None = None
+        self.robot: Robot | None = None
         #: errors of the last run (check or the failing line), shown inline by the page
         self.errors: list[Any] = []
         self.thread: threading.Thread | None = None
@@ -229,6 +236,9 @@ class ProgramRunner:
             self.message = f"{len(result.errors)} error(s): nothing was run"
             self.version += 1
             return list(result.errors)
+        program = result.program
+        if program is None:
+            raise RuntimeError("the parser found no error but returned no program")
         try:
             from parolkit.client import Robot
             from parolkit.script import Interpreter
@@ -249,7 +259,7 @@ class ProgramRunner:
             self.version += 1
             return []
         self.robot = robot
-        self.interpreter = Interpreter(result.program, robot, on_line=self._on_line, step=step)
+        self.interpreter = Interpreter(program, robot, on_line=self._on_line, step=step)
         self.errors = []
         self.state = "running"
         self.message = ""
@@ -261,9 +271,12 @@ class ProgramRunner:
         return []
 
     def _run(self, step: bool) -> None:
+        interpreter = self.interpreter
+        if interpreter is None:
+            raise RuntimeError("ProgramRunner._run needs the interpreter that start() creates")
         try:
-            self.interpreter.start()
-            result = self.interpreter.wait()
+            interpreter.start()
+            result = interpreter.wait()
             if result is not None and not result.ok and result.state.value != "stopped":
                 self.state = "error"
                 self.message = result.message
@@ -337,11 +350,11 @@ class CommanderPage:
         self.step_deg = 5.0
         self.step_mm = 10.0
         self._last_seq = -1
-        self._last_plan_seq: int | None = None
+        self._last_plan_seq: tuple[int | None, bool] | None = None  # (plan seq, shown)
         self._log_version = -1
         self._prog_version = -1
         self._errors: dict[int, str] = {}
-        self._cart_key: tuple | None = None
+        self._cart_key: tuple[tuple[float, ...], Frame, bool, str] | None = None
         self._held_button: ui.button | None = None
         self.joint_buttons: dict[tuple[int, int], ui.button] = {}
         self.cart_buttons: dict[CartAxis, ui.button] = {}
@@ -416,13 +429,15 @@ class CommanderPage:
         s = geometry.SCENE_SCALE
         for solid in geometry.arm_solids(PAROL6):
             with groups[solid.frame]:
+                obj: Object3D
                 if solid.shape == "cylinder":
                     obj = self.scene.cylinder(solid.radius * s, solid.radius * s, solid.length * s, 28)
                     obj.move(*(v * s for v in solid.center)).rotate_R(solid.rotation_y_to_axis())
                 elif solid.shape == "sphere":
                     obj = self.scene.sphere(solid.radius * s).move(*(v * s for v in solid.start))
                 else:
-                    obj = self.scene.box(*(v * s for v in solid.size)).move(*(v * s for v in solid.start))
+                    width, height, depth = (v * s for v in solid.size)
+                    obj = self.scene.box(width, height, depth).move(*(v * s for v in solid.start))
                 obj.material(colours[solid.role], opacity=opacity)
         if not ghost:
             with groups[7]:
@@ -447,7 +462,7 @@ class CommanderPage:
                     ui.label("TCP pose").classes("pk-title")
                     self.pose_labels = []
                     with ui.grid(columns=2).classes("gap-x-3 gap-y-0"):
-                        for i, name in enumerate(POSE_LABELS):
+                        for name in POSE_LABELS:
                             ui.label(name).classes("text-slate-400 text-sm")
                             self.pose_labels.append(ui.label("—").classes("pk-val text-sm whitespace-nowrap").props(f"data-testid=pose-{name.lower()}"))
                 with ui.column().classes("gap-1 grow"):
@@ -501,7 +516,7 @@ class CommanderPage:
                         ui.label(JOINT_NAMES[j]).classes("w-6 text-slate-300")
                         for d, icon in ((-1, "remove"), (1, "add")):
                             b = ui.button(icon=icon).props("unelevated color=blue-grey-8").props(f"data-testid=jog-j{j + 1}{'+' if d > 0 else '-'}")
-                            self._hold_button(b, lambda j=j, d=d: self.joint_press(j, d))
+                            self._hold_button(b, partial(self.joint_press, j, d))
                             self.joint_buttons[(j, d)] = b
             with ui.column().classes("gap-1"):
                 with ui.row().classes("items-center gap-2"):
@@ -514,7 +529,7 @@ class CommanderPage:
                         for sign in ("-", "+"):
                             axis = CartAxis(axis_name + sign)
                             b = ui.button(icon="remove" if sign == "-" else "add").props("unelevated color=indigo-8").props(f"data-testid=jog-{axis_name.lower()}{sign}")
-                            self._hold_button(b, lambda axis=axis: self.cart_press(axis))
+                            self._hold_button(b, partial(self.cart_press, axis))
                             self.cart_buttons[axis] = b
         ui.label("Hold a button (or its key, see ?) to jog; release stops. Step mode moves one increment per click.") \
             .classes("text-xs text-slate-500")
@@ -571,7 +586,7 @@ class CommanderPage:
             ui.button(icon="play_arrow", on_click=lambda: self.run_program(step=False)).props("unelevated color=positive").props("data-testid=prog-run").tooltip("Run / resume")
             ui.button(icon="pause", on_click=self.c.program.pause).props("unelevated color=warning").props("data-testid=prog-pause").tooltip("Pause")
             ui.button(icon="skip_next", on_click=lambda: self.run_program(step=True)).props("unelevated color=info").props("data-testid=prog-step").tooltip("Step one line")
-            ui.button(icon="stop", on_click=lambda: (self.c.program.stop(), self.c.command("STOP", "Stop"))).props("unelevated color=negative").props("data-testid=prog-stop").tooltip("Stop")
+            ui.button(icon="stop", on_click=self.stop_program).props("unelevated color=negative").props("data-testid=prog-stop").tooltip("Stop")
             ui.button("Check", icon="rule", on_click=self.check_program).props("outline color=grey-4").props("data-testid=prog-check")
             ui.space()
             with ui.button("Insert", icon="add").props("outline color=grey-4"):
@@ -750,6 +765,11 @@ class CommanderPage:
         if errors:
             self.prog_status.set_text(f"✗ {len(errors)} error(s): nothing was run")
 
+    def stop_program(self) -> None:
+        """Stop the program run and send STOP (cancels the move in progress and the queue)."""
+        self.c.program.stop()
+        self.c.command("STOP", "Stop")
+
     async def open_file(self) -> None:
         path = Path(self.path_input.value).expanduser()
         try:
@@ -804,20 +824,21 @@ class CommanderPage:
         plan = self.link.plan
         # the ghost and path show while the robot is in motion (state MOVING or HOMING)
         moving = st.state in (RobotState.MOVING, RobotState.HOMING)
-        show = plan is not None and moving and plan.seq == st.plan_seq
+        shown = plan if plan is not None and moving and plan.seq == st.plan_seq else None
+        show = shown is not None
         key = (plan.seq if plan else None, show)
         if key == self._last_plan_seq:
             return
         self._last_plan_seq = key
         s = geometry.SCENE_SCALE / 1000.0
-        if show and plan.target_angles:
-            for g, t in zip(self.ghost, arm_frames(plan.target_angles, st.tool)):
+        if shown is not None and shown.target_angles:
+            for g, t in zip(self.ghost, arm_frames(shown.target_angles, st.tool)):
                 pos, rot = geometry.frame_pose_for_scene(t)
                 g.move(*pos).rotate_R(rot).visible(True)
         else:
             for g in self.ghost:
                 g.visible(False)
-        pts = [[p[0] * s, p[1] * s, p[2] * s] for p in plan.tcp_path] if show else []
+        pts = [[p[0] * s, p[1] * s, p[2] * s] for p in shown.tcp_path] if shown is not None else []
         self.path.set_points(pts)
 
     def update_readouts(self) -> None:
@@ -931,7 +952,7 @@ class CommanderPage:
     # ---------------------------------------------------------------- chart options
 
     @staticmethod
-    def _live_options(unit: str) -> dict:
+    def _live_options(unit: str) -> dict[str, Any]:
         return {
             "animation": False,
             "backgroundColor": "transparent",
@@ -948,7 +969,7 @@ class CommanderPage:
         }
 
     @staticmethod
-    def _plan_options(unit: str, title: str) -> dict:
+    def _plan_options(unit: str, title: str) -> dict[str, Any]:
         opts = CommanderPage._live_options(unit)
         opts["xAxis"] = {"type": "value", "name": "s", "axisLabel": {"color": "#94a3b8"}, "splitLine": {"show": False}}
         opts["title"] = {"text": title + " (Check)", "textStyle": {"color": "#94a3b8", "fontSize": 11},

@@ -20,6 +20,10 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from parolkit.client.robot import Robot
 
 __all__ = ["register", "main", "parse_host_port", "start_controller_process"]
 
@@ -48,7 +52,8 @@ def _port(text: str) -> int:
     return p
 
 
-def register(subparsers: argparse._SubParsersAction, name: str = "gui") -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
+             name: str = "gui") -> argparse.ArgumentParser:
     p = subparsers.add_parser(name, help="start the browser commander",
                               description="Start the PAROL6 browser commander (3D simulator, jog, IO, "
                                           "gripper, RBTscript editor).")
@@ -73,10 +78,11 @@ def register(subparsers: argparse._SubParsersAction, name: str = "gui") -> argpa
 def _free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        port: int = s.getsockname()[1]
+        return port
 
 
-def _answers_ping(robot) -> bool:
+def _answers_ping(robot: Robot) -> bool:
     """True when the controller behind ``robot`` (a client :class:`Robot`) answers PING
     (with its board link up or not)."""
     from parolkit.client.errors import RobotError
@@ -98,7 +104,7 @@ GRACEFUL_SHUTDOWN_S = 3.0
 
 
 def start_controller_process(serial_port: str | None, udp_port: int, ack_port: int,
-                             config: Path | None = None, ready_timeout: float = 20.0) -> subprocess.Popen:
+                             config: Path | None = None, ready_timeout: float = 20.0) -> subprocess.Popen[bytes]:
     """Start ``parolkit serve`` and wait until it answers PING; raises RuntimeError otherwise.
 
     Its stream watchdog is :data:`GUI_STREAM_WATCHDOG_S` (the flag wins over ``config``): the
@@ -124,7 +130,7 @@ def start_controller_process(serial_port: str | None, udp_port: int, ack_port: i
     raise RuntimeError(f"the controller did not answer PING within {ready_timeout:g} s")
 
 
-def stop_controller_process(proc: subprocess.Popen) -> None:
+def stop_controller_process(proc: subprocess.Popen[bytes]) -> None:
     """Terminate a controller started by :func:`start_controller_process` (SIGTERM: it stops
     motion and disables the robot), SIGKILL if it has not exited 10 s later."""
     if proc.poll() is None:
@@ -154,7 +160,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"WARNING: the commander binds {host}: anyone who can reach this address can move the robot.",
               file=sys.stderr)
 
-    proc: subprocess.Popen | None = None
+    proc: subprocess.Popen[bytes] | None = None
     if args.connect:
         ctl_host, ctl_port = args.connect
         ack_port = args.ack_port or 5002

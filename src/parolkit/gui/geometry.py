@@ -103,7 +103,8 @@ class Solid:
 
     @property
     def center(self) -> tuple[float, float, float]:
-        return tuple((s + e) / 2 for s, e in zip(self.start, self.end))  # type: ignore[return-value]
+        (sx, sy, sz), (ex, ey, ez) = self.start, self.end
+        return ((sx + ex) / 2, (sy + ey) / 2, (sz + ez) / 2)
 
     def rotation_y_to_axis(self) -> list[list[float]]:
         """Rotation taking the +Y axis (three.js cylinder axis) onto start->end."""

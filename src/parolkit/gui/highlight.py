@@ -64,18 +64,18 @@ def tokenize(text: str) -> list[Token]:
     return out
 
 
-def mark_decorations(text: str) -> list[dict]:
+def mark_decorations(text: str) -> list[dict[str, int | str]]:
     """CodeMirror mark decorations (class ``rbt-<kind>``) for every token of ``text``."""
     return [{"kind": "mark", "from": t.start, "to": t.end, "class": f"rbt-{t.kind.value}"}
             for t in tokenize(text) if t.end > t.start]
 
 
 def line_decorations(text: str, *, current_line: int | None = None,
-                     error_lines: dict[int, str] | None = None) -> list[dict]:
+                     error_lines: dict[int, str] | None = None) -> list[dict[str, int | str]]:
     """Line decorations: ``rbt-current`` on the executing line, ``rbt-error`` on error lines
     (1-based line numbers; lines beyond the text are ignored)."""
     n_lines = text.count("\n") + 1
-    out: list[dict] = []
+    out: list[dict[str, int | str]] = []
     for line in sorted(error_lines or {}):
         if 1 <= line <= n_lines:
             out.append({"kind": "line", "line": line, "class": "rbt-error"})

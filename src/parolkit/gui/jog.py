@@ -81,7 +81,8 @@ def joint_jog_blocked(angles_deg: Sequence[float], joint: int, direction: int,
     """True when joint ``joint`` cannot move further in ``direction`` (+1/-1): it is within
     ``margin_deg`` of the corresponding (safe) limit."""
     _joint(joint)
-    lo, hi = model.safe_limits_deg[joint]
+    limits = model.safe_limits_deg[joint]
+    lo, hi = float(limits[0]), float(limits[1])
     a = float(angles_deg[joint])
     return a >= hi - margin_deg if direction > 0 else a <= lo + margin_deg
 
@@ -167,7 +168,7 @@ PROBE_DEG = 2.0
 
 
 def cart_jog_blocked(pose: Sequence[float], angles_deg: Sequence[float], frame: Frame, axis: CartAxis,
-                     solve: Callable[[Sequence[float], Sequence[float]], Sequence[float]]) -> bool:
+                     solve: Callable[[Sequence[float], Sequence[float]], object]) -> bool:
     """True when a Cartesian jog from ``pose`` along ``axis`` cannot go on: the pose a small
     step ahead has no IK solution inside the joint limits near the current joints.
 

@@ -67,7 +67,7 @@ class ControllerLink:
         self._labels: dict[str, str] = {}
         self._quiet: set[str] = set()
         self._sub: AsyncStatusSubscription | None = None
-        self._tasks: list[asyncio.Task] = []
+        self._tasks: list[asyncio.Task[None]] = []
         self._plan_seq_seen: int | None = None
         self._was_up = False
         self._last_error: str | None = None
@@ -211,7 +211,7 @@ class ControllerLink:
         return handle.id
 
 
-async def _cancel_all(tasks: list[asyncio.Task], limit_s: float = 2.0) -> None:
+async def _cancel_all(tasks: list[asyncio.Task[None]], limit_s: float = 2.0) -> None:
     """Cancel ``tasks`` and wait until they have ended, cancelling again while they run: on
     Python 3.11 ``asyncio.wait_for`` (used by a subscription's ``next``) can swallow a
     cancellation that arrives just as its datagram does (a race fixed in 3.12), and a plain

@@ -13,6 +13,8 @@ The dry run and the interpreter are imported lazily (they pull in numpy / the mo
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from parolkit.script.parser import COMMAND_NAMES, Limits, load, parse, parse_file
 from parolkit.script.program import (
     Begin,
@@ -39,6 +41,11 @@ from parolkit.script.program import (
     Tracking,
 )
 
+if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ loads them lazily
+    from parolkit.script.dryrun import DryRunReport, dry_run
+    from parolkit.script.formatter import format_program
+    from parolkit.script.interpreter import Interpreter, InterpreterState
+
 __all__ = [
     "COMMAND_NAMES", "Limits", "load", "parse", "parse_file",
     "Begin", "Command", "Delay", "End", "Gripper", "GripperCalibrate", "Home", "Input", "Loop",
@@ -56,7 +63,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> object:
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'parolkit.script' has no attribute {name!r}")

@@ -20,7 +20,16 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    from parolkit.client.robot import Robot
+    from parolkit.config import Config
+    from parolkit.script.interpreter import Interpreter, Progress
+    from parolkit.script.parser import Limits
+    from parolkit.script.program import Program, ScriptError
 
 __all__ = ["register", "run_main", "check_main", "fmt_main"]
 
@@ -44,7 +53,8 @@ _DESCRIPTIONS = {
 }
 
 
-def register(subparsers: argparse._SubParsersAction, name: str) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
+             name: str) -> argparse.ArgumentParser:
     """Add the ``run``, ``check`` or ``fmt`` parser (``name``) to ``subparsers``."""
     if name not in _DESCRIPTIONS:
         raise ValueError(f"parolkit.script.cli provides run, check and fmt, not {name!r}")
@@ -104,19 +114,19 @@ def _positive_int(text: str) -> int:
     return value
 
 
-def _config(args):
+def _config(args: argparse.Namespace) -> Config:
     from parolkit.config import load_config
 
     return load_config(args.config)
 
 
-def _limits(cfg):
+def _limits(cfg: Config) -> Limits:
     from parolkit.script.parser import Limits
 
     return Limits.from_model(cfg.robot, rate_hz=cfg.controller.rate_hz)
 
 
-def _print_diagnostics(diags, stream=None) -> None:
+def _print_diagnostics(diags: Iterable[ScriptError], stream: TextIO | None = None) -> None:
     stream = stream or sys.stderr
     for d in diags:
         print(d.format(), file=stream)
@@ -127,7 +137,7 @@ def _print_diagnostics(diags, stream=None) -> None:
 # ------------------------------------------------------------------------------------------
 
 
-def check_main(args) -> int:
+def check_main(args: argparse.Namespace) -> int:
     from parolkit.errors import ParolkitError
     from parolkit.script.parser import parse_file
 
@@ -146,7 +156,10 @@ def check_main(args) -> int:
             failed = True
             continue
         program = result.program
-        errors, warnings = (), result.warnings
+        if program is None:
+            raise RuntimeError(f"{name}: the parser found no error but returned no program")
+        errors: tuple[ScriptError, ...] = ()
+        warnings = result.warnings
         report = None
         if not args.no_plan:
             from parolkit.script.dryrun import dry_run
@@ -175,7 +188,7 @@ def check_main(args) -> int:
 # ------------------------------------------------------------------------------------------
 
 
-def fmt_main(args) -> int:
+def fmt_main(args: argparse.Namespace) -> int:
     from parolkit.script.formatter import format_program
     from parolkit.script.program import ProgramError
 
@@ -215,7 +228,8 @@ def fmt_main(args) -> int:
 def _free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        port: int = s.getsockname()[1]
+        return port
 
 
 class _SimController:
@@ -275,7 +289,7 @@ class _SimController:
         self.log.close()
 
 
-def _fmt_joints(q) -> str:
+def _fmt_joints(q: Iterable[float]) -> str:
     return "[" + ", ".join(f"{v:.3f}" for v in q) + "]"
 
 
@@ -287,16 +301,16 @@ class _ProgressPrinter:
         self.loops = loops
         self.live = live
         self._lock = threading.Lock()
-        self._current = None
+        self._current: Progress | None = None
         self._since = 0.0
         self._open = False
 
-    def _text(self, p, elapsed: float) -> str:
+    def _text(self, p: Progress, elapsed: float) -> str:
         total = f"{p.planned_total_s:.1f}" if p.planned_total_s is not None else f"{p.planned_pass_s:.1f}/pass"
         it = f" pass {p.iteration}" if self.loops else ""
         return f"[{elapsed:6.1f} s / {total} s] line {p.line}{it}: {p.command}"
 
-    def on_line(self, p) -> None:
+    def on_line(self, p: Progress) -> None:
         with self._lock:
             self._current = p
             self._since = time.monotonic()
@@ -325,7 +339,7 @@ class _ProgressPrinter:
                 self._open = False
 
 
-def _dry_run_main(args, program, cfg) -> int:
+def _dry_run_main(args: argparse.Namespace, program: Program, cfg: Config) -> int:
     from parolkit.script.dryrun import dry_run
 
     report = dry_run(program, args.start, loops=args.loops, model=cfg.robot,
@@ -342,7 +356,7 @@ def _dry_run_main(args, program, cfg) -> int:
     return 0
 
 
-def _step_console(interp, done: threading.Event) -> None:
+def _step_console(interp: Interpreter, done: threading.Event) -> None:
     """Single-step prompts on the terminal (runs in the main thread)."""
     from parolkit.script.interpreter import InterpreterState
 
@@ -370,7 +384,7 @@ def _step_console(interp, done: threading.Event) -> None:
             done.wait(0.01)
 
 
-def run_main(args) -> int:
+def run_main(args: argparse.Namespace) -> int:
     from parolkit.errors import ParolkitError
     from parolkit.script.parser import parse_file
 
@@ -385,6 +399,8 @@ def run_main(args) -> int:
         print(f"{args.program}: {len(result.errors)} error(s): nothing was run", file=sys.stderr)
         return 1
     program = result.program
+    if program is None:
+        raise RuntimeError(f"{args.program}: the parser found no error but returned no program")
     if args.dry_run:
         return _dry_run_main(args, program, cfg)
     if result.warnings and not args.quiet:
@@ -393,11 +409,11 @@ def run_main(args) -> int:
     from parolkit.client.robot import Robot
     from parolkit.script.interpreter import Interpreter
 
-    sim = None
+    sim: _SimController | None = None
     port = args.port if args.port is not None else cfg.controller.udp_port
     ack_port = args.ack_port if args.ack_port is not None else cfg.controller.ack_port
     host = args.host
-    robot = None
+    robot: Robot | None = None
     try:
         if args.sim:
             sim = _SimController(args.config)

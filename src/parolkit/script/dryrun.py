@@ -17,8 +17,9 @@ duration, joints at the end), the errors and warnings, and the planned trajector
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -46,6 +47,10 @@ from parolkit.script.program import (
     SpeedJoint,
     format_number,
 )
+
+if TYPE_CHECKING:  # parolkit.motion and the kinematics are imported when the first move is planned
+    from parolkit.kinematics.tools import Tool
+    from parolkit.motion import Trajectory
 
 __all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops", "MoveTiming",
            "effective_timing"]
@@ -91,7 +96,7 @@ class DryRunReport:
     start_deg: tuple[float, ...]
     final_deg: tuple[float, ...]
     iterations: int
-    segments: tuple = field(default=(), repr=False)
+    segments: tuple[tuple[float, Trajectory], ...] = field(default=(), repr=False)
 
     @property
     def ok(self) -> bool:
@@ -250,7 +255,7 @@ def default_loops(program: Program) -> int:
     return 2 if program.loops else 1
 
 
-def _fmt_joints(q: Sequence[float]) -> str:
+def _fmt_joints(q: Iterable[float]) -> str:
     return "[" + ", ".join(f"{v:.2f}" for v in q) + "]"
 
 
@@ -271,7 +276,7 @@ def dry_run(
     *,
     loops: int | None = None,
     model: RobotModel | None = None,
-    tool: object = None,
+    tool: str | Tool | None = None,
     rate_hz: float = 100.0,
 ) -> DryRunReport:
     """Plan every command of ``program`` and return a :class:`DryRunReport`.
@@ -295,7 +300,7 @@ def dry_run(
     rows: list[DryRunRow] = []
     errors: list[ScriptError] = []
     warnings: list[ScriptError] = list(program.warnings)
-    segments: list = []
+    segments: list[tuple[float, Trajectory]] = []
     seen_errors: set[tuple[int, str]] = set()
     t = 0.0
 

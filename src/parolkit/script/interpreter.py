@@ -32,8 +32,9 @@ import enum
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypeVar
 
 from parolkit.script.program import (
     Begin,
@@ -56,9 +57,17 @@ from parolkit.script.program import (
     SpeedJoint,
 )
 
+if TYPE_CHECKING:
+    from parolkit.client.robot import Robot
+    from parolkit.kinematics.tools import Tool
+    from parolkit.robot import RobotModel
+    from parolkit.script.dryrun import DryRunReport
+
 __all__ = ["InterpreterState", "Progress", "RunResult", "Interpreter"]
 
 _log = logging.getLogger(__name__)
+
+_T = TypeVar("_T")
 
 
 def _word(value: enum.Enum | str | None) -> str | None:
@@ -145,14 +154,14 @@ class Interpreter:
     def __init__(
         self,
         program: Program,
-        robot,
+        robot: Robot,
         *,
         on_line: Callable[[Progress], object] | None = None,
         on_state: Callable[[InterpreterState], object] | None = None,
         loops: int | None = None,
         step: bool = False,
         check: bool = True,
-        model=None,
+        model: RobotModel | None = None,
         rate_hz: float = 100.0,
     ) -> None:
         if loops is not None and (isinstance(loops, bool) or not isinstance(loops, int) or loops < 1):
@@ -177,7 +186,7 @@ class Interpreter:
         self._thread: threading.Thread | None = None
         self._result: RunResult | None = None
         self._t0 = 0.0
-        self.report = None
+        self.report: DryRunReport | None = None
 
     # ---- observation --------------------------------------------------------------------
 
@@ -218,7 +227,7 @@ class Interpreter:
         self._notify(self.on_state, state)
 
     @staticmethod
-    def _notify(callback, value) -> None:
+    def _notify(callback: Callable[[_T], object] | None, value: _T) -> None:
         """Call a user callback; an exception in it is logged and never ends the run."""
         if callback is None:
             return
@@ -281,7 +290,7 @@ class Interpreter:
 
     # ---- checking -----------------------------------------------------------------------
 
-    def _robot_tool(self):
+    def _robot_tool(self) -> Tool | None:
         try:
             info = self.robot.tool()
         except Exception:
@@ -292,7 +301,7 @@ class Interpreter:
 
         return Tool.from_pose(info.name, info.pose)
 
-    def check(self):
+    def check(self) -> DryRunReport:
         """Dry-run the program from the robot's current joints (and tool); the report."""
         from parolkit.script.dryrun import dry_run
 
@@ -345,9 +354,9 @@ class Interpreter:
             )
         elif isinstance(cmd, (MoveCart, MoveCartRelTRF)):
             tm = effective_timing(cmd)
-            fn = r.move_cart if isinstance(cmd, MoveCart) else r.move_cart_rel_trf
+            line_fn = r.move_cart if isinstance(cmd, MoveCart) else r.move_cart_rel_trf
             values = cmd.move.pose if isinstance(cmd, MoveCart) else cmd.move.delta
-            fn(
+            line_fn(
                 list(values), duration=tm.duration_s, speed=tm.speed_pct,
                 profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
                 wait=True, timeout=None,
@@ -449,7 +458,8 @@ class Interpreter:
         except _Stopped:
             return self._finish(InterpreterState.STOPPED, executed, (), warnings)
 
-    def _finish(self, state, executed, errors, warnings, report=None) -> RunResult:
+    def _finish(self, state: InterpreterState, executed: int, errors: Iterable[ScriptError],
+                warnings: Iterable[ScriptError], report: DryRunReport | None = None) -> RunResult:
         result = RunResult(
             state=state,
             commands_executed=executed,

@@ -25,9 +25,10 @@ import difflib
 import math
 import re
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, NoReturn
 
 from parolkit.moves import CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
 from parolkit.script.program import (
@@ -53,6 +54,12 @@ from parolkit.script.program import (
     SpeedJoint,
     format_number,
 )
+
+if TYPE_CHECKING:  # lark is imported when the first program is parsed
+    from lark import Lark, Token, Tree
+    from lark.exceptions import LarkError
+
+    from parolkit.robot import RobotModel
 
 __all__ = ["parse", "parse_file", "load", "Limits", "COMMAND_NAMES", "line_comment"]
 
@@ -95,7 +102,7 @@ class Limits:
     gripper_current_ma: tuple[int, int] = (100, 1000)
 
     @classmethod
-    def from_model(cls, model=None, *, rate_hz: float = 100.0) -> Limits:
+    def from_model(cls, model: RobotModel | None = None, *, rate_hz: float = 100.0) -> Limits:
         """Limits of a :class:`parolkit.robot.RobotModel` (default the stock PAROL6)."""
         from parolkit.robot import PAROL6
 
@@ -125,10 +132,10 @@ def _limits(limits: Limits | None) -> Limits:
 # ------------------------------------------------------------------------------------------
 
 _lark_lock = threading.Lock()
-_lark = None
+_lark: Lark | None = None
 
 
-def _parser():
+def _parser() -> Lark:
     global _lark
     if _lark is None:
         from lark import Lark
@@ -155,9 +162,9 @@ _TERMINALS = {
 _END_TYPES = ("$END", "<END-OF-FILE>")
 
 
-def _expected_text(names) -> str:
+def _expected_text(names: Iterable[str]) -> str:
     order = list(_TERMINALS)
-    words = []
+    words: list[str] = []
     for n in sorted(set(names), key=lambda n: order.index(n) if n in order else len(order)):
         w = _TERMINALS.get(n, n)
         if w not in words:
@@ -191,7 +198,7 @@ def _end_col(text: str) -> int:
     return len(code.rstrip()) + 1
 
 
-def _syntax_error(exc, text: str) -> tuple[int, str]:
+def _syntax_error(exc: LarkError, text: str) -> tuple[int, str]:
     """(column, message) for a lark exception on one line."""
     from lark import UnexpectedCharacters, UnexpectedToken
 
@@ -262,6 +269,13 @@ class _Arg:
     value: _Arg | None = None
 
     @property
+    def keyword_value(self) -> _Arg:
+        """The value of a ``key=value`` argument."""
+        if self.value is None:
+            raise TypeError(f"internal error: {self.raw!r} is not a key=value argument")
+        return self.value
+
+    @property
     def word(self) -> str:
         """The lower-case text of a word or quoted string ('' for numbers)."""
         if self.kind == "word":
@@ -295,7 +309,7 @@ class _Line:
     def warn(self, col: int, message: str) -> None:
         self.warnings.append(self._diag(col, message, Severity.WARNING))
 
-    def fail(self, col: int, message: str):
+    def fail(self, col: int, message: str) -> NoReturn:
         self.error(col, message)
         raise _Reject
 
@@ -311,7 +325,7 @@ class _Line:
             self.fail(arg.col, f"{what} = {arg.raw} is too large to be a number")
         return value
 
-    def ranged(self, arg: _Arg, what: str, lo: float, hi: float, unit: str = "", *, lo_open=False) -> float:
+    def ranged(self, arg: _Arg, what: str, lo: float, hi: float, unit: str = "", *, lo_open: bool = False) -> float:
         value = self.number(arg, what)
         low_bad = value <= lo if lo_open else value < lo
         if low_bad or value > hi:
@@ -363,7 +377,11 @@ def _exact_count(ln: _Line, name: str, call_col: int, values: list[_Arg], n: int
         ln.fail(extra.col, f"{name} takes {n} {what}, got {len(values)}: {extra.raw} is one too many")
 
 
-def _no_args(cls) -> Callable:
+#: a command's builder: (line, name as written, column of the name, arguments) -> the command
+_Builder = Callable[[_Line, str, int, list[_Arg]], Command]
+
+
+def _no_args(cls: type[Command]) -> _Builder:
     def build(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:
         if args:
             n = len(args)
@@ -376,14 +394,15 @@ def _no_args(cls) -> Callable:
 _PROFILE_WORDS = {p.value: p for p in Profile}
 
 
-def _move_builder(cls, values_what: str, *, joint_values: bool, allow_va: bool, allow_a: bool):
+def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, allow_va: bool,
+                  allow_a: bool) -> _Builder:
     """Builder for the four moves: 6 values, then v=/a=/t=, a profile word and ``speed``."""
 
     def build(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:
         kw = cls.keyword
         values, options = _split_args(ln, kw, args)
         _exact_count(ln, kw, col, values, 6, values_what)
-        nums = []
+        nums: list[float] = []
         for i, a in enumerate(values):
             if joint_values:
                 lo, hi = ln.limits.joint_limits_deg[i]
@@ -399,15 +418,17 @@ def _move_builder(cls, values_what: str, *, joint_values: bool, allow_va: bool, 
                 nums.append(ln.number(a, ("x", "y", "z", "A", "B", "C")[i] if kw != "MoveCartRelTRF"
                                       else ("dx", "dy", "dz", "dA", "dB", "dC")[i]))
         seen: dict[str, _Arg] = {}
-        speed = accel = duration = None
-        profile = None
+        speed: float | None = None
+        accel: float | None = None
+        duration: float | None = None
+        profile: Profile | None = None
         tracking = Tracking.POSITION
         allowed_kw = ["t"] + (["v"] if allow_va else []) + (["a"] if allow_a else [])
         for opt in options:
             if opt.kind == "keyword":
                 key = opt.key.lower()
                 if key == "func":
-                    target = opt.value
+                    target = opt.keyword_value
                     slot = "profile"
                 else:
                     target = opt
@@ -437,11 +458,11 @@ def _move_builder(cls, values_what: str, *, joint_values: bool, allow_va: bool, 
                                  f"(first at column {seen[slot].col})")
             seen[slot] = opt
             if slot == "t":
-                duration = ln.ranged(target.value, "t", 0.0, ln.limits.max_duration_s, "s", lo_open=True)
+                duration = ln.ranged(target.keyword_value, "t", 0.0, ln.limits.max_duration_s, "s", lo_open=True)
             elif slot == "v":
-                speed = ln.ranged(target.value, "v", 0.0, 100.0, "%", lo_open=True)
+                speed = ln.ranged(target.keyword_value, "v", 0.0, 100.0, "%", lo_open=True)
             elif slot == "a":
-                accel = ln.ranged(target.value, "a", 0.0, 100.0, "%", lo_open=True)
+                accel = ln.ranged(target.keyword_value, "a", 0.0, 100.0, "%", lo_open=True)
             elif slot == "profile":
                 w = target.word
                 if w not in _PROFILE_WORDS:
@@ -454,15 +475,18 @@ def _move_builder(cls, values_what: str, *, joint_values: bool, allow_va: bool, 
             ln.warn(seen["t"].col, f"t= overrides {which}: the move takes exactly {format_number(duration)} s")
         if ln.errors:
             raise _Reject
-        where = dict(line=ln.line, col=col, text=ln.text)
-        values = tuple(nums)
+        line, text = ln.line, ln.text
+        six = tuple(nums)
         if cls is MoveJoint:
-            return MoveJoint(move=JointMove(values, duration, speed, accel, profile, tracking), **where)
+            return MoveJoint(move=JointMove(six, duration, speed, accel, profile, tracking),
+                             line=line, col=col, text=text)
         if cls is MovePose:
-            return MovePose(move=PoseMove(values, duration, speed, accel, profile, tracking), **where)
+            return MovePose(move=PoseMove(six, duration, speed, accel, profile, tracking),
+                            line=line, col=col, text=text)
         if cls is MoveCart:
-            return MoveCart(move=CartMove(values, duration, speed, profile, tracking), **where)
-        return MoveCartRelTRF(move=CartRelTRFMove(values, duration, speed, profile, tracking), **where)
+            return MoveCart(move=CartMove(six, duration, speed, profile, tracking), line=line, col=col, text=text)
+        return MoveCartRelTRF(move=CartRelTRFMove(six, duration, speed, profile, tracking),
+                              line=line, col=col, text=text)
 
     return build
 
@@ -470,16 +494,16 @@ def _move_builder(cls, values_what: str, *, joint_values: bool, allow_va: bool, 
 def _build_speed_joint(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:
     values, options = _split_args(ln, "SpeedJoint", args)
     _exact_count(ln, "SpeedJoint", col, values, 6, "joint speeds (deg/s) and then t=duration")
-    speeds = []
+    speeds: list[float] = []
     for i, a in enumerate(values):
         hi = ln.limits.max_joint_speed_deg_s[i]
         speeds.append(ln.ranged(a, f"J{i + 1} speed", -hi, hi, "deg/s"))
-    duration = None
+    duration: float | None = None
     for opt in options:
         if opt.kind == "keyword" and opt.key.lower() == "t":
             if duration is not None:
                 ln.fail(opt.col, "SpeedJoint: t= is given twice")
-            duration = ln.ranged(opt.value, "t", 0.0, ln.limits.max_duration_s, "s", lo_open=True)
+            duration = ln.ranged(opt.keyword_value, "t", 0.0, ln.limits.max_duration_s, "s", lo_open=True)
         else:
             ln.fail(opt.col, f"SpeedJoint has no option {opt.raw!r}: it takes 6 speeds (deg/s) and t=duration (s)")
     if duration is None:
@@ -534,7 +558,7 @@ def _build_input(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:
         if t.kind == "keyword":
             if t.key.lower() not in ("t", "timeout"):
                 ln.fail(t.col, f"Input has no option {t.key}=: the third argument is the timeout in s")
-            t = t.value
+            t = t.keyword_value
         timeout = ln.ranged(t, "Input timeout", 0.0, ln.limits.max_wait_s, "s", lo_open=True)
         if ln.errors:
             raise _Reject
@@ -562,7 +586,7 @@ def _norm(name: str) -> str:
     return name.lower().replace("_", "")
 
 
-_BUILDERS: dict[str, Callable] = {
+_BUILDERS: dict[str, _Builder] = {
     "begin": _no_args(Begin),
     "end": _no_args(End),
     "loop": _no_args(Loop),
@@ -574,8 +598,12 @@ _BUILDERS: dict[str, Callable] = {
     "gripper": _build_gripper,
     "speedjoint": _build_speed_joint,
     "movejoint": _move_builder(MoveJoint, "joint values (j1..j6, deg)", joint_values=True, allow_va=True, allow_a=True),
-    "movepose": _move_builder(MovePose, "pose values (x, y, z mm, A, B, C deg)", joint_values=False, allow_va=True, allow_a=True),
-    "movecart": _move_builder(MoveCart, "pose values (x, y, z mm, A, B, C deg)", joint_values=False, allow_va=True, allow_a=False),
+    "movepose": _move_builder(
+        MovePose, "pose values (x, y, z mm, A, B, C deg)", joint_values=False, allow_va=True, allow_a=True
+    ),
+    "movecart": _move_builder(
+        MoveCart, "pose values (x, y, z mm, A, B, C deg)", joint_values=False, allow_va=True, allow_a=False
+    ),
     "movecartreltrf": _move_builder(
         MoveCartRelTRF, "values (dx, dy, dz mm, dA, dB, dC deg)", joint_values=False, allow_va=True, allow_a=False
     ),
@@ -583,29 +611,51 @@ _BUILDERS: dict[str, Callable] = {
 _CANONICAL = {_norm(n): n for n in COMMAND_NAMES}
 
 
-def _args_of(tree) -> list[_Arg]:
+# The shape of a line's parse tree is fixed by rbtscript.lark: these two say which kind of
+# node the grammar puts at a place (a rule, or a token with its column).
+
+
+def _rule(node: Tree[Token] | Token) -> Tree[Token]:
+    from lark import Tree
+
+    if not isinstance(node, Tree):
+        raise TypeError(f"internal error: the RBTscript grammar gave a token {node!r} where a rule belongs")
+    return node
+
+
+def _token(node: Tree[Token] | Token) -> tuple[str, int]:
+    """(text, column) of a token."""
+    from lark import Token
+
+    if not isinstance(node, Token) or node.column is None:
+        raise TypeError(f"internal error: the RBTscript grammar gave {node!r} where a token belongs")
+    return str(node), node.column
+
+
+def _args_of(tree: Tree[Token]) -> list[_Arg]:
     out = []
-    for node in tree.children:
+    for child in tree.children:
+        node = _rule(child)
         kind = node.data
         if kind == "keyword":
-            key_tok, val_node = node.children
-            val_tok = val_node.children[0]
-            value = _Arg(val_node.data, val_tok.column, str(val_tok))
-            out.append(_Arg("keyword", key_tok.column, f"{key_tok}={val_tok}", str(key_tok), value))
+            key_node, val_child = node.children
+            key, key_col = _token(key_node)
+            val_node = _rule(val_child)
+            val, val_col = _token(val_node.children[0])
+            value = _Arg(val_node.data, val_col, val)
+            out.append(_Arg("keyword", key_col, f"{key}={val}", key, value))
         else:
-            tok = node.children[0]
-            out.append(_Arg(kind, tok.column, str(tok)))
+            text, col = _token(node.children[0])
+            out.append(_Arg(kind, col, text))
     return out
 
 
-def _build_line(ln: _Line, tree) -> Command | None:
+def _build_line(ln: _Line, tree: Tree[Token]) -> Command | None:
     if not tree.children:
         return None
-    call = tree.children[0]
-    name_tok = call.children[0]
-    name = str(name_tok)
-    col = name_tok.column
-    args = _args_of(call.children[1]) if len(call.children) > 1 else []
+    call = _rule(tree.children[0])
+    name, col = _token(call.children[0])
+    args = _args_of(_rule(call.children[1])) if len(call.children) > 1 else []
     builder = _BUILDERS.get(_norm(name))
     if builder is None:
         close = difflib.get_close_matches(_norm(name), list(_CANONICAL), n=1, cutoff=0.6)
@@ -623,7 +673,8 @@ def _build_line(ln: _Line, tree) -> Command | None:
 # ------------------------------------------------------------------------------------------
 
 
-def _structure(commands: list[Command], source_name: str, errors: list, warnings: list) -> None:
+def _structure(commands: list[Command], source_name: str, errors: list[ScriptError],
+               warnings: list[ScriptError]) -> None:
     def diag(cmd: Command, msg: str, sev: Severity) -> ScriptError:
         return ScriptError(cmd.line, cmd.col, msg, cmd.text, sev, source_name)
 
@@ -641,8 +692,8 @@ def _structure(commands: list[Command], source_name: str, errors: list, warnings
             errors.append(diag(cmd, f"{cmd.keyword}() must be the last command, but line {nxt.line} "
                                     f"({nxt.keyword}) follows it", Severity.ERROR))
         if isinstance(cmd, GripperCalibrate):
-            nxt = commands[i + 1] if i + 1 < len(commands) else None
-            if not isinstance(nxt, Delay):
+            following = commands[i + 1] if i + 1 < len(commands) else None
+            if not isinstance(following, Delay):
                 warnings.append(diag(cmd, "add a Delay() after Gripper_cal() so the calibration can finish",
                                      Severity.WARNING))
     last = commands[-1]
