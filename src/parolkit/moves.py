@@ -33,7 +33,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 from parolkit.errors import ParolkitValueError
 
@@ -291,27 +291,29 @@ def _positive(value: float, name: str, unit: str) -> float:
     return v
 
 
-class _Timed(Protocol):
-    """The timing fields :func:`_timing` normalises (read before conversion: the caller's
-    values, so a word may still stand where the enum will)."""
+if TYPE_CHECKING:  # (structural types for the checker only: no classes built at import)
+    from typing import Protocol
 
-    @property
-    def duration_s(self) -> float | None: ...
-    @property
-    def speed_pct(self) -> float | None: ...
-    @property
-    def profile(self) -> Profile | str | None: ...
-    @property
-    def tracking(self) -> Tracking | str: ...
+    class _Timed(Protocol):
+        """The timing fields :func:`_timing` normalises (read before conversion: the caller's
+        values, so a word may still stand where the enum will)."""
 
+        @property
+        def duration_s(self) -> float | None: ...
+        @property
+        def speed_pct(self) -> float | None: ...
+        @property
+        def profile(self) -> Profile | str | None: ...
+        @property
+        def tracking(self) -> Tracking | str: ...
 
-class _Smooth(_Timed, Protocol):
-    """A smooth path's common fields, normalised by :func:`_smooth_common`."""
+    class _Smooth(_Timed, Protocol):
+        """A smooth path's common fields, normalised by :func:`_smooth_common`."""
 
-    @property
-    def frame(self) -> Frame | str: ...
-    @property
-    def start_pose(self) -> Sequence[float] | None: ...
+        @property
+        def frame(self) -> Frame | str: ...
+        @property
+        def start_pose(self) -> Sequence[float] | None: ...
 
 
 def _timing(obj: _Timed) -> None:
