@@ -30,10 +30,10 @@ and the allowed range.  A move says WHAT to do; :func:`parolkit.motion.plan` dec
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Union
+from typing import TYPE_CHECKING
 
 from parolkit.errors import ParolkitValueError
 
@@ -233,11 +233,12 @@ class CartAxis(str, Enum):
 # ---------------------------------------------------------------------------------------------
 
 
-def _num(value: object, name: str) -> float:
+def _num(value: float, name: str) -> float:
+    # (typed as the fields declare; the checks also catch whatever an untyped caller passes)
     if isinstance(value, bool):
         raise ParolkitValueError(f"{name} must be a number, got {value!r}")
     try:
-        v = float(value)  # type: ignore[arg-type]
+        v = float(value)
     except (TypeError, ValueError, OverflowError):
         raise ParolkitValueError(f"{name} must be a number, got {value!r}") from None
     if not math.isfinite(v):
@@ -245,9 +246,9 @@ def _num(value: object, name: str) -> float:
     return v
 
 
-def _vec(values: object, n: int, name: str) -> tuple[float, ...]:
+def _vec(values: Iterable[float], n: int, name: str) -> tuple[float, ...]:
     try:
-        seq = list(values)  # type: ignore[call-overload]
+        seq = list(values)
     except TypeError:
         raise ParolkitValueError(f"{name} must be {n} numbers, got {values!r}") from None
     if len(seq) != n:
@@ -255,7 +256,7 @@ def _vec(values: object, n: int, name: str) -> tuple[float, ...]:
     return tuple(_num(v, f"{name}[{i}]") for i, v in enumerate(seq))
 
 
-def _opt_duration(value: object, name: str = "duration_s") -> float | None:
+def _opt_duration(value: float | None, name: str = "duration_s") -> float | None:
     if value is None:
         return None
     v = _num(value, name)
@@ -264,7 +265,7 @@ def _opt_duration(value: object, name: str = "duration_s") -> float | None:
     return v
 
 
-def _opt_pct(value: object, name: str, *, allow_zero: bool = True) -> float | None:
+def _opt_pct(value: float | None, name: str, *, allow_zero: bool = True) -> float | None:
     if value is None:
         return None
     v = _num(value, name)
@@ -275,22 +276,47 @@ def _opt_pct(value: object, name: str, *, allow_zero: bool = True) -> float | No
     return v
 
 
-def _pose(values: object, name: str) -> tuple[float, ...]:
+def _pose(values: Iterable[float], name: str) -> tuple[float, ...]:
     return _vec(values, 6, name)
 
 
-def _opt_pose(values: object, name: str) -> tuple[float, ...] | None:
+def _opt_pose(values: Iterable[float] | None, name: str) -> tuple[float, ...] | None:
     return None if values is None else _pose(values, name)
 
 
-def _positive(value: object, name: str, unit: str) -> float:
+def _positive(value: float, name: str, unit: str) -> float:
     v = _num(value, name)
     if v <= 0.0:
         raise ParolkitValueError(f"{name} must be > 0 {unit}, got {value!r}")
     return v
 
 
-def _timing(obj: object) -> None:
+if TYPE_CHECKING:  # (structural types for the checker only: no classes built at import)
+    from typing import Protocol
+
+    class _Timed(Protocol):
+        """The timing fields :func:`_timing` normalises (read before conversion: the caller's
+        values, so a word may still stand where the enum will)."""
+
+        @property
+        def duration_s(self) -> float | None: ...
+        @property
+        def speed_pct(self) -> float | None: ...
+        @property
+        def profile(self) -> Profile | str | None: ...
+        @property
+        def tracking(self) -> Tracking | str: ...
+
+    class _Smooth(_Timed, Protocol):
+        """A smooth path's common fields, normalised by :func:`_smooth_common`."""
+
+        @property
+        def frame(self) -> Frame | str: ...
+        @property
+        def start_pose(self) -> Sequence[float] | None: ...
+
+
+def _timing(obj: _Timed) -> None:
     """Common fields: duration_s, speed_pct, profile, tracking."""
     object.__setattr__(obj, "duration_s", _opt_duration(obj.duration_s))
     object.__setattr__(
@@ -298,6 +324,20 @@ def _timing(obj: object) -> None:
     )
     object.__setattr__(obj, "profile", Profile.parse(obj.profile))
     object.__setattr__(obj, "tracking", Tracking.parse(obj.tracking))
+
+
+# ---------------------------------------------------------------------------------------------
+# typing the moves
+#
+# Every field is typed as what it holds after construction (``profile: Profile | None``,
+# ``frame: Frame``): every consumer reads the enum.  The constructor also takes the words
+# (``JointMove(q, profile="trap")``, ``CartJog("trf", "x+", 50, 1)``) and __post_init__ parses
+# them.  A dataclass's generated __init__ takes its parameter types from the fields, so each
+# class with such a field states its constructor's signature for type checkers in an
+# ``if TYPE_CHECKING:`` block (never executed: at run time the generated __init__ is the one).
+# tests/unit/test_moves_typing.py checks that each of these signatures matches the generated
+# __init__ (names, order, defaults) and widens exactly the enum fields.
+# ---------------------------------------------------------------------------------------------
 
 
 # ---------------------------------------------------------------------------------------------
@@ -317,10 +357,17 @@ class JointMove:
     duration_s: float | None = None
     speed_pct: float | None = None
     accel_pct: float | None = None
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "MoveJoint"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, target_deg: Sequence[float], duration_s: float | None = None,
+            speed_pct: float | None = None, accel_pct: float | None = None,
+            profile: Profile | str | None = None, tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "target_deg", _vec(self.target_deg, 6, "target_deg"))
@@ -339,10 +386,17 @@ class PoseMove:
     duration_s: float | None = None
     speed_pct: float | None = None
     accel_pct: float | None = None
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "MovePose"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, pose: Sequence[float], duration_s: float | None = None,
+            speed_pct: float | None = None, accel_pct: float | None = None,
+            profile: Profile | str | None = None, tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pose", _pose(self.pose, "pose"))
@@ -361,10 +415,17 @@ class CartMove:
     pose: Sequence[float]
     duration_s: float | None = None
     speed_pct: float | None = None
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "MoveCart"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, pose: Sequence[float], duration_s: float | None = None,
+            speed_pct: float | None = None, profile: Profile | str | None = None,
+            tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pose", _pose(self.pose, "pose"))
@@ -379,10 +440,17 @@ class CartRelTRFMove:
     delta: Sequence[float]
     duration_s: float | None = None
     speed_pct: float | None = None
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "MoveCartRelTRF"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, delta: Sequence[float], duration_s: float | None = None,
+            speed_pct: float | None = None, profile: Profile | str | None = None,
+            tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "delta", _pose(self.delta, "delta"))
@@ -495,12 +563,17 @@ class CartJog:
     Rotations turn about the TCP.
     """
 
-    frame: Frame | str
-    axis: CartAxis | str
+    frame: Frame
+    axis: CartAxis
     speed_pct: float
     duration_s: float
 
     name = "CartJog"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, frame: Frame | str, axis: CartAxis | str, speed_pct: float, duration_s: float,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "frame", Frame.parse(self.frame))
@@ -519,7 +592,7 @@ class CartJog:
 # ---------------------------------------------------------------------------------------------
 
 
-def _smooth_common(obj: object) -> None:
+def _smooth_common(obj: _Smooth) -> None:
     object.__setattr__(obj, "frame", Frame.parse(obj.frame))
     object.__setattr__(obj, "start_pose", _opt_pose(obj.start_pose, "start_pose"))
     _timing(obj)
@@ -536,16 +609,25 @@ class CircleMove:
 
     center_mm: Sequence[float]
     radius_mm: float
-    plane: Plane | str = Plane.XY
-    frame: Frame | str = Frame.WRF
+    plane: Plane = Plane.XY
+    frame: Frame = Frame.WRF
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
     clockwise: bool = False
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "SmoothCircle"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, center_mm: Sequence[float], radius_mm: float, plane: Plane | str = Plane.XY,
+            frame: Frame | str = Frame.WRF, start_pose: Sequence[float] | None = None,
+            duration_s: float | None = None, speed_pct: float | None = None,
+            clockwise: bool = False, profile: Profile | str | None = None,
+            tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "center_mm", _vec(self.center_mm, 3, "center_mm"))
@@ -566,15 +648,24 @@ class ArcCenterMove:
 
     end_pose: Sequence[float]
     center_mm: Sequence[float]
-    frame: Frame | str = Frame.WRF
+    frame: Frame = Frame.WRF
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
     clockwise: bool = False
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "SmoothArcCenter"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, end_pose: Sequence[float], center_mm: Sequence[float],
+            frame: Frame | str = Frame.WRF, start_pose: Sequence[float] | None = None,
+            duration_s: float | None = None, speed_pct: float | None = None,
+            clockwise: bool = False, profile: Profile | str | None = None,
+            tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "end_pose", _pose(self.end_pose, "end_pose"))
@@ -594,15 +685,24 @@ class ArcParamMove:
     end_pose: Sequence[float]
     radius_mm: float
     angle_deg: float
-    frame: Frame | str = Frame.WRF
+    frame: Frame = Frame.WRF
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
     clockwise: bool = False
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "SmoothArcParam"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, end_pose: Sequence[float], radius_mm: float, angle_deg: float,
+            frame: Frame | str = Frame.WRF, start_pose: Sequence[float] | None = None,
+            duration_s: float | None = None, speed_pct: float | None = None,
+            clockwise: bool = False, profile: Profile | str | None = None,
+            tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "end_pose", _pose(self.end_pose, "end_pose"))
@@ -628,15 +728,24 @@ class HelixMove:
     radius_mm: float
     pitch_mm: float
     height_mm: float
-    frame: Frame | str = Frame.WRF
+    frame: Frame = Frame.WRF
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
     clockwise: bool = False
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "SmoothHelix"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, center_mm: Sequence[float], radius_mm: float, pitch_mm: float, height_mm: float,
+            frame: Frame | str = Frame.WRF, start_pose: Sequence[float] | None = None,
+            duration_s: float | None = None, speed_pct: float | None = None,
+            clockwise: bool = False, profile: Profile | str | None = None,
+            tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "center_mm", _vec(self.center_mm, 3, "center_mm"))
@@ -661,14 +770,22 @@ class SplineMove:
     waypoint orientations."""
 
     waypoints: Sequence[Sequence[float]]
-    frame: Frame | str = Frame.WRF
+    frame: Frame = Frame.WRF
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "SmoothSpline"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, waypoints: Sequence[Sequence[float]], frame: Frame | str = Frame.WRF,
+            start_pose: Sequence[float] | None = None, duration_s: float | None = None,
+            speed_pct: float | None = None, profile: Profile | str | None = None,
+            tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         try:
@@ -696,7 +813,7 @@ class LineSegment:
 
 
 #: What a :class:`BlendMove` joins (each in the blend's frame; their own timing is ignored).
-BlendSegment = Union[LineSegment, CircleMove, ArcCenterMove, ArcParamMove, SplineMove]
+BlendSegment = LineSegment | CircleMove | ArcCenterMove | ArcParamMove | SplineMove
 _BLEND_SEGMENT_TYPES = (LineSegment, CircleMove, ArcCenterMove, ArcParamMove, SplineMove)
 
 
@@ -714,14 +831,23 @@ class BlendMove:
     segments: Sequence[BlendSegment]
     blend_radius_mm: float | None = None
     blend_time_s: float | None = None
-    frame: Frame | str = Frame.WRF
+    frame: Frame = Frame.WRF
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
-    profile: Profile | str | None = None
-    tracking: Tracking | str = Tracking.POSITION
+    profile: Profile | None = None
+    tracking: Tracking = Tracking.POSITION
 
     name = "SmoothBlend"
+
+    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
+        def __init__(
+            self, segments: Sequence[BlendSegment], blend_radius_mm: float | None = None,
+            blend_time_s: float | None = None, frame: Frame | str = Frame.WRF,
+            start_pose: Sequence[float] | None = None, duration_s: float | None = None,
+            speed_pct: float | None = None, profile: Profile | str | None = None,
+            tracking: Tracking | str = Tracking.POSITION,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         segs = tuple(self.segments)
@@ -750,7 +876,7 @@ class BlendMove:
 
 
 #: Every move :func:`parolkit.motion.plan` accepts.
-Move = Union[
-    JointMove, PoseMove, CartMove, CartRelTRFMove, SpeedJointMove, JointJog, CartJog,
-    CircleMove, ArcCenterMove, ArcParamMove, HelixMove, SplineMove, BlendMove,
-]
+Move = (
+    JointMove | PoseMove | CartMove | CartRelTRFMove | SpeedJointMove | JointJog | CartJog
+    | CircleMove | ArcCenterMove | ArcParamMove | HelixMove | SplineMove | BlendMove
+)

@@ -8,6 +8,10 @@ defined once in :mod:`parolkit.moves` (shared with the protocol, RBTscript and t
 re-exported here, so ``from parolkit.motion import JointMove, plan`` keeps working.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from parolkit.motion.errors import PlanningError
 from parolkit.motion.planner import plan
 from parolkit.motion.trajectory import Trajectory
@@ -33,6 +37,10 @@ from parolkit.moves import (
     SplineMove,
     Tracking,
 )
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from pathlib import Path
 
 __all__ = [
     "plan",
@@ -62,8 +70,11 @@ __all__ = [
 ]
 
 
-def plot_trajectory(traj_or_list, path_png, **kwargs):
+def plot_trajectory(
+    traj_or_list: Trajectory | Sequence[Trajectory], path_png: str | Path, *, title: str | None = None,
+    dpi: int = 100,
+) -> Path:
     """Draw position and speed per joint to ``path_png`` (see :mod:`parolkit.motion.plot`)."""
-    from parolkit.motion.plot import plot_trajectory as _plot
+    from parolkit.motion.plot import plot_trajectory as _plot  # (matplotlib: imported when first needed)
 
-    return _plot(traj_or_list, path_png, **kwargs)
+    return _plot(traj_or_list, path_png, title=title, dpi=dpi)

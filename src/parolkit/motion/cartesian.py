@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 
@@ -54,6 +55,7 @@ from parolkit.moves import (
     ArcCenterMove,
     ArcParamMove,
     BlendMove,
+    BlendSegment,
     CartAxis,
     CartJog,
     CartMove,
@@ -70,10 +72,20 @@ from parolkit.moves import (
 )
 from parolkit.robot import JOINT_NAMES, RobotModel
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from parolkit.kinematics import Tool
+
 __all__ = [
     "plan_cartesian", "plan_cart_jog", "DEFAULT_CART_SPEED_PCT", "MAX_STRETCH",
-    "CART_ACCEL_TIME_S", "ON_PATH_TOL_MM",
+    "CART_ACCEL_TIME_S", "ON_PATH_TOL_MM", "CartesianMove",
 ]
+
+#: The moves :func:`plan_cartesian` plans (a path of the tool; CartJog has its own planner).
+CartesianMove = (
+    CartMove | CartRelTRFMove | CircleMove | ArcCenterMove | ArcParamMove | HelixMove | SplineMove | BlendMove
+)
 
 #: MoveCart / smooth paths without duration and speed: this speed percentage (50 % -> a mean
 #: speed of 31 mm/s or 12.85 deg/s), instead of the original's fixed 3.6 s.
@@ -88,20 +100,18 @@ ON_PATH_TOL_MM = 0.05
 ARC_RADIUS_TOL_MM = 1.0
 
 
-def _kin():
-    from parolkit import kinematics
-
-    return kinematics
-
-
 # ---------------------------------------------------------------------------------------------
 # entry points
 # ---------------------------------------------------------------------------------------------
 
 
-def plan_cartesian(move, start: np.ndarray, *, model: RobotModel, tool, rate_hz: float) -> Trajectory:
+def plan_cartesian(
+    move: CartesianMove, start: NDArray[np.float64], *, model: RobotModel, tool: str | Tool | None,
+    rate_hz: float,
+) -> Trajectory:
     """Plan any Cartesian move or smooth path (see module docstring)."""
-    kin = _kin()
+    from parolkit import kinematics as kin  # (imported when first needed)
+
     t0 = np.asarray(kin.fk_matrix(start, tool), dtype=float)
     p0, r0 = t0[:3, 3] * 1e3, t0[:3, :3]
     parts: list[Trajectory] = []
@@ -128,13 +138,16 @@ def plan_cartesian(move, start: np.ndarray, *, model: RobotModel, tool, rate_hz:
     return Trajectory.concatenate(parts, move, notes)
 
 
-def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, rate_hz: float) -> Trajectory:
+def plan_cart_jog(
+    move: CartJog, start: NDArray[np.float64], *, model: RobotModel, tool: str | Tool | None, rate_hz: float,
+) -> Trajectory:
     """Constant Cartesian speed along / about one axis of WRF or TRF for ``duration_s``.
 
     Streamed with position + speed (board 156) so the tool stays on the line; the first tick
     already moves at the jog speed (as the original jog); a final zero-speed sample ends it.
     """
-    kin = _kin()
+    from parolkit import kinematics as kin
+
     t0 = np.asarray(kin.fk_matrix(start, tool), dtype=float)
     p0, r0 = t0[:3, 3] * 1e3, t0[:3, :3]
     jog_axis = CartAxis.parse(move.axis)
@@ -158,9 +171,9 @@ def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, 
     unwind = _unwind_wrist(move, None, start, model, tool, rate_hz, Tracking.POSITION,
                            pct=(100.0, 100.0), first=(pos[:1], rots[:1]))
     if unwind is not None:
-        jog = plan_cart_jog(move, unwind.planned_deg[-1], model=model, tool=tool, rate_hz=rate_hz)
+        jog = plan_cart_jog(move, _planned_end(unwind), model=model, tool=tool, rate_hz=rate_hz)
         return Trajectory.concatenate([unwind, jog], move)
-    q = None
+    q: NDArray[np.float64] | None = None
     while q is None:
         try:
             q = _solve_ik(move.name, pos, rots, start, tool, t)
@@ -208,33 +221,40 @@ def plan_cart_jog(move: CartJog, start: np.ndarray, *, model: RobotModel, tool, 
 # ---------------------------------------------------------------------------------------------
 
 
-def _frame_pose(frame: Frame, t0: np.ndarray, pose: Sequence[float]) -> np.ndarray:
-    m = np.asarray(_kin().pose_to_matrix(pose), dtype=float)
+def _frame_pose(frame: Frame, t0: NDArray[np.float64], pose: Sequence[float]) -> NDArray[np.float64]:
+    from parolkit import kinematics as kin
+
+    m: NDArray[np.float64] = np.asarray(kin.pose_to_matrix(pose), dtype=float)
     return t0 @ m if frame is Frame.TRF else m
 
 
-def _frame_point(frame: Frame, t0: np.ndarray, point: Sequence[float]) -> np.ndarray:
-    p = np.asarray(point, dtype=float)
+def _frame_point(frame: Frame, t0: NDArray[np.float64], point: Sequence[float]) -> NDArray[np.float64]:
+    p: NDArray[np.float64] = np.asarray(point, dtype=float)
     return t0[:3, 3] * 1e3 + t0[:3, :3] @ p if frame is Frame.TRF else p
 
 
-def _frame_rot(frame: Frame, t0: np.ndarray) -> np.ndarray:
+def _frame_rot(frame: Frame, t0: NDArray[np.float64]) -> NDArray[np.float64]:
     return t0[:3, :3] if frame is Frame.TRF else np.eye(3)
 
 
-def _far(pa, ra, pb, rb) -> bool:
+def _far(pa: NDArray[np.float64], ra: NDArray[np.float64], pb: NDArray[np.float64], rb: NDArray[np.float64]) -> bool:
     return float(np.linalg.norm(pa - pb)) > ON_PATH_TOL_MM or math.degrees(rotation_angle(ra, rb)) > ON_PATH_TOL_MM
 
 
-def _build_path(move, t0, p0, r0, rate_hz, model) -> tuple[Path, list[tuple[Path, str]]]:
+def _build_path(
+    move: CartesianMove, t0: NDArray[np.float64], p0: NDArray[np.float64], r0: NDArray[np.float64],
+    rate_hz: float, model: RobotModel,
+) -> tuple[Path, list[tuple[Path, str]]]:
     """The main path and any approach paths (played first, each from rest to rest)."""
+    from parolkit import kinematics as kin
+
     name = move.name
     pre: list[tuple[Path, str]] = []
     if isinstance(move, CartMove):
-        t1 = np.asarray(_kin().pose_to_matrix(move.pose), dtype=float)
+        t1 = np.asarray(kin.pose_to_matrix(move.pose), dtype=float)
         return Path([Line(p0, t1[:3, 3] * 1e3, r0, t1[:3, :3])]), pre
     if isinstance(move, CartRelTRFMove):
-        t1 = t0 @ np.asarray(_kin().pose_to_matrix(move.delta), dtype=float)
+        t1 = t0 @ np.asarray(kin.pose_to_matrix(move.delta), dtype=float)
         return Path([Line(p0, t1[:3, 3] * 1e3, r0, t1[:3, :3])]), pre
     if isinstance(move, BlendMove):
         return _blend_path(move, t0, p0, r0, model), pre
@@ -244,7 +264,10 @@ def _build_path(move, t0, p0, r0, rate_hz, model) -> tuple[Path, list[tuple[Path
     return Path(segs), pre
 
 
-def _segment_for(name: str, seg, frame: Frame, t0, p, r) -> tuple[list[Segment], Line | None]:
+def _segment_for(
+    name: str, seg: BlendSegment | HelixMove, frame: Frame, t0: NDArray[np.float64], p: NDArray[np.float64],
+    r: NDArray[np.float64],
+) -> tuple[list[Segment], Line | None]:
     """Segment(s) for one smooth element starting at position ``p`` / rotation ``r``; plus an
     approach line when the element starts elsewhere (circle, helix)."""
     fr = _frame_rot(frame, t0)
@@ -323,7 +346,7 @@ def _segment_for(name: str, seg, frame: Frame, t0, p, r) -> tuple[list[Segment],
     raise PlanningError(name, f"unsupported path element {type(seg).__name__}")
 
 
-def _plane_axes(plane: Plane, fr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _plane_axes(plane: Plane, fr: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     x, y, z = fr[:, 0], fr[:, 1], fr[:, 2]
     if plane is Plane.XY:
         return x, y  # normal +Z
@@ -332,7 +355,11 @@ def _plane_axes(plane: Plane, fr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return y, z  # YZ: normal +X
 
 
-def _arc_through(name, p0, p1, c, n, fr, clockwise, r0, r1) -> Arc:
+def _arc_through(
+    name: str, p0: NDArray[np.float64], p1: NDArray[np.float64], c: NDArray[np.float64],
+    n: NDArray[np.float64] | None, fr: NDArray[np.float64], clockwise: bool, r0: NDArray[np.float64],
+    r1: NDArray[np.float64],
+) -> Arc:
     a, b = p0 - c, p1 - c
     ra, rb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
     if ra < 1e-6:
@@ -378,7 +405,7 @@ class _SpiralArc(Arc):
         self.r_end = r_end
         self.length = float(abs(self.sweep) * (self.radius + r_end) / 2)
 
-    def positions(self, u):
+    def positions(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         u = np.asarray(u, dtype=float)
         phi = self.phi0 + self.sweep * u
         rad = self.radius + (self.r_end - self.radius) * u
@@ -386,7 +413,10 @@ class _SpiralArc(Arc):
                                                      + np.sin(phi)[:, None] * self.e2[None, :])
 
 
-def _blend_path(move: BlendMove, t0, p0, r0, model) -> Path:
+def _blend_path(
+    move: BlendMove, t0: NDArray[np.float64], p0: NDArray[np.float64], r0: NDArray[np.float64],
+    model: RobotModel,
+) -> Path:
     segs: list[Segment] = []
     p, r = p0, r0
     for el in move.segments:
@@ -415,8 +445,8 @@ def _blend_path(move: BlendMove, t0, p0, r0, model) -> Path:
 # ---------------------------------------------------------------------------------------------
 
 
-def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool, rate_hz: float,
-                    *, approach: bool = False) -> Trajectory:
+def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64], model: RobotModel,
+                    tool: str | Tool | None, rate_hz: float, *, approach: bool = False) -> Trajectory:
     name = move.name
     tracking = getattr(move, "tracking", Tracking.POSITION)
     duration = None if approach else move.duration_s
@@ -432,7 +462,7 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
         return hold(move, start, np.asarray(start, dtype=float), model, rate_hz, tracking)
     unwind = _unwind_wrist(move, path, start, model, tool, rate_hz, tracking)
     if unwind is not None:
-        main = _time_and_solve(move, path, unwind.planned_deg[-1], model, tool, rate_hz,
+        main = _time_and_solve(move, path, _planned_end(unwind), model, tool, rate_hz,
                                approach=approach)
         return Trajectory.concatenate([unwind, main], move)
     profile = move.profile or (Profile.POLY if duration is not None else Profile.TRAP)
@@ -492,8 +522,11 @@ def _time_and_solve(move, path: Path, start: np.ndarray, model: RobotModel, tool
 WRIST_SINGULAR_START_DEG = 0.01
 
 
-def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking,
-                  pct: tuple[float, float] | None = None, first=None) -> Trajectory | None:
+def _unwind_wrist(
+    move: CartesianMove | CartJog, path: Path | None, start: NDArray[np.float64], model: RobotModel,
+    tool: str | Tool | None, rate_hz: float, tracking: Tracking, pct: tuple[float, float] | None = None,
+    first: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+) -> Trajectory | None:
     """A path starting exactly on the wrist singularity (J5 = 0, e.g. the standby pose after
     homing) may need J4 at another angle from the first tick on.  Axes 4 and 6 are aligned
     there, so J4 + d and J6 - d is the same pose: turn J4/J6 that way first (a joint move
@@ -503,7 +536,12 @@ def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking,
     (positions, rotations) of the first path sample when there is no ``path``."""
     if abs(float(start[4])) > WRIST_SINGULAR_START_DEG:
         return None
-    pos, rots = first if first is not None else path.evaluate(np.array([1e-4]))
+    if first is not None:
+        pos, rots = first
+    elif path is not None:
+        pos, rots = path.evaluate(np.array([1e-4]))
+    else:
+        raise TypeError("_unwind_wrist needs the path or its first sample")
     try:
         q_eps = _solve_ik(move.name, pos, rots, start, tool, np.array([0.0]))[0]
     except PlanningError:
@@ -520,7 +558,7 @@ def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking,
         alt = target[5] + (360.0 if target[5] < lim[5, 0] else -360.0)
         if lim[5, 0] <= alt <= lim[5, 1]:
             target[5] = alt
-    jm = JointMove(target, tracking=tracking)
+    jm = JointMove(target.tolist(), tracking=tracking)
     try:
         tr = plan_joint_target(jm, np.asarray(start, dtype=float), target, model, rate_hz,
                                 pct or MOVEJOINT_DEFAULT_PCT)
@@ -532,6 +570,15 @@ def _unwind_wrist(move, path: Path, start, model, tool, rate_hz, tracking,
     return Trajectory(t=tr.t, positions=tr.positions, speeds=tr.speeds, commands=tr.commands,
                       rate_hz=tr.rate_hz, move=move, notes=(note,), start_deg=tr.start_deg,
                       model=model, planned_deg=tr.planned_deg)
+
+
+def _planned_end(tr: Trajectory) -> NDArray[np.float64]:
+    """The joint angles (deg) the planner computed for the last sample of ``tr`` (every
+    trajectory :mod:`parolkit.motion.joint` builds records them)."""
+    if tr.planned_deg is None:
+        raise ValueError(f"{tr.name}: a planned trajectory without planned_deg (a planner bug)")
+    end: NDArray[np.float64] = tr.planned_deg[-1]
+    return end
 
 
 def _nominal(profile: Profile, base: float) -> float:
@@ -565,7 +612,7 @@ def _path_profile(profile: Profile, base: float, duration: float | None, stretch
 _GIMBAL_EPS = 1e-12
 
 
-def poses_from_rotations(pos_mm: np.ndarray, rots: np.ndarray) -> np.ndarray:
+def poses_from_rotations(pos_mm: NDArray[np.float64], rots: NDArray[np.float64]) -> NDArray[np.float64]:
     """(N, 3) mm + (N, 3, 3) rotations -> (N, 6) poses [x, y, z mm, A, B, C deg] with
     R = Rx(C) Ry(B) Rz(A) (the kinematics convention; at B = +-90 deg, A = 0).
 
@@ -589,12 +636,17 @@ def poses_from_rotations(pos_mm: np.ndarray, rots: np.ndarray) -> np.ndarray:
     return out
 
 
-def _solve_ik(name: str, pos_mm: np.ndarray, rots: np.ndarray, seed: np.ndarray, tool, t: np.ndarray) -> np.ndarray:
-    kin = _kin()
+def _solve_ik(
+    name: str, pos_mm: NDArray[np.float64], rots: NDArray[np.float64], seed: NDArray[np.float64],
+    tool: str | Tool | None, t: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    from parolkit import kinematics as kin
+
     n = len(pos_mm)
     poses = poses_from_rotations(pos_mm, rots)
     try:
-        return np.asarray(kin.ik_batch(poses, seed, tool=tool), dtype=float)
+        q: NDArray[np.float64] = np.asarray(kin.ik_batch(poses, seed, tool=tool), dtype=float)
+        return q
     except kin.IKError as exc:
         k = exc.sample if exc.sample is not None else 0
         p = pos_mm[min(k, n - 1)]
@@ -604,15 +656,20 @@ def _solve_ik(name: str, pos_mm: np.ndarray, rots: np.ndarray, seed: np.ndarray,
         ) from exc
 
 
-def _derivative(q: np.ndarray, start: np.ndarray, rate_hz: float, t: np.ndarray, T: float) -> np.ndarray:
+def _derivative(
+    q: NDArray[np.float64], start: NDArray[np.float64], rate_hz: float, t: NDArray[np.float64], T: float,
+) -> NDArray[np.float64]:
     """Joint speeds (deg/s) at the samples: central differences; zero once the path has ended."""
     full = np.vstack([start[None, :], q])
-    qd = np.gradient(full, 1.0 / rate_hz, axis=0)[1:]
+    qd: NDArray[np.float64] = np.gradient(full, 1.0 / rate_hz, axis=0)[1:]
     qd[t >= T - 1e-9] = 0.0
     return qd
 
 
-def _check_jumps(name, t, full_q, model, rate_hz, tool) -> None:
+def _check_jumps(
+    name: str, t: NDArray[np.float64], full_q: NDArray[np.float64], model: RobotModel, rate_hz: float,
+    tool: str | Tool | None,
+) -> None:
     """A branch hop: a joint moving more than 4x its maximum speed allows within one tick."""
     step = np.abs(np.diff(full_q, axis=0))
     lim = 4.0 * model.max_speed_deg_s / rate_hz
@@ -626,26 +683,33 @@ def _check_jumps(name, t, full_q, model, rate_hz, tool) -> None:
         )
 
 
-def _sing_text(q, tool) -> str:
+def _sing_text(q: NDArray[np.float64], tool: str | Tool | None) -> str:
     try:
-        info = _kin().singularity_distance(q)
+        from parolkit import kinematics as kin
+
+        info = kin.singularity_distance(q)
     except Exception:  # informative only
         return ""
     return (f"; nearest: {info.nearest} singularity (wrist {info.wrist_deg:.2f} deg, shoulder "
             f"{info.shoulder_mm:.1f} mm, elbow {info.elbow_deg:.2f} deg)")
 
 
-def _near_singularity(q, v_steps, vmax) -> bool:
+def _near_singularity(q: NDArray[np.float64], v_steps: NDArray[np.float64], vmax: NDArray[np.float64]) -> bool:
     """Is the sample needing the highest joint speed near a singularity?"""
     ratio = np.max(np.abs(v_steps) / vmax, axis=1)
     k = int(np.argmax(ratio))
     try:
-        return bool(_kin().singularity_distance(q[k]).near)
+        from parolkit import kinematics as kin
+
+        return bool(kin.singularity_distance(q[k]).near)
     except Exception:  # no singularity information: judge by the spike alone
         return bool(ratio[k] > 20 * max(np.median(ratio), 1e-9))
 
 
-def _refuse_singular(name, t, q, v_steps, vmax, tool) -> None:
+def _refuse_singular(
+    name: str, t: NDArray[np.float64], q: NDArray[np.float64], v_steps: NDArray[np.float64],
+    vmax: NDArray[np.float64], tool: str | Tool | None,
+) -> NoReturn:
     ratio = np.abs(v_steps) / vmax
     k, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     raise PlanningError(
@@ -656,7 +720,10 @@ def _refuse_singular(name, t, q, v_steps, vmax, tool) -> None:
     )
 
 
-def _toppra_path(move, path: Path, start, model, tool, rate_hz, duration, base, tracking) -> Trajectory:
+def _toppra_path(
+    move: CartesianMove, path: Path, start: NDArray[np.float64], model: RobotModel, tool: str | Tool | None,
+    rate_hz: float, duration: float | None, base: float, tracking: Tracking,
+) -> Trajectory:
     """TOPP-RA on the joint path (dense IK), then the exact geometry at the optimal s(t).
 
     Without a duration the mapped Cartesian speed (``1 / base`` of the path per second) is a

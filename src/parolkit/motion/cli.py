@@ -17,15 +17,22 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from parolkit.motion.trajectory import Trajectory
+    from parolkit.moves import Move
 
 __all__ = ["register", "run"]
 
 _KINDS = ("movejoint", "movepose", "movecart", "movecartreltrf", "speedjoint", "jog")
 
 
-def register(subparsers: argparse._SubParsersAction, name: str = "plan") -> argparse.ArgumentParser:
+def register(
+    subparsers: argparse._SubParsersAction[argparse.ArgumentParser], name: str = "plan",
+) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         name, help="plan one move and print or plot its trajectory",
         description="Plan one move from a start configuration and print its summary "
@@ -50,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction, name: str = "plan") -> argp
     return p
 
 
-def _build_move(args: argparse.Namespace):
+def _build_move(args: argparse.Namespace) -> Move:
     from parolkit import motion as m
 
     vals = args.values
@@ -101,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_table(traj) -> None:
+def _print_table(traj: Trajectory) -> None:
     print(f"move       {traj.name}")
     print(f"duration   {traj.duration:.3f} s  ({len(traj)} samples at {traj.rate_hz:g} Hz, "
           f"board command {int(traj.commands[-1])})")

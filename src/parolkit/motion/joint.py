@@ -22,10 +22,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from functools import lru_cache
+from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 
 from parolkit import _native
+from parolkit.errors import ParolkitValueError
 from parolkit.motion import validate
 from parolkit.motion.errors import PlanningError
 from parolkit.motion.profiles import (
@@ -39,8 +41,14 @@ from parolkit.motion.profiles import (
     trapezoid_for_limits,
 )
 from parolkit.motion.trajectory import Trajectory
-from parolkit.moves import JointJog, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
+from parolkit.moves import JointJog, JointMove, Move, PoseMove, Profile, SpeedJointMove, Tracking
 from parolkit.robot import JOINT_NAMES, RobotModel
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from parolkit.kinematics import Tool
+    from parolkit.motion.topp import ToppResult
 
 __all__ = [
     "MOVEJOINT_DEFAULT_PCT",
@@ -67,7 +75,7 @@ SPEED_ONLY_ACCEL_PCT = 50.0
 RUCKIG_JERK_TIME_S = 0.1
 
 
-def sample_times(duration: float, rate_hz: float) -> np.ndarray:
+def sample_times(duration: float, rate_hz: float) -> NDArray[np.float64]:
     """Tick times 1/rate, 2/rate, ... up to the first tick at or after ``duration`` (s)."""
     n = max(1, int(math.ceil(duration * rate_hz - 1e-6)))
     return np.arange(1, n + 1, dtype=float) / rate_hz
@@ -79,9 +87,9 @@ def sample_times(duration: float, rate_hz: float) -> np.ndarray:
 
 
 def build_trajectory(
-    move: object, t: np.ndarray, q_deg: np.ndarray, qd_deg_s: np.ndarray, *,
-    start: np.ndarray, model: RobotModel, rate: float, tracking: Tracking,
-    notes: Sequence[str] = (), target_deg: np.ndarray | None = None, jog: bool = False,
+    move: Move, t: NDArray[np.float64], q_deg: NDArray[np.float64], qd_deg_s: NDArray[np.float64], *,
+    start: NDArray[np.float64], model: RobotModel, rate: float, tracking: Tracking,
+    notes: Sequence[str] = (), target_deg: NDArray[np.float64] | None = None, jog: bool = False,
     check_accel: bool = True, hint: str = "", proven: bool = False,
 ) -> Trajectory:
     """Round to steps, validate (positions, speeds, accelerations) and wrap in a Trajectory.
@@ -119,7 +127,7 @@ def build_trajectory(
                       notes=tuple(notes), start_deg=start, model=model, planned_deg=planned)
 
 
-def hold(move, start: np.ndarray, target: np.ndarray, model: RobotModel, rate: float,
+def hold(move: Move, start: NDArray[np.float64], target: NDArray[np.float64], model: RobotModel, rate: float,
          tracking: Tracking) -> Trajectory:
     """A move that is already at its target: one sample, or, when it has a duration, the
     target held for that long (a program's timing stays what the user wrote)."""
@@ -131,7 +139,7 @@ def hold(move, start: np.ndarray, target: np.ndarray, model: RobotModel, rate: f
                             tracking=tracking, notes=[note], target_deg=target, proven=True)
 
 
-def _check_target(name: str, target: np.ndarray, model: RobotModel, what: str = "target") -> None:
+def _check_target(name: str, target: NDArray[np.float64], model: RobotModel, what: str = "target") -> None:
     ma = validate.model_arrays(model)
     if (target >= ma.safe_lo).all() and (target <= ma.safe_hi).all():
         return
@@ -152,7 +160,7 @@ def _check_target(name: str, target: np.ndarray, model: RobotModel, what: str = 
 # ---------------------------------------------------------------------------------------------
 
 
-def plan_joint_move(move: JointMove, start: np.ndarray, model: RobotModel, rate: float) -> Trajectory:
+def plan_joint_move(move: JointMove, start: NDArray[np.float64], model: RobotModel, rate: float) -> Trajectory:
     """MoveJoint from ``start`` (deg): the fast analytic path when it applies, else the general one."""
     fast = _fast_timed(move, start, move.target_deg, model, rate)
     if fast is not None:
@@ -161,7 +169,9 @@ def plan_joint_move(move: JointMove, start: np.ndarray, model: RobotModel, rate:
                              MOVEJOINT_DEFAULT_PCT)
 
 
-def plan_pose_move(move: PoseMove, start: np.ndarray, model: RobotModel, tool: object, rate: float) -> Trajectory:
+def plan_pose_move(
+    move: PoseMove, start: NDArray[np.float64], model: RobotModel, tool: str | Tool | None, rate: float,
+) -> Trajectory:
     from parolkit import kinematics
 
     try:
@@ -185,7 +195,7 @@ _DURATION_NOTE = "duration given: it overrides speed and acceleration percentage
 
 
 def _fast_timed(
-    move: JointMove | PoseMove, start: np.ndarray, target: Sequence[float], model: RobotModel,
+    move: JointMove | PoseMove, start: NDArray[np.float64], target: Sequence[float], model: RobotModel,
     rate: float,
 ) -> Trajectory | None:
     """The common case of :func:`plan_joint_target` (a duration with the POLY or TRAP
@@ -233,7 +243,7 @@ def _fast_timed(
 
 
 def plan_joint_target(
-    move: JointMove | PoseMove, start: np.ndarray, target: np.ndarray, model: RobotModel,
+    move: JointMove | PoseMove, start: NDArray[np.float64], target: NDArray[np.float64], model: RobotModel,
     rate: float, default_pct: tuple[float, float],
 ) -> Trajectory:
     name = move.name
@@ -280,7 +290,7 @@ def plan_joint_target(
 
 
 def _monotonic_trajectory(
-    move: object, kind: str, T: float, ta: float, start: np.ndarray, start_l: list[float],
+    move: JointMove | PoseMove, kind: str, T: float, ta: float, start: NDArray[np.float64], start_l: list[float],
     target: list[float], model: RobotModel, ma: validate.ModelArrays, rate: float, tracking: Tracking,
     notes: Sequence[str], *, start_inside: bool = False,
 ) -> Trajectory:
@@ -315,8 +325,10 @@ def _monotonic_trajectory(
                                start, model, q)
 
 
-def _fill_reference(basis: np.ndarray, speed: np.ndarray, start: list[float], target: list[float],
-                    spd: list[float], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _fill_reference(
+    basis: NDArray[np.float64], speed: NDArray[np.float64], start: list[float], target: list[float],
+    spd: list[float], n: int,
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
     """The arrays of ``q = start + s * (target - start)`` (deg; the last row exactly the
     target), its positions in steps and its speeds in steps/s (``s' * delta``), from the
     sampled profile ``basis`` (columns 1, s) and ``speed`` (s').  The reference of the
@@ -335,17 +347,23 @@ def _fill_reference(basis: np.ndarray, speed: np.ndarray, start: list[float], ta
     return q, pos, sp_f.astype(np.int64)
 
 
-def _fill_native(basis: np.ndarray, speed: np.ndarray, start: list[float], target: list[float],
-                 spd: list[float], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_fill_reference` in one pass of compiled code."""
-    return _csamples.fill(basis, speed, start, target, spd)
+def _fill_native(
+    basis: NDArray[np.float64], speed: NDArray[np.float64], start: list[float], target: list[float],
+    spd: list[float], n: int,
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`_fill_reference` in one pass of compiled code (``_fill`` only when it is built)."""
+    if _csamples is None:
+        raise ImportError("parolkit.motion._csamples (the compiled sample fill) is not built")
+    out: tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]] = _csamples.fill(
+        basis, speed, start, target, spd)
+    return out
 
 
 _csamples = _native.load("parolkit.motion._csamples")
 _fill = _fill_reference if _csamples is None else _fill_native
 
 
-def _commands(n: int, value: int) -> np.ndarray:
+def _commands(n: int, value: int) -> NDArray[np.uint8]:
     """(n,) read-only uint8 array of the board command ``value`` (shared between plans of up
     to 4096 samples: bounded cache memory)."""
     if n <= 4096:
@@ -356,13 +374,15 @@ def _commands(n: int, value: int) -> np.ndarray:
 
 
 @lru_cache(maxsize=64)
-def _cached_commands(n: int, value: int) -> np.ndarray:
+def _cached_commands(n: int, value: int) -> NDArray[np.uint8]:
     out = np.full(n, value, dtype=np.uint8)
     out.setflags(write=False)
     return out
 
 
-def _min_duration(kind: str, dist: np.ndarray, vmax: np.ndarray, amax: float) -> tuple[float, int, str]:
+def _min_duration(
+    kind: str, dist: NDArray[np.float64], vmax: NDArray[np.float64], amax: float,
+) -> tuple[float, int, str]:
     """Shortest duration for a synchronised poly/trap(1/3) move; the limiting joint and why."""
     kv, ka = (POLY_PEAK_SPEED, POLY_PEAK_ACCEL) if kind == "poly" else (TRAP3_PEAK_SPEED, TRAP3_PEAK_ACCEL)
     tv = kv * dist / vmax
@@ -375,9 +395,9 @@ def _min_duration(kind: str, dist: np.ndarray, vmax: np.ndarray, amax: float) ->
 
 
 def _timed_profile(
-    name: str, profile: Profile, T: float, dist: np.ndarray, vmax: np.ndarray, amax: float,
-    start: np.ndarray, delta: np.ndarray, spd: np.ndarray,
-):
+    name: str, profile: Profile, T: float, dist: NDArray[np.float64], vmax: NDArray[np.float64], amax: float,
+    start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64],
+) -> tuple[ScalarProfile | ToppResult, float]:
     """Profile lasting exactly ``T`` s, or a refusal when a joint cannot keep up."""
     if profile in (Profile.POLY, Profile.TRAP):
         kind = "poly" if profile is Profile.POLY else "trap"
@@ -409,7 +429,10 @@ def _timed_profile(
     return res, T
 
 
-def _refuse_too_fast(name, kind, T, tmin, j, why, dist, vmax, amax) -> None:
+def _refuse_too_fast(
+    name: str, kind: str, T: float, tmin: float, j: int, why: str, dist: NDArray[np.float64],
+    vmax: NDArray[np.float64], amax: float,
+) -> NoReturn:
     if why == "speed":
         k = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
         value = k * dist[j] / T
@@ -430,10 +453,10 @@ def _refuse_too_fast(name, kind, T, tmin, j, why, dist, vmax, amax) -> None:
 
 
 def _percent_profile(
-    name: str, profile: Profile, v_pct: float, a_pct: float, dist: np.ndarray, vmax: np.ndarray,
-    amax: float, start: np.ndarray, delta: np.ndarray, spd: np.ndarray, model: RobotModel,
+    name: str, profile: Profile, v_pct: float, a_pct: float, dist: NDArray[np.float64], vmax: NDArray[np.float64],
+    amax: float, start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64], model: RobotModel,
     notes: list[str],
-):
+) -> tuple[ScalarProfile | ToppResult, float]:
     """Leading-joint v/a profile with every joint synchronised (finishing together)."""
     lead = int(np.argmax(dist))
     v_lead = float(model.speed_from_percent(v_pct)[lead])
@@ -487,8 +510,8 @@ def _percent_profile(
 
 
 def _constant_speed(
-    move: object, start: np.ndarray, v_deg_s: np.ndarray, T: float, model: RobotModel,
-    rate: float, *, jog: bool, notes: Sequence[str] = (),
+    move: SpeedJointMove | JointJog, start: NDArray[np.float64], v_deg_s: NDArray[np.float64], T: float,
+    model: RobotModel, rate: float, *, jog: bool, notes: Sequence[str] = (),
 ) -> Trajectory:
     """Constant joint speeds for ``T`` s (the last tick scaled so the integral is exact), then
     a zero-speed sample.  Positions are where the joints are expected at each tick.
@@ -565,12 +588,12 @@ def _constant_speed(
                       planned_deg=q)
 
 
-def plan_speed_joint(move: SpeedJointMove, start: np.ndarray, model: RobotModel, rate: float) -> Trajectory:
+def plan_speed_joint(move: SpeedJointMove, start: NDArray[np.float64], model: RobotModel, rate: float) -> Trajectory:
     return _constant_speed(move, start, np.asarray(move.speeds_deg_s, dtype=float),
                            float(move.duration_s), model, rate, jog=False)
 
 
-def plan_joint_jog(move: JointJog, start: np.ndarray, model: RobotModel, rate: float) -> Trajectory:
+def plan_joint_jog(move: JointJog, start: NDArray[np.float64], model: RobotModel, rate: float) -> Trajectory:
     spd = model.steps_per_deg
     v = np.zeros(6)
     for j, d, p in zip(move.joints, move.directions, move.speed_pct):
@@ -584,4 +607,6 @@ def plan_joint_jog(move: JointJog, start: np.ndarray, model: RobotModel, rate: f
             T = t_dist
             if move.duration_s is not None:
                 notes.append(f"jog ends after {move.distance_deg:g} deg ({t_dist:.3f} s), before duration_s")
+    if T is None:  # (a JointJog has duration_s and/or distance_deg: checked on construction)
+        raise ParolkitValueError("a jog needs duration_s and/or distance_deg")
     return _constant_speed(move, start, v, float(T), model, rate, jog=True, notes=notes)

@@ -15,8 +15,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+    from scipy.interpolate import CubicSpline
+    from scipy.spatial.transform import RotationSpline
 
 __all__ = [
     "quat_from_matrix", "quat_to_matrix", "slerp", "rotation_angle", "rot_about",
@@ -29,7 +35,7 @@ __all__ = [
 # ---------------------------------------------------------------------------------------------
 
 
-def quat_from_matrix(r: np.ndarray) -> np.ndarray:
+def quat_from_matrix(r: NDArray[np.float64]) -> NDArray[np.float64]:
     """3x3 rotation -> unit quaternion [w, x, y, z] (w >= 0)."""
     m = np.asarray(r, dtype=float)
     tr = m[0, 0] + m[1, 1] + m[2, 2]
@@ -50,7 +56,7 @@ def quat_from_matrix(r: np.ndarray) -> np.ndarray:
     return -out if out[0] < 0 else out
 
 
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """(N, 4) quaternions -> (N, 3, 3) rotations."""
     q = np.atleast_2d(q)
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
@@ -67,7 +73,7 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def slerp(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:
+def slerp(q0: NDArray[np.float64], q1: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
     """Spherical linear interpolation (shortest way) at fractions ``u`` -> (N, 4)."""
     u = np.asarray(u, dtype=float)
     d = float(np.dot(q0, q1))
@@ -75,7 +81,8 @@ def slerp(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:
         q1, d = -q1, -d
     if d > 1.0 - 1e-12:
         out = q0[None, :] + u[:, None] * (q1 - q0)[None, :]
-        return out / np.linalg.norm(out, axis=1, keepdims=True)
+        unit: NDArray[np.float64] = out / np.linalg.norm(out, axis=1, keepdims=True)
+        return unit
     th = math.acos(min(1.0, d))
     s = math.sin(th)
     a = np.sin((1.0 - u) * th) / s
@@ -83,18 +90,18 @@ def slerp(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:
     return a[:, None] * q0[None, :] + b[:, None] * q1[None, :]
 
 
-def rotation_angle(r0: np.ndarray, r1: np.ndarray) -> float:
+def rotation_angle(r0: NDArray[np.float64], r1: NDArray[np.float64]) -> float:
     """Angle (rad) of the rotation taking r0 to r1."""
     c = (np.trace(r0.T @ r1) - 1.0) / 2.0
     return math.acos(max(-1.0, min(1.0, c)))
 
 
-def rot_about(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
+def rot_about(axis: NDArray[np.float64], angles: NDArray[np.float64]) -> NDArray[np.float64]:
     """(N, 3, 3) rotations by ``angles`` (rad) about the unit ``axis`` (Rodrigues)."""
     k = np.asarray(axis, dtype=float)
     k = k / np.linalg.norm(k)
-    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    a = np.atleast_1d(np.asarray(angles, dtype=float))
+    kx: NDArray[np.float64] = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    a: NDArray[np.float64] = np.atleast_1d(np.asarray(angles, dtype=float))
     return (np.eye(3)[None] + np.sin(a)[:, None, None] * kx[None]
             + (1 - np.cos(a))[:, None, None] * (kx @ kx)[None])
 
@@ -109,41 +116,43 @@ class Segment:
 
     length: float
     angle: float
-    r0: np.ndarray
-    r1: np.ndarray
+    r0: NDArray[np.float64]
+    r1: NDArray[np.float64]
 
-    def positions(self, u: np.ndarray) -> np.ndarray:  # (n, 3) mm
+    def positions(self, u: NDArray[np.float64]) -> NDArray[np.float64]:  # (n, 3) mm
         raise NotImplementedError
 
-    def rotations(self, u: np.ndarray) -> np.ndarray:  # (n, 3, 3)
+    def rotations(self, u: NDArray[np.float64]) -> NDArray[np.float64]:  # (n, 3, 3)
         q0, q1 = quat_from_matrix(self.r0), quat_from_matrix(self.r1)
         return quat_to_matrix(slerp(q0, q1, u))
 
-    def tangent(self, u: float) -> np.ndarray:
+    def tangent(self, u: float) -> NDArray[np.float64]:
         """Unit tangent at ``u`` (numerical, mm/mm)."""
         h = 1e-6
         a, b = max(0.0, u - h), min(1.0, u + h)
-        d = self.positions(np.array([b]))[0] - self.positions(np.array([a]))[0]
-        n = np.linalg.norm(d)
+        d: NDArray[np.float64] = self.positions(np.array([b]))[0] - self.positions(np.array([a]))[0]
+        n = float(np.linalg.norm(d))
         return d / n if n > 0 else d
 
     @property
-    def p0(self) -> np.ndarray:
-        return self.positions(np.array([0.0]))[0]
+    def p0(self) -> NDArray[np.float64]:
+        p: NDArray[np.float64] = self.positions(np.array([0.0]))[0]
+        return p
 
     @property
-    def p1(self) -> np.ndarray:
-        return self.positions(np.array([1.0]))[0]
+    def p1(self) -> NDArray[np.float64]:
+        p: NDArray[np.float64] = self.positions(np.array([1.0]))[0]
+        return p
 
 
 @dataclass
 class Line(Segment):
     """Straight line p0 -> p1 (mm) with orientation SLERP r0 -> r1."""
 
-    a: np.ndarray
-    b: np.ndarray
-    r0: np.ndarray
-    r1: np.ndarray
+    a: NDArray[np.float64]
+    b: NDArray[np.float64]
+    r0: NDArray[np.float64]
+    r1: NDArray[np.float64]
 
     def __post_init__(self) -> None:
         self.a = np.asarray(self.a, dtype=float)
@@ -151,7 +160,7 @@ class Line(Segment):
         self.length = float(np.linalg.norm(self.b - self.a))
         self.angle = rotation_angle(self.r0, self.r1)
 
-    def positions(self, u: np.ndarray) -> np.ndarray:
+    def positions(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         u = np.asarray(u, dtype=float)
         return self.a[None, :] + u[:, None] * (self.b - self.a)[None, :]
 
@@ -162,15 +171,15 @@ class Arc(Segment):
     ``e1``, ``e2`` (the sweep turns from e1 toward e2 for a positive ``sweep``), start angle
     ``phi0`` (rad), signed ``sweep`` (rad), axial ``rise`` (mm along e1 x e2)."""
 
-    center: np.ndarray
+    center: NDArray[np.float64]
     radius: float
-    e1: np.ndarray
-    e2: np.ndarray
+    e1: NDArray[np.float64]
+    e2: NDArray[np.float64]
     phi0: float
     sweep: float
     rise: float
-    r0: np.ndarray
-    r1: np.ndarray
+    r0: NDArray[np.float64]
+    r1: NDArray[np.float64]
 
     def __post_init__(self) -> None:
         self.center = np.asarray(self.center, dtype=float)
@@ -178,7 +187,7 @@ class Arc(Segment):
         self.length = float(math.hypot(self.radius * self.sweep, self.rise))
         self.angle = rotation_angle(self.r0, self.r1)
 
-    def positions(self, u: np.ndarray) -> np.ndarray:
+    def positions(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         u = np.asarray(u, dtype=float)
         phi = self.phi0 + self.sweep * u
         return (self.center[None, :] + self.radius * (np.cos(phi)[:, None] * self.e1[None, :]
@@ -190,6 +199,8 @@ class _TabulatedSegment(Segment):
     """Shared arc-length inversion for curves with a non-uniform native parameter."""
 
     _n_table = 512
+    _w: NDArray[np.float64]  # native parameter of the table rows
+    _cum: NDArray[np.float64]  # arc-length fraction of the table rows
 
     def _build_table(self) -> None:
         w = np.linspace(0.0, 1.0, self._n_table)
@@ -200,13 +211,14 @@ class _TabulatedSegment(Segment):
         self._w = w
         self._cum = cum / cum[-1] if cum[-1] > 0 else w
 
-    def _native(self, w: np.ndarray) -> np.ndarray:
+    def _native(self, w: NDArray[np.float64]) -> NDArray[np.float64]:
         raise NotImplementedError
 
-    def native_param(self, u: np.ndarray) -> np.ndarray:
-        return np.interp(np.asarray(u, dtype=float), self._cum, self._w)
+    def native_param(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
+        w: NDArray[np.float64] = np.interp(np.asarray(u, dtype=float), self._cum, self._w)
+        return w
 
-    def positions(self, u: np.ndarray) -> np.ndarray:
+    def positions(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         return self._native(self.native_param(u))
 
 
@@ -214,26 +226,28 @@ class CubicBezier(_TabulatedSegment):
     """Cubic Bezier a -> b leaving along ``ta`` and arriving along ``tb`` (unit tangents):
     G1-continuous corner rounding.  Orientation SLERP r0 -> r1 along the arc length."""
 
-    def __init__(self, a, ta, b, tb, r0, r1) -> None:
+    def __init__(self, a: NDArray[np.float64], ta: NDArray[np.float64], b: NDArray[np.float64],
+                 tb: NDArray[np.float64], r0: NDArray[np.float64], r1: NDArray[np.float64]) -> None:
         a, b = np.asarray(a, float), np.asarray(b, float)
         h = float(np.linalg.norm(b - a)) / 3.0
-        self.ctrl = np.stack([a, a + h * np.asarray(ta), b - h * np.asarray(tb), b])
+        self.ctrl: NDArray[np.float64] = np.stack([a, a + h * np.asarray(ta), b - h * np.asarray(tb), b])
         self.r0, self.r1 = r0, r1
         self.angle = rotation_angle(r0, r1)
         self._build_table()
 
-    def _native(self, w: np.ndarray) -> np.ndarray:
+    def _native(self, w: NDArray[np.float64]) -> NDArray[np.float64]:
         w = np.asarray(w, dtype=float)[:, None]
         c = self.ctrl
         m = 1.0 - w
-        return m**3 * c[0] + 3 * m * m * w * c[1] + 3 * m * w * w * c[2] + w**3 * c[3]
+        p: NDArray[np.float64] = m**3 * c[0] + 3 * m * m * w * c[1] + 3 * m * w * w * c[2] + w**3 * c[3]
+        return p
 
 
 class Spline(_TabulatedSegment):
     """Cubic spline (chord-length knots, natural ends) through ``points`` (M, 3) mm; the
     orientation follows a rotation spline through ``rotations`` (M, 3, 3) at the same knots."""
 
-    def __init__(self, points: np.ndarray, rotations: np.ndarray) -> None:
+    def __init__(self, points: NDArray[np.float64], rotations: NDArray[np.float64]) -> None:
         from scipy.interpolate import CubicSpline
 
         pts = np.asarray(points, dtype=float)
@@ -246,25 +260,27 @@ class Spline(_TabulatedSegment):
         knots /= knots[-1]
         self.knots = knots
         self.points = pts
-        self._cs = CubicSpline(knots, pts, bc_type="natural" if len(pts) > 2 else "not-a-knot")
+        self._cs: CubicSpline = CubicSpline(knots, pts, bc_type="natural" if len(pts) > 2 else "not-a-knot")
         self._rots = rots
         self.r0, self.r1 = rots[0], rots[-1]
         self.angle = sum(rotation_angle(rots[i], rots[i + 1]) for i in range(len(rots) - 1))
         self._n_table = int(min(4096, 256 * (len(pts) - 1) + 256))
         self._build_table()
-        self._rspline = None
+        self._rspline: RotationSpline | None = None
         if self.angle > 1e-9:
             if len(rots) > 2:
                 from scipy.spatial.transform import Rotation, RotationSpline
 
                 self._rspline = RotationSpline(knots, Rotation.from_matrix(rots))
 
-    def _native(self, w: np.ndarray) -> np.ndarray:
-        return self._cs(np.asarray(w, dtype=float))
+    def _native(self, w: NDArray[np.float64]) -> NDArray[np.float64]:
+        p: NDArray[np.float64] = self._cs(np.asarray(w, dtype=float))  # (scipy is untyped)
+        return p
 
-    def rotations(self, u: np.ndarray) -> np.ndarray:
+    def rotations(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         if self._rspline is not None:
-            return self._rspline(self.native_param(u)).as_matrix()
+            r: NDArray[np.float64] = self._rspline(self.native_param(u)).as_matrix()  # (untyped)
+            return r
         return super().rotations(self.native_param(u))
 
 
@@ -279,7 +295,7 @@ class Path:
     segments in proportion to their ``weights`` (equivalent lengths, see :meth:`weighted`)."""
 
     segments: list[Segment]
-    weights: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    weights: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
     def __post_init__(self) -> None:
         if not len(self.weights):
@@ -304,7 +320,7 @@ class Path:
         """Total orientation change (rad)."""
         return float(sum(s.angle for s in self.segments))
 
-    def evaluate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def evaluate(self, s: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Positions (n, 3) mm and rotations (n, 3, 3) at global progress ``s`` (n,)."""
         s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
         n = len(self.segments)
@@ -322,7 +338,7 @@ class Path:
         return pos, rot
 
 
-def frame_axes(rot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def frame_axes(rot: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Columns x, y, z of a rotation matrix."""
     return rot[:, 0].copy(), rot[:, 1].copy(), rot[:, 2].copy()
 
@@ -366,11 +382,11 @@ class _Trimmed(Segment):
         self.r1 = seg.rotations(np.array([u1]))[0]
         self.angle = rotation_angle(self.r0, self.r1)
 
-    def _map(self, u: np.ndarray) -> np.ndarray:
+    def _map(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         return self.u0 + np.asarray(u, dtype=float) * (self.u1 - self.u0)
 
-    def positions(self, u: np.ndarray) -> np.ndarray:
+    def positions(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         return self.seg.positions(self._map(u))
 
-    def rotations(self, u: np.ndarray) -> np.ndarray:
+    def rotations(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         return self.seg.rotations(self._map(u))

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -43,6 +44,11 @@ from parolkit.moves import (
 )
 from parolkit.robot import PAROL6, RobotModel
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from parolkit.kinematics import Tool
+
 __all__ = [
     "plan",
     # the joint-space defaults, defined in parolkit.motion.joint
@@ -64,10 +70,10 @@ def _rate(rate_hz: float) -> float:
 
 def plan(
     move: object,
-    start_deg: Sequence[float],
+    start_deg: Sequence[float] | NDArray[np.float64],
     *,
     model: RobotModel = PAROL6,
-    tool: object = None,
+    tool: str | Tool | None = None,
     rate_hz: float = 100.0,
 ) -> Trajectory:
     """Plan ``move`` from the joint angles ``start_deg`` (deg, J1..J6).
@@ -91,7 +97,9 @@ def plan(
         raise PlanningError(name, f"the profile could not be computed: {exc}") from exc
 
 
-def _dispatch(move: object, start: np.ndarray, model: RobotModel, tool: object, rate: float) -> Trajectory:
+def _dispatch(
+    move: object, start: NDArray[np.float64], model: RobotModel, tool: str | Tool | None, rate: float,
+) -> Trajectory:
     if isinstance(move, JointMove):
         return plan_joint_move(move, start, model, rate)
     if isinstance(move, PoseMove):
@@ -101,9 +109,9 @@ def _dispatch(move: object, start: np.ndarray, model: RobotModel, tool: object, 
     if isinstance(move, JointJog):
         return plan_joint_jog(move, start, model, rate)
     if not isinstance(move, _CARTESIAN_MOVES):
+        kinds = (JointMove, PoseMove, SpeedJointMove, JointJog) + _CARTESIAN_MOVES
         raise ParolkitValueError(
-            f"move must be one of {', '.join(c.__name__ for c in (JointMove, PoseMove, SpeedJointMove, JointJog) + _CARTESIAN_MOVES)}, "
-            f"got {type(move).__name__}"
+            f"move must be one of {', '.join(c.__name__ for c in kinds)}, got {type(move).__name__}"
         )
     from parolkit.motion import cartesian  # lazy: needs kinematics
 

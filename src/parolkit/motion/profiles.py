@@ -19,8 +19,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
 __all__ = [
     "POLY_PEAK_SPEED",
@@ -82,7 +86,7 @@ class ScalarProfile:
             return self.peak_speed / self.ta if self.ta > 0 else math.inf
         return float(max(abs(a) for a in self.acc)) if self.acc else 0.0
 
-    def __call__(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def __call__(self, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Evaluate at times ``t`` (s); times outside [0, T] are held at the ends."""
         t = np.minimum(np.maximum(t, 0.0), self.T)
         if self.T <= 0:
@@ -100,7 +104,9 @@ class ScalarProfile:
 BASIS_CACHE_MAX_SAMPLES = 2000
 
 
-def sampled_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sampled_basis(
+    kind: str, T: float, ta: float, rate_hz: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Tick times and the unit profile sampled at them, cached and read-only.
 
     ``kind`` "poly" or "trap" (``ta``: the trapezoid's acceleration time, s), duration ``T``
@@ -123,11 +129,15 @@ def sampled_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.nd
 
 
 @lru_cache(maxsize=64)
-def _cached_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _cached_basis(
+    kind: str, T: float, ta: float, rate_hz: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     return _compute_basis(kind, T, ta, rate_hz)
 
 
-def _compute_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _compute_basis(
+    kind: str, T: float, ta: float, rate_hz: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     n = max(1, int(math.ceil(T * rate_hz - 1e-6)))
     t = np.arange(1, n + 1, dtype=float) / rate_hz
     s, sd, _ = ScalarProfile(kind, T, ta)(t)
@@ -141,7 +151,7 @@ def _compute_basis(kind: str, T: float, ta: float, rate_hz: float) -> tuple[np.n
     return t, basis, speed
 
 
-def quintic(t: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def quintic(t: NDArray[np.float64], T: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Quintic 10 tau^3 - 15 tau^4 + 6 tau^5 (tau = t / T): zero speed and acceleration at
     both ends.  ``t`` in s, clipped to [0, T]."""
     tau = np.minimum(np.maximum(np.asarray(t, dtype=float) * (1.0 / T), 0.0), 1.0)
@@ -152,7 +162,9 @@ def quintic(t: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return s, sd, sdd
 
 
-def trapezoid(t: np.ndarray, T: float, ta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def trapezoid(
+    t: NDArray[np.float64], T: float, ta: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Unit trapezoid over ``T`` s with acceleration time ``ta`` (0 < ta <= T/2), equal
     braking time.  Cruise speed 1 / (T - ta), acceleration 1 / (ta (T - ta))."""
     t = np.clip(np.asarray(t, dtype=float), 0.0, T)
@@ -223,7 +235,9 @@ def ruckig_unit_profile(
     )
 
 
-def _eval_piecewise_jerk(t: np.ndarray, p: ScalarProfile) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _eval_piecewise_jerk(
+    t: NDArray[np.float64], p: ScalarProfile,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     starts = np.asarray(p.phase_t)
     k = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(p.jerk) - 1)
     dt = t - starts[k]

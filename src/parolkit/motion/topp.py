@@ -5,8 +5,12 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
 __all__ = ["ToppResult", "toppra_parameterize"]
 
@@ -17,7 +21,7 @@ class ToppResult:
     in the units of the waypoints (deg, deg/s, deg/s^2), times clipped to [0, duration]."""
 
     duration: float
-    evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+    evaluate: Callable[[NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]]
     #: the time-optimal duration before any uniform slow-down to a requested duration (s)
     optimal_duration: float = 0.0
 
@@ -27,8 +31,8 @@ TOPP_MARGIN = 0.97
 
 
 def toppra_parameterize(
-    s: np.ndarray, q_deg: np.ndarray, vmax_deg_s: np.ndarray, amax_deg_s2: np.ndarray,
-    *, duration: float | None = None,
+    s: NDArray[np.float64], q_deg: NDArray[np.float64], vmax_deg_s: NDArray[np.float64],
+    amax_deg_s2: NDArray[np.float64], *, duration: float | None = None,
 ) -> ToppResult | None:
     """Time-optimal timing of the joint path through ``q_deg`` (M, 6) at path parameters
     ``s`` (M,) (strictly increasing), within per-joint speed and acceleration limits.
@@ -59,7 +63,7 @@ def toppra_parameterize(
     k = 1.0 if duration is None or duration <= t_opt else t_opt / duration
     total = t_opt / k
 
-    def evaluate(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def evaluate(t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         tau = np.clip(np.asarray(t, dtype=float) * k, 0.0, t_opt)
         return (
             np.asarray(traj(tau)), np.asarray(traj(tau, 1)) * k, np.asarray(traj(tau, 2)) * k * k,

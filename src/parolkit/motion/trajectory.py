@@ -9,15 +9,24 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
 from parolkit.robot import PAROL6, RobotModel
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from parolkit.kinematics import Tool
+
 __all__ = ["Trajectory"]
 
 
-def _frozen(a: np.ndarray) -> np.ndarray:
+_Array = TypeVar("_Array", bound=np.ndarray)
+
+
+def _frozen(a: _Array) -> _Array:
     a.setflags(write=False)
     return a
 
@@ -41,16 +50,16 @@ class Trajectory:
             planner computed; FK of these lies exactly on the path), or None.
     """
 
-    t: np.ndarray
-    positions: np.ndarray
-    speeds: np.ndarray
-    commands: np.ndarray
+    t: NDArray[np.float64]
+    positions: NDArray[np.int64]
+    speeds: NDArray[np.int64]
+    commands: NDArray[np.uint8]
     rate_hz: float
     move: object
     notes: tuple[str, ...] = ()
-    start_deg: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    start_deg: NDArray[np.float64] = field(default_factory=lambda: np.zeros(6))
     model: RobotModel = PAROL6
-    planned_deg: np.ndarray | None = None
+    planned_deg: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "t", _frozen(np.asarray(self.t, dtype=float)))
@@ -70,9 +79,9 @@ class Trajectory:
 
     @classmethod
     def _trusted(
-        cls, t: np.ndarray, positions: np.ndarray, speeds: np.ndarray, commands: np.ndarray,
-        rate_hz: float, move: object, notes: tuple[str, ...], start_deg: np.ndarray,
-        model: RobotModel, planned_deg: np.ndarray | None,
+        cls, t: NDArray[np.float64], positions: NDArray[np.int64], speeds: NDArray[np.int64],
+        commands: NDArray[np.uint8], rate_hz: float, move: object, notes: tuple[str, ...],
+        start_deg: NDArray[np.float64], model: RobotModel, planned_deg: NDArray[np.float64] | None,
     ) -> Trajectory:
         """Internal constructor for arrays the planner built itself with the right dtypes and
         shapes (t float (N,), positions/speeds int64 (N, 6), commands uint8 (N,), start_deg
@@ -106,33 +115,36 @@ class Trajectory:
         """Name of the move kind (``"MoveJoint"``, ...)."""
         return getattr(self.move, "name", type(self.move).__name__)
 
-    def positions_deg(self) -> np.ndarray:
+    def positions_deg(self) -> NDArray[np.float64]:
         """(N, 6) joint positions in degrees."""
-        return self.positions / self.model.steps_per_deg
+        deg: NDArray[np.float64] = self.positions / self.model.steps_per_deg
+        return deg
 
-    def speeds_deg_s(self) -> np.ndarray:
+    def speeds_deg_s(self) -> NDArray[np.float64]:
         """(N, 6) joint speeds in deg/s."""
-        return self.speeds / self.model.steps_per_deg
+        deg_s: NDArray[np.float64] = self.speeds / self.model.steps_per_deg
+        return deg_s
 
     @property
-    def final_deg(self) -> np.ndarray:
+    def final_deg(self) -> NDArray[np.float64]:
         """(6,) joint angles (deg) of the last sample (the start when empty)."""
         if not len(self.t):
             return np.array(self.start_deg)
-        return self.positions[-1] / self.model.steps_per_deg
+        deg: NDArray[np.float64] = self.positions[-1] / self.model.steps_per_deg
+        return deg
 
     @property
-    def final_steps(self) -> np.ndarray:
+    def final_steps(self) -> NDArray[np.int64]:
         """(6,) int64 joint positions of the last sample."""
         return np.array(self.positions[-1]) if len(self.t) else np.rint(
             self.start_deg * self.model.steps_per_deg
         ).astype(np.int64)
 
-    def peak_speeds_steps_s(self) -> np.ndarray:
+    def peak_speeds_steps_s(self) -> NDArray[np.int64]:
         """(6,) largest |speed| per joint, steps/s."""
         return np.abs(self.speeds).max(axis=0) if len(self.t) else np.zeros(6, dtype=np.int64)
 
-    def tcp_path_mm(self, tool: object = None, max_points: int = 400) -> np.ndarray:
+    def tcp_path_mm(self, tool: str | Tool | None = None, max_points: int = 400) -> NDArray[np.float64]:
         """(M, 3) tool positions (mm, WRF) along the move, M <= ``max_points`` (start and end
         included).  Uses forward kinematics (imported lazily)."""
         from parolkit import kinematics
@@ -146,7 +158,7 @@ class Trajectory:
         poses = np.asarray(kinematics.fk_batch(q, tool))
         return np.array(poses[:, :3], dtype=float)
 
-    def poses(self, tool: object = None) -> np.ndarray:
+    def poses(self, tool: str | Tool | None = None) -> NDArray[np.float64]:
         """(N, 6) tool poses [x, y, z mm, A, B, C deg] of every sample (forward kinematics)."""
         from parolkit import kinematics
 

@@ -6,10 +6,15 @@ the sample time, the joint and the value with its limit.  Nothing is clamped.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from parolkit.motion.errors import PlanningError
 from parolkit.robot import JOINT_NAMES, RobotModel
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
 __all__ = ["check_positions", "check_speeds", "check_accels", "ACCEL_TOLERANCE", "model_arrays"]
 
@@ -72,14 +77,14 @@ def inside(values: list[float], lo: list[float], hi: list[float]) -> bool:
     return True
 
 
-def _first(mask: np.ndarray) -> tuple[int, int] | None:
+def _first(mask: NDArray[np.bool_]) -> tuple[int, int] | None:
     if not mask.any():
         return None
     k, j = np.argwhere(mask)[0]
     return int(k), int(j)
 
 
-def check_positions(name: str, t: np.ndarray, steps: np.ndarray, model: RobotModel) -> None:
+def check_positions(name: str, t: NDArray[np.float64], steps: NDArray[np.int64], model: RobotModel) -> None:
     """Every (rounded) sample inside ``model.limits_steps``."""
     ma = model_arrays(model)
     lim = ma.limits_steps
@@ -102,7 +107,7 @@ def check_positions(name: str, t: np.ndarray, steps: np.ndarray, model: RobotMod
 
 
 def check_speeds(
-    name: str, t: np.ndarray, speeds_steps_s: np.ndarray, model: RobotModel, *,
+    name: str, t: NDArray[np.float64], speeds_steps_s: NDArray[np.float64], model: RobotModel, *,
     jog: bool = False, hint: str = "",
 ) -> None:
     """Every |speed| within the maximum joint speed (``jog``: the maximum jog speed)."""
@@ -126,7 +131,7 @@ def check_speeds(
 
 
 def check_accels(
-    name: str, t: np.ndarray, speeds_steps_s: np.ndarray, model: RobotModel, rate_hz: float,
+    name: str, t: NDArray[np.float64], speeds_steps_s: NDArray[np.float64], model: RobotModel, rate_hz: float,
     *, hint: str = "",
 ) -> None:
     """Every finite-difference acceleration (from rest) within the top of the acceleration

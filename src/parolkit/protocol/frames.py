@@ -24,9 +24,10 @@ returns the wire value unchanged.
 from __future__ import annotations
 
 import operator
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, fields
 from enum import IntEnum, IntFlag
+from typing import SupportsIndex, TypeVar, cast
 
 from parolkit.errors import ParolkitValueError
 
@@ -178,7 +179,8 @@ class GripperStatus:
 # ---------------------------------------------------------------------------------------------
 
 
-def _check_int(value: object, name: str, bounds: tuple[int, int]) -> int:
+# (the checks are typed as the fields declare; at run time they refuse whatever else comes in)
+def _check_int(value: SupportsIndex, name: str, bounds: tuple[int, int]) -> int:
     if type(value) is int and bounds[0] <= value <= bounds[1]:  # the common case, fast
         return value
     if isinstance(value, bool):
@@ -194,10 +196,10 @@ def _check_int(value: object, name: str, bounds: tuple[int, int]) -> int:
     return v
 
 
-def _check_six(values: object, name: str, bounds: tuple[int, int]) -> tuple[int, ...]:
+def _check_six(values: Iterable[SupportsIndex], name: str, bounds: tuple[int, int]) -> tuple[int, ...]:
     if isinstance(values, (str, bytes)) or not hasattr(values, "__len__"):
         raise ParolkitValueError(f"{name} must be a sequence of 6 integers, got {values!r}")
-    seq = tuple(values)  # type: ignore[arg-type]
+    seq = tuple(values)
     if len(seq) != 6:
         raise ParolkitValueError(f"{name} must have 6 values (J1..J6), got {len(seq)}")
     lo, hi = bounds
@@ -205,7 +207,7 @@ def _check_six(values: object, name: str, bounds: tuple[int, int]) -> tuple[int,
         if type(v) is not int or not lo <= v <= hi:
             break
     else:
-        return seq  # all plain in-range ints: no per-element work
+        return cast("tuple[int, ...]", seq)  # all plain in-range ints: no per-element work
     return tuple(_check_int(v, f"{name}[J{i + 1}]", bounds) for i, v in enumerate(seq))
 
 
@@ -245,7 +247,10 @@ def _i16(data: bytes, off: int) -> int:
     return int.from_bytes(data[off : off + 2], "big", signed=True)
 
 
-def _trusted(cls, values: dict):
+_Frame = TypeVar("_Frame", "CommandFrame", "StatusFrame")
+
+
+def _trusted(cls: type[_Frame], values: dict[str, object]) -> _Frame:
     """Build a frame from values decoded off the wire (in range by construction)."""
     obj = object.__new__(cls)
     obj.__dict__.update(values)

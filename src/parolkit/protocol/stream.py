@@ -76,7 +76,7 @@ class FrameParser(Generic[F]):
     """Generic stream parser; use :class:`StatusParser` or :class:`CommandParser`."""
 
     def __init__(self, frame_type: type[F], length: int, crc: int | None) -> None:
-        self._type = frame_type
+        self._type: type[F] = frame_type
         self._len = length
         self._size = 4 + length
         self._crc = crc
