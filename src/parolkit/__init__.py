@@ -6,8 +6,8 @@ The object API for scripts is ``parolkit.Robot`` / ``parolkit.AsyncRobot`` (load
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+#: (not ``typing.TYPE_CHECKING``: importing typing would cost the controller's start-up path a few ms)
+TYPE_CHECKING = False
 if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ loads them lazily
     from parolkit.client import robot_api as robot_api
     from parolkit.client.async_robot import AsyncRobot
