@@ -389,12 +389,13 @@ def _target(pose: object) -> tuple[Sequence[float], tuple[float, float, float]]:
         return _target_slow(pose)
     try:
         x, y, z, a, b, c = pose
-        x *= 1e-3
-        y *= 1e-3
-        z *= 1e-3
-        a *= _DEG
-        b *= _DEG
-        c *= _DEG
+        # new objects, never in place: an entry may be the caller's (0-d) array
+        x = x * 1e-3
+        y = y * 1e-3
+        z = z * 1e-3
+        a = a * _DEG
+        b = b * _DEG
+        c = c * _DEG
         if not _isfinite(x + y + z + a + b + c):  # NaN/inf (or a sum overflow): slow path decides
             return _target_slow(pose)
         ca = _cos(a)
