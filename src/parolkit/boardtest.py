@@ -30,7 +30,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 from parolkit.errors import ParolkitError, ParolkitValueError
 from parolkit.protocol.frames import (
@@ -44,6 +44,9 @@ from parolkit.protocol.frames import (
 )
 from parolkit.protocol.stream import StatusParser
 from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
+
+if TYPE_CHECKING:  # pragma: no cover
+    from parolkit.transport.base import Transport
 
 __all__ = ["BoardTester", "BoardTestError", "format_status", "register", "main", "run_action"]
 
@@ -114,11 +117,11 @@ class BoardTester:
     """Streams command frames to one board and keeps its latest status.
 
     ``transport``: an open :class:`parolkit.transport.Transport`; ``rate_hz``: frame rate
-    (1..1000); ``out``: where reports go (default: the current ``sys.stdout``).  Sticky PC-side state (outputs, gripper setpoints)
-    is sent in every frame, as the original software does.
+    (1..1000); ``out``: where reports go (default: the current ``sys.stdout``).  Sticky PC-side
+    state (outputs, gripper setpoints) is sent in every frame, as the original software does.
     """
 
-    def __init__(self, transport, rate_hz: float = 100.0, out: TextIO | None = None,
+    def __init__(self, transport: Transport, rate_hz: float = 100.0, out: TextIO | None = None,
                  model: RobotModel = PAROL6) -> None:
         if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float)) or not 1 <= rate_hz <= 1000:
             raise ParolkitValueError(f"rate must be in 1..1000 Hz, got {rate_hz!r}")
@@ -424,7 +427,8 @@ def _add_actions(parser: argparse.ArgumentParser) -> None:
     sub.add_parser("status", help="print one full status snapshot")
 
 
-def register(subparsers, name: str = "board-test") -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
+             name: str = "board-test") -> argparse.ArgumentParser:
     """Add ``parolkit board-test`` to the dispatcher."""
     parser = subparsers.add_parser(
         name, help="exercise one board function at a time",

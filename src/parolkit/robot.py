@@ -27,10 +27,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from parolkit.errors import JointLimitError, ParolkitValueError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
 
 __all__ = [
     "NUM_JOINTS",
@@ -166,34 +170,34 @@ class RobotModel:
         if len(self.dh) != NUM_JOINTS:
             raise ParolkitValueError("dh needs one row per joint")
 
-    def with_changes(self, **changes: object) -> RobotModel:
+    def with_changes(self, **changes: Any) -> RobotModel:
         """A copy with some fields replaced (validated like the original)."""
         return replace(self, **changes)
 
     # ---- derived arrays (cheap; numpy arrays are created on each access, never shared) ----
 
     @property
-    def steps_per_deg(self) -> np.ndarray:
+    def steps_per_deg(self) -> NDArray[np.float64]:
         """Microsteps per joint degree, J1..J6 (113.78, 355.56, 321.69, 71.11, 71.11, 177.78)."""
-        return np.asarray(self.gear_ratios, dtype=float) / MOTOR_DEG_PER_STEP
+        return np.asarray(self.gear_ratios, dtype=np.float64) / MOTOR_DEG_PER_STEP
 
     @property
-    def steps_per_rad(self) -> np.ndarray:
+    def steps_per_rad(self) -> NDArray[np.float64]:
         """Microsteps per joint radian, J1..J6."""
         return self.steps_per_deg * (180.0 / math.pi)
 
     @property
-    def limits_deg_array(self) -> np.ndarray:
+    def limits_deg_array(self) -> NDArray[np.float64]:
         """(6, 2) array of the published degree limits."""
-        return np.asarray(self.limits_deg, dtype=float)
+        return np.asarray(self.limits_deg, dtype=np.float64)
 
     @property
-    def limits_steps_array(self) -> np.ndarray:
+    def limits_steps_array(self) -> NDArray[np.int64]:
         """(6, 2) int64 array of the published step limits (what the wire guard enforces)."""
         return np.asarray(self.limits_steps, dtype=np.int64)
 
     @property
-    def safe_limits_deg(self) -> np.ndarray:
+    def safe_limits_deg(self) -> NDArray[np.float64]:
         """(6, 2) degree limits that are safe on BOTH tables.
 
         The published degree and step tables differ by a fraction of a step (the original
@@ -209,35 +213,35 @@ class RobotModel:
         return np.stack([lo, hi], axis=1)
 
     @property
-    def max_speed_deg_s(self) -> np.ndarray:
-        return np.asarray(self.max_speed_steps_s, dtype=float) / self.steps_per_deg
+    def max_speed_deg_s(self) -> NDArray[np.float64]:
+        return np.asarray(self.max_speed_steps_s, dtype=np.float64) / self.steps_per_deg
 
     @property
-    def max_jog_speed_deg_s(self) -> np.ndarray:
-        return np.asarray(self.max_jog_speed_steps_s, dtype=float) / self.steps_per_deg
+    def max_jog_speed_deg_s(self) -> NDArray[np.float64]:
+        return np.asarray(self.max_jog_speed_steps_s, dtype=np.float64) / self.steps_per_deg
 
     @property
-    def min_speed_deg_s(self) -> np.ndarray:
-        return np.asarray(self.min_speed_steps_s, dtype=float) / self.steps_per_deg
+    def min_speed_deg_s(self) -> NDArray[np.float64]:
+        return np.asarray(self.min_speed_steps_s, dtype=np.float64) / self.steps_per_deg
 
     @property
-    def max_accel_deg_s2(self) -> np.ndarray:
+    def max_accel_deg_s2(self) -> NDArray[np.float64]:
         """Per-joint upper acceleration (the top of :attr:`accel_range_steps_s2`) in deg/s^2."""
         return self.accel_range_steps_s2[1] / self.steps_per_deg
 
     # ---- percent mappings used by the original software ----
 
-    def speed_from_percent(self, percent: float) -> np.ndarray:
+    def speed_from_percent(self, percent: float) -> NDArray[np.float64]:
         """Joint speed (steps/s, per joint) for a move speed percentage: 0 % -> min, 100 % -> max."""
         p = _check_percent(percent, "speed_percentage")
-        mn = np.asarray(self.min_speed_steps_s, dtype=float)
-        mx = np.asarray(self.max_speed_steps_s, dtype=float)
+        mn = np.asarray(self.min_speed_steps_s, dtype=np.float64)
+        mx = np.asarray(self.max_speed_steps_s, dtype=np.float64)
         return mn + (mx - mn) * p / 100.0
 
-    def jog_speed_from_percent(self, percent: float) -> np.ndarray:
+    def jog_speed_from_percent(self, percent: float) -> NDArray[np.float64]:
         """Jog speed (steps/s, per joint): 0..100 % -> 0..max jog speed (as the original)."""
         p = _check_percent(percent, "speed_percentage")
-        return np.asarray(self.max_jog_speed_steps_s, dtype=float) * p / 100.0
+        return np.asarray(self.max_jog_speed_steps_s, dtype=np.float64) * p / 100.0
 
     def accel_from_percent(self, percent: float) -> float:
         """Joint acceleration (steps/s^2) for a percentage: 0 % -> 100, 100 % -> 32000."""
@@ -280,14 +284,14 @@ HIGH_SPEED_MAX_STEPS_S = (15000, 25000, 32000, 10000, 10000, 27000)
 # --------------------------------------------------------------------------------------------
 
 
-def as_joint_array(values: object, name: str = "joints", *, allow_batch: bool = True) -> np.ndarray:
+def as_joint_array(values: object, name: str = "joints", *, allow_batch: bool = True) -> NDArray[np.float64]:
     """Validate and convert joint values to a float64 array of shape (6,) or (N, 6).
 
     Raises :class:`ParolkitValueError` naming ``name`` for wrong shapes, non-numbers, NaN or
     infinities.
     """
     try:
-        arr = np.asarray(values, dtype=float)
+        arr = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):
         raise ParolkitValueError(f"{name} must be numbers, got {values!r}") from None
     if arr.ndim == 1 and arr.shape[0] == NUM_JOINTS:
@@ -304,60 +308,60 @@ def as_joint_array(values: object, name: str = "joints", *, allow_batch: bool = 
     return arr
 
 
-def _scale(values: object, name: str, model: RobotModel | None) -> tuple[np.ndarray, RobotModel]:
+def _scale(values: object, name: str, model: RobotModel | None) -> tuple[NDArray[np.float64], RobotModel]:
     return as_joint_array(values, name), (model or PAROL6)
 
 
-def _to_steps(x: np.ndarray) -> np.ndarray:
+def _to_steps(x: NDArray[np.float64]) -> NDArray[np.int64]:
     out = np.rint(x)
     if np.any(np.abs(out) > 2**53):
         raise ParolkitValueError("value too large to express in steps")
     return out.astype(np.int64)
 
 
-def deg_to_steps(deg: object, model: RobotModel | None = None) -> np.ndarray:
+def deg_to_steps(deg: object, model: RobotModel | None = None) -> NDArray[np.int64]:
     """Joint degrees -> microsteps (int64), nearest step, ties to even."""
     arr, m = _scale(deg, "joints_deg", model)
     return _to_steps(arr * m.steps_per_deg)
 
 
-def steps_to_deg(steps: object, model: RobotModel | None = None) -> np.ndarray:
+def steps_to_deg(steps: object, model: RobotModel | None = None) -> NDArray[np.float64]:
     """Microsteps -> joint degrees (float64, exact)."""
     arr, m = _scale(steps, "joints_steps", model)
     return arr / m.steps_per_deg
 
 
-def rad_to_steps(rad: object, model: RobotModel | None = None) -> np.ndarray:
+def rad_to_steps(rad: object, model: RobotModel | None = None) -> NDArray[np.int64]:
     """Joint radians -> microsteps (int64), nearest step, ties to even."""
     arr, m = _scale(rad, "joints_rad", model)
     return _to_steps(arr * m.steps_per_rad)
 
 
-def steps_to_rad(steps: object, model: RobotModel | None = None) -> np.ndarray:
+def steps_to_rad(steps: object, model: RobotModel | None = None) -> NDArray[np.float64]:
     """Microsteps -> joint radians (float64)."""
     arr, m = _scale(steps, "joints_steps", model)
     return arr / m.steps_per_rad
 
 
-def deg_s_to_steps_s(deg_s: object, model: RobotModel | None = None) -> np.ndarray:
+def deg_s_to_steps_s(deg_s: object, model: RobotModel | None = None) -> NDArray[np.int64]:
     """Joint deg/s -> steps/s (int64), nearest, ties to even."""
     arr, m = _scale(deg_s, "speeds_deg_s", model)
     return _to_steps(arr * m.steps_per_deg)
 
 
-def steps_s_to_deg_s(steps_s: object, model: RobotModel | None = None) -> np.ndarray:
+def steps_s_to_deg_s(steps_s: object, model: RobotModel | None = None) -> NDArray[np.float64]:
     """Steps/s -> joint deg/s (float64)."""
     arr, m = _scale(steps_s, "speeds_steps_s", model)
     return arr / m.steps_per_deg
 
 
-def rad_s_to_steps_s(rad_s: object, model: RobotModel | None = None) -> np.ndarray:
+def rad_s_to_steps_s(rad_s: object, model: RobotModel | None = None) -> NDArray[np.int64]:
     """Joint rad/s -> steps/s (int64), nearest, ties to even."""
     arr, m = _scale(rad_s, "speeds_rad_s", model)
     return _to_steps(arr * m.steps_per_rad)
 
 
-def steps_s_to_rad_s(steps_s: object, model: RobotModel | None = None) -> np.ndarray:
+def steps_s_to_rad_s(steps_s: object, model: RobotModel | None = None) -> NDArray[np.float64]:
     """Steps/s -> joint rad/s (float64)."""
     arr, m = _scale(steps_s, "speeds_steps_s", model)
     return arr / m.steps_per_rad
@@ -368,7 +372,10 @@ def steps_s_to_rad_s(steps_s: object, model: RobotModel | None = None) -> np.nda
 # --------------------------------------------------------------------------------------------
 
 
-def _first_violation(arr: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+def _first_violation(
+    arr: NDArray[np.float64], lo: NDArray[np.float64 | np.int64],
+    hi: NDArray[np.float64 | np.int64],
+) -> tuple[int, int, float, str, float] | None:
     flat = np.atleast_2d(arr)
     below = flat < lo
     above = flat > hi
@@ -384,7 +391,7 @@ def _first_violation(arr: np.ndarray, lo: np.ndarray, hi: np.ndarray):
 
 def check_joint_limits_deg(
     deg: object, model: RobotModel | None = None, *, safe: bool = True, what: str = "joints"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Raise :class:`JointLimitError` if any angle is outside its range; return the array.
 
     ``safe=True`` (default) uses :attr:`RobotModel.safe_limits_deg` (the range every part of
@@ -405,7 +412,7 @@ def check_joint_limits_deg(
 
 def check_joint_limits_steps(
     steps: object, model: RobotModel | None = None, *, what: str = "joints"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Raise :class:`JointLimitError` if any count is outside the published step limits."""
     m = model or PAROL6
     arr = as_joint_array(steps, what)
@@ -422,11 +429,11 @@ def check_joint_limits_steps(
 
 def check_joint_speeds_steps_s(
     speeds: object, model: RobotModel | None = None, *, jog: bool = False, what: str = "speeds"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Raise :class:`JointLimitError` if any |speed| exceeds the max (or max jog) speed."""
     m = model or PAROL6
     arr = as_joint_array(speeds, what)
-    mx = np.asarray(m.max_jog_speed_steps_s if jog else m.max_speed_steps_s, dtype=float)
+    mx = np.asarray(m.max_jog_speed_steps_s if jog else m.max_speed_steps_s, dtype=np.float64)
     v = _first_violation(arr, -mx, mx)
     if v is not None:
         row, j, value, side, bound = v

@@ -280,6 +280,22 @@ def test_malformed_inputs_raise_ik_errors_naming_the_field():
         ik([7, 250, 200, -100, 0, -90], config=3)
 
 
+def test_a_wrongly_shaped_pose_array_is_rejected_and_left_unchanged():
+    column = fk(STANDBY).reshape(6, 1)
+    before = column.copy()
+    for solve in (ik, ik_all):
+        with pytest.raises(IKError, match=r"got shape \(6, 1\)"):
+            solve(column)
+        assert np.array_equal(column, before)
+
+
+def test_a_pose_of_numpy_0d_arrays_is_solved_and_left_unchanged():
+    pose = [np.array(v) for v in fk([90, -100, 170, 10, 20, 180])]
+    before = [float(v) for v in pose]
+    assert np.allclose(ik(pose, [90, -100, 170, 10, 20, 180]), [90, -100, 170, 10, 20, 180])
+    assert [float(v) for v in pose] == before
+
+
 def test_ik_never_returns_nan_or_a_wrong_pose_on_random_targets():
     rng = np.random.default_rng(9)
     poses = np.column_stack([rng.uniform(-450, 450, (2000, 3)), rng.uniform(-180, 180, (2000, 3))])

@@ -29,6 +29,8 @@ serial device for external software: ``PtyBoardServer(emu, "/tmp/p6")`` or
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from parolkit.board.emulator import BoardEmulator, ClockMode, Direction, EmulatorStats
 from parolkit.board.faults import ByteFaultInjector, LinkFaults
 from parolkit.board.gripper import GripperState, SSG48Gripper, jaw_rate_units_s
@@ -39,6 +41,9 @@ from parolkit.board.homing import (
     HomingPhase,
 )
 
+if TYPE_CHECKING:  # the real name for type checkers; at run time __getattr__ loads it lazily
+    from parolkit.board.pty_server import PtyBoardServer
+
 __all__ = [
     "BoardEmulator", "ClockMode", "Direction", "EmulatorStats", "ByteFaultInjector",
     "LinkFaults", "GripperState", "SSG48Gripper", "jaw_rate_units_s", "J5_OFFSET_PNEUMATIC",
@@ -46,7 +51,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> object:
     if name == "PtyBoardServer":
         from parolkit.board.pty_server import PtyBoardServer
 

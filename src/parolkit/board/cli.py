@@ -61,7 +61,7 @@ def _frame_log_size(text: str) -> int:
     return v
 
 
-def register(subparsers: argparse._SubParsersAction, name: str) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser], name: str) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         name,
         help="emulate a PAROL6 control board on a pseudo-terminal",

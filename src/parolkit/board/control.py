@@ -31,10 +31,10 @@ import os
 import socket
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypedDict
 
 from parolkit.board.emulator import BoardEmulator
-from parolkit.board.faults import LinkFaults
+from parolkit.board.faults import faults_from_options
 from parolkit.errors import ParolkitError, ParolkitValueError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -146,17 +146,26 @@ def execute_control(emu: BoardEmulator, text: str, *, frame_log: FrameLog | None
                     direction = val
                 else:
                     return f"error: unknown faults key {key!r} (drop, corrupt, delay, silent, dir)"
-            emu.set_faults(LinkFaults(**kw), direction=direction)  # type: ignore[arg-type]
+            emu.set_faults(faults_from_options(kw), direction=direction)
             return "ok"
     except ParolkitError as exc:
         return f"error: {exc}"
     return f"error: unknown command {cmd!r} (try 'help')"
 
 
+class _FrameQuery(TypedDict, total=False):
+    """The keywords of :meth:`FrameLog.query` a ``frames`` command gave."""
+
+    since: float
+    after: int
+    last: int
+    limit: int
+
+
 def _frames(frame_log: FrameLog | None, args: list[str]) -> str:
     if frame_log is None:
         return "error: the frame log is off (start board-sim with --frame-log SIZE)"
-    kw: dict[str, object] = {}
+    kw: _FrameQuery = {}
     for a in args:
         key, sep, val = a.partition("=")
         key = key.lower()
@@ -169,7 +178,7 @@ def _frames(frame_log: FrameLog | None, args: list[str]) -> str:
                 t = math.nan
             if not math.isfinite(t):
                 return f"error: frames since must be a time.monotonic() value in s, got {val!r}"
-            kw[key] = t
+            kw["since"] = t
         else:
             try:
                 n = int(val)
@@ -177,8 +186,13 @@ def _frames(frame_log: FrameLog | None, args: list[str]) -> str:
                 return f"error: frames {key} must be an integer, got {val!r}"
             if key == "after" and n < 0:
                 return f"error: frames after must be a sequence number >= 0, got {n}"
-            kw[key] = n
-    return "ok " + json.dumps(frame_log.query(**kw), separators=(",", ":"))  # type: ignore[arg-type]
+            if key == "after":
+                kw["after"] = n
+            elif key == "last":
+                kw["last"] = n
+            else:
+                kw["limit"] = n
+    return "ok " + json.dumps(frame_log.query(**kw), separators=(",", ":"))
 
 
 def _mask_to_joints(mask: int) -> list[int]:

@@ -32,6 +32,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from enum import Enum
+from typing import TypeVar
 
 from parolkit.board.faults import ByteFaultInjector, LinkFaults, faults_from_options
 from parolkit.board.gripper import GripperState, SSG48Gripper
@@ -56,6 +57,8 @@ from parolkit.robot import PAROL6, RobotModel
 from parolkit.transport.base import LinkLostError
 
 __all__ = ["BoardEmulator", "ClockMode", "EmulatorStats", "Direction"]
+
+_T = TypeVar("_T")
 
 _HOMING_CONTINUES = frozenset(range(256)) - {101, 102, 103, 123, 156}
 
@@ -196,8 +199,8 @@ class BoardEmulator:
             self._homed = 0xFF
         self._enabled = True
         self._command = int(BoardCommand.IDLE)
-        self._targets = (0, 0, 0, 0, 0, 0)
-        self._ff = (0, 0, 0, 0, 0, 0)
+        self._targets: tuple[int, ...] = (0, 0, 0, 0, 0, 0)
+        self._ff: tuple[int, ...] = (0, 0, 0, 0, 0, 0)
         self._outputs = 0
         self._estop = _check_bool(estop_pressed, "estop_pressed")
         self._in1 = _check_bool(in1, "in1")
@@ -625,7 +628,7 @@ class BoardEmulator:
     # =======================================================================================
     # read-only views
     # =======================================================================================
-    def _view(self, fn):  # type: ignore[no-untyped-def]
+    def _view(self, fn: Callable[[], _T]) -> _T:
         with self._lock:
             self._catch_up()
             return fn()

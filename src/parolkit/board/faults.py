@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import random
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from parolkit.errors import ParolkitValueError
@@ -40,6 +41,12 @@ def _check_delay(value: object, name: str) -> float:
     return v
 
 
+def _check_silent(value: object) -> bool:
+    if not isinstance(value, bool):
+        raise ParolkitValueError(f"silent must be a bool, got {value!r}")
+    return value
+
+
 @dataclass(frozen=True)
 class LinkFaults:
     """What goes wrong on a link.  The default (all zero) is a perfect link.
@@ -60,8 +67,7 @@ class LinkFaults:
         object.__setattr__(self, "drop_rate", _check_rate(self.drop_rate, "drop_rate"))
         object.__setattr__(self, "corrupt_rate", _check_rate(self.corrupt_rate, "corrupt_rate"))
         object.__setattr__(self, "delay_s", _check_delay(self.delay_s, "delay_s"))
-        if not isinstance(self.silent, bool):
-            raise ParolkitValueError(f"silent must be a bool, got {self.silent!r}")
+        _check_silent(self.silent)
 
     @property
     def active(self) -> bool:
@@ -72,13 +78,22 @@ class LinkFaults:
 _FIELDS = ("drop_rate", "corrupt_rate", "delay_s", "silent")
 
 
-def faults_from_options(options: dict[str, object]) -> LinkFaults:
-    """``LinkFaults(**options)`` with a clear error for an unknown option name."""
+def faults_from_options(options: Mapping[str, object]) -> LinkFaults:
+    """``LinkFaults(**options)`` with a clear error for an unknown option name.
+
+    The values are checked here (as :class:`LinkFaults` checks them, in the same order), so
+    they reach it typed as its fields.
+    """
     unknown = sorted(set(options) - set(_FIELDS))
     if unknown:
         raise ParolkitValueError(
             f"unknown fault option(s) {', '.join(unknown)}; allowed: {', '.join(_FIELDS)}")
-    return LinkFaults(**options)  # type: ignore[arg-type]
+    return LinkFaults(
+        drop_rate=_check_rate(options.get("drop_rate", 0.0), "drop_rate"),
+        corrupt_rate=_check_rate(options.get("corrupt_rate", 0.0), "corrupt_rate"),
+        delay_s=_check_delay(options.get("delay_s", 0.0), "delay_s"),
+        silent=_check_silent(options.get("silent", False)),
+    )
 
 
 @dataclass

@@ -214,7 +214,7 @@ class HomingSequence:
             return True
         direction = 1 if rem > 0 else -1
         v_now = abs(st.speed) if st.speed * direction > 0 else 0.0
-        v = min(self._vmax[j], v_now + seg.accel * dt, math.sqrt(2.0 * seg.accel * abs(rem)))
-        v = max(v, 100.0)  # a stepper never creeps below its minimum speed
-        st.speed = int(direction * v)
-        return st.run_toward(direction * v, dt, seg.value)
+        vel = min(self._vmax[j], v_now + seg.accel * dt, math.sqrt(2.0 * seg.accel * abs(rem)))
+        vel = max(vel, 100.0)  # a stepper never creeps below its minimum speed
+        st.speed = int(direction * vel)
+        return st.run_toward(direction * vel, dt, seg.value)

@@ -26,6 +26,7 @@ import time
 import tty
 from collections import deque
 from pathlib import Path
+from typing import Any
 
 from parolkit.board.emulator import BoardEmulator, ClockMode
 from parolkit.errors import ParolkitError, ParolkitValueError
@@ -93,7 +94,9 @@ class FrameLog:
             raise ParolkitValueError(f"frame log size must be an integer 1..{FRAME_LOG_MAX}, got {size!r}")
         self.size = size
         self._ring: deque[tuple[int, float, int]] = deque(maxlen=size)
-        self._parser: FrameParser = FrameParser(_RawCommandFrame, COMMAND_LEN, None)  # type: ignore[type-var]
+        # FrameParser is typed for the two decoded frame types; this one yields the raw bytes
+        # (_RawCommandFrame.decode), which its type parameter cannot express: Any
+        self._parser: FrameParser[Any] = FrameParser(_RawCommandFrame, COMMAND_LEN, None)
         self._lock = threading.Lock()
         #: frames recorded since the log was made (the newest frame's ``seq``)
         self.total = 0

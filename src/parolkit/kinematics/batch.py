@@ -17,6 +17,8 @@ Two modes (:func:`parolkit.kinematics.ik_batch`):
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -37,9 +39,12 @@ from parolkit.kinematics.model import (
     TWO_PI,
     WEIGHTS,
 )
-from parolkit.kinematics.pose import as_matrix_array, as_pose_array, cos_sin
+from parolkit.kinematics.pose import _Vec3, as_matrix_array, as_pose_array, cos_sin
 from parolkit.kinematics.tools import Tool
 from parolkit.kinematics.types import Branch, IKError, IKFailure
+
+if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
 
 __all__ = ["solve_independent", "solve_continuous", "targets_from_poses"]
 
@@ -82,7 +87,7 @@ _SIN_PHI3 = math.sin(PHI3)
 # ---------------------------------------------------------------------------------------------
 
 
-def _as_float_array(poses: object) -> np.ndarray:
+def _as_float_array(poses: object) -> NDArray[np.generic]:
     if isinstance(poses, np.ndarray):
         return poses
     try:
@@ -92,7 +97,9 @@ def _as_float_array(poses: object) -> np.ndarray:
                                  "or (N, 4, 4) matrices in metres") from None
 
 
-def targets_from_poses(poses: object, tool: Tool):
+def targets_from_poses(
+    poses: object, tool: Tool,
+) -> tuple[list[NDArray[np.float64]], list[NDArray[np.float64]]]:
     """``(N, 6)`` mm/deg or ``(N, 4, 4)`` m TCP poses -> flange rotation (9 arrays) + wrist centre (3)."""
     arr = _as_float_array(poses)
     if arr.ndim == 3 or arr.shape == (4, 4):
@@ -142,7 +149,8 @@ class _Shoulder:
     __slots__ = ("q1", "X", "Y", "c", "sdel", "delta", "atan_y", "n00", "n01", "n02", "n10", "n12",
                  "reach_ok", "excess")
 
-    def __init__(self, rot, pos, back: bool, free_q1: np.ndarray | None):
+    def __init__(self, rot: Sequence[NDArray[np.float64]], pos: Sequence[NDArray[np.float64]], back: bool,
+                 free_q1: NDArray[np.float64] | None) -> None:
         x, y, z = pos
         rho = np.sqrt(x * x + y * y)
         base = np.arctan2(y, x)
@@ -158,6 +166,7 @@ class _Shoulder:
         else:
             rr = rho
         if sing.any():
+            assert free_q1 is not None  # solve_continuous passes it whenever a sample is on the axis
             base = np.where(sing, free_q1, base)
             c1 = np.where(sing, np.cos(base), c1)
             s1 = np.where(sing, np.sin(base), s1)
@@ -183,7 +192,10 @@ class _Shoulder:
         self.n12 = c1 * r12 - s1 * r02
 
 
-def _arm(sh: _Shoulder, rot, down: bool, free_q4: np.ndarray):
+def _arm(
+    sh: _Shoulder, rot: Sequence[NDArray[np.float64]], down: bool, free_q4: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], _Vec3[NDArray[np.float64]],
+           _Vec3[NDArray[np.float64]], NDArray[np.bool_]]:
     """Raw joint arrays for one (shoulder, elbow): q1, q2, q3 and both wrist solutions.
 
     Returns ``(q1, q2, q3, noflip (q4, q5, q6), flip (q4, q5, q6), singular mask)``.  On the
@@ -238,7 +250,7 @@ _NARROW = tuple(hi - lo < TWO_PI - 2 * LIMIT_TOL for lo, hi in zip(LIM_LO, LIM_H
 _INV_2PI = 1.0 / TWO_PI
 
 
-def _fit_narrow(theta: np.ndarray, j: int):
+def _fit_narrow(theta: NDArray[np.float64], j: int) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """In-range representation of ``theta`` for a joint whose range is narrower than 360 deg.
 
     Returns (t, valid).  Values within LIMIT_TOL outside the range are snapped onto it.
@@ -256,7 +268,7 @@ def _fit_narrow(theta: np.ndarray, j: int):
     return t, valid
 
 
-def _fit_wide(theta: np.ndarray, j: int, seed) -> np.ndarray:
+def _fit_wide(theta: NDArray[np.float64], j: int, seed: float | NDArray[np.float64]) -> NDArray[np.float64]:
     """In-range representation for a joint with a full-turn range (J6): nearest the seed.
 
     ``seed`` is a float or an array like ``theta``.
@@ -267,7 +279,7 @@ def _fit_wide(theta: np.ndarray, j: int, seed) -> np.ndarray:
     if two.any():
         k = np.nonzero(two)[0]
         tk = t[k]
-        sk = seed if np.ndim(seed) == 0 else seed[k]
+        sk = seed[k] if isinstance(seed, np.ndarray) else seed
         t[k] = np.where(np.abs(tk + TWO_PI - sk) < np.abs(tk - sk), tk + TWO_PI, tk)
     np.maximum(t, lo, out=t)
     np.minimum(t, hi, out=t)
@@ -277,7 +289,10 @@ def _fit_wide(theta: np.ndarray, j: int, seed) -> np.ndarray:
 _BIG = 1e300  # "no solution" distance (finite, so blends never produce NaN)
 
 
-def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
+def solve_independent(
+    rot: Sequence[NDArray[np.float64]], pos: Sequence[NDArray[np.float64]], seeds: NDArray[np.float64],
+    branch: Branch | None,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
     """Nearest in-limit solution per sample (all 8 branches, vectorised).
 
     ``rot``: 9 arrays (flange rotation, row-major), ``pos``: 3 arrays (wrist centre, m),
@@ -325,6 +340,9 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
     # so the first pass usually finds the final answer and the later passes prune almost
     # every sample at their J1 / J3 terms.  The pass order only affects the work: ties are
     # resolved towards the lower branch index, whatever order the branches were tried in.
+    # a pass is one bool for all samples, or a bool per sample
+    shoulder_passes: tuple[bool | NDArray[np.bool_], ...]
+    elbow_passes: tuple[bool | NDArray[np.bool_], ...]
     if want_sh is not None:
         shoulder_passes = (want_sh == "back",)
     else:
@@ -353,9 +371,8 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
         if idx.size == 0:
             continue
         # --- restrict everything to the samples this shoulder can still improve
-        scalar_back = np.ndim(back_all) == 0
-        back_i = back_all if scalar_back else back_all[idx]
-        sg_i = sg_all if scalar_back else sg_all[idx]
+        back_i = back_all[idx] if isinstance(back_all, np.ndarray) else back_all
+        sg_i = sg_all[idx] if isinstance(sg_all, np.ndarray) else sg_all
         q1 = q1[idx]
         d1 = d1[idx]
         X = X[idx]
@@ -367,9 +384,9 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
         sdel = np.sqrt(1.0 - c * c)
         atan_y = np.arctan2(Y, X)
         for down_all in elbow_passes:
-            scalar_down = np.ndim(down_all) == 0
-            down = down_all if scalar_down else down_all[idx]
-            es = 2.0 * down - 1.0  # elbow sign on delta: -1 up, +1 down
+            down = down_all[idx] if isinstance(down_all, np.ndarray) else down_all
+            # elbow sign on delta: -1 up, +1 down (float64; numpy's stubs widen bool * float to floating)
+            es = cast("float | NDArray[np.float64]", 2.0 * down - 1.0)
             q3, ok3 = _fit_narrow(PHI3 + es * delta, 2)
             e = q3 - sd[2]
             d13 = d1 + w3 * e * e
@@ -386,10 +403,14 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 where = idx[s1i]
                 sds = [col[s1i] for col in sd] if per_sample else sd
                 q1s = q1[s1i]
-                if not scalar_back:
-                    back, sg = back[s1i], sg[s1i]
-                if not scalar_down:
-                    down, es = down[s1i], es[s1i]
+                if isinstance(back, np.ndarray):
+                    back = back[s1i]
+                if isinstance(sg, np.ndarray):
+                    sg = sg[s1i]
+                if isinstance(down, np.ndarray):
+                    down = down[s1i]
+                if isinstance(es, np.ndarray):
+                    es = es[s1i]
             else:
                 cc, sdl, Xs, Ys, aty = c, sdel, X, Y, atan_y
                 where = idx
@@ -413,9 +434,11 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
                 sds = [col[sub] for col in sds] if per_sample else sds
                 q1s = q1s[sub]
                 where = where[sub]
-                if not scalar_back:
-                    back, sg = back[sub], sg[sub]
-                if not scalar_down:
+                if isinstance(back, np.ndarray):
+                    back = back[sub]
+                if isinstance(sg, np.ndarray):
+                    sg = sg[sub]
+                if isinstance(down, np.ndarray):
                     down = down[sub]
             # the orientation part only for the samples that survived: N = Rz(-q1) R
             cw = c1f[where] * sg
@@ -512,7 +535,7 @@ def solve_independent(rot, pos, seeds: np.ndarray, branch: Branch | None):
 # ---------------------------------------------------------------------------------------------
 
 
-def _ffill(values: np.ndarray, holes: np.ndarray, first: float) -> np.ndarray:
+def _ffill(values: NDArray[np.float64], holes: NDArray[np.bool_], first: float) -> NDArray[np.float64]:
     """Replace ``values[holes]`` by the last non-hole value before them (``first`` at the start)."""
     n = values.shape[0]
     idx = np.where(holes, -1, np.arange(n))
@@ -521,11 +544,14 @@ def _ffill(values: np.ndarray, holes: np.ndarray, first: float) -> np.ndarray:
     return np.where(holes, src[idx + 1], values)
 
 
-def _wrap(d: np.ndarray) -> np.ndarray:
+def _wrap(d: NDArray[np.float64]) -> NDArray[np.float64]:
     return d - TWO_PI * np.floor(d * _INV_2PI + 0.5)
 
 
-def solve_continuous(rot, pos, q0: tuple[float, ...], branch0: Branch, pin_flip: bool):
+def solve_continuous(
+    rot: Sequence[NDArray[np.float64]], pos: Sequence[NDArray[np.float64]], q0: tuple[float, ...],
+    branch0: Branch, pin_flip: bool,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_] | None]:
     """Branch-continuous solutions (N, 6) rad given sample 0's solution ``q0`` and its branch.
 
     Raises :class:`IKError` with ``.sample`` at the first sample that cannot be followed.

@@ -8,14 +8,18 @@ function is vectorised numpy.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from parolkit.kinematics.model import A1, A2, A3, D1, D4
-from parolkit.kinematics.pose import _abc_from_rot, _rot_to_poses, cos_sin
+from parolkit.kinematics.pose import _abc_from_rot, _Num, _Rot9, _rot_to_poses, _Vec3, cos_sin
 from parolkit.kinematics.tools import DEFAULT_TOOL as _DEFAULT_TOOL
 from parolkit.kinematics.tools import Tool, get_tool
 from parolkit.robot import PAROL6, as_joint_array
+
+if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
 
 __all__ = ["fk", "fk_matrix", "fk_batch", "fk_frames"]
 
@@ -24,7 +28,7 @@ _RAD = 180.0 / math.pi
 _isfinite = math.isfinite
 
 
-def _joints_rad(joints_deg: object, name: str = "joints_deg"):
+def _joints_rad(joints_deg: object, name: str = "joints_deg") -> tuple[float, ...]:
     """Six finite joint angles in degrees -> six radians (fast path for lists/tuples/arrays)."""
     if type(joints_deg) is np.ndarray and joints_deg.shape == (6,):
         joints_deg = joints_deg.tolist()
@@ -40,7 +44,10 @@ def _joints_rad(joints_deg: object, name: str = "joints_deg"):
     return tuple(float(v) * _DEG for v in arr)
 
 
-def _flange_from_trig(c1, s1, c2, s2, c3, s3, cp, sp, c4, s4, c5, s5, c6, s6):
+def _flange_from_trig(
+    c1: _Num, s1: _Num, c2: _Num, s2: _Num, c3: _Num, s3: _Num, cp: _Num, sp: _Num,
+    c4: _Num, s4: _Num, c5: _Num, s5: _Num, c6: _Num, s6: _Num,
+) -> tuple[_Rot9[_Num], _Vec3[_Num]]:
     """The closed-form flange pose from the joints' cosines/sines (``cp``, ``sp``: of
     q2 - q3).  Plain arithmetic, so it serves floats (single pose) and numpy arrays (batch)
     alike: rotation (9 entries, row-major) and position (3 entries, metres)."""
@@ -76,7 +83,9 @@ def _flange_from_trig(c1, s1, c2, s2, c3, s3, cp, sp, c4, s4, c5, s5, c6, s6):
     return rot, pos
 
 
-def _flange_rad(q1, q2, q3, q4, q5, q6):
+def _flange_rad(
+    q1: float, q2: float, q3: float, q4: float, q5: float, q6: float,
+) -> tuple[_Rot9[float], _Vec3[float]]:
     """Flange (= wrist centre) rotation (9 floats, row-major) and position (metres)."""
     psi = q2 - q3
     return _flange_from_trig(
@@ -86,7 +95,9 @@ def _flange_rad(q1, q2, q3, q4, q5, q6):
     )
 
 
-def _apply_tool(r, p, tool: Tool):
+def _apply_tool(
+    r: _Rot9[_Num], p: _Vec3[_Num], tool: Tool,
+) -> tuple[_Rot9[_Num], _Vec3[_Num]]:
     """Flange rotation ``r`` (9 entries) and position ``p`` (3) -> TCP rotation and position.
     Plain arithmetic: the entries may be floats (single pose) or numpy arrays (batch)."""
     tx, ty, tz = tool._t
@@ -109,13 +120,13 @@ def _apply_tool(r, p, tool: Tool):
     return rot, pos
 
 
-def _tcp_rad(q, tool: Tool):
+def _tcp_rad(q: tuple[float, ...], tool: Tool) -> tuple[_Rot9[float], _Vec3[float]]:
     """TCP rotation (9 floats) and position (metres) for joint radians ``q``."""
     r, p = _flange_rad(*q)
     return _apply_tool(r, p, tool)
 
 
-def fk(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
+def fk(joints_deg: object, tool: str | Tool | None = None) -> NDArray[np.float64]:
     """TCP pose ``[x, y, z mm, A, B, C deg]`` (R = Rx(C) Ry(B) Rz(A)) for six joint angles in deg."""
     q = _joints_rad(joints_deg)
     rot, pos = _tcp_rad(q, _DEFAULT_TOOL if tool is None else get_tool(tool))
@@ -123,7 +134,7 @@ def fk(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
     return np.array((pos[0] * 1e3, pos[1] * 1e3, pos[2] * 1e3, a * _RAD, b * _RAD, c * _RAD))
 
 
-def fk_matrix(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
+def fk_matrix(joints_deg: object, tool: str | Tool | None = None) -> NDArray[np.float64]:
     """4x4 base -> TCP transform in metres for six joint angles in degrees."""
     q = _joints_rad(joints_deg)
     r, p = _tcp_rad(q, get_tool(tool))
@@ -135,7 +146,9 @@ def fk_matrix(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
     ])
 
 
-def _flange_batch(q_t: np.ndarray):
+def _flange_batch(
+    q_t: NDArray[np.float64],
+) -> tuple[_Rot9[NDArray[np.float64]], _Vec3[NDArray[np.float64]]]:
     """Vectorised flange rotation entries (9 arrays) and position (3 arrays), metres.
 
     ``q_t``: joint radians as a C-ordered (6, N) array (one contiguous row per joint).
@@ -148,12 +161,14 @@ def _flange_batch(q_t: np.ndarray):
     return _flange_from_trig(c1, s1, c2, s2, c3, s3, cp, sp, c4, s4, c5, s5, c6, s6)
 
 
-def _tcp_batch(q_t: np.ndarray, tool: Tool):
+def _tcp_batch(
+    q_t: NDArray[np.float64], tool: Tool,
+) -> tuple[_Rot9[NDArray[np.float64]], _Vec3[NDArray[np.float64]]]:
     r, p = _flange_batch(q_t)
     return _apply_tool(r, p, tool)
 
 
-def fk_batch(joints_deg: object, tool: str | Tool | None = None, as_matrix: bool = False) -> np.ndarray:
+def fk_batch(joints_deg: object, tool: str | Tool | None = None, as_matrix: bool = False) -> NDArray[np.float64]:
     """Vectorised FK: ``(N, 6)`` joint degrees -> ``(N, 6)`` poses (mm/deg) or ``(N, 4, 4)`` (m)."""
     arr = as_joint_array(joints_deg, "joints_deg")
     if arr.ndim == 1:
@@ -171,7 +186,7 @@ def fk_batch(joints_deg: object, tool: str | Tool | None = None, as_matrix: bool
     return _rot_to_poses(*rot, *pos)
 
 
-def _dh_matrix(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
+def _dh_matrix(theta: float, d: float, a: float, alpha: float) -> NDArray[np.float64]:
     ct, st = math.cos(theta), math.sin(theta)
     # exact 0/+-1 for the right-angle twists of the PAROL6 table
     ca, sa = round(math.cos(alpha), 15) + 0.0, round(math.sin(alpha), 15) + 0.0
@@ -183,7 +198,7 @@ def _dh_matrix(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
     ])
 
 
-def fk_frames(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
+def fk_frames(joints_deg: object, tool: str | Tool | None = None) -> NDArray[np.float64]:
     """All link frames for drawing: ``(8, 4, 4)`` metres.
 
     Index 0 is the base (identity), 1..6 the DH frames of joints 1..6 with frame 6 = the

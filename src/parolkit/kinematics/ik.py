@@ -27,6 +27,8 @@ kernel is missing (see :mod:`parolkit._native`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, overload
 
 import numpy as np
 
@@ -53,6 +55,9 @@ from parolkit.kinematics.tools import DEFAULT_TOOL as _DEFAULT_TOOL
 from parolkit.kinematics.tools import Tool, get_tool
 from parolkit.kinematics.types import Branch, IKError, IKFailure, IKSolution
 from parolkit.robot import as_joint_array
+
+if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
 
 __all__ = ["ik", "ik_all", "ik_batch", "solve_all_rad", "diagnose"]
 
@@ -104,6 +109,13 @@ _SHOULDER_CODE = {None: -1, "front": 0, "back": 1}
 _ELBOW_CODE = {None: -1, "up": 0, "down": 1}
 _FLIP_CODE = {None: -1, False: 0, True: 1}
 
+#: One solution of :func:`solve_all_rad`: (weighted distance to the seed, (q1..q6 rad),
+#: shoulder, elbow, wrist flip).
+_Candidate = tuple[float, tuple[float, float, float, float, float, float], str, str, bool]
+#: One branch of :func:`_raw_branches`: (shoulder, elbow, flip, q1..q6 rad or None when out of
+#: reach, distance beyond reach in m).
+_RawBranch = tuple[str, str, bool, tuple[float, ...] | None, float]
+
 
 def _native_constants() -> tuple[float, ...]:
     """Every constant the compiled kernel uses, in the order ``_cik.c`` reads them."""
@@ -123,7 +135,9 @@ def _clamp(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else hi if x > hi else x
 
 
-def _flange_target(rot, pos, tool: Tool):
+def _flange_target(
+    rot: Sequence[float], pos: Sequence[float], tool: Tool,
+) -> tuple[Sequence[float], tuple[float, float, float]]:
     """Remove the tool: flange rotation (9 floats) and flange origin (= wrist centre, m)."""
     if tool._identity_rot:
         r = rot
@@ -142,7 +156,10 @@ def _flange_target(rot, pos, tool: Tool):
     return r, p
 
 
-def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=False):
+def solve_all_rad(
+    r: Sequence[float], p: Sequence[float], seed: Sequence[float], shoulder: str | None = None,
+    elbow: str | None = None, flip: bool | None = None, best_only: bool = False,
+) -> list[_Candidate]:
     """Every in-limit solution for flange rotation ``r`` (9 floats) and wrist centre ``p`` (m).
 
     ``seed`` is six radians.  ``shoulder``/``elbow``/``flip`` restrict the branch (None = any).
@@ -161,9 +178,10 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
     x, y, z = p
     rho = _sqrt(x * x + y * y)
     Y = D1 - z
-    out = []
-    best = None
+    out: list[_Candidate] = []
+    best: _Candidate | None = None
     best_d = _INF
+    shoulders: tuple[tuple[str, float, float, float, float], ...]
     if rho < SHOULDER_SINGULAR_EPS:
         q1f = _clamp(s1, _LO1, _HI1)
         shoulders = ((shoulder or "front", q1f, 0.0, _cos(q1f), _sin(q1f)),)
@@ -356,25 +374,28 @@ def solve_all_rad(r, p, seed, shoulder=None, elbow=None, flip=None, best_only=Fa
 # ---------------------------------------------------------------------------------------------
 
 
-def _target(pose: object):
+def _target(pose: object) -> tuple[Sequence[float], tuple[float, float, float]]:
     """Pose ([x,y,z,A,B,C] mm/deg or 4x4 m) -> (rotation 9 floats, position 3 floats, metres)."""
     if type(pose) is np.ndarray:
         if pose.shape == (6,):
             pose = pose.tolist()
         elif pose.shape == (4, 4):
             return _target_matrix(pose)
-    elif type(pose) is not list and type(pose) is not tuple:
+        else:  # any other shape: the precise error (unpacked below, its rows would be scaled in place)
+            return _target_slow(pose)
+    if type(pose) is not list and type(pose) is not tuple:
         return _target_slow(pose)
     if len(pose) != 6:
         return _target_slow(pose)
     try:
         x, y, z, a, b, c = pose
-        x *= 1e-3
-        y *= 1e-3
-        z *= 1e-3
-        a *= _DEG
-        b *= _DEG
-        c *= _DEG
+        # new objects, never in place: an entry may be the caller's (0-d) array
+        x = x * 1e-3
+        y = y * 1e-3
+        z = z * 1e-3
+        a = a * _DEG
+        b = b * _DEG
+        c = c * _DEG
         if not _isfinite(x + y + z + a + b + c):  # NaN/inf (or a sum overflow): slow path decides
             return _target_slow(pose)
         ca = _cos(a)
@@ -395,13 +416,13 @@ def _target(pose: object):
     )
 
 
-def _target_flange(pose: object, tool: Tool):
+def _target_flange(pose: object, tool: Tool) -> tuple[Sequence[float], tuple[float, float, float]]:
     """Pose -> flange rotation (9 floats) and wrist centre (3 floats, m) for ``tool``."""
     r, p = _target(pose)
     return _flange_target(r, p, tool)
 
 
-def _target_matrix(pose: object):
+def _target_matrix(pose: object) -> tuple[tuple[float, ...], tuple[float, float, float]]:
     try:
         m = as_matrix_array(pose, "pose", allow_batch=False)
     except ParolkitValueError as exc:
@@ -409,7 +430,7 @@ def _target_matrix(pose: object):
     return tuple(m[:3, :3].ravel().tolist()), (float(m[0, 3]), float(m[1, 3]), float(m[2, 3]))
 
 
-def _target_slow(pose: object):
+def _target_slow(pose: object) -> tuple[Sequence[float], tuple[float, float, float]]:
     """Validate an unusual pose argument with a precise error, then convert it."""
     try:
         arr = np.asarray(pose, dtype=float)
@@ -425,6 +446,10 @@ def _target_slow(pose: object):
     return _rot_from_abc(a * _DEG, b * _DEG, c * _DEG), (x * 1e-3, y * 1e-3, z * 1e-3)
 
 
+@overload
+def _branch(config: Branch | str) -> Branch: ...
+@overload
+def _branch(config: Branch | str | None) -> Branch | None: ...
 def _branch(config: Branch | str | None) -> Branch | None:
     if config is None or isinstance(config, Branch):
         return config
@@ -434,7 +459,7 @@ def _branch(config: Branch | str | None) -> Branch | None:
                   kind=IKFailure.BAD_INPUT)
 
 
-def _seed(seed_deg: object):
+def _seed(seed_deg: object) -> tuple[float, ...]:
     """Seed joint angles in degrees (None = standby) -> six radians."""
     if seed_deg is None:
         return STANDBY_RAD
@@ -450,7 +475,7 @@ def _seed(seed_deg: object):
 
 
 def ik(pose: object, seed_deg: object = None, tool: str | Tool | None = None,
-       config: Branch | str | None = None) -> np.ndarray:
+       config: Branch | str | None = None) -> NDArray[np.float64]:
     """Joint angles (deg, inside the safe limits) reaching ``pose`` with the TCP of ``tool``.
 
     ``pose``: ``[x, y, z mm, A, B, C deg]`` or a 4x4 transform in metres.  ``seed_deg``: the
@@ -477,7 +502,7 @@ def ik(pose: object, seed_deg: object = None, tool: str | Tool | None = None,
     return _ik_reference(pose, seed_deg, tool_obj, config)
 
 
-def _ik_reference(pose: object, seed_deg: object, tool_obj: Tool, config: Branch | str | None) -> np.ndarray:
+def _ik_reference(pose: object, seed_deg: object, tool_obj: Tool, config: Branch | str | None) -> NDArray[np.float64]:
     """:func:`ik` in pure Python (the reference of the compiled kernel; also its fallback,
     and the path that explains failures and malformed input)."""
     rf, pf = _target_flange(pose, tool_obj)
@@ -534,14 +559,14 @@ def _violation(theta: float, j: int) -> tuple[float, float]:
     return (over, t) if over <= under else (under, t - TWO_PI)
 
 
-def _raw_branches(r, p, seed):
+def _raw_branches(r: Sequence[float], p: Sequence[float], seed: Sequence[float]) -> list[_RawBranch]:
     """All 8 branches ignoring limits: list of (shoulder, elbow, flip, q or None, excess m)."""
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
     x, y, z = p
     rho = math.hypot(x, y)
     Y = D1 - z
     base = _atan2(y, x) if rho >= SHOULDER_SINGULAR_EPS else seed[0]
-    out = []
+    out: list[_RawBranch] = []
     for sh, th1, rr in (("front", base, rho), ("back", base + _PI, -rho)):
         X = rr - A1
         dist = math.hypot(X, Y)
@@ -595,11 +620,11 @@ def _branch_words(sh: str, el: str, fl: bool) -> str:
     return f"{sh} {el} {'flip' if fl else 'noflip'}"
 
 
-def diagnose(r, p, seed, branch: Branch | None) -> IKError:
+def diagnose(r: Sequence[float], p: Sequence[float], seed: Sequence[float], branch: Branch | None) -> IKError:
     """Build the :class:`IKError` explaining why no in-limit solution exists (flange target)."""
     raw = _raw_branches(r, p, seed)
     wanted = [b for b in raw if branch is None or branch.matches(Branch(b[0], b[1], b[2]))]
-    reachable = [b for b in wanted if b[3] is not None]
+    reachable = [(sh, el, fl, q) for sh, el, fl, q, _ in wanted if q is not None]
     if not reachable:
         excess_mm = min(b[4] for b in wanted) * 1e3
         x, y, z = p
@@ -613,8 +638,8 @@ def diagnose(r, p, seed, branch: Branch | None) -> IKError:
                       f"closer than the minimum {REACH_MIN * 1e3:.1f} mm")
         return IKError(f"target out of reach by {_mm(excess_mm)} mm: {detail}",
                        kind=IKFailure.OUT_OF_REACH, value=excess_mm)
-    best = None
-    for sh, el, fl, q, _ in reachable:
+    best: tuple[tuple[float, int, float], str, str, bool] | None = None
+    for sh, el, fl, q in reachable:
         worst = (0.0, -1, 0.0)
         for j in range(6):
             if j == 4:
@@ -627,6 +652,7 @@ def diagnose(r, p, seed, branch: Branch | None) -> IKError:
                 worst = (viol, j, rep)
         if best is None or worst[0] < best[0][0]:
             best = (worst, sh, el, fl)
+    assert best is not None  # reachable is not empty
     (viol, j, rep), sh, el, fl = best
     if j < 0:  # every joint in range: cannot happen unless limits are inconsistent
         return IKError("no solution within the joint limits", kind=IKFailure.JOINT_LIMIT)
@@ -636,7 +662,8 @@ def diagnose(r, p, seed, branch: Branch | None) -> IKError:
     reason = (f"joint J{j + 1} would be {val:.1f} deg {side} (allowed {lo:.4g} .. {hi:.4g} deg)"
               f" in the closest branch ({_branch_words(sh, el, fl)})")
     if branch is not None:
-        others = [b for b in raw if b[3] is not None and not branch.matches(Branch(b[0], b[1], b[2]))]
+        others = [(o_sh, o_el, o_fl, o_q) for o_sh, o_el, o_fl, o_q, _ in raw
+                  if o_q is not None and not branch.matches(Branch(o_sh, o_el, o_fl))]
         ok = [b for b in others if all(_violation_any(b[3][k], k) == 0.0 for k in range(6))]
         if ok:
             reason += (f"; the pinned branch '{branch}' excludes the reachable branch "
@@ -658,7 +685,7 @@ def _violation_any(theta: float, j: int) -> float:
 
 
 def ik_batch(poses: object, seed_deg: object = None, tool: str | Tool | None = None,
-             config: Branch | str | None = None, *, continuous: bool | None = None) -> np.ndarray:
+             config: Branch | str | None = None, *, continuous: bool | None = None) -> NDArray[np.float64]:
     """IK for N poses at once: ``(N, 6)`` mm/deg or ``(N, 4, 4)`` m -> ``(N, 6)`` deg.
 
     With one seed (``(6,)``, default standby) the poses are treated as a path
@@ -696,7 +723,7 @@ def ik_batch(poses: object, seed_deg: object = None, tool: str | Tool | None = N
     if n == 0:
         return np.zeros((0, 6))
 
-    def sample(i: int):
+    def sample(i: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
         return tuple(float(v[i]) for v in rot), tuple(float(v[i]) for v in pos)
 
     if continuous:

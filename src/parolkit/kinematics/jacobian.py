@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -11,13 +12,16 @@ from parolkit.kinematics.model import PHI3
 from parolkit.kinematics.tools import Tool
 from parolkit.kinematics.types import SingularityInfo
 
+if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
+
 __all__ = ["jacobian", "manipulability", "singularity_distance"]
 
 #: Warning thresholds used to rank singularities: wrist deg, shoulder mm, elbow deg.
 SINGULARITY_THRESHOLDS = (5.0, 20.0, 5.0)
 
 
-def jacobian(joints_deg: object, tool: str | Tool | None = None) -> np.ndarray:
+def jacobian(joints_deg: object, tool: str | Tool | None = None) -> NDArray[np.float64]:
     """Geometric Jacobian (6, 6) at the TCP, in the base frame.
 
     Column i maps joint i's rate (rad/s) to the TCP twist: rows 0..2 linear velocity in m/s,

@@ -16,10 +16,14 @@ functions accept one pose or a batch and return numpy arrays.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
 from parolkit.errors import ParolkitValueError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
 
 __all__ = ["pose_to_matrix", "matrix_to_pose", "as_pose_array", "as_matrix_array"]
 
@@ -30,8 +34,15 @@ _GIMBAL_TOL = 20 * np.finfo(float).eps
 
 _POSE_FIELDS = ("x", "y", "z", "A", "B", "C")
 
+#: An entry of the closed forms: a float (one pose) or an array over N poses (a batch).
+_Num = TypeVar("_Num", float, "NDArray[np.float64]")
+#: A row-major 3x3 rotation as its 9 entries.
+_Rot9 = tuple[_Num, _Num, _Num, _Num, _Num, _Num, _Num, _Num, _Num]
+#: A position (x, y, z).
+_Vec3 = tuple[_Num, _Num, _Num]
 
-def _rot_from_abc(a: float, b: float, c: float) -> tuple[float, ...]:
+
+def _rot_from_abc(a: float, b: float, c: float) -> _Rot9[float]:
     """Row-major 3x3 rotation Rx(c) Ry(b) Rz(a) from radians."""
     ca, sa = math.cos(a), math.sin(a)
     cb, sb = math.cos(b), math.sin(b)
@@ -43,7 +54,8 @@ def _rot_from_abc(a: float, b: float, c: float) -> tuple[float, ...]:
     )
 
 
-def _abc_from_rot(r00, r01, r02, r10, r11, r12, r20, r21, r22) -> tuple[float, float, float]:
+def _abc_from_rot(r00: float, r01: float, r02: float, r10: float, r11: float, r12: float,
+                  r20: float, r21: float, r22: float) -> tuple[float, float, float]:
     """(A, B, C) radians with Rx(C) Ry(B) Rz(A) = R; spatialmath's gimbal-lock rule."""
     if abs(abs(r02) - 1.0) < _GIMBAL_TOL:
         b = math.asin(max(-1.0, min(1.0, r02)))
@@ -58,7 +70,7 @@ def _abc_from_rot(r00, r01, r02, r10, r11, r12, r20, r21, r22) -> tuple[float, f
     return a, b, c
 
 
-def cos_sin(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def cos_sin(angles: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Vectorised (cos, sin) of radians from one ``tan`` of the half angle.
 
     ``numpy.cos`` and ``numpy.sin`` are separate libm loops; one ``tan`` plus a few
@@ -71,7 +83,7 @@ def cos_sin(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (1.0 - t2) * inv, (t + t) * inv
 
 
-def as_pose_array(pose: object, name: str = "pose", *, allow_batch: bool = True) -> np.ndarray:
+def as_pose_array(pose: object, name: str = "pose", *, allow_batch: bool = True) -> NDArray[np.float64]:
     """Validate ``[x, y, z mm, A, B, C deg]`` (or an ``(N, 6)`` batch) as a float64 array."""
     try:
         arr = np.asarray(pose, dtype=float)
@@ -88,7 +100,7 @@ def as_pose_array(pose: object, name: str = "pose", *, allow_batch: bool = True)
 
 
 def as_matrix_array(matrix: object, name: str = "matrix", *, allow_batch: bool = True,
-                    tol: float = 1e-6) -> np.ndarray:
+                    tol: float = 1e-6) -> NDArray[np.float64]:
     """Validate a 4x4 homogeneous transform (or ``(N, 4, 4)``), metres.
 
     The rotation part must be orthonormal with determinant +1 (within ``tol``) and the last row
@@ -123,11 +135,11 @@ def as_matrix_array(matrix: object, name: str = "matrix", *, allow_batch: bool =
     return arr
 
 
-def _sample(arr: np.ndarray, idx: int) -> str:
+def _sample(arr: NDArray[np.float64], idx: int) -> str:
     return f" (sample {idx})" if arr.ndim == 3 else ""
 
 
-def pose_to_matrix(pose: object) -> np.ndarray:
+def pose_to_matrix(pose: object) -> NDArray[np.float64]:
     """``[x, y, z mm, A, B, C deg]`` -> 4x4 transform in metres (``(N, 6)`` -> ``(N, 4, 4)``)."""
     arr = as_pose_array(pose)
     if arr.ndim == 1:
@@ -141,7 +153,7 @@ def pose_to_matrix(pose: object) -> np.ndarray:
     return _poses_to_matrices(arr)
 
 
-def _poses_to_matrices(arr: np.ndarray) -> np.ndarray:
+def _poses_to_matrices(arr: NDArray[np.float64]) -> NDArray[np.float64]:
     n = arr.shape[0]
     cs, sn = cos_sin(arr[:, 3:] * _DEG)
     ca, cb, cc = cs[:, 0], cs[:, 1], cs[:, 2]
@@ -161,7 +173,7 @@ def _poses_to_matrices(arr: np.ndarray) -> np.ndarray:
     return out
 
 
-def matrix_to_pose(matrix: object) -> np.ndarray:
+def matrix_to_pose(matrix: object) -> NDArray[np.float64]:
     """4x4 transform in metres -> ``[x, y, z mm, A, B, C deg]`` (``(N, 4, 4)`` -> ``(N, 6)``)."""
     arr = as_matrix_array(matrix)
     if arr.ndim == 2:
@@ -172,12 +184,15 @@ def matrix_to_pose(matrix: object) -> np.ndarray:
     return _matrices_to_poses(arr)
 
 
-def _matrices_to_poses(m: np.ndarray) -> np.ndarray:
+def _matrices_to_poses(m: NDArray[np.float64]) -> NDArray[np.float64]:
     return _rot_to_poses(m[:, 0, 0], m[:, 0, 1], m[:, 0, 2], m[:, 1, 0], m[:, 1, 1], m[:, 1, 2],
                          m[:, 2, 0], m[:, 2, 1], m[:, 2, 2], m[:, 0, 3], m[:, 1, 3], m[:, 2, 3])
 
 
-def _rot_to_poses(r00, r01, r02, r10, r11, r12, r20, r21, r22, px, py, pz) -> np.ndarray:
+def _rot_to_poses(r00: NDArray[np.float64], r01: NDArray[np.float64], r02: NDArray[np.float64],
+                  r10: NDArray[np.float64], r11: NDArray[np.float64], r12: NDArray[np.float64],
+                  r20: NDArray[np.float64], r21: NDArray[np.float64], r22: NDArray[np.float64],
+                  px: NDArray[np.float64], py: NDArray[np.float64], pz: NDArray[np.float64]) -> NDArray[np.float64]:
     """Vectorised pose extraction from rotation entries (1-D arrays) and positions (metres)."""
     out = np.empty((r00.shape[0], 6))
     out[:, 0] = px * 1e3

@@ -24,6 +24,8 @@ from parolkit.kinematics.model import TOOL_DEFAULT_T
 from parolkit.kinematics.pose import as_matrix_array, as_pose_array, matrix_to_pose, pose_to_matrix
 
 if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
+
     from parolkit.config import Config
 
 __all__ = ["Tool", "TOOLS", "get_tool"]
@@ -37,7 +39,7 @@ class Tool:
     """
 
     name: str
-    matrix: np.ndarray
+    matrix: NDArray[np.float64]
     # plain-float caches for the scalar hot paths (derived, not part of the identity)
     _rot: tuple[float, ...] = field(init=False, repr=False)
     _t: tuple[float, float, float] = field(init=False, repr=False)
@@ -63,7 +65,7 @@ class Tool:
         return cls(name, pose_to_matrix(arr))
 
     @property
-    def pose(self) -> np.ndarray:
+    def pose(self) -> NDArray[np.float64]:
         """The TCP pose in the flange frame, ``[x, y, z mm, A, B, C deg]``."""
         return matrix_to_pose(self.matrix)
 
@@ -80,7 +82,7 @@ class Tool:
         return f"Tool({self.name!r}, pose=[{p}])"
 
 
-def _translation(t: tuple[float, float, float]) -> np.ndarray:
+def _translation(t: tuple[float, float, float]) -> NDArray[np.float64]:
     m = np.eye(4)
     m[:3, 3] = t
     return m

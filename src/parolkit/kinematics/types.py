@@ -15,10 +15,14 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from parolkit.errors import ParolkitValueError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
 
 __all__ = ["Branch", "IKSolution", "IKError", "IKFailure", "SingularityInfo"]
 
@@ -108,7 +112,7 @@ class IKSolution:
     (Compared by identity: compare ``joints_deg`` with a tolerance instead.)
     """
 
-    joints_deg: np.ndarray
+    joints_deg: NDArray[np.float64]
     config: Branch
 
     def __repr__(self) -> str:

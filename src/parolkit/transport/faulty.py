@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from typing import Any
 
 from parolkit.board.faults import ByteFaultInjector, LinkFaults, faults_from_options
 from parolkit.errors import ParolkitValueError
@@ -21,7 +20,7 @@ class FaultyTransport(Transport):
     Change them at run time with :meth:`set_faults`.  ``counters`` says what was done.
     """
 
-    def __init__(self, inner: Transport, *, seed: int | None = None, **faults: Any) -> None:
+    def __init__(self, inner: Transport, *, seed: int | None = None, **faults: object) -> None:
         if not isinstance(inner, Transport):
             raise ParolkitValueError(f"inner must be a Transport, got {type(inner).__name__}")
         self.inner = inner
@@ -30,7 +29,7 @@ class FaultyTransport(Transport):
         self._tx = ByteFaultInjector(lf, seed=seed)
         self._rx = ByteFaultInjector(lf, seed=None if seed is None else seed + 1)
 
-    def set_faults(self, faults: LinkFaults | None = None, **kw: Any) -> None:
+    def set_faults(self, faults: LinkFaults | None = None, **kw: object) -> None:
         """Replace the faults (a ``LinkFaults`` or its fields as keywords)."""
         if faults is None:
             faults = faults_from_options(kw)
