@@ -7,7 +7,7 @@ STAMP_RUN  := $(VENV)/.stamp-run
 STAMP_DEV  := $(VENV)/.stamp-dev
 INSTALL_DEPS := pyproject.toml setup.py $(wildcard src/parolkit/*/*.c)
 
-.PHONY: run test test-fast bench screenshot clean venv
+.PHONY: run test test-fast lint bench screenshot clean venv
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -27,10 +27,16 @@ venv: $(STAMP_RUN)
 run: $(STAMP_RUN)
 	$(VENV)/bin/parolkit gui --sim
 
-## make test: set everything up and run every test (unit, integration, browser)
-test: $(STAMP_DEV)
+## make test: set everything up, lint and type-check, and run every test (unit, integration, browser)
+test: lint
 	./scripts/ensure-chromium.sh
 	$(PY) -m pytest -q
+
+## make lint: ruff (style, imports, bugs) and mypy --strict (types, the whole package);
+## the import-cycle check is a unit test (tests/unit/test_import_cycles.py)
+lint: $(STAMP_DEV)
+	$(VENV)/bin/ruff check src tests bench
+	$(VENV)/bin/mypy
 
 ## make test-fast: unit tests only
 test-fast: $(STAMP_DEV)
