@@ -150,8 +150,10 @@ def run(args: argparse.Namespace) -> int:
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
     log = logging.getLogger("parolkit.controller")
-    # a short GIL switch interval keeps the tick on time while other threads compute
-    sys.setswitchinterval(0.0005)
+    # a short GIL switch interval keeps the tick on time while other threads compute, and lets
+    # the server thread answer a datagram without waiting out another thread's slice
+    # (bench/controller.py, 100 Hz: query p99 0.67-0.86 ms at 0.1 ms, 1.24-1.29 ms at 0.5 ms)
+    sys.setswitchinterval(0.0001)
     shutdown = ShutdownRequest().install()
     # Listen (and answer PING) before the heavy imports: numpy alone can take most of the
     # 1.5 s start-up budget on a busy machine.
