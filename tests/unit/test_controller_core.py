@@ -740,3 +740,25 @@ def test_a_plan_made_ahead_from_another_start_is_not_used(rig):
     rig.run_until(lambda: rig.terminal("aaaa0002") is not None, max_ticks=3000)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED and rig.terminal("aaaa0002") is AckStatus.COMPLETED
     assert np.allclose(rig.angles, [80, -90, 170, 0, 0, 180], atol=0.05)
+
+
+@pytest.mark.parametrize("text", ["ENABLE", "CLEAR_ERROR"])
+def test_enable_or_clear_error_mid_move_leaves_the_motion_untouched(rig, text):
+    """The board zeroes every speed on 101 / 103: sent mid-move they jerked a joint from full
+    speed to 0 and back in one tick. They now go out once the move has ended."""
+    rig.submit("aaaa0001|MOVEJOINT|60|-90|180|0|0|180|1.5|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(40)
+    start = len(rig.frames)
+    rig.send(f"bbbb0001|{text}")
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    rig.tick(2)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
+    assert rig.statuses("bbbb0001") == [AckStatus.COMPLETED]
+    code = BoardCommand.ENABLE if text == "ENABLE" else BoardCommand.CLEAR_ERROR
+    after = [f.command for f in rig.frames[start:]]
+    first = after.index(code)
+    last_goto = max(i for i, c in enumerate(after) if c == BoardCommand.GOTO)
+    assert first > last_goto, "sent while the move was still running"
+    assert all(c == BoardCommand.GOTO for c in after[:first])  # the move was never interrupted
+    assert after.count(code) == 1

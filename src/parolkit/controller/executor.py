@@ -774,7 +774,10 @@ class Executor:
     def _step(self, tick: int, now: float, status: StatusFrame | None, link_up: bool) -> Step:
         if self.estop_latched:
             return Step(BoardCommand.DISABLE)
-        if self._pending_code is not None:
+        if self._pending_code is not None and self.activity is None:
+            # ENABLE (101) / CLEAR_ERROR (103) wait for the running command to end: the board
+            # zeroes every speed when it gets one, so sent mid-move it dropped a joint from
+            # full speed to 0 and back in one tick (and 103 aborts a homing)
             code, self._pending_code = self._pending_code, None
             return Step(code)
         if not self.enabled:
