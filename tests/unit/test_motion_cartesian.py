@@ -383,3 +383,23 @@ def test_property_circles_are_refused_or_on_the_circle_inside_every_limit(off, r
     c = centre if frame == "WRF" else t0[:3, 3] * 1e3 + t0[:3, :3] @ centre
     circle = pos[-800:]  # the circle itself lasts exactly 8 s (any approach comes first)
     assert np.abs(np.linalg.norm(circle - c, axis=1) - radius).max() <= 0.01
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(duration=st.sampled_from([1e-9, 1e-4, 0.005, 0.01, 0.015, 0.02, 0.05]),
+       dz=st.floats(0.2, 8.0), dx=st.floats(-3.0, 3.0))
+def test_a_cartesian_move_never_asks_a_tick_for_more_than_the_maximum_speed(duration, dz, dx):
+    """Issue 12: MOVECARTRELTRF with a duration of 1e-9 s was one sample whose step from the
+    start was up to 2.1x what the maximum speed covers in a tick (its sample speed was 0).
+    Either the plan is refused, or every tick's step, from the start on, is within it."""
+    from parolkit.errors import ParolkitError
+    from parolkit.robot import deg_to_steps
+
+    start = [60, -80, 170, 10, 40, 170]
+    try:
+        traj = plan(CartRelTRFMove([dx, 0, dz, 0, 0, 0], duration_s=duration), start, model=PAROL6, rate_hz=100)
+    except ParolkitError:
+        return
+    pos = np.vstack([np.asarray(deg_to_steps(start))[None, :], traj.positions])
+    per_tick = np.abs(np.diff(pos, axis=0)).max(axis=0)
+    assert np.all(per_tick <= np.asarray(PAROL6.max_speed_steps_s) / 100 + 1), per_tick

@@ -489,7 +489,12 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
         amax = float(model.accel_range_steps_s2[1])
         v_steps = qd * spd
         acc = np.diff(np.vstack([np.zeros((1, 6)), v_steps]), axis=0) * rate_hz
-        r_v = float(np.max(np.abs(v_steps) / vmax))
+        # what the board is asked to cover in each tick, from the start on: the samples' speeds
+        # are central differences, zero at the end, so a move shorter than a tick (one sample,
+        # speed 0) hid a jump of up to 2x the maximum speed
+        v_tick: NDArray[np.float64] = np.diff(np.vstack([start[None, :], q]), axis=0) * (rate_hz * spd)
+        v_chk: NDArray[np.float64] = np.where(np.abs(v_tick) > np.abs(v_steps), v_tick, v_steps)
+        r_v = float(np.max(np.abs(v_chk) / vmax))
         r_a = float(np.max(np.abs(acc))) / (amax * (1 + validate.ACCEL_TOLERANCE))
         if r_v <= 1.0 and r_a <= 1.0:
             break
@@ -497,15 +502,17 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
         if factor > MAX_STRETCH and _near_singularity(q, v_steps, vmax):
             _refuse_singular(name, t, q, v_steps, vmax, tool)
         if duration is not None:
-            hint = f"give a duration of at least {math.ceil(T * factor * 1.02 * 100) / 100:.2f} s"
-            validate.check_speeds(name, t, v_steps, model, hint=hint)
+            # (a move shorter than a tick is still played in one: it lasts a tick at least)
+            least = max(T, 1.0 / rate_hz) * factor * 1.02
+            hint = f"give a duration of at least {math.ceil(least * 100) / 100:.2f} s"
+            validate.check_speeds(name, t, v_chk, model, hint=hint)
             validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
         stretch *= factor * 1.02
     else:
         # stretching does not help: a kink (a sharp corner, or a singularity grazed)
         hint = ("the path has a sharp corner or grazes a singularity here: round the corners "
                 "(blend radius) or change the path")
-        validate.check_speeds(name, t, v_steps, model, hint=hint)
+        validate.check_speeds(name, t, v_chk, model, hint=hint)
         validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
         raise PlanningError(name, "no feasible timing found within the joint limits after stretching")
     if stretch > 1.0:
