@@ -184,7 +184,7 @@ class Controller:
     def _warm_up(self) -> None:
         """Import kinematics and compute one pose off the start-up path."""
         try:
-            self._pose_provider(self.config.robot.standby_deg, self.tool_name)
+            self._pose_provider(self.config.robot.standby_deg, self.executor.tool_name)
         except Exception as exc:
             log.warning("kinematics warm-up failed: %s", exc)
 
@@ -204,10 +204,6 @@ class Controller:
     def plan_ahead(self, command: C.Command) -> PlanAhead | None:
         """Start planning a motion command while the robot is idle (see PlanAhead)."""
         return self.executor.plan_ahead(command)
-
-    @property
-    def tool_name(self) -> str:
-        return self.executor.tool_name if hasattr(self, "executor") else "default"
 
     def _pose_provider(self, angles: Sequence[float], tool_name: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         fk, tools = self._kinematics()
@@ -247,7 +243,7 @@ class Controller:
                 seq=0, time=0.0, state=RobotState.DISCONNECTED, enabled=True, estop_pressed=False,
                 estop_latched=False, status=StatusFrame(), board=BoardInfo(False, self.link_url.simulated,
                                                                            self.board_description),
-                error=None, command=None, queue=0, stream_mode=False, tool=self.tool_name, plan_seq=0,
+                error=None, command=None, queue=0, stream_mode=False, tool=self.executor.tool_name, plan_seq=0,
                 outputs=(False, False), steps_per_deg=self._spd, pose_provider=self._pose_provider,
                 loop_view=self._loop_dict,
             )
@@ -277,7 +273,7 @@ class Controller:
         if name == "GET_TOOL":
             try:
                 pose = self.tool().pose  # type: ignore[attr-defined]
-                return f"TOOL|{self.tool_name}|" + C.format_floats(pose)
+                return f"TOOL|{self.executor.tool_name}|" + C.format_floats(pose)
             except Exception as exc:
                 return C.format_error(f"GET_TOOL: {exc}")
         if name == "GET_QUEUE":

@@ -52,12 +52,15 @@ from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand, GripperCommandBits, GripperMode, StatusFrame
 from parolkit.robot import RobotModel
 
-__all__ = ["Executor", "START_TOLERANCE_DEG", "SAFETY_COMMANDS"]
+__all__ = ["Executor", "START_TOLERANCE_DEG", "SAFETY_COMMANDS", "SET_PORT_SCHEMES"]
 
 log = logging.getLogger("parolkit.controller")
 
 #: commands that take the safety lane: applied before anything else, whatever the traffic
 SAFETY_COMMANDS = (C.EStop, C.Stop, C.Disable)
+#: the links SET_PORT may switch to: a serial device only (a datagram must not choose the
+#: emulator, or a spy+ link that writes files)
+SET_PORT_SCHEMES = frozenset({"serial"})
 
 #: a planned move may start this far (deg, any joint) from the measured joints
 START_TOLERANCE_DEG = 0.5

@@ -33,7 +33,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from parolkit.controller.executor import Executor
+from parolkit.controller.executor import SET_PORT_SCHEMES, Executor
 from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
@@ -204,9 +204,9 @@ class ControlLoop:
             if port is not None:
                 from parolkit.transport import open_transport
 
-                # SET_PORT: keep trying this port until it opens.  A serial device only: a
-                # datagram must not choose an emulator or a spy+ link that writes files
-                new = open_transport(port, allowed_schemes={"serial"})
+                # SET_PORT: keep trying this port until it opens (the server refused any other
+                # link already; checked again here)
+                new = open_transport(port, allowed_schemes=SET_PORT_SCHEMES)
                 if self.port_request == port:
                     self.port_request = None
                 try:

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from queue import Empty, SimpleQueue
 from typing import Protocol
 
-from parolkit.controller.executor import SAFETY_COMMANDS
+from parolkit.controller.executor import SAFETY_COMMANDS, SET_PORT_SCHEMES
 from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
 from parolkit.controller.jobs import PlanAhead
 from parolkit.controller.state import Snapshot
@@ -42,8 +42,8 @@ from parolkit.protocol.commands import (
     parse_datagram,
 )
 from parolkit.robot import RobotModel
+from parolkit.transport.factory import resolve_url
 from parolkit.transport.options import TransportURLError
-from parolkit.transport.url import parse_transport_url
 
 __all__ = [
     "Outbox", "StatusStream", "UdpServer", "QueryAnswerer", "SUBSCRIPTION_TTL_S", "MAX_SUBSCRIBERS",
@@ -388,8 +388,7 @@ class UdpServer:
         head = data[:40].split(b"|", 1)[0].strip().decode("ascii", "replace")
         if is_command_id(head):
             self.busy_acks += 1
-            for a in self._ack_addr(addr):
-                self._reply(format_ack(head, AckStatus.FAILED, reason), a)
+            self._ack(head, addr, AckStatus.FAILED, reason)
         elif _looks_like_query(data):
             self._reply(format_error(reason), addr)
 
@@ -474,9 +473,10 @@ class UdpServer:
             return
         tool = None
         if isinstance(cmd, C.SetPort):
-            bad = _serial_port_error(cmd.port)
-            if bad is not None:
-                self._ack(cid, addr, AckStatus.INVALID, f"SET_PORT: {bad}")
+            try:
+                resolve_url(cmd.port, allowed_schemes=SET_PORT_SCHEMES)
+            except TransportURLError as exc:
+                self._ack(cid, addr, AckStatus.INVALID, f"SET_PORT: {exc}")
                 return
         if isinstance(cmd, C.SetTool):
             try:
@@ -492,18 +492,6 @@ class UdpServer:
             self._ack(cid, addr, AckStatus.FAILED,
                       f"controller busy: {self.inbox.max_waiting} commands from {addr[0]}:{addr[1]} "
                       "wait for the control loop; slow down and send again")
-
-
-def _serial_port_error(port: str) -> str | None:
-    """Why a client may not switch the board link to ``port`` (None: it may).  Only a serial
-    device: a datagram must not choose the emulator or a ``spy+`` link that writes files."""
-    try:
-        schemes = parse_transport_url(port).schemes
-    except TransportURLError as exc:
-        return str(exc)
-    if list(schemes) != ["serial"]:
-        return f"{port!r} is not a serial device (a client may switch only to a serial port)"
-    return None
 
 
 def _looks_like_query(data: bytes) -> bool:

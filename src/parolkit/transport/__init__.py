@@ -39,6 +39,7 @@ __all__ = [
     "SpyTransport",
     "open_transport",
     "transport_for_url",
+    "resolve_url",
     "parse_transport_url",
 ]
 
@@ -52,6 +53,7 @@ _LAZY = {
     "parse_transport_url": "parolkit.transport.url",
     "open_transport": "parolkit.transport.factory",
     "transport_for_url": "parolkit.transport.factory",
+    "resolve_url": "parolkit.transport.factory",
 }
 
 

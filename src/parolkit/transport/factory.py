@@ -22,7 +22,7 @@ from parolkit.transport.base import Transport
 from parolkit.transport.options import TransportURLError
 from parolkit.transport.url import TransportURL, parse_transport_url
 
-__all__ = ["open_transport", "transport_for_url", "SIM_URL"]
+__all__ = ["open_transport", "transport_for_url", "resolve_url", "SIM_URL"]
 
 #: what ``None`` stands for: the emulated board in this process
 SIM_URL = "sim://"
@@ -47,7 +47,7 @@ def transport_for_url(url: str | TransportURL | None, *,
     Raises :class:`~parolkit.transport.TransportURLError` (a ``TransportError`` and a
     ``ParolkitValueError``) for a bad URL, option or value.
     """
-    parsed = _resolve(url, overrides, defaults, allowed_schemes)
+    parsed = resolve_url(url, allowed_schemes=allowed_schemes, defaults=defaults, **overrides)
     transport: Transport | None = None
     for layer in reversed(parsed.layers):
         cls = layer.scheme.load()
@@ -80,9 +80,12 @@ def open_transport(url: str | TransportURL | None, *,
     return transport
 
 
-def _resolve(url: str | TransportURL | None, overrides: Mapping[str, object],
-             defaults: Mapping[str, object] | None,
-             allowed_schemes: Iterable[str] | None) -> TransportURL:
+def resolve_url(url: str | TransportURL | None, *,
+                defaults: Mapping[str, object] | None = None,
+                allowed_schemes: Iterable[str] | None = None,
+                **overrides: Any) -> TransportURL:
+    """The checked URL :func:`transport_for_url` builds from (same arguments), without
+    building anything: e.g. to refuse a link a remote client asked for before it is used."""
     if url is None:
         url = SIM_URL
     parsed = url if isinstance(url, TransportURL) else parse_transport_url(url)
