@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import numpy as np
 
@@ -85,6 +85,16 @@ _SIN_PHI3 = math.sin(PHI3)
 # ---------------------------------------------------------------------------------------------
 # targets
 # ---------------------------------------------------------------------------------------------
+
+
+_PerSample = TypeVar("_PerSample", "bool | NDArray[np.bool_]", "float | NDArray[np.float64]",
+                      "float | NDArray[np.floating[Any]]")
+
+
+def _take(v: _PerSample, idx: NDArray[np.intp]) -> _PerSample:
+    """The samples ``idx`` of a per-sample array; a value shared by every sample (a plain
+    bool or float) as it is."""
+    return v[idx] if isinstance(v, np.ndarray) else v
 
 
 def _as_float_array(poses: object) -> NDArray[np.generic]:
@@ -371,8 +381,8 @@ def solve_independent(
         if idx.size == 0:
             continue
         # --- restrict everything to the samples this shoulder can still improve
-        back_i = back_all[idx] if isinstance(back_all, np.ndarray) else back_all
-        sg_i = sg_all[idx] if isinstance(sg_all, np.ndarray) else sg_all
+        back_i = _take(back_all, idx)
+        sg_i = _take(sg_all, idx)
         q1 = q1[idx]
         d1 = d1[idx]
         X = X[idx]
@@ -384,7 +394,7 @@ def solve_independent(
         sdel = np.sqrt(1.0 - c * c)
         atan_y = np.arctan2(Y, X)
         for down_all in elbow_passes:
-            down = down_all[idx] if isinstance(down_all, np.ndarray) else down_all
+            down = _take(down_all, idx)
             # elbow sign on delta: -1 up, +1 down (float64; numpy's stubs widen bool * float to floating)
             es = cast("float | NDArray[np.float64]", 2.0 * down - 1.0)
             q3, ok3 = _fit_narrow(PHI3 + es * delta, 2)
@@ -403,14 +413,7 @@ def solve_independent(
                 where = idx[s1i]
                 sds = [col[s1i] for col in sd] if per_sample else sd
                 q1s = q1[s1i]
-                if isinstance(back, np.ndarray):
-                    back = back[s1i]
-                if isinstance(sg, np.ndarray):
-                    sg = sg[s1i]
-                if isinstance(down, np.ndarray):
-                    down = down[s1i]
-                if isinstance(es, np.ndarray):
-                    es = es[s1i]
+                back, sg, down, es = _take(back, s1i), _take(sg, s1i), _take(down, s1i), _take(es, s1i)
             else:
                 cc, sdl, Xs, Ys, aty = c, sdel, X, Y, atan_y
                 where = idx
@@ -434,12 +437,7 @@ def solve_independent(
                 sds = [col[sub] for col in sds] if per_sample else sds
                 q1s = q1s[sub]
                 where = where[sub]
-                if isinstance(back, np.ndarray):
-                    back = back[sub]
-                if isinstance(sg, np.ndarray):
-                    sg = sg[sub]
-                if isinstance(down, np.ndarray):
-                    down = down[sub]
+                back, sg, down = _take(back, sub), _take(sg, sub), _take(down, sub)
             # the orientation part only for the samples that survived: N = Rz(-q1) R
             cw = c1f[where] * sg
             sw = s1f[where] * sg
