@@ -600,11 +600,11 @@ class Executor:
             if (
                 old is not None and isinstance(old_act, SpeedActivity) and not isinstance(cmd, C.CartJogCommand)
             ):
-                speeds, ticks, err = self._speed_plan(cmd)
+                speeds, secs, err = self._speed_plan(cmd)
                 if err is not None:
                     self._ack(job, AckStatus.FAILED, err)
                     return
-                old_act.replace(speeds, ticks, now)
+                old_act.replace(speeds, secs, now)
                 self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
                 self.active = job
                 self._ack(job, AckStatus.EXECUTING)
@@ -619,8 +619,9 @@ class Executor:
                 # planned from old_act's sample anchor[1] - 1; old_act would send old_act.i next
                 self.activity.skip(old_act.i - anchor[1])  # type: ignore[union-attr]
 
-    def _speed_plan(self, cmd: C.Command) -> tuple[tuple[int, ...], int, str | None]:
-        """Steps/s per joint and tick count of JOG / MULTIJOG / SPEEDJOINT."""
+    def _speed_plan(self, cmd: C.Command) -> tuple[tuple[int, ...], float, str | None]:
+        """Steps/s per joint and duration (s, exact: a JOG's distance is speed x duration)
+        of JOG / MULTIJOG / SPEEDJOINT."""
         m = self.model
         speeds = [0] * 6
         if isinstance(cmd, C.Jog):
@@ -633,7 +634,7 @@ class Executor:
                 secs.append(jog.duration_s)
             if jog.distance_deg is not None:
                 secs.append(jog.distance_deg * self._spd[joint] / max(v, 1e-9))
-            return tuple(speeds), ticks_for(min(secs), self.rate_hz), None
+            return tuple(speeds), min(secs), None
         if isinstance(cmd, C.MultiJog):
             jog = cmd.move
             table = m.jog_speed_from_percent(100.0)
@@ -641,13 +642,13 @@ class Executor:
                 speeds[j] = int(round(float(table[j]) * pct / 100.0)) * d
             if jog.duration_s is None:
                 return (), 0, "MULTIJOG needs a duration"
-            return tuple(speeds), ticks_for(jog.duration_s, self.rate_hz), None
+            return tuple(speeds), jog.duration_s, None
         if isinstance(cmd, C.SpeedJoint):
             for j, v in enumerate(cmd.move.speeds_deg_s):
                 speeds[j] = int(round(v * self._spd[j]))
                 if abs(speeds[j]) > m.max_speed_steps_s[j]:
                     return (), 0, f"J{j + 1} speed {v:g} deg/s exceeds the maximum"
-            return tuple(speeds), ticks_for(cmd.move.duration_s, self.rate_hz), None
+            return tuple(speeds), cmd.move.duration_s, None
         return (), 0, f"{cmd.name} is not a speed command"
 
     def _activate(self, job: Job, now: float) -> None:
@@ -657,13 +658,14 @@ class Executor:
         if isinstance(cmd, C.Home):
             act = HomeActivity(self.model.standby_steps, ticks_for(self.homing_timeout_s, self.rate_hz))
         elif isinstance(cmd, _SPEED_COMMANDS):
-            speeds, ticks, err = self._speed_plan(cmd)
+            speeds, secs, err = self._speed_plan(cmd)
             if err is not None:
                 self._ack(job, AckStatus.FAILED, err)
                 return
-            act = SpeedActivity(speeds, ticks, streamed=job.streamed, started=now)
+            act = SpeedActivity(speeds, secs, streamed=job.streamed, started=now)
         elif needs_plan(cmd):
-            act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now)  # type: ignore[arg-type]
+            act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now,  # type: ignore[arg-type]
+                                     max_speed_steps_s=self.model.max_speed_steps_s)
             self.plan_seq += 1
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))

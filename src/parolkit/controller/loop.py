@@ -14,13 +14,39 @@
 :meth:`ControlLoop.tick` is steps 1-4 as a function of the time, returning the value of step
 5; tests drive it directly.
 
-Deadlines are ``t0 + k * period`` (no drift).  A tick that starts more than one period late
-counts as an overrun and the missed deadlines are skipped (never a burst of catch-up frames).
+Timing: deadlines are ``t0 + k * period`` (no drift).  A tick that starts more than one period
+late counts as an overrun and the missed deadlines are skipped (never a burst of catch-up
+frames); the activities catch up instead: they play the sample due at the time the tick
+actually runs (:mod:`parolkit.controller.pacing`), so a late tick does not stretch a move.
+Every tick sleeps, at least :data:`MIN_SLEEP_S` when it is already late, so a tick thread
+with a real-time policy can never take a core for itself.  The tick thread asks for
+SCHED_FIFO (``realtime_priority``), else nice -10, else runs at normal priority; which one
+it got is logged once and reported (GET_STATUS ``SCHED=``, ``scheduling`` in the status
+object and the loop statistics).
 
-Link supervision: no status frame for ``link_timeout_ticks`` ticks, or a
-:class:`LinkLostError`, means the link is lost: motion is cancelled (never resumed), the error
-is latched, and a reconnect is tried once a second in a helper thread (the tick never blocks
-on ``open()``).
+Link supervision is judged by frames the board left unanswered, never by the controller's
+own late ticks.  The board answers every frame it accepts with exactly one status frame, so
+the loop counts the frames written since the last structurally valid status frame arrived
+(one the plausibility filter rejects still proves that the board answered; a reply read at
+the start of the next tick, after the short reply wait, still answers).  A stalled
+controller writes nothing, so it never counts against the board.  When replies go bad:
+
+* after ``link_hold_frames`` (default 2) unanswered frames in a row, a running speed stream
+  (123 with a speed, or an activity that streams speeds) is stopped: its command and
+  everything queued are CANCELLED ("the board left N frames unanswered: motion stopped"),
+  and from this tick on the frames are stop frames: zero-speed 123 after a speed stream (the
+  board keeps running its last command: it must be told to stop, not left alone), the last
+  156 target with zero feed-forward after a position stream; new motion is refused while
+  replies stay missing.  A position-tracked move (156) keeps playing meanwhile: if the
+  controller fell silent the board would settle near its last target anyway;
+* after ``link_timeout_ticks`` (default 3) unanswered frames in a row the link is lost: motion
+  is cancelled (never resumed), the error is latched, and if the last frame written still
+  commanded motion a stop frame is written first (best effort), so the board is never left
+  running a speed; then no frame is written until a reconnect, which is tried once a second in
+  a helper thread (the tick never blocks on ``open()``).  A transport error (the port
+  vanished) loses the link at once.
+
+A valid status frame ends the hold; the cancelled motion stays cancelled.
 """
 
 from __future__ import annotations
@@ -44,9 +70,13 @@ from parolkit.protocol.stream import StatusParser
 from parolkit.robot import RobotModel
 from parolkit.transport.base import LinkLostError, Transport, TransportError
 
-__all__ = ["ControlLoop", "TickOutput"]
+__all__ = ["ControlLoop", "TickOutput", "MIN_SLEEP_S"]
 
 log = logging.getLogger("parolkit.controller")
+
+#: a tick that starts late still sleeps this long (s) before it runs: a SCHED_FIFO thread that
+#: never slept would starve everything else on its core
+MIN_SLEEP_S = 0.0003
 
 
 class StatusFilter:
@@ -122,6 +152,8 @@ class ControlLoop:
         guard: SafetyGuard,
         rate_hz: float,
         link_timeout_ticks: int,
+        link_hold_frames: int = 2,
+        realtime_priority: int = 10,
         inbox: CommandInbox | None = None,
         publish: Callable[[TickOutput], None] | None = None,
         pose_provider: PoseProvider | None = None,
@@ -132,7 +164,13 @@ class ControlLoop:
         self.guard = guard
         self.rate_hz = rate_hz
         self.period = 1.0 / rate_hz
+        if not 1 <= link_hold_frames <= link_timeout_ticks:
+            raise ValueError(f"link_hold_frames must be 1..link_timeout_ticks ({link_timeout_ticks}), "
+                             f"got {link_hold_frames}")
+        #: unanswered frames in a row that lose the link / stop a speed stream first
         self.link_timeout_ticks = link_timeout_ticks
+        self.link_hold_frames = link_hold_frames
+        self.realtime_priority = realtime_priority
         self.inbox = inbox if inbox is not None else CommandInbox()
         self.publish = publish
         self.pose_provider = pose_provider
@@ -149,7 +187,12 @@ class ControlLoop:
         self.tick_count = 0
         self.start_time = time.monotonic()
         self._last_status_tick = 0
-        self._alive_tick = 0
+        #: frames written since the last structurally valid status frame arrived
+        self.unanswered = 0
+        #: replies went missing during motion: frames are stop frames, motion is refused
+        self.holding = False
+        #: the tick thread's scheduling ("fifo:10", "nice:-10", "normal"), set when it starts
+        self.scheduling = "not started"
         self.filter = StatusFilter(executor.model, rate_hz)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -189,16 +232,71 @@ class ControlLoop:
 
     # ------------------------------------------------------------------ link
 
-    def _lose_link(self, reason: str) -> None:
+    def _lose_link(self, reason: str, *, may_write: bool = True) -> None:
+        """The link is lost: cancel motion, latch the error and, if the last frame written still
+        commands motion and ``may_write``, write its stop frame first (best effort)."""
         if not self.link_up:
             return
+        if may_write:
+            self._write_stop()
         self.link_up = False
+        self.holding = False
         self.stats.link_losses += 1
         log.error("board link lost: %s", reason)
         self.executor.link_lost(reason)
         self._next_reconnect = time.monotonic() + 1.0
 
+    @staticmethod
+    def stop_step(last: CommandFrame | None) -> Step | None:
+        """The frame that stops what ``last`` commanded, or None when it commands no motion:
+        123 with a speed -> the same with zero speeds; 156 with a feed-forward -> its target
+        with zero feed-forward (the board settles on it instead of ``v_ff / 100`` past it)."""
+        if last is None or not any(last.speeds):
+            return None
+        if last.command == BoardCommand.JOG:
+            return Step(BoardCommand.JOG, last.positions, (0,) * 6)
+        if last.command == BoardCommand.GOTO:
+            return Step(BoardCommand.GOTO, last.positions, (0,) * 6)
+        return None
+
+    def _write_stop(self) -> None:
+        """Write the stop frame of the last frame (guarded like any frame), if it needs one."""
+        step = self.stop_step(self.last_frame)
+        if step is None or not self.transport.is_open:
+            return
+        try:
+            frame = self._guarded(step)
+            self.transport.write(frame.encode())
+            self.last_frame = frame
+            self.stats.frames_sent += 1
+        except Exception as exc:  # the link is going away anyway
+            log.warning("could not write the stop frame before declaring the link lost: %s", exc)
+
+    def _hold(self) -> None:
+        """Replies went missing during a speed stream: stop it now, before the loss."""
+        self.holding = True
+        self.stats.link_holds += 1
+        reason = (f"the board left {self.unanswered} frames in a row unanswered: motion stopped "
+                  f"(zero-speed frames sent; the link counts as lost after {self.link_timeout_ticks})")
+        log.warning("%s", reason)
+        self.executor.cancel_all(reason)
+
+    def _supervise(self) -> None:
+        """Judge the link by the frames the board left unanswered (see the module docstring)."""
+        u = self.unanswered
+        if u > self.stats.unanswered_max:
+            self.stats.unanswered_max = u
+        if u >= self.link_timeout_ticks:
+            self._lose_link(f"the board left {u} frames in a row unanswered")
+        elif u >= self.link_hold_frames and not self.holding:
+            last = self.last_frame
+            act = self.executor.activity
+            if (last is not None and last.command == BoardCommand.JOG and any(last.speeds)) or (
+                    act is not None and act.streams_speed):
+                self._hold()
+
     def _reconnect_worker(self) -> None:
+        self._normal_priority()  # started by the tick thread: do not run with its priority
         try:
             port = self.port_request
             if port is not None:
@@ -220,7 +318,8 @@ class ControlLoop:
             self.filter.reset()
             self.status = None
             self._last_status_tick = self.tick_count
-            self._alive_tick = self.tick_count
+            self.unanswered = 0
+            self.holding = False
             self.link_up = True
             log.warning("board link up again: %s", self.transport.description)
         except (TransportError, OSError) as exc:
@@ -243,15 +342,17 @@ class ControlLoop:
         try:
             data = self.transport.read()
         except LinkLostError as exc:
-            self._lose_link(str(exc) or "link lost")
+            self._lose_link(str(exc) or "link lost", may_write=False)
             return
         except TransportError as exc:
-            self._lose_link(str(exc))
+            self._lose_link(str(exc), may_write=False)
             return
         if data:
             for f in self.parser.feed(data):
                 self.stats.frames_received += 1
-                self._alive_tick = self.tick_count  # any frame proves the link is alive
+                # any structurally valid status frame proves the board answered a frame
+                self.unanswered = 0
+                self.holding = False
                 if self.filter.accept(f, time.monotonic()):
                     self.status = f
                     self.last_status = f
@@ -280,15 +381,18 @@ class ControlLoop:
         inbox = self.inbox
         if self.link_up:
             self._read()
-            if self.link_up and self.tick_count - self._alive_tick >= self.link_timeout_ticks:
-                self._lose_link(f"no status frame for {self.tick_count - self._alive_tick} ticks")
+            if self.link_up:
+                self._supervise()
         elif not self._reconnecting and now >= self._next_reconnect:
             self._reconnecting = True
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
         commands = inbox.take_safety()
         commands += inbox.take()
-        step = ex.tick(tick=self.tick_count, now=now, status=self.status if self.link_up else None,
-                       link_up=self.link_up, commands=commands)
+        up = self.link_up and not self.holding
+        step = ex.tick(tick=self.tick_count, now=now, status=self.status if up else None,
+                       link_up=up, commands=commands)
+        if self.holding and step.command == BoardCommand.IDLE:
+            step = self.stop_step(self.last_frame) or step
         if ex.requested_port is not None:
             port, ex.requested_port = ex.requested_port, None
             self.request_port(port)
@@ -316,8 +420,9 @@ class ControlLoop:
             self.last_frame = frame
             self.stats.frames_sent += 1
         except (LinkLostError, TransportError) as exc:
-            self._lose_link(str(exc) or "write failed")
+            self._lose_link(str(exc) or "write failed", may_write=False)
             return None
+        self.unanswered += 1
         # wait briefly for the reply to measure the round trip and consume it this tick
         deadline = t_write + self.reply_wait
         got = self.stats.frames_received
@@ -346,17 +451,41 @@ class ControlLoop:
         return self.stats.view(max_age_s=0.25).as_dict()
 
     @staticmethod
-    def _raise_priority() -> bool:
-        """Ask the OS to prefer the tick thread (nice -10); needs the privilege, else no-op."""
+    def raise_priority(fifo_priority: int) -> str:
+        """Ask the OS to prefer the calling thread: SCHED_FIFO at ``fifo_priority`` (0: do not
+        ask), else nice -10, else nothing.  Returns what it got: ``"fifo:N"``, ``"nice:-10"``
+        or ``"normal"``."""
+        tid = threading.get_native_id()
+        if fifo_priority > 0:
+            try:
+                os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(fifo_priority))
+                return f"fifo:{fifo_priority}"
+            except (AttributeError, OSError, ValueError):
+                pass
         try:
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), -10)
-            return True
+            os.setpriority(os.PRIO_PROCESS, tid, -10)
+            return "nice:-10"
         except (AttributeError, OSError):
-            return False
+            return "normal"
+
+    @staticmethod
+    def _normal_priority() -> None:
+        """The calling thread back to SCHED_OTHER at nice 0 (threads inherit their creator's)."""
+        tid = threading.get_native_id()
+        try:
+            if os.sched_getscheduler(tid) != os.SCHED_OTHER:
+                os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
+            os.setpriority(os.PRIO_PROCESS, tid, 0)
+        except (AttributeError, OSError):
+            pass
 
     def _run(self) -> None:
-        if self._raise_priority():
-            log.debug("tick thread runs at nice -10")
+        self.scheduling = self.stats.scheduling = self.raise_priority(self.realtime_priority)
+        if self.scheduling == "normal":
+            log.warning("tick thread runs at normal priority: the OS granted neither SCHED_FIFO nor "
+                        "nice -10 (late ticks under load are caught up, not prevented)")
+        else:
+            log.info("tick thread scheduling: %s", self.scheduling)
         period = self.period
         t0 = time.monotonic()
         self.start_time = t0
@@ -365,10 +494,12 @@ class ControlLoop:
         while not self._stop.is_set():
             deadline = t0 + k * period
             now = time.monotonic()
-            if now < deadline:
-                time.sleep(deadline - now)
-                now = time.monotonic()
+            # always sleep: to the deadline, or a little when already late (a real-time thread
+            # that never slept would take its core from everything else)
+            time.sleep(max(deadline - now, MIN_SLEEP_S))
+            now = time.monotonic()
             late = now - deadline
+            self.stats.lateness.add(max(0.0, late))
             if late > period:
                 skipped = int(late // period)
                 self.stats.overruns += 1

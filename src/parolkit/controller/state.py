@@ -224,7 +224,13 @@ class Snapshot:
             f"|STATE={self.state.value}|HOMED={','.join(str(int(h)) for h in self.homed)}"
             f"|ESTOP={int(self.estop_pressed or self.estop_latched)}|QUEUE={self.queue}"
             f"|CMD={cmd}|ERROR={err}|OVERLOAD={self.overload}"
+            f"|SCHED={self.scheduling}|LINK_LOSSES={self.loop_view().get('link_losses', 0)}"
         )
+
+    @property
+    def scheduling(self) -> str:
+        """The tick thread's scheduling policy ("fifo:10", "nice:-10", "normal")."""
+        return str(self.loop_view().get("scheduling", "unknown"))
 
     @property
     def overload(self) -> int:
@@ -270,6 +276,7 @@ class Snapshot:
                 "timing_ms": round(s.timing_s * 1e3, 3), "xtr": s.xtr,
             },
             "loop": self.loop_view(),
+            "scheduling": self.scheduling,
             "server": self.server_view() if self.server_view is not None else {},
             "command": self.command.as_dict() if self.command else None,
             "queue": self.queue,
