@@ -74,12 +74,16 @@ class ControllerSettings:
     queue_size: int = 256
     #: home automatically at start-up when the board is simulated
     home_on_start: bool = True
-    #: frames the board left unanswered in a row that count as a lost link (one frame is
-    #: written per tick, so this is also ticks; the controller's own late ticks never count:
-    #: a reply read late still answers its frame)
-    link_timeout_ticks: int = 3
-    #: frames left unanswered in a row after which a running speed stream (123) is stopped
-    #: with a zero-speed frame and its command CANCELLED, before the loss is declared; at most
+    #: frames the board left unanswered in a row that count as a lost link: motion is
+    #: cancelled, the error latched, reconnects tried (one frame is written per tick; the
+    #: controller's own late ticks never count: a reply read late still answers its frame).
+    #: The board is already stopped by then (``link_hold_frames``); this only decides when to
+    #: give up, so it leaves room for replies the OS delivers late under load (a loaded Linux
+    #: PC's tty layer delayed replies by 20-300 ms)
+    link_timeout_ticks: int = 50
+    #: frames left unanswered in a row after which running motion is paused: the board gets
+    #: stop frames (zero-speed 123, or the last 156 target with zero feed-forward) until a
+    #: reply comes back (the motion then goes on) or the link is lost; at most
     #: ``link_timeout_ticks``
     link_hold_frames: int = 2
     #: SCHED_FIFO priority asked for the tick thread (1..99); 0 = do not ask.  Where the OS

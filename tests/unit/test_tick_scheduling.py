@@ -55,15 +55,60 @@ def test_priority_zero_never_asks_for_a_real_time_policy():
     assert got in ("nice:-10", "normal") and policy == os.SCHED_OTHER
 
 
+def _loop(rate_hz: float = 100.0, transport: EmulatorTransport | None = None, **kw) -> ControlLoop:
+    if transport is None:
+        transport = EmulatorTransport(emulator=BoardEmulator(clock="virtual", start_homed=True))
+    transport.open()
+    ex = Executor(model=PAROL6, rate_hz=rate_hz, queue_size=4, watchdog_s=0.02)
+    return ControlLoop(transport=transport, executor=ex, guard=SafetyGuard(PAROL6, rate_hz), rate_hz=rate_hz,
+                       **kw)
+
+
 @linux_only
-def test_a_helper_thread_started_by_the_tick_thread_drops_its_priority():
+def test_a_helper_thread_started_by_the_tick_thread_drops_the_real_time_policy():
+    loop = _loop(link_timeout_ticks=3)
+    loop._helper_nice = -5
+
     def both() -> str:
         got = ControlLoop.raise_priority(10)
-        ControlLoop._normal_priority()
+        loop._helper_priority()
         return got
 
-    _, policy, nice = _in_thread(both)
-    assert policy == os.SCHED_OTHER and nice == 0
+    got, policy, nice = _in_thread(both)
+    assert policy == os.SCHED_OTHER
+    if got != "normal":  # the privilege to raise it was there
+        assert nice == -5
+
+
+_OTHER_THREADS = """
+import os, threading, time
+from parolkit.controller.loop import ControlLoop
+seen = {}
+go = threading.Event()
+def worker():
+    go.wait()
+    seen["nice"] = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+t = threading.Thread(target=worker); t.start()
+time.sleep(0.05)
+n = ControlLoop.raise_other_threads(-10)
+go.set(); t.join()
+print(n, seen["nice"], os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+"""
+
+
+@linux_only
+def test_the_other_threads_of_the_process_are_raised_with_the_tick_thread():
+    """(In a child process: this one's threads are left alone.)"""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", _OTHER_THREADS], capture_output=True, text=True, check=True,
+                         env=dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2] / "src")))
+    raised, worker_nice, caller_nice = (int(v) for v in out.stdout.split())
+    if raised:  # permitted: the worker is raised, the calling thread (the tick thread) is not touched
+        assert worker_nice == -10 and caller_nice == 0
+    else:
+        assert worker_nice == 0
 
 
 def _voluntary_switches(tid: int) -> int:
@@ -88,11 +133,8 @@ class SlowLink(EmulatorTransport):
 def test_the_tick_thread_sleeps_every_tick_even_when_every_tick_overruns():
     """No tick ever finds its deadline ahead, yet the tick thread gives up the CPU at least
     once per tick (MIN_SLEEP_S): at SCHED_FIFO it could otherwise hold a core for good."""
-    transport = SlowLink(emulator=BoardEmulator(clock="virtual", start_homed=True))
-    transport.open()
-    ex = Executor(model=PAROL6, rate_hz=1000.0, queue_size=4, watchdog_s=0.02)
-    loop = ControlLoop(transport=transport, executor=ex, guard=SafetyGuard(PAROL6, 1000.0), rate_hz=1000.0,
-                       link_timeout_ticks=1000, link_hold_frames=1000, reply_wait_fraction=0.0)
+    loop = _loop(1000.0, SlowLink(emulator=BoardEmulator(clock="virtual", start_homed=True)),
+                 link_timeout_ticks=1000, link_hold_frames=1000, reply_wait_fraction=0.0, raise_process=False)
     tids: list[int] = []
     orig = loop._run
 
@@ -119,7 +161,8 @@ def test_the_tick_thread_sleeps_every_tick_even_when_every_tick_overruns():
 
 
 @pytest.mark.parametrize("text, fragment", [
-    ("link_hold_frames = 4", r"link_hold_frames \(4\) must not exceed controller.link_timeout_ticks \(3\)"),
+    ("link_timeout_ticks = 3\nlink_hold_frames = 4",
+     r"link_hold_frames \(4\) must not exceed controller.link_timeout_ticks \(3\)"),
     ("link_hold_frames = 0", "link_hold_frames must be an integer in 1..1000"),
     ("realtime_priority = 100", "realtime_priority must be an integer in 0..99"),
 ])
@@ -132,4 +175,4 @@ def test_bad_link_and_scheduling_settings_are_refused_with_their_names(tmp_path,
 
 def test_link_and_scheduling_defaults():
     cs = load_config(search_default_paths=False).controller
-    assert (cs.link_timeout_ticks, cs.link_hold_frames, cs.realtime_priority) == (3, 2, 10)
+    assert (cs.link_timeout_ticks, cs.link_hold_frames, cs.realtime_priority) == (50, 2, 10)

@@ -120,12 +120,18 @@ class Activity:
     progress: float = 0.0
     #: True while the activity streams speeds (123)
     streams_speed: bool = False
+    #: True when its frames move the robot (a paused one gets stop frames, see :meth:`held`)
+    moves: bool = False
 
     def step(self, ctx: TickContext) -> Step:  # pragma: no cover - abstract
         raise NotImplementedError
 
     def touch(self, now: float) -> None:
         """A streaming update arrived (resets the watchdog)."""
+
+    def held(self, now: float, stop: Step) -> None:
+        """The loop sent the stop frame ``stop`` at ``now`` instead of asking this activity
+        (replies went missing); it is stepped again once they come back."""
 
 
 class TrajectoryActivity(Activity):
@@ -164,6 +170,7 @@ class TrajectoryActivity(Activity):
         self.streamed = streamed
         self.last_update = started
         self.streams_speed = bool(self.n) and any(c == BoardCommand.JOG for c in self.commands)
+        self.moves = True
         self.vmax = tuple(float(v) for v in max_speed_steps_s)
         self.fits = fits
         #: time of the first frame (sample 0 is due then); ``skip`` moves the schedule on
@@ -177,6 +184,11 @@ class TrajectoryActivity(Activity):
 
     def touch(self, now: float) -> None:
         self.last_update = now
+
+    def held(self, now: float, stop: Step) -> None:
+        """Paused by the loop (``stop`` sent): the board model knows it stopped; the schedule
+        runs on, so once replies are back the move catches up as after a late tick."""
+        self.log.record(now, stop.command, stop.positions or _ZERO6, stop.speeds)
 
     def commanded(self) -> tuple[int, ...] | None:
         """Position (steps) of the last target sent to the board; None before the first."""
@@ -319,6 +331,7 @@ class SpeedActivity(Activity):
     """
 
     streams_speed = True
+    moves = True
 
     def __init__(self, speeds_steps_s: Sequence[int], duration_s: float, *, streamed: bool = False,
                  started: float = 0.0, stop_lookahead_ticks: float = 4.0, tol_steps: float = 1.0,
@@ -344,6 +357,16 @@ class SpeedActivity(Activity):
         self.started = now
         self.last_update = now
         self.x0: list[float] | None = None
+        #: time the loop held it paused (stop frames instead of its own), s
+        self.paused = 0.0
+        self._paused_at: float | None = None
+
+    def held(self, now: float, stop: Step) -> None:
+        """Paused by the loop (``stop`` sent): the board model knows it stopped, and the time
+        the pause lasts is added to the time the stream may take to cover its distance."""
+        self.log.record(now, stop.command, stop.positions or _ZERO6, stop.speeds)
+        if self._paused_at is None:
+            self._paused_at = now
 
     def _stop(self, ctx: TickContext, details: str) -> Step:
         pos = ctx.status.positions if ctx.status else None
@@ -364,6 +387,9 @@ class SpeedActivity(Activity):
                 if (v > 0 and ahead > hi) or (v < 0 and ahead < lo):
                     return self._stop(ctx, f"stopped at the {'upper' if v > 0 else 'lower'} limit of {JOINT_NAMES[j]}")
         now = ctx.now
+        if self._paused_at is not None:
+            self.paused += now - self._paused_at
+            self._paused_at = None
         period = 1.0 / ctx.rate_hz
         e = now - self.started
         end = self.duration
@@ -375,7 +401,7 @@ class SpeedActivity(Activity):
         else:
             if self.x0 is None:
                 self.x0 = x
-            if e >= end + self.overrun:
+            if e >= end + self.paused + self.overrun:
                 return self._stop(ctx, f"ended {self.overrun:g} s after its time: the board did not "
                                        f"cover the planned distance")
             e_next = (int(e * ctx.rate_hz + 0.5) + 1) * period

@@ -22,31 +22,39 @@ Every tick sleeps, at least :data:`MIN_SLEEP_S` when it is already late, so a ti
 with a real-time policy can never take a core for itself.  The tick thread asks for
 SCHED_FIFO (``realtime_priority``), else nice -10, else runs at normal priority; which one
 it got is logged once and reported (GET_STATUS ``SCHED=``, ``scheduling`` in the status
-object and the loop statistics).
+object and the loop statistics).  When it got one, the process's other threads are raised to
+nice -10 as well: the tick needs the interpreter lock, and a thread holding it while the OS
+runs a CPU hog instead would hold the tick up (priority inversion; under two hogs a
+SCHED_FIFO tick waited 100-300 ms that way).
 
 Link supervision is judged by frames the board left unanswered, never by the controller's
 own late ticks.  The board answers every frame it accepts with exactly one status frame, so
 the loop counts the frames written since the last structurally valid status frame arrived
 (one the plausibility filter rejects still proves that the board answered; a reply read at
 the start of the next tick, after the short reply wait, still answers).  A stalled
-controller writes nothing, so it never counts against the board.  When replies go bad:
+controller writes nothing, so it never counts against the board.  When replies go missing:
 
-* after ``link_hold_frames`` (default 2) unanswered frames in a row, a running speed stream
-  (123 with a speed, or an activity that streams speeds) is stopped: its command and
-  everything queued are CANCELLED ("the board left N frames unanswered: motion stopped"),
-  and from this tick on the frames are stop frames: zero-speed 123 after a speed stream (the
-  board keeps running its last command: it must be told to stop, not left alone), the last
-  156 target with zero feed-forward after a position stream; new motion is refused while
-  replies stay missing.  A position-tracked move (156) keeps playing meanwhile: if the
-  controller fell silent the board would settle near its last target anyway;
-* after ``link_timeout_ticks`` (default 3) unanswered frames in a row the link is lost: motion
-  is cancelled (never resumed), the error is latched, and if the last frame written still
-  commanded motion a stop frame is written first (best effort), so the board is never left
-  running a speed; then no frame is written until a reconnect, which is tried once a second in
-  a helper thread (the tick never blocks on ``open()``).  A transport error (the port
+* after ``link_hold_frames`` (default 2) unanswered frames in a row, running motion is
+  paused: the board is told to stop (the firmware runs its last command forever, so it must
+  be told, not left alone): a zero-speed 123 after a speed stream, the last 156 target with
+  zero feed-forward after a position stream, every tick, while the activity is not stepped
+  and new commands are refused.  The controller cannot see the board meanwhile (not even an
+  E-stop press), so nothing moves.  When replies come back the motion goes on: the activity
+  knows the board stopped (:meth:`~parolkit.controller.jobs.Activity.held`) and catches up as
+  after a late tick (a JOG still covers its distance, a timed move keeps its time where the
+  board's speed allows);
+* after ``link_timeout_ticks`` (default 50) unanswered frames in a row the link is lost:
+  motion is cancelled (never resumed), the error is latched, and if the last frame written
+  still commanded motion (the pause switched off by ``link_hold_frames`` =
+  ``link_timeout_ticks``) its stop frame is written first (best effort), so the board is
+  never left running a speed; then no frame is written until a reconnect, tried once a second
+  in a helper thread (the tick never blocks on ``open()``).  A transport error (the port
   vanished) loses the link at once.
 
-A valid status frame ends the hold; the cancelled motion stays cancelled.
+The pause is what makes the robot safe, within 2 ticks; the loss only decides when to give
+up, and waits for longer than the operating system takes, under load, to deliver replies
+that were sent in time (a loaded Linux PC's tty layer held them back 20-300 ms; a raw pty
+echo between two SCHED_FIFO processes under two CPU hogs showed the same).
 """
 
 from __future__ import annotations
@@ -77,6 +85,10 @@ log = logging.getLogger("parolkit.controller")
 #: a tick that starts late still sleeps this long (s) before it runs: a SCHED_FIFO thread that
 #: never slept would starve everything else on its core
 MIN_SLEEP_S = 0.0003
+#: the niceness the process's other threads get when the tick thread got a raised priority
+HELPER_NICE = -10
+#: a tick that starts this late (s) is logged (at most one warning per 10 s)
+LATE_WARNING_S = 0.05
 
 
 class StatusFilter:
@@ -154,6 +166,7 @@ class ControlLoop:
         link_timeout_ticks: int,
         link_hold_frames: int = 2,
         realtime_priority: int = 10,
+        raise_process: bool = True,
         inbox: CommandInbox | None = None,
         publish: Callable[[TickOutput], None] | None = None,
         pose_provider: PoseProvider | None = None,
@@ -171,6 +184,9 @@ class ControlLoop:
         self.link_timeout_ticks = link_timeout_ticks
         self.link_hold_frames = link_hold_frames
         self.realtime_priority = realtime_priority
+        #: also raise the process's other threads (:meth:`raise_other_threads`) when it starts
+        self.raise_process = raise_process
+        self._helper_nice = 0
         self.inbox = inbox if inbox is not None else CommandInbox()
         self.publish = publish
         self.pose_provider = pose_provider
@@ -189,8 +205,13 @@ class ControlLoop:
         self._last_status_tick = 0
         #: frames written since the last structurally valid status frame arrived
         self.unanswered = 0
-        #: replies went missing during motion: frames are stop frames, motion is refused
+        #: replies went missing during a speed stream: it is paused, frames are stop frames,
+        #: new commands are refused (ends with the next reply, or with the loss)
         self.holding = False
+        #: the stop frame sent every tick while holding
+        self._hold_step: Step | None = None
+        self._holds_unlogged = 0
+        self._next_hold_log = 0.0
         #: the tick thread's scheduling ("fifo:10", "nice:-10", "normal"), set when it starts
         self.scheduling = "not started"
         self.filter = StatusFilter(executor.model, rate_hz)
@@ -272,16 +293,20 @@ class ControlLoop:
         except Exception as exc:  # the link is going away anyway
             log.warning("could not write the stop frame before declaring the link lost: %s", exc)
 
-    def _hold(self) -> None:
-        """Replies went missing during a speed stream: stop it now, before the loss."""
+    def _hold(self, now: float, stop: Step) -> None:
+        """Replies went missing during motion: pause it, the board stopped by ``stop``."""
         self.holding = True
+        self._hold_step = stop
         self.stats.link_holds += 1
-        reason = (f"the board left {self.unanswered} frames in a row unanswered: motion stopped "
-                  f"(zero-speed frames sent; the link counts as lost after {self.link_timeout_ticks})")
-        log.warning("%s", reason)
-        self.executor.cancel_all(reason)
+        self._holds_unlogged += 1
+        if now >= self._next_hold_log:
+            self._next_hold_log = now + 10.0
+            log.warning("the board left %d frames in a row unanswered: motion paused with stop frames "
+                        "(%d such pause(s) since the last report; the link counts as lost after %d)",
+                        self.unanswered, self._holds_unlogged, self.link_timeout_ticks)
+            self._holds_unlogged = 0
 
-    def _supervise(self) -> None:
+    def _supervise(self, now: float) -> None:
         """Judge the link by the frames the board left unanswered (see the module docstring)."""
         u = self.unanswered
         if u > self.stats.unanswered_max:
@@ -291,12 +316,13 @@ class ControlLoop:
         elif u >= self.link_hold_frames and not self.holding:
             last = self.last_frame
             act = self.executor.activity
-            if (last is not None and last.command == BoardCommand.JOG and any(last.speeds)) or (
-                    act is not None and act.streams_speed):
-                self._hold()
+            if last is not None and last.command in (BoardCommand.JOG, BoardCommand.GOTO) and (
+                    any(last.speeds) or (act is not None and act.moves)):
+                # 123 -> zero speeds; 156 -> its target with zero feed-forward
+                self._hold(now, Step(last.command, last.positions, (0,) * 6))
 
     def _reconnect_worker(self) -> None:
-        self._normal_priority()  # started by the tick thread: do not run with its priority
+        self._helper_priority()  # started by the tick thread: do not run with its priority
         try:
             port = self.port_request
             if port is not None:
@@ -382,7 +408,7 @@ class ControlLoop:
         if self.link_up:
             self._read()
             if self.link_up:
-                self._supervise()
+                self._supervise(now)
         elif not self._reconnecting and now >= self._next_reconnect:
             self._reconnecting = True
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
@@ -391,8 +417,11 @@ class ControlLoop:
         up = self.link_up and not self.holding
         step = ex.tick(tick=self.tick_count, now=now, status=self.status if up else None,
                        link_up=up, commands=commands)
-        if self.holding and step.command == BoardCommand.IDLE:
-            step = self.stop_step(self.last_frame) or step
+        hold = self._hold_step
+        if self.holding and hold is not None and step.command == BoardCommand.IDLE:
+            step = hold  # the motion is paused: the board is told to stop, every tick
+            if ex.activity is not None:
+                ex.activity.held(now, hold)
         if ex.requested_port is not None:
             port, ex.requested_port = ex.requested_port, None
             self.request_port(port)
@@ -469,28 +498,55 @@ class ControlLoop:
             return "normal"
 
     @staticmethod
-    def _normal_priority() -> None:
-        """The calling thread back to SCHED_OTHER at nice 0 (threads inherit their creator's)."""
+    def raise_other_threads(nice: int = HELPER_NICE) -> int:
+        """Every other thread of this process to ``nice`` where the OS allows it (Linux: per
+        thread); returns how many.  The tick thread needs the interpreter lock that any of them
+        may hold: one that holds it while the OS runs a CPU hog instead holds the tick up (a
+        real-time tick thread waited 100-300 ms that way under two hogs)."""
+        me = threading.get_native_id()
+        try:
+            tids = [int(t) for t in os.listdir("/proc/self/task")]
+        except OSError:
+            return 0
+        done = 0
+        for tid in tids:
+            if tid == me:
+                continue
+            try:
+                os.setpriority(os.PRIO_PROCESS, tid, nice)
+                done += 1
+            except (AttributeError, OSError):
+                pass
+        return done
+
+    def _helper_priority(self) -> None:
+        """A thread the tick thread started (threads inherit their creator's policy): back to
+        SCHED_OTHER, at the other threads' nice."""
         tid = threading.get_native_id()
         try:
             if os.sched_getscheduler(tid) != os.SCHED_OTHER:
                 os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
-            os.setpriority(os.PRIO_PROCESS, tid, 0)
+            os.setpriority(os.PRIO_PROCESS, tid, self._helper_nice)
         except (AttributeError, OSError):
             pass
 
     def _run(self) -> None:
         self.scheduling = self.stats.scheduling = self.raise_priority(self.realtime_priority)
+        others = self.raise_other_threads() if self.raise_process and self.scheduling != "normal" else 0
+        if others:
+            self._helper_nice = HELPER_NICE
         if self.scheduling == "normal":
             log.warning("tick thread runs at normal priority: the OS granted neither SCHED_FIFO nor "
                         "nice -10 (late ticks under load are caught up, not prevented)")
         else:
-            log.info("tick thread scheduling: %s", self.scheduling)
+            log.info("tick thread scheduling: %s; %d other threads at nice %d", self.scheduling, others,
+                     self._helper_nice)
         period = self.period
         t0 = time.monotonic()
         self.start_time = t0
         k = 0
         last_start: float | None = None
+        next_late_warning = 0.0
         while not self._stop.is_set():
             deadline = t0 + k * period
             now = time.monotonic()
@@ -504,6 +560,10 @@ class ControlLoop:
                 skipped = int(late // period)
                 self.stats.overruns += 1
                 k += skipped
+                if late > LATE_WARNING_S and now >= next_late_warning:
+                    next_late_warning = now + 10.0
+                    log.warning("tick %d started %.1f ms late (%s; the missed deadlines are skipped, "
+                                "the motion catches up)", self.tick_count, late * 1e3, self.scheduling)
             if last_start is not None:
                 self.stats.period.add(now - last_start)
             last_start = now
