@@ -41,61 +41,11 @@ from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_s
 from parolkit.controller.stats import LoopMetrics
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
-from parolkit.robot import RobotModel
 from parolkit.transport.base import LinkLostError, Transport, TransportError
 
 __all__ = ["ControlLoop", "TickOutput"]
 
 log = logging.getLogger("parolkit.controller")
-
-
-class StatusFilter:
-    """Plausibility check of status frames (the link has no checksum: a corrupted byte in a
-    field passes the framing checks).
-
-    A frame is accepted when its constant bits are right (IO low bits 0x07, homed low bits
-    0x03), every speed is within the firmware clamp, and it is consistent with the last
-    accepted frame: same homed byte and no joint further away than 3x its maximum speed could
-    carry it (+ 32 steps).  A frame that is not consistent (a corrupted position or homed byte,
-    or a real jump: homing zeroes counters, ENABLE or a power cycle resets them) is held back
-    and accepted only when the NEXT frame agrees with it; a corrupted one never does.
-    """
-
-    def __init__(self, model: RobotModel, rate_hz: float) -> None:
-        self._vlim = tuple(min(50_000.0, 3.0 * float(v)) for v in model.max_speed_steps_s)
-        self._period = 1.0 / rate_hz
-        self.reset()
-
-    def reset(self) -> None:
-        self._ref: StatusFrame | None = None
-        self._ref_t = 0.0
-        self._cand: StatusFrame | None = None
-        self._cand_t = 0.0
-
-    def _consistent(self, a: StatusFrame, b: StatusFrame, dt: float) -> bool:
-        if a.homed != b.homed:
-            return False
-        dt = max(dt, self._period)
-        for j in range(6):
-            if abs(a.positions[j] - b.positions[j]) > self._vlim[j] * dt + 32:
-                return False
-        return True
-
-    def accept(self, f: StatusFrame, now: float) -> bool:
-        if (f.io & 0x07) != 0x07 or (f.homed & 0x03) != 0x03:
-            return False
-        if any(v > 50_000 or v < -50_000 for v in f.speeds):
-            return False
-        ref = self._ref
-        if ref is None or self._consistent(ref, f, now - self._ref_t):
-            self._ref, self._ref_t, self._cand = f, now, None
-            return True
-        cand = self._cand
-        if cand is not None and self._consistent(cand, f, now - self._cand_t):
-            self._ref, self._ref_t, self._cand = f, now, None
-            return True
-        self._cand, self._cand_t = f, now
-        return False
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,7 +100,8 @@ class ControlLoop:
         self.start_time = time.monotonic()
         self._last_status_tick = 0
         self._alive_tick = 0
-        self.filter = StatusFilter(executor.model, rate_hz)
+        #: which status frames are the truth (parolkit.controller.integrity)
+        self.filter = executor.integrity
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._reconnecting = False
@@ -249,10 +200,10 @@ class ControlLoop:
             self._lose_link(str(exc))
             return
         if data:
-            for f in self.parser.feed(data):
+            for f in self.parser.iter_feed(data):
                 self.stats.frames_received += 1
                 self._alive_tick = self.tick_count  # any frame proves the link is alive
-                if self.filter.accept(f, time.monotonic()):
+                if self.filter.accept(f, time.monotonic(), self.parser.stats.bytes_dropped):
                     self.status = f
                     self.last_status = f
                     self._last_status_tick = self.tick_count
@@ -313,6 +264,7 @@ class ControlLoop:
         try:
             t_write = time.perf_counter()
             self.transport.write(frame.encode())
+            self.filter.sent(frame, time.monotonic())
             self.last_frame = frame
             self.stats.frames_sent += 1
         except (LinkLostError, TransportError) as exc:
