@@ -107,8 +107,8 @@ class Tolerances:
     * ``model``: relative error of the exponential GO TO model against the board's loop passes;
     * ``margin``: the commanded check allows this much more than the link check, so that a
       reply byte that slipped through the link can never look like uncommanded motion;
-    * ``big_factor`` / ``big_steps``: a commanded-check deviation larger than
-      ``big_factor * tolerance + big_steps`` is acted on without waiting for the next frame.
+    * ``gap``: the slack of the coarse check across lost frames (the hull of everything the
+      frames written since the last true frame could reach).
     """
 
     steps: float = 1.0
@@ -116,8 +116,7 @@ class Tolerances:
     pass_s: float = 5e-4
     model: float = 0.01
     margin: float = 2.0
-    big_factor: float = 6.0
-    big_steps: float = 16.0
+    gap: float = 16.0
 
 
 @dataclass(frozen=True)
@@ -141,7 +140,8 @@ class IntegrityView:
 @dataclass(frozen=True, slots=True)
 class _Deviation:
     message: str
-    big: bool
+    #: the joints (0..5) it concerns
+    joints: tuple[int, ...]
 
 
 @dataclass(slots=True)
@@ -156,7 +156,6 @@ class _Reply:
     #: frames written before it was read (it answers one of the newest of them)
     n: int = 0
     truth: bool = False
-    suspect: _Deviation | None = None
 
 
 def _goto(p0: float, pss: float, dt: float) -> float:
@@ -324,6 +323,9 @@ class StatusIntegrity:
         """A new link session: nothing is known about the board's state."""
         self._prev: _Reply | None = None
         self._ref: _Reply | None = None
+        #: a frame that follows from a true one but shows motion nobody commanded, waiting for
+        #: a second frame to confirm it: (that frame, what it shows, frames left to confirm)
+        self._suspect: tuple[_Reply, _Deviation, int] | None = None
         self._sent.clear()
         #: HOME was written (its frame number) and no aborting code since; None: none asked
         self._home_t: int | None = None
@@ -395,17 +397,32 @@ class StatusIntegrity:
         dt = self._dt(prev, rx) if adjacent and prev is not None else None
         linked = prev is not None and dt is not None and self._link(prev.f, f, dt)
         ref = self._ref
+        pending = self._suspect
+        if pending is not None:
+            sus, sdev, left = pending
+            if linked and prev is sus:
+                # the next frame follows from it: the board really went there
+                self._suspect = None
+                self._fault(sdev.message)
+                return self._truth(rx)
+            if ref is not None and self._outside_hull(ref, rx, sdev.joints):
+                # a second frame shows the same joints beyond anything commanded
+                self._suspect = None
+                self._fault(sdev.message)
+                self.implausible += 1
+                return False
+            self._suspect = (sus, sdev, left - 1) if left > 1 else None
+            if left <= 1:
+                log.info("integrity: not confirmed by the next frames: %s", sdev.message)
         if linked:
             assert prev is not None and dt is not None
-            if prev.suspect is not None:
-                self._fault(prev.suspect.message)  # confirmed by this frame
-                return self._truth(rx)
             if ref is None:
                 return self._truth(rx)  # a new session: two frames agree
-            if ref is not prev:
+            if ref is not prev and prev is not self._suspect_reply():
                 gap = self._gap_deviation(ref, prev)
                 if gap is not None:
-                    self._fault(gap.message)
+                    self._suspect = None
+                    self._fault(gap.message)  # prev and rx agree: two frames show it
                     return self._truth(rx)
             tight, dev = self._commanded(prev, rx, dt)
             if dev is None:
@@ -415,17 +432,17 @@ class StatusIntegrity:
                 # precision of what was commanded: not shown (the next frame links to it)
                 self.implausible += 1
                 return False
-            if dev.big:
-                self._fault(dev.message)
-                return self._truth(rx)
-            rx.suspect = dev  # small: the next frame must confirm it
+            # it follows from a true frame, but not from what was commanded: a second frame
+            # must show it (a reply with several corrupted bytes may pass the link by chance)
+            self._suspect = (rx, dev, 2)
             return False
-        if prev is not None and prev.suspect is not None:
-            log.info("integrity: not confirmed (the next frame did not link): %s", prev.suspect.message)
         if ref is not None and self._at_rest_like(ref.f, f):
             return self._truth(rx)
         self.implausible += 1
         return False
+
+    def _suspect_reply(self) -> _Reply | None:
+        return self._suspect[0] if self._suspect is not None else None
 
     def _idle_codes_only(self, n: int) -> bool:
         cands = self._candidates(n)
@@ -524,7 +541,7 @@ class StatusIntegrity:
         if mode is LinkMode.JOG:
             for p0, v in zip(a.positions, b.speeds):
                 pred.append(p0 + v * dt)
-                allow.append(tol.steps + abs(v) * tol.timing_s)
+                allow.append(tol.steps + abs(v) * tol.timing_s if v else 0.0)  # speed 0: not a step
             return pred, allow
         e = math.exp(-50.0 * dt)
         for p0, p1, v in zip(a.positions, b.positions, b.speeds):
@@ -572,10 +589,14 @@ class StatusIntegrity:
             for p, v in zip(p0, frame.speeds):
                 vc = max(-BOARD_SPEED_CLAMP, min(BOARD_SPEED_CLAMP, v))
                 pred.append(p + vc * dt)
-                allow.append(tol.steps + abs(vc) * tol.timing_s)
+                allow.append(tol.steps + abs(vc) * tol.timing_s if vc else 0.0)
         elif code == _GOTO:
             for p, tgt, vff in zip(p0, frame.positions, frame.speeds):
                 pss = tgt + vff / 100.0
+                if pss == p:  # on target, no feed-forward: the P loop asks for speed 0
+                    pred.append(float(p))
+                    allow.append(0.0)
+                    continue
                 q = _goto(p, pss, dt)
                 pred.append(q)
                 allow.append(tol.steps + tol.model * abs(q - p)
@@ -625,16 +646,13 @@ class StatusIntegrity:
 
     def _describe(self, a: StatusFrame, b: StatusFrame, fr: CommandFrame, pred: list[float],
                   allow: list[float]) -> _Deviation:
-        tol = self.tol
         parts = []
-        big = False
+        joints = []
         code = int(fr.command)
         for j in range(6):
-            dev = b.positions[j] - pred[j]
-            if abs(dev) <= allow[j]:
+            if abs(b.positions[j] - pred[j]) <= allow[j]:
                 continue
-            if abs(dev) > tol.big_factor * allow[j] + tol.big_steps:
-                big = True
+            joints.append(j)
             moved = b.positions[j] - a.positions[j]
             want = pred[j] - a.positions[j]
             name = JOINT_NAMES[j]
@@ -644,11 +662,12 @@ class StatusIntegrity:
                 parts.append(f"{name} stood still where {want:.0f} steps were commanded (is the board disabled?)")
             else:
                 parts.append(f"{name} moved {moved} steps where {want:.0f} were commanded")
-        return _Deviation("; ".join(parts), big)
+        return _Deviation("; ".join(parts), tuple(joints))
 
-    def _gap_deviation(self, ref: _Reply, b: _Reply) -> _Deviation | None:
-        """``b`` (true, but not adjacent to ``ref``: frames were lost in between): its
-        positions must lie within what the frames written since ``ref`` could reach."""
+    def _hull(self, ref: _Reply, b: _Reply) -> list[tuple[float, float]] | None:
+        """Per joint, the range the frames written since ``ref`` could take it to by the time
+        ``b`` was read (the start, every GO TO target, the farthest a JOG could run), or None
+        when that cannot be judged (a homing, frames no longer known)."""
         if self._home_t is not None or self._unasked:
             return None
         first = ref.n - self.candidates + 1
@@ -659,12 +678,8 @@ class StatusIntegrity:
             return None
         # how long those frames ran: ticks, or the time it took if ticks came late
         span = max(len(frames) * self.period, b.t - ref.t + self.candidates * self.period)
-        tol = self.tol
-        parts = []
-        big = False
+        out = []
         for j in range(6):
-            # the P loop heads for each target, a JOG runs at its speed: the joint stays inside
-            # the hull of the start, every target and the farthest a JOG could take it
             p0 = ref.f.positions[j]
             lo = hi = float(p0)
             vlo = vhi = 0.0
@@ -675,14 +690,30 @@ class StatusIntegrity:
                 elif code == _GOTO:
                     pss = fr.positions[j] + fr.speeds[j] / 100.0
                     lo, hi = min(lo, pss), max(hi, pss)
-            lo, hi = lo + vlo * span, hi + vhi * span
-            allow = tol.steps + tol.margin + tol.big_steps
+            slack = self.tol.steps + self.tol.margin + self.tol.gap
+            out.append((lo + vlo * span - slack, hi + vhi * span + slack))
+        return out
+
+    def _outside_hull(self, ref: _Reply, b: _Reply, joints: Sequence[int]) -> bool:
+        hull = self._hull(ref, b)
+        if hull is None:
+            return False
+        return any(not hull[j][0] <= b.f.positions[j] <= hull[j][1] for j in joints)
+
+    def _gap_deviation(self, ref: _Reply, b: _Reply) -> _Deviation | None:
+        """``b`` (a frame the next one links to, after frames were lost since ``ref``): its
+        positions must lie within the hull of what the frames written since could reach."""
+        hull = self._hull(ref, b)
+        if hull is None:
+            return None
+        parts = []
+        joints = []
+        for j, (lo, hi) in enumerate(hull):
             p1 = b.f.positions[j]
-            out = max(lo - p1, p1 - hi)
-            if out > allow:
-                big = True
-                parts.append(f"{JOINT_NAMES[j]} moved {p1 - p0} steps, beyond anything commanded")
-        return _Deviation("; ".join(parts), big) if big else None
+            if not lo <= p1 <= hi:
+                joints.append(j)
+                parts.append(f"{JOINT_NAMES[j]} moved {p1 - ref.f.positions[j]} steps, beyond anything commanded")
+        return _Deviation("; ".join(parts), tuple(joints)) if joints else None
 
     # ------------------------------------------------------------------ faults
 
