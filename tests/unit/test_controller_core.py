@@ -27,13 +27,19 @@ RATE = 100.0
 class Rig:
     """One controller core: ticks are driven by the test; the board advances 1/RATE per tick."""
 
-    def __init__(self, *, homed: bool = True, queue_size: int = 16, **emu_kw) -> None:
+    def __init__(self, *, homed: bool = True, queue_size: int = 16, board_disabled: bool = False,
+                 wrap=None, **emu_kw) -> None:
         self.emu = BoardEmulator(clock="virtual", start_homed=homed, homing_speedup=200, **emu_kw)
-        self.transport = EmulatorTransport(emulator=self.emu)
+        if board_disabled:  # left so by a previous controller
+            self.emu.process_frame(CommandFrame(command=BoardCommand.DISABLE))
+        # ``wrap(transport)``: a link fault injector around the emulator's link
+        base = EmulatorTransport(emulator=self.emu)
+        self.transport = wrap(base) if wrap is not None else base
         self.transport.open()
         self.acks: list[tuple[str | None, AckStatus, str]] = []
         self.outputs: list[TickOutput] = []
-        self.ex = Executor(model=PAROL6, rate_hz=RATE, queue_size=queue_size, watchdog_s=0.02)
+        self.ex = Executor(model=PAROL6, rate_hz=RATE, queue_size=queue_size, watchdog_s=0.02,
+                           homing_speedup=200)
         self.guard = SafetyGuard(PAROL6, RATE)
         self.loop = ControlLoop(transport=self.transport, executor=self.ex, guard=self.guard, rate_hz=RATE,
                                 link_timeout_ticks=3, reply_wait_fraction=0.0)

@@ -37,7 +37,7 @@ between: the parser dropped no bytes between them):
 * **Homing nobody asked for** is judged on two adjacent frames whatever their positions (a
   simulated board's homing may be faster than the controller was told): ``xtr`` = 100 without
   a HOME written, then homed bits falling or a speed while every frame written was idle; or
-  homed bits fallen in two frames in a row.  Likewise a speed reported in two frames in a row
+  the same fallen homed byte in two frames in a row.  Likewise a speed reported in two frames in a row
   while every frame written was idle is motion nobody commanded.
 
 ``on_fault(message)`` is called once per uncommanded motion (the executor disables the robot).
@@ -158,11 +158,14 @@ class _Reply:
     truth: bool = False
 
 
-def _goto(p0: float, pss: float, dt: float) -> float:
+def _goto(p0: float, pss: float, dt: float, decay: float | None = None) -> float:
     """Where the firmware's P loop ``v = 50 * (pss - p)`` (clamped to 50,000 steps/s) takes a
-    joint from ``p0`` in ``dt`` s (continuous approximation of its loop passes)."""
+    joint from ``p0`` in ``dt`` s (continuous approximation of its loop passes).  ``decay``:
+    ``exp(-50 dt)`` when the caller has it."""
     e0 = p0 - pss
     lin = abs(e0) - BOARD_SPEED_CLAMP / 50.0
+    if lin <= 0.0 and decay is not None:
+        return pss + e0 * decay
     if lin > 0.0:
         tl = lin / BOARD_SPEED_CLAMP
         if dt <= tl:
@@ -335,6 +338,11 @@ class StatusIntegrity:
         self._home_seen = False
         #: the board homes without having been asked (reported; until an aborting code)
         self._unasked = False
+        #: the homed byte the board is known to report (the truth's, or one reported)
+        self._homed_known: int | None = None
+        #: no new fault before this many frames were written (the DISABLE of the last one is
+        #: on its way: what the board does meanwhile is the same event)
+        self._quiet_until = 0
 
     @property
     def homing_seen(self) -> bool:
@@ -395,7 +403,7 @@ class StatusIntegrity:
             if fault is not None:
                 self._fault(fault)
         dt = self._dt(prev, rx) if adjacent and prev is not None else None
-        linked = prev is not None and dt is not None and self._link(prev.f, f, dt)
+        linked = prev is not None and dt is not None and self._link(prev.f, f, dt, prev.n)
         ref = self._ref
         pending = self._suspect
         if pending is not None:
@@ -450,22 +458,26 @@ class StatusIntegrity:
 
     def _raw_checks(self, a: _Reply, b: _Reply) -> str | None:
         """Homing and speeds shown by two adjacent frames, whatever their positions."""
-        ref_homed = self._ref.f.homed if self._ref is not None else None
+        ref_homed = self._homed_known
         if self._home_t is not None:
+            # the same fallen homed byte, or the same speed on a joint, twice in a row: two
+            # corrupted bytes do not agree like that
             before = self._home_homed
-            if all((r.f.homed & before) != before or any(r.f.speeds) for r in (a, b)):
+            fallen = a.f.homed == b.f.homed and (b.f.homed & before) != before
+            if fallen or any(v and v == w for v, w in zip(a.f.speeds, b.f.speeds)):
                 self._home_seen = True
             return None
         if self._unasked:
             return None
-        home = a.f.xtr == _HOME and not any(int(fr.command) == _HOME for fr in self._candidates(a.n))
-        fell = (b.f.homed & a.f.homed) != a.f.homed
         idle = self._idle_codes_only(a.n) and self._idle_codes_only(b.n)
-        if home and (fell or (idle and any(b.f.speeds))):
+        if a.f.xtr == _HOME and not any(int(fr.command) == _HOME for fr in self._candidates(a.n)) and (
+                (b.f.homed & a.f.homed) != a.f.homed or (idle and any(b.f.speeds))):
             self._unasked = True
+            self._homed_known = b.f.homed
             return "the board started homing without a HOME command (corrupted frame?)"
-        if ref_homed is not None and all((r.f.homed & ref_homed) != ref_homed for r in (a, b)):
+        if ref_homed is not None and a.f.homed == b.f.homed and (b.f.homed & ref_homed) != ref_homed:
             self._unasked = True
+            self._homed_known = b.f.homed
             lost = [JOINT_NAMES[j] for j in range(6) if ref_homed & (0x80 >> j) and not b.f.homed & (0x80 >> j)]
             return (f"the board reports {', '.join(lost)} no longer homed without a HOME command "
                     f"(homing nobody asked for, or a power cycle)")
@@ -484,6 +496,7 @@ class StatusIntegrity:
     def _truth(self, rx: _Reply) -> bool:
         rx.truth = True
         self._ref = rx
+        self._homed_known = rx.f.homed
         f = rx.f
         if (self._home_t is not None and self._home_seen and f.homed == 0xFF and not any(f.speeds)
                 and f.xtr != _HOME and tuple(f.positions) == self._standby):
@@ -507,9 +520,17 @@ class StatusIntegrity:
 
     # ------------------------------------------------------------------ the link check
 
-    def mode(self, f: StatusFrame) -> LinkMode:
-        """What the board does after ``f`` until the next frame it answers."""
+    def mode(self, f: StatusFrame, n: int | None = None) -> LinkMode:
+        """What the board does after ``f`` until the next frame it answers (``n``: frames
+        written before ``f`` was read).  ``f.xtr`` echoes the command it answered; when that
+        is none of the commands just written (a corrupted echo, or a corrupted command the
+        board executed), the newest command written counts: a corrupted echo then still links,
+        and a board that ran something else does not (its motion shows up as uncommanded)."""
         code = f.xtr
+        if n is not None:
+            cands = self._candidates(n)
+            if cands and all(int(fr.command) != code for fr in cands):
+                code = int(cands[-1].command)
         if code == _HOME:
             return LinkMode.HOMING
         if code == _JOG:
@@ -520,8 +541,8 @@ class StatusIntegrity:
             return LinkMode.HOMING
         return LinkMode.NONE
 
-    def _link(self, a: StatusFrame, b: StatusFrame, dt: float) -> bool:
-        mode = self.mode(a)
+    def _link(self, a: StatusFrame, b: StatusFrame, dt: float, n: int | None = None) -> bool:
+        mode = self.mode(a, n)
         if mode is LinkMode.HOMING:
             return self._link_homing(a, b, dt)
         if b.homed != a.homed:
@@ -552,7 +573,7 @@ class StatusIntegrity:
                 continue
             # p_ss from the reported speed; the last pass stepped after that speed was set
             last = 0.5 * v * tol.pass_s
-            q = _goto(p0, p1 + v / 50.0 - last, dt)
+            q = _goto(p0, p1 + v / 50.0 - last, dt, e)
             pred.append(q)
             allow.append(tol.steps + (1.0 - e) * (abs(last) + 1.0) + tol.model * abs(q - p0)
                          + abs(v) * tol.timing_s)
@@ -576,7 +597,15 @@ class StatusIntegrity:
     def _candidates(self, n: int) -> list[CommandFrame]:
         """The frames one of which a status frame read after frame number ``n`` was written
         answered (the newest few of those)."""
-        return [fr for (k, _, fr) in self._sent if n - self.candidates < k <= n]
+        out: list[CommandFrame] = []
+        low = n - self.candidates
+        for k, _, fr in reversed(self._sent):  # newest first: a few steps, not the whole deque
+            if k <= low:
+                break
+            if k <= n:
+                out.append(fr)
+        out.reverse()
+        return out
 
     def _predict(self, p0: Sequence[int], frame: CommandFrame, dt: float) -> tuple[list[float], list[float]]:
         """Positions ``frame`` takes the joints to from ``p0`` in ``dt`` s, and how far the
@@ -591,13 +620,14 @@ class StatusIntegrity:
                 pred.append(p + vc * dt)
                 allow.append(tol.steps + abs(vc) * tol.timing_s if vc else 0.0)
         elif code == _GOTO:
+            e = math.exp(-50.0 * dt)
             for p, tgt, vff in zip(p0, frame.positions, frame.speeds):
                 pss = tgt + vff / 100.0
                 if pss == p:  # on target, no feed-forward: the P loop asks for speed 0
                     pred.append(float(p))
                     allow.append(0.0)
                     continue
-                q = _goto(p, pss, dt)
+                q = _goto(p, pss, dt, e)
                 pred.append(q)
                 allow.append(tol.steps + tol.model * abs(q - p)
                              + min(BOARD_SPEED_CLAMP, 50.0 * abs(pss - q)) * tol.timing_s)
@@ -616,24 +646,27 @@ class StatusIntegrity:
         cands = self._candidates(a.n)
         if not cands:
             return True, None
+        p1s = b.f.positions
+        tried = []
+        for fr in reversed(cands):  # usually the newest one was answered
+            pred, allow = self._predict(a.f.positions, fr, dt)
+            res = [abs(p1 - q) for p1, q in zip(p1s, pred)]
+            if all(r <= al for r, al in zip(res, allow)):
+                return True, None
+            tried.append((fr, pred, allow, res))
         # a corrupted position that slipped through the link checks before and after it is off
         # by at most twice their allowance: the uncommanded check allows that much more (and a
         # margin), so a reply byte can never look like uncommanded motion.  (HOMING here: xtr
         # 100 without a HOME written; a homing that follows is judged by _raw_checks.)
-        mode = self.mode(a.f)
+        mode = self.mode(a.f, a.n)
         if mode is LinkMode.HOMING:
             hide = [2.0 * (self.homing_speedup * v * dt + 64) for v in self._vhome]
         elif mode is LinkMode.NONE:
             hide = [0.0] * 6
         else:
             hide = [2.0 * al for al in self._link_model(mode, a.f, b.f, dt)[1]]
-        tight = False
         best: tuple[float, CommandFrame, list[float], list[float]] | None = None
-        for fr in cands:
-            pred, allow = self._predict(a.f.positions, fr, dt)
-            res = [abs(p1 - q) for p1, q in zip(b.f.positions, pred)]
-            if all(r <= al for r, al in zip(res, allow)):
-                tight = True
+        for fr, pred, allow, res in tried:
             loose = [al + h + self.tol.margin for al, h in zip(allow, hide)]
             excess = max(r - al for r, al in zip(res, loose))
             if best is None or excess < best[0]:
@@ -641,7 +674,7 @@ class StatusIntegrity:
         assert best is not None
         excess, fr, pred, loose = best
         if excess <= 0.0:
-            return tight, None
+            return False, None
         return False, self._describe(a.f, b.f, fr, pred, loose)
 
     def _describe(self, a: StatusFrame, b: StatusFrame, fr: CommandFrame, pred: list[float],
@@ -706,18 +739,24 @@ class StatusIntegrity:
         hull = self._hull(ref, b)
         if hull is None:
             return None
+        idle = self._idle_codes_only(b.n) and self._idle_codes_only(ref.n)
         parts = []
         joints = []
         for j, (lo, hi) in enumerate(hull):
             p1 = b.f.positions[j]
             if not lo <= p1 <= hi:
                 joints.append(j)
-                parts.append(f"{JOINT_NAMES[j]} moved {p1 - ref.f.positions[j]} steps, beyond anything commanded")
+                what = "while idle" if idle else "beyond anything commanded"
+                parts.append(f"{JOINT_NAMES[j]} moved {p1 - ref.f.positions[j]} steps {what}")
         return _Deviation("; ".join(parts), tuple(joints)) if joints else None
 
     # ------------------------------------------------------------------ faults
 
     def _fault(self, message: str) -> None:
+        if self._n < self._quiet_until:
+            log.info("uncommanded motion (the same event, DISABLE on its way): %s", message)
+            return
+        self._quiet_until = self._n + 3
         self.uncommanded += 1
         self.last_fault = message
         log.error("uncommanded motion: %s", message)
