@@ -165,7 +165,9 @@ class ExchangeLog:
       board executed, its 56 bytes as executed (after the faults: ``raw`` differs from the
       "in" line of the same frame when a fault changed it), and the status frame it answered,
       as the board sent it (before the faults): ``{"p": positions, "v": speeds, "homed",
-      "io", "xtr", "timing"}``.
+      "io", "xtr", "timing", "raw": HEX}``;
+    * ``{"k": "out", "t": T, "raw": HEX}``: bytes written to the pty (after the faults): what
+      the PC read, to tell which replies arrived intact.
 
     A frame whose bytes were damaged so that the board did not take it has an "in" line and
     no "ex" line.  Thread-safe (the pty thread feeds "in", the board's lock holder "ex")."""
@@ -205,8 +207,14 @@ class ExchangeLog:
                 "k": "ex", "t": round(t, 6), "n": self.executed, "raw": frame.encode().hex(),
                 "cmd": int(frame.command),
                 "reply": {"p": list(reply.positions), "v": list(reply.speeds), "homed": reply.homed,
-                          "io": reply.io, "xtr": reply.xtr, "timing": reply.timing},
+                          "io": reply.io, "xtr": reply.xtr, "timing": reply.timing,
+                          "raw": reply.encode().hex()},
             })
+
+    def sent_to_pc(self, data: bytes, t: float) -> None:
+        """Bytes the board side wrote to the pty at ``t``."""
+        with self._lock:
+            self._write({"k": "out", "t": round(t, 6), "raw": data.hex()})
 
     def new_stream(self) -> None:
         with self._lock:
@@ -473,6 +481,8 @@ class PtyBoardServer:
                             emu.write(data)
                 out = emu.read()
                 if out:
+                    if self.exchange_log is not None:
+                        self.exchange_log.sent_to_pc(out, time.monotonic())
                     self._write_all(master, out)
             except BlockingIOError:
                 continue
