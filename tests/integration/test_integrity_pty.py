@@ -8,6 +8,7 @@ Judged on the board's own record, frame by frame."""
 
 from __future__ import annotations
 
+import bisect
 import json
 import re
 import signal
@@ -415,8 +416,7 @@ def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_un
         if pos in true_at and true_at[pos] <= t + 0.001:
             exact += 1
             continue
-        lo = max(0, next((i for i, x in enumerate(times) if x > t - 2.0), 0))
-        hi = next((i for i, x in enumerate(times) if x > t + 0.001), len(times))
+        lo, hi = bisect.bisect_right(times, t - 2.0), bisect.bisect_right(times, t + 0.001)
         near = min((e[3] for e in rec.exs[lo:hi]), default=None,
                    key=lambda r: max(abs(a - b) for a, b in zip(r.positions, pos)))
         ok = near is not None and all(abs(near.positions[j] - pos[j]) <= (2 if near.speeds[j] else 0)

@@ -117,8 +117,9 @@ def test_corrupted_replies_never_become_the_status_beyond_the_steppers_own_jitte
         log = Exchanges(r)
         r.emu.set_faults(corrupt_rate=0.01, direction="from_board")
         r.loop.link_timeout_ticks = 50  # lost replies are not the subject here
-        moves = ["MOVEJOINT|60|-80|170|20|-20|150|None|100", "JOG|1|100|0.6|None", "MOVEJOINT|90|-90|180|0|0|180|None|80",
-                 "JOG|9|70|0.5|None", "MULTIJOG|0,4|60,60|0.5", "MOVEJOINT|70|-100|200|-30|30|120|1.5|None"]
+        moves = ["MOVEJOINT|60|-80|170|20|-20|150|None|100", "JOG|1|100|0.6|None",
+                 "MOVEJOINT|90|-90|180|0|0|180|None|80", "JOG|9|70|0.5|None", "MULTIJOG|0,4|60,60|0.5",
+                 "MOVEJOINT|70|-100|200|-30|30|120|1.5|None"]
         shown: list[StatusFrame] = []
         for i, text in enumerate(moves * 2):
             r.submit(f"m{i:07d}|{text}")
