@@ -85,7 +85,7 @@ class ControllerSettings:
     supervisor: bool = True
     #: the supervisor also stops the board when the controller, alive, wrote no frame for
     #: this long (frozen, stopped in a debugger), s; 0 = only when it dies
-    supervisor_stall_s: float = 0.5
+    supervisor_stall_s: float = 1.0
 
     def __post_init__(self) -> None:
         _positive(self.rate_hz, "controller.rate_hz", hi=1000.0)
