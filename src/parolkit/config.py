@@ -80,6 +80,12 @@ class ControllerSettings:
     stream_watchdog_s: float = 0.02
     #: time scale of the simulated board's homing (1 = real time)
     sim_homing_speedup: float = 20.0
+    #: run the stop supervisor on a serial link: a small process that writes a DISABLE frame
+    #: the moment this controller dies (the board firmware has no watchdog)
+    supervisor: bool = True
+    #: the supervisor also stops the board when the controller, alive, wrote no frame for
+    #: this long (frozen, stopped in a debugger), s; 0 = only when it dies
+    supervisor_stall_s: float = 1.0
 
     def __post_init__(self) -> None:
         _positive(self.rate_hz, "controller.rate_hz", hi=1000.0)
@@ -93,6 +99,13 @@ class ControllerSettings:
             raise ParolkitValueError("controller.bind must be a host address string")
         if not isinstance(self.home_on_start, bool):
             raise ParolkitValueError("controller.home_on_start must be true or false")
+        if not isinstance(self.supervisor, bool):
+            raise ParolkitValueError("controller.supervisor must be true or false")
+        if isinstance(self.supervisor_stall_s, bool) or not isinstance(self.supervisor_stall_s, (int, float)) \
+                or not 0.0 <= self.supervisor_stall_s <= 60.0:
+            raise ParolkitValueError(
+                f"controller.supervisor_stall_s must be a number of seconds in 0..60 (0 = off), "
+                f"got {self.supervisor_stall_s!r}")
 
     @property
     def period_s(self) -> float:

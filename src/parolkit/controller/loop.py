@@ -39,6 +39,7 @@ from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
 from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_snapshot
 from parolkit.controller.stats import LoopMetrics
+from parolkit.controller.supervisor import StopSupervisor
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
 from parolkit.transport.base import LinkLostError, Transport, TransportError
@@ -76,6 +77,7 @@ class ControlLoop:
         publish: Callable[[TickOutput], None] | None = None,
         pose_provider: PoseProvider | None = None,
         reply_wait_fraction: float = 0.4,
+        supervisor: StopSupervisor | None = None,
     ) -> None:
         self.transport = transport
         self.executor = executor
@@ -110,10 +112,13 @@ class ControlLoop:
         self._final_frame_sent = False
         self.port_request: str | None = None
         self.last_frame: CommandFrame | None = None
+        #: the stop supervisor (stops the board if this process dies), or None
+        self.supervisor = supervisor
 
     # ------------------------------------------------------------------ lifecycle
 
     def start(self) -> None:
+        self._supervise()
         self._thread = threading.Thread(target=self._run, name="parolkit-loop", daemon=True)
         self._thread.start()
 
@@ -133,6 +138,8 @@ class ControlLoop:
                 self._final_frame_sent = True
         except Exception as exc:
             log.warning("could not send the final DISABLE frame: %s", exc)
+        if self.supervisor is not None:
+            self.supervisor.close()
         try:
             self.transport.close()
         except Exception as exc:
@@ -140,10 +147,30 @@ class ControlLoop:
 
     # ------------------------------------------------------------------ link
 
+    def _supervise(self) -> None:
+        """Hand the open link's file descriptor to the stop supervisor (started on the first
+        link that has one: a serial port; the in-process emulator dies with this process)."""
+        sup = self.supervisor
+        if sup is None:
+            return
+        fd = self.transport.fileno() if self.transport.is_open else None
+        if fd is None:
+            sup.port_closed()
+            return
+        if sup.state == "off":
+            try:
+                sup.start()
+            except OSError as exc:
+                log.error("could not start the stop supervisor: %s", exc)
+                return
+        sup.port_opened(fd)
+
     def _lose_link(self, reason: str) -> None:
         if not self.link_up:
             return
         self.link_up = False
+        if self.supervisor is not None:
+            self.supervisor.port_closed()
         self.stats.link_losses += 1
         log.error("board link lost: %s", reason)
         self.executor.link_lost(reason)
@@ -172,6 +199,7 @@ class ControlLoop:
             self.status = None
             self._last_status_tick = self.tick_count
             self._alive_tick = self.tick_count
+            self._supervise()
             self.link_up = True
             log.warning("board link up again: %s", self.transport.description)
         except (TransportError, OSError) as exc:
@@ -229,6 +257,12 @@ class ControlLoop:
         to publish; the caller advances :attr:`tick_count`."""
         ex = self.executor
         inbox = self.inbox
+        if self.supervisor is not None:
+            stopped = self.supervisor.poll()
+            if stopped is not None:
+                log.error("%s", stopped)
+                ex.do_disable()
+                ex.error = stopped
         if self.link_up:
             self._read()
             if self.link_up and self.tick_count - self._alive_tick >= self.link_timeout_ticks:
@@ -262,11 +296,14 @@ class ControlLoop:
             # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
             frame = self._guarded(self.executor.preempt(self.inbox.take_safety(), tick=self.tick_count, now=now))
         try:
+            data = frame.encode()
             t_write = time.perf_counter()
-            self.transport.write(frame.encode())
+            self.transport.write(data)
             self.filter.sent(frame, time.monotonic())
             self.last_frame = frame
             self.stats.frames_sent += 1
+            if self.supervisor is not None:
+                self.supervisor.sent(data)
         except (LinkLostError, TransportError) as exc:
             self._lose_link(str(exc) or "write failed")
             return None
@@ -295,7 +332,9 @@ class ControlLoop:
             pose_provider=self.pose_provider, loop_view=self._loop_view, server_view=self.server_view)
 
     def _loop_view(self) -> dict[str, Any]:
-        return self.stats.view(max_age_s=0.25).as_dict()
+        view = self.stats.view(max_age_s=0.25).as_dict()
+        view["supervisor"] = self.supervisor.state if self.supervisor is not None else "off"
+        return view
 
     @staticmethod
     def _raise_priority() -> bool:
