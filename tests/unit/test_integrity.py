@@ -390,3 +390,26 @@ def test_a_held_streamed_jog_before_homing_stops_at_the_travel_cap():
         assert failed > 10
     finally:
         r.close()
+
+
+def test_home_completes_only_after_the_board_rests_homed_even_when_its_homing_is_too_fast_to_show():
+    """The controller was told the board homes in real time, but it homes 200x faster (a
+    board-sim with --speedup on a serial link): its frames during the homing are not the
+    truth; HOME still sees the homing (homed bits fallen in two frames) and completes only
+    when a new true frame shows the board homed at standby, at rest."""
+    r = Rig()
+    try:
+        r.ex.integrity.homing_speedup = 1.0
+        r.submit("aaaa0001|HOME")
+        r.submit("aaaa0002|MOVEJOINT|80|-90|170|0|0|180|1|None")
+        homing_seen_active = False
+        while r.terminal("aaaa0001") is None:
+            r.tick()
+            homing_seen_active |= r.emu.homing_active
+            assert len(r.frames) < 3000
+        assert r.terminal("aaaa0001") is AckStatus.COMPLETED and homing_seen_active
+        assert not r.emu.homing_active and r.emu.homed == 0xFF
+        r.run_until(lambda: r.terminal("aaaa0002") is not None)
+        assert r.terminal("aaaa0002") is AckStatus.COMPLETED and r.ex.integrity.uncommanded == 0
+    finally:
+        r.close()

@@ -267,6 +267,7 @@ class HomeActivity(Activity):
         #: the status when HOME was sent (None: none yet) and whether homing was seen since
         self.before: StatusFrame | None = None
         self.started = False
+        self.started_with: StatusFrame | None = None
 
     def _homing_seen(self, st: StatusFrame) -> bool:
         b = self.before
@@ -286,10 +287,13 @@ class HomeActivity(Activity):
         if st is not None:
             if not self.started and (self._homing_seen(st) or (self.seen is not None and self.seen())):
                 self.started = True
+                # the frame that was the status then says nothing about the end: during a
+                # homing faster than expected the status may stay the one from before it
+                self.started_with = st
             self.progress = min(0.99, sum(st.homed_joints) / 6.0) if self.started else 0.0
             if (
-                self.started and st.all_homed and self.ticks >= self.min_ticks and not any(st.speeds)
-                and tuple(st.positions) == self.standby
+                self.started and st is not self.started_with and st.all_homed and self.ticks >= self.min_ticks
+                and not any(st.speeds) and tuple(st.positions) == self.standby
             ):
                 self.progress = 1.0
                 return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
