@@ -390,7 +390,10 @@ class StatusIntegrity:
         after ``f`` was parsed.  True when ``f`` is the truth (the snapshot may show it)."""
         rx = _Reply(f, t, dropped, self._structural(f), self._n)
         prev, self._prev = self._prev, rx
-        adjacent = prev is not None and prev.ok and rx.ok and prev.dropped == dropped
+        # adjacent: the board answered nothing in between (the parser dropped no bytes).  The
+        # previous frame may have failed its structural check (a corrupted speed or IO byte):
+        # a link from it checks its positions against this frame's own account all the same
+        adjacent = prev is not None and rx.ok and prev.dropped == dropped
         if self.probe is not None and rx.ok:
             self.probe.observe(f, t, adjacent)
         if self._home_t is not None and not self._home_seen and self._n - self._home_t > 1.0 / self.period:
