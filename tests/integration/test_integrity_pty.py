@@ -143,7 +143,7 @@ class Ctl:
         self._n = 0
         wait_until(lambda: self.query("PING") == "PONG|SERIAL=1", 20, what="the board link")
         # the start-up probe answers within a few ticks
-        wait_until(lambda: self.status()["state"] in ("IDLE", "DISABLED"), 10, what="the board's state")
+        wait_until(lambda: self.status()["board"]["state_known"], 10, what="the board's state")
 
     def send(self, text: str) -> str:
         self._n += 1

@@ -317,6 +317,13 @@ def test_the_probe_answers_enabled_and_disabled_and_asks_again_when_unclear():
 
     assert run(False) == (True, 1)
     assert run(True) == (False, 1)
+    r = Rig(board_disabled=True)
+    try:  # the status says so while the answer is outstanding
+        assert not r.outputs[0].snapshot.as_dict()["board"]["state_known"]
+        assert r.outputs[-1].snapshot.as_dict()["board"]["state_known"]
+        assert r.outputs[-1].snapshot.as_dict()["errors"]["message"] == "the board was found disabled: send ENABLE"
+    finally:
+        r.close()
     # the reply that would tell is damaged: the probe asks again
     probe = BoardProbe(attempts=2, wait_ticks=2)
     probe.start()

@@ -73,8 +73,8 @@ class Snapshot:
     __slots__ = (
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
         "error", "command", "queue", "stream_mode", "tool", "plan_seq", "outputs", "loop_view",
-        "server_view", "integrity", "_steps_per_deg", "_pose_provider", "_lock", "_angles", "_pose", "_matrix",
-        "_replies",
+        "server_view", "integrity", "state_known", "_steps_per_deg", "_pose_provider", "_lock", "_angles",
+        "_pose", "_matrix", "_replies",
     )
 
     def __init__(
@@ -100,6 +100,7 @@ class Snapshot:
         loop_view: Callable[[], dict[str, Any]],
         server_view: Callable[[], dict[str, Any]] | None = None,
         integrity: IntegrityView | None = None,
+        state_known: bool = True,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -120,6 +121,9 @@ class Snapshot:
         self.server_view = server_view
         #: status frames not taken as the truth, uncommanded motions, age of ``status``
         self.integrity = integrity if integrity is not None else IntegrityView()
+        #: False while the start-up probe still asks the board whether it is enabled (a few
+        #: ticks after link-up): ``enabled`` and ``state`` are provisional until then
+        self.state_known = state_known
         self._steps_per_deg = steps_per_deg
         self._pose_provider = pose_provider
         self._lock = threading.Lock()
@@ -276,6 +280,7 @@ class Snapshot:
                 "connected": self.board.connected, "simulated": self.board.simulated,
                 "port": self.board.port, "timing_ticks": s.timing,
                 "timing_ms": round(s.timing_s * 1e3, 3), "xtr": s.xtr,
+                "state_known": self.state_known,
             },
             "loop": self.loop_view(),
             "integrity": self.integrity.as_dict(),
@@ -347,4 +352,5 @@ def build_snapshot(
         outputs=(ex.outputs[0], ex.outputs[1]), steps_per_deg=ex.steps_per_deg,
         pose_provider=pose_provider, loop_view=loop_view, server_view=server_view,
         integrity=ex.integrity.view(now if now is not None else _time.monotonic()),
+        state_known=not ex.probe.active,
     )
