@@ -86,6 +86,8 @@ class ControllerSettings:
     #: the supervisor also stops the board when the controller, alive, wrote no frame for
     #: this long (frozen, stopped in a debugger), s; 0 = only when it dies
     supervisor_stall_s: float = 1.0
+    #: before homing, one jog press moves a joint at most this far, deg (the limits are unknown)
+    unhomed_jog_travel_deg: float = 20.0
 
     def __post_init__(self) -> None:
         _positive(self.rate_hz, "controller.rate_hz", hi=1000.0)
@@ -95,6 +97,7 @@ class ControllerSettings:
         _int_range(self.link_timeout_ticks, "controller.link_timeout_ticks", 1, 1000)
         _positive(self.stream_watchdog_s, "controller.stream_watchdog_s", hi=10.0)
         _positive(self.sim_homing_speedup, "controller.sim_homing_speedup", hi=10_000.0)
+        _positive(self.unhomed_jog_travel_deg, "controller.unhomed_jog_travel_deg", hi=360.0)
         if not isinstance(self.bind, str) or not self.bind:
             raise ParolkitValueError("controller.bind must be a host address string")
         if not isinstance(self.home_on_start, bool):

@@ -115,7 +115,7 @@ class Controller:
             model=self.config.robot, rate_hz=self.rate_hz, queue_size=cs.queue_size,
             watchdog_s=cs.stream_watchdog_s, tool_provider=self.tool,
             homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
-            homing_speedup=self._homing_speedup(),
+            homing_speedup=self._homing_speedup(), unhomed_jog_travel_deg=cs.unhomed_jog_travel_deg,
         )
         self.stream = StatusStream(self.sock, lambda: self.snapshot)
         self.server = UdpServer(self.sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
