@@ -9,36 +9,42 @@ Two checks, on every pair of status frames that are *adjacent* (the board answer
 between: the parser dropped no bytes between them):
 
 * **Link** (the board against itself): the second frame follows from the first under the
-  command the board itself says it ran between them (``xtr`` of the first frame echoes it),
-  the second frame's own reported speeds and the board's own ``timing`` field:
+  command the board itself says it ran between them (``xtr`` of the first frame echoes it;
+  an echo that is none of the commands just written counts as the newest one written), the
+  second frame's own reported speeds and the board's own ``timing`` field:
 
   - IDLE / ENABLE / DISABLE / CLEAR_ERROR / unknown codes: no step at all, speeds 0;
-  - JOG (123): ``p1 = p0 + v1 * dt`` to within a step;
+  - JOG (123): ``p1 = p0 + v1 * dt`` to within a step (exactly, for a speed of 0);
   - GO TO (156): the firmware's P loop ``v = 50 * (p_ss - p)`` (``p_ss = target + v_ff/100``):
     ``p1 - p_ss = (p0 - p_ss) * exp(-50 dt)`` with ``p_ss`` read from ``p1`` and ``v1``;
-  - HOMING (100, then any idle frame while it runs): each joint moves at most its fastest
-    homing speed (times the board's homing speed-up), or its counter is zeroed at the switch
-    or set to the standby count at the end; the homed bits only rise.
+  - HOMING (a HOME written, then any idle frame while it runs): each joint moves at most its
+    fastest homing speed (times the board's homing speed-up), or its counter is zeroed at the
+    switch or set to the standby count at the end; the homed bits only rise.
 
-  A frame that links to the last true frame is true (:meth:`StatusIntegrity.accept` returns
-  True); one that does not is *implausible*: counted, never the truth.  A corrupted position
-  byte, speed byte or ``timing`` byte breaks the link unless it changes the value by less than
-  the board's own step jitter (a step or two while moving, 0 at rest: see :class:`Tolerances`).
-  Two adjacent frames that link to each other re-establish the truth after a gap.
+* **Commanded** (the board against the controller): the second frame's positions are compared
+  with what the frames the controller wrote (the last few before the first one was read: one
+  of them is the one the board answered) produce from the first frame's.  A frame that links
+  AND matches within the board's own precision is the truth (:meth:`StatusIntegrity.accept`
+  returns True); anything else is *implausible*: counted, never the truth (the snapshot keeps
+  the last true frame).  A corrupted position byte breaks one check or the other unless it
+  changes a *moving* joint by no more than the stepper's own sub-step jitter (a step, two at
+  speed; a joint at rest is exact: see :class:`Tolerances`).  Two adjacent frames that link
+  re-establish the truth after a gap (checked against the hull of everything the frames
+  written since could reach).
 
-* **Commanded** (the board against the controller): the positions of two true frames are
-  compared with what the frames the controller wrote (the last few before the first one was
-  read: one of them is the one the board answered) would produce.  A difference beyond the
-  model tolerance is motion nobody commanded: a joint moving while idle, a joint racing to a
-  corrupted target or speed, a joint standing still (a disabled board).  A large difference
-  is acted on at once (a corrupted reply cannot produce it: it would break the link); a small
-  one must be confirmed by the next frame linking to it.
+* **Uncommanded motion**: a frame that links to a true one but lies beyond what was commanded
+  (wider than the precision above, by what a reply byte that slipped through the link could
+  hide) is a suspect: a joint moving while idle, racing to a corrupted target or speed,
+  standing still on a disabled board.  It is acted on when a second frame confirms it: the
+  next frame links to it, or one of the next two shows the same joints beyond the hull of
+  everything commanded (a reply lost in between delays it by a tick).  A frame after lost
+  ones that lies beyond that hull and that the next frame links to counts the same.
 
 * **Homing nobody asked for** is judged on two adjacent frames whatever their positions (a
   simulated board's homing may be faster than the controller was told): ``xtr`` = 100 without
-  a HOME written, then homed bits falling or a speed while every frame written was idle; or
-  the same fallen homed byte in two frames in a row.  Likewise a speed reported in two frames in a row
-  while every frame written was idle is motion nobody commanded.
+  a HOME written, then homed bits falling or a speed while every frame written was idle; the
+  same fallen homed byte in two frames in a row; or the homing's own constant speeds in two
+  frames in a row while every frame written was idle.
 
 ``on_fault(message)`` is called once per uncommanded motion (the executor disables the robot).
 
