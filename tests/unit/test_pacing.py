@@ -197,18 +197,20 @@ def test_a_speed_tracked_move_ends_where_planned_despite_irregular_ticks(trig):
 @pytest.mark.parametrize("text, joint, deg", [("JOG|0|40|None|6", 0, 6.0), ("JOG|11|50|None|60", 5, -60.0),
                                               ("JOG|3|100|0.9|None", 3, 0.9 * 7000 / SPD[3])])
 def test_a_jog_covers_its_distance_within_a_tenth_of_a_degree_through_late_ticks(trig, text, joint, deg):
-    """Ticks wake up to 1 ms late and the machine stalls 40-120 ms three times during the jog
+    """Ticks wake up to 1 ms late and the machine stalls 40-90 ms three times during the jog
     (each jog lasts more than a second; a stall that delays the final stop frame would overrun
     by speed x stall, which no controller can take back): the jog still covers speed x
-    duration (its distance) within 0.1 deg, never faster than asked."""
+    duration (its distance) within 0.1 deg, never faster than asked.  (Stalls stay under the
+    93 ms after which the board's 16-bit ``timing`` field wraps: the integrity check unwraps
+    it with the read times, which stand still on this rig's virtual clock.)"""
     start = np.asarray(trig.emu.positions) / SPD
-    _start(trig, text)
+    first = _start(trig, text)
     rng = random.Random(3)
-    trig.play("aaaa0001", loop_gaps(rng, 4000, jitter_s=0.001, stalls={5: 0.04, 12: 0.12, 20: 0.07}))
+    trig.play("aaaa0001", loop_gaps(rng, 4000, jitter_s=0.001, stalls={5: 0.04, 12: 0.09, 20: 0.07}))
     assert trig.terminal("aaaa0001") is AckStatus.COMPLETED
     moved = np.asarray(trig.emu.positions) / SPD - start
     assert abs(moved[joint] - deg) <= 0.1, moved
     assert np.abs(np.delete(moved, joint)).max() == 0
-    jog = [f for _, f, _ in trig.log if f is not None and f.command == BoardCommand.JOG]
+    jog = [f for _, f, _ in trig.log[first:] if f is not None and f.command == BoardCommand.JOG]
     assert max(abs(f.speeds[joint]) for f in jog) == abs(jog[0].speeds[joint])
     assert jog[-1].speeds == (0,) * 6

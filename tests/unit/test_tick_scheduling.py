@@ -155,7 +155,7 @@ def test_the_tick_thread_sleeps_every_tick_even_when_every_tick_overruns():
         loop.stop()
     view = loop.stats.view()
     assert ticks > 20 and view.overruns > 0.5 * view.ticks
-    assert switches >= ticks  # the MIN_SLEEP_S sleep of every tick
+    assert switches >= ticks - 2  # the MIN_SLEEP_S sleep of every tick (the counts are read a moment apart)
     assert view.late_p50_ms >= MIN_SLEEP_S * 1e3
     assert view.scheduling in ("fifo:10", "nice:-10", "normal")
 

@@ -73,9 +73,9 @@ from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
 from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_snapshot
 from parolkit.controller.stats import LoopMetrics
+from parolkit.controller.supervisor import StopSupervisor
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
-from parolkit.robot import RobotModel
 from parolkit.transport.base import LinkLostError, Transport, TransportError
 
 __all__ = ["ControlLoop", "TickOutput", "MIN_SLEEP_S"]
@@ -89,55 +89,6 @@ MIN_SLEEP_S = 0.0003
 HELPER_NICE = -10
 #: a tick that starts this late (s) is logged (at most one warning per 10 s)
 LATE_WARNING_S = 0.05
-
-
-class StatusFilter:
-    """Plausibility check of status frames (the link has no checksum: a corrupted byte in a
-    field passes the framing checks).
-
-    A frame is accepted when its constant bits are right (IO low bits 0x07, homed low bits
-    0x03), every speed is within the firmware clamp, and it is consistent with the last
-    accepted frame: same homed byte and no joint further away than 3x its maximum speed could
-    carry it (+ 32 steps).  A frame that is not consistent (a corrupted position or homed byte,
-    or a real jump: homing zeroes counters, ENABLE or a power cycle resets them) is held back
-    and accepted only when the NEXT frame agrees with it; a corrupted one never does.
-    """
-
-    def __init__(self, model: RobotModel, rate_hz: float) -> None:
-        self._vlim = tuple(min(50_000.0, 3.0 * float(v)) for v in model.max_speed_steps_s)
-        self._period = 1.0 / rate_hz
-        self.reset()
-
-    def reset(self) -> None:
-        self._ref: StatusFrame | None = None
-        self._ref_t = 0.0
-        self._cand: StatusFrame | None = None
-        self._cand_t = 0.0
-
-    def _consistent(self, a: StatusFrame, b: StatusFrame, dt: float) -> bool:
-        if a.homed != b.homed:
-            return False
-        dt = max(dt, self._period)
-        for j in range(6):
-            if abs(a.positions[j] - b.positions[j]) > self._vlim[j] * dt + 32:
-                return False
-        return True
-
-    def accept(self, f: StatusFrame, now: float) -> bool:
-        if (f.io & 0x07) != 0x07 or (f.homed & 0x03) != 0x03:
-            return False
-        if any(v > 50_000 or v < -50_000 for v in f.speeds):
-            return False
-        ref = self._ref
-        if ref is None or self._consistent(ref, f, now - self._ref_t):
-            self._ref, self._ref_t, self._cand = f, now, None
-            return True
-        cand = self._cand
-        if cand is not None and self._consistent(cand, f, now - self._cand_t):
-            self._ref, self._ref_t, self._cand = f, now, None
-            return True
-        self._cand, self._cand_t = f, now
-        return False
 
 
 @dataclass(frozen=True, slots=True)
@@ -171,6 +122,7 @@ class ControlLoop:
         publish: Callable[[TickOutput], None] | None = None,
         pose_provider: PoseProvider | None = None,
         reply_wait_fraction: float = 0.4,
+        supervisor: StopSupervisor | None = None,
     ) -> None:
         self.transport = transport
         self.executor = executor
@@ -205,8 +157,8 @@ class ControlLoop:
         self._last_status_tick = 0
         #: frames written since the last structurally valid status frame arrived
         self.unanswered = 0
-        #: replies went missing during a speed stream: it is paused, frames are stop frames,
-        #: new commands are refused (ends with the next reply, or with the loss)
+        #: replies went missing during motion: it is paused, frames are stop frames, new
+        #: commands are refused (ends with the next reply, or with the loss)
         self.holding = False
         #: the stop frame sent every tick while holding
         self._hold_step: Step | None = None
@@ -214,7 +166,8 @@ class ControlLoop:
         self._next_hold_log = 0.0
         #: the tick thread's scheduling ("fifo:10", "nice:-10", "normal"), set when it starts
         self.scheduling = "not started"
-        self.filter = StatusFilter(executor.model, rate_hz)
+        #: which status frames are the truth (parolkit.controller.integrity)
+        self.filter = executor.integrity
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._reconnecting = False
@@ -223,10 +176,13 @@ class ControlLoop:
         self._final_frame_sent = False
         self.port_request: str | None = None
         self.last_frame: CommandFrame | None = None
+        #: the stop supervisor (stops the board if this process dies), or None
+        self.supervisor = supervisor
 
     # ------------------------------------------------------------------ lifecycle
 
     def start(self) -> None:
+        self._supervise()
         self._thread = threading.Thread(target=self._run, name="parolkit-loop", daemon=True)
         self._thread.start()
 
@@ -246,12 +202,32 @@ class ControlLoop:
                 self._final_frame_sent = True
         except Exception as exc:
             log.warning("could not send the final DISABLE frame: %s", exc)
+        if self.supervisor is not None:
+            self.supervisor.close()
         try:
             self.transport.close()
         except Exception as exc:
             log.warning("closing the board link: %s", exc)
 
     # ------------------------------------------------------------------ link
+
+    def _supervise(self) -> None:
+        """Hand the open link's file descriptor to the stop supervisor (started on the first
+        link that has one: a serial port; the in-process emulator dies with this process)."""
+        sup = self.supervisor
+        if sup is None:
+            return
+        fd = self.transport.fileno() if self.transport.is_open else None
+        if fd is None:
+            sup.port_closed()
+            return
+        if sup.state == "off":
+            try:
+                sup.start()
+            except OSError as exc:
+                log.error("could not start the stop supervisor: %s", exc)
+                return
+        sup.port_opened(fd)
 
     def _lose_link(self, reason: str, *, may_write: bool = True) -> None:
         """The link is lost: cancel motion, latch the error and, if the last frame written still
@@ -262,6 +238,8 @@ class ControlLoop:
             self._write_stop()
         self.link_up = False
         self.holding = False
+        if self.supervisor is not None:
+            self.supervisor.port_closed()
         self.stats.link_losses += 1
         log.error("board link lost: %s", reason)
         self.executor.link_lost(reason)
@@ -286,10 +264,7 @@ class ControlLoop:
         if step is None or not self.transport.is_open:
             return
         try:
-            frame = self._guarded(step)
-            self.transport.write(frame.encode())
-            self.last_frame = frame
-            self.stats.frames_sent += 1
+            self._send(self._guarded(step))
         except Exception as exc:  # the link is going away anyway
             log.warning("could not write the stop frame before declaring the link lost: %s", exc)
 
@@ -306,7 +281,7 @@ class ControlLoop:
                         self.unanswered, self._holds_unlogged, self.link_timeout_ticks)
             self._holds_unlogged = 0
 
-    def _supervise(self, now: float) -> None:
+    def _judge_link(self, now: float) -> None:
         """Judge the link by the frames the board left unanswered (see the module docstring)."""
         u = self.unanswered
         if u > self.stats.unanswered_max:
@@ -346,6 +321,7 @@ class ControlLoop:
             self._last_status_tick = self.tick_count
             self.unanswered = 0
             self.holding = False
+            self._supervise()
             self.link_up = True
             log.warning("board link up again: %s", self.transport.description)
         except (TransportError, OSError) as exc:
@@ -374,12 +350,12 @@ class ControlLoop:
             self._lose_link(str(exc), may_write=False)
             return
         if data:
-            for f in self.parser.feed(data):
+            for f in self.parser.iter_feed(data):
                 self.stats.frames_received += 1
                 # any structurally valid status frame proves the board answered a frame
                 self.unanswered = 0
                 self.holding = False
-                if self.filter.accept(f, time.monotonic()):
+                if self.filter.accept(f, time.monotonic(), self.parser.stats.bytes_dropped):
                     self.status = f
                     self.last_status = f
                     self._last_status_tick = self.tick_count
@@ -405,10 +381,16 @@ class ControlLoop:
         to publish; the caller advances :attr:`tick_count`."""
         ex = self.executor
         inbox = self.inbox
+        if self.supervisor is not None:
+            stopped = self.supervisor.poll()
+            if stopped is not None:
+                log.error("%s", stopped)
+                ex.do_disable()
+                ex.error = stopped
         if self.link_up:
             self._read()
             if self.link_up:
-                self._supervise(now)
+                self._judge_link(now)
         elif not self._reconnecting and now >= self._next_reconnect:
             self._reconnecting = True
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
@@ -438,20 +420,30 @@ class ControlLoop:
             ex.fail_active(res.violation)
         return res.frame
 
+    def _send(self, frame: CommandFrame) -> float:
+        """Write ``frame`` and tell whoever keeps count (the integrity check, the stop
+        supervisor, the unanswered frames); returns the write time (``perf_counter``)."""
+        data = frame.encode()
+        t_write = time.perf_counter()
+        self.transport.write(data)
+        self.filter.sent(frame, time.monotonic())
+        self.last_frame = frame
+        self.stats.frames_sent += 1
+        self.unanswered += 1
+        if self.supervisor is not None:
+            self.supervisor.sent(data)
+        return t_write
+
     def _write(self, step: Step, now: float) -> CommandFrame | None:
         frame = self._guarded(step)
         if self.inbox.safety_waiting:
             # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
             frame = self._guarded(self.executor.preempt(self.inbox.take_safety(), tick=self.tick_count, now=now))
         try:
-            t_write = time.perf_counter()
-            self.transport.write(frame.encode())
-            self.last_frame = frame
-            self.stats.frames_sent += 1
+            t_write = self._send(frame)
         except (LinkLostError, TransportError) as exc:
             self._lose_link(str(exc) or "write failed", may_write=False)
             return None
-        self.unanswered += 1
         # wait briefly for the reply to measure the round trip and consume it this tick
         deadline = t_write + self.reply_wait
         got = self.stats.frames_received
@@ -477,7 +469,9 @@ class ControlLoop:
             pose_provider=self.pose_provider, loop_view=self._loop_view, server_view=self.server_view)
 
     def _loop_view(self) -> dict[str, Any]:
-        return self.stats.view(max_age_s=0.25).as_dict()
+        view = self.stats.view(max_age_s=0.25).as_dict()
+        view["supervisor"] = self.supervisor.state if self.supervisor is not None else "off"
+        return view
 
     @staticmethod
     def raise_priority(fifo_priority: int) -> str:
