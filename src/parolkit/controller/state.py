@@ -359,5 +359,7 @@ def build_snapshot(
         outputs=(ex.outputs[0], ex.outputs[1]), steps_per_deg=ex.steps_per_deg,
         pose_provider=pose_provider, loop_view=loop_view, server_view=server_view,
         integrity=ex.integrity.view(now if now is not None else _time.monotonic()),
-        state_known=not ex.probe.active,
+        # known once the executor has taken the probe's answer in (it does so in the tick after
+        # the reply that answered it: until then the snapshot would show the old state as known)
+        state_known=not ex.probe.active and ex.probe.result is None,
     )
