@@ -402,8 +402,8 @@ def report(run: ScenarioRun) -> list[str]:
         f"loop: scheduling {st.get('scheduling')}; tick lateness p50 {st.get('late_p50_ms')} ms, p99 "
         f"{st.get('late_p99_ms')} ms, max {st.get('late_max_ms')} ms; period p99 {st.get('period_p99_ms')} ms, "
         f"overruns {st.get('overruns')} of {st.get('ticks')} ticks",
-        f"link: losses {st.get('link_losses')}, speed streams stopped for missing replies "
-        f"{st.get('link_holds')}, longest run of unanswered frames {st.get('unanswered_max')}",
+        f"link: losses {st.get('link_losses')}, motion paused for missing replies {st.get('link_holds')} "
+        f"times, longest run of unanswered frames {st.get('unanswered_max')}",
         f"{run.seconds:.0f} s; {run.queries} GET_STATUS answered in the background; board-sim {run.board}",
     ]
     if run.failed:
