@@ -351,6 +351,11 @@ class StatusIntegrity:
         self._quiet_until = 0
 
     @property
+    def frames_written(self) -> int:
+        """Frames written so far (the number of the newest; they count from 1)."""
+        return self._n
+
+    @property
     def homing_seen(self) -> bool:
         """The board has been seen homing since the last HOME was written."""
         return self._home_seen
@@ -391,10 +396,14 @@ class StatusIntegrity:
             return False
         return all(-BOARD_SPEED_CLAMP <= v <= BOARD_SPEED_CLAMP for v in f.speeds)
 
-    def accept(self, f: StatusFrame, t: float, dropped: int) -> bool:
+    def accept(self, f: StatusFrame, t: float, dropped: int, answers: int | None = None) -> bool:
         """``f`` read at ``t`` (monotonic s); ``dropped``: the parser's dropped-byte count right
-        after ``f`` was parsed.  True when ``f`` is the truth (the snapshot may show it)."""
-        rx = _Reply(f, t, dropped, self._structural(f), self._n)
+        after ``f`` was parsed; ``answers``: the number of the newest frame it can answer when
+        that is not the newest frame written (replies the OS delivered late, several at once:
+        the board answers in order, so the k-th of them answers the k-th frame left unanswered;
+        the loop knows how many were).  True when ``f`` is the truth (the snapshot may show it)."""
+        n = self._n if answers is None else max(0, min(self._n, answers))
+        rx = _Reply(f, t, dropped, self._structural(f), n)
         prev, self._prev = self._prev, rx
         # adjacent: the board answered nothing in between (the parser dropped no bytes).  The
         # previous frame may have failed its structural check (a corrupted speed or IO byte):

@@ -157,6 +157,9 @@ class ControlLoop:
         self._last_status_tick = 0
         #: frames written since the last structurally valid status frame arrived
         self.unanswered = 0
+        #: frames written that still wait for their reply, in order (which frame a late reply
+        #: answers; see :meth:`_read`)
+        self._backlog = 0
         #: replies went missing during motion: it is paused, frames are stop frames, new
         #: commands are refused (ends with the next reply, or with the loss)
         self.holding = False
@@ -320,6 +323,7 @@ class ControlLoop:
             self.status = None
             self._last_status_tick = self.tick_count
             self.unanswered = 0
+            self._backlog = 0
             self.holding = False
             self._supervise()
             self.link_up = True
@@ -340,7 +344,13 @@ class ControlLoop:
 
     # ------------------------------------------------------------------ the tick
 
-    def _read(self) -> None:
+    def _read(self, *, after_write: bool = False) -> None:
+        """Read and judge every status frame the board sent.  ``after_write``: in the reply wait
+        of the frame just written (the last reply there answers that frame, the ones before it
+        the frames before; anything older still missing was lost).  A reply read at the start
+        of a tick came late and answers the oldest frame still unanswered (the board answers
+        in order; replies the OS held back arrive several at once): the integrity check is
+        told which one."""
         try:
             data = self.transport.read()
         except LinkLostError as exc:
@@ -350,18 +360,27 @@ class ControlLoop:
             self._lose_link(str(exc), may_write=False)
             return
         if data:
-            for f in self.parser.iter_feed(data):
+            frames = self.parser.feed(data)
+            n = self.filter.frames_written
+            for i, f in enumerate(frames):
                 self.stats.frames_received += 1
+                if after_write:  # the last one answers the frame just written
+                    answers = n - (len(frames) - 1 - i)
+                else:  # late: the oldest frame still waiting
+                    answers = n - self._backlog + 1
+                self._backlog = max(0, self._backlog - 1)
                 # any structurally valid status frame proves the board answered a frame
                 self.unanswered = 0
                 self.holding = False
-                if self.filter.accept(f, time.monotonic(), self.parser.stats.bytes_dropped):
+                if self.filter.accept(f, time.monotonic(), self.parser.stats.bytes_dropped, answers):
                     self.status = f
                     self.last_status = f
                     self._last_status_tick = self.tick_count
                 else:
                     self.stats.implausible_frames += 1
             self.stats.bytes_dropped = self.parser.stats.bytes_dropped
+            if after_write:
+                self._backlog = 0
 
     def _compose(self, step: Step) -> CommandFrame:
         ex = self.executor
@@ -430,6 +449,7 @@ class ControlLoop:
         self.last_frame = frame
         self.stats.frames_sent += 1
         self.unanswered += 1
+        self._backlog += 1
         if self.supervisor is not None:
             self.supervisor.sent(data)
         return t_write
@@ -448,7 +468,7 @@ class ControlLoop:
         deadline = t_write + self.reply_wait
         got = self.stats.frames_received
         while True:
-            self._read()
+            self._read(after_write=True)
             if not self.link_up or self.stats.frames_received != got:
                 if self.link_up:
                     self.stats.rtt.add(time.perf_counter() - t_write)
