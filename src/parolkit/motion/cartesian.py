@@ -14,6 +14,11 @@ Timing:
   speed is 1.5x the mapped mean speed).  When a joint
   cannot follow (speed or acceleration), the duration is stretched and a note says so.
 
+Joint speeds: position-tracked paths (board command 156, the default) keep every joint within
+:meth:`RobotModel.max_tracked_speed_steps_s` (the board's GO TO loop starts every tick 1.27x
+faster than the stream moves at 100 Hz), checked on every sample's speed and on every tick's
+step from the start on; speed-tracked paths (123) within the maximum speed.
+
 A path through a singularity shows up as a joint needing an unbounded speed; beyond
 :data:`MAX_STRETCH` times the requested duration the move is refused and the message names
 the nearest singularity.
@@ -192,14 +197,15 @@ def plan_cart_jog(
     # speed to send at tick k: the motion to the next sample; the last: the rest of the jog
     full = np.vstack([start[None, :], q])
     step = np.diff(full, axis=0) / dt  # step[k]: speed from sample k-1 to sample k
-    # a jog stops before the sample a joint cannot reach at its maximum speed (singularity)
-    vmax = model.max_speed_deg_s
+    # a jog stops before the sample a joint cannot reach at its (position-tracking) maximum
+    # speed (singularity)
+    vmax = validate.speed_limits(model, rate_hz, True).array / model.steps_per_deg
     too_fast = np.nonzero(np.any(np.abs(step) > vmax, axis=1))[0]
     if len(too_fast):
         k = int(too_fast[0])
         j = int(np.argmax(np.abs(step[k]) / vmax))
-        notes = [f"stopped after {k / rate_hz:.2f} s: {JOINT_NAMES[j]} would exceed its maximum "
-                 f"speed{_sing_text(q[k], tool)}"]
+        notes = [f"stopped after {k / rate_hz:.2f} s: {JOINT_NAMES[j]} would exceed its position-tracking "
+                 f"maximum speed{_sing_text(q[k], tool)}"]
         if k == 0:
             q0 = np.asarray(start, dtype=float)[None, :]
             return build_trajectory(move, np.array([1.0 / rate_hz]), q0, np.zeros((1, 6)),
@@ -485,7 +491,8 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
         q = _solve_ik(name, pos, rots, start, tool, t)
         qd = _derivative(q, start, rate_hz, t, T)
         spd = model.steps_per_deg
-        vmax = np.asarray(model.max_speed_steps_s, dtype=float)
+        limits = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION)
+        vmax = limits.array
         amax = float(model.accel_range_steps_s2[1])
         v_steps = qd * spd
         acc = np.diff(np.vstack([np.zeros((1, 6)), v_steps]), axis=0) * rate_hz
@@ -505,14 +512,14 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
             # (a move shorter than a tick is still played in one: it lasts a tick at least)
             least = max(T, 1.0 / rate_hz) * factor * 1.02
             hint = f"give a duration of at least {math.ceil(least * 100) / 100:.2f} s"
-            validate.check_speeds(name, t, v_chk, model, hint=hint)
+            validate.check_speeds(name, t, v_chk, model, hint=hint, limits=limits)
             validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
         stretch *= factor * 1.02
     else:
         # stretching does not help: a kink (a sharp corner, or a singularity grazed)
         hint = ("the path has a sharp corner or grazes a singularity here: round the corners "
                 "(blend radius) or change the path")
-        validate.check_speeds(name, t, v_chk, model, hint=hint)
+        validate.check_speeds(name, t, v_chk, model, hint=hint, limits=limits)
         validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
         raise PlanningError(name, "no feasible timing found within the joint limits after stretching")
     if stretch > 1.0:
@@ -743,7 +750,7 @@ def _toppra_path(
     pos, rots = path.evaluate(s_grid)
     q_grid = _solve_ik(name, pos, rots, start, tool, s_grid)
     spd = model.steps_per_deg
-    vmax = np.asarray(model.max_speed_steps_s, dtype=float) / spd
+    vmax = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION).array / spd
     amax = float(model.accel_range_steps_s2[1]) / spd
     # a 7th coordinate = s itself (unconstrained) recovers s(t) from the joint-space result
     aug = np.hstack([q_grid, s_grid[:, None]])
