@@ -28,7 +28,11 @@ class Sent:
 
     asked: CommandFrame
     result: GuardResult
+    #: the board's reply (its position as the frame arrived, the speeds of the pass before)
+    reply: StatusFrame
     start_speeds: tuple[int, ...]
+    #: board time until the next frame, s
+    wait: float
     peak_speeds: tuple[int, ...] = (0, 0, 0, 0, 0, 0)
 
 
@@ -59,7 +63,7 @@ class GuardedBoard:
         st = self.emu.process_frame(res.frame)
         if reply:
             self.status = st
-        sent = Sent(frame, res, self.emu.speeds)
+        sent = Sent(frame, res, st, self.emu.speeds, wait)
         peak = [abs(v) for v in sent.start_speeds]
         left = wait
         while left > 1e-12:

@@ -130,6 +130,24 @@ def test_rule5_go_to_needs_homing_a_known_position_and_targets_inside_the_limits
     assert "outside the limits" in res.violation
 
 
+def test_rule5_no_go_to_while_the_board_may_be_homing():
+    """HOME makes the board move on its own until it reports every joint homed and still
+    (IDLE frames let homing go on): a GO TO meanwhile is refused, the first one after it is
+    judged from where homing left the board.  (Homed as the controller passes it: HOME at
+    standby, where the board still reported homed before it started.)"""
+    b = GuardedBoard()
+    b.send(CommandFrame(command=BoardCommand.HOME))
+    b.idle()
+    res = b.goto(b.positions)
+    assert "while the board may be homing" in res.violation
+    while not (b.status.all_homed and not any(b.status.speeds)):
+        b.idle(0.05)
+        assert b.now < 30, "homing did not finish"
+    b.idle()
+    assert b.positions == STANDBY
+    assert b.goto(_moved(STANDBY, 0, 20)).violation is None
+
+
 # ------------------------------------------------------------------- rule 6: steps
 
 

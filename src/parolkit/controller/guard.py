@@ -46,8 +46,8 @@ Rules, in order:
    the time between the two frames (at least one period); the first GO TO after any other
    frame may lie at most one period of maximum-speed travel from where the board is.
 7. GO TO start speed: the speed the board will start this frame at,
-   ``|0.5 v_ff + 50 (target - position on arrival)|``, within the maximum speed.  Rules 6
-   and 7 allow one step of rounding (targets and positions are whole steps).
+   ``|0.5 v_ff + 50 (target - position on arrival)|``, within the maximum speed.  (Rule 6
+   allows one step of rounding: targets are whole steps.)
 8. JOG (123): when homed, no joint may reach its limit within ``lookahead_ticks`` ticks at
    the commanded speed.
 9. A speed stream (123 with a non-zero speed) is always ended by a zero-speed 123 frame: if
@@ -72,8 +72,7 @@ __all__ = [
 
 _KNOWN = {int(c) for c in BoardCommand}
 _ZERO6 = (0, 0, 0, 0, 0, 0)
-#: Rules 6 and 7 allow this much rounding (steps): targets and reported positions are whole
-#: steps (one step of target is GOTO_GAIN_PER_S = 50 steps/s of start speed).
+#: Rule 6 allows this much rounding (steps): targets are whole steps.
 ROUNDING_STEPS = 1.0
 #: A status frame is matched to the sent frame whose predicted arrival position is within
 #: this many ticks of maximum-speed travel on every joint (the closest one wins).
@@ -124,34 +123,56 @@ class GuardResult:
     replaced: bool = False
 
 
+#: board codes that stop a running homing (board-firmware.md); every other code lets it go on
+_ABORTS_HOMING = frozenset({BoardCommand.ENABLE, BoardCommand.DISABLE, BoardCommand.CLEAR_ERROR,
+                            BoardCommand.JOG, BoardCommand.GOTO})
+
+
 class _Sent:
-    """A frame the guard let through: where the board was predicted to be as it arrived
-    (steps, None when unknown: homing, or nothing known yet) and how long it ran (s, set when
-    the next frame is checked)."""
+    """A frame the guard let through and what the board does while it is in effect: where
+    the board was predicted to be as it arrived (steps; None when unknown: nothing known yet,
+    or homing), whether the board is enabled and whether it may be homing, and how long the
+    frame ran (s, set when the next frame is checked)."""
 
-    __slots__ = ("frame", "arrival", "dt", "t", "seq")
+    __slots__ = ("frame", "arrival", "dt", "t", "seq", "enabled", "homing")
 
-    def __init__(self, frame: CommandFrame, arrival: list[float] | None, t: float | None, seq: int) -> None:
+    def __init__(self, frame: CommandFrame, arrival: list[float] | None, t: float | None, seq: int,
+                 before: _Sent | None) -> None:
         self.frame = frame
         self.arrival = arrival
         self.dt: float | None = None
         self.t = t
         self.seq = seq
+        code = frame.command
+        # the firmware powers up enabled; 102 disables, 101 enables (103 does not)
+        enabled: bool = before.enabled if before is not None else True
+        if code == BoardCommand.DISABLE:
+            enabled = False
+        elif code == BoardCommand.ENABLE:
+            enabled = True
+        self.enabled: bool = enabled
+        self.homing: bool
+        if code == BoardCommand.HOME:
+            self.homing = enabled  # (100 does nothing while disabled)
+        elif code in _ABORTS_HOMING:
+            self.homing = False
+        else:
+            self.homing = before.homing if before is not None else False
 
     def after(self, dt: float) -> list[float] | None:
         """Where the board is ``dt`` s after this frame arrived (None when unknown)."""
         p = self.arrival
-        if p is None:
-            return None
+        if p is None or self.homing:
+            return None  # (homing moves the joints on its own)
         f = self.frame
         code = f.command
+        if not self.enabled:
+            return list(p)  # 100 / 123 / 156 do nothing while disabled
         if code == BoardCommand.GOTO:
             return [goto_position_after(a, t, v, dt) for a, t, v in zip(p, f.positions, f.speeds)]
         if code == BoardCommand.JOG:
             return [a + v * dt for a, v in zip(p, f.speeds)]
-        if code == BoardCommand.HOME:
-            return None  # homing moves the joints on its own
-        return list(p)  # IDLE (unless homing, which HOME already made unknown), 101-103: still
+        return list(p)  # IDLE, 101-103, unknown codes: still
 
 
 class SafetyGuard:
@@ -240,8 +261,17 @@ class SafetyGuard:
             self._uncertain = True
         else:
             self._uncertain = False
-        self._answered = sent[best].seq
-        sent[best].arrival = [float(p) for p in ps]
+        e = sent[best]
+        self._answered = e.seq
+        e.arrival = [float(p) for p in ps]
+        # homing is over when a status taken while it may have been running (the answer to a
+        # frame sent after HOME) shows every joint homed and still
+        was_homing = sent[best - 1].homing if best > 0 else e.homing and e.frame.command != BoardCommand.HOME
+        if was_homing and status.all_homed and not any(status.speeds):
+            for i in range(best, len(sent)):
+                if sent[i].frame.command == BoardCommand.HOME:
+                    break
+                sent[i].homing = False
         for i in range(best + 1, len(sent)):
             prev = sent[i - 1]
             sent[i].arrival = prev.after(prev.dt if prev.dt is not None else self.period_s)
@@ -251,7 +281,10 @@ class SafetyGuard:
         arrives: one, or two when uncertain; none when nothing is known."""
         out: list[list[float]] = []
         if self._sent:
-            p = self._sent[-1].after(dt)
+            last = self._sent[-1]
+            if last.homing:
+                return out  # the board may be moving on its own
+            p = last.after(dt)
             if p is not None:
                 out.append(p)
         if (self._uncertain or not out) and status is not None:
@@ -269,6 +302,9 @@ class SafetyGuard:
                     f"{self._lo[j]}..{self._hi[j]} steps"
                 )
         if not arrivals:
+            if self._sent and self._sent[-1].homing:
+                return ("position commands (156) are refused while the board may be homing (until a "
+                        "status frame shows every joint homed and still)")
             return "position commands (156) are refused while the board's position is unknown (no status frame)"
         last = self._last
         if last is not None and last.command == BoardCommand.GOTO:
@@ -292,11 +328,10 @@ class SafetyGuard:
                             f"({pos[j]:.0f} steps): one period at the maximum speed "
                             f"{self._vmax[j]:g} steps/s allows {allowed:.0f} steps (the board would jump)"
                         )
-        tol = GOTO_GAIN_PER_S * ROUNDING_STEPS
         for pos in arrivals:
             for j in range(6):
                 u = goto_start_speed(f.positions[j], f.speeds[j], pos[j])
-                if abs(u) > self._vmax[j] + tol:
+                if abs(u) > self._vmax[j]:
                     return (
                         f"{JOINT_NAMES[j]} would start this frame at {abs(u):.0f} steps/s, above its "
                         f"maximum {self._vmax[j]:g} steps/s (target {f.positions[j]} steps, "
@@ -371,7 +406,7 @@ class SafetyGuard:
         arrival = prev.after(dt) if prev is not None else (
             [float(v) for v in status.positions] if status is not None else None)
         self._seq += 1
-        sent.append(_Sent(res.frame, arrival, now, self._seq))
+        sent.append(_Sent(res.frame, arrival, now, self._seq, prev))
         return res
 
     def _decide(self, frame: CommandFrame, status: StatusFrame | None, estop: bool, homed: bool,
