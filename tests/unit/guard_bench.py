@@ -45,6 +45,9 @@ class GuardedBoard:
     guard: SafetyGuard = field(init=False)
     status: StatusFrame | None = None
     now: float = 0.0
+    #: read the steppers at every firmware pass (False: only as each frame arrives; a GO TO
+    #: decays and a JOG is constant within the period, so the start is the fastest anyway)
+    every_pass: bool = True
     log: list[Sent] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -67,7 +70,7 @@ class GuardedBoard:
         peak = [abs(v) for v in sent.start_speeds]
         left = wait
         while left > 1e-12:
-            d = min(0.0005, left)
+            d = min(0.0005 if self.every_pass else wait, left)
             self.emu.advance(d)
             left -= d
             peak = [max(a, abs(v)) for a, v in zip(peak, self.emu.speeds)]
