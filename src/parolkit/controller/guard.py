@@ -192,6 +192,8 @@ class SafetyGuard:
         self._seq = 0
         #: the sent frame the newest status answers (replies come in order, one per frame)
         self._answered = 0
+        #: new statuses in a row that matched no prediction
+        self._unmatched = 0
         #: the newest status matched no sent frame: the board may not have followed them
         self._uncertain = True
         #: counters (read by tests and the status object)
@@ -232,9 +234,10 @@ class SafetyGuard:
         The board answers every frame, in order, with its position as the frame arrived, so a
         new status answers a frame sent after the one the previous status answered: the
         closest such prediction (within half a tick of maximum-speed travel on every joint)
-        is the one it answers.  When none is that close the board has not done what was
-        predicted: the status is taken as the answer to the next frame in order and the
-        prediction is uncertain until a status matches again."""
+        is the one it answers.  When none is that close, twice in a row, the board has not done
+        what was predicted: the status is taken as the answer to the next frame in order and
+        the prediction is uncertain until a status matches again.  Once is a corrupted reply
+        (the link has no checksum; one flipped bit moves a joint by a power of two): ignored."""
         if status is None or status is self._seen:
             return
         self._seen = status
@@ -257,9 +260,13 @@ class SafetyGuard:
             if score < best_score or (best < 0 and score <= best_score):
                 best, best_score = i, score
         if best < 0:  # the board did not do what was predicted: start again from what it says
+            self._unmatched += 1
+            if self._unmatched < 2:
+                return
             best = first if first >= 0 else len(sent) - 1
             self._uncertain = True
         else:
+            self._unmatched = 0
             self._uncertain = False
         e = sent[best]
         self._answered = e.seq
