@@ -260,6 +260,15 @@ def test_rule7_a_late_frame_that_would_need_the_board_to_run_faster_is_replaced(
     b, res, room = stream_then_late(room / (f * VMAX[0] * PERIOD) - 0.05)
     assert res.violation is None, res.violation
     assert not b.over_max()
+    # at half that speed a full catch-up (two samples' step after two periods) is allowed
+    b = GuardedBoard()
+    _staircase(b, 0, 0.5 * f * VMAX[0], 30)
+    prev = b.log[-1].asked
+    b.now += PERIOD
+    b.emu.advance(PERIOD)
+    res = b.goto(_moved(prev.positions, 0, 2 * 0.5 * f * VMAX[0] * PERIOD), prev.speeds)
+    assert res.violation is None, res.violation
+    assert not b.over_max()
 
 
 def test_the_guard_follows_the_board_through_late_and_lost_replies():

@@ -20,9 +20,11 @@ and the time between them (the firmware's P loop, exactly), anchored on every ne
 frame: a status frame answers a frame and carries the board's position as that frame
 arrived, so it is matched to the sent frame whose predicted arrival position it is closest
 to and the prediction is re-run from there (a late or lost reply does not shift the anchor).
-When no sent frame matches (the board did not follow: disabled, a lost frame, start-up), the
-prediction is uncertain and both "it followed the last frame" and "it has not moved since
-the status" are checked; the worse one decides.
+When two replies in a row match no sent frame (the board did not follow: disabled behind the
+controller's back, a lost frame, start-up; one such reply is a corrupted one and is ignored),
+the prediction is uncertain and both "it followed the last frame" and "it has not moved since
+the reply" are checked; the worse one decides.  The board's enable state (101 / 102) and
+homing (100, until a reply shows every joint homed and still) are part of the prediction.
 
 Time: ``now`` (s, the loop's clock) tells the guard how long the previous frame has been
 running.  The interval counts as at least one period: the loop writes one frame per tick,
@@ -102,12 +104,13 @@ def max_goto_step(lag: float, dt_s: float, max_speed: float) -> float:
     previous one so that the board starts the next frame within ``max_speed`` (steps/s).
 
     ``lag`` (steps, signed) is how far the joint trailed the previous frame's goal (target +
-    feed-forward / 100) as that frame arrived, e.g. that goal minus the position in the
-    status frame answering it; ``dt_s`` is the time between the two frames.  The board then
-    starts at ``GOTO_GAIN_PER_S x (lag exp(-GOTO_GAIN_PER_S dt) + step)``.  An activity that
-    catches up after a late tick may send the sample for the real time only when this allows
-    its step (and the guard's rule 6 allows ``max_speed x dt``); otherwise it must not skip
-    samples.  May be negative: the board is still too far behind to step on at all."""
+    feed-forward x GOTO_FF_GAIN / GOTO_GAIN_PER_S) as that frame arrived, e.g. that goal minus
+    the position in the status frame answering it; ``dt_s`` is the time between the two
+    frames.  The board then starts at ``GOTO_GAIN_PER_S x (lag exp(-GOTO_GAIN_PER_S dt) +
+    step)``.  An activity that catches up after a late tick may send the sample for the real
+    time only when this allows its step (and the guard's rule 6 allows ``max_speed x dt``);
+    otherwise it must not skip samples.  May be negative: the board is still too far behind to
+    step on at all."""
     left = lag * math.exp(-GOTO_GAIN_PER_S * max(0.0, dt_s))
     sign = 1.0 if lag >= 0 else -1.0
     return max_speed / GOTO_GAIN_PER_S - sign * left
