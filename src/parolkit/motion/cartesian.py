@@ -483,8 +483,8 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
     limits = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION)
     vmax = limits.array
 
-    def timed(prof: ScalarProfile) -> _Timed:
-        return _Timed(name, prof, path, start, model, tool, rate_hz, limits)
+    def timed(prof: ScalarProfile) -> _TimedPath:
+        return _TimedPath(name, prof, path, start, model, tool, rate_hz, limits)
 
     stretch = 1.0
     for _attempt in range(4):
@@ -514,14 +514,14 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
 
 
 #: A path lasting at most this many ticks is also checked on a finer grid than the ticks
-#: (:class:`_Timed`): its samples may not resolve it (a whole circle in one tick is one sample,
+#: (:class:`_TimedPath`): its samples may not resolve it (a whole circle in one tick is one sample,
 #: back at the start).
 FINE_CHECK_TICKS = 20
 #: Points of that finer grid (at least; 4 per tick for longer ones).
 FINE_CHECK_POINTS = 32
 
 
-class _Timed:
+class _TimedPath:
     """A path timed by ``prof`` and sampled at the ticks: joint angles, speeds, and how far
     they are over the limits (``r_v``, ``r_a``: 1 = at the limit).
 
@@ -583,8 +583,8 @@ class _Timed:
 LEAST_DURATION_SEARCH_S = 600.0
 
 
-def _least_duration(tm: _Timed, profile: Profile, base: float,
-                    timed: Callable[[ScalarProfile], _Timed]) -> str:
+def _least_duration(tm: _TimedPath, profile: Profile, base: float,
+                    timed: Callable[[ScalarProfile], _TimedPath]) -> str:
     """How the refusal of ``tm``'s duration says what would fit: ``"give a duration of at
     least X s"`` with the shortest duration (to 0.01 s) at which the path fits.  Searched, not
     scaled: a move of less than a tick does not scale like a longer one (its one sample hid
