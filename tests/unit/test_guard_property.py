@@ -18,7 +18,9 @@ Checked for every frame written:
   time between them (+1 step of rounding); the first GO TO after another frame lies at most
   one period of maximum-speed travel (+1) from where the board really is;
 * the board's speeds: what each status frame reports, what each stepper starts the period at,
-  and every stepper's speed at every firmware pass until the next frame, within the maximum.
+  and every stepper's speed at every firmware pass until the next frame, within the maximum
+  + one step's worth (``ROUNDING_STEPS`` x 50 steps/s: a GO TO target is a whole step, so its
+  start speed has that resolution; the guard allows it, the planners stay 3 % below).
 """
 
 from __future__ import annotations
@@ -27,13 +29,16 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from tests.unit.guard_bench import PERIOD, VMAX, GuardedBoard
 
+from parolkit.controller.guard import ROUNDING_STEPS
 from parolkit.protocol.frames import BoardCommand, CommandFrame
-from parolkit.robot import PAROL6
+from parolkit.robot import GOTO_GAIN_PER_S, PAROL6
 
 VJOG = tuple(float(v) for v in PAROL6.max_jog_speed_steps_s)
 LO = [lo for lo, _ in PAROL6.limits_steps]
 HI = [hi for _, hi in PAROL6.limits_steps]
 TICK = [v * PERIOD for v in VMAX]
+#: what the board may start a GO TO frame at: the maximum + one step of rounding
+BOARD_MAX = [v + GOTO_GAIN_PER_S * ROUNDING_STEPS for v in VMAX]
 
 _ff = st.floats(-1.0, 1.0) | st.floats(-1.3, 1.3) | st.just(0.0)
 _ff6 = st.lists(_ff, min_size=6, max_size=6)
@@ -126,8 +131,8 @@ def test_every_frame_the_guard_lets_out_keeps_the_board_within_its_limits(start_
             # the board: status report, start of the period, every pass until the next frame
             sent = b.log[-1]
             assert all(abs(v) <= m for v, m in zip(sent.reply.speeds, VMAX)), ctx
-            assert all(abs(v) <= m for v, m in zip(sent.start_speeds, VMAX)), (sent.start_speeds, ctx)
-            assert all(v <= m for v, m in zip(sent.peak_speeds, VMAX)), (sent.peak_speeds, ctx)
+            assert all(abs(v) <= m for v, m in zip(sent.start_speeds, BOARD_MAX)), (sent.start_speeds, ctx)
+            assert all(v <= m for v, m in zip(sent.peak_speeds, BOARD_MAX)), (sent.peak_speeds, ctx)
             prev_out = out
             if out.command == BoardCommand.GOTO:
                 peak = max(p / m for p, m in zip(sent.peak_speeds, VMAX))

@@ -16,10 +16,14 @@ the planners keep position-tracked streams at :func:`parolkit.robot.goto_trackin
 the maximum speed.
 
 Where the board is when a frame arrives is predicted from the frames the guard let through
-and the time between them (the firmware's P loop, exactly), anchored on every new status
-frame: a status frame answers a frame and carries the board's position as that frame
-arrived, so it is matched to the sent frame whose predicted arrival position it is closest
-to and the prediction is re-run from there (a late or lost reply does not shift the anchor).
+and the time between them (the firmware's P loop, exactly), anchored on the status frames:
+a status frame answers a frame and carries the board's position as that frame arrived, so it
+is matched to the sent frame whose predicted arrival position it is closest to (a late or
+lost reply does not shift the anchor), and the prediction is re-run from it whenever the
+board was not running a GO TO before that frame (at rest, jogging: exact).  Within a GO TO
+stream the replies only confirm it: where the board gets to depends on when the frames
+reach it, and the guard judges every frame as delivered on schedule (see Time), so that its
+verdict depends on the frames and the loop's timing alone, not on the link's delivery jitter.
 When two replies in a row match no sent frame (the board did not follow: disabled behind the
 controller's back, a lost frame, start-up; one such reply is a corrupted one and is ignored),
 the prediction is uncertain and both "it followed the last frame" and "it has not moved since
@@ -48,8 +52,10 @@ Rules, in order:
    the time between the two frames (at least one period); the first GO TO after any other
    frame may lie at most one period of maximum-speed travel from where the board is.
 7. GO TO start speed: the speed the board will start this frame at,
-   ``|0.5 v_ff + 50 (target - position on arrival)|``, within the maximum speed.  (Rule 6
-   allows one step of rounding: targets are whole steps.)
+   ``|0.5 v_ff + 50 (target - position on arrival)|``, within the maximum speed.
+   Rules 6 and 7 allow one step of rounding (``ROUNDING_STEPS``; in rule 7 one step is 50
+   steps/s): targets are whole steps, so a stream at exactly the tracking factor rounds above
+   it by up to that much.
 8. JOG (123): when homed, no joint may reach its limit within ``lookahead_ticks`` ticks at
    the commanded speed.
 9. A speed stream (123 with a non-zero speed) is always ended by a zero-speed 123 frame: if
@@ -74,7 +80,8 @@ __all__ = [
 
 _KNOWN = {int(c) for c in BoardCommand}
 _ZERO6 = (0, 0, 0, 0, 0, 0)
-#: Rule 6 allows this much rounding (steps): targets are whole steps.
+#: Rules 6 and 7 allow this much rounding (steps): targets are whole steps (in rule 7 one step
+#: of target is GOTO_GAIN_PER_S = 50 steps/s of start speed).
 ROUNDING_STEPS = 1.0
 #: A status frame is matched to the sent frame whose predicted arrival position is within
 #: this many ticks of maximum-speed travel on every joint (the closest one wins).
@@ -237,10 +244,14 @@ class SafetyGuard:
         The board answers every frame, in order, with its position as the frame arrived, so a
         new status answers a frame sent after the one the previous status answered: the
         closest such prediction (within half a tick of maximum-speed travel on every joint)
-        is the one it answers.  When none is that close, twice in a row, the board has not done
-        what was predicted: the status is taken as the answer to the next frame in order and
-        the prediction is uncertain until a status matches again.  Once is a corrupted reply
-        (the link has no checksum; one flipped bit moves a joint by a power of two): ignored."""
+        is the one it answers.  The prediction is re-run from the status unless the frame
+        before the one it answers was a GO TO: then where the board got to depends on when the
+        two frames reached it, and the guard judges frames as delivered on schedule (module
+        docstring), so the status only says which frame it answers.  When no prediction is
+        that close, twice in a row, the board has not done what was predicted: the status is
+        taken as the answer to the next frame in order, the prediction is re-run from it and
+        is uncertain until a status matches again.  Once is a corrupted reply (the link has no
+        checksum; one flipped bit moves a joint by a power of two): ignored."""
         if status is None or status is self._seen:
             return
         self._seen = status
@@ -251,6 +262,7 @@ class SafetyGuard:
         scale = self._tick_travel
         best, best_score = -1, _MATCH_TICKS
         first = -1  # the next frame in order after the one the previous status answered
+        predicted = False  # is there a prediction to match at all?
         for i in range(len(sent) - 1, -1, -1):  # newest first: a tie goes to the newest
             e = sent[i]
             if e.seq <= self._answered:
@@ -259,21 +271,24 @@ class SafetyGuard:
             arr = e.arrival
             if arr is None:
                 continue
+            predicted = True
             score = max(abs(p - a) / s for p, a, s in zip(ps, arr, scale))
             if score < best_score or (best < 0 and score <= best_score):
                 best, best_score = i, score
         if best < 0:  # the board did not do what was predicted: start again from what it says
             self._unmatched += 1
-            if self._unmatched < 2:
+            if self._unmatched < 2 and predicted:
                 return
             best = first if first >= 0 else len(sent) - 1
             self._uncertain = True
+            anchor = True
         else:
             self._unmatched = 0
             self._uncertain = False
+            before = sent[best - 1].frame if best > 0 else sent[best].frame
+            anchor = before.command != BoardCommand.GOTO
         e = sent[best]
         self._answered = e.seq
-        e.arrival = [float(p) for p in ps]
         # homing is over when a status taken while it may have been running (the answer to a
         # frame sent after HOME) shows every joint homed and still
         was_homing = sent[best - 1].homing if best > 0 else e.homing and e.frame.command != BoardCommand.HOME
@@ -282,6 +297,9 @@ class SafetyGuard:
                 if sent[i].frame.command == BoardCommand.HOME:
                     break
                 sent[i].homing = False
+        if not anchor:
+            return
+        e.arrival = [float(p) for p in ps]
         for i in range(best + 1, len(sent)):
             prev = sent[i - 1]
             sent[i].arrival = prev.after(prev.dt if prev.dt is not None else self.period_s)
@@ -289,15 +307,13 @@ class SafetyGuard:
     def _arrivals(self, dt: float, status: StatusFrame | None) -> list[list[float]]:
         """The board's possible positions (steps) as a frame sent ``dt`` s after the last one
         arrives: one, or two when uncertain; none when nothing is known."""
-        out: list[list[float]] = []
-        if self._sent:
-            last = self._sent[-1]
-            if last.homing:
-                return out  # the board may be moving on its own
-            p = last.after(dt)
-            if p is not None:
-                out.append(p)
-        if (self._uncertain or not out) and status is not None:
+        if not self._sent:  # (nothing sent yet: the board is where it says)
+            return [[float(v) for v in status.positions]] if status is not None else []
+        p = self._sent[-1].after(dt)
+        if p is None:
+            return []  # homing, or it moved on its own and has not answered since
+        out = [p]
+        if self._uncertain and status is not None:
             out.append([float(v) for v in status.positions])
         return out
 
@@ -315,7 +331,8 @@ class SafetyGuard:
             if self._sent and self._sent[-1].homing:
                 return ("position commands (156) are refused while the board may be homing (until a "
                         "status frame shows every joint homed and still)")
-            return "position commands (156) are refused while the board's position is unknown (no status frame)"
+            return ("position commands (156) are refused while the board's position is unknown (no "
+                    "status frame since it last moved on its own)")
         last = self._last
         if last is not None and last.command == BoardCommand.GOTO:
             for j in range(6):
@@ -338,10 +355,11 @@ class SafetyGuard:
                             f"({pos[j]:.0f} steps): one period at the maximum speed "
                             f"{self._vmax[j]:g} steps/s allows {allowed:.0f} steps (the board would jump)"
                         )
+        tol = GOTO_GAIN_PER_S * ROUNDING_STEPS
         for pos in arrivals:
             for j in range(6):
                 u = goto_start_speed(f.positions[j], f.speeds[j], pos[j])
-                if abs(u) > self._vmax[j]:
+                if abs(u) > self._vmax[j] + tol:
                     return (
                         f"{JOINT_NAMES[j]} would start this frame at {abs(u):.0f} steps/s, above its "
                         f"maximum {self._vmax[j]:g} steps/s (target {f.positions[j]} steps, "
