@@ -135,6 +135,10 @@ TIMED = {
     "ArcCenter": lambda t: ArcCenterMove([X + 20, Y - 20, Z, A, B, C], [X, Y - 20, Z], duration_s=t),
     "Spline": lambda t: SplineMove([[X + 20, Y, Z - 10, A, B, C], [X + 40, Y + 10, Z - 20, A, B, C]],
                                    duration_s=t),
+    "ArcParam": lambda t: ArcParamMove([X + 20, Y - 20, Z, A, B, C], 20, 90, duration_s=t),
+    "Helix": lambda t: HelixMove([X + 15, Y, Z], 15, 10, -20, duration_s=t),
+    "Blend": lambda t: BlendMove([LineSegment([X + 40, Y, Z, A, B, C]), LineSegment([X + 40, Y, Z - 40, A, B, C])],
+                                 blend_radius_mm=10, duration_s=t),
 }
 
 
