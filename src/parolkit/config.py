@@ -80,6 +80,14 @@ class ControllerSettings:
     stream_watchdog_s: float = 0.02
     #: time scale of the simulated board's homing (1 = real time)
     sim_homing_speedup: float = 20.0
+    #: run the stop supervisor on a serial link: a small process that writes a DISABLE frame
+    #: the moment this controller dies (the board firmware has no watchdog)
+    supervisor: bool = True
+    #: the supervisor also stops the board when the controller, alive, wrote no frame for
+    #: this long (frozen, stopped in a debugger), s; 0 = only when it dies
+    supervisor_stall_s: float = 1.0
+    #: before homing, one jog press moves a joint at most this far, deg (the limits are unknown)
+    unhomed_jog_travel_deg: float = 20.0
 
     def __post_init__(self) -> None:
         _positive(self.rate_hz, "controller.rate_hz", hi=1000.0)
@@ -89,10 +97,18 @@ class ControllerSettings:
         _int_range(self.link_timeout_ticks, "controller.link_timeout_ticks", 1, 1000)
         _positive(self.stream_watchdog_s, "controller.stream_watchdog_s", hi=10.0)
         _positive(self.sim_homing_speedup, "controller.sim_homing_speedup", hi=10_000.0)
+        _positive(self.unhomed_jog_travel_deg, "controller.unhomed_jog_travel_deg", hi=360.0)
         if not isinstance(self.bind, str) or not self.bind:
             raise ParolkitValueError("controller.bind must be a host address string")
         if not isinstance(self.home_on_start, bool):
             raise ParolkitValueError("controller.home_on_start must be true or false")
+        if not isinstance(self.supervisor, bool):
+            raise ParolkitValueError("controller.supervisor must be true or false")
+        if isinstance(self.supervisor_stall_s, bool) or not isinstance(self.supervisor_stall_s, (int, float)) \
+                or not 0.0 <= self.supervisor_stall_s <= 60.0:
+            raise ParolkitValueError(
+                f"controller.supervisor_stall_s must be a number of seconds in 0..60 (0 = off), "
+                f"got {self.supervisor_stall_s!r}")
 
     @property
     def period_s(self) -> float:

@@ -50,6 +50,8 @@ pose = [0, 0, 120, 0, 0, 0]
         ("[controller]\nrate_hz = 0", r"controller.rate_hz must be a number in \(0, 1000\]"),
         ("[controller]\nudp_port = 70000", "controller.udp_port must be an integer in 1..65535"),
         ("[controller]\nhome_on_start = 1", "home_on_start must be true or false"),
+        ("[controller]\nunhomed_jog_travel_deg = 0",
+         r"controller.unhomed_jog_travel_deg must be a number in \(0, 360\]"),
         ("[robot]\ngear_ratios = [1, 2]", "gear_ratios must have 6 values"),
         ("[tools.x]\npose = [1, 2]", "tools.x.pose must be 6 finite numbers"),
         ("[tools.x]\nposition = [1, 2, 3, 4, 5, 6]", "tools.x needs exactly one key: pose"),

@@ -474,3 +474,25 @@ def test_link_tasks_are_cancelled_again_until_they_end():
         assert b.done()
 
     asyncio.run(main())
+
+
+def test_the_link_logs_uncommanded_motion_and_throttles_implausible_frames():
+    from parolkit.gui.link import ControllerLink
+
+    events = EventLog()
+    link = ControllerLink("127.0.0.1", 9, 9, event_log=events)
+
+    def status(implausible: int, uncommanded: int, last: str | None = None) -> RobotStatus:
+        return RobotStatus.from_json(dict(STATUS, integrity={
+            "implausible": implausible, "uncommanded": uncommanded, "status_age_ms": 0.0, "last": last}))
+
+    link._log_transitions(status(0, 0), status(3, 0))
+    link._log_transitions(status(3, 0), status(9, 0))  # within 5 s of the first line: not logged
+    link._log_transitions(status(9, 0), status(9, 1, "J2 moved 1520 steps while idle"))
+    lines = [(e.level, e.text) for e in events.tail(10)]
+    assert (Level.WARNING, "board link: 3 status frame(s) ignored as implausible (corrupted?), 3 in all") in lines
+    assert not any("9 in all" in t for _, t in lines)
+    assert (Level.ERROR, "uncommanded motion #1, robot disabled: J2 moved 1520 steps while idle") in lines
+    link._implausible_logged = (3, -1e9)  # 5 s later
+    link._log_transitions(status(9, 1), status(12, 1))
+    assert events.tail(1)[0].text == "board link: 9 status frame(s) ignored as implausible (corrupted?), 12 in all"

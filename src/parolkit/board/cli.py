@@ -4,7 +4,7 @@ Serve::
 
     parolkit board-sim --link /tmp/p6 [--speedup N] [--estop-pressed] [--in1 0|1] [--in2 0|1]
                        [--gripper-object WIDTH_MM] [--control PATH] [--start-homed]
-                       [--frame-log SIZE]
+                       [--frame-log SIZE] [--exchange-log PATH]
 
 Control a running one (the control socket defaults to ``LINK.ctl``)::
 
@@ -83,11 +83,15 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser], na
     p.add_argument("--frame-log", type=_frame_log_size, default=0, metavar="SIZE",
                    help="keep the last SIZE command frames received, with their time.monotonic() "
                    "receive times, for the control command 'frames' (off by default)")
+    p.add_argument("--exchange-log", metavar="PATH", default=None,
+                   help="write one JSON line per command frame received (as sent) and per frame "
+                   "executed (as executed, after injected faults) with the true status frame it "
+                   "answered (before faults) to PATH (off by default; see docs/board-emulator.md)")
     p.add_argument("--control", metavar="PATH", default=None,
                    help="control socket path (default: LINK.ctl)")
     p.add_argument("--ctl", metavar="COMMAND", default=None,
                    help="send COMMAND to a running board-sim and print the reply "
-                   "(estop 1, in1 1, object 30, unplug, replug, errors temp J3, faults ..., status)")
+                   "(estop 1, in1 1, object 30, unplug, replug, errors temp J3, faults ..., rewrite 101 100, status)")
     p.set_defaults(func=run)
     return p
 
@@ -114,8 +118,9 @@ def run(args: argparse.Namespace) -> int:
                             in1=args.in1, in2=args.in2, start_homed=args.start_homed)
         if args.gripper_object is not None:
             emu.place_object(args.gripper_object)
-        server = PtyBoardServer(emu, args.link, frame_log_size=args.frame_log)
-        control = ControlServer(emu, control_path, frame_log=server.frame_log)
+        server = PtyBoardServer(emu, args.link, frame_log_size=args.frame_log,
+                                exchange_log=args.exchange_log)
+        control = ControlServer(emu, control_path, frame_log=server.frame_log, rewrite=server.rewrite)
     except ParolkitError as exc:
         print(f"board-sim: {exc}", file=sys.stderr)
         return 2

@@ -15,6 +15,8 @@ command                         effect
 ``faults drop=0.01 corrupt=0.01 delay=0.05 silent=0 dir=both``   link faults (any subset)
 ``faults clear``                perfect link again
 ``powercycle``                  counters 0, homed 0x03, enabled (joints stay where they are)
+``rewrite 101 100``             the next command frame with code 101 reaches the board as 100
+                                (a one-shot link fault: ENABLE turned into HOME)
 ``status``                      ``ok {json}`` with positions, homed, IO, gripper, faults ...
 ``frames since=T after=N``      ``ok {json}`` the command frames received after monotonic
 ``frames last=N limit=N``       time T / sequence number N (the newest N, at most N); needs
@@ -38,7 +40,7 @@ from parolkit.board.faults import faults_from_options
 from parolkit.errors import ParolkitError, ParolkitValueError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from parolkit.board.pty_server import FrameLog
+    from parolkit.board.pty_server import CommandRewrite, FrameLog
 
 __all__ = ["execute_control", "ControlServer", "send_control", "ControlError", "CONTROL_HELP"]
 
@@ -46,7 +48,7 @@ CONTROL_HELP = (
     "estop 0|1; in1 0|1; in2 0|1; object WIDTH_MM|none; unplug; replug; "
     "errors temp|pos J1..J6 ...; errors clear; "
     "faults [drop=P] [corrupt=P] [delay=S] [silent=0|1] [dir=to_board|from_board|both]; "
-    "faults clear; powercycle; status; "
+    "faults clear; powercycle; rewrite OLD_CODE NEW_CODE; status; "
     "frames [since=MONOTONIC_S] [after=SEQ] [last=N] [limit=N] (with --frame-log); help"
 )
 
@@ -63,11 +65,13 @@ def _flag(word: str, what: str) -> bool:
     raise ParolkitValueError(f"{what}: expected 0 or 1, got {word!r}")
 
 
-def execute_control(emu: BoardEmulator, text: str, *, frame_log: FrameLog | None = None) -> str:
+def execute_control(emu: BoardEmulator, text: str, *, frame_log: FrameLog | None = None,
+                    rewrite: CommandRewrite | None = None) -> str:
     """Run one control command on ``emu``; returns the reply text (never raises for bad input).
 
     ``frame_log`` (the pty server's :class:`~parolkit.board.pty_server.FrameLog`) answers
     ``frames``; without it ``frames`` replies with an error saying how to switch it on.
+    ``rewrite`` (the pty server's one-shot command rewrite) serves ``rewrite``.
     """
     words = text.strip().split()
     if not words:
@@ -80,6 +84,13 @@ def execute_control(emu: BoardEmulator, text: str, *, frame_log: FrameLog | None
             return "ok " + json.dumps(emu.describe())
         if cmd == "frames":
             return _frames(frame_log, args)
+        if cmd == "rewrite":
+            if rewrite is None:
+                return "error: 'rewrite' needs the pty server (board-sim)"
+            if len(args) != 2 or not all(a.isdigit() for a in args):
+                return "error: usage: rewrite OLD_CODE NEW_CODE (decimal command codes, e.g. rewrite 101 100)"
+            rewrite.arm(int(args[0]), int(args[1]))
+            return "ok"
         if cmd in ("estop", "in1", "in2"):
             if len(args) != 1:
                 return f"error: '{cmd}' needs one argument 0 or 1"
@@ -204,12 +215,13 @@ class ControlServer:
     ``frame_log`` answers the ``frames`` command (see :func:`execute_control`)."""
 
     def __init__(self, emulator: BoardEmulator, path: str | os.PathLike[str], *,
-                 frame_log: FrameLog | None = None) -> None:
+                 frame_log: FrameLog | None = None, rewrite: CommandRewrite | None = None) -> None:
         if not isinstance(emulator, BoardEmulator):
             raise ParolkitValueError(
                 f"emulator must be a BoardEmulator, got {type(emulator).__name__}")
         self.emulator = emulator
         self.frame_log = frame_log
+        self.rewrite = rewrite
         self.path = Path(path)
         self._sock: socket.socket | None = None
         self._thread: threading.Thread | None = None
@@ -249,7 +261,7 @@ class ControlServer:
             except OSError:
                 break
             reply = execute_control(self.emulator, data.decode("utf-8", errors="replace"),
-                                    frame_log=self.frame_log)
+                                    frame_log=self.frame_log, rewrite=self.rewrite)
             if addr:
                 try:
                     sock.sendto(reply.encode(), addr)

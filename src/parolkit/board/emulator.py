@@ -215,6 +215,8 @@ class BoardEmulator:
         self._outbound = ByteFaultInjector(seed=None if seed is None else seed + 1)
         self._plugged = True
         self._link_listeners: list[Callable[[bool], None]] = []
+        #: called with (frame as executed, true reply) for every frame taken from the link
+        self._exchange_listeners: list[Callable[[CommandFrame, StatusFrame], None]] = []
         self._frames = 0
         self._replies = 0
         #: (counters, speeds, homed) as copied by the last loop pass
@@ -485,6 +487,8 @@ class BoardEmulator:
         for frame in self._parser.iter_feed(data):
             reply = self._accept(frame)
             self._replies += 1
+            for cb in self._exchange_listeners:
+                cb(frame, reply)  # before the link's faults touch the reply
             self._outbound.push(reply.encode(), self._t)
 
     # ---- link faults -------------------------------------------------------------------------
@@ -564,6 +568,19 @@ class BoardEmulator:
     def remove_link_listener(self, callback: Callable[[bool], None]) -> None:
         if callback in self._link_listeners:
             self._link_listeners.remove(callback)
+
+    def add_exchange_listener(self, callback: Callable[[CommandFrame, StatusFrame], None]) -> None:
+        """``callback(frame, reply)`` runs for every frame the board takes from the link (as
+        it executes it, after any injected fault) with the status frame it answers (before any
+        injected fault), under the board's lock: keep it short (used by the pty server's
+        exchange log)."""
+        if not callable(callback):
+            raise ParolkitValueError("callback must be callable")
+        self._exchange_listeners.append(callback)
+
+    def remove_exchange_listener(self, callback: Callable[[CommandFrame, StatusFrame], None]) -> None:
+        if callback in self._exchange_listeners:
+            self._exchange_listeners.remove(callback)
 
     # =======================================================================================
     # inputs, objects, error injection

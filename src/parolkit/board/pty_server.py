@@ -15,10 +15,17 @@ the same clock in every process on the machine) and its command code, so a test 
 process can tell which frame the board received after a moment it noted itself.  Frames are
 recorded as they arrive on the wire, before any injected link fault; the board's behaviour
 does not change.
+
+Exchange log (opt-in, ``exchange_log=PATH``): :class:`ExchangeLog` writes one JSON line per
+command frame that arrived on the pty (as sent, before any injected fault) and one per frame
+the board executed (as executed, after the faults) with the TRUE status frame it answered
+(before the faults corrupt it on its way back): what a test needs to tell corrupted replies
+from what the board really reported, and corrupted commands from what was sent.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import select
 import threading
@@ -26,15 +33,16 @@ import time
 import tty
 from collections import deque
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from parolkit.board.emulator import BoardEmulator, ClockMode
 from parolkit.errors import ParolkitError, ParolkitValueError
-from parolkit.protocol.frames import COMMAND_LEN
+from parolkit.protocol.frames import COMMAND_LEN, CommandFrame, StatusFrame
 from parolkit.protocol.stream import FrameParser
 from parolkit.transport.base import LinkLostError
 
-__all__ = ["PtyBoardServer", "PtyServerError", "FrameLog", "FRAME_LOG_MAX", "FRAME_QUERY_MAX"]
+__all__ = ["PtyBoardServer", "PtyServerError", "FrameLog", "ExchangeLog", "CommandRewrite", "FRAME_LOG_MAX",
+           "FRAME_QUERY_MAX"]
 
 #: largest frame log a board-sim keeps (frames; 10 minutes at 100 Hz take 60,000)
 FRAME_LOG_MAX = 100_000
@@ -148,6 +156,136 @@ class FrameLog:
         }
 
 
+class ExchangeLog:
+    """JSON lines written to ``path`` as things happen (``t``: ``time.monotonic()``, s):
+
+    * ``{"k": "in", "t": T, "n": N, "raw": HEX}``: the Nth command frame that arrived on the
+      pty, its 56 bytes as sent (before any injected fault);
+    * ``{"k": "ex", "t": T, "n": N, "raw": HEX, "cmd": C, "reply": {...}}``: the Nth frame the
+      board executed, its 56 bytes as executed (after the faults: ``raw`` differs from the
+      "in" line of the same frame when a fault changed it), and the status frame it answered,
+      as the board sent it (before the faults): ``{"p": positions, "v": speeds, "homed",
+      "io", "xtr", "timing", "raw": HEX}``;
+    * ``{"k": "out", "t": T, "raw": HEX}``: bytes written to the pty (after the faults): what
+      the PC read, to tell which replies arrived intact.
+
+    A frame whose bytes were damaged so that the board did not take it has an "in" line and
+    no "ex" line.  Thread-safe (the pty thread feeds "in", the board's lock holder "ex")."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        target = Path(path)
+        if not target.parent.is_dir():
+            raise ParolkitValueError(f"exchange log {target}: directory {target.parent} does not exist")
+        try:
+            self._file: IO[str] | None = open(target, "w", encoding="utf-8", buffering=1)
+        except OSError as exc:
+            raise ParolkitValueError(f"cannot write the exchange log {target}: {exc}") from exc
+        self.path = target
+        self._parser: FrameParser[Any] = FrameParser(_RawCommandFrame, COMMAND_LEN, None)
+        self._lock = threading.Lock()
+        self.received = 0
+        self.executed = 0
+
+    def _write(self, obj: dict[str, object]) -> None:
+        f = self._file
+        if f is not None:
+            f.write(json.dumps(obj, separators=(",", ":")) + "\n")
+
+    def feed(self, data: bytes, t: float) -> None:
+        """Bytes that arrived on the pty at ``t``: a line per command frame they complete."""
+        with self._lock:
+            for raw in self._parser.iter_feed(data):
+                self.received += 1
+                self._write({"k": "in", "t": round(t, 6), "n": self.received, "raw": raw.hex()})
+
+    def exchange(self, frame: CommandFrame, reply: StatusFrame) -> None:
+        """The board executed ``frame`` and answered ``reply`` (an emulator exchange listener)."""
+        t = time.monotonic()
+        with self._lock:
+            self.executed += 1
+            self._write({
+                "k": "ex", "t": round(t, 6), "n": self.executed, "raw": frame.encode().hex(),
+                "cmd": int(frame.command),
+                "reply": {"p": list(reply.positions), "v": list(reply.speeds), "homed": reply.homed,
+                          "io": reply.io, "xtr": reply.xtr, "timing": reply.timing,
+                          "raw": reply.encode().hex()},
+            })
+
+    def sent_to_pc(self, data: bytes, t: float) -> None:
+        """Bytes the board side wrote to the pty at ``t``."""
+        with self._lock:
+            self._write({"k": "out", "t": round(t, 6), "raw": data.hex()})
+
+    def new_stream(self) -> None:
+        with self._lock:
+            self._parser.reset()
+
+    def close(self) -> None:
+        with self._lock:
+            if self._file is not None:
+                self._file.close()
+                self._file = None
+
+
+class CommandRewrite:
+    """A deliberate one-shot link fault: the next command frame whose command byte is
+    ``old`` reaches the board with ``new`` instead (e.g. 101 ENABLE -> 100 HOME, the bit flip
+    a corrupted byte can make).  Frames are recognised by the board's own rule (start bytes,
+    LEN 52, end bytes 01 02); while armed, the tail of a chunk that may be the start of a
+    frame is held back until the rest arrives (only then)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._armed: tuple[int, int] | None = None
+        self._held = b""
+        #: frames rewritten so far
+        self.done = 0
+
+    def arm(self, old: int, new: int) -> None:
+        for name, v in (("old", old), ("new", new)):
+            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 255:
+                raise ParolkitValueError(f"rewrite: {name} command code must be 0..255, got {v!r}")
+        with self._lock:
+            self._armed = (old, new)
+
+    @property
+    def armed(self) -> bool:
+        return self._armed is not None
+
+    def reset(self) -> None:
+        """A new pty: forget a held partial frame of the old one (an armed rewrite stays)."""
+        with self._lock:
+            self._held = b""
+
+    def apply(self, data: bytes) -> bytes:
+        """``data`` as the board should get it (possibly with a tail held back)."""
+        with self._lock:
+            if self._armed is None and not self._held:
+                return data
+            buf = bytearray(self._held + data)
+            self._held = b""
+            if self._armed is None:
+                return bytes(buf)
+            old, new = self._armed
+            size = 4 + COMMAND_LEN
+            i = 0
+            while True:
+                i = buf.find(b"\xff\xff\xff" + bytes((COMMAND_LEN,)), i)
+                if i < 0:
+                    break
+                if i + size > len(buf):
+                    self._held = bytes(buf[i:])  # the rest of this frame comes later
+                    del buf[i:]
+                    break
+                if buf[i + size - 2:i + size] == b"\x01\x02" and buf[i + _COMMAND_OFFSET] == old:
+                    buf[i + _COMMAND_OFFSET] = new
+                    self._armed = None
+                    self.done += 1
+                    break
+                i += 1
+            return bytes(buf)
+
+
 class PtyBoardServer:
     """Bridges ``emulator`` to a pty whose slave is symlinked at ``link_path``.
 
@@ -159,7 +297,7 @@ class PtyBoardServer:
     """
 
     def __init__(self, emulator: BoardEmulator, link_path: str | os.PathLike[str], *,
-                 frame_log_size: int = 0) -> None:
+                 frame_log_size: int = 0, exchange_log: str | os.PathLike[str] | None = None) -> None:
         if not isinstance(emulator, BoardEmulator):
             raise ParolkitValueError(
                 f"emulator must be a BoardEmulator, got {type(emulator).__name__}")
@@ -189,6 +327,10 @@ class PtyBoardServer:
                 f"frame_log_size must be 0 (off) or a number of frames 1..{FRAME_LOG_MAX}, got {frame_log_size!r}")
         #: the received command frames (opt-in), or None
         self.frame_log: FrameLog | None = FrameLog(frame_log_size) if frame_log_size else None
+        #: every frame sent and executed, and the true replies (opt-in), or None
+        self.exchange_log: ExchangeLog | None = ExchangeLog(exchange_log) if exchange_log is not None else None
+        #: one-shot command-byte rewrite (a deliberate link fault, see :meth:`rewrite_next`)
+        self.rewrite = CommandRewrite()
 
     # ---- lifecycle ---------------------------------------------------------------------------
     def start(self) -> PtyBoardServer:
@@ -202,6 +344,8 @@ class PtyBoardServer:
             self.emulator.start()
             self._started_loop = True
         self.emulator.add_link_listener(self._on_link)
+        if self.exchange_log is not None:
+            self.emulator.add_exchange_listener(self.exchange_log.exchange)
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="parolkit-pty-server", daemon=True)
         self._thread.start()
@@ -216,6 +360,9 @@ class PtyBoardServer:
         self._thread.join(timeout=2.0)
         self._thread = None
         self.emulator.remove_link_listener(self._on_link)
+        if self.exchange_log is not None:
+            self.emulator.remove_exchange_listener(self.exchange_log.exchange)
+            self.exchange_log.close()
         self._close_pty()
         for fd in (self._wake_r, self._wake_w):
             try:
@@ -242,6 +389,11 @@ class PtyBoardServer:
         finally:
             self.stop()
 
+    def rewrite_next(self, old: int, new: int) -> None:
+        """The next command frame with command byte ``old`` reaches the board as ``new``
+        (after the frame and exchange logs saw it as sent)."""
+        self.rewrite.arm(old, new)
+
     # ---- pty ---------------------------------------------------------------------------------
     def _open_pty(self) -> None:
         master, slave, name = _make_pty()
@@ -255,6 +407,9 @@ class PtyBoardServer:
             self._master, self._slave, self.device = master, slave, name
         if self.frame_log is not None:
             self.frame_log.new_stream()
+        if self.exchange_log is not None:
+            self.exchange_log.new_stream()
+        self.rewrite.reset()
 
     def _close_pty(self) -> None:
         with self._lock:
@@ -318,10 +473,16 @@ class PtyBoardServer:
                     if data:
                         if self.frame_log is not None:
                             self.frame_log.feed(data, time.monotonic())
+                        if self.exchange_log is not None:
+                            self.exchange_log.feed(data, time.monotonic())
                         self.bytes_in += len(data)
-                        emu.write(data)
+                        data = self.rewrite.apply(data)
+                        if data:
+                            emu.write(data)
                 out = emu.read()
                 if out:
+                    if self.exchange_log is not None:
+                        self.exchange_log.sent_to_pc(out, time.monotonic())
                     self._write_all(master, out)
             except BlockingIOError:
                 continue

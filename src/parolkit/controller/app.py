@@ -31,6 +31,7 @@ from parolkit.controller.jobs import PlanAhead
 from parolkit.controller.loop import ControlLoop, TickOutput
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
 from parolkit.controller.state import SNAPSHOT_QUERIES, BoardInfo, RobotState, Snapshot
+from parolkit.controller.supervisor import StopSupervisor
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps
 from parolkit.protocol.frames import StatusFrame
@@ -114,6 +115,7 @@ class Controller:
             model=self.config.robot, rate_hz=self.rate_hz, queue_size=cs.queue_size,
             watchdog_s=cs.stream_watchdog_s, tool_provider=self.tool,
             homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
+            homing_speedup=self._homing_speedup(), unhomed_jog_travel_deg=cs.unhomed_jog_travel_deg,
         )
         self.stream = StatusStream(self.sock, lambda: self.snapshot)
         self.server = UdpServer(self.sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
@@ -134,6 +136,7 @@ class Controller:
             transport=transport, executor=self.executor, guard=guard, rate_hz=self.rate_hz,
             link_timeout_ticks=cs.link_timeout_ticks, inbox=self.inbox, publish=self._publish,
             pose_provider=self._pose_provider,
+            supervisor=StopSupervisor(cs.supervisor_stall_s) if cs.supervisor else None,
         )
         self.loop.server_view = self.server.overload_view
         self.executor.start()

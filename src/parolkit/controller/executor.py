@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import importlib
 import logging
+import math
 import threading
 import time
 from collections import deque
@@ -31,6 +32,7 @@ from types import ModuleType
 from typing import Any
 
 from parolkit.controller.inbox import Ack, Submission
+from parolkit.controller.integrity import BoardProbe, StatusIntegrity
 from parolkit.controller.jobs import (
     Activity,
     DelayActivity,
@@ -49,8 +51,8 @@ from parolkit.controller.jobs import (
 )
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import AckStatus
-from parolkit.protocol.frames import BoardCommand, GripperCommandBits, GripperMode, StatusFrame
-from parolkit.robot import RobotModel
+from parolkit.protocol.frames import BoardCommand, GripperCommandBits, GripperMode, IOBits, StatusFrame
+from parolkit.robot import JOINT_NAMES, RobotModel
 
 __all__ = ["Executor", "START_TOLERANCE_DEG", "SAFETY_COMMANDS", "SET_PORT_SCHEMES"]
 
@@ -70,6 +72,10 @@ GRIPPER_CALIBRATE_TIMEOUT_S = 10.0
 OUTPUT_REPORT_TIMEOUT_S = 0.5
 #: how many queued jobs the planner plans ahead
 PLAN_AHEAD = 4
+#: a HOME whose board shows no homing within this time FAILS (a disabled board ignores it), s
+HOME_START_TIMEOUT_S = 0.5
+#: default travel of one jog press (JOG / MULTIJOG, or one held streamed jog) before homing, deg
+UNHOMED_JOG_TRAVEL_DEG = 20.0
 
 _TRAJECTORY_COMMANDS = (
     C.MoveJoint, C.MovePose, C.MoveCart, C.MoveCartRelTRF, C.CartJogCommand, C.SmoothCircle,
@@ -105,13 +111,20 @@ class Executor:
         watchdog_s: float,
         tool_provider: Callable[[], object] | None = None,
         homing_timeout_s: float = 180.0,
+        homing_speedup: float = 1.0,
+        unhomed_jog_travel_deg: float = UNHOMED_JOG_TRAVEL_DEG,
     ) -> None:
+        if not unhomed_jog_travel_deg > 0.0:
+            raise ValueError(f"unhomed_jog_travel_deg must be > 0 deg, got {unhomed_jog_travel_deg!r}")
         self.model = model
         self.rate_hz = rate_hz
         self.queue_size = queue_size
         self.watchdog_s = watchdog_s
         self.tool_provider = tool_provider or (lambda: None)
         self.homing_timeout_s = homing_timeout_s
+        #: how much faster than real time the board homes (a simulated board; 1 on a serial link)
+        self.homing_speedup = homing_speedup
+        self.unhomed_jog_travel_deg = float(unhomed_jog_travel_deg)
         self._lock = threading.RLock()
         self._plan_cv = threading.Condition(self._lock)
         self.queue: deque[Job] = deque()
@@ -156,6 +169,19 @@ class Executor:
         self._motion: ModuleType | None = None  # parolkit.motion, imported by the planner thread
         self.planned_count = 0
         self.plan_time_s = 0.0
+        #: the board's state is not in its status frame: the probe asks whether it is enabled
+        #: at the start of every link session (see BoardProbe)
+        self.probe = BoardProbe()
+        self.probe.start()
+        #: which status frames are the truth, and motion nobody commanded (the loop feeds it)
+        self.integrity = StatusIntegrity(model, rate_hz, homing_speedup=homing_speedup,
+                                         on_fault=self.integrity_fault, probe=self.probe)
+        #: why the robot is disabled when it was not the user's DISABLE (None otherwise)
+        self._disabled_reason: str | None = None
+        #: travel of the current unhomed jog press so far, deg per joint, and its latest
+        #: segment: (speeds steps/s, start, planned end; monotonic s)
+        self._press_used = [0.0] * 6
+        self._press_speeds: tuple[tuple[int, ...], float, float] | None = None
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -238,7 +264,7 @@ class Executor:
                 self._ack(job, AckStatus.FAILED, "E-stop latched: release it and send ENABLE")
                 return
             if not self.enabled:
-                self._ack(job, AckStatus.FAILED, "robot is disabled: send ENABLE first")
+                self._ack(job, AckStatus.FAILED, self._disabled_reason or "robot is disabled: send ENABLE first")
                 return
             if not self._link_up:
                 self._ack(job, AckStatus.FAILED, f"board link is down ({self.error or 'reconnecting'})")
@@ -366,17 +392,57 @@ class Executor:
         if not self.estop_latched:
             log.warning("E-stop: %s", reason)
         self.estop_latched = True
+        self.probe.cancel()  # DISABLE every tick from now on, ENABLE needed: the answer is moot
+        self._drop_pending_enable()
         self.cancel_all(f"E-stop: {reason}")
 
     def do_enable(self) -> None:
         self.estop_latched = False
         self.enabled = True
         self.error = None
+        self._disabled_reason = None
+        self.probe.cancel()  # the board gets 101: it will be enabled
         self._pending_code = BoardCommand.ENABLE
 
     def do_disable(self) -> None:
         self.enabled = False
+        self.probe.cancel()
+        self._drop_pending_enable()
         self.cancel_all("robot disabled by DISABLE")
+
+    def _drop_pending_enable(self) -> None:
+        """An ENABLE still waiting for the running command to end is void once the robot is
+        disabled or E-stopped again (it went out after the DISABLE otherwise)."""
+        if self._pending_code == BoardCommand.ENABLE:
+            self._pending_code = None
+
+    def integrity_fault(self, message: str) -> None:
+        """(loop thread) The board moved (or homed) in a way nobody commanded: disable the
+        robot (DISABLE frames from the next tick on, ENABLE required), cancel everything,
+        report ``message`` (it names the joints) as the error."""
+        self.enabled = False
+        self.error = f"uncommanded motion: {message}"
+        self._disabled_reason = f"robot disabled after {self.error}: send ENABLE"
+        self.probe.cancel()
+        self._drop_pending_enable()
+        self.cancel_all(self.error)
+
+    def _board_found(self, enabled: bool, reason: str) -> None:
+        """(loop thread) The start-up probe answered: the board is (not) enabled."""
+        if enabled:
+            return
+        log.warning("%s", reason)
+        self.enabled = False
+        self.error = reason
+        self._disabled_reason = reason
+        with self._lock:
+            for job in list(self.queue):
+                self._ack(job, AckStatus.FAILED, reason)
+            self.queue.clear()
+            if self._stream_cart is not None:
+                self._ack(self._stream_cart, AckStatus.FAILED, reason)
+                self._stream_cart = None
+            self._plan_cv.notify_all()
 
     def do_clear_error(self) -> None:
         self.error = None
@@ -392,9 +458,13 @@ class Executor:
                     self.activity = None
 
     def link_lost(self, reason: str) -> None:
-        """Called by the loop: motion is cancelled and never resumed; the error is latched."""
+        """Called by the loop: motion is cancelled and never resumed; the error is latched.
+        The board's state is asked again when the link is back (it may have been power
+        cycled, or another controller may have used it)."""
         self.error = reason
         self.cancel_all(f"board link lost: {reason}")
+        if self.enabled and not self.estop_latched:
+            self.probe.start()
 
     # ------------------------------------------------------------------ views
 
@@ -601,13 +671,16 @@ class Executor:
                 old is not None and isinstance(old_act, SpeedActivity) and not isinstance(cmd, C.CartJogCommand)
             ):
                 speeds, ticks, err = self._speed_plan(cmd)
+                note = ""
+                if err is None:
+                    ticks, note, err = self._cap_unhomed_travel(speeds, ticks, now, continuing=True)
                 if err is not None:
                     self._ack(job, AckStatus.FAILED, err)
                     return
                 old_act.replace(speeds, ticks, now)
                 self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
                 self.active = job
-                self._ack(job, AckStatus.EXECUTING)
+                self._ack(job, AckStatus.EXECUTING, note)
                 return
             if old is not None:
                 self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
@@ -650,14 +723,58 @@ class Executor:
             return tuple(speeds), ticks_for(cmd.move.duration_s, self.rate_hz), None
         return (), 0, f"{cmd.name} is not a speed command"
 
+    def _cap_unhomed_travel(self, speeds: Sequence[int], ticks: int, now: float, *,
+                            continuing: bool) -> tuple[int, str, str | None]:
+        """Before homing the joint limits are unknown: one jog press (a JOG / MULTIJOG, or a
+        held streamed jog and its updates) may move each joint at most
+        :attr:`unhomed_jog_travel_deg`.  Returns (ticks, note for the ack, error): the ticks
+        cut so the press stops at the limit (the note says so), or an error when the press
+        has used it all.  A homed robot is not limited (the joint limits are)."""
+        if self._homed:
+            self._press_speeds = None
+            return ticks, "", None
+        prev = self._press_speeds
+        if not continuing or prev is None:
+            self._press_used = [0.0] * 6
+        elif prev is not None:  # the same press goes on: count what it moved so far
+            v0, t0, t1 = prev
+            for j in range(6):
+                self._press_used[j] += abs(v0[j]) / self._spd[j] * max(0.0, min(now, t1) - t0)
+        used = self._press_used
+        cap = self.unhomed_jog_travel_deg
+        room = {j: int(math.floor(max(0.0, cap - used[j]) * self._spd[j] * self.rate_hz / abs(v) + 1e-9))
+                for j, v in enumerate(speeds) if v != 0}
+        allowed = min([ticks, *room.values()])
+        stops = [JOINT_NAMES[j] for j, n in room.items() if n == allowed]
+        if allowed < 1:
+            self._press_speeds = ((0,) * 6, now, now)  # still held: the next update is refused too
+            return 0, "", (f"robot not homed: this jog press has used its {cap:g} deg of travel "
+                           f"({', '.join(stops)}): release and press again, or send HOME to lift the limit")
+        self._press_speeds = (tuple(int(v) for v in speeds), now, now + allowed / self.rate_hz)
+        if allowed < ticks:
+            return allowed, (f"robot not homed: jog travel limited to {cap:g} deg per press "
+                             f"({', '.join(stops)} stops there); send HOME to lift the limit"), None
+        return ticks, "", None
+
     def _activate(self, job: Job, now: float) -> None:
         cmd = job.command
         settle = max(3, int(0.5 * self.rate_hz))
         act: Activity
         if isinstance(cmd, C.Home):
-            act = HomeActivity(self.model.standby_steps, ticks_for(self.homing_timeout_s, self.rate_hz))
+            integrity = self.integrity
+            act = HomeActivity(self.model.standby_steps, ticks_for(self.homing_timeout_s, self.rate_hz),
+                               start_timeout_ticks=ticks_for(HOME_START_TIMEOUT_S, self.rate_hz),
+                               seen=lambda: integrity.homing_seen)
         elif isinstance(cmd, _SPEED_COMMANDS):
             speeds, ticks, err = self._speed_plan(cmd)
+            if err is None:
+                # a held streamed jog that ran into the limit and sends its next update is
+                # still the same press; anything else starts a new one
+                held = (job.streamed and self._press_speeds is not None
+                        and now <= self._press_speeds[2] + self.watchdog_s + 2.0 / self.rate_hz)
+                ticks, note, err = self._cap_unhomed_travel(speeds, ticks, now, continuing=held)
+                if note:
+                    job.notes = (*job.notes, note)
             if err is not None:
                 self._ack(job, AckStatus.FAILED, err)
                 return
@@ -742,15 +859,11 @@ class Executor:
             self._homed = status.all_homed
             self._measured = tuple(p / s for p, s in zip(status.positions, self._spd))
             if status is not self._last_status:  # a new frame
-                # pressed in two frames in a row: one corrupted IO byte (the link has no
-                # checksum) must not latch an E-stop; costs one tick of reaction time
-                raw = status.estop_pressed
-                pressed = raw and self._estop_raw_prev
-                self._estop_raw_prev = raw
-                self._last_status = status
-                if pressed and not self.estop_pressed:
-                    self.do_estop("hardware E-stop pressed")
-                self.estop_pressed = pressed
+                self._hardware_estop(status)
+        probe = self.probe
+        if probe.result is not None:
+            result, probe.result = probe.result, None
+            self._board_found(result, probe.reason)
         for sub in commands:
             try:
                 self.apply(sub)
@@ -766,6 +879,31 @@ class Executor:
                 break
             self._stream_replace(job)
         return self._step(tick, now, status, link_up)
+
+    def _hardware_estop(self, status: StatusFrame) -> None:
+        """The E-stop input of a new status frame (IO bit 0x08, 0 = pressed).
+
+        The link has no checksum, so a frame showing "pressed" may be a corrupted IO byte.
+        Pressed counts at once (the next frame written is DISABLE) when the IO byte equals
+        the previous frame's with only the E-stop bit cleared and the outputs echo what was
+        commanded: a press changes exactly that bit, while a corrupted byte is a random other
+        value (1 in 255 corrupted IO bytes looks like a press and latches: the safe side).
+        Any other "pressed" byte needs a second frame in a row.  Release always needs two
+        frames in a row (a corrupted byte must not let an ENABLE through)."""
+        prev = self._last_status
+        raw = status.estop_pressed
+        if raw:
+            out = (IOBits.OUT1 if self.outputs[0] else 0) | (IOBits.OUT2 if self.outputs[1] else 0)
+            quick = (prev is not None and not prev.estop_pressed and status.io == (prev.io & ~IOBits.ESTOP)
+                     and (status.io & (IOBits.OUT1 | IOBits.OUT2)) == out)
+            pressed = self.estop_pressed or quick or self._estop_raw_prev
+        else:
+            pressed = self.estop_pressed and self._estop_raw_prev
+        self._estop_raw_prev = raw
+        self._last_status = status
+        if pressed and not self.estop_pressed:
+            self.do_estop("hardware E-stop pressed")
+        self.estop_pressed = pressed
 
     def preempt(self, commands: Iterable[Submission], *, tick: int, now: float) -> Step:
         """(loop thread) Safety commands that arrived after :meth:`tick` composed this tick's
@@ -787,6 +925,10 @@ class Executor:
             return Step(BoardCommand.DISABLE)
         if not link_up:
             return Step(BoardCommand.IDLE)
+        if self.probe.active:
+            # is the board enabled?  Nothing else runs until it answers (a few ticks)
+            code, speeds = self.probe.frame(status, self._limits)
+            return Step(code, speeds=speeds)
         if self.active is None and self.queue:
             self._try_activate(now, status)
         act = self.activity

@@ -9,7 +9,7 @@ frame, its terminal status.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from parolkit.protocol.commands import AckStatus, Command
@@ -241,33 +241,66 @@ class SpeedActivity(Activity):
 
 
 class HomeActivity(Activity):
-    """Send HOME (100) once, then IDLE until the board reports every joint homed at standby."""
+    """Send HOME (100) once, then IDLE until the board has been SEEN homing and then reports
+    every joint homed at standby, at rest.
 
-    def __init__(self, standby_steps: Sequence[int], timeout_ticks: int, min_ticks: int = 5) -> None:
+    Seen homing: a status frame after HOME shows the homed bits lower than before, a speed
+    (the controller sends only zero speeds meanwhile: any speed is the board's homing) or a
+    position that changed; or ``seen()`` says so (two raw frames in a row showed it).
+    Without that, a board that was homed at standby already looks finished at once; a
+    disabled board ignores HOME and would look the same.  FAILED when the
+    board shows no homing within ``start_timeout_ticks`` (it is disabled, or HOME was lost) or
+    does not finish within ``timeout_ticks``.
+    """
+
+    def __init__(self, standby_steps: Sequence[int], timeout_ticks: int, min_ticks: int = 5,
+                 start_timeout_ticks: int = 50, seen: Callable[[], bool] | None = None) -> None:
         self.standby = tuple(standby_steps)
+        #: the board link's own account that the board homes since HOME was written (its
+        #: frames during a homing faster than expected are not the truth, see integrity)
+        self.seen = seen
         self.sent = False
         self.ticks = 0
         self.timeout_ticks = timeout_ticks
         self.min_ticks = min_ticks
-        self.saw_unhomed = False
+        self.start_timeout_ticks = start_timeout_ticks
+        #: the status when HOME was sent (None: none yet) and whether homing was seen since
+        self.before: StatusFrame | None = None
+        self.started = False
+        self.started_with: StatusFrame | None = None
+
+    def _homing_seen(self, st: StatusFrame) -> bool:
+        b = self.before
+        if any(st.speeds):
+            return True
+        if b is None:
+            return False
+        return (st.homed & b.homed) != b.homed or tuple(st.positions) != tuple(b.positions)
 
     def step(self, ctx: TickContext) -> Step:
         if not self.sent:
             self.sent = True
+            self.before = ctx.status
             return Step(BoardCommand.HOME)
         self.ticks += 1
         st = ctx.status
         if st is not None:
-            homed = st.all_homed
-            if not homed:
-                self.saw_unhomed = True
-            self.progress = min(0.99, sum(st.homed_joints) / 6.0)
+            if not self.started and (self._homing_seen(st) or (self.seen is not None and self.seen())):
+                self.started = True
+                # the frame that was the status then says nothing about the end: during a
+                # homing faster than expected the status may stay the one from before it
+                self.started_with = st
+            self.progress = min(0.99, sum(st.homed_joints) / 6.0) if self.started else 0.0
             if (
-                homed and self.ticks >= self.min_ticks and not any(st.speeds)
-                and tuple(st.positions) == self.standby
+                self.started and st is not self.started_with and st.all_homed and self.ticks >= self.min_ticks
+                and not any(st.speeds) and tuple(st.positions) == self.standby
             ):
                 self.progress = 1.0
                 return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
+        if not self.started and self.ticks >= self.start_timeout_ticks:
+            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
+                        details=f"the board did not start homing within {self.start_timeout_ticks / ctx.rate_hz:g} s: "
+                                f"is it disabled? send ENABLE, then HOME")
         if self.ticks >= self.timeout_ticks:
             return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
                         details=f"homing did not finish within {self.timeout_ticks / ctx.rate_hz:.0f} s")

@@ -39,63 +39,14 @@ from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
 from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_snapshot
 from parolkit.controller.stats import LoopMetrics
+from parolkit.controller.supervisor import StopSupervisor
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
-from parolkit.robot import RobotModel
 from parolkit.transport.base import LinkLostError, Transport, TransportError
 
 __all__ = ["ControlLoop", "TickOutput"]
 
 log = logging.getLogger("parolkit.controller")
-
-
-class StatusFilter:
-    """Plausibility check of status frames (the link has no checksum: a corrupted byte in a
-    field passes the framing checks).
-
-    A frame is accepted when its constant bits are right (IO low bits 0x07, homed low bits
-    0x03), every speed is within the firmware clamp, and it is consistent with the last
-    accepted frame: same homed byte and no joint further away than 3x its maximum speed could
-    carry it (+ 32 steps).  A frame that is not consistent (a corrupted position or homed byte,
-    or a real jump: homing zeroes counters, ENABLE or a power cycle resets them) is held back
-    and accepted only when the NEXT frame agrees with it; a corrupted one never does.
-    """
-
-    def __init__(self, model: RobotModel, rate_hz: float) -> None:
-        self._vlim = tuple(min(50_000.0, 3.0 * float(v)) for v in model.max_speed_steps_s)
-        self._period = 1.0 / rate_hz
-        self.reset()
-
-    def reset(self) -> None:
-        self._ref: StatusFrame | None = None
-        self._ref_t = 0.0
-        self._cand: StatusFrame | None = None
-        self._cand_t = 0.0
-
-    def _consistent(self, a: StatusFrame, b: StatusFrame, dt: float) -> bool:
-        if a.homed != b.homed:
-            return False
-        dt = max(dt, self._period)
-        for j in range(6):
-            if abs(a.positions[j] - b.positions[j]) > self._vlim[j] * dt + 32:
-                return False
-        return True
-
-    def accept(self, f: StatusFrame, now: float) -> bool:
-        if (f.io & 0x07) != 0x07 or (f.homed & 0x03) != 0x03:
-            return False
-        if any(v > 50_000 or v < -50_000 for v in f.speeds):
-            return False
-        ref = self._ref
-        if ref is None or self._consistent(ref, f, now - self._ref_t):
-            self._ref, self._ref_t, self._cand = f, now, None
-            return True
-        cand = self._cand
-        if cand is not None and self._consistent(cand, f, now - self._cand_t):
-            self._ref, self._ref_t, self._cand = f, now, None
-            return True
-        self._cand, self._cand_t = f, now
-        return False
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,6 +77,7 @@ class ControlLoop:
         publish: Callable[[TickOutput], None] | None = None,
         pose_provider: PoseProvider | None = None,
         reply_wait_fraction: float = 0.4,
+        supervisor: StopSupervisor | None = None,
     ) -> None:
         self.transport = transport
         self.executor = executor
@@ -150,7 +102,8 @@ class ControlLoop:
         self.start_time = time.monotonic()
         self._last_status_tick = 0
         self._alive_tick = 0
-        self.filter = StatusFilter(executor.model, rate_hz)
+        #: which status frames are the truth (parolkit.controller.integrity)
+        self.filter = executor.integrity
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._reconnecting = False
@@ -159,10 +112,13 @@ class ControlLoop:
         self._final_frame_sent = False
         self.port_request: str | None = None
         self.last_frame: CommandFrame | None = None
+        #: the stop supervisor (stops the board if this process dies), or None
+        self.supervisor = supervisor
 
     # ------------------------------------------------------------------ lifecycle
 
     def start(self) -> None:
+        self._supervise()
         self._thread = threading.Thread(target=self._run, name="parolkit-loop", daemon=True)
         self._thread.start()
 
@@ -182,6 +138,8 @@ class ControlLoop:
                 self._final_frame_sent = True
         except Exception as exc:
             log.warning("could not send the final DISABLE frame: %s", exc)
+        if self.supervisor is not None:
+            self.supervisor.close()
         try:
             self.transport.close()
         except Exception as exc:
@@ -189,10 +147,30 @@ class ControlLoop:
 
     # ------------------------------------------------------------------ link
 
+    def _supervise(self) -> None:
+        """Hand the open link's file descriptor to the stop supervisor (started on the first
+        link that has one: a serial port; the in-process emulator dies with this process)."""
+        sup = self.supervisor
+        if sup is None:
+            return
+        fd = self.transport.fileno() if self.transport.is_open else None
+        if fd is None:
+            sup.port_closed()
+            return
+        if sup.state == "off":
+            try:
+                sup.start()
+            except OSError as exc:
+                log.error("could not start the stop supervisor: %s", exc)
+                return
+        sup.port_opened(fd)
+
     def _lose_link(self, reason: str) -> None:
         if not self.link_up:
             return
         self.link_up = False
+        if self.supervisor is not None:
+            self.supervisor.port_closed()
         self.stats.link_losses += 1
         log.error("board link lost: %s", reason)
         self.executor.link_lost(reason)
@@ -221,6 +199,7 @@ class ControlLoop:
             self.status = None
             self._last_status_tick = self.tick_count
             self._alive_tick = self.tick_count
+            self._supervise()
             self.link_up = True
             log.warning("board link up again: %s", self.transport.description)
         except (TransportError, OSError) as exc:
@@ -249,10 +228,10 @@ class ControlLoop:
             self._lose_link(str(exc))
             return
         if data:
-            for f in self.parser.feed(data):
+            for f in self.parser.iter_feed(data):
                 self.stats.frames_received += 1
                 self._alive_tick = self.tick_count  # any frame proves the link is alive
-                if self.filter.accept(f, time.monotonic()):
+                if self.filter.accept(f, time.monotonic(), self.parser.stats.bytes_dropped):
                     self.status = f
                     self.last_status = f
                     self._last_status_tick = self.tick_count
@@ -278,6 +257,12 @@ class ControlLoop:
         to publish; the caller advances :attr:`tick_count`."""
         ex = self.executor
         inbox = self.inbox
+        if self.supervisor is not None:
+            stopped = self.supervisor.poll()
+            if stopped is not None:
+                log.error("%s", stopped)
+                ex.do_disable()
+                ex.error = stopped
         if self.link_up:
             self._read()
             if self.link_up and self.tick_count - self._alive_tick >= self.link_timeout_ticks:
@@ -315,10 +300,14 @@ class ControlLoop:
             frame = self._guarded(self.executor.preempt(self.inbox.take_safety(), tick=self.tick_count, now=now),
                                   now)
         try:
+            data = frame.encode()
             t_write = time.perf_counter()
-            self.transport.write(frame.encode())
+            self.transport.write(data)
+            self.filter.sent(frame, time.monotonic())
             self.last_frame = frame
             self.stats.frames_sent += 1
+            if self.supervisor is not None:
+                self.supervisor.sent(data)
         except (LinkLostError, TransportError) as exc:
             self._lose_link(str(exc) or "write failed")
             return None
@@ -347,7 +336,9 @@ class ControlLoop:
             pose_provider=self.pose_provider, loop_view=self._loop_view, server_view=self.server_view)
 
     def _loop_view(self) -> dict[str, Any]:
-        return self.stats.view(max_age_s=0.25).as_dict()
+        view = self.stats.view(max_age_s=0.25).as_dict()
+        view["supervisor"] = self.supervisor.state if self.supervisor is not None else "off"
+        return view
 
     @staticmethod
     def _raise_priority() -> bool:

@@ -9,11 +9,13 @@ forward kinematics) are computed on first use and cached inside the snapshot.
 from __future__ import annotations
 
 import threading
+import time as _time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from typing import TYPE_CHECKING, Any
 
+from parolkit.controller.integrity import IntegrityView
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps, format_floats
 from parolkit.protocol.frames import IOBits, StatusFrame
@@ -71,7 +73,8 @@ class Snapshot:
     __slots__ = (
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
         "error", "command", "queue", "stream_mode", "tool", "plan_seq", "outputs", "loop_view",
-        "server_view", "_steps_per_deg", "_pose_provider", "_lock", "_angles", "_pose", "_matrix", "_replies",
+        "server_view", "integrity", "state_known", "_steps_per_deg", "_pose_provider", "_lock", "_angles",
+        "_pose", "_matrix", "_replies",
     )
 
     def __init__(
@@ -96,6 +99,8 @@ class Snapshot:
         pose_provider: PoseProvider | None,
         loop_view: Callable[[], dict[str, Any]],
         server_view: Callable[[], dict[str, Any]] | None = None,
+        integrity: IntegrityView | None = None,
+        state_known: bool = True,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -114,6 +119,11 @@ class Snapshot:
         self.outputs = outputs
         self.loop_view = loop_view
         self.server_view = server_view
+        #: status frames not taken as the truth, uncommanded motions, age of ``status``
+        self.integrity = integrity if integrity is not None else IntegrityView()
+        #: False while the start-up probe still asks the board whether it is enabled (a few
+        #: ticks after link-up): ``enabled`` and ``state`` are provisional until then
+        self.state_known = state_known
         self._steps_per_deg = steps_per_deg
         self._pose_provider = pose_provider
         self._lock = threading.Lock()
@@ -224,6 +234,7 @@ class Snapshot:
             f"|STATE={self.state.value}|HOMED={','.join(str(int(h)) for h in self.homed)}"
             f"|ESTOP={int(self.estop_pressed or self.estop_latched)}|QUEUE={self.queue}"
             f"|CMD={cmd}|ERROR={err}|OVERLOAD={self.overload}"
+            f"|IMPLAUSIBLE={self.integrity.implausible}|UNCOMMANDED={self.integrity.uncommanded}"
         )
 
     @property
@@ -246,6 +257,7 @@ class Snapshot:
             "estop_pressed": self.estop_pressed,
             "estop_latched": self.estop_latched,
             "angles": [round(a, 4) for a in self.angles_deg],
+            "steps": list(s.positions),
             "pose": [round(p, 4) for p in self.pose],
             "speeds": list(s.speeds),
             "speeds_deg_s": [round(v, 4) for v in self.speeds_deg_s],
@@ -268,8 +280,10 @@ class Snapshot:
                 "connected": self.board.connected, "simulated": self.board.simulated,
                 "port": self.board.port, "timing_ticks": s.timing,
                 "timing_ms": round(s.timing_s * 1e3, 3), "xtr": s.xtr,
+                "state_known": self.state_known,
             },
             "loop": self.loop_view(),
+            "integrity": self.integrity.as_dict(),
             "server": self.server_view() if self.server_view is not None else {},
             "command": self.command.as_dict() if self.command else None,
             "queue": self.queue,
@@ -313,6 +327,7 @@ def robot_state(ex: Executor, link_up: bool) -> RobotState:
 def build_snapshot(
     ex: Executor,
     *,
+    now: float | None = None,
     seq: int,
     time: float,
     link_up: bool,
@@ -324,7 +339,8 @@ def build_snapshot(
     server_view: Callable[[], dict[str, Any]] | None = None,
 ) -> Snapshot:
     """The snapshot of the executor's state with the board's latest ``status`` (loop thread;
-    ``last_status`` is shown while the link is down)."""
+    ``last_status`` is shown while the link is down; ``now``: monotonic s, for the age of
+    the status frame)."""
     a = ex.active
     act = ex.activity
     info = CommandInfo(a.command_id, a.name, act.progress if act else 0.0) if a is not None else None
@@ -335,4 +351,6 @@ def build_snapshot(
         stream_mode=ex.stream_mode, tool=ex.tool_name, plan_seq=ex.plan_seq,
         outputs=(ex.outputs[0], ex.outputs[1]), steps_per_deg=ex.steps_per_deg,
         pose_provider=pose_provider, loop_view=loop_view, server_view=server_view,
+        integrity=ex.integrity.view(now if now is not None else _time.monotonic()),
+        state_known=not ex.probe.active,
     )

@@ -72,6 +72,8 @@ class ControllerLink:
         self._was_up = False
         self._last_error: str | None = None
         self._listeners: list[Callable[[RobotStatus], None]] = []
+        #: implausible status frames already reported in the log, and when (monotonic s)
+        self._implausible_logged = (0, -1e9)
 
     # ---- lifecycle ----
 
@@ -159,10 +161,40 @@ class ControllerLink:
             for j, (b, pb) in enumerate(zip(bits, pbits)):
                 if b and not pb:
                     self.log.error(f"J{j + 1} {name} error")
+        self._log_integrity(prev, new)
         # IDLE <-> MOVING is the normal rhythm of every move and jog: not worth a log line
         routine = {prev.state, new.state} <= {RobotState.IDLE, RobotState.MOVING}
         if new.state != prev.state and not routine:
             self.log.info(f"state {prev.state} -> {new.state}")
+
+    #: implausible status frames are reported at most this often (s): under heavy corruption
+    #: they come every few ticks
+    IMPLAUSIBLE_LOG_S = 5.0
+
+    def _log_integrity(self, prev: RobotStatus, new: RobotStatus) -> None:
+        """Board link integrity (the status object's ``integrity``, see docs/protocol.md):
+        each uncommanded motion as an error; implausible status frames as a warning with
+        their count, at most every :attr:`IMPLAUSIBLE_LOG_S` s."""
+        now_i = new.raw.get("integrity")
+        if not isinstance(now_i, dict):
+            return
+        before = prev.raw.get("integrity")
+        before = before if isinstance(before, dict) else {}
+        try:
+            unc, unc0 = int(now_i.get("uncommanded", 0)), int(before.get("uncommanded", 0))
+            bad = int(now_i.get("implausible", 0))
+        except (TypeError, ValueError):
+            return
+        if unc > unc0:
+            self.log.error(f"uncommanded motion #{unc}, robot disabled: {now_i.get('last')}")
+        logged, when = self._implausible_logged
+        now = time.monotonic()
+        if bad < logged:  # a restarted controller counts from 0 again
+            self._implausible_logged = (bad, now)
+        elif bad > logged and now - when >= self.IMPLAUSIBLE_LOG_S:
+            self.log.add(f"board link: {bad - logged} status frame(s) ignored as implausible "
+                         f"(corrupted?), {bad} in all", Level.WARNING)
+            self._implausible_logged = (bad, now)
 
     def _on_ack(self, record: AckRecord) -> None:
         """Ack listener of the client: log the terminal ack of each command we labelled."""

@@ -62,6 +62,13 @@ class Transport(abc.ABC):
     def read(self) -> bytes:
         """Every byte received so far, without blocking (``b""`` if none)."""
 
+    def fileno(self) -> int | None:
+        """The operating-system file descriptor of the open link, or None when it has none
+        (the in-process emulator) or is closed.  The controller hands a duplicate to its stop
+        supervisor (:mod:`parolkit.controller.supervisor`), which writes the stop frame if the
+        controller dies."""
+        return None
+
     def reconnect(self) -> None:
         self.close()
         self.open()

@@ -59,6 +59,9 @@ class FaultyTransport(Transport):
     def is_open(self) -> bool:
         return self.inner.is_open
 
+    def fileno(self) -> int | None:
+        return self.inner.fileno()
+
     def open(self) -> None:
         self._tx.clear()
         self._rx.clear()

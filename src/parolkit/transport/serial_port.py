@@ -62,6 +62,11 @@ class SerialTransport(Transport):
             raise TransportError(f"cannot open serial port {self.port} at {self.baud} baud: {exc}") from exc
         self._ser = ser
 
+    def fileno(self) -> int | None:
+        ser = self._ser
+        fd = getattr(ser, "fd", None) if ser is not None and ser.is_open else None
+        return fd if isinstance(fd, int) else None
+
     def close(self) -> None:
         ser, self._ser = self._ser, None
         if ser is not None:

@@ -67,6 +67,9 @@ class SpyTransport(Transport):
     def is_open(self) -> bool:
         return self.inner.is_open
 
+    def fileno(self) -> int | None:
+        return self.inner.fileno()
+
     @property
     def counters(self) -> dict[str, int]:
         """Frames and undecoded bytes logged so far, both directions, over every open."""

@@ -1,0 +1,773 @@
+"""Integrity of the board link: which status frames are the truth, and what the board did that
+nobody commanded.
+
+The link has no checksum: a byte changed on the wire passes every framing check.  Corruption
+in the replies must never reach the snapshot as the robot's position, and corruption in the
+commands (the board executes what it received) must not go unnoticed when it moves the robot.
+
+Two checks, on every pair of status frames that are *adjacent* (the board answered nothing in
+between: the parser dropped no bytes between them):
+
+* **Link** (the board against itself): the second frame follows from the first under the
+  command the board itself says it ran between them (``xtr`` of the first frame echoes it;
+  an echo that is none of the commands just written counts as the newest one written), the
+  second frame's own reported speeds and the board's own ``timing`` field:
+
+  - IDLE / ENABLE / DISABLE / CLEAR_ERROR / unknown codes: no step at all, speeds 0;
+  - JOG (123): ``p1 = p0 + v1 * dt`` to within a step (exactly, for a speed of 0);
+  - GO TO (156): the firmware's P loop ``v = 50 * (p_ss - p)`` (``p_ss = target + v_ff/100``):
+    ``p1 - p_ss = (p0 - p_ss) * exp(-50 dt)`` with ``p_ss`` read from ``p1`` and ``v1``;
+  - HOMING (a HOME written, then any idle frame while it runs): each joint moves at most its
+    fastest homing speed (times the board's homing speed-up), or its counter is zeroed at the
+    switch or set to the standby count at the end; the homed bits only rise.
+
+* **Commanded** (the board against the controller): the second frame's positions are compared
+  with what the frames the controller wrote (the last few before the first one was read: one
+  of them is the one the board answered) produce from the first frame's.  A frame that links
+  AND matches within the board's own precision is the truth (:meth:`StatusIntegrity.accept`
+  returns True); anything else is *implausible*: counted, never the truth (the snapshot keeps
+  the last true frame).  A corrupted position byte breaks one check or the other unless it
+  changes a *moving* joint by no more than the stepper's own sub-step jitter (a step, two at
+  speed; a joint at rest is exact: see :class:`Tolerances`).  Two adjacent frames that link
+  re-establish the truth after a gap (checked against the hull of everything the frames
+  written since could reach).
+
+* **Uncommanded motion**: a frame that links to a true one but lies beyond what was commanded
+  (wider than the precision above, by what a reply byte that slipped through the link could
+  hide) is a suspect: a joint moving while idle, racing to a corrupted target or speed,
+  standing still on a disabled board.  It is acted on when a second frame confirms it: the
+  next frame links to it, or one of the next two shows the same joints beyond the hull of
+  everything commanded (a reply lost in between delays it by a tick).  A frame after lost
+  ones that lies beyond that hull and that the next frame links to counts the same.
+
+* **Homing nobody asked for** is judged on two adjacent frames whatever their positions (a
+  simulated board's homing may be faster than the controller was told): ``xtr`` = 100 without
+  a HOME written, then homed bits falling or a speed while every frame written was idle; the
+  same fallen homed byte in two frames in a row; or the homing's own constant speeds in two
+  frames in a row while every frame written was idle.
+
+``on_fault(message)`` is called once per uncommanded motion (the executor disables the robot).
+
+:class:`BoardProbe` finds out at link-up whether the board is enabled (the status frame has no
+such bit): a JOG of +1 step/s on one joint, then a zero JOG: an enabled board reports the speed
+it set (1) in the reply to the second frame, a disabled one ignores 123 and reports 0.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+from parolkit.protocol.frames import TIMER_HZ, BoardCommand, CommandFrame, StatusFrame
+from parolkit.robot import JOINT_NAMES, RobotModel
+
+__all__ = ["StatusIntegrity", "BoardProbe", "Tolerances", "IntegrityView", "LinkMode",
+           "HOMING_SEARCH_STEPS_S"]
+
+log = logging.getLogger("parolkit.controller")
+
+#: the firmware's speed clamp, steps/s
+BOARD_SPEED_CLAMP = 50_000
+#: codes that stop a running homing (any other code lets it continue)
+_ABORT = frozenset({int(BoardCommand.ENABLE), int(BoardCommand.DISABLE), int(BoardCommand.CLEAR_ERROR),
+                    int(BoardCommand.JOG), int(BoardCommand.GOTO)})
+_HOME = int(BoardCommand.HOME)
+_JOG = int(BoardCommand.JOG)
+_GOTO = int(BoardCommand.GOTO)
+_IDLE = int(BoardCommand.IDLE)
+#: the homing sequence's search speeds (board-firmware.md), steps/s: the fastest homing
+#: speeds besides the joints' maximum speeds (its accelerated moves)
+HOMING_SEARCH_STEPS_S = (2050, 2550, 2550, 5550, 5050, 9550)
+#: the constant speeds of the homing's segments (searches, back-offs, approaches), steps/s
+_HOMING_SEGMENT_SPEEDS = frozenset({750, 2050, 2550, 4050, 5050, 5550, 8050, 9550})
+#: the ``timing`` field wraps after 65536 board timer ticks (93.2 ms)
+_TIMING_WRAP_S = 65536 / TIMER_HZ
+_ZERO6 = (0, 0, 0, 0, 0, 0)
+
+
+class LinkMode(str, Enum):
+    """What the board did between two status frames (from the first frame's ``xtr``)."""
+
+    NONE = "no motion"
+    JOG = "JOG"
+    GOTO = "GO TO"
+    HOMING = "homing"
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """How far the board may differ from the models above, in steps.
+
+    * ``steps``: the sub-step phase of a stepper (the counter moves in whole steps) plus the
+      integer truncation of the firmware's speeds;
+    * ``timing_s``: how much the moment the board copies its counters may differ from the
+      moment it takes the frame in (a firmware loop pass);
+    * ``pass_s``: the longest firmware loop pass: the last pass's step is made after the speed
+      the board reports was computed (the emulator runs 0.5 ms passes, the real board many
+      passes per ms);
+    * ``model``: relative error of the exponential GO TO model against the board's loop passes;
+    * ``margin``: the commanded check allows this much more than the link check, so that a
+      reply byte that slipped through the link can never look like uncommanded motion;
+    * ``gap``: the slack of the coarse check across lost frames (the hull of everything the
+      frames written since the last true frame could reach).
+    """
+
+    steps: float = 1.0
+    timing_s: float = 5e-5
+    pass_s: float = 5e-4
+    model: float = 0.01
+    margin: float = 2.0
+    gap: float = 16.0
+
+
+@dataclass(frozen=True)
+class IntegrityView:
+    """Counters for GET_STATUS / GET_STATUS_JSON.
+
+    ``implausible``: status frames never taken as the truth; ``uncommanded``: motions nobody
+    commanded (each one disabled the robot); ``status_age_s``: how old the snapshot's status
+    frame is; ``last``: the message of the newest uncommanded motion (or None)."""
+
+    implausible: int = 0
+    uncommanded: int = 0
+    status_age_s: float = 0.0
+    last: str | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"implausible": self.implausible, "uncommanded": self.uncommanded,
+                "status_age_ms": round(self.status_age_s * 1e3, 1), "last": self.last}
+
+
+@dataclass(frozen=True, slots=True)
+class _Deviation:
+    message: str
+    #: the joints (0..5) it concerns
+    joints: tuple[int, ...]
+
+
+@dataclass(slots=True)
+class _Reply:
+    """One status frame as received: when it was read, the parser's dropped-byte count just
+    after it, and what the checks made of it."""
+
+    f: StatusFrame
+    t: float
+    dropped: int
+    ok: bool
+    #: frames written before it was read (it answers one of the newest of them)
+    n: int = 0
+    truth: bool = False
+
+
+def _goto(p0: float, pss: float, dt: float, decay: float | None = None) -> float:
+    """Where the firmware's P loop ``v = 50 * (pss - p)`` (clamped to 50,000 steps/s) takes a
+    joint from ``p0`` in ``dt`` s (continuous approximation of its loop passes).  ``decay``:
+    ``exp(-50 dt)`` when the caller has it."""
+    e0 = p0 - pss
+    lin = abs(e0) - BOARD_SPEED_CLAMP / 50.0
+    if lin <= 0.0 and decay is not None:
+        return pss + e0 * decay
+    if lin > 0.0:
+        tl = lin / BOARD_SPEED_CLAMP
+        if dt <= tl:
+            return p0 - math.copysign(BOARD_SPEED_CLAMP * dt, e0)
+        dt -= tl
+        e0 = math.copysign(BOARD_SPEED_CLAMP / 50.0, e0)
+    return pss + e0 * math.exp(-50.0 * dt)
+
+
+class BoardProbe:
+    """Is the board enabled?  Asked once per link session, before anything else is sent.
+
+    The executor sends :meth:`frame` each tick while :attr:`active`: IDLE (stops whatever a
+    previous controller left running), JOG with +-1 step/s on J1, JOG with zero speeds, then
+    IDLE while waiting.  The status frame answering the zero JOG carries the speed the board
+    set for the first JOG: 1 on an enabled board, 0 on a disabled one (it ignores 123).
+
+    :meth:`observe` sees every status frame.  The answer is *enabled* as soon as any frame
+    read after the +-1 JOG was written reports exactly that speed on J1 and 0 elsewhere (a
+    disabled board cannot); *disabled* when the two adjacent replies to the two JOG frames
+    (``xtr`` 123 twice, read after each was written) end with all speeds 0 and the second
+    came at least 1 ms after the first (so the board ran a loop pass in between).  Anything
+    else (a lost or damaged reply) repeats the probe, at most ``attempts`` times; then the
+    board is taken as disabled (the user must send ENABLE: the safe side).
+    """
+
+    def __init__(self, *, attempts: int = 3, wait_ticks: int = 6) -> None:
+        self.attempts = attempts
+        self.wait_ticks = wait_ticks
+        self.active = False
+        #: True enabled, False disabled (see :attr:`reason`), None: not known yet
+        self.result: bool | None = None
+        self.reason = ""
+        self._attempt = 0
+        self._i = 0
+        self._wait = 0
+        self._sign = 1
+        self._written: list[float | None] = [None, None, None]
+        self._prev: tuple[StatusFrame, float, int] | None = None
+
+    def start(self) -> None:
+        """(Re)start from the first frame (a new link session)."""
+        self.active = True
+        self.result = None
+        self.reason = ""
+        self._attempt = 1
+        self._restart()
+
+    def cancel(self) -> None:
+        """The answer no longer matters (ENABLE, DISABLE or an E-stop decides it)."""
+        self.active = False
+
+    def _restart(self) -> None:
+        self._i = 0
+        self._wait = 0
+        self._written = [None, None, None]
+        self._prev = None
+
+    def _sequence(self, k: int) -> tuple[int, tuple[int, ...]]:
+        if k == 1:
+            return _JOG, (self._sign, 0, 0, 0, 0, 0)
+        if k == 2:
+            return _JOG, _ZERO6
+        return _IDLE, _ZERO6
+
+    def frame(self, status: StatusFrame | None, limits: Sequence[tuple[int, int]]) -> tuple[int, tuple[int, ...]]:
+        """(command, speeds) of the probe frame for this tick."""
+        if self._i == 1 and status is not None:
+            lo, hi = limits[0]
+            self._sign = 1 if status.positions[0] < (lo + hi) / 2 else -1
+        if self._i < 3:
+            out = self._sequence(self._i)
+            self._i += 1
+            return out
+        self._wait += 1
+        if self._wait > self.wait_ticks:
+            if self._attempt >= self.attempts:
+                self._finish(False, "the board did not answer the start-up probe clearly: it is taken as "
+                                    "disabled: send ENABLE")
+            else:
+                self._attempt += 1
+                log.info("board probe: no clear answer, asking again (attempt %d)", self._attempt)
+                self._restart()
+                return self.frame(status, limits)
+        return _IDLE, _ZERO6
+
+    def sent(self, frame: CommandFrame, t: float) -> None:
+        """A frame was written at ``t`` (monotonic s)."""
+        if not self.active or self._i == 0:
+            return
+        k = self._i - 1
+        if k <= 2 and self._written[k] is None:
+            code, speeds = self._sequence(k)
+            if int(frame.command) == code and tuple(frame.speeds) == speeds:
+                self._written[k] = t
+            else:  # the guard replaced it (E-stop, ...): this attempt says nothing
+                self._i = 3
+                self._wait = self.wait_ticks
+
+    def observe(self, f: StatusFrame, t: float, adjacent: bool) -> None:
+        """A status frame read at ``t``; ``adjacent``: nothing was lost since the previous one."""
+        if not self.active or self.result is not None:
+            return
+        prev, self._prev = self._prev, (f, t, f.xtr)
+        tb, tc = self._written[1], self._written[2]
+        if tb is not None and t > tb and tuple(f.speeds) == (self._sign, 0, 0, 0, 0, 0):
+            self._finish(True, "")
+            return
+        if (tc is not None and tb is not None and prev is not None and adjacent and f.xtr == _JOG
+                and prev[2] == _JOG and prev[1] > tb and t > tc and not any(f.speeds)
+                and f.timing >= TIMER_HZ // 1000):
+            self._finish(False, "the board was found disabled: send ENABLE")
+
+    def _finish(self, enabled: bool, reason: str) -> None:
+        self.result = enabled
+        self.reason = reason
+        self.active = False
+        log.info("board probe: the board is %s", "enabled" if enabled else "disabled")
+
+
+class StatusIntegrity:
+    """Decides which status frames are the truth and reports motion nobody commanded.
+
+    Loop thread only.  The loop calls :meth:`sent` for every frame it writes and
+    :meth:`accept` for every status frame it reads (with the parser's dropped-byte count),
+    :meth:`reset` when a new link session starts.
+
+    ``homing_speedup``: how much faster than real time the board homes (1 for a real board; a
+    simulated one may be faster: its frames during a homing then fail the link and are not
+    shown, and the homing is still seen by its homed bits and speeds).  ``on_fault(message)``
+    is called once per uncommanded motion.
+    """
+
+    def __init__(self, model: RobotModel, rate_hz: float, *, homing_speedup: float = 1.0,
+                 on_fault: Callable[[str], None] | None = None, probe: BoardProbe | None = None,
+                 tolerances: Tolerances | None = None, candidates: int = 3) -> None:
+        self.model = model
+        self.period = 1.0 / rate_hz
+        self.homing_speedup = homing_speedup
+        self.on_fault = on_fault
+        self.probe = probe
+        self.tol = tolerances or Tolerances()
+        self.candidates = candidates
+        self._standby = tuple(int(v) for v in model.standby_steps)
+        self._vhome = tuple(max(float(v), float(s), 8050.0) for v, s in zip(model.max_speed_steps_s,
+                                                                             HOMING_SEARCH_STEPS_S))
+        self.implausible = 0
+        self.uncommanded = 0
+        self.last_fault: str | None = None
+        #: the newest frames written: (number, monotonic s, frame); numbers count from 1
+        self._sent: deque[tuple[int, float, CommandFrame]] = deque(maxlen=64)
+        self._n = 0
+        self.reset()
+
+    # ------------------------------------------------------------------ session
+
+    def reset(self) -> None:
+        """A new link session: nothing is known about the board's state."""
+        self._prev: _Reply | None = None
+        self._ref: _Reply | None = None
+        #: a frame that follows from a true one but shows motion nobody commanded, waiting for
+        #: a second frame to confirm it: (that frame, what it shows, frames left to confirm)
+        self._suspect: tuple[_Reply, _Deviation, int] | None = None
+        self._sent.clear()
+        #: HOME was written (its frame number) and no aborting code since; None: none asked
+        self._home_t: int | None = None
+        #: the homed byte of the truth when HOME was written
+        self._home_homed = 0xFF
+        #: the board was seen homing since (two frames in a row showed it)
+        self._home_seen = False
+        #: the board homes without having been asked (reported; until an aborting code)
+        self._unasked = False
+        #: the homed byte the board is known to report (the truth's, or one reported)
+        self._homed_known: int | None = None
+        #: no new fault before this many frames were written (the DISABLE of the last one is
+        #: on its way: what the board does meanwhile is the same event)
+        self._quiet_until = 0
+
+    @property
+    def homing_seen(self) -> bool:
+        """The board has been seen homing since the last HOME was written."""
+        return self._home_seen
+
+    @property
+    def ref(self) -> StatusFrame | None:
+        """The newest true status frame of this session."""
+        return self._ref.f if self._ref is not None else None
+
+    def view(self, now: float) -> IntegrityView:
+        ref = self._ref
+        age = max(0.0, now - ref.t) if ref is not None else 0.0
+        return IntegrityView(self.implausible, self.uncommanded, age, self.last_fault)
+
+    # ------------------------------------------------------------------ frames written
+
+    def sent(self, frame: CommandFrame, t: float) -> None:
+        """The loop wrote ``frame`` at ``t`` (monotonic s)."""
+        self._n += 1
+        self._sent.append((self._n, t, frame))
+        code = int(frame.command)
+        if code == _HOME:
+            self._home_t, self._home_seen = self._n, False
+            self._home_homed = self._ref.f.homed if self._ref is not None else 0xFF
+        elif code in _ABORT:
+            self._home_t = None
+            self._unasked = False
+        if self.probe is not None:
+            self.probe.sent(frame, t)
+
+    # ------------------------------------------------------------------ frames read
+
+    @staticmethod
+    def _structural(f: StatusFrame) -> bool:
+        if (f.io & 0x07) != 0x07 or (f.homed & 0x03) != 0x03:
+            return False
+        if (f.temperature_error & 0x03) != 0x03 or (f.position_error & 0x03) != 0x03:
+            return False
+        return all(-BOARD_SPEED_CLAMP <= v <= BOARD_SPEED_CLAMP for v in f.speeds)
+
+    def accept(self, f: StatusFrame, t: float, dropped: int) -> bool:
+        """``f`` read at ``t`` (monotonic s); ``dropped``: the parser's dropped-byte count right
+        after ``f`` was parsed.  True when ``f`` is the truth (the snapshot may show it)."""
+        rx = _Reply(f, t, dropped, self._structural(f), self._n)
+        prev, self._prev = self._prev, rx
+        # adjacent: the board answered nothing in between (the parser dropped no bytes).  The
+        # previous frame may have failed its structural check (a corrupted speed or IO byte):
+        # a link from it checks its positions against this frame's own account all the same
+        adjacent = prev is not None and rx.ok and prev.dropped == dropped
+        if self.probe is not None and rx.ok:
+            self.probe.observe(f, t, adjacent)
+        if self._home_t is not None and not self._home_seen and self._n - self._home_t > 1.0 / self.period:
+            self._home_t = None  # the board never started the homing asked for (disabled?)
+        if not rx.ok:
+            self.implausible += 1
+            return False
+        if adjacent and prev is not None:
+            fault = self._raw_checks(prev, rx)
+            if fault is not None:
+                self._fault(fault)
+        dt = self._dt(prev, rx) if adjacent and prev is not None else None
+        linked = prev is not None and dt is not None and self._link(prev.f, f, dt, prev.n)
+        ref = self._ref
+        pending = self._suspect
+        if pending is not None:
+            sus, sdev, left = pending
+            if linked and prev is sus:
+                # the next frame follows from it: the board really went there
+                self._suspect = None
+                self._fault(sdev.message)
+                return self._truth(rx)
+            if ref is not None and self._outside_hull(ref, rx, sdev.joints):
+                # a second frame shows the same joints beyond anything commanded
+                self._suspect = None
+                self._fault(sdev.message)
+                self.implausible += 1
+                return False
+            self._suspect = (sus, sdev, left - 1) if left > 1 else None
+            if left <= 1:
+                log.info("integrity: not confirmed by the next frames: %s", sdev.message)
+        if linked:
+            assert prev is not None and dt is not None
+            if ref is None:
+                return self._truth(rx)  # a new session: two frames agree
+            if ref is not prev and prev is not self._suspect_reply():
+                gap = self._gap_deviation(ref, prev)
+                if gap is not None:
+                    self._suspect = None
+                    self._fault(gap.message)  # prev and rx agree: two frames show it
+                    return self._truth(rx)
+            tight, dev = self._commanded(prev, rx, dt)
+            if dev is None:
+                if tight:
+                    return self._truth(rx)
+                # genuine, and no motion worth reporting, but not within the board's own
+                # precision of what was commanded: not shown (the next frame links to it)
+                self.implausible += 1
+                return False
+            # it follows from a true frame, but not from what was commanded: a second frame
+            # must show it (a reply with several corrupted bytes may pass the link by chance)
+            self._suspect = (rx, dev, 2)
+            return False
+        if ref is not None and self._at_rest_like(ref.f, f):
+            return self._truth(rx)
+        self.implausible += 1
+        return False
+
+    def _suspect_reply(self) -> _Reply | None:
+        return self._suspect[0] if self._suspect is not None else None
+
+    def _idle_codes_only(self, n: int) -> bool:
+        cands = self._candidates(n)
+        return bool(cands) and all(int(fr.command) not in (_JOG, _GOTO, _HOME) for fr in cands)
+
+    def _raw_checks(self, a: _Reply, b: _Reply) -> str | None:
+        """Homing and speeds shown by two adjacent frames, whatever their positions."""
+        ref_homed = self._homed_known
+        if self._home_t is not None:
+            # the same fallen homed byte, or the same speed on a joint, twice in a row: two
+            # corrupted bytes do not agree like that
+            before = self._home_homed
+            fallen = a.f.homed == b.f.homed and (b.f.homed & before) != before
+            if fallen or any(v and v == w for v, w in zip(a.f.speeds, b.f.speeds)):
+                self._home_seen = True
+            return None
+        if self._unasked:
+            return None
+        idle = self._idle_codes_only(a.n) and self._idle_codes_only(b.n)
+        if a.f.xtr == _HOME and not any(int(fr.command) == _HOME for fr in self._candidates(a.n)) and (
+                (b.f.homed & a.f.homed) != a.f.homed or (idle and any(b.f.speeds))):
+            self._unasked = True
+            self._homed_known = b.f.homed
+            return "the board started homing without a HOME command (corrupted frame?)"
+        if ref_homed is not None and a.f.homed == b.f.homed and (b.f.homed & ref_homed) != ref_homed:
+            self._unasked = True
+            self._homed_known = b.f.homed
+            lost = [JOINT_NAMES[j] for j in range(6) if ref_homed & (0x80 >> j) and not b.f.homed & (0x80 >> j)]
+            return (f"the board reports {', '.join(lost)} no longer homed without a HOME command "
+                    f"(homing nobody asked for, or a power cycle)")
+        if idle:
+            # the constant speeds of the homing's searches, back-offs and approaches, in two
+            # frames in a row while the board was told to idle (an idle frame's speed bytes,
+            # even corrupted, make no step: only a homing runs at these)
+            moving = [j for j in range(6) if abs(a.f.speeds[j]) in _HOMING_SEGMENT_SPEEDS
+                      and abs(b.f.speeds[j]) in _HOMING_SEGMENT_SPEEDS]
+            if moving:
+                self._unasked = True
+                return ("the board is homing without a HOME command (corrupted frame?): "
+                        + ", ".join(f"{JOINT_NAMES[j]} at {b.f.speeds[j]} steps/s" for j in moving))
+        return None
+
+    def _truth(self, rx: _Reply) -> bool:
+        rx.truth = True
+        self._ref = rx
+        self._homed_known = rx.f.homed
+        f = rx.f
+        if (self._home_t is not None and self._home_seen and f.homed == 0xFF and not any(f.speeds)
+                and f.xtr != _HOME and tuple(f.positions) == self._standby):
+            self._home_t = None  # the homing asked for is over
+        return True
+
+    @staticmethod
+    def _at_rest_like(ref: StatusFrame, f: StatusFrame) -> bool:
+        """``f`` shows the board exactly where the last true frame had it, at rest: whatever
+        was lost in between, a corrupted frame cannot look like that."""
+        return (tuple(f.positions) == tuple(ref.positions) and not any(f.speeds) and not any(ref.speeds)
+                and f.homed == ref.homed)
+
+    def _dt(self, a: _Reply, b: _Reply) -> float:
+        """Board time between the two frames (``b.timing``, unwrapped with the read times)."""
+        dt = b.f.timing / TIMER_HZ
+        gap = b.t - a.t
+        if gap > 0.75 * _TIMING_WRAP_S:
+            dt += max(0, round((gap - dt) / _TIMING_WRAP_S)) * _TIMING_WRAP_S
+        return dt
+
+    # ------------------------------------------------------------------ the link check
+
+    def mode(self, f: StatusFrame, n: int | None = None) -> LinkMode:
+        """What the board does after ``f`` until the next frame it answers (``n``: frames
+        written before ``f`` was read).  ``f.xtr`` echoes the command it answered; when that
+        is none of the commands just written (a corrupted echo, or a corrupted command the
+        board executed), the newest command written counts: a corrupted echo then still links,
+        and a board that ran something else does not (its motion shows up as uncommanded)."""
+        code = f.xtr
+        if n is not None:
+            cands = self._candidates(n)
+            if cands and all(int(fr.command) != code for fr in cands):
+                code = int(cands[-1].command)
+        if code == _HOME:
+            return LinkMode.HOMING
+        if code == _JOG:
+            return LinkMode.JOG
+        if code == _GOTO:
+            return LinkMode.GOTO
+        if (self._home_t is not None or self._unasked) and code not in _ABORT:
+            return LinkMode.HOMING
+        return LinkMode.NONE
+
+    def _link(self, a: StatusFrame, b: StatusFrame, dt: float, n: int | None = None) -> bool:
+        mode = self.mode(a, n)
+        if mode is LinkMode.HOMING:
+            return self._link_homing(a, b, dt)
+        if b.homed != a.homed:
+            return False
+        if mode is LinkMode.NONE:
+            return tuple(b.positions) == tuple(a.positions) and not any(b.speeds)
+        pred, allow = self._link_model(mode, a, b, dt)
+        return all(abs(p1 - q) <= al for p1, q, al in zip(b.positions, pred, allow))
+
+    def _link_model(self, mode: LinkMode, a: StatusFrame, b: StatusFrame,
+                    dt: float) -> tuple[list[float], list[float]]:
+        """Where ``b``'s own speeds and timing say the joints should be, coming from ``a``
+        under ``mode`` (JOG or GO TO), and the allowance per joint."""
+        tol = self.tol
+        pred: list[float] = []
+        allow: list[float] = []
+        if mode is LinkMode.JOG:
+            for p0, v in zip(a.positions, b.speeds):
+                pred.append(p0 + v * dt)
+                allow.append(tol.steps + abs(v) * tol.timing_s if v else 0.0)  # speed 0: not a step
+            return pred, allow
+        e = math.exp(-50.0 * dt)
+        for p0, p1, v in zip(a.positions, b.positions, b.speeds):
+            if abs(v) >= BOARD_SPEED_CLAMP:
+                # clamped: the target is unknown; it raced toward it (rare: a corrupted target)
+                pred.append(p0 + v * dt if abs(p1 - p0) > BOARD_SPEED_CLAMP * dt or (p1 - p0) * v < 0 else p1)
+                allow.append(tol.steps)
+                continue
+            # p_ss from the reported speed; the last pass stepped after that speed was set
+            last = 0.5 * v * tol.pass_s
+            q = _goto(p0, p1 + v / 50.0 - last, dt, e)
+            pred.append(q)
+            allow.append(tol.steps + (1.0 - e) * (abs(last) + 1.0) + tol.model * abs(q - p0)
+                         + abs(v) * tol.timing_s)
+        return pred, allow
+
+    def _link_homing(self, a: StatusFrame, b: StatusFrame, dt: float) -> bool:
+        if a.xtr != _HOME and (a.homed & b.homed) != a.homed:
+            return False  # homed bits only rise while homing (they reset when it starts)
+        for j, v in enumerate(b.speeds):
+            if abs(v) > self._vhome[j] + 1:
+                return False
+        s = self.homing_speedup
+        for j, (p0, p1) in enumerate(zip(a.positions, b.positions)):
+            reach = s * self._vhome[j] * dt + 64
+            if abs(p1 - p0) > reach and abs(p1) > reach and p1 != self._standby[j]:
+                return False
+        return True
+
+    # ------------------------------------------------------------------ the commanded check
+
+    def _candidates(self, n: int) -> list[CommandFrame]:
+        """The frames one of which a status frame read after frame number ``n`` was written
+        answered (the newest few of those)."""
+        out: list[CommandFrame] = []
+        low = n - self.candidates
+        for k, _, fr in reversed(self._sent):  # newest first: a few steps, not the whole deque
+            if k <= low:
+                break
+            if k <= n:
+                out.append(fr)
+        out.reverse()
+        return out
+
+    def _predict(self, p0: Sequence[int], frame: CommandFrame, dt: float) -> tuple[list[float], list[float]]:
+        """Positions ``frame`` takes the joints to from ``p0`` in ``dt`` s, and how far the
+        board may differ from that (steps)."""
+        tol = self.tol
+        code = int(frame.command)
+        pred: list[float] = []
+        allow: list[float] = []
+        if code == _JOG:
+            for p, v in zip(p0, frame.speeds):
+                vc = max(-BOARD_SPEED_CLAMP, min(BOARD_SPEED_CLAMP, v))
+                pred.append(p + vc * dt)
+                allow.append(tol.steps + abs(vc) * tol.timing_s if vc else 0.0)
+        elif code == _GOTO:
+            e = math.exp(-50.0 * dt)
+            for p, tgt, vff in zip(p0, frame.positions, frame.speeds):
+                pss = tgt + vff / 100.0
+                if pss == p:  # on target, no feed-forward: the P loop asks for speed 0
+                    pred.append(float(p))
+                    allow.append(0.0)
+                    continue
+                q = _goto(p, pss, dt, e)
+                pred.append(q)
+                allow.append(tol.steps + tol.model * abs(q - p)
+                             + min(BOARD_SPEED_CLAMP, 50.0 * abs(pss - q)) * tol.timing_s)
+        else:  # IDLE, ENABLE, DISABLE, CLEAR_ERROR, unknown: not a step
+            pred = [float(p) for p in p0]
+            allow = [0.0] * 6
+        return pred, allow
+
+    def _commanded(self, a: _Reply, b: _Reply, dt: float) -> tuple[bool, _Deviation | None]:
+        """Compare ``b``'s positions with what the frames written could produce from ``a``'s:
+        (they match within the board's own precision, the deviation when they are beyond
+        it and the margins).  (True, None) when nothing can be compared (a homing asked for,
+        no frame written yet)."""
+        if self._home_t is not None or self._unasked:
+            return True, None  # a homing was asked for (or is reported): positions unknown
+        cands = self._candidates(a.n)
+        if not cands:
+            return True, None
+        p1s = b.f.positions
+        tried = []
+        for fr in reversed(cands):  # usually the newest one was answered
+            pred, allow = self._predict(a.f.positions, fr, dt)
+            res = [abs(p1 - q) for p1, q in zip(p1s, pred)]
+            if all(r <= al for r, al in zip(res, allow)):
+                return True, None
+            tried.append((fr, pred, allow, res))
+        # a corrupted position that slipped through the link checks before and after it is off
+        # by at most twice their allowance: the uncommanded check allows that much more (and a
+        # margin), so a reply byte can never look like uncommanded motion.  (HOMING here: xtr
+        # 100 without a HOME written; a homing that follows is judged by _raw_checks.)
+        mode = self.mode(a.f, a.n)
+        if mode is LinkMode.HOMING:
+            hide = [2.0 * (self.homing_speedup * v * dt + 64) for v in self._vhome]
+        elif mode is LinkMode.NONE:
+            hide = [0.0] * 6
+        else:
+            hide = [2.0 * al for al in self._link_model(mode, a.f, b.f, dt)[1]]
+        best: tuple[float, CommandFrame, list[float], list[float]] | None = None
+        for fr, pred, allow, res in tried:
+            loose = [al + h + self.tol.margin for al, h in zip(allow, hide)]
+            excess = max(r - al for r, al in zip(res, loose))
+            if best is None or excess < best[0]:
+                best = (excess, fr, pred, loose)
+        assert best is not None
+        excess, fr, pred, loose = best
+        if excess <= 0.0:
+            return False, None
+        return False, self._describe(a.f, b.f, fr, pred, loose)
+
+    def _describe(self, a: StatusFrame, b: StatusFrame, fr: CommandFrame, pred: list[float],
+                  allow: list[float]) -> _Deviation:
+        parts = []
+        joints = []
+        code = int(fr.command)
+        for j in range(6):
+            if abs(b.positions[j] - pred[j]) <= allow[j]:
+                continue
+            joints.append(j)
+            moved = b.positions[j] - a.positions[j]
+            want = pred[j] - a.positions[j]
+            name = JOINT_NAMES[j]
+            if code not in (_JOG, _GOTO):
+                parts.append(f"{name} moved {moved} steps while idle")
+            elif moved == 0:
+                parts.append(f"{name} stood still where {want:.0f} steps were commanded (is the board disabled?)")
+            else:
+                parts.append(f"{name} moved {moved} steps where {want:.0f} were commanded")
+        return _Deviation("; ".join(parts), tuple(joints))
+
+    def _hull(self, ref: _Reply, b: _Reply) -> list[tuple[float, float]] | None:
+        """Per joint, the range the frames written since ``ref`` could take it to by the time
+        ``b`` was read (the start, every GO TO target, the farthest a JOG could run), or None
+        when that cannot be judged (a homing, frames no longer known)."""
+        if self._home_t is not None or self._unasked:
+            return None
+        first = ref.n - self.candidates + 1
+        if not self._sent or self._sent[0][0] > first:
+            return None  # the frames written since then are no longer all known
+        frames = [fr for (k, _, fr) in self._sent if first <= k <= b.n]
+        if not frames or any(int(fr.command) == _HOME for fr in frames):
+            return None
+        # how long those frames ran: ticks, or the time it took if ticks came late
+        span = max(len(frames) * self.period, b.t - ref.t + self.candidates * self.period)
+        out = []
+        for j in range(6):
+            p0 = ref.f.positions[j]
+            lo = hi = float(p0)
+            vlo = vhi = 0.0
+            for fr in frames:
+                code = int(fr.command)
+                if code == _JOG:
+                    vlo, vhi = min(vlo, fr.speeds[j]), max(vhi, fr.speeds[j])
+                elif code == _GOTO:
+                    pss = fr.positions[j] + fr.speeds[j] / 100.0
+                    lo, hi = min(lo, pss), max(hi, pss)
+            slack = self.tol.steps + self.tol.margin + self.tol.gap
+            out.append((lo + vlo * span - slack, hi + vhi * span + slack))
+        return out
+
+    def _outside_hull(self, ref: _Reply, b: _Reply, joints: Sequence[int]) -> bool:
+        hull = self._hull(ref, b)
+        if hull is None:
+            return False
+        return any(not hull[j][0] <= b.f.positions[j] <= hull[j][1] for j in joints)
+
+    def _gap_deviation(self, ref: _Reply, b: _Reply) -> _Deviation | None:
+        """``b`` (a frame the next one links to, after frames were lost since ``ref``): its
+        positions must lie within the hull of what the frames written since could reach."""
+        hull = self._hull(ref, b)
+        if hull is None:
+            return None
+        idle = self._idle_codes_only(b.n) and self._idle_codes_only(ref.n)
+        parts = []
+        joints = []
+        for j, (lo, hi) in enumerate(hull):
+            p1 = b.f.positions[j]
+            if not lo <= p1 <= hi:
+                joints.append(j)
+                what = "while idle" if idle else "beyond anything commanded"
+                parts.append(f"{JOINT_NAMES[j]} moved {p1 - ref.f.positions[j]} steps {what}")
+        return _Deviation("; ".join(parts), tuple(joints)) if joints else None
+
+    # ------------------------------------------------------------------ faults
+
+    def _fault(self, message: str) -> None:
+        if self._n < self._quiet_until:
+            log.info("uncommanded motion (the same event, DISABLE on its way): %s", message)
+            return
+        self._quiet_until = self._n + 3
+        self.uncommanded += 1
+        self.last_fault = message
+        log.error("uncommanded motion: %s", message)
+        if self.on_fault is not None:
+            self.on_fault(message)

@@ -1,0 +1,477 @@
+"""Board link integrity and the board's real state, end to end (issue 12, items 5 and 7).
+
+Real parts only: ``parolkit board-sim`` in its own process on a real pty, with its exchange
+log on (every frame as sent and as executed, every true status frame before the link's
+faults corrupt it, every byte that went back to the PC: ``docs/board-emulator.md``); the
+real controller process on the pty; commands, acks and the status stream over real UDP.
+Judged on the board's own record, frame by frame."""
+
+from __future__ import annotations
+
+import bisect
+import json
+import re
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+from tests.conftest import REPO_ROOT, start_controller, wait_until
+from tests.integration.test_controller_pty import AckListener
+
+from parolkit.board.control import send_control
+from parolkit.client.launch import die_with_parent
+from parolkit.protocol.frames import TIMER_HZ, BoardCommand, CommandFrame, StatusFrame
+from parolkit.protocol.stream import StatusParser
+from parolkit.robot import PAROL6
+
+SPD = tuple(float(v) for v in PAROL6.steps_per_deg)
+
+
+# ------------------------------------------------------------------------------ the board's record
+
+@dataclass
+class Record:
+    """A board-sim exchange log, parsed: frames as sent (``ins``), frames as executed with the
+    true status frame each one answered (``exs``), and the bytes that reached the PC."""
+
+    ins: list[tuple[float, bytes]] = field(default_factory=list)
+    exs: list[tuple[float, CommandFrame, bytes, StatusFrame]] = field(default_factory=list)
+    out: bytearray = field(default_factory=bytearray)
+
+    @classmethod
+    def read(cls, path: Path) -> Record:
+        rec = cls()
+        for line in path.read_text().splitlines():
+            if not line.strip():
+                continue
+            e = json.loads(line)
+            raw = bytes.fromhex(e["raw"])
+            if e["k"] == "in":
+                rec.ins.append((e["t"], raw))
+            elif e["k"] == "ex":
+                rep = bytes.fromhex(e["reply"]["raw"])
+                rec.exs.append((e["t"], CommandFrame.decode(raw), raw, StatusFrame.decode(rep)))
+            elif e["k"] == "out":
+                rec.out += raw
+        return rec
+
+    def align(self) -> list[int]:
+        """For every executed frame, the index of the frame sent that it is (the nearest in
+        bytes among the next few: a corrupted one differs in a byte or two, a frame the board
+        dropped has no executed twin)."""
+        out, i = [], 0
+        for _, _, raw, _ in self.exs:
+            best = min(range(i, min(i + 8, len(self.ins))),
+                       key=lambda k: sum(a != b for a, b in zip(self.ins[k][1], raw)))
+            out.append(best)
+            i = best + 1
+        return out
+
+    def intact(self) -> list[bool]:
+        """For every executed frame: its status frame reached the PC byte for byte."""
+        got = [f.encode() for f in StatusParser().feed(bytes(self.out))]
+        flags = [False] * len(self.exs)
+        k = 0
+        for raw in got:
+            for j in range(k, min(k + 6, len(self.exs))):
+                if self.exs[j][3].encode() == raw:
+                    flags[j] = True
+                    k = j + 1
+                    break
+        return flags
+
+    def sent_commands(self) -> list[int]:
+        return [raw[40] for _, raw in self.ins]
+
+
+class SimBoard:
+    """``parolkit board-sim`` on a pty, exchange log on."""
+
+    def __init__(self, tmp_path: Path, *, speedup: float = 100, start_homed: bool = True, name: str = "p6") -> None:
+        self.link = tmp_path / name
+        self.record_path = tmp_path / f"{name}-exchange.jsonl"
+        self.log_path = tmp_path / f"{name}-board-sim.log"
+        self._log = open(self.log_path, "wb")
+        args = [sys.executable, "-m", "parolkit", "board-sim", "--link", str(self.link), "--speedup", str(speedup),
+                "--exchange-log", str(self.record_path)]
+        if start_homed:
+            args.append("--start-homed")
+        self.proc = subprocess.Popen(args, stdout=self._log, stderr=subprocess.STDOUT, cwd=REPO_ROOT,
+                                     preexec_fn=die_with_parent)
+        wait_until(lambda: self.proc.poll() is not None or self.link.exists(), 10, what="board-sim's pty")
+        assert self.proc.poll() is None, self.log_path.read_text()
+
+    def ctl(self, text: str) -> str:
+        return send_control(f"{self.link}.ctl", text)
+
+    def state(self) -> dict:
+        reply = self.ctl("status")
+        assert reply.startswith("ok "), reply
+        return json.loads(reply[3:])
+
+    def record(self) -> Record:
+        return Record.read(self.record_path)
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        self._log.close()
+
+
+class Ctl:
+    """The controller process on a board-sim, with its acks recorded."""
+
+    def __init__(self, board: SimBoard, tmp_path: Path) -> None:
+        cfg = tmp_path / "controller.toml"
+        cfg.write_text("[controller]\nlink_timeout_ticks = 50\n")
+        self.proc = start_controller(["--port", str(board.link), "--config", str(cfg)], log_dir=tmp_path,
+                                     wait_homed=False)
+        self.acks = AckListener(self.proc.ack_port)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.settimeout(1.0)
+        self._n = 0
+        wait_until(lambda: self.query("PING") == "PONG|SERIAL=1", 20, what="the board link")
+        # the start-up probe answers within a few ticks
+        wait_until(lambda: self.status()["board"]["state_known"], 10, what="the board's state")
+
+    def send(self, text: str) -> str:
+        self._n += 1
+        cid = f"i{self._n:07d}"
+        self.sock.sendto(f"{cid}|{text}".encode(), (self.proc.host, self.proc.port))
+        return cid
+
+    def run(self, text: str, timeout: float = 20.0) -> tuple[str, str]:
+        return self.acks.terminal(self.send(text), timeout)
+
+    def query(self, text: str) -> str | None:
+        want = {"PING": "PONG|", "GET_STATUS_JSON": "STATUS_JSON|", "GET_STATUS": "STATUS|"}.get(text)
+        for _ in range(5):
+            self.sock.sendto(text.encode(), (self.proc.host, self.proc.port))
+            try:
+                while True:
+                    r = self.sock.recvfrom(65535)[0].decode()
+                    if want is None or r.startswith(want):
+                        return r
+            except TimeoutError:
+                continue
+        return None
+
+    def status(self) -> dict:
+        return json.loads(self.query("GET_STATUS_JSON").split("|", 1)[1])
+
+    def close(self) -> int:
+        rc = self.proc.stop()
+        self.acks.close()
+        self.sock.close()
+        return rc
+
+
+@pytest.fixture
+def board(tmp_path):
+    b = SimBoard(tmp_path)
+    yield b
+    b.close()
+
+
+@pytest.fixture
+def ctl(board, tmp_path):
+    c = Ctl(board, tmp_path)
+    yield c
+    c.close()
+
+
+def _first_disable_after(rec: Record, start: int) -> int | None:
+    cmds = rec.sent_commands()
+    return next((i for i in range(start + 1, len(cmds)) if cmds[i] == BoardCommand.DISABLE), None)
+
+
+# ------------------------------------------------------------------------------ the bit flip
+
+def test_enable_turned_into_home_on_the_wire_disables_within_three_frames_naming_the_homing(board, ctl):
+    assert ctl.status()["all_homed"]
+    assert board.ctl("rewrite 101 100") == "ok"  # ENABLE 0x65 -> HOME 0x64, one bit
+    assert ctl.run("ENABLE") == ("COMPLETED", "enabled")  # the board is enabled: it homes
+    wait_until(lambda: "homing without a HOME" in (ctl.status()["errors"]["message"] or ""), 5,
+               what="the uncommanded homing reported")
+    st = ctl.status()
+    assert st["state"] == "DISABLED" and st["integrity"]["uncommanded"] == 1
+    assert "UNCOMMANDED=1" in ctl.query("GET_STATUS")
+    rec = board.record()
+    k = next(i for i, e in enumerate(rec.exs) if e[1].command == BoardCommand.HOME)
+    align = rec.align()
+    assert rec.ins[align[k]][1][40] == BoardCommand.ENABLE  # sent as ENABLE, executed as HOME
+    assert rec.exs[k + 1][3].homed != 0xFF  # the first reply that shows the homing
+    first_showing = align[k + 1]
+    disable = _first_disable_after(rec, first_showing)
+    assert disable is not None and disable - first_showing <= 3, (first_showing, disable, rec.sent_commands()[-20:])
+    assert not board.state()["enabled"] and board.state()["homing"] is None
+    # ENABLE, and HOME homes for real (the uncommanded one left the joints unhomed)
+    assert ctl.run("ENABLE")[0] == "COMPLETED"
+    assert ctl.run("HOME", 30)[0] == "COMPLETED"
+    assert ctl.run("MOVEJOINT|80|-90|170|0|0|180|1|None")[0] == "COMPLETED"
+
+
+# ------------------------------------------------------------------------------ HOME, start-up state
+
+def test_home_at_standby_homes_for_real_and_the_readme_flow_moves_after_it(board, ctl):
+    """``home_robot(); move_robot_joints(...)`` from the README: HOME completes only after the
+    board really homed, so the move that follows is not refused as "not homed"."""
+    from parolkit.client import robot_api
+
+    assert ctl.status()["all_homed"] and ctl.status()["steps"] == list(PAROL6.standby_steps)
+    robot_api.configure(host=ctl.proc.host, port=ctl.proc.port, ack_port=ctl.proc.ack_port)
+    ctl.acks.close()  # robot_api listens on the ack port itself
+    try:
+        robot_api.home_robot()
+        res = robot_api.move_robot_joints([90, -90, 160, 12, 12, 180], duration=1.5, wait_for_ack=True, timeout=30)
+        assert res["status"] == "COMPLETED", res
+    finally:
+        robot_api.configure(ack_port=0)
+    rec = board.record()
+    home = next(i for i, e in enumerate(rec.exs) if e[1].command == BoardCommand.HOME)
+    goto = next(i for i, e in enumerate(rec.exs) if i > home and e[1].command == BoardCommand.GOTO)
+    replies = [e[3] for e in rec.exs[home + 1:goto + 1]]
+    assert any(r.homed != 0xFF for r in replies), "the board never homed between HOME and the move"
+    assert replies[-1].homed == 0xFF and replies[-1].positions == PAROL6.standby_steps
+
+
+def test_a_controller_started_on_a_board_left_disabled_knows_it_and_home_fails_fast(board, tmp_path):
+    first = Ctl(board, tmp_path)
+    assert first.status()["enabled"]
+    first.close()  # a clean shutdown sends DISABLE
+    assert not board.state()["enabled"]
+    second = Ctl(board, tmp_path)
+    try:
+        st = second.status()
+        assert st["state"] == "DISABLED" and not st["enabled"]
+        assert st["errors"]["message"] == "the board was found disabled: send ENABLE"
+        t0 = time.monotonic()
+        status, details = second.run("HOME", 5)
+        assert status == "FAILED" and "the board was found disabled" in details
+        assert time.monotonic() - t0 < 1.0
+        assert second.run("ENABLE")[0] == "COMPLETED"
+        n = len(board.record().exs)
+        assert second.run("HOME", 30)[0] == "COMPLETED"
+        assert any(e[3].homed != 0xFF for e in board.record().exs[n:]), "HOME did not home"
+    finally:
+        second.close()
+
+
+def test_the_hardware_estop_disables_in_the_frame_after_the_first_status_showing_it(board, ctl):
+    cid = ctl.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
+    ctl.acks.wait_status(cid, "EXECUTING")
+    time.sleep(0.5)
+    assert board.ctl("estop 1") == "ok"
+    assert ctl.acks.terminal(cid, 5)[0] == "CANCELLED"
+    wait_until(lambda: ctl.status()["estop_latched"], 5, what="E-stop latched")
+    rec = board.record()
+    first = next(i for i, e in enumerate(rec.exs) if not e[3].io & 0x08)
+    assert rec.exs[first + 1][1].command == BoardCommand.DISABLE, [e[1].command for e in rec.exs[first - 2:first + 3]]
+
+
+def test_an_unhomed_jog_press_is_capped_in_travel(tmp_path):
+    board = SimBoard(tmp_path, start_homed=False)
+    ctl = Ctl(board, tmp_path)
+    try:
+        j1 = board.state()["positions"][0]
+        cid = ctl.send("JOG|0|100|None|60")
+        assert ctl.acks.terminal(cid, 20)[0] == "COMPLETED"
+        details = dict(ctl.acks.acks[cid])["EXECUTING"]
+        assert "jog travel limited to 20 deg per press (J1" in details
+        moved = (board.state()["positions"][0] - j1) / SPD[0]
+        assert 19.0 < moved <= 20.1, moved
+    finally:
+        ctl.close()
+        board.close()
+
+
+# ------------------------------------------------------------------------------ 60 s of corruption
+
+class Stream:
+    """Every status object the controller streams (SUBSCRIBE every tick), with the
+    ``time.monotonic()`` it arrived at (the board-sim's log uses the same clock)."""
+
+    def __init__(self, ctl: Ctl) -> None:
+        self.ctl = ctl
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(0.2)
+        self.items: list[tuple[float, dict]] = []
+        self._stop = False
+        self._renewed = 0.0
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while not self._stop:
+            now = time.monotonic()
+            if now - self._renewed > 3.0:
+                self.ctl.send(f"SUBSCRIBE|{self.sock.getsockname()[1]}|1")
+                self._renewed = now
+            try:
+                data = self.sock.recvfrom(65535)[0]
+            except TimeoutError:
+                continue
+            text = data.decode()
+            if text.startswith("STATUS_JSON|"):
+                self.items.append((time.monotonic(), json.loads(text.split("|", 1)[1])))
+
+    @property
+    def latest(self) -> dict | None:
+        return self.items[-1][1] if self.items else None
+
+    def close(self) -> None:
+        self._stop = True
+        self.thread.join(2)
+        self.sock.close()
+
+
+def _board_step(p0: tuple[int, ...], frame: CommandFrame, dt: float) -> list[float]:
+    """Where ``frame`` takes the joints from ``p0`` in ``dt`` s on an enabled board (the
+    firmware's JOG and GO TO; anything else does not step)."""
+    code = int(frame.command)
+    out = []
+    for j in range(6):
+        if code == BoardCommand.JOG:
+            out.append(p0[j] + max(-50_000, min(50_000, frame.speeds[j])) * dt)
+        elif code == BoardCommand.GOTO:
+            p, pss, t = float(p0[j]), frame.positions[j] + frame.speeds[j] / 100.0, 0.0
+            while t < dt:  # the P loop, clamped, in 0.1 ms steps
+                v = max(-50_000.0, min(50_000.0, 50.0 * (pss - p)))
+                p += v * min(1e-4, dt - t)
+                t += 1e-4
+            out.append(p)
+        else:
+            out.append(float(p0[j]))
+    return out
+
+
+@pytest.mark.slow
+def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_uncommanded_motion_disables(
+        board, ctl):
+    rng = __import__("random").Random(12)
+    stream = Stream(ctl)
+    pending: set[str] = set()
+    last_enable = 0.0
+    wait_until(lambda: stream.latest is not None, 5, what="the status stream")
+    assert board.ctl("faults corrupt=0.01 dir=both") == "ok"
+    t_end = time.monotonic() + 60.0
+    sent = {"moves": 0, "jogs": 0, "enables": 0, "homes": 0}
+    while time.monotonic() < t_end:
+        time.sleep(0.05)
+        st = stream.latest
+        pending = {c for c in pending if not any(s in ("COMPLETED", "FAILED", "CANCELLED", "INVALID")
+                                                for s in ctl.acks.statuses(c))}
+        now = time.monotonic()
+        if st["estop_latched"] or not st["enabled"]:
+            if now - last_enable > 0.3:
+                ctl.send("ENABLE")
+                last_enable = now
+                sent["enables"] += 1
+        elif pending or st["command"] is not None or st["queue"]:
+            continue
+        elif not st["all_homed"]:
+            pending.add(ctl.send("HOME"))
+            sent["homes"] += 1
+        elif rng.random() < 0.6:
+            a = [90 + rng.uniform(-25, 25), -90 + rng.uniform(-20, 20), 180 + rng.uniform(-20, 20),
+                 rng.uniform(-40, 40), rng.uniform(-40, 40), 180 + rng.uniform(-60, 60)]
+            pending.add(ctl.send("MOVEJOINT|" + "|".join(f"{v:.2f}" for v in a) + f"|{rng.uniform(1, 2):.2f}|None"))
+            sent["moves"] += 1
+        else:
+            pending.add(ctl.send(f"JOG|{rng.randrange(12)}|{rng.randrange(20, 80)}|{rng.uniform(0.2, 0.6):.2f}|None"))
+            sent["jogs"] += 1
+    assert board.ctl("faults clear") == "ok"
+    time.sleep(0.5)
+    text = ctl.query("GET_STATUS")
+    stream.close()
+    rec = board.record()
+    report = [f"commands: {sent}; snapshots {len(stream.items)}; frames sent {len(rec.ins)}, "
+              f"executed {len(rec.exs)}"]
+
+    # 1. every position a snapshot showed is one the board reported (a moving joint may be off by
+    #    the stepper's own sub-step jitter: a corrupted low byte of that size is indistinguishable)
+    true_at: dict[tuple[int, ...], float] = {}
+    for t, _, _, rep in rec.exs:
+        true_at.setdefault(tuple(rep.positions), t)
+    times = [e[0] for e in rec.exs]
+    exact = jitter = 0
+    false = []
+    for t, st in stream.items:
+        if not st["board"]["connected"]:
+            continue
+        pos = tuple(st["steps"])
+        if pos in true_at and true_at[pos] <= t + 0.001:
+            exact += 1
+            continue
+        lo, hi = bisect.bisect_right(times, t - 2.0), bisect.bisect_right(times, t + 0.001)
+        near = min((e[3] for e in rec.exs[lo:hi]), default=None,
+                   key=lambda r: max(abs(a - b) for a, b in zip(r.positions, pos)))
+        ok = near is not None and all(abs(near.positions[j] - pos[j]) <= (2 if near.speeds[j] else 0)
+                                      for j in range(6))
+        if ok:
+            jitter += 1
+        else:
+            false.append((round(t, 3), pos, near.positions if near else None))
+    report.append(f"positions: {exact} exact, {jitter} within the step jitter of a moving joint, "
+                  f"{len(false)} false")
+
+    # 2. every real uncommanded motion (a corrupted frame the board executed moved a joint >100
+    #    steps from where the frame sent would have) -> DISABLE within 3 frames of the first
+    #    status that showed it and reached the controller intact; when replies were lost before
+    #    a second one confirmed it, within 2 frames of that confirming one (the frame after it,
+    #    or the next if the reply came after the loop's reply wait)
+    align = rec.align()
+    intact = rec.intact()
+    cmds = rec.sent_commands()
+    events = late = 0
+    misses = []
+    for k in range(len(rec.exs) - 1):
+        _, executed, raw, r0 = rec.exs[k]
+        sent_raw = rec.ins[align[k]][1]
+        if raw == sent_raw:
+            continue
+        r1 = rec.exs[k + 1][3]
+        dt = r1.timing / TIMER_HZ
+        want = _board_step(r0.positions, CommandFrame.decode(sent_raw), dt)
+        if not any(abs(r1.positions[j] - want[j]) > 100 and abs(r1.positions[j] - r0.positions[j]) > 100
+                   for j in range(6)):
+            continue
+        events += 1
+        s = next((i for i in range(k + 1, len(rec.exs)) if intact[i]), None)
+        c = next((i for i in range(s + 1, len(rec.exs)) if intact[i]), None) if s is not None else None
+        if s is None or c is None:
+            continue
+        bound = max(align[s] + 3, align[c] + 2)
+        if not any(cmds[i] == BoardCommand.DISABLE for i in range(align[k] + 1, min(bound + 1, len(cmds)))):
+            misses.append((k, int(executed.command), align[s], align[c], cmds[align[k]:bound + 3]))
+        elif align[c] + 2 > align[s] + 3:
+            late += 1
+    report.append(f"uncommanded motions the board really made: {events}; DISABLE in time for "
+                  f"{events - len(misses)} ({late} after lost replies delayed the confirmation)")
+
+    # 3. each one counted, with an error naming the joints (or the homing)
+    counts = [(st["integrity"]["uncommanded"], st["errors"]["message"]) for _, st in stream.items]
+    named = [msg for (a, _), (b, msg) in zip(counts, counts[1:]) if b > a]
+    bad_names = [m for m in named if not m or not re.search(r"J[1-6] |homing|homed", m)]
+    unc = int(re.search(r"UNCOMMANDED=(\d+)", text).group(1))
+    imp = int(re.search(r"IMPLAUSIBLE=(\d+)", text).group(1))
+    report.append(f"GET_STATUS: IMPLAUSIBLE={imp} UNCOMMANDED={unc}; first errors: {named[:3]}")
+    print("\n".join(report))
+    assert not false, f"{len(false)} false positions, e.g. {false[:5]}\n" + "\n".join(report)
+    assert not misses, f"no DISABLE in time for {len(misses)} of {events}: {misses[:5]}\n" + "\n".join(report)
+    assert not bad_names, bad_names[:5]
+    assert events > 5 and unc > 0 and imp > 100 and len(named) > 0
+    assert exact >= 0.95 * (exact + jitter + len(false)) and sent["moves"] > 5

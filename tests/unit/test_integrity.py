@@ -1,0 +1,422 @@
+"""Board link integrity, tick by tick: the real ControlLoop, executor and StatusIntegrity
+against the real board emulator on a virtual clock, with deliberate link faults injected on
+the bytes between them (issue 12, items 5 and 7).
+
+The faults are byte-level, like the ones a link without checksum suffers: a command frame
+rewritten on its way to the board (the board executes what it receives), a reply byte changed
+on its way back, random corruption at a fixed seed."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pytest
+from tests.unit.test_controller_core import RATE, Rig
+
+from parolkit.board.homing import HomingPhase
+from parolkit.controller.integrity import BoardProbe, StatusIntegrity
+from parolkit.protocol.commands import AckStatus
+from parolkit.protocol.frames import BoardCommand, CommandFrame, IOBits, StatusFrame
+from parolkit.robot import PAROL6
+from parolkit.transport.base import Transport
+
+STANDBY = PAROL6.standby_steps
+
+
+class LinkFault(Transport):
+    """Passes bytes between the controller and the emulator's link, changing them on request:
+    :meth:`rewrite_next` changes the next command frame that ``match`` selects (as a corrupted
+    byte would, before the board parses it); :meth:`corrupt_next_reply` sets one byte of the
+    next status frame read (offset counted from the frame's first byte)."""
+
+    def __init__(self, inner: Transport) -> None:
+        self.inner = inner
+        self._rewrite: tuple[Callable[[CommandFrame], bool], Callable[[CommandFrame], CommandFrame]] | None = None
+        self._reply: tuple[int, int] | None = None
+        self.rewritten: list[CommandFrame] = []
+
+    @property
+    def description(self) -> str:
+        return "fault injector + " + self.inner.description
+
+    @property
+    def is_open(self) -> bool:
+        return self.inner.is_open
+
+    @property
+    def simulated(self) -> bool:
+        return True
+
+    def open(self) -> None:
+        self.inner.open()
+
+    def close(self) -> None:
+        self.inner.close()
+
+    def rewrite_next(self, match: Callable[[CommandFrame], bool],
+                     change: Callable[[CommandFrame], CommandFrame]) -> None:
+        self._rewrite = (match, change)
+
+    def corrupt_next_reply(self, offset: int, value: int) -> None:
+        self._reply = (offset, value)
+
+    def write(self, data: bytes) -> None:
+        if self._rewrite is not None and len(data) == 56:
+            match, change = self._rewrite
+            frame = CommandFrame.decode(data)
+            if match(frame):
+                self._rewrite = None
+                new = change(frame)
+                self.rewritten.append(new)
+                data = new.encode()
+        self.inner.write(data)
+
+    def read(self) -> bytes:
+        data = self.inner.read()
+        if self._reply is not None and len(data) >= 60 and data[:3] == b"\xff\xff\xff":
+            offset, value = self._reply
+            self._reply = None
+            data = data[:offset] + bytes((value,)) + data[offset + 1:]
+        return data
+
+
+class Exchanges:
+    """Every frame the board executed and the true status frame it answered, in order."""
+
+    def __init__(self, rig: Rig) -> None:
+        self.items: list[tuple[CommandFrame, StatusFrame]] = []
+        rig.emu.add_exchange_listener(lambda f, r: self.items.append((f, r)))
+
+
+@pytest.fixture
+def faulty():
+    r = Rig(wrap=LinkFault)
+    yield r
+    r.close()
+
+
+def _status_changes(rig: Rig, ticks: int) -> list[StatusFrame]:
+    seen = []
+    for _ in range(ticks):
+        rig.tick()
+        st = rig.loop.status
+        if st is not None and (not seen or st is not seen[-1]):
+            seen.append(st)
+    return seen
+
+
+# ------------------------------------------------------------------------------ the truth
+
+def test_corrupted_replies_never_become_the_status_beyond_the_steppers_own_jitter():
+    """1 % of the reply bytes corrupted while the robot moves and jogs: every status the loop
+    takes is one the board sent, except that a moving joint may be off by the one or two
+    steps a stepper's own sub-step phase makes indistinguishable; joints at rest are exact.
+    Nothing is taken for motion nobody commanded."""
+    r = Rig(seed=11)
+    try:
+        log = Exchanges(r)
+        r.emu.set_faults(corrupt_rate=0.01, direction="from_board")
+        r.loop.link_timeout_ticks = 50  # lost replies are not the subject here
+        moves = ["MOVEJOINT|60|-80|170|20|-20|150|None|100", "JOG|1|100|0.6|None",
+                 "MOVEJOINT|90|-90|180|0|0|180|None|80", "JOG|9|70|0.5|None", "MULTIJOG|0,4|60,60|0.5",
+                 "MOVEJOINT|70|-100|200|-30|30|120|1.5|None"]
+        shown: list[StatusFrame] = []
+        for i, text in enumerate(moves * 2):
+            r.submit(f"m{i:07d}|{text}")
+            for _ in range(400):
+                shown += _status_changes(r, 1)
+                if r.terminal(f"m{i:07d}") is not None:
+                    break
+        true = {tuple(rep.positions): rep for _, rep in log.items}
+        exact = sum(tuple(s.positions) in true for s in shown)
+        for s in shown:
+            if tuple(s.positions) in true:
+                continue
+            # the true frame it stands for: the nearest one the board sent
+            near = min(true.values(), key=lambda t: max(abs(a - b) for a, b in zip(t.positions, s.positions)))
+            for j in range(6):
+                off = abs(near.positions[j] - s.positions[j])
+                assert off <= (2 if near.speeds[j] else 0), (j, s, near)
+        assert len(shown) > 500 and exact >= 0.98 * len(shown), (exact, len(shown))
+        assert r.ex.integrity.implausible > 50
+        assert r.ex.integrity.uncommanded == 0 and r.ex.enabled
+    finally:
+        r.close()
+
+
+def test_a_frame_off_the_board_s_own_account_is_held_back_and_the_next_true_one_shown():
+    """StatusIntegrity alone: two agreeing frames start the truth; a flipped high byte is not
+    the truth; the next good frame is; a power cycle (counters 0, homed 0x03) is reported."""
+    faults: list[str] = []
+    integ = StatusIntegrity(PAROL6, RATE, on_fault=faults.append)
+    at = StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=255)
+    assert not integ.accept(at, 0.00, 0)  # one frame proves nothing
+    assert integ.accept(at, 0.01, 0)
+    glitch = list(STANDBY)
+    glitch[3] += 0x10000
+    assert not integ.accept(StatusFrame(positions=tuple(glitch), homed=0xFF, timing=7031), 0.02, 0)
+    assert integ.accept(at, 0.03, 0)  # back where the truth was, at rest: shown
+    assert integ.ref is at and integ.implausible == 2
+    bad_io = StatusFrame(positions=STANDBY, homed=0xFF, io=0x08, timing=7031)
+    assert not integ.accept(bad_io, 0.04, 0)  # IO low bits are always 1
+    reset = StatusFrame(positions=(0,) * 6, homed=0x03, timing=7031)
+    assert not integ.accept(reset, 0.05, 0) and not faults
+    integ.accept(reset, 0.06, 0)  # the same fallen homed byte twice: not a corrupted byte
+    assert faults and "no longer homed" in faults[0]
+
+
+def test_a_jog_is_shown_only_where_its_own_speed_and_timing_take_it():
+    integ = StatusIntegrity(PAROL6, RATE)
+    a = StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=123, speeds=(1000, 0, 0, 0, 0, 0))
+    assert not integ.accept(a, 0.0, 0)
+    moved = tuple(p + (10 if j == 0 else 0) for j, p in enumerate(STANDBY))  # 1000 steps/s for 10 ms
+    b = StatusFrame(positions=moved, homed=0xFF, timing=7031, xtr=123, speeds=(1000, 0, 0, 0, 0, 0))
+    assert integ.accept(b, 0.01, 0)
+    for off in (3, -3):  # a corrupted low byte beyond the step jitter
+        c = tuple(p + (20 + off if j == 0 else 0) for j, p in enumerate(STANDBY))
+        assert not integ.accept(StatusFrame(positions=c, homed=0xFF, timing=7031, xtr=123,
+                                            speeds=(1000, 0, 0, 0, 0, 0)), 0.02, 0)
+    # a joint at speed 0 is exact: one step off is a corrupted byte
+    integ = StatusIntegrity(PAROL6, RATE)
+    integ.accept(a, 0.0, 0)
+    integ.accept(b, 0.01, 0)
+    c = tuple(p + (20 if j == 0 else 0) + (1 if j == 2 else 0) for j, p in enumerate(STANDBY))
+    assert not integ.accept(StatusFrame(positions=c, homed=0xFF, timing=7031, xtr=123,
+                                        speeds=(1000, 0, 0, 0, 0, 0)), 0.02, 0)
+    # bytes lost in between (the parser dropped some): not adjacent, no link
+    d = tuple(p + (30 if j == 0 else 0) for j, p in enumerate(STANDBY))
+    assert not integ.accept(StatusFrame(positions=d, homed=0xFF, timing=7031, xtr=123,
+                                        speeds=(1000, 0, 0, 0, 0, 0)), 0.03, 60)
+
+
+# ------------------------------------------------------------------------------ uncommanded motion
+
+def _disable_within(rig: Rig, frames_before: int, ticks: int) -> int:
+    """Ticks until a DISABLE frame was written (at most ``ticks``)."""
+    for k in range(1, ticks + 1):
+        rig.tick()
+        if any(f.command == BoardCommand.DISABLE for f in rig.frames[frames_before:]):
+            return k
+    raise AssertionError(f"no DISABLE within {ticks} ticks: {[int(f.command) for f in rig.frames[frames_before:]]}")
+
+
+def test_a_corrupted_frame_that_jogs_a_joint_while_idle_disables_within_three_ticks_naming_it(faulty):
+    faulty.tick(5)
+    faulty.transport.rewrite_next(lambda f: f.command == BoardCommand.IDLE,
+                                  lambda f: CommandFrame(positions=f.positions, speeds=(0, 5000, 0, 0, 0, 0),
+                                                         command=BoardCommand.JOG))
+    n = len(faulty.frames)
+    faulty.tick()  # this tick's IDLE frame reaches the board as a JOG of J2
+    assert faulty.transport.rewritten
+    shown = len(faulty.frames)  # the reply to the next frame is the first to show the motion
+    k = _disable_within(faulty, n, 5)
+    assert len(faulty.frames) - shown <= 3, (k, [int(f.command) for f in faulty.frames[n:]])
+    assert not faulty.ex.enabled and "J2 moved" in faulty.ex.error and "while idle" in faulty.ex.error
+    assert faulty.ex.integrity.uncommanded == 1
+    faulty.tick(5)
+    assert all(f.command == BoardCommand.DISABLE for f in faulty.frames[-4:])
+    snap = faulty.loop.snapshot()
+    assert "UNCOMMANDED=1" in snap.reply_status() and snap.as_dict()["integrity"]["uncommanded"] == 1
+    # ENABLE clears it; the robot moves again
+    faulty.send("ENABLE")
+    faulty.tick(3)
+    assert faulty.ex.enabled and faulty.ex.error is None
+    faulty.submit("aaaa0001|MOVEJOINT|80|-90|180|0|0|180|1|None")
+    faulty.run_until(lambda: faulty.terminal("aaaa0001") is not None)
+    assert faulty.terminal("aaaa0001") is AckStatus.COMPLETED
+
+
+def test_a_corrupted_target_that_makes_a_joint_race_disables_the_robot(faulty):
+    faulty.submit("aaaa0001|MOVEJOINT|70|-90|180|0|0|180|2|None")
+    faulty.run_until(lambda: AckStatus.EXECUTING in faulty.statuses("aaaa0001"))
+    faulty.tick(20)
+    faulty.transport.rewrite_next(lambda f: f.command == BoardCommand.GOTO,
+                                  lambda f: CommandFrame(positions=(f.positions[0] + 0x3000, *f.positions[1:]),
+                                                         speeds=f.speeds, command=f.command))
+    n = len(faulty.frames)
+    _disable_within(faulty, n, 4)
+    assert faulty.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert "J1 moved" in faulty.ex.error and "uncommanded" in faulty.ex.error
+
+
+def test_enable_turned_into_home_on_the_wire_disables_before_the_homing_goes_far(faulty):
+    faulty.tick(5)
+    faulty.transport.rewrite_next(lambda f: f.command == BoardCommand.ENABLE,
+                                  lambda f: CommandFrame(positions=f.positions, command=BoardCommand.HOME))
+    faulty.send("ENABLE")  # to an enabled board: the bit flip 0x65 -> 0x64 makes it home
+    faulty.tick()
+    n = len(faulty.frames)
+    assert faulty.transport.rewritten and faulty.emu.homing_active
+    _disable_within(faulty, n, 3)
+    assert "homing without a HOME command" in faulty.ex.error
+    faulty.tick(2)
+    assert not faulty.emu.homing_active and not faulty.emu.enabled
+
+
+# ------------------------------------------------------------------------------ the board's state
+
+def test_home_at_standby_homes_for_real_then_a_move_runs():
+    r = Rig()
+    try:
+        log = Exchanges(r)
+        assert tuple(r.loop.status.positions) == STANDBY and r.ex.homed
+        r.submit("aaaa0001|HOME")
+        phases = set()
+        while r.terminal("aaaa0001") is None:
+            r.tick()
+            phases.add(r.emu.homing_phase)
+            assert len(r.frames) < 3000
+        assert r.terminal("aaaa0001") is AckStatus.COMPLETED
+        assert HomingPhase.J123_REFERENCE in phases or HomingPhase.J4 in phases
+        assert any(rep.homed != 0xFF for _, rep in log.items), "the board never reported homing"
+        r.submit("aaaa0002|MOVEJOINT|80|-90|170|0|0|180|1|None")
+        r.run_until(lambda: r.terminal("aaaa0002") is not None)
+        assert r.terminal("aaaa0002") is AckStatus.COMPLETED
+    finally:
+        r.close()
+
+
+def test_a_board_left_disabled_is_found_disabled_and_home_fails_fast_until_enable():
+    r = Rig(board_disabled=True)
+    try:
+        assert not r.ex.enabled and r.ex.error == "the board was found disabled: send ENABLE"
+        assert r.loop.snapshot().state.value == "DISABLED"
+        r.submit("aaaa0001|HOME")
+        assert r.terminal("aaaa0001") is AckStatus.FAILED
+        assert "the board was found disabled" in [a for a in r.acks if a[0] == "aaaa0001"][-1][2]
+        r.send("ENABLE")
+        r.tick(3)
+        assert r.emu.enabled and r.ex.enabled
+        r.submit("aaaa0002|HOME")
+        r.run_until(lambda: r.terminal("aaaa0002") is not None, max_ticks=5000)
+        assert r.terminal("aaaa0002") is AckStatus.COMPLETED
+    finally:
+        r.close()
+
+
+def test_home_sent_to_a_board_disabled_behind_the_controllers_back_fails_in_half_a_second():
+    r = Rig()
+    try:
+        r.emu.process_frame(CommandFrame(command=BoardCommand.DISABLE))  # the controller never knew
+        r.submit("aaaa0001|HOME")
+        r.run_until(lambda: r.terminal("aaaa0001") is not None, max_ticks=200)
+        assert r.terminal("aaaa0001") is AckStatus.FAILED
+        details = [a for a in r.acks if a[0] == "aaaa0001"][-1][2]
+        assert "did not start homing within 0.5 s" in details and "ENABLE" in details
+    finally:
+        r.close()
+
+
+def test_the_probe_answers_enabled_and_disabled_and_asks_again_when_unclear():
+    def run(disabled: bool, lose_reply: bool = False) -> tuple[bool | None, int]:
+        r = Rig(board_disabled=disabled)
+        try:
+            return (r.ex.enabled, sum(f.command == BoardCommand.JOG and f.speeds[0] != 0 for f in r.frames))
+        finally:
+            r.close()
+
+    assert run(False) == (True, 1)
+    assert run(True) == (False, 1)
+    r = Rig(board_disabled=True)
+    try:  # the status says so while the answer is outstanding
+        assert not r.outputs[0].snapshot.as_dict()["board"]["state_known"]
+        assert r.outputs[-1].snapshot.as_dict()["board"]["state_known"]
+        assert r.outputs[-1].snapshot.as_dict()["errors"]["message"] == "the board was found disabled: send ENABLE"
+    finally:
+        r.close()
+    # the reply that would tell is damaged: the probe asks again
+    probe = BoardProbe(attempts=2, wait_ticks=2)
+    probe.start()
+    frames = []
+    for _ in range(12):
+        code, speeds = probe.frame(None, PAROL6.limits_steps)
+        frames.append((code, speeds))
+        probe.sent(CommandFrame(command=code, speeds=speeds), len(frames))
+    assert sum(c == BoardCommand.JOG and s[0] for c, s in frames) == 2  # two attempts
+    assert probe.result is False and "taken as disabled" in probe.reason
+
+
+def test_hardware_estop_disables_in_the_frame_after_the_first_status_showing_it():
+    r = Rig()
+    try:
+        log = Exchanges(r)
+        r.submit("aaaa0001|MOVEJOINT|60|-90|180|0|0|180|2|None")
+        r.run_until(lambda: AckStatus.EXECUTING in r.statuses("aaaa0001"))
+        r.tick(10)
+        r.emu.set_estop(True)
+        r.tick(4)
+        first = next(i for i, (_, rep) in enumerate(log.items) if not rep.io & IOBits.ESTOP)
+        assert log.items[first + 1][0].command == BoardCommand.DISABLE
+        assert r.terminal("aaaa0001") is AckStatus.CANCELLED and r.ex.estop_latched
+    finally:
+        r.close()
+
+
+def test_one_corrupted_io_byte_on_the_wire_does_not_latch_the_estop(faulty):
+    faulty.tick(5)
+    # IO byte (offset 4 + 37): ESTOP bit cleared AND another bit set: a corrupted byte
+    faulty.transport.corrupt_next_reply(41, 0x0F & ~IOBits.ESTOP | IOBits.IN1)
+    faulty.tick(5)
+    assert not faulty.ex.estop_latched and not faulty.ex.estop_pressed
+    assert all(f.command != BoardCommand.DISABLE for f in faulty.frames[-5:])
+
+
+# ------------------------------------------------------------------------------ unhomed jogs
+
+def test_an_unhomed_jog_press_is_capped_in_travel_and_says_so():
+    r = Rig(homed=False)
+    try:
+        j1 = r.emu.positions[0]
+        r.submit("aaaa0001|JOG|0|100|None|60")  # 60 deg asked; not homed: 20 deg per press
+        r.run_until(lambda: r.terminal("aaaa0001") is not None)
+        acks = [a for a in r.acks if a[0] == "aaaa0001"]
+        assert acks[-1][1] is AckStatus.COMPLETED
+        assert any(a[1] is AckStatus.EXECUTING and "jog travel limited to 20 deg per press (J1" in a[2] for a in acks)
+        moved = (r.emu.positions[0] - j1) / PAROL6.steps_per_deg[0]
+        assert 19.0 < moved <= 20.1, moved
+        # a short jog is not limited
+        r.submit("aaaa0002|JOG|6|100|0.2|None")
+        r.run_until(lambda: r.terminal("aaaa0002") is not None)
+        assert all("limited" not in a[2] for a in r.acks if a[0] == "aaaa0002")
+    finally:
+        r.close()
+
+
+def test_a_held_streamed_jog_before_homing_stops_at_the_travel_cap():
+    r = Rig(homed=False)
+    try:
+        r.send("STREAM|ON")
+        r.tick()
+        j2 = r.emu.positions[1]
+        for i in range(400):  # an update every tick for 4 s at 100 % (J2: 8.4 deg/s, 34 deg)
+            r.submit(f"s{i:07d}|JOG|1|100|0.05|None")
+            r.tick()
+        failed = sum(1 for a in r.acks if a[1] is AckStatus.FAILED and "used its 20 deg" in a[2])
+        moved = (r.emu.positions[1] - j2) / PAROL6.steps_per_deg[1]
+        assert 19.0 < moved <= 20.1, moved
+        assert failed > 10
+    finally:
+        r.close()
+
+
+def test_home_completes_only_after_the_board_rests_homed_even_when_its_homing_is_too_fast_to_show():
+    """The controller was told the board homes in real time, but it homes 200x faster (a
+    board-sim with --speedup on a serial link): its frames during the homing are not the
+    truth; HOME still sees the homing (homed bits fallen in two frames) and completes only
+    when a new true frame shows the board homed at standby, at rest."""
+    r = Rig()
+    try:
+        r.ex.integrity.homing_speedup = 1.0
+        r.submit("aaaa0001|HOME")
+        r.submit("aaaa0002|MOVEJOINT|80|-90|170|0|0|180|1|None")
+        homing_seen_active = False
+        while r.terminal("aaaa0001") is None:
+            r.tick()
+            homing_seen_active |= r.emu.homing_active
+            assert len(r.frames) < 3000
+        assert r.terminal("aaaa0001") is AckStatus.COMPLETED and homing_seen_active
+        assert not r.emu.homing_active and r.emu.homed == 0xFF
+        r.run_until(lambda: r.terminal("aaaa0002") is not None)
+        assert r.terminal("aaaa0002") is AckStatus.COMPLETED and r.ex.integrity.uncommanded == 0
+    finally:
+        r.close()
