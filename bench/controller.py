@@ -1,6 +1,8 @@
 """Controller benchmark: loop timing at 100 and 250 Hz against the pty emulator, query round
-trip, command-to-first-frame latency, start-up time to the first PONG, RSS, and a flood phase
-(issue 11: ESTOP-to-board latency, PING and lost replies while another client floods).
+trip, command-to-first-frame latency, start-up time to the first PONG, RSS, a flood phase
+(issue 11: ESTOP-to-board latency, PING and lost replies while another client floods) and a
+load phase (issue 12: tick lateness, link losses and move timing at the board while two
+processes burn the CPU).
 
 Every figure is printed next to a reference measured in the same run on the same machine:
 
@@ -9,10 +11,13 @@ Every figure is printed next to a reference measured in the same run on the same
 * query round trip: a minimal Python UDP echo server in its own process, queried the same way;
 * command-to-first-frame: half a tick period (the expected wait for the next tick);
 * start-up: ``python -c pass`` (the interpreter floor);
-* flood: the same second client (ESTOP cycles, PINGs) for the same time without the flood.
+* flood: the same second client (ESTOP cycles, PINGs) for the same time without the flood;
+* load: the same moves without the busy processes, and under them with the tick thread asked
+  for nice -10 only (``realtime_priority = 0``) instead of SCHED_FIFO.
 
-    python bench/controller.py [--duration 60] [--rates 100,250] [--phases startup,loop,flood]
+    python bench/controller.py [--duration 60] [--rates 100,250] [--phases startup,loop,flood,load]
                                [--flood-rate 20000] [--flood-duration 10] [--flood-estops 20]
+                               [--load-seconds 60] [--load-moves 10] [--load-busy 2]
 """
 
 from __future__ import annotations
@@ -32,7 +37,8 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(REPO))
 
-from tests.integration import flood  # noqa: E402  (the flood rig the acceptance test uses)
+# the flood and load rigs the acceptance tests use
+from tests.integration import flood, load  # noqa: E402
 
 from parolkit.board import BoardEmulator, PtyBoardServer  # noqa: E402
 
@@ -290,22 +296,78 @@ def bench_flood(rate: float, duration: float, estops: int, seed: int, tmp: Path)
         board.wait(10)
 
 
+# ------------------------------------------------------------------------------ load phase
+
+
+def _load_run(tmp: Path, name: str, seconds: float, moves: int, busy: int, realtime_priority: int | None) -> None:
+    """One run of the load scenario (tests/integration/load.py): board-sim (its own process,
+    SCHED_FIFO where allowed, as a real board answers regardless of the PC's load), the
+    controller, ``busy`` CPU-burning processes started first; figures printed."""
+    d = tmp / name
+    d.mkdir()
+    cfg = d / "controller.toml"
+    cfg.write_text("[controller]\n" + (f"realtime_priority = {realtime_priority}\n"
+                                         if realtime_priority is not None else ""))
+    with load.BusyProcesses(busy):
+        board = load.BoardSim(d)
+        ctl = client = None
+        try:
+            port, ack = free_port(), free_port()
+            ctl = subprocess.Popen([sys.executable, "-m", "parolkit", "serve", "--port", str(board.link),
+                                    "--udp-port", str(port), "--ack-port", str(ack), "--config", str(cfg)],
+                                   env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s.settimeout(0.5)
+            end = time.monotonic() + 20
+            while time.monotonic() < end:
+                data, _ = query(s, ("127.0.0.1", port), b"PING")
+                if data == b"PONG|SERIAL=1":
+                    break
+                time.sleep(0.05)
+            s.close()
+            client = load.Client(port, ack)
+            run = load.run_scenario(client, board, seconds=seconds, moves=moves)
+        finally:
+            if client is not None:
+                client.close()
+            if ctl is not None:
+                ctl.terminate()
+                ctl.wait(10)
+            board.close()
+    print(f"  -- {name}")
+    for line in load.report(run):
+        print("    " + line)
+
+
+def bench_load(seconds: float, moves: int, busy: int, tmp: Path) -> None:
+    print(f"== load: {moves} MoveJoint t={load.MOVE_S:g} s (each judged at the board by its first and "
+          f"last 156 frame) with speed-only moves and JOGs with a distance between them, {seconds:g} s per "
+          f"run, board-sim on a pty; machine load average {os.getloadavg()[0]:.1f}")
+    _load_run(tmp, "reference: no busy process", seconds, moves, 0, None)
+    _load_run(tmp, f"{busy} busy processes, default settings", seconds, moves, busy, None)
+    _load_run(tmp, f"{busy} busy processes, tick thread at nice -10 only (realtime_priority = 0)", seconds,
+              moves, busy, 0)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per loop phase (default 60)")
     ap.add_argument("--rates", default="100,250", help="loop rates in Hz (default 100,250)")
     ap.add_argument("--startup-runs", type=int, default=5)
-    ap.add_argument("--phases", default="startup,loop,flood",
-                    help="which phases to run, comma-separated (default startup,loop,flood)")
+    ap.add_argument("--phases", default="startup,loop,flood,load",
+                    help="which phases to run, comma-separated (default startup,loop,flood,load)")
     ap.add_argument("--flood-rate", type=float, default=20_000.0, help="flood datagrams/s (default 20000)")
     ap.add_argument("--flood-duration", type=float, default=10.0, help="flood seconds (default 10)")
     ap.add_argument("--flood-estops", type=int, default=20, help="ESTOPs per phase (default 20)")
     ap.add_argument("--flood-seed", type=int, default=11, help="seed of the flood mix and ESTOP moments")
+    ap.add_argument("--load-seconds", type=float, default=60.0, help="seconds per load run (default 60)")
+    ap.add_argument("--load-moves", type=int, default=10, help="timed MoveJoints per load run (default 10)")
+    ap.add_argument("--load-busy", type=int, default=2, help="CPU-burning processes (default 2)")
     args = ap.parse_args()
     phases = {p.strip() for p in args.phases.split(",") if p.strip()}
-    unknown = phases - {"startup", "loop", "flood"}
+    unknown = phases - {"startup", "loop", "flood", "load"}
     if unknown:
-        ap.error(f"--phases: unknown {sorted(unknown)} (startup, loop, flood)")
+        ap.error(f"--phases: unknown {sorted(unknown)} (startup, loop, flood, load)")
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at start")
     if "startup" in phases:
         bench_startup(args.startup_runs)
@@ -315,6 +377,8 @@ def main() -> int:
                 bench_loop(float(r), args.duration, Path(d))
         if "flood" in phases:
             bench_flood(args.flood_rate, args.flood_duration, args.flood_estops, args.flood_seed, Path(d))
+        if "load" in phases:
+            bench_load(args.load_seconds, args.load_moves, args.load_busy, Path(d))
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
     return 0
 

@@ -74,8 +74,22 @@ class ControllerSettings:
     queue_size: int = 256
     #: home automatically at start-up when the board is simulated
     home_on_start: bool = True
-    #: serial silence (ticks without a status frame) that counts as a lost link
-    link_timeout_ticks: int = 3
+    #: frames the board left unanswered in a row that count as a lost link: motion is
+    #: cancelled, the error latched, reconnects tried (one frame is written per tick; the
+    #: controller's own late ticks never count: a reply read late still answers its frame).
+    #: The board is already stopped by then (``link_hold_frames``); this only decides when to
+    #: give up, so it leaves room for replies the OS delivers late under load (a loaded Linux
+    #: PC's tty layer delayed replies by 20-300 ms)
+    link_timeout_ticks: int = 50
+    #: frames left unanswered in a row after which running motion is paused: the board gets
+    #: stop frames (zero-speed 123, or the last 156 target with zero feed-forward) until a
+    #: reply comes back (the motion then goes on) or the link is lost; at most
+    #: ``link_timeout_ticks``
+    link_hold_frames: int = 2
+    #: SCHED_FIFO priority asked for the tick thread (1..99); 0 = do not ask.  Where the OS
+    #: refuses it the thread asks for nice -10, else it runs at normal priority (GET_STATUS
+    #: ``SCHED=`` says which)
+    realtime_priority: int = 10
     #: streaming jog watchdog: motion stops when no update arrived for this long, s
     stream_watchdog_s: float = 0.02
     #: time scale of the simulated board's homing (1 = real time)
@@ -95,6 +109,13 @@ class ControllerSettings:
         _port(self.ack_port, "controller.ack_port")
         _int_range(self.queue_size, "controller.queue_size", 1, 100_000)
         _int_range(self.link_timeout_ticks, "controller.link_timeout_ticks", 1, 1000)
+        _int_range(self.link_hold_frames, "controller.link_hold_frames", 1, 1000)
+        if self.link_hold_frames > self.link_timeout_ticks:
+            raise ParolkitValueError(
+                f"controller.link_hold_frames ({self.link_hold_frames}) must not exceed "
+                f"controller.link_timeout_ticks ({self.link_timeout_ticks}): a speed stream is "
+                f"stopped before the link is declared lost, not after")
+        _int_range(self.realtime_priority, "controller.realtime_priority", 0, 99)
         _positive(self.stream_watchdog_s, "controller.stream_watchdog_s", hi=10.0)
         _positive(self.sim_homing_speedup, "controller.sim_homing_speedup", hi=10_000.0)
         _positive(self.unhomed_jog_travel_deg, "controller.unhomed_jog_travel_deg", hi=360.0)

@@ -134,7 +134,8 @@ class Controller:
         guard = SafetyGuard(self.config.robot, self.rate_hz)
         self.loop = ControlLoop(
             transport=transport, executor=self.executor, guard=guard, rate_hz=self.rate_hz,
-            link_timeout_ticks=cs.link_timeout_ticks, inbox=self.inbox, publish=self._publish,
+            link_timeout_ticks=cs.link_timeout_ticks, link_hold_frames=cs.link_hold_frames,
+            realtime_priority=cs.realtime_priority, inbox=self.inbox, publish=self._publish,
             pose_provider=self._pose_provider,
             supervisor=StopSupervisor(cs.supervisor_stall_s) if cs.supervisor else None,
         )

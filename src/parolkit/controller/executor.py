@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import importlib
 import logging
-import math
 import threading
 import time
 from collections import deque
@@ -670,14 +669,14 @@ class Executor:
             if (
                 old is not None and isinstance(old_act, SpeedActivity) and not isinstance(cmd, C.CartJogCommand)
             ):
-                speeds, ticks, err = self._speed_plan(cmd)
+                speeds, secs, err = self._speed_plan(cmd)
                 note = ""
                 if err is None:
-                    ticks, note, err = self._cap_unhomed_travel(speeds, ticks, now, continuing=True)
+                    secs, note, err = self._cap_unhomed_travel(speeds, secs, now, continuing=True)
                 if err is not None:
                     self._ack(job, AckStatus.FAILED, err)
                     return
-                old_act.replace(speeds, ticks, now)
+                old_act.replace(speeds, secs, now)
                 self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
                 self.active = job
                 self._ack(job, AckStatus.EXECUTING, note)
@@ -692,8 +691,9 @@ class Executor:
                 # planned from old_act's sample anchor[1] - 1; old_act would send old_act.i next
                 self.activity.skip(old_act.i - anchor[1])  # type: ignore[union-attr]
 
-    def _speed_plan(self, cmd: C.Command) -> tuple[tuple[int, ...], int, str | None]:
-        """Steps/s per joint and tick count of JOG / MULTIJOG / SPEEDJOINT."""
+    def _speed_plan(self, cmd: C.Command) -> tuple[tuple[int, ...], float, str | None]:
+        """Steps/s per joint and duration (s, exact: a JOG's distance is speed x duration)
+        of JOG / MULTIJOG / SPEEDJOINT."""
         m = self.model
         speeds = [0] * 6
         if isinstance(cmd, C.Jog):
@@ -706,7 +706,7 @@ class Executor:
                 secs.append(jog.duration_s)
             if jog.distance_deg is not None:
                 secs.append(jog.distance_deg * self._spd[joint] / max(v, 1e-9))
-            return tuple(speeds), ticks_for(min(secs), self.rate_hz), None
+            return tuple(speeds), min(secs), None
         if isinstance(cmd, C.MultiJog):
             jog = cmd.move
             table = m.jog_speed_from_percent(100.0)
@@ -714,25 +714,26 @@ class Executor:
                 speeds[j] = int(round(float(table[j]) * pct / 100.0)) * d
             if jog.duration_s is None:
                 return (), 0, "MULTIJOG needs a duration"
-            return tuple(speeds), ticks_for(jog.duration_s, self.rate_hz), None
+            return tuple(speeds), jog.duration_s, None
         if isinstance(cmd, C.SpeedJoint):
             for j, v in enumerate(cmd.move.speeds_deg_s):
                 speeds[j] = int(round(v * self._spd[j]))
                 if abs(speeds[j]) > m.max_speed_steps_s[j]:
                     return (), 0, f"J{j + 1} speed {v:g} deg/s exceeds the maximum"
-            return tuple(speeds), ticks_for(cmd.move.duration_s, self.rate_hz), None
+            return tuple(speeds), cmd.move.duration_s, None
         return (), 0, f"{cmd.name} is not a speed command"
 
-    def _cap_unhomed_travel(self, speeds: Sequence[int], ticks: int, now: float, *,
-                            continuing: bool) -> tuple[int, str, str | None]:
+    def _cap_unhomed_travel(self, speeds: Sequence[int], secs: float, now: float, *,
+                            continuing: bool) -> tuple[float, str, str | None]:
         """Before homing the joint limits are unknown: one jog press (a JOG / MULTIJOG, or a
         held streamed jog and its updates) may move each joint at most
-        :attr:`unhomed_jog_travel_deg`.  Returns (ticks, note for the ack, error): the ticks
-        cut so the press stops at the limit (the note says so), or an error when the press
-        has used it all.  A homed robot is not limited (the joint limits are)."""
+        :attr:`unhomed_jog_travel_deg`.  Returns (duration s, note for the ack, error): the
+        duration cut so the press stops at the limit (the note says so; the stream covers
+        speed x duration exactly), or an error when less than a tick of travel is left.  A
+        homed robot is not limited (the joint limits are)."""
         if self._homed:
             self._press_speeds = None
-            return ticks, "", None
+            return secs, "", None
         prev = self._press_speeds
         if not continuing or prev is None:
             self._press_used = [0.0] * 6
@@ -742,19 +743,18 @@ class Executor:
                 self._press_used[j] += abs(v0[j]) / self._spd[j] * max(0.0, min(now, t1) - t0)
         used = self._press_used
         cap = self.unhomed_jog_travel_deg
-        room = {j: int(math.floor(max(0.0, cap - used[j]) * self._spd[j] * self.rate_hz / abs(v) + 1e-9))
-                for j, v in enumerate(speeds) if v != 0}
-        allowed = min([ticks, *room.values()])
-        stops = [JOINT_NAMES[j] for j, n in room.items() if n == allowed]
-        if allowed < 1:
+        room = {j: max(0.0, cap - used[j]) * self._spd[j] / abs(v) for j, v in enumerate(speeds) if v != 0}
+        allowed = min([secs, *room.values()])
+        stops = [JOINT_NAMES[j] for j, t in room.items() if t == allowed]
+        if allowed < 1.0 / self.rate_hz:
             self._press_speeds = ((0,) * 6, now, now)  # still held: the next update is refused too
             return 0, "", (f"robot not homed: this jog press has used its {cap:g} deg of travel "
                            f"({', '.join(stops)}): release and press again, or send HOME to lift the limit")
-        self._press_speeds = (tuple(int(v) for v in speeds), now, now + allowed / self.rate_hz)
-        if allowed < ticks:
+        self._press_speeds = (tuple(int(v) for v in speeds), now, now + allowed)
+        if allowed < secs:
             return allowed, (f"robot not homed: jog travel limited to {cap:g} deg per press "
                              f"({', '.join(stops)} stops there); send HOME to lift the limit"), None
-        return ticks, "", None
+        return secs, "", None
 
     def _activate(self, job: Job, now: float) -> None:
         cmd = job.command
@@ -766,21 +766,22 @@ class Executor:
                                start_timeout_ticks=ticks_for(HOME_START_TIMEOUT_S, self.rate_hz),
                                seen=lambda: integrity.homing_seen)
         elif isinstance(cmd, _SPEED_COMMANDS):
-            speeds, ticks, err = self._speed_plan(cmd)
+            speeds, secs, err = self._speed_plan(cmd)
             if err is None:
                 # a held streamed jog that ran into the limit and sends its next update is
                 # still the same press; anything else starts a new one
                 held = (job.streamed and self._press_speeds is not None
                         and now <= self._press_speeds[2] + self.watchdog_s + 2.0 / self.rate_hz)
-                ticks, note, err = self._cap_unhomed_travel(speeds, ticks, now, continuing=held)
+                secs, note, err = self._cap_unhomed_travel(speeds, secs, now, continuing=held)
                 if note:
                     job.notes = (*job.notes, note)
             if err is not None:
                 self._ack(job, AckStatus.FAILED, err)
                 return
-            act = SpeedActivity(speeds, ticks, streamed=job.streamed, started=now)
+            act = SpeedActivity(speeds, secs, streamed=job.streamed, started=now)
         elif needs_plan(cmd):
-            act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now)  # type: ignore[arg-type]
+            act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now,  # type: ignore[arg-type]
+                                     max_speed_steps_s=self.model.max_speed_steps_s)
             self.plan_seq += 1
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))

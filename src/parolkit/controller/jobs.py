@@ -12,6 +12,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from parolkit.controller.pacing import GotoFits, SentLog, goto_fits, tracking_speed
 from parolkit.protocol.commands import AckStatus, Command
 from parolkit.protocol.frames import BoardCommand, GripperMode, StatusFrame
 from parolkit.robot import JOINT_NAMES
@@ -119,6 +120,8 @@ class Activity:
     progress: float = 0.0
     #: True while the activity streams speeds (123)
     streams_speed: bool = False
+    #: True when its frames move the robot (a paused one gets stop frames, see :meth:`held`)
+    moves: bool = False
 
     def step(self, ctx: TickContext) -> Step:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -126,35 +129,157 @@ class Activity:
     def touch(self, now: float) -> None:
         """A streaming update arrived (resets the watchdog)."""
 
+    def held(self, now: float, stop: Step) -> None:
+        """The loop sent the stop frame ``stop`` at ``now`` instead of asking this activity
+        (replies went missing); it is stepped again once they come back."""
+
 
 class TrajectoryActivity(Activity):
-    """Play a planned trajectory one sample per tick, then settle on the target (156)."""
+    """Play a planned trajectory against real time, then settle on the target.
 
-    def __init__(self, samples: Samples, *, settle_ticks: int, settle_tol_steps: int = 4,
-                 streamed: bool = False, started: float = 0.0) -> None:
+    Sample ``i`` is due ``i`` periods after the first frame (its positions are where the joints
+    should be one period later).  A tick plays what is due at the time it actually runs, so a
+    late tick does not push the rest of the move back (a timed move keeps its wall-clock
+    duration):
+
+    * position tracking (156): the target is the plan at the elapsed time (interpolated between
+      samples), but a late tick advances it only as far as the board can follow within its
+      maximum speed (``fits``, by default :func:`~parolkit.controller.pacing.goto_fits`: the
+      target's step since the previous frame and the board's speed right after it); a move
+      that fell further behind catches up over the next ticks, and never goes back.  After
+      the last sample the target is held with zero feed-forward until the joints are within
+      ``settle_tol_steps`` (or ``settle_ticks`` passed);
+    * speed tracking (123): the distance a speed covers is speed x the time it actually ran,
+      so each frame's speed is the one that takes every joint from where the board model
+      estimates it now to the position the plan has for the next deadline, over at least one
+      period (:func:`~parolkit.controller.pacing.tracking_speed`; counting on a shorter time
+      would overshoot whenever the next tick comes late), within the maximum speed; after the
+      last sample the remaining error is corrected the same way, then a zero-speed frame ends
+      the move where it was planned.
+    """
+
+    def __init__(self, samples: Samples, *, settle_ticks: int, max_speed_steps_s: Sequence[float],
+                 settle_tol_steps: int = 4, streamed: bool = False, started: float = 0.0,
+                 fits: GotoFits = goto_fits) -> None:
         self.positions, self.speeds, self.commands = samples
         self.n = len(self.positions)
+        #: the next whole sample to play (``n``: all played, settling)
         self.i = 0
         self.settle_left = settle_ticks
         self.settle_tol = settle_tol_steps
         self.streamed = streamed
         self.last_update = started
         self.streams_speed = bool(self.n) and any(c == BoardCommand.JOG for c in self.commands)
+        self.moves = True
+        self.vmax = tuple(float(v) for v in max_speed_steps_s)
+        self.fits = fits
+        #: time of the first frame (sample 0 is due then); ``skip`` moves the schedule on
+        self.t0 = started
+        self._offset = 0
+        self.log = SentLog()
+        #: where in the samples the last 156 frame was (fractional), its target and time
+        self._s: float | None = None
+        self._prev_goto: tuple[Sequence[int], float] | None = None
+        self._last_target: tuple[int, ...] | None = None
 
     def touch(self, now: float) -> None:
         self.last_update = now
 
+    def held(self, now: float, stop: Step) -> None:
+        """Paused by the loop (``stop`` sent): the board model knows it stopped; the schedule
+        runs on, so once replies are back the move catches up as after a late tick."""
+        self.log.record(now, stop.command, stop.positions or _ZERO6, stop.speeds)
+
     def commanded(self) -> tuple[int, ...] | None:
-        """Position (steps) of the last sample sent to the board; None before the first."""
-        if self.i == 0 or self.n == 0:
-            return None
-        return tuple(self.positions[min(self.i, self.n) - 1])
+        """Position (steps) of the last target sent to the board; None before the first."""
+        return self._last_target
 
     def skip(self, k: int) -> None:
         """Start ``k`` samples in (at most at the last one): a streamed jog planned from
         another's commanded position ``k`` ticks before it took over continues where that
         one would be now, instead of stepping back by ``k`` ticks."""
         self.i = max(0, min(int(k), self.n - 1))
+        self._offset = self.i
+
+    def _elapsed_samples(self, now: float, rate_hz: float) -> float:
+        """The (fractional) sample due at ``now``."""
+        return (now - self.t0) * rate_hz + self._offset
+
+    def _ask(self, now: float, cmd: int, pos: Sequence[int], spd: Sequence[int], done: AckStatus | None = None,
+             ) -> Step:
+        self.log.record(now, cmd, pos, spd)
+        target = tuple(pos)
+        if cmd == BoardCommand.GOTO:
+            self._prev_goto = (target, now)
+        self._last_target = target
+        return Step(cmd, target, tuple(spd), done=done)
+
+    def _at(self, s: float) -> tuple[list[int], list[int]]:
+        """Target and feed-forward at sample coordinate ``s``, linear between samples."""
+        k = int(s)
+        f = s - k
+        if f <= 1e-9 or k + 1 >= self.n or self.commands[k + 1] != self.commands[k]:
+            return self.positions[k], self.speeds[k]
+        p0, p1, v0, v1 = self.positions[k], self.positions[k + 1], self.speeds[k], self.speeds[k + 1]
+        return ([int(round(a + f * (b - a))) for a, b in zip(p0, p1)],
+                [int(round(a + f * (b - a))) for a, b in zip(v0, v1)])
+
+    def _goto_sample(self, ctx: TickContext) -> float:
+        """Where in the samples the next 156 target is: what is due now, but no further than
+        the board can follow from where it is (and never back)."""
+        want = min(max(self._elapsed_samples(ctx.now, ctx.rate_hz), float(self.i)), self.n - 1.0)
+        prev, s_prev = self._prev_goto, self._s
+        if prev is None or s_prev is None:
+            return want
+        want = max(want, s_prev)
+        x = self.log.estimate(ctx.status, ctx.now)
+        if x is None or want - s_prev <= 1.0:
+            return want  # the plan's own pace (at most one sample per period: the planner's bound)
+        target, t_prev = prev
+        dt = ctx.now - t_prev
+
+        def ok(s: float) -> bool:
+            pos, ff = self._at(s)
+            return self.fits(pos, ff, target, dt, x, self.vmax)
+
+        if ok(want):
+            return want
+        lo, hi = s_prev + 1.0 if ok(s_prev + 1.0) else s_prev, want
+        for _ in range(12):  # to 1/4000 of the catch-up span
+            mid = 0.5 * (lo + hi)
+            if ok(mid):
+                lo = mid
+            else:
+                hi = mid
+        return lo
+
+    def _speed_step(self, ctx: TickContext, k: int) -> Step:
+        """A speed-tracked sample ``k``: the speed that reaches its position by the next
+        deadline; on the last sample, the correction of what is left, then zero speed."""
+        now = ctx.now
+        last = k == self.n - 1
+        target = self.positions[k]
+        x = self.log.estimate(ctx.status, now)
+        if x is None:
+            speeds: Sequence[int] = self.speeds[k]
+        else:
+            period = 1.0 / ctx.rate_hz
+            due_at = self.t0 + (k + 1 - self._offset) * period
+            interval = max(due_at - now, period)
+            vm = self.vmax
+            speeds = [tracking_speed(target[j], x[j], interval, -vm[j], vm[j]) for j in range(6)]
+        if last:
+            self.settle_left -= 1
+            close = x is None or all(abs(target[j] - x[j]) <= self.settle_tol for j in range(6))
+            if close or self.settle_left < 0 or not any(speeds):
+                self.i = self.n
+                self.progress = 1.0
+                return self._ask(now, BoardCommand.JOG, target, _ZERO6, AckStatus.COMPLETED)
+            self.i = k
+        else:
+            self.i = k + 1
+        self.progress = self.i / self.n
+        return self._ask(now, BoardCommand.JOG, target, speeds)
 
     def step(self, ctx: TickContext) -> Step:
         if self.streamed and ctx.stream_mode and ctx.now - self.last_update > ctx.watchdog_s:
@@ -162,69 +287,95 @@ class TrajectoryActivity(Activity):
             zero = BoardCommand.JOG if self.streams_speed else BoardCommand.IDLE
             return Step(zero, pos, _ZERO6, done=AckStatus.COMPLETED,
                         details="stream watchdog: no update, jog stopped")
-        if self.i < self.n:
-            i = self.i
-            self.i += 1
-            self.progress = self.i / self.n
-            cmd = self.commands[i]
-            last = self.i == self.n
-            if last and cmd == BoardCommand.JOG:
-                return Step(cmd, tuple(self.positions[i]), tuple(self.speeds[i]), done=AckStatus.COMPLETED)
-            return Step(cmd, tuple(self.positions[i]), tuple(self.speeds[i]))
         if self.n == 0:
             return Step(BoardCommand.IDLE, None, done=AckStatus.COMPLETED, details="nothing to do")
+        now = ctx.now
+        if self.i < self.n:
+            k = self.i
+            if self.commands[k] == BoardCommand.JOG:
+                due = int(self._elapsed_samples(now, ctx.rate_hz) + 0.5)
+                return self._speed_step(ctx, min(max(k, due), self.n - 1))
+            s = self._goto_sample(ctx)
+            self._s = s
+            self.i = self.n if s >= self.n - 1 else int(s) + 1
+            self.progress = self.i / self.n
+            tgt, ff = self._at(s)
+            return self._ask(now, self.commands[int(s)], tgt, ff)
         # settle on the final target with zero feed-forward
-        target = tuple(self.positions[-1])
+        target = self.positions[-1]
         self.settle_left -= 1
         st = ctx.status
         close = st is not None and all(abs(a - b) <= self.settle_tol for a, b in zip(st.positions, target))
         if close or self.settle_left <= 0:
-            return Step(BoardCommand.GOTO, target, _ZERO6, done=AckStatus.COMPLETED)
-        return Step(BoardCommand.GOTO, target, _ZERO6)
+            return self._ask(now, BoardCommand.GOTO, target, _ZERO6, AckStatus.COMPLETED)
+        return self._ask(now, BoardCommand.GOTO, target, _ZERO6)
 
 
 class SpeedActivity(Activity):
-    """Constant joint speeds (board 123) for a number of ticks; JOG, MULTIJOG, SPEEDJOINT.
+    """Constant joint speeds (board 123) for ``duration_s``; JOG, MULTIJOG, SPEEDJOINT.
 
     The board keeps a speed until the next frame, so the distance moved is speed x the TIME
-    the stream lasts: it ends after ``ticks`` ticks or, when ticks come late (a stalled
-    machine), as soon as ``ticks / rate`` seconds have passed since it started, whichever
-    is first.  Stops early (COMPLETED, details say why) when a joint would reach its limit
-    within ``stop_lookahead_ticks`` (homed robots only) or, in stream mode, when updates
-    stop.  Always ends with a zero-speed frame.
+    each frame actually ran.  The stream tracks the planned position ``start + speed x t``
+    (``t`` at most ``duration_s``): every frame asks for the speed that takes each moving joint
+    from where the board model estimates it now to the planned position at the next deadline,
+    over at least one period (:func:`~parolkit.controller.pacing.tracking_speed`), never
+    faster than the commanded speed and never backwards.  The stream ends -- zero-speed frame,
+    COMPLETED -- when the planned distance is covered (within ``tol_steps``), so a JOG with a
+    distance stops where it should: what is left when the time is up is sent as a slower last
+    frame instead of being cut off or overrun.  (The board keeps each speed until the next
+    frame, so a stop frame that comes late still costs ``speed x lateness``.)  If the board
+    does not follow (the estimate never gets there), the stream ends ``overrun_s`` after its
+    time anyway, saying so.  Stops early (COMPLETED, details say why)
+    when a joint would reach its limit within ``stop_lookahead_ticks`` (homed robots only) or,
+    in stream mode, when updates stop.  Always ends with a zero-speed frame.
     """
 
     streams_speed = True
+    moves = True
 
-    def __init__(self, speeds_steps_s: Sequence[int], ticks: int, *, streamed: bool = False,
-                 started: float = 0.0, stop_lookahead_ticks: float = 4.0) -> None:
-        self.speeds = tuple(int(v) for v in speeds_steps_s)
-        self.ticks = max(1, int(ticks))
-        self.i = 0
+    def __init__(self, speeds_steps_s: Sequence[int], duration_s: float, *, streamed: bool = False,
+                 started: float = 0.0, stop_lookahead_ticks: float = 4.0, tol_steps: float = 1.0,
+                 overrun_s: float = 0.25) -> None:
         self.streamed = streamed
-        self.started = started
-        self.last_update = started
         self.lookahead = stop_lookahead_ticks
+        self.tol = tol_steps
+        self.overrun = overrun_s
+        self.log = SentLog()
+        self.replace(speeds_steps_s, duration_s, started)
 
     def touch(self, now: float) -> None:
         self.last_update = now
 
-    def replace(self, speeds_steps_s: Sequence[int], ticks: int, now: float) -> None:
+    def replace(self, speeds_steps_s: Sequence[int], duration_s: float, now: float) -> None:
+        """New speeds and duration from ``now`` on (a streamed jog's update); the planned
+        position starts again from where the joints are then."""
+        if not duration_s > 0.0:
+            raise ValueError(f"a speed stream needs a duration > 0 s, got {duration_s!r}")
         self.speeds = tuple(int(v) for v in speeds_steps_s)
-        self.ticks = max(1, int(ticks))
+        self.duration = float(duration_s)
         self.i = 0
         self.started = now
         self.last_update = now
+        self.x0: list[float] | None = None
+        #: time the loop held it paused (stop frames instead of its own), s
+        self.paused = 0.0
+        self._paused_at: float | None = None
+
+    def held(self, now: float, stop: Step) -> None:
+        """Paused by the loop (``stop`` sent): the board model knows it stopped, and the time
+        the pause lasts is added to the time the stream may take to cover its distance."""
+        self.log.record(now, stop.command, stop.positions or _ZERO6, stop.speeds)
+        if self._paused_at is None:
+            self._paused_at = now
 
     def _stop(self, ctx: TickContext, details: str) -> Step:
         pos = ctx.status.positions if ctx.status else None
+        self.log.record(ctx.now, BoardCommand.JOG, pos or _ZERO6, _ZERO6)
         return Step(BoardCommand.JOG, pos, _ZERO6, done=AckStatus.COMPLETED, details=details)
 
     def step(self, ctx: TickContext) -> Step:
         if self.streamed and ctx.stream_mode and ctx.now - self.last_update > ctx.watchdog_s:
             return self._stop(ctx, "stream watchdog: no update, jog stopped")
-        if self.i >= self.ticks or (self.i and ctx.now - self.started >= (self.ticks - 0.5) / ctx.rate_hz):
-            return self._stop(ctx, "")
         st = ctx.status
         if ctx.homed and st is not None:
             horizon = self.lookahead / ctx.rate_hz
@@ -235,9 +386,45 @@ class SpeedActivity(Activity):
                 ahead = st.positions[j] + v * horizon
                 if (v > 0 and ahead > hi) or (v < 0 and ahead < lo):
                     return self._stop(ctx, f"stopped at the {'upper' if v > 0 else 'lower'} limit of {JOINT_NAMES[j]}")
+        now = ctx.now
+        if self._paused_at is not None:
+            self.paused += now - self._paused_at
+            self._paused_at = None
+        period = 1.0 / ctx.rate_hz
+        e = now - self.started
+        end = self.duration
+        x = self.log.estimate(st, now)
+        if x is None:  # no status frame yet: by time alone
+            if self.i and e >= end - 0.5 * period:
+                return self._stop(ctx, "")
+            speeds: Sequence[int] = self.speeds
+        else:
+            if self.x0 is None:
+                self.x0 = x
+            if e >= end + self.paused + self.overrun:
+                return self._stop(ctx, f"ended {self.overrun:g} s after its time: the board did not "
+                                       f"cover the planned distance")
+            e_next = (int(e * ctx.rate_hz + 0.5) + 1) * period
+            h = min(e_next, end)
+            interval = max(e_next - e, period)
+            x0 = self.x0
+            out = []
+            for j, v in enumerate(self.speeds):
+                if v == 0:
+                    out.append(0)
+                    continue
+                if h >= end and abs(x0[j] + v * end - x[j]) <= self.tol:
+                    out.append(0)
+                    continue
+                out.append(tracking_speed(x0[j] + v * h, x[j], interval, min(0, v), max(0, v)))
+            if h >= end and not any(out):
+                return self._stop(ctx, "")
+            speeds = out
         self.i += 1
-        self.progress = self.i / self.ticks
-        return Step(BoardCommand.JOG, st.positions if st else None, self.speeds)
+        self.progress = min(1.0, e / end)
+        pos = st.positions if st else None
+        self.log.record(now, BoardCommand.JOG, pos or _ZERO6, speeds)
+        return Step(BoardCommand.JOG, pos, tuple(speeds))
 
 
 class HomeActivity(Activity):

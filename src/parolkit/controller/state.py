@@ -235,7 +235,13 @@ class Snapshot:
             f"|ESTOP={int(self.estop_pressed or self.estop_latched)}|QUEUE={self.queue}"
             f"|CMD={cmd}|ERROR={err}|OVERLOAD={self.overload}"
             f"|IMPLAUSIBLE={self.integrity.implausible}|UNCOMMANDED={self.integrity.uncommanded}"
+            f"|SCHED={self.scheduling}|LINK_LOSSES={self.loop_view().get('link_losses', 0)}"
         )
+
+    @property
+    def scheduling(self) -> str:
+        """The tick thread's scheduling policy ("fifo:10", "nice:-10", "normal")."""
+        return str(self.loop_view().get("scheduling", "unknown"))
 
     @property
     def overload(self) -> int:
@@ -284,6 +290,7 @@ class Snapshot:
             },
             "loop": self.loop_view(),
             "integrity": self.integrity.as_dict(),
+            "scheduling": self.scheduling,
             "server": self.server_view() if self.server_view is not None else {},
             "command": self.command.as_dict() if self.command else None,
             "queue": self.queue,
@@ -352,5 +359,7 @@ def build_snapshot(
         outputs=(ex.outputs[0], ex.outputs[1]), steps_per_deg=ex.steps_per_deg,
         pose_provider=pose_provider, loop_view=loop_view, server_view=server_view,
         integrity=ex.integrity.view(now if now is not None else _time.monotonic()),
-        state_known=not ex.probe.active,
+        # known once the executor has taken the probe's answer in (it does so in the tick after
+        # the reply that answered it: until then the snapshot would show the old state as known)
+        state_known=not ex.probe.active and ex.probe.result is None,
     )

@@ -84,6 +84,10 @@ class LoopStatsView:
     period_p99_ms: float
     period_max_ms: float
     overruns: int
+    #: how late ticks started after their deadline (wake-up latency, overruns included)
+    late_p50_ms: float
+    late_p99_ms: float
+    late_max_ms: float
     rtt_p50_ms: float
     rtt_p99_ms: float
     rtt_max_ms: float
@@ -94,6 +98,12 @@ class LoopStatsView:
     bytes_dropped: int
     implausible_frames: int
     link_losses: int
+    #: speed streams stopped because replies went missing (before a loss, or instead of one)
+    link_holds: int
+    #: the longest run of frames the board left unanswered
+    unanswered_max: int
+    #: the tick thread's scheduling: "fifo:N", "nice:-10" or "normal"
+    scheduling: str
 
     def as_dict(self) -> dict[str, Any]:
         return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
@@ -102,13 +112,16 @@ class LoopStatsView:
 class LoopMetrics:
     """Mutable statistics owned by the loop thread; :meth:`view` may be called from any thread.
 
-    ``period``: time between successive tick starts; ``rtt``: write of a command frame to the
-    arrival of its status frame; ``work``: time the tick spent before sleeping.
+    ``period``: time between successive tick starts; ``lateness``: how long after its deadline
+    a tick started; ``rtt``: write of a command frame to the arrival of its status frame;
+    ``work``: time the tick spent before sleeping.
     An overrun is a tick that started more than one period late (its deadline was skipped).
     """
 
     def __init__(self, rate_hz: float) -> None:
         self.rate_hz = rate_hz
+        #: set once by the tick thread (not reset: it does not change during a run)
+        self.scheduling = "not started"
         self._lock = threading.Lock()
         self._cache: tuple[float, LoopStatsView] | None = None
         self.reset()
@@ -116,6 +129,7 @@ class LoopMetrics:
     def reset(self) -> None:
         with self._lock:
             self.period = Histogram()
+            self.lateness = Histogram()
             self.rtt = Histogram()
             self.work = Histogram()
             self.ticks = 0
@@ -125,6 +139,8 @@ class LoopMetrics:
             self.bytes_dropped = 0
             self.implausible_frames = 0
             self.link_losses = 0
+            self.link_holds = 0
+            self.unanswered_max = 0
             self._cache = None
 
     def view(self, max_age_s: float = 0.0, now: float | None = None) -> LoopStatsView:
@@ -137,6 +153,7 @@ class LoopMetrics:
             return cached[1]
         with self._lock:
             p50, p99 = self.period.percentiles((50.0, 99.0))
+            l50, l99 = self.lateness.percentiles((50.0, 99.0))
             r50, r99 = self.rtt.percentiles((50.0, 99.0))
             (w99,) = self.work.percentiles((99.0,))
             v = LoopStatsView(
@@ -146,6 +163,9 @@ class LoopMetrics:
                 period_p99_ms=p99 * 1e3,
                 period_max_ms=self.period.max * 1e3,
                 overruns=self.overruns,
+                late_p50_ms=l50 * 1e3,
+                late_p99_ms=l99 * 1e3,
+                late_max_ms=self.lateness.max * 1e3,
                 rtt_p50_ms=r50 * 1e3,
                 rtt_p99_ms=r99 * 1e3,
                 rtt_max_ms=self.rtt.max * 1e3,
@@ -156,6 +176,9 @@ class LoopMetrics:
                 bytes_dropped=self.bytes_dropped,
                 implausible_frames=self.implausible_frames,
                 link_losses=self.link_losses,
+                link_holds=self.link_holds,
+                unanswered_max=self.unanswered_max,
+                scheduling=self.scheduling,
             )
         self._cache = (t, v)
         return v

@@ -1,0 +1,171 @@
+"""Link faults over a real pty, judged at the board (issue 12, item 2).
+
+* Replies that go bad mid-jog (every byte corrupted, or every reply lost) while the frames
+  still reach the board: a zero-speed frame reaches the board within 3 ticks of the first
+  bad reply, and after the loss the board's speeds are 0 and its joints stay where they are.
+  The emulator and its pty server run in this process (``test_controller_pty.Bench``) so
+  every frame the board receives is recorded with its speeds, in order with the moment the
+  fault is switched on; the controller is its own process on the pty.
+* A silent board is lost after exactly the configured number of unanswered frames.
+* A controller stalled by SIGSTOP for 200 ms (20 ticks) is not a lost link: the board
+  answered every frame it got, the replies wait in the pty.  (``board-sim`` in its own
+  process, as the load rig runs it, so the stall of the test process cannot play a part.)
+* ``GET_STATUS`` reports the tick thread's scheduling as the OS has it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from tests.conftest import start_controller, wait_until
+from tests.integration import load
+from tests.integration.test_controller_pty import Bench
+
+from parolkit.protocol.frames import BoardCommand, CommandFrame
+from parolkit.protocol.stream import CommandParser
+
+ZERO = (0, 0, 0, 0, 0, 0)
+
+
+class Recorder:
+    """Every frame the emulated board receives, in order; faults are switched under the same
+    lock, so ``switch`` knows exactly which frames came after it."""
+
+    def __init__(self, bench: Bench) -> None:
+        self.emu = bench.emu
+        self.lock = threading.Lock()
+        self.frames: list[tuple[float, CommandFrame]] = []
+        self._parser = CommandParser()
+        orig = self.emu.write
+
+        def write(data: bytes) -> None:
+            with self.lock:
+                t = time.monotonic()
+                for f in self._parser.feed(data):
+                    self.frames.append((t, f))
+                orig(data)
+
+        self.emu.write = write  # type: ignore[method-assign]  # the pty server calls emu.write
+
+    def switch(self, **faults: object) -> int:
+        """Switch faults on; returns the index of the first frame received after it."""
+        with self.lock:
+            self.emu.set_faults(**faults)
+            return len(self.frames)
+
+
+def _jog_then_break_replies(bench: Bench, rec: Recorder, **faults: object) -> tuple[str, int]:
+    """A long J1 jog, then the replies go bad; returns the jog's ID and the switch index."""
+    for _ in range(3):  # a jog paused or cancelled by this busy process before the fault: again
+        cid = bench.send("JOG|0|50|None|60")
+        bench.acks.wait_status(cid, "EXECUTING")
+        wait_until(lambda: bench.emu.speeds[0] > 0, 5, what="J1 jogging")
+        time.sleep(0.3)
+        if not bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
+            continue
+        return cid, rec.switch(direction="from_board", **faults)
+    raise AssertionError("the jog never ran undisturbed")
+
+
+@pytest.mark.parametrize("faults", [{"corrupt_rate": 1.0}, {"drop_rate": 1.0}], ids=["corrupted", "lost"])
+def test_bad_replies_mid_jog_stop_the_board_within_three_ticks_and_nothing_moves_after_the_loss(tmp_path, faults):
+    bench = Bench(tmp_path, link_timeout_ticks=10)
+    rec = Recorder(bench)
+    try:
+        cid, mark = _jog_then_break_replies(bench, rec, **faults)
+        status, details = bench.acks.terminal(cid, 10)
+        assert status == "CANCELLED" and "board link lost: the board left 10 frames in a row unanswered" in details
+        with rec.lock:
+            after = [f for _, f in rec.frames[mark:]]
+        # frame 0's reply is the first bad one: the stop is at most 3 ticks after it
+        stop = next(i for i, f in enumerate(after) if f.command == BoardCommand.JOG and f.speeds == ZERO)
+        assert stop <= 3, [(f.command, f.speeds[0]) for f in after[:6]]
+        assert all(f.speeds == ZERO for f in after[stop:])  # stop frames until the loss (and after)
+        # after the loss: the board stopped and stays stopped
+        assert bench.emu.speeds == ZERO
+        still = bench.emu.positions
+        for _ in range(10):
+            time.sleep(0.1)
+            assert bench.emu.positions == still
+        stats = json.loads(bench.query("GET_LOOP_STATS").split("|", 1)[1])
+        assert stats["link_losses"] >= 1 and stats["link_holds"] >= 1
+    finally:
+        bench.close()
+
+
+def test_a_silent_board_is_lost_after_the_configured_number_of_unanswered_frames(tmp_path):
+    bench = Bench(tmp_path, link_timeout_ticks=7)
+    rec = Recorder(bench)
+    try:
+        for _ in range(3):
+            cid = bench.send("DELAY|3")
+            bench.acks.wait_status(cid, "EXECUTING")
+            time.sleep(0.2)
+            if bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
+                break
+        mark = rec.switch(silent=True)
+        status, details = bench.acks.terminal(cid, 5)
+        assert status == "CANCELLED" and "the board left 7 frames in a row unanswered" in details
+        t_switch = rec.frames[mark - 1][0]
+        time.sleep(0.3)
+        with rec.lock:
+            sent = [f for t, f in rec.frames[mark:] if t < t_switch + 0.9]  # before the reconnect
+        assert len(sent) == 7 and all(f.command == BoardCommand.IDLE for f in sent)
+    finally:
+        bench.close()
+
+
+def _fifo_thread(pid: int) -> int | None:
+    """The SCHED_FIFO priority of a thread of process ``pid`` (None: no such thread)."""
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        fields = Path(f"/proc/{pid}/task/{tid}/stat").read_text().rsplit(")", 1)[1].split()
+        if int(fields[38]) == 1:  # policy (field 41 of stat, counted after the comm field)
+            return int(fields[37])  # rt_priority
+    return None
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads thread policies from /proc")
+def test_a_controller_stalled_for_200_ms_is_no_lost_link_and_reports_its_scheduling(tmp_path):
+    board = load.BoardSim(tmp_path)
+    cfg = tmp_path / "controller.toml"
+    cfg.write_text("[controller]\nlink_timeout_ticks = 5\n")  # 50 ms: a fifth of each stall
+    ctl = client = None
+    try:
+        ctl = start_controller(["--port", str(board.link), "--config", str(cfg)], log_dir=tmp_path,
+                               wait_homed=False)
+        wait_until(lambda: ctl.query("PING", 0.5) == "PONG|SERIAL=1", 20, what="the board link")
+        client = load.Client(ctl.port, ctl.ack_port)
+        status_line = client.query("GET_STATUS", "STATUS|")
+        fields = dict(f.split("=", 1) for f in status_line.split("|")[1:])
+        fifo = _fifo_thread(ctl.proc.pid)
+        if fifo is not None:
+            assert fields["SCHED"] == f"fifo:{fifo}"
+        else:
+            assert fields["SCHED"] in ("nice:-10", "normal")
+        assert fields["LINK_LOSSES"] == "0"
+        assert json.loads(client.query("GET_STATUS_JSON", "STATUS_JSON|").split("|", 1)[1])["scheduling"] \
+            == fields["SCHED"]
+        for text in ("MOVEJOINT|60|-80|170|10|-10|170|3|None", "JOG|0|40|2|None"):
+            cid = client.send(text)
+            time.sleep(0.4)
+            for _ in range(3):
+                os.kill(ctl.proc.pid, signal.SIGSTOP)
+                time.sleep(0.2)
+                os.kill(ctl.proc.pid, signal.SIGCONT)
+                time.sleep(0.4)
+            assert client.terminal(cid, 20) == ("COMPLETED", ""), text
+        stats = client.loop_stats()
+        assert stats["link_losses"] == 0, stats
+        assert stats["late_max_ms"] >= 190  # the stalls were there, as late ticks
+    finally:
+        if client is not None:
+            client.close()
+        if ctl is not None:
+            ctl.stop()
+        board.close()

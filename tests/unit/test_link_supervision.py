@@ -1,0 +1,218 @@
+"""Link supervision, tick by tick: the link is judged by the frames the board left unanswered,
+never by the controller's own late ticks, and when replies go bad the board is stopped first.
+
+The real ControlLoop, executor, guard and planner against the real board emulator on a
+virtual clock (``tests/unit/test_controller_core.py``'s ``Rig``); link faults are the
+emulator's own (``set_faults``), applied to the board's replies only."""
+
+from __future__ import annotations
+
+import pytest
+from tests.unit.test_controller_core import RATE, Rig
+
+from parolkit.controller.executor import Executor
+from parolkit.controller.guard import SafetyGuard
+from parolkit.controller.loop import ControlLoop
+from parolkit.protocol.commands import AckStatus
+from parolkit.protocol.frames import BoardCommand
+from parolkit.robot import PAROL6
+
+ZERO = (0, 0, 0, 0, 0, 0)
+#: replies that never reach the controller whole: every byte changed, or every byte lost
+BAD_REPLIES = {"corrupted": {"corrupt_rate": 1.0}, "lost": {"drop_rate": 1.0}}
+
+
+@pytest.fixture
+def rig():
+    r = Rig()
+    yield r
+    r.close()
+
+
+def _details(rig: Rig, cid: str) -> str:
+    return [a for a in rig.acks if a[0] == cid][-1][2]
+
+
+def test_late_ticks_of_a_stalled_controller_never_count_as_unanswered_frames(rig):
+    """The controller stalls 0.3 s between ticks, again and again, mid-move: every reply is
+    waiting when it resumes, so nothing was left unanswered."""
+    rig.submit("aaaa0001|MOVEJOINT|60|-90|180|0|0|180|2|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    for _ in range(5):
+        rig.tick(dt=0.3)
+        rig.tick(3)
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
+    view = rig.loop.stats.view()
+    assert view.link_losses == 0 and view.link_holds == 0 and view.unanswered_max == 0
+
+
+def test_replies_read_a_tick_late_still_answer_their_frames(rig):
+    """Replies 15 ms late (1.5 ticks, after the reply wait): each is read at the start of the
+    tick after next and still answers its frame; a jog runs to its end, no hold, no loss."""
+    rig.emu.set_faults(delay_s=0.015, direction="from_board")
+    rig.tick(5)
+    rig.submit("aaaa0001|JOG|0|50|0.5|None")
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED, _details(rig, "aaaa0001")
+    view = rig.loop.stats.view()
+    assert view.link_losses == 0 and view.link_holds == 0 and view.unanswered_max == 1
+
+
+@pytest.mark.parametrize("fault", sorted(BAD_REPLIES))
+def test_bad_replies_mid_jog_stop_the_board_before_the_loss_is_declared(rig, fault):
+    rig.submit("aaaa0001|JOG|0|60|5|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(10)
+    assert rig.emu.speeds[0] > 0
+    rig.emu.set_faults(direction="from_board", **BAD_REPLIES[fault])
+    n = len(rig.frames)
+    rig.tick(6)
+    after = rig.frames[n:]
+    # frame 1's reply is the first bad one; the zero-speed frame is the 3rd after the switch
+    # (2 ticks after that reply), then the link is lost (3 unanswered) and nothing more is written
+    stop = next(i for i, f in enumerate(after) if f.command == BoardCommand.JOG and f.speeds == ZERO)
+    assert stop == 2 and len(after) == 3, [(f.command, f.speeds) for f in after]
+    assert all(f.speeds[0] > 0 for f in after[:stop])
+    assert not rig.loop.link_up
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert "board link lost: the board left 3 frames in a row unanswered" in _details(rig, "aaaa0001")
+    view = rig.loop.stats.view()
+    assert view.link_holds == 1 and view.link_losses == 1
+    # the board's last command is the stop: nothing moves afterwards
+    assert rig.emu.speeds == ZERO
+    still = rig.emu.positions
+    rig.tick(100)
+    assert rig.emu.positions == still
+
+
+def test_new_motion_is_refused_while_replies_are_missing(rig):
+    rig.submit("aaaa0001|JOG|0|60|5|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.emu.set_faults(drop_rate=1.0, direction="from_board")
+    rig.tick(3)  # paused now; the loss comes with the next tick
+    assert rig.loop.holding and rig.loop.link_up
+    rig.submit("aaaa0002|JOG|1|60|1|None")
+    assert rig.terminal("aaaa0002") is AckStatus.FAILED
+
+
+def _loop(r: Rig, timeout: int, hold: int = 2) -> None:
+    r.loop = ControlLoop(transport=r.transport, executor=r.ex, guard=SafetyGuard(PAROL6, RATE), rate_hz=RATE,
+                         link_timeout_ticks=timeout, link_hold_frames=hold, reply_wait_fraction=0.0)
+    r.tick(3)
+
+
+def test_a_jog_paused_by_missing_replies_goes_on_when_they_come_back_and_covers_its_distance(rig):
+    """Replies lost for 6 ticks (a loaded PC's tty layer can hold them back that long): the
+    jog is paused with zero-speed frames from the 3rd tick, goes on when they return, and
+    still ends where its distance says; no loss (the threshold is 10 here)."""
+    _loop(rig, 10)
+    start = rig.emu.positions[0]
+    rig.submit("aaaa0001|JOG|0|60|None|4")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(15)
+    rig.emu.set_faults(drop_rate=1.0, direction="from_board")
+    n = len(rig.frames)
+    rig.tick(6)
+    rig.emu.clear_faults()
+    paused = rig.frames[n + 2:n + 6]
+    assert all(f.command == BoardCommand.JOG and f.speeds == ZERO for f in paused)
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED, _details(rig, "aaaa0001")
+    assert abs((rig.emu.positions[0] - start) / PAROL6.steps_per_deg[0] - 4.0) <= 0.02
+    view = rig.loop.stats.view()
+    assert view.link_losses == 0 and view.link_holds == 1 and view.unanswered_max == 6
+
+
+def test_a_position_move_paused_by_missing_replies_catches_up_and_keeps_its_time(rig):
+    _loop(rig, 10)
+    rig.submit("aaaa0001|MOVEJOINT|60|-80|170|10|-10|170|2|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    act = rig.ex.activity
+    final = tuple(act.positions[-1])
+    first = len(rig.frames) - 1
+    rig.tick(60)
+    rig.emu.set_faults(drop_rate=1.0, direction="from_board")
+    n = len(rig.frames)
+    rig.tick(5)
+    rig.emu.clear_faults()
+    held = rig.frames[n + 2:n + 5]
+    assert all(f.command == BoardCommand.GOTO and f.speeds == ZERO and f.positions == rig.frames[n + 1].positions
+               for f in held)
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
+    last = next(i for i, f in enumerate(rig.frames) if i > first and f.positions == final)
+    assert last - first <= act.n  # the 30 ms pause was caught up: on time
+    assert rig.loop.stats.view().link_losses == 0
+
+
+def test_lost_replies_mid_position_move_pause_it_then_the_loss_leaves_the_board_settled(rig):
+    """A 156 stream whose replies go missing is paused too (nothing moves while the
+    controller cannot see the board, not even an E-stop press): its last target with zero
+    feed-forward; the board settles there (not v_ff / 100 past it) and stays."""
+    rig.submit("aaaa0001|MOVEJOINT|50|-90|180|0|0|180|2|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    rig.tick(60)  # mid-move, at speed
+    rig.emu.set_faults(drop_rate=1.0, direction="from_board")
+    n = len(rig.frames)
+    rig.tick(5)
+    after = rig.frames[n:]
+    assert [f.command for f in after] == [BoardCommand.GOTO] * 3
+    assert all(abs(f.speeds[0]) > 100 for f in after[:2])
+    assert after[2].positions == after[1].positions and after[2].speeds == ZERO
+    assert rig.loop.last_frame == after[2]  # nothing written at the loss: the board was stopped
+    assert not rig.loop.link_up and rig.loop.stats.view().link_holds == 1
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    rig.tick(50)
+    assert abs(rig.emu.positions[0] - after[2].positions[0]) <= 2 < abs(after[1].speeds[0]) / 100 - 2
+    still = rig.emu.positions
+    rig.tick(50)
+    assert rig.emu.positions == still
+
+
+def test_the_loss_writes_a_stop_frame_when_the_last_frame_still_moves():
+    """With the pause switched off (hold = loss threshold), the frame written at the loss stops
+    what the last frame commanded."""
+    r = Rig()
+    try:
+        _loop(r, 3, hold=3)
+        r.submit("aaaa0001|JOG|0|60|5|None")
+        r.run_until(lambda: AckStatus.EXECUTING in r.statuses("aaaa0001"))
+        r.emu.set_faults(drop_rate=1.0, direction="from_board")
+        n = len(r.frames)
+        r.tick(5)
+        assert len(r.frames) - n == 3 and all(f.speeds[0] > 0 for f in r.frames[n:])
+        stop = r.loop.last_frame
+        assert stop is not None and stop.command == BoardCommand.JOG and stop.speeds == ZERO
+        assert r.emu.speeds == ZERO and not r.loop.link_up
+    finally:
+        r.close()
+
+
+def test_a_silent_board_is_lost_after_the_configured_number_of_unanswered_frames():
+    r = Rig()
+    try:
+        _loop(r, 5)
+        r.submit("aaaa0001|DELAY|2")
+        r.run_until(lambda: AckStatus.EXECUTING in r.statuses("aaaa0001"))
+        r.emu.set_faults(silent=True)
+        n = len(r.frames)
+        r.tick(10)
+        assert len(r.frames) - n == 5  # five frames left unanswered, then the link is lost
+        assert all(f.command == BoardCommand.IDLE for f in r.frames[n:])
+        assert r.terminal("aaaa0001") is AckStatus.CANCELLED
+        assert "5 frames in a row unanswered" in r.ex.error
+        assert r.loop.stats.view().link_holds == 0  # nothing was streaming a speed
+    finally:
+        r.close()
+
+
+def test_hold_frames_may_not_exceed_the_loss_threshold():
+    ex = Executor(model=PAROL6, rate_hz=RATE, queue_size=4, watchdog_s=0.02)
+    r = Rig()
+    try:
+        with pytest.raises(ValueError, match="link_hold_frames must be 1..link_timeout_ticks"):
+            ControlLoop(transport=r.transport, executor=ex, guard=SafetyGuard(PAROL6, RATE), rate_hz=RATE,
+                        link_timeout_ticks=2, link_hold_frames=3)
+    finally:
+        r.close()
