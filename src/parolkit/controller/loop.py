@@ -264,7 +264,7 @@ class ControlLoop:
         if step is None or not self.transport.is_open:
             return
         try:
-            self._send(self._guarded(step))
+            self._send(self._guarded(step, time.monotonic()))
         except Exception as exc:  # the link is going away anyway
             log.warning("could not write the stop frame before declaring the link lost: %s", exc)
 
