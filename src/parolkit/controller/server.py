@@ -47,7 +47,7 @@ from parolkit.transport.options import TransportURLError
 
 __all__ = [
     "Outbox", "StatusStream", "UdpServer", "QueryAnswerer", "SUBSCRIPTION_TTL_S", "MAX_SUBSCRIBERS",
-    "MAX_DATAGRAMS_PER_SOURCE",
+    "MAX_DATAGRAMS_PER_SOURCE", "LOG_BUDGET_BYTES_PER_S",
 ]
 
 log = logging.getLogger("parolkit.controller")
@@ -62,6 +62,8 @@ MAX_DATAGRAMS_PER_SOURCE = 256
 SERVE_BATCH = 8
 #: at most this many datagrams are read in one drain before serving again
 DRAIN_MAX = 512
+#: bytes of log lines about invalid datagrams per second; the rest is counted, not logged
+LOG_BUDGET_BYTES_PER_S = 4096
 
 
 class QueryAnswerer(Protocol):
@@ -275,8 +277,10 @@ class UdpServer:
         self.busy_acks = 0
         self.safety_fast = 0
         self._log_window = 0.0
-        self._log_count = 0
+        self._log_bytes = 0
         self._suppressed = 0
+        #: invalid datagrams not logged one by one (over the log budget), since start
+        self.log_suppressed = 0
 
     def start(self) -> None:
         self._running = True
@@ -292,7 +296,7 @@ class UdpServer:
         return {
             "received": self.received, "invalid": self.invalid, "shed": self.shed,
             "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
-            "safety_fast": self.safety_fast,
+            "safety_fast": self.safety_fast, "log_suppressed": self.log_suppressed,
         }
 
     @property
@@ -417,17 +421,21 @@ class UdpServer:
             log.debug("reply to %s failed: %s", addr, exc)
 
     def _log_invalid(self, addr: Address, message: str) -> None:
+        """Log an invalid datagram within LOG_BUDGET_BYTES_PER_S; what does not fit is counted
+        and reported in one line when the next second's first invalid datagram comes."""
         now = time.monotonic()
         if now - self._log_window >= 1.0:
             if self._suppressed:
-                log.warning("%d more invalid datagrams in the last second (not logged one by one)",
-                            self._suppressed)
-            self._log_window, self._log_count, self._suppressed = now, 0, 0
-        if self._log_count < 20:
-            self._log_count += 1
-            log.warning("invalid datagram from %s:%s: %s", addr[0], addr[1], message)
+                log.warning("%d more invalid datagrams in the last second (not logged one by one: "
+                            "the log takes at most %d bytes/s of them)", self._suppressed, LOG_BUDGET_BYTES_PER_S)
+            self._log_window, self._log_bytes, self._suppressed = now, 0, 0
+        line = f"invalid datagram from {addr[0]}:{addr[1]}: {message}"
+        if self._log_bytes + len(line) <= LOG_BUDGET_BYTES_PER_S:
+            self._log_bytes += len(line)
+            log.warning("%s", line)
         else:
             self._suppressed += 1
+            self.log_suppressed += 1
 
     def _ack(self, command_id: str | None, addr: Address, status: AckStatus, details: str = "") -> None:
         """An ack that reports nothing the status shows (queries, ACK_HERE, SUBSCRIBE, INVALID,
