@@ -149,7 +149,8 @@ class AsyncStatusSubscription:
         loop = asyncio.get_running_loop()
         self._transport, _ = await loop.create_datagram_endpoint(
             lambda: _StreamProtocol(self._queue),
-            local_addr=(bind_address(self._robot.host), 0), family=socket.AF_INET)
+            local_addr=(bind_address(self._robot.host), 0),
+            remote_addr=(self._robot.host, self._robot.port), family=socket.AF_INET)
         self.port = self._transport.get_extra_info("sockname")[1]
         self.renew()
         self._renewer = asyncio.ensure_future(self._renew_loop())
@@ -280,7 +281,8 @@ class AsyncRobot(RobotCommands):
                 transport, _ = await loop.create_datagram_endpoint(
                     lambda: _Protocol(self),
                     local_addr=(bind_address(self.host), self._requested_ack_port),
-                    family=socket.AF_INET)
+                    # connected: only the controller's datagrams arrive (no forged acks)
+                    remote_addr=(self.host, self.port), family=socket.AF_INET)
             except OSError as exc:
                 raise RobotError(
                     f"cannot bind UDP port {self._requested_ack_port} for acknowledgements: "
@@ -328,7 +330,7 @@ class AsyncRobot(RobotCommands):
         if self._transport is None or self._closed:
             raise RobotError("this AsyncRobot is not open (closed, or not used inside its event loop)")
         try:
-            self._transport.sendto(text.encode("utf-8"), (self.host, self.port))
+            self._transport.sendto(text.encode("utf-8"))
         except OSError as exc:
             raise ControllerUnreachable(
                 f"cannot send to {self.host}:{self.port}: {exc.strerror or exc}") from None

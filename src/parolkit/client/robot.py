@@ -99,6 +99,8 @@ class StatusSubscription:
         self._timeout = timeout
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._sock.bind((bind_address(robot.host), 0))
+        # connected: the kernel delivers only the controller's datagrams (no forged statuses)
+        self._sock.connect(robot._addr)
         self.port: int = self._sock.getsockname()[1]
         self._closed = threading.Event()
         self._last_renew = 0.0
@@ -210,6 +212,13 @@ class Robot(RobotCommands):
             raise RobotError(
                 f"cannot bind UDP port {ack_port} for acknowledgements: {exc.strerror}; another "
                 "program holds it (use ack_port=0 for an ephemeral port)") from None
+        try:
+            # connected: the kernel delivers only datagrams from the controller's address, so no
+            # other process can forge an ack or a reply (the controller answers from this port)
+            self._sock.connect(self._addr)
+        except OSError as exc:
+            self._sock.close()
+            raise ControllerUnreachable(f"cannot reach {host}:{self.port}: {exc.strerror or exc}") from None
         self.ack_port: int = self._sock.getsockname()[1]
         self._sock.settimeout(0.25)  # lets the reader thread notice close()
         self._cond = threading.Condition()
@@ -230,7 +239,7 @@ class Robot(RobotCommands):
         if self._closed:
             raise RobotError("this Robot is closed")
         try:
-            self._sock.sendto(text.encode("utf-8"), self._addr)
+            self._sock.send(text.encode("utf-8"))
         except OSError as exc:  # unresolvable host, no route, ...
             raise ControllerUnreachable(
                 f"cannot send to {self.host}:{self.port}: {exc.strerror or exc}") from None
@@ -246,6 +255,8 @@ class Robot(RobotCommands):
                 if self._closed:
                     return
                 continue  # e.g. ICMP port unreachable reported on Linux: keep listening
+            if not data:
+                continue  # close() shut the socket down (or an empty datagram): check _closed
             text = data.decode("utf-8", "replace")
             with self._cond:
                 self._last_heard = time.monotonic()
@@ -372,7 +383,7 @@ class Robot(RobotCommands):
             return
         self._closed = True
         try:  # wake the reader thread at once instead of waiting for its poll timeout
-            self._sock.sendto(b"", ("127.0.0.1", self.ack_port))
+            self._sock.shutdown(socket.SHUT_RDWR)
         except OSError:
             pass
         self._reader.join(1.0)

@@ -40,11 +40,12 @@ reply parsers (``parse_*``, :func:`matrix_to_pose`) that ``parolkit.Robot`` shar
 from __future__ import annotations
 
 import math
+import secrets
 import socket
+import string
 import sys
 import threading
 import time
-import uuid
 from collections import OrderedDict
 from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
 
@@ -582,9 +583,19 @@ def build_unsubscribe(port: Any) -> str:
 # =============================================================================================
 
 
+_ID_ALPHABET = string.ascii_letters + string.digits
+#: lower-case command names of 8 letters, which the controller reads as names, not IDs
+_NAME_LIKE_IDS = frozenset({"movepose", "movecart", "multijog"})
+
+
 def new_command_id() -> str:
-    """A fresh 8-character command ID (the first 8 hex digits of a uuid4: never all upper-case)."""
-    return uuid.uuid4().hex[:8]
+    """A fresh, unguessable 8-character command ID: letters and digits from the operating
+    system's random source (62**8, about 2**47 values), never all upper-case (the protocol reads
+    an all-upper-case first field as a command name)."""
+    while True:
+        cid = "".join(secrets.choice(_ID_ALPHABET) for _ in range(8))
+        if not cid.isupper() and cid.lower() not in _NAME_LIKE_IDS:
+            return cid
 
 
 def parse_reply(text: str, tag: str) -> str:
@@ -685,6 +696,8 @@ class _AckTracker:
         self._sock: Optional[socket.socket] = None
         self._thread: Optional[threading.Thread] = None
         self._port: Optional[int] = None
+        #: ack-shaped datagrams ignored because they did not come from the controller
+        self.foreign = 0
 
     @property
     def active(self) -> bool:
@@ -728,7 +741,7 @@ class _AckTracker:
     def _run(self, sock: socket.socket) -> None:
         while True:
             try:
-                data, _ = sock.recvfrom(65535)
+                data, addr = sock.recvfrom(65535)
             except socket.timeout:
                 if self._sock is not sock:
                     return
@@ -741,11 +754,14 @@ class _AckTracker:
             ack = parse_ack(data.decode("utf-8", "replace"))
             if ack is None:
                 continue
+            if not _from_controller(addr):
+                self.foreign += 1  # anyone on the machine can send to this port: not an ack
+                continue
             cmd_id, status, details = ack
             with self._cond:
                 rec = self._records.get(cmd_id)
                 if rec is None:
-                    rec = self._records[cmd_id] = {"command": None, "sent_time": None}
+                    continue  # not a command this process sent
                 if not rec.get("completed"):  # the first terminal ack is final
                     rec.update(status=status, details=details, ack_time=time.time(),
                                completed=status in TERMINAL_STATUSES)
@@ -796,6 +812,27 @@ class _AckTracker:
             return {"active": self.active, "ack_port": bound,
                     "commands_tracked": len(self._records),
                     "pending": sum(1 for r in self._records.values() if not r.get("completed"))}
+
+
+def _controller_addresses(host: str, port: int) -> frozenset:
+    try:
+        infos = socket.getaddrinfo(host, port, socket.AF_INET, socket.SOCK_DGRAM)
+    except OSError:
+        return frozenset()
+    return frozenset((info[4][0], port) for info in infos)
+
+
+_resolved: Dict[Tuple[str, int], frozenset] = {}
+
+
+def _from_controller(addr: Any) -> bool:
+    """True when ``addr`` (a datagram's sender) is the controller's command socket: acks and
+    replies come from it, so anything else (another process on the machine) is ignored."""
+    key = (SERVER_IP, SERVER_PORT)
+    known = _resolved.get(key)
+    if known is None:
+        known = _resolved[key] = _controller_addresses(*key)
+    return (addr[0], addr[1]) in known
 
 
 _tracker = _AckTracker()
@@ -1073,7 +1110,9 @@ def _query(request: str, tag: str) -> Optional[str]:
     try:
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
             sock.settimeout(QUERY_TIMEOUT)
-            sock.sendto(request.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+            # connected: only the controller's reply can arrive (no forged answers)
+            sock.connect((SERVER_IP, SERVER_PORT))
+            sock.send(request.encode("utf-8"))
             deadline = time.monotonic() + QUERY_TIMEOUT
             while True:
                 data, _ = sock.recvfrom(65535)
