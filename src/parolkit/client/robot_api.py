@@ -47,7 +47,7 @@ import sys
 import threading
 import time
 from collections import OrderedDict
-from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Dict, FrozenSet, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 __all__ = [
     # configuration
@@ -814,7 +814,7 @@ class _AckTracker:
                     "pending": sum(1 for r in self._records.values() if not r.get("completed"))}
 
 
-def _controller_addresses(host: str, port: int) -> frozenset:
+def _controller_addresses(host: str, port: int) -> FrozenSet[Tuple[str, int]]:
     try:
         infos = socket.getaddrinfo(host, port, socket.AF_INET, socket.SOCK_DGRAM)
     except OSError:
@@ -822,7 +822,7 @@ def _controller_addresses(host: str, port: int) -> frozenset:
     return frozenset((info[4][0], port) for info in infos)
 
 
-_resolved: Dict[Tuple[str, int], frozenset] = {}
+_resolved: Dict[Tuple[str, int], FrozenSet[Tuple[str, int]]] = {}
 
 
 def _from_controller(addr: Any) -> bool:
