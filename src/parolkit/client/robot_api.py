@@ -819,7 +819,7 @@ def _controller_addresses(host: str, port: int) -> FrozenSet[Tuple[str, int]]:
         infos = socket.getaddrinfo(host, port, socket.AF_INET, socket.SOCK_DGRAM)
     except OSError:
         return frozenset()
-    return frozenset((info[4][0], port) for info in infos)
+    return frozenset((str(info[4][0]), port) for info in infos)
 
 
 _resolved: Dict[Tuple[str, int], FrozenSet[Tuple[str, int]]] = {}
