@@ -80,6 +80,11 @@ class ControllerSettings:
     stream_watchdog_s: float = 0.02
     #: time scale of the simulated board's homing (1 = real time)
     sim_homing_speedup: float = 20.0
+    #: the control lease lapses after this much silence from its holder with the robot idle, s
+    lease_timeout_s: float = 10.0
+    #: shared secret for taking control (CONTROL|TAKE|secret); None = no secret (loopback use).
+    #: Set one when the controller is bound beyond loopback.
+    secret: str | None = None
     #: run the stop supervisor on a serial link: a small process that writes a DISABLE frame
     #: the moment this controller dies (the board firmware has no watchdog)
     supervisor: bool = True
@@ -99,6 +104,12 @@ class ControllerSettings:
             raise ParolkitValueError("controller.bind must be a host address string")
         if not isinstance(self.home_on_start, bool):
             raise ParolkitValueError("controller.home_on_start must be true or false")
+        _positive(self.lease_timeout_s, "controller.lease_timeout_s", hi=86_400.0)
+        if self.secret is not None and (not isinstance(self.secret, str) or not 8 <= len(self.secret) <= 128
+                                        or not self.secret.isascii() or not self.secret.isprintable()
+                                        or "|" in self.secret or " " in self.secret):
+            raise ParolkitValueError(
+                "controller.secret must be 8..128 printable ASCII characters without '|' or spaces")
         if not isinstance(self.supervisor, bool):
             raise ParolkitValueError("controller.supervisor must be true or false")
         if isinstance(self.supervisor_stall_s, bool) or not isinstance(self.supervisor_stall_s, (int, float)) \

@@ -163,7 +163,9 @@ class AsyncStatusSubscription:
         if self._closed or self.port is None:
             return
         try:
-            self._robot._send(wire.build_subscribe(self.port, self._every_n))
+            # from this socket: the controller streams only to the socket that asks
+            if self._transport is not None:
+                self._transport.sendto(wire.build_subscribe(self.port, self._every_n).encode("utf-8"))
             self._robot.register_for_acks()
         except (OSError, RobotError):
             pass
@@ -210,8 +212,9 @@ class AsyncStatusSubscription:
             self._renewer.cancel()
         if self.port is not None:
             try:
-                self._robot._send(wire.build_unsubscribe(self.port))
-            except (OSError, RobotError):
+                if self._transport is not None:
+                    self._transport.sendto(wire.build_unsubscribe(self.port).encode("utf-8"))
+            except OSError:
                 pass
         if self._transport is not None:
             self._transport.close()
@@ -466,7 +469,13 @@ class AsyncRobot(RobotCommands):
             await asyncio.sleep(poll_s)
 
     async def close(self) -> None:
-        """Close the endpoint (idempotent)."""
+        """Give the control lease back (if this client holds it) and close the endpoint
+        (idempotent)."""
+        if self._transport is not None and not self._closed:
+            try:
+                self._transport.sendto(b"CONTROL|RELEASE")
+            except OSError:
+                pass
         self._closed = True
         if self._transport is not None:
             self._transport.close()

@@ -116,7 +116,8 @@ class StatusSubscription:
             self._callback_thread.start()
 
     def _renew(self) -> None:
-        self._robot._send(wire.build_subscribe(self.port, self._every_n))
+        # from this socket: the controller streams only to the socket that asks
+        self._sock.send(wire.build_subscribe(self.port, self._every_n).encode("utf-8"))
         self._last_renew = time.monotonic()
 
     def _renew_loop(self) -> None:
@@ -174,8 +175,8 @@ class StatusSubscription:
             return
         self._closed.set()
         try:
-            self._robot._send(wire.build_unsubscribe(self.port))
-        except (OSError, RobotError):
+            self._sock.send(wire.build_unsubscribe(self.port).encode("utf-8"))
+        except OSError:
             pass
         self._sock.close()
 
@@ -378,9 +379,14 @@ class Robot(RobotCommands):
             time.sleep(poll_s)
 
     def close(self) -> None:
-        """Close the socket (idempotent)."""
+        """Give the control lease back (if this client holds it) and close the socket
+        (idempotent)."""
         if self._closed:
             return
+        try:
+            self._send("CONTROL|RELEASE")
+        except RobotError:
+            pass
         self._closed = True
         try:  # wake the reader thread at once instead of waiting for its poll timeout
             self._sock.shutdown(socket.SHUT_RDWR)

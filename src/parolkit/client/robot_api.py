@@ -39,6 +39,7 @@ reply parsers (``parse_*``, :func:`matrix_to_pose`) that ``parolkit.Robot`` shar
 
 from __future__ import annotations
 
+import json
 import math
 import secrets
 import socket
@@ -80,6 +81,7 @@ __all__ = [
     "build_wait_input", "build_smooth_circle", "build_smooth_arc_center",
     "build_smooth_arc_param", "build_smooth_spline", "build_smooth_helix", "build_smooth_blend",
     "build_stream", "build_set_tool", "build_set_port", "build_subscribe", "build_unsubscribe",
+    "build_control", "take_control", "release_control", "get_control",
     "CARTESIAN_AXES", "FRAMES", "PLANES", "PROFILES", "TRACKING_MODES", "TIMING_MODES",
     "SEGMENT_TYPES",
 ]
@@ -573,6 +575,21 @@ def build_subscribe(port: Any, every_n: Any = 1) -> str:
     return _join("SUBSCRIBE", _int(port, "port", 1, 65535), _int(every_n, "every_n", 1, 1_000_000))
 
 
+def build_control(action: str, force: bool = False, secret: Optional[str] = None) -> str:
+    """**(ext)** ``CONTROL|TAKE[|FORCE][|secret]`` or ``CONTROL|RELEASE`` (the control lease)."""
+    act = str(action).strip().upper()
+    if act == "RELEASE":
+        return "CONTROL|RELEASE"
+    if act != "TAKE":
+        raise ValueError(f"action must be 'take' or 'release', got {action!r}")
+    parts = ["CONTROL", "TAKE"] + (["FORCE"] if force else [])
+    if secret is not None:
+        if not isinstance(secret, str) or not secret or "|" in secret or not secret.isascii():
+            raise ValueError("secret must be non-empty ASCII text without '|'")
+        parts.append(secret)
+    return "|".join(parts)
+
+
 def build_unsubscribe(port: Any) -> str:
     """**(ext)** ``UNSUBSCRIBE|port``."""
     return _join("UNSUBSCRIBE", _int(port, "port", 1, 65535))
@@ -974,6 +991,33 @@ def home_robot(wait_for_ack: bool = False, timeout: float = 30.0,
                non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Run the board's homing sequence."""
     return _dispatch(build_home(), wait_for_ack, timeout, non_blocking)
+
+
+def take_control(force: bool = False, secret: Optional[str] = None, timeout: float = 2.0
+                 ) -> Dict[str, Any]:
+    """**(ext)** Take the control lease (only its holder may move the robot; a free lease is
+    also taken by the first motion command).  ``force`` takes it from another client and
+    cancels that client's commands.  Returns the terminal ack dict."""
+    return send_and_wait(build_control("TAKE", force, secret), timeout)  # type: ignore[return-value]
+
+
+def release_control(timeout: float = 2.0) -> Dict[str, Any]:
+    """**(ext)** Give the control lease back (another client may then command the robot)."""
+    return send_and_wait(build_control("RELEASE"), timeout)  # type: ignore[return-value]
+
+
+def get_control() -> Optional[Dict[str, Any]]:
+    """**(ext)** Who holds the control lease: ``{'holder', 'held_s', 'idle_s', 'timeout_s',
+    'secret_required', 'refused', 'taken_over'}`` (holder None when free), or None."""
+    payload = _query("GET_CONTROL", "CONTROL")
+    if payload is None:
+        return None
+    try:
+        value = json.loads(payload)
+    except ValueError:
+        print(f"robot_api: GET_CONTROL: malformed reply {payload[:80]!r}", file=sys.stderr)
+        return None
+    return value if isinstance(value, dict) else None
 
 
 def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,

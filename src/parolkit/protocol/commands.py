@@ -354,6 +354,9 @@ class Command:
 
     NAME: ClassVar[str] = ""
     KIND: ClassVar[CommandKind] = CommandKind.QUEUED
+    #: accepted from any client; False: only from the holder of the control lease
+    #: (docs/protocol.md, "Who may move the robot")
+    OPEN: ClassVar[bool] = False
 
     @property
     def name(self) -> str:
@@ -367,7 +370,7 @@ class Command:
 
 QUERY_NAMES = (
     "GET_POSE", "GET_ANGLES", "GET_IO", "GET_GRIPPER", "GET_SPEEDS", "PING", "GET_STATUS",
-    "GET_STATUS_JSON", "GET_LOOP_STATS", "GET_PLAN", "GET_TOOL", "GET_QUEUE",
+    "GET_STATUS_JSON", "GET_LOOP_STATS", "GET_PLAN", "GET_TOOL", "GET_QUEUE", "GET_CONTROL",
 )
 
 
@@ -377,6 +380,7 @@ class Query(Command):
 
     query: str = "PING"
     KIND: ClassVar[CommandKind] = CommandKind.QUERY
+    OPEN: ClassVar[bool] = True
 
     @property
     def name(self) -> str:
@@ -389,6 +393,7 @@ class Stop(Command):
 
     NAME: ClassVar[str] = "STOP"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -398,6 +403,7 @@ class AckHere(Command):
 
     NAME: ClassVar[str] = "ACK_HERE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -414,6 +420,7 @@ class Disable(Command):
 
     NAME: ClassVar[str] = "DISABLE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -430,6 +437,7 @@ class EStop(Command):
 
     NAME: ClassVar[str] = "ESTOP"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -467,6 +475,21 @@ class Subscribe(Command):
     every_n_ticks: int = 1
     NAME: ClassVar[str] = "SUBSCRIBE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Control(Command):
+    """``CONTROL|TAKE[|FORCE][|secret]`` / ``CONTROL|RELEASE``: take or give back the control
+    lease (docs/protocol.md).  ``force`` takes it from another client (whose queued and running
+    commands are then cancelled); ``secret`` is the controller's shared secret when it has one."""
+
+    action: str = "TAKE"
+    force: bool = False
+    secret: str | None = None
+    NAME: ClassVar[str] = "CONTROL"
+    KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -476,6 +499,7 @@ class Unsubscribe(Command):
     port: int = 0
     NAME: ClassVar[str] = "UNSUBSCRIBE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -977,6 +1001,31 @@ def _p_settool(a: Sequence[str], m: RobotModel) -> Command:
     return SetTool(name)
 
 
+#: a shared secret on the wire: printable ASCII without the separator, 1..128 characters
+_SECRET_RE = re.compile(r"^[!-{}~]{1,128}$", re.ASCII)
+
+
+def _p_control(a: Sequence[str], m: RobotModel) -> Command:
+    if not a:
+        raise DatagramError("CONTROL needs TAKE or RELEASE: CONTROL|TAKE[|FORCE][|secret] or CONTROL|RELEASE")
+    action = a[0].strip().upper()
+    if action == "RELEASE":
+        _nargs(a, "CONTROL|RELEASE", 1)
+        return Control("RELEASE")
+    if action != "TAKE":
+        raise DatagramError(f"CONTROL takes TAKE or RELEASE, got {_show(a[0])}")
+    rest = [f.strip() for f in a[1:]]
+    force = bool(rest) and rest[0].upper() == "FORCE"
+    if force:
+        rest = rest[1:]
+    if len(rest) > 1:
+        raise DatagramError("CONTROL|TAKE takes at most FORCE and a secret: CONTROL|TAKE[|FORCE][|secret]")
+    secret = rest[0] if rest else None
+    if secret is not None and not _SECRET_RE.match(secret):
+        raise DatagramError("the secret must be 1..128 printable ASCII characters without '|' or spaces")
+    return Control("TAKE", force, secret)
+
+
 def _p_subscribe(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SUBSCRIBE", 1, 2)
     port = _integer(a[0], "port", 1, 65535)
@@ -1027,6 +1076,7 @@ _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "SET_PORT": _p_setport,
     "SET_TOOL": _p_settool,
     "SUBSCRIBE": _p_subscribe,
+    "CONTROL": _p_control,
     "UNSUBSCRIBE": _p_unsubscribe,
 }
 #: every command and query name (upper case)
