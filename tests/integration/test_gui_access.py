@@ -79,7 +79,7 @@ class Gui:
 
     def websocket(self, origin: str | None, cookie: str | None = None) -> str:
         """The status line (and headers) the server answers a socket.io websocket upgrade with."""
-        lines = [f"GET /_nicegui_ws/socket.io/?EIO=4&transport=websocket HTTP/1.1",
+        lines = ["GET /_nicegui_ws/socket.io/?EIO=4&transport=websocket HTTP/1.1",
                  f"Host: 127.0.0.1:{self.port}", "Upgrade: websocket", "Connection: Upgrade",
                  "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==", "Sec-WebSocket-Version: 13"]
         if origin is not None:
