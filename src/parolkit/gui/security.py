@@ -164,9 +164,10 @@ class AccessPolicy:
         name = host_name(header)
         return name is not None and name in self.allowed
 
-    def origin_allowed(self, origin: str | None) -> bool:
+    def origin_allowed(self, origin: str | None, environ: object = None) -> bool:
         """True for an http(s) origin on an allowed host (any port: an SSH tunnel or a reverse
-        proxy may change it)."""
+        proxy may change it).  ``environ`` is ignored: the signature of engineio's
+        ``cors_allowed_origins`` callable."""
         if origin is None:
             return False
         name = origin_host(origin)
