@@ -81,6 +81,8 @@ class Job:
     terminal: AckStatus | None = None
     #: the plan made ahead for this job before it was queued, until used
     ahead: PlanAhead | None = None
+    #: who sent it (see Submission.client)
+    client: str = ""
 
     @property
     def name(self) -> str:
