@@ -16,6 +16,7 @@ Example ``parolkit.toml``::
 
     [gui]
     http_port = 8080
+    programs_dir = "~/parol-programs"
 
     [tools.pen]           # a user tool: pose of the TCP in the flange frame, mm / deg
     pose = [0, 0, 120, 0, 0, 0]
@@ -30,7 +31,9 @@ file (:func:`find_config_file`) before paying for numpy.
 from __future__ import annotations
 
 import dataclasses
+import ipaddress
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -94,6 +97,11 @@ class ControllerSettings:
     stream_watchdog_s: float = 0.02
     #: time scale of the simulated board's homing (1 = real time)
     sim_homing_speedup: float = 20.0
+    #: the control lease lapses after this much silence from its holder with the robot idle, s
+    lease_timeout_s: float = 10.0
+    #: shared secret for taking control (CONTROL|TAKE|secret); None = no secret (loopback use).
+    #: Set one when the controller is bound beyond loopback.
+    secret: str | None = None
     #: run the stop supervisor on a serial link: a small process that writes a DISABLE frame
     #: the moment this controller dies (the board firmware has no watchdog)
     supervisor: bool = True
@@ -123,6 +131,12 @@ class ControllerSettings:
             raise ParolkitValueError("controller.bind must be a host address string")
         if not isinstance(self.home_on_start, bool):
             raise ParolkitValueError("controller.home_on_start must be true or false")
+        _positive(self.lease_timeout_s, "controller.lease_timeout_s", hi=86_400.0)
+        if self.secret is not None and (not isinstance(self.secret, str) or not 8 <= len(self.secret) <= 128
+                                        or not self.secret.isascii() or not self.secret.isprintable()
+                                        or "|" in self.secret or " " in self.secret):
+            raise ParolkitValueError(
+                "controller.secret must be 8..128 printable ASCII characters without '|' or spaces")
         if not isinstance(self.supervisor, bool):
             raise ParolkitValueError("controller.supervisor must be true or false")
         if isinstance(self.supervisor_stall_s, bool) or not isinstance(self.supervisor_stall_s, (int, float)) \
@@ -173,16 +187,73 @@ class SerialSettings:
         return self.port is None or self._parsed_port().simulated
 
 
+#: a host name (RFC 1123 labels) for gui.allowed_hosts
+_LABEL = r"[a-z0-9](?:[a-z0-9-]{0,61}[a-z0-9])?"
+_HOST_NAME = re.compile(rf"^(?=.{{1,253}}$){_LABEL}(?:\.{_LABEL})*$", re.IGNORECASE)
+
+
 @dataclass(frozen=True)
 class GuiSettings:
-    """The web commander (``parolkit gui``)."""
+    """The web commander (``parolkit gui``, docs/gui.md)."""
 
     http_port: int = 8080
+    #: address the commander binds; beyond loopback it needs ``password``
     host: str = "127.0.0.1"
     open_browser: bool = True
+    #: the only folder the commander's Open / Save read and write (names only, ``.rbt``);
+    #: None = ``$XDG_DATA_HOME/parolkit/programs`` (``~/.local/share/parolkit/programs``).
+    #: ``~`` is expanded; a relative path is taken from the current directory.
+    programs_dir: str | None = None
+    #: host names or addresses the browser may use to reach the commander, besides
+    #: localhost, 127.0.0.1, ::1 and the bound address (the ``Host`` and ``Origin`` allow-list)
+    allowed_hosts: tuple[str, ...] = ()
+    #: login password (8..256 printable characters); required when ``host`` is beyond loopback,
+    #: and when set every page asks for it
+    password: str | None = None
 
     def __post_init__(self) -> None:
         _port(self.http_port, "gui.http_port")
+        if not isinstance(self.host, str) or not self.host.strip():
+            raise ParolkitValueError(f"gui.host must be a host name or address, got {self.host!r}")
+        if not isinstance(self.open_browser, bool):
+            raise ParolkitValueError("gui.open_browser must be true or false")
+        if self.programs_dir is not None and (not isinstance(self.programs_dir, str)
+                                              or not self.programs_dir.strip() or "\0" in self.programs_dir):
+            raise ParolkitValueError(
+                f"gui.programs_dir must be a folder path such as \"~/parol-programs\", got {self.programs_dir!r}")
+        hosts = self.allowed_hosts
+        if isinstance(hosts, str) or not isinstance(hosts, (list, tuple)):
+            raise ParolkitValueError(
+                f"gui.allowed_hosts must be a list of host names or addresses, such as [\"robot-pc.local\"], "
+                f"got {hosts!r}")
+        for h in hosts:
+            _allowed_host(h)
+        object.__setattr__(self, "allowed_hosts", tuple(h.lower().strip("[]") for h in hosts))
+        pw = self.password
+        if pw is not None and (not isinstance(pw, str) or not 8 <= len(pw) <= 256 or not pw.isprintable()):
+            raise ParolkitValueError("gui.password must be 8..256 printable characters"
+                                     + ("" if isinstance(pw, str) else f", got a {type(pw).__name__}"))
+
+    def __repr__(self) -> str:  # never show the password (config objects end up in logs)
+        fields = ", ".join(f"{f.name}={'***' if f.name == 'password' and self.password else getattr(self, f.name)!r}"
+                           for f in dataclasses.fields(self))
+        return f"GuiSettings({fields})"
+
+
+def _allowed_host(h: object) -> None:
+    """One entry of gui.allowed_hosts: a host name or an IP address (IPv6 with or without
+    brackets), no scheme, port or path."""
+    if isinstance(h, str):
+        bare = h[1:-1] if h.startswith("[") and h.endswith("]") else h
+        try:
+            ipaddress.ip_address(bare)
+            return
+        except ValueError:
+            if _HOST_NAME.match(bare):
+                return
+    raise ParolkitValueError(
+        f"gui.allowed_hosts: {h!r} is not a host name or an IP address (write the name only, such as "
+        "\"robot-pc.local\" or \"192.168.1.20\": no http://, port or path)")
 
 
 @dataclass(frozen=True)

@@ -57,6 +57,10 @@ __all__ = [
     "check_joint_limits_steps",
     "check_joint_speeds_steps_s",
     "as_joint_array",
+    "GOTO_GAIN_PER_S",
+    "GOTO_FF_GAIN",
+    "GOTO_ARRIVAL_JITTER_S",
+    "goto_tracking_factor",
 ]
 
 NUM_JOINTS = 6
@@ -68,6 +72,19 @@ FULL_STEPS_PER_REV = 200
 MICROSTEPS = 32
 #: Motor-shaft degrees per microstep: 360 / (200 * 32) = 0.05625.
 MOTOR_DEG_PER_STEP = 360.0 / (FULL_STEPS_PER_REV * MICROSTEPS)
+
+#: GO TO (board command 156) is a P loop the firmware re-evaluates on every pass of its main
+#: loop (../shared/spec/board-firmware.md): ``v = int(((target - current) / 0.01 + v_ff) / 2)``,
+#: i.e. ``v = GOTO_FF_GAIN * v_ff + GOTO_GAIN_PER_S * (target - current)`` [steps/s]: the
+#: board heads for ``target + v_ff * GOTO_FF_GAIN / GOTO_GAIN_PER_S`` at a speed proportional
+#: to the distance left, so within one frame its speed decays as ``exp(-GOTO_GAIN_PER_S t)``.
+GOTO_GAIN_PER_S = 50.0
+#: Weight of a GO TO frame's feed-forward speed in the board's speed (see GOTO_GAIN_PER_S).
+GOTO_FF_GAIN = 0.5
+#: Position-tracked (156) plans keep the board within its maximum speed even when a frame
+#: reaches the board this much earlier than one period after the one before (a late tick
+#: followed by an on-time one, USB scheduling), s.  See :func:`goto_tracking_factor`.
+GOTO_ARRIVAL_JITTER_S = 0.001
 
 
 @dataclass(frozen=True)
@@ -255,6 +272,14 @@ class RobotModel:
         lo, hi = self.cart_linear_speed_range_mm_s
         return lo + (hi - lo) * p / 100.0
 
+    def max_tracked_speed_steps_s(self, rate_hz: float) -> NDArray[np.float64]:
+        """Fastest joint speeds (steps/s) a position-tracked (GO TO, 156) stream may ask for
+        at control rate ``rate_hz``: :attr:`max_speed_steps_s` x :func:`goto_tracking_factor`
+        (0.763 at 100 Hz: [4960, 13737, 15264, 16790, 16790, 16790]), rounded down to whole
+        steps/s so that a speed rounded to whole steps/s cannot cross it.  Speed-only streams
+        (123) may use the full maximum."""
+        return np.floor(np.asarray(self.max_speed_steps_s, dtype=np.float64) * goto_tracking_factor(rate_hz))
+
     def cart_angular_speed_from_percent(self, percent: float) -> float:
         """Cartesian angular speed in deg/s: 0..100 % -> 0.7..25 deg/s."""
         p = _check_percent(percent, "speed_percentage")
@@ -270,6 +295,36 @@ def _check_percent(value: float, name: str) -> float:
     if not math.isfinite(v) or not 0.0 <= v <= 100.0:
         raise ParolkitValueError(f"{name} must be in 0..100 %, got {value!r}")
     return v
+
+
+def goto_tracking_factor(rate_hz: float, jitter_s: float = GOTO_ARRIVAL_JITTER_S) -> float:
+    """Largest fraction of a joint's maximum speed a GO TO (156) stream may move at, at
+    control rate ``rate_hz`` (Hz), so that the board itself never runs faster than the maximum.
+
+    Derivation (k = :data:`GOTO_GAIN_PER_S`, T = 1 / ``rate_hz``).  Within one frame the
+    board's speed decays from its start value u0 as ``u0 exp(-k t)`` (the P loop closes on a
+    fixed target), so in one period it covers ``u0 (1 - a) / k`` with ``a = exp(-k T)``.  A
+    stream that steps its target by ``s = v T`` every period therefore settles where the
+    board covers ``s`` per period: ``u0 = k s / (1 - a)``, i.e. the board starts every period
+    at ``v kT / (1 - a)`` = 1.2707 v at 100 Hz whatever the feed-forward (the issue 12
+    measurement: 100 % speed peaked at 1.27x the maximum).  Ramps and decelerations settle
+    from below, so this steady state is the peak.  If a frame arrives ``jitter_s`` early
+    (the board has had ``T - jitter_s`` to close the gap) the start speed is
+    ``k s (1 + a' / (1 - a))`` with ``a' = exp(-k (T - jitter_s))``.  Keeping that within the
+    maximum gives the factor::
+
+        v / vmax <= 1 / (k T (1 + a' / (1 - a)))   = (1 - a) / (k T) when jitter_s = 0
+
+    = 0.7870 (1 / 1.2707) at 100 Hz on time, 0.7633 with the default 1 ms of jitter.
+    """
+    r = float(rate_hz)
+    if not math.isfinite(r) or r <= 0:
+        raise ParolkitValueError(f"rate_hz must be a positive number of Hz, got {rate_hz!r}")
+    period = 1.0 / r
+    kt = GOTO_GAIN_PER_S * period
+    a = math.exp(-kt)
+    a_early = math.exp(-GOTO_GAIN_PER_S * max(0.0, period - max(0.0, float(jitter_s))))
+    return 1.0 / (kt * (1.0 + a_early / (1.0 - a)))
 
 
 #: The stock PAROL6.

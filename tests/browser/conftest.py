@@ -7,6 +7,7 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 
@@ -30,10 +31,9 @@ def _free_tcp_port() -> int:
         return s.getsockname()[1]
 
 
-@pytest.fixture(scope="module")
-def gui_url():
-    """Start ``parolkit gui --sim --no-browser`` on a free HTTP port; yield its URL."""
-    pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
+def start_gui(args: list[str]) -> tuple[subprocess.Popen, str, Path]:
+    """Start ``parolkit gui ARGS --no-browser`` on a free HTTP port of 127.0.0.1 and wait until
+    it answers HTTP (any status: a login page redirects); returns (process, URL, log path)."""
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     port = _free_tcp_port()
     log_path = ARTIFACTS / f"gui-{port}.log"
@@ -41,7 +41,7 @@ def gui_url():
     env["PYTHONPATH"] = str(REPO_ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
     env.pop("PYTEST_CURRENT_TEST", None)  # NiceGUI would switch to its own screen-test mode
     with open(log_path, "wb") as log:
-        proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", "--sim", "--http-port", str(port),
+        proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", *args, "--http-port", str(port),
                                  "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
                                 preexec_fn=die_with_parent)
     url = f"http://127.0.0.1:{port}/"
@@ -50,15 +50,26 @@ def gui_url():
         if proc.poll() is not None:
             pytest.fail(f"parolkit gui exited with {proc.returncode}:\n{log_path.read_text(errors='replace')}")
         try:
-            with urllib.request.urlopen(url, timeout=1) as r:
-                if r.status == 200:
-                    break
+            with urllib.request.urlopen(url + "login", timeout=1):
+                break
+        except urllib.error.HTTPError:
+            break  # it answers
         except OSError:
             pass
         if time.monotonic() > deadline:
             _stop(proc)
             pytest.fail(f"parolkit gui did not serve {url} within 40 s:\n{log_path.read_text(errors='replace')}")
         time.sleep(0.2)
+    return proc, url, log_path
+
+
+@pytest.fixture(scope="module")
+def gui_url(tmp_path_factory):
+    """Start ``parolkit gui --sim --no-browser`` on a free HTTP port (its programs folder a
+    temporary one); yield its URL."""
+    pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
+    programs = tmp_path_factory.mktemp("programs")
+    proc, url, _ = start_gui(["--sim", "--programs-dir", str(programs)])
     yield url
     _stop(proc)
 

@@ -7,6 +7,7 @@ tests leave the robot idle and enabled for the next one.
 from __future__ import annotations
 
 import asyncio
+import socket
 import time
 
 import pytest
@@ -190,3 +191,54 @@ def test_software_estop_cancels_motion_until_enable(robot):
         assert time.monotonic() < deadline
         time.sleep(0.02)
     assert robot.move_joints(STANDBY, duration=0.6).ok
+
+
+def _forge(port: int, cid: str) -> None:
+    """Another process on the machine sends a COMPLETED ack for ``cid`` to ``port``."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        for _ in range(3):
+            s.sendto(f"ACK|{cid}|COMPLETED|forged".encode(), ("127.0.0.1", port))
+
+
+def test_a_forged_ack_is_ignored_by_robot_and_robot_api(served):
+    from parolkit.client import robot_api
+
+    with Robot(port=served.port, ack_port=0, timeout=2.0) as r:
+        h = r.move_joints([80, -85, 170, 5, 5, 170], duration=1.5, wait=False)
+        _forge(r.ack_port, h.id)
+        time.sleep(0.2)
+        assert not h.done(), "a forged COMPLETED was taken for the controller's"
+        res = h.result(timeout=10)
+        assert res.ok and "forged" not in res.details
+        r.move_joints(STANDBY, speed=80)
+
+    before = robot_api.configure()
+    robot_api.configure(port=served.port, ack_port=served.ack_port)
+    try:
+        cid = robot_api.move_robot_joints([80, -85, 170, 5, 5, 170], duration=1.5, wait_for_ack=True,
+                                          non_blocking=True)
+        _forge(served.ack_port, cid)
+        # an ack for an ID this process never sent is not recorded either
+        _forge(served.ack_port, "zz99ZZ99")
+        time.sleep(0.2)
+        assert not (robot_api.check_command_status(cid) or {}).get("completed")
+        assert robot_api.check_command_status("zz99ZZ99") is None
+        end = time.monotonic() + 10
+        while not (robot_api.check_command_status(cid) or {}).get("completed") and time.monotonic() < end:
+            time.sleep(0.05)
+        st = robot_api.check_command_status(cid)
+        assert st["status"] == "COMPLETED" and st["details"] != "forged"
+        robot_api.move_robot_joints(STANDBY, speed_percentage=80, wait_for_ack=True, timeout=10)
+    finally:
+        robot_api.configure(**{k: before[k] for k in ("host", "port", "ack_port")})
+
+
+def test_command_ids_are_unguessable_and_never_read_as_names():
+    from parolkit.client import robot_api
+    from parolkit.protocol.commands import is_command_id
+
+    ids = {robot_api.new_command_id() for _ in range(20_000)}
+    assert len(ids) == 20_000
+    assert all(is_command_id(i) for i in ids)
+    # letters and digits of both cases: 62 symbols per position, not 16 hex digits
+    assert len(set("".join(ids))) == 62

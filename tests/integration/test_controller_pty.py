@@ -474,7 +474,12 @@ def test_status_stream_subscribers_get_one_datagram_per_n_ticks(bench):
     sub.bind(("127.0.0.1", 0))
     sub.settimeout(1.0)
     port = sub.getsockname()[1]
-    assert bench.run(f"SUBSCRIBE|{port}|10")[0] == "COMPLETED"
+    # the stream goes only to the socket that asks: SUBSCRIBE for another port is refused
+    status, details = bench.run(f"SUBSCRIBE|{port}|10")
+    assert status == "FAILED" and f"from port {port}" in details
+    cid = bench.new_id()
+    sub.sendto(f"{cid}|SUBSCRIBE|{port}|10".encode(), (bench.ctl.host, bench.ctl.port))
+    assert bench.acks.terminal(cid)[0] == "COMPLETED"
     got = []
     end = time.monotonic() + 1.0
     while time.monotonic() < end:
@@ -488,7 +493,9 @@ def test_status_stream_subscribers_get_one_datagram_per_n_ticks(bench):
     assert len(seqs) >= 3 and all(b - a == 10 for a, b in zip(seqs, seqs[1:])), seqs
     st = json.loads(got[-1].split("|", 1)[1])
     assert {"angles", "pose", "io", "gripper", "homed", "state", "loop", "errors"} <= set(st)
-    assert bench.run(f"UNSUBSCRIBE|{port}")[0] == "COMPLETED"
+    cid = bench.new_id()
+    sub.sendto(f"{cid}|UNSUBSCRIBE|{port}".encode(), (bench.ctl.host, bench.ctl.port))
+    assert bench.acks.terminal(cid)[0] == "COMPLETED"
     sub.close()
 
 

@@ -37,7 +37,8 @@ def test_sigterm_stops_the_gui_and_its_controller_while_a_page_holds_a_long_poll
     env.pop("PYTEST_CURRENT_TEST", None)  # NiceGUI would switch to its own screen-test mode
     with open(tmp_path / "gui.log", "wb") as log:
         proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", "--sim", "--http-port", str(port),
-                                 "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
+                                 "--no-browser", "--programs-dir", str(tmp_path / "programs")],
+                                stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
                                 preexec_fn=die_with_parent)
     held = None
     try:

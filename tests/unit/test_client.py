@@ -803,32 +803,31 @@ def test_subscription_renewal_repeats_ack_here_for_a_restarted_controller(fake):
 def test_a_bad_datagram_never_stops_the_async_robot_or_its_subscription(fake):
     async def main():
         async with AsyncRobot(port=fake.port, ack_port=0, timeout=1.0) as r:
-            junk = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            try:
-                for garbage in (b"\xff\xfe", b"ACK|", b"ACK|x|", b"STATUS_JSON|{"):
-                    junk.sendto(garbage, ("127.0.0.1", r.ack_port))
-                await asyncio.sleep(0.05)
-                assert await r.angles() == (90.0, -90.0, 180.0007, 0.0, 0.0, 180.0)
-                async with r.subscribe(every_n=1, timeout=1) as sub:
-                    # seq 0..2 first (the fake sends them at SUBSCRIBE), so that the junk below
-                    # cannot overtake them on a loaded machine
-                    assert [(await sub.next(timeout=1)).seq for _ in range(3)] == [0, 1, 2]
-                    junk.sendto(b"STATUS_JSON|{not json", ("127.0.0.1", sub.port))
-                    junk.sendto(("STATUS_JSON|" + json.dumps(dict(STATUS_OBJECT, angles=[1]))).encode(),
-                                ("127.0.0.1", sub.port))
-                    junk.sendto(("STATUS_JSON|" + json.dumps(dict(STATUS_OBJECT, seq=3))).encode(),
-                                ("127.0.0.1", sub.port))
-                    outcomes = []
-                    for _ in range(3):  # the two bad ones, then a good one from the same sender
-                        try:
-                            outcomes.append((await sub.next(timeout=1)).seq)
-                        except ReplyError as exc:
-                            outcomes.append(str(exc).split(":")[0])
-                    assert outcomes == ["STATUS_JSON", "status", 3]
-                    sub.renew()
-                    assert (await sub.next(timeout=1)).seq == 0  # still subscribed and parsing
-            finally:
-                junk.close()
+            # garbage from the controller's own address (the client's sockets are connected to
+            # it: anything from elsewhere never reaches them, see the forged-ack tests)
+            junk = fake.sock
+            for garbage in (b"\xff\xfe", b"ACK|", b"ACK|x|", b"STATUS_JSON|{"):
+                junk.sendto(garbage, ("127.0.0.1", r.ack_port))
+            await asyncio.sleep(0.05)
+            assert await r.angles() == (90.0, -90.0, 180.0007, 0.0, 0.0, 180.0)
+            async with r.subscribe(every_n=1, timeout=1) as sub:
+                # seq 0..2 first (the fake sends them at SUBSCRIBE), so that the junk below
+                # cannot overtake them on a loaded machine
+                assert [(await sub.next(timeout=1)).seq for _ in range(3)] == [0, 1, 2]
+                junk.sendto(b"STATUS_JSON|{not json", ("127.0.0.1", sub.port))
+                junk.sendto(("STATUS_JSON|" + json.dumps(dict(STATUS_OBJECT, angles=[1]))).encode(),
+                            ("127.0.0.1", sub.port))
+                junk.sendto(("STATUS_JSON|" + json.dumps(dict(STATUS_OBJECT, seq=3))).encode(),
+                            ("127.0.0.1", sub.port))
+                outcomes = []
+                for _ in range(3):  # the two bad ones, then a good one from the same sender
+                    try:
+                        outcomes.append((await sub.next(timeout=1)).seq)
+                    except ReplyError as exc:
+                        outcomes.append(str(exc).split(":")[0])
+                assert outcomes == ["STATUS_JSON", "status", 3]
+                sub.renew()
+                assert (await sub.next(timeout=1)).seq == 0  # still subscribed and parsing
 
     asyncio.run(main())
 

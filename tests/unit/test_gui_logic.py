@@ -395,13 +395,14 @@ def test_controller_link_logs_acks_tracks_the_plan_and_survives_bad_data_and_res
             await until(lambda: any(m.startswith("jog invalid") for m in lines()), what="refusal logged")
             assert "jog completed" not in lines()
             # one bad datagram is reported once; the next good status is taken
-            junk = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            # (from the controller's own address: the link's sockets are connected to it, so a
+            # datagram from anywhere else never reaches them)
+            junk = fake.sock
             count = link.status_count
             for _ in range(2):
                 junk.sendto(b"STATUS_JSON|{oops", ("127.0.0.1", sub_port))
             junk.sendto(("STATUS_JSON|" + json.dumps(dict(STATUS_OBJECT, seq=99))).encode(),
                         ("127.0.0.1", sub_port))
-            junk.close()
             await until(lambda: link.status_count > count, what="the good status after the bad ones")
             assert link.status.seq == 99
             assert sum(m.startswith("bad status datagram") for m in lines()) == 1

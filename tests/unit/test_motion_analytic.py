@@ -14,7 +14,6 @@ from parolkit.motion.profiles import ScalarProfile, quintic
 from parolkit.robot import PAROL6
 
 SPD = PAROL6.steps_per_deg
-VMAX = np.asarray(PAROL6.max_speed_steps_s, dtype=float)
 AMAX = float(PAROL6.accel_range_steps_s2[1])
 _safe = PAROL6.safe_limits_deg
 _pub = PAROL6.limits_deg_array
@@ -39,23 +38,25 @@ def _brute_force(start, target, kind, T, rate):
     sp_f = qd * SPD
     try:
         validate.check_positions("MoveJoint", t, pos, PAROL6)
-        validate.check_speeds("MoveJoint", t, sp_f, PAROL6)
+        validate.check_speeds("MoveJoint", t, sp_f, PAROL6, limits=validate.speed_limits(PAROL6, rate, True))
         validate.check_accels("MoveJoint", t, sp_f, PAROL6, rate)
     except PlanningError as exc:
         return t, pos, np.rint(sp_f).astype(np.int64), str(exc)
     return t, pos, np.rint(sp_f).astype(np.int64), None
 
 
-def _continuous_overload(start, target, kind, T) -> float:
-    """Largest (peak speed / max speed, peak |accel| / max accel) over the joints, from the
-    profile evaluated on a dense grid (20001 points), not from the closed-form peaks."""
+def _continuous_overload(start, target, kind, T, rate) -> float:
+    """Largest (peak speed / position-tracking max speed, peak |accel| / max accel) over the
+    joints, from the profile evaluated on a dense grid (20001 points), not from the
+    closed-form peaks."""
     tt = np.linspace(0.0, T, 20001)
     if kind == "poly":
         _, sd, sdd = quintic(tt, T)
     else:
         _, sd, sdd = ScalarProfile("trap", T, T / 3.0)(tt)
     dist = np.abs((target - start) * SPD)
-    return float(max(np.max(np.abs(sd).max() * dist / VMAX), np.abs(sdd).max() * dist.max() / AMAX))
+    vlim = PAROL6.max_tracked_speed_steps_s(rate)
+    return float(max(np.max(np.abs(sd).max() * dist / vlim), np.abs(sdd).max() * dist.max() / AMAX))
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -75,14 +76,14 @@ def test_analytic_validation_agrees_with_a_brute_force_scan(start, target, durat
         if "too fast" in msg:
             # refused from the closed-form peaks: the continuous profile does exceed a limit
             # (the samples may straddle the peak, so the scan need not see it)
-            assert _continuous_overload(start, target, kind, duration) > 1.0 - 1e-6
+            assert _continuous_overload(start, target, kind, duration, rate) > 1.0 - 1e-6
         else:
             # a position outside the range: exactly the scan's first offending sample
             assert msg == verdict
         return
     # accepted: the scan of the same samples finds nothing either ...
     assert verdict is None, verdict
-    assert _continuous_overload(start, target, kind, duration) <= 1.0 + 1e-6
+    assert _continuous_overload(start, target, kind, duration, rate) <= 1.0 + 1e-6
     # ... and the arrays are the brute-force ones (the matrix product may round differently
     # in the last ulp, which can move a sample that sits on a half step by one step)
     assert np.array_equal(tr.t, t)
@@ -90,7 +91,10 @@ def test_analytic_validation_agrees_with_a_brute_force_scan(start, target, durat
     assert np.array_equal(tr.positions[-1], pos[-1]) and np.all(tr.speeds[-1] == 0)
     lim = PAROL6.limits_steps_array
     assert np.all(tr.positions >= lim[:, 0]) and np.all(tr.positions <= lim[:, 1])
-    assert np.all(np.abs(tr.speeds) <= VMAX)
+    assert np.all(np.abs(tr.speeds) <= PAROL6.max_tracked_speed_steps_s(rate))  # position-tracked
+    # (and every tick's target step within what that speed covers in a tick, rounding aside)
+    steps = np.abs(np.diff(np.vstack([np.rint(start * SPD), tr.positions]), axis=0))
+    assert np.all(steps <= PAROL6.max_tracked_speed_steps_s(rate) / rate + 1)
     acc = np.abs(np.diff(np.vstack([np.zeros(6), tr.speeds.astype(float)]), axis=0)) * rate
     assert np.all(acc <= AMAX * (1 + validate.ACCEL_TOLERANCE) + rate)  # + integer rounding
     lo, hi = np.minimum(start, target), np.maximum(start, target)

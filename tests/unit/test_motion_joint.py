@@ -23,6 +23,9 @@ from parolkit.robot import PAROL6, deg_to_steps
 STANDBY = np.array(PAROL6.standby_deg)
 SPD = PAROL6.steps_per_deg
 VMAX = np.asarray(PAROL6.max_speed_steps_s, dtype=float)
+#: the position-tracking maximum at 100 Hz (issue 12: the board's GO TO loop starts each tick
+#: 1.27x faster than a stream moves)
+VTRACK = PAROL6.max_tracked_speed_steps_s(100)
 AMAX = PAROL6.accel_range_steps_s2[1]
 
 
@@ -97,9 +100,13 @@ def test_speed_and_accel_percent_leading_joint_reaches_mapped_speed_and_all_fini
 def test_other_joint_that_cannot_follow_slows_the_leader_and_says_so():
     target = np.array([0, -60, 150, 10, 20, 100])  # J1 (slowest joint) nearly as far as J6
     tr = plan(JointMove(target, speed_pct=100, accel_pct=100), STANDBY)
-    assert np.abs(tr.speeds[:, 0]).max() <= VMAX[0]
+    assert np.abs(tr.speeds[:, 0]).max() <= VTRACK[0]
+    assert np.abs(tr.speeds[:, 0]).max() == pytest.approx(VTRACK[0], abs=1)
+    assert any("J1 position-tracking speed limit 4960 steps/s" in n for n in tr.notes)
+    # speed only (123): the maximum speed itself
+    tr = plan(JointMove(target, speed_pct=100, accel_pct=100, tracking="speed"), STANDBY)
     assert np.abs(tr.speeds[:, 0]).max() == pytest.approx(VMAX[0], abs=1)
-    assert any("J1 speed limit" in n for n in tr.notes)
+    assert any("J1 speed limit 6500 steps/s" in n for n in tr.notes)
 
 
 def test_only_targets_uses_the_conservative_default_trapezoid():
@@ -125,8 +132,14 @@ def test_too_fast_for_duration_is_refused_naming_joint_time_value_and_minimum():
     assert e.move == "MoveJoint" and e.joint == 0 and e.joint_name == "J1"
     assert e.value == pytest.approx(1.5 * 90 * SPD[0] / 2.0)
     assert e.time_s == pytest.approx(2 / 3)
-    assert "J1 would need a speed of 7680 steps/s (maximum 6500 steps/s)" in str(e)
-    assert "give t >= 2.37 s" in str(e)
+    assert ("J1 would need a speed of 7680 steps/s, above its position-tracking maximum 4960 steps/s "
+            "(76 % of its maximum speed 6500 steps/s") in str(e)
+    assert "give t >= 3.10 s" in str(e)  # 1.5 x 10240 steps / 4960 steps/s
+    # speed only (123): the maximum speed itself is the limit
+    with pytest.raises(PlanningError) as ei:
+        plan(JointMove([0, -90, 180, 0, 0, 180], duration_s=2.0, profile="trap", tracking="speed"), STANDBY)
+    assert "J1 would need a speed of 7680 steps/s, above its maximum speed 6500 steps/s" in str(ei.value)
+    assert "give t >= 2.37 s" in str(ei.value)
 
 
 def test_acceleration_limit_refuses_a_short_small_move_too():

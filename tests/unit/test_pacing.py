@@ -163,7 +163,7 @@ def test_after_a_stall_the_move_catches_up_only_as_fast_as_the_board_can_follow(
     """A 250 ms stall early in a move: the next targets advance only as far as keeps the
     board's speed (0.5 * v_ff + 50 * (target - position), from its true position) within the
     maximum, catching up over several ticks, and the move ends on time."""
-    first = _start(trig, "MOVEJOINT|40|-90|180|0|0|180|2|None")
+    first = _start(trig, "MOVEJOINT|40|-90|180|0|0|180|2.5|None")
     n = trig.ex.activity.n
     final = tuple(trig.ex.activity.positions[-1])
     trig.tick(40)

@@ -149,7 +149,8 @@ class AsyncStatusSubscription:
         loop = asyncio.get_running_loop()
         self._transport, _ = await loop.create_datagram_endpoint(
             lambda: _StreamProtocol(self._queue),
-            local_addr=(bind_address(self._robot.host), 0), family=socket.AF_INET)
+            local_addr=(bind_address(self._robot.host), 0),
+            remote_addr=(self._robot.host, self._robot.port), family=socket.AF_INET)
         self.port = self._transport.get_extra_info("sockname")[1]
         self.renew()
         self._renewer = asyncio.ensure_future(self._renew_loop())
@@ -162,7 +163,9 @@ class AsyncStatusSubscription:
         if self._closed or self.port is None:
             return
         try:
-            self._robot._send(wire.build_subscribe(self.port, self._every_n))
+            # from this socket: the controller streams only to the socket that asks
+            if self._transport is not None:
+                self._transport.sendto(wire.build_subscribe(self.port, self._every_n).encode("utf-8"))
             self._robot.register_for_acks()
         except (OSError, RobotError):
             pass
@@ -209,8 +212,9 @@ class AsyncStatusSubscription:
             self._renewer.cancel()
         if self.port is not None:
             try:
-                self._robot._send(wire.build_unsubscribe(self.port))
-            except (OSError, RobotError):
+                if self._transport is not None:
+                    self._transport.sendto(wire.build_unsubscribe(self.port).encode("utf-8"))
+            except OSError:
                 pass
         if self._transport is not None:
             self._transport.close()
@@ -280,7 +284,8 @@ class AsyncRobot(RobotCommands):
                 transport, _ = await loop.create_datagram_endpoint(
                     lambda: _Protocol(self),
                     local_addr=(bind_address(self.host), self._requested_ack_port),
-                    family=socket.AF_INET)
+                    # connected: only the controller's datagrams arrive (no forged acks)
+                    remote_addr=(self.host, self.port), family=socket.AF_INET)
             except OSError as exc:
                 raise RobotError(
                     f"cannot bind UDP port {self._requested_ack_port} for acknowledgements: "
@@ -328,7 +333,7 @@ class AsyncRobot(RobotCommands):
         if self._transport is None or self._closed:
             raise RobotError("this AsyncRobot is not open (closed, or not used inside its event loop)")
         try:
-            self._transport.sendto(text.encode("utf-8"), (self.host, self.port))
+            self._transport.sendto(text.encode("utf-8"))
         except OSError as exc:
             raise ControllerUnreachable(
                 f"cannot send to {self.host}:{self.port}: {exc.strerror or exc}") from None
@@ -464,7 +469,13 @@ class AsyncRobot(RobotCommands):
             await asyncio.sleep(poll_s)
 
     async def close(self) -> None:
-        """Close the endpoint (idempotent)."""
+        """Give the control lease back (if this client holds it) and close the endpoint
+        (idempotent)."""
+        if self._transport is not None and not self._closed:
+            try:
+                self._transport.sendto(b"CONTROL|RELEASE")
+            except OSError:
+                pass
         self._closed = True
         if self._transport is not None:
             self._transport.close()

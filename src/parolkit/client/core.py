@@ -529,6 +529,7 @@ QUERIES: dict[str, _Query] = {
                          lambda p: LoopStats.from_dict(_json(p, "LOOP_STATS"))),
     "plan_info": _Query("GET_PLAN", "PLAN", lambda p: PlanInfo.from_dict(_json(p, "PLAN"))),
     "queue": _Query("GET_QUEUE", "QUEUE", lambda p: QueueInfo.from_dict(_json(p, "QUEUE"))),
+    "control": _Query("GET_CONTROL", "CONTROL", lambda p: _json(p, "CONTROL")),
     "tool": _Query("GET_TOOL", "TOOL", _parse_tool),
     "ping": _Query("PING", "PONG", _parse_ping),
 }
@@ -888,6 +889,18 @@ class RobotCommands:
         """Select the tool ``name`` (default, flange or one from the config)."""
         return self._command(_check(wire.build_set_tool, name), True, _opt_timeout(timeout))
 
+    def take_control(self, force: bool = False, secret: str | None = None,
+                     timeout: float | None = None) -> Any:
+        """Take the control lease (docs/protocol.md): only its holder may move the robot. A free
+        lease is also taken by the first motion command; ``force`` takes it from another client
+        and cancels that client's commands; ``secret`` when the controller has one."""
+        return self._command(_check(wire.build_control, "TAKE", _flag(force, "force"), secret), True,
+                             _opt_timeout(timeout))
+
+    def release_control(self, timeout: float | None = None) -> Any:
+        """Give the control lease back."""
+        return self._command("CONTROL|RELEASE", True, _opt_timeout(timeout))
+
     def set_port(self, name: str, timeout: float | None = None) -> Any:
         """Switch the controller's serial port to ``name``."""
         return self._command(_check(wire.build_set_port, name), True, _opt_timeout(timeout))
@@ -930,8 +943,12 @@ class RobotCommands:
         return self._query("plan_info")
 
     def queue(self) -> Any:
-        """:class:`QueueInfo`: active and queued commands."""
+        """:class:`QueueInfo`: active and queued commands (IDs only of this client's own)."""
         return self._query("queue")
+
+    def control(self) -> Any:
+        """Who holds the control lease (dict: holder, held_s, idle_s, timeout_s, ...)."""
+        return self._query("control")
 
     def tool(self) -> Any:
         """:class:`ToolInfo`: the selected tool."""

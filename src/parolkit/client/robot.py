@@ -99,6 +99,8 @@ class StatusSubscription:
         self._timeout = timeout
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._sock.bind((bind_address(robot.host), 0))
+        # connected: the kernel delivers only the controller's datagrams (no forged statuses)
+        self._sock.connect(robot._addr)
         self.port: int = self._sock.getsockname()[1]
         self._closed = threading.Event()
         self._last_renew = 0.0
@@ -114,7 +116,8 @@ class StatusSubscription:
             self._callback_thread.start()
 
     def _renew(self) -> None:
-        self._robot._send(wire.build_subscribe(self.port, self._every_n))
+        # from this socket: the controller streams only to the socket that asks
+        self._sock.send(wire.build_subscribe(self.port, self._every_n).encode("utf-8"))
         self._last_renew = time.monotonic()
 
     def _renew_loop(self) -> None:
@@ -172,8 +175,8 @@ class StatusSubscription:
             return
         self._closed.set()
         try:
-            self._robot._send(wire.build_unsubscribe(self.port))
-        except (OSError, RobotError):
+            self._sock.send(wire.build_unsubscribe(self.port).encode("utf-8"))
+        except OSError:
             pass
         self._sock.close()
 
@@ -210,6 +213,13 @@ class Robot(RobotCommands):
             raise RobotError(
                 f"cannot bind UDP port {ack_port} for acknowledgements: {exc.strerror}; another "
                 "program holds it (use ack_port=0 for an ephemeral port)") from None
+        try:
+            # connected: the kernel delivers only datagrams from the controller's address, so no
+            # other process can forge an ack or a reply (the controller answers from this port)
+            self._sock.connect(self._addr)
+        except OSError as exc:
+            self._sock.close()
+            raise ControllerUnreachable(f"cannot reach {host}:{self.port}: {exc.strerror or exc}") from None
         self.ack_port: int = self._sock.getsockname()[1]
         self._sock.settimeout(0.25)  # lets the reader thread notice close()
         self._cond = threading.Condition()
@@ -230,7 +240,7 @@ class Robot(RobotCommands):
         if self._closed:
             raise RobotError("this Robot is closed")
         try:
-            self._sock.sendto(text.encode("utf-8"), self._addr)
+            self._sock.send(text.encode("utf-8"))
         except OSError as exc:  # unresolvable host, no route, ...
             raise ControllerUnreachable(
                 f"cannot send to {self.host}:{self.port}: {exc.strerror or exc}") from None
@@ -246,6 +256,8 @@ class Robot(RobotCommands):
                 if self._closed:
                     return
                 continue  # e.g. ICMP port unreachable reported on Linux: keep listening
+            if not data:
+                continue  # close() shut the socket down (or an empty datagram): check _closed
             text = data.decode("utf-8", "replace")
             with self._cond:
                 self._last_heard = time.monotonic()
@@ -367,12 +379,17 @@ class Robot(RobotCommands):
             time.sleep(poll_s)
 
     def close(self) -> None:
-        """Close the socket (idempotent)."""
+        """Give the control lease back (if this client holds it) and close the socket
+        (idempotent)."""
         if self._closed:
             return
+        try:
+            self._send("CONTROL|RELEASE")
+        except RobotError:
+            pass
         self._closed = True
         try:  # wake the reader thread at once instead of waiting for its poll timeout
-            self._sock.sendto(b"", ("127.0.0.1", self.ack_port))
+            self._sock.shutdown(socket.SHUT_RDWR)
         except OSError:
             pass
         self._reader.join(1.0)

@@ -39,14 +39,16 @@ reply parsers (``parse_*``, :func:`matrix_to_pose`) that ``parolkit.Robot`` shar
 
 from __future__ import annotations
 
+import json
 import math
+import secrets
 import socket
+import string
 import sys
 import threading
 import time
-import uuid
 from collections import OrderedDict
-from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Dict, FrozenSet, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 __all__ = [
     # configuration
@@ -79,6 +81,7 @@ __all__ = [
     "build_wait_input", "build_smooth_circle", "build_smooth_arc_center",
     "build_smooth_arc_param", "build_smooth_spline", "build_smooth_helix", "build_smooth_blend",
     "build_stream", "build_set_tool", "build_set_port", "build_subscribe", "build_unsubscribe",
+    "build_control", "take_control", "release_control", "get_control",
     "CARTESIAN_AXES", "FRAMES", "PLANES", "PROFILES", "TRACKING_MODES", "TIMING_MODES",
     "SEGMENT_TYPES",
 ]
@@ -572,6 +575,21 @@ def build_subscribe(port: Any, every_n: Any = 1) -> str:
     return _join("SUBSCRIBE", _int(port, "port", 1, 65535), _int(every_n, "every_n", 1, 1_000_000))
 
 
+def build_control(action: str, force: bool = False, secret: Optional[str] = None) -> str:
+    """**(ext)** ``CONTROL|TAKE[|FORCE][|secret]`` or ``CONTROL|RELEASE`` (the control lease)."""
+    act = str(action).strip().upper()
+    if act == "RELEASE":
+        return "CONTROL|RELEASE"
+    if act != "TAKE":
+        raise ValueError(f"action must be 'take' or 'release', got {action!r}")
+    parts = ["CONTROL", "TAKE"] + (["FORCE"] if force else [])
+    if secret is not None:
+        if not isinstance(secret, str) or not secret or "|" in secret or not secret.isascii():
+            raise ValueError("secret must be non-empty ASCII text without '|'")
+        parts.append(secret)
+    return "|".join(parts)
+
+
 def build_unsubscribe(port: Any) -> str:
     """**(ext)** ``UNSUBSCRIBE|port``."""
     return _join("UNSUBSCRIBE", _int(port, "port", 1, 65535))
@@ -582,9 +600,19 @@ def build_unsubscribe(port: Any) -> str:
 # =============================================================================================
 
 
+_ID_ALPHABET = string.ascii_letters + string.digits
+#: lower-case command names of 8 letters, which the controller reads as names, not IDs
+_NAME_LIKE_IDS = frozenset({"movepose", "movecart", "multijog"})
+
+
 def new_command_id() -> str:
-    """A fresh 8-character command ID (the first 8 hex digits of a uuid4: never all upper-case)."""
-    return uuid.uuid4().hex[:8]
+    """A fresh, unguessable 8-character command ID: letters and digits from the operating
+    system's random source (62**8, about 2**47 values), never all upper-case (the protocol reads
+    an all-upper-case first field as a command name)."""
+    while True:
+        cid = "".join(secrets.choice(_ID_ALPHABET) for _ in range(8))
+        if not cid.isupper() and cid.lower() not in _NAME_LIKE_IDS:
+            return cid
 
 
 def parse_reply(text: str, tag: str) -> str:
@@ -685,6 +713,8 @@ class _AckTracker:
         self._sock: Optional[socket.socket] = None
         self._thread: Optional[threading.Thread] = None
         self._port: Optional[int] = None
+        #: ack-shaped datagrams ignored because they did not come from the controller
+        self.foreign = 0
 
     @property
     def active(self) -> bool:
@@ -728,7 +758,7 @@ class _AckTracker:
     def _run(self, sock: socket.socket) -> None:
         while True:
             try:
-                data, _ = sock.recvfrom(65535)
+                data, addr = sock.recvfrom(65535)
             except socket.timeout:
                 if self._sock is not sock:
                     return
@@ -741,11 +771,14 @@ class _AckTracker:
             ack = parse_ack(data.decode("utf-8", "replace"))
             if ack is None:
                 continue
+            if not _from_controller(addr):
+                self.foreign += 1  # anyone on the machine can send to this port: not an ack
+                continue
             cmd_id, status, details = ack
             with self._cond:
                 rec = self._records.get(cmd_id)
                 if rec is None:
-                    rec = self._records[cmd_id] = {"command": None, "sent_time": None}
+                    continue  # not a command this process sent
                 if not rec.get("completed"):  # the first terminal ack is final
                     rec.update(status=status, details=details, ack_time=time.time(),
                                completed=status in TERMINAL_STATUSES)
@@ -796,6 +829,27 @@ class _AckTracker:
             return {"active": self.active, "ack_port": bound,
                     "commands_tracked": len(self._records),
                     "pending": sum(1 for r in self._records.values() if not r.get("completed"))}
+
+
+def _controller_addresses(host: str, port: int) -> FrozenSet[Tuple[str, int]]:
+    try:
+        infos = socket.getaddrinfo(host, port, socket.AF_INET, socket.SOCK_DGRAM)
+    except OSError:
+        return frozenset()
+    return frozenset((str(info[4][0]), port) for info in infos)
+
+
+_resolved: Dict[Tuple[str, int], FrozenSet[Tuple[str, int]]] = {}
+
+
+def _from_controller(addr: Any) -> bool:
+    """True when ``addr`` (a datagram's sender) is the controller's command socket: acks and
+    replies come from it, so anything else (another process on the machine) is ignored."""
+    key = (SERVER_IP, SERVER_PORT)
+    known = _resolved.get(key)
+    if known is None:
+        known = _resolved[key] = _controller_addresses(*key)
+    return (addr[0], addr[1]) in known
 
 
 _tracker = _AckTracker()
@@ -939,6 +993,33 @@ def home_robot(wait_for_ack: bool = False, timeout: float = 30.0,
     return _dispatch(build_home(), wait_for_ack, timeout, non_blocking)
 
 
+def take_control(force: bool = False, secret: Optional[str] = None, timeout: float = 2.0
+                 ) -> Dict[str, Any]:
+    """**(ext)** Take the control lease (only its holder may move the robot; a free lease is
+    also taken by the first motion command).  ``force`` takes it from another client and
+    cancels that client's commands.  Returns the terminal ack dict."""
+    return send_and_wait(build_control("TAKE", force, secret), timeout)  # type: ignore[return-value]
+
+
+def release_control(timeout: float = 2.0) -> Dict[str, Any]:
+    """**(ext)** Give the control lease back (another client may then command the robot)."""
+    return send_and_wait(build_control("RELEASE"), timeout)  # type: ignore[return-value]
+
+
+def get_control() -> Optional[Dict[str, Any]]:
+    """**(ext)** Who holds the control lease: ``{'holder', 'held_s', 'idle_s', 'timeout_s',
+    'secret_required', 'refused', 'taken_over'}`` (holder None when free), or None."""
+    payload = _query("GET_CONTROL", "CONTROL")
+    if payload is None:
+        return None
+    try:
+        value = json.loads(payload)
+    except ValueError:
+        print(f"robot_api: GET_CONTROL: malformed reply {payload[:80]!r}", file=sys.stderr)
+        return None
+    return value if isinstance(value, dict) else None
+
+
 def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,
                         non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """Cancel the active command and clear the queue; the robot holds position."""
@@ -1073,7 +1154,9 @@ def _query(request: str, tag: str) -> Optional[str]:
     try:
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
             sock.settimeout(QUERY_TIMEOUT)
-            sock.sendto(request.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+            # connected: only the controller's reply can arrive (no forged answers)
+            sock.connect((SERVER_IP, SERVER_PORT))
+            sock.send(request.encode("utf-8"))
             deadline = time.monotonic() + QUERY_TIMEOUT
             while True:
                 data, _ = sock.recvfrom(65535)

@@ -13,7 +13,6 @@ motion/kinematics imports happen in the planner thread, off the start-up path.
 
 from __future__ import annotations
 
-import ipaddress
 import logging
 import socket
 import sys
@@ -28,6 +27,7 @@ from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import CommandInbox, Submission
 from parolkit.controller.jobs import PlanAhead
+from parolkit.controller.lease import ControlLease, is_loopback
 from parolkit.controller.loop import ControlLoop, TickOutput
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
 from parolkit.controller.state import SNAPSHOT_QUERIES, BoardInfo, RobotState, Snapshot
@@ -41,16 +41,6 @@ from parolkit.transport.url import parse_transport_url
 __all__ = ["Controller", "is_loopback"]
 
 log = logging.getLogger("parolkit.controller")
-
-
-def is_loopback(host: str) -> bool:
-    """True for 127.0.0.0/8, ::1 and ``localhost``."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 class Controller:
@@ -119,7 +109,8 @@ class Controller:
         )
         self.stream = StatusStream(self.sock, lambda: self.snapshot)
         self.server = UdpServer(self.sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
-                                stream=self.stream, answerer=self, ack_port=cs.ack_port)
+                                stream=self.stream, answerer=self, ack_port=cs.ack_port,
+                                lease=ControlLease(cs.lease_timeout_s, cs.secret))
         self.outbox.start()
         self.server.start()  # PING answers from here on (SERIAL=0 until the link is up)
         self.stream.start()
@@ -255,7 +246,11 @@ class Controller:
 
     # ------------------------------------------------------------------ queries
 
-    def answer_query(self, name: str) -> str:
+    def busy(self) -> bool:
+        s = self.snapshot
+        return s.command is not None or s.queue > 0
+
+    def answer_query(self, name: str, viewer: str | None = None) -> str:
         if name in SNAPSHOT_QUERIES:
             return self.snapshot.reply(name)
         if name == "GET_LOOP_STATS":
@@ -281,5 +276,5 @@ class Controller:
             except Exception as exc:
                 return C.format_error(f"GET_TOOL: {exc}")
         if name == "GET_QUEUE":
-            return "QUEUE|" + dumps(self.executor.queue_view())
+            return "QUEUE|" + dumps(self.executor.queue_view(viewer))
         return C.format_error(f"unknown query {name}")

@@ -309,6 +309,7 @@ class Executor:
         ack COMPLETED, FAILED or INVALID), any other queued (or refused) as :meth:`submit`."""
         cmd = sub.command
         job = self.new_job(cmd, sub.command_id, sub.route)
+        job.client = sub.client
         pa = sub.ahead
         if pa is not None and pa.command is cmd:
             with self._lock:
@@ -470,14 +471,21 @@ class Executor:
     def queue_length(self) -> int:
         return len(self.queue)
 
-    def queue_view(self) -> dict[str, Any]:
+    def queue_view(self, viewer: str | None = None) -> dict[str, Any]:
+        """The active and queued commands; a command's ID only to the client that sent it
+        (``viewer``: see Submission.client), ``null`` to everyone else (an ID lets its holder
+        follow the command's acks; nobody else needs it)."""
+        def cid(job: Job) -> str | None:
+            return job.command_id if viewer is not None and job.client == viewer else None
+
         with self._lock:
             a = self.active
             act = None
             if a is not None:
-                act = {"id": a.command_id, "name": a.name,
+                act = {"id": cid(a), "name": a.name, "mine": a.client == viewer,
                        "progress": round(self.activity.progress, 4) if self.activity else 0.0}
-            return {"active": act, "queued": [{"id": j.command_id, "name": j.name} for j in self.queue]}
+            return {"active": act,
+                    "queued": [{"id": cid(j), "name": j.name, "mine": j.client == viewer} for j in self.queue]}
 
     def plan_view(self, tool: object = None) -> dict[str, Any]:
         with self._lock:

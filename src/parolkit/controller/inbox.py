@@ -61,6 +61,9 @@ class Submission:
     tool: object | None = None
     #: the plan the executor started ahead for it, if any
     ahead: PlanAhead | None = None
+    #: who sent it (``str`` of a :class:`~parolkit.controller.lease.ClientId`): GET_QUEUE shows
+    #: a command's ID to its own client only
+    client: str = ""
 
 
 @dataclass(frozen=True, slots=True)

@@ -81,6 +81,8 @@ class Job:
     terminal: AckStatus | None = None
     #: the plan made ahead for this job before it was queued, until used
     ahead: PlanAhead | None = None
+    #: who sent it (see Submission.client)
+    client: str = ""
 
     @property
     def name(self) -> str:
@@ -189,6 +191,10 @@ class TrajectoryActivity(Activity):
         """Paused by the loop (``stop`` sent): the board model knows it stopped; the schedule
         runs on, so once replies are back the move catches up as after a late tick."""
         self.log.record(now, stop.command, stop.positions or _ZERO6, stop.speeds)
+        if stop.command == BoardCommand.GOTO and stop.positions is not None:
+            # the guard judges the next target's step from this frame (its time), not from
+            # the activity's last own one before the pause
+            self._prev_goto = (tuple(stop.positions), now)
 
     def commanded(self) -> tuple[int, ...] | None:
         """Position (steps) of the last target sent to the board; None before the first."""

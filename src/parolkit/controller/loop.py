@@ -267,7 +267,7 @@ class ControlLoop:
         if step is None or not self.transport.is_open:
             return
         try:
-            self._send(self._guarded(step))
+            self._send(self._guarded(step, time.monotonic()))
         except Exception as exc:  # the link is going away anyway
             log.warning("could not write the stop frame before declaring the link lost: %s", exc)
 
@@ -429,11 +429,14 @@ class ControlLoop:
         frame = self._write(step, now) if self.link_up else None
         return TickOutput(frame, tuple(ex.take_acks()), self.snapshot())
 
-    def _guarded(self, step: Step) -> CommandFrame:
+    def _guarded(self, step: Step, now: float) -> CommandFrame:
+        """``step`` as a frame, through the guard.  ``now`` (the tick's time, s) tells the
+        guard how long the previous frame ran: a GO TO target may step further after a late
+        tick, as far as the board can follow within its maximum speed (guard rules 6, 7)."""
         ex = self.executor
         frame = self._compose(step)
         res = self.guard.check(frame, self.status, estop=ex.estop_latched or ex.estop_pressed,
-                               homed=ex.homed, status_age_ticks=self.tick_count - self._last_status_tick)
+                               homed=ex.homed, now=now)
         if res.violation is not None:
             log.error("safety guard replaced a %s frame: %s", frame.command, res.violation)
             ex.fail_active(res.violation)
@@ -455,10 +458,11 @@ class ControlLoop:
         return t_write
 
     def _write(self, step: Step, now: float) -> CommandFrame | None:
-        frame = self._guarded(step)
+        frame = self._guarded(step, now)
         if self.inbox.safety_waiting:
             # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
-            frame = self._guarded(self.executor.preempt(self.inbox.take_safety(), tick=self.tick_count, now=now))
+            frame = self._guarded(self.executor.preempt(self.inbox.take_safety(), tick=self.tick_count, now=now),
+                                  now)
         try:
             t_write = self._send(frame)
         except (LinkLostError, TransportError) as exc:

@@ -27,12 +27,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
+from parolkit.controller.guard import goto_position_after, goto_start_speed
 from parolkit.protocol.frames import BoardCommand, StatusFrame
+from parolkit.robot import GOTO_GAIN_PER_S
 
 __all__ = ["GOTO_GAIN_PER_S", "board_position", "SentLog", "goto_fits", "tracking_speed", "GotoFits"]
-
-#: the firmware's GO TO gain: v = 0.5 * v_ff + GOTO_GAIN_PER_S * (target - position), 1/s
-GOTO_GAIN_PER_S = 50.0
 
 _JOG = int(BoardCommand.JOG)
 _GOTO = int(BoardCommand.GOTO)
@@ -49,8 +48,7 @@ def board_position(x: float, command: int, target: float, speed: float, dt: floa
     if command == _JOG:
         return x + speed * dt
     if command == _GOTO:
-        settle = target + speed / (2.0 * GOTO_GAIN_PER_S)
-        return settle + (x - settle) * math.exp(-GOTO_GAIN_PER_S * dt)
+        return goto_position_after(x, target, speed, dt)  # the guard's model of the board
     return x
 
 
@@ -134,7 +132,7 @@ def goto_fits(target: Sequence[int], ff: Sequence[int], prev_target: Sequence[in
     for j in range(6):
         if abs(target[j] - prev_target[j]) > vmax[j] * dt + 1.0:
             return False
-        if abs(0.5 * ff[j] + GOTO_GAIN_PER_S * (target[j] - position[j])) > vmax[j]:
+        if abs(goto_start_speed(target[j], ff[j], position[j])) > vmax[j]:
             return False
     return True
 

@@ -31,6 +31,7 @@ from typing import Protocol
 from parolkit.controller.executor import SAFETY_COMMANDS, SET_PORT_SCHEMES
 from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
 from parolkit.controller.jobs import PlanAhead
+from parolkit.controller.lease import ClientId, ControlLease, is_loopback
 from parolkit.controller.state import Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
@@ -47,7 +48,7 @@ from parolkit.transport.options import TransportURLError
 
 __all__ = [
     "Outbox", "StatusStream", "UdpServer", "QueryAnswerer", "SUBSCRIPTION_TTL_S", "MAX_SUBSCRIBERS",
-    "MAX_DATAGRAMS_PER_SOURCE",
+    "MAX_DATAGRAMS_PER_SOURCE", "LOG_BUDGET_BYTES_PER_S",
 ]
 
 log = logging.getLogger("parolkit.controller")
@@ -62,6 +63,8 @@ MAX_DATAGRAMS_PER_SOURCE = 256
 SERVE_BATCH = 8
 #: at most this many datagrams are read in one drain before serving again
 DRAIN_MAX = 512
+#: bytes of log lines about invalid datagrams per second; the rest is counted, not logged
+LOG_BUDGET_BYTES_PER_S = 4096
 
 
 class QueryAnswerer(Protocol):
@@ -70,11 +73,14 @@ class QueryAnswerer(Protocol):
     kinematics work happens here, never in the tick) and a plan started ahead for a motion
     command (the handle travels with it to the tick)."""
 
-    def answer_query(self, name: str) -> str: ...
+    def answer_query(self, name: str, viewer: str | None = None) -> str: ...
 
     def resolve_tool(self, name: str) -> object: ...
 
     def plan_ahead(self, command: C.Command) -> PlanAhead | None: ...
+
+    def busy(self) -> bool:
+        """True while the robot runs or queues a command (the control lease does not lapse)."""
 
 
 class Outbox:
@@ -245,6 +251,7 @@ class UdpServer:
         answerer: QueryAnswerer,
         ack_port: int,
         max_waiting_per_source: int = MAX_DATAGRAMS_PER_SOURCE,
+        lease: ControlLease | None = None,
     ) -> None:
         self.sock = sock
         self.model = model
@@ -254,6 +261,8 @@ class UdpServer:
         self.answerer = answerer
         self.ack_port = ack_port
         self.max_waiting = max_waiting_per_source
+        #: who may command the robot (see parolkit.controller.lease)
+        self.lease = lease if lease is not None else ControlLease()
         #: sockets that asked for their acks (ACK_HERE), oldest first
         self._ack_here: dict[Address, None] = {}
         self._ack_here_lock = threading.Lock()
@@ -275,8 +284,10 @@ class UdpServer:
         self.busy_acks = 0
         self.safety_fast = 0
         self._log_window = 0.0
-        self._log_count = 0
+        self._log_bytes = 0
         self._suppressed = 0
+        #: invalid datagrams not logged one by one (over the log budget), since start
+        self.log_suppressed = 0
 
     def start(self) -> None:
         self._running = True
@@ -292,7 +303,7 @@ class UdpServer:
         return {
             "received": self.received, "invalid": self.invalid, "shed": self.shed,
             "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
-            "safety_fast": self.safety_fast,
+            "safety_fast": self.safety_fast, "log_suppressed": self.log_suppressed,
         }
 
     @property
@@ -376,7 +387,8 @@ class UdpServer:
         if not isinstance(parsed.command, SAFETY_COMMANDS):
             return False
         cid = parsed.command_id
-        self.inbox.put_safety(Submission(parsed.command, cid, self._ack_addr(addr) if cid else None, addr, seq))
+        self.inbox.put_safety(Submission(parsed.command, cid, self._ack_addr(addr) if cid else None, addr, seq,
+                                         client=str(self.client(addr))))
         self.safety_fast += 1
         return True
 
@@ -402,6 +414,12 @@ class UdpServer:
             while len(self._ack_here) > self.MAX_ACK_HERE:  # bounded: oldest forgotten first
                 self._ack_here.pop(next(iter(self._ack_here)))
 
+    def client(self, addr: Address) -> ClientId:
+        """Who sent a datagram from ``addr`` (see :class:`~parolkit.controller.lease.ClientId`)."""
+        if addr in self._ack_here:
+            return ClientId(addr[0], addr[1])
+        return ClientId(addr[0], self.ack_port, legacy=True)
+
     def _ack_addr(self, addr: Address) -> AckRoute:
         """Where the acks of a command from ``addr`` go: the sender's host at the ack port (the
         original protocol), plus the sending socket itself if it asked with ACK_HERE."""
@@ -417,17 +435,21 @@ class UdpServer:
             log.debug("reply to %s failed: %s", addr, exc)
 
     def _log_invalid(self, addr: Address, message: str) -> None:
+        """Log an invalid datagram within LOG_BUDGET_BYTES_PER_S; what does not fit is counted
+        and reported in one line when the next second's first invalid datagram comes."""
         now = time.monotonic()
         if now - self._log_window >= 1.0:
             if self._suppressed:
-                log.warning("%d more invalid datagrams in the last second (not logged one by one)",
-                            self._suppressed)
-            self._log_window, self._log_count, self._suppressed = now, 0, 0
-        if self._log_count < 20:
-            self._log_count += 1
-            log.warning("invalid datagram from %s:%s: %s", addr[0], addr[1], message)
+                log.warning("%d more invalid datagrams in the last second (not logged one by one: "
+                            "the log takes at most %d bytes/s of them)", self._suppressed, LOG_BUDGET_BYTES_PER_S)
+            self._log_window, self._log_bytes, self._suppressed = now, 0, 0
+        line = f"invalid datagram from {addr[0]}:{addr[1]}: {message}"
+        if self._log_bytes + len(line) <= LOG_BUDGET_BYTES_PER_S:
+            self._log_bytes += len(line)
+            log.warning("%s", line)
         else:
             self._suppressed += 1
+            self.log_suppressed += 1
 
     def _ack(self, command_id: str | None, addr: Address, status: AckStatus, details: str = "") -> None:
         """An ack that reports nothing the status shows (queries, ACK_HERE, SUBSCRIBE, INVALID,
@@ -455,24 +477,38 @@ class UdpServer:
             return
         cmd = parsed.command
         cid = parsed.command_id
+        if isinstance(cmd, C.AckHere):
+            self.ack_here(addr)
+        who = self.client(addr)
+        now = time.monotonic()
         if cmd.KIND is C.CommandKind.QUERY:
-            self._reply(self.answerer.answer_query(cmd.name), addr)
+            if cmd.name == "GET_CONTROL":
+                reply = "CONTROL|" + C.dumps(self.lease.view(now, self.answerer.busy()))
+            else:
+                reply = self.answerer.answer_query(cmd.name, str(who))
+            self._reply(reply, addr)
             self._ack(cid, addr, AckStatus.COMPLETED)
             return
         if isinstance(cmd, C.AckHere):
-            self.ack_here(addr)
             self._ack(cid, addr, AckStatus.COMPLETED, "acks also go to this socket")
             return
-        if isinstance(cmd, C.Subscribe):
-            err = self.stream.subscribe((addr[0], cmd.port), cmd.every_n_ticks)
-            self._ack(cid, addr, *((AckStatus.FAILED, err) if err else (AckStatus.COMPLETED, "subscribed")))
+        if isinstance(cmd, (C.Subscribe, C.Unsubscribe)):
+            self._subscription(cmd, cid, addr)
             return
-        if isinstance(cmd, C.Unsubscribe):
-            self.stream.unsubscribe((addr[0], cmd.port))
-            self._ack(cid, addr, AckStatus.COMPLETED, "unsubscribed")
+        if isinstance(cmd, C.Control):
+            self._control(cmd, cid, addr, who, now)
             return
+        if not cmd.OPEN:
+            refusal = self.lease.check(who, now, self.answerer.busy())
+            if refusal is not None:
+                self._refuse(cid, addr, f"{cmd.name} refused: {refusal}")
+                return
         tool = None
         if isinstance(cmd, C.SetPort):
+            if not is_loopback(addr[0]):
+                self._refuse(cid, addr, f"SET_PORT is accepted only from this machine (loopback), "
+                                        f"not from {addr[0]}: set serial.port in the config or --port")
+                return
             try:
                 resolve_url(cmd.port, allowed_schemes=SET_PORT_SCHEMES)
             except TransportURLError as exc:
@@ -486,12 +522,53 @@ class UdpServer:
                 return
         route = self._ack_addr(addr) if cid is not None else None
         if isinstance(cmd, SAFETY_COMMANDS):
-            self.inbox.put_safety(Submission(cmd, cid, route, addr, seq))
-        elif not self.inbox.put(Submission(cmd, cid, route, addr, seq, tool, self.answerer.plan_ahead(cmd))):
+            self.inbox.put_safety(Submission(cmd, cid, route, addr, seq, client=str(who)))
+        elif not self.inbox.put(Submission(cmd, cid, route, addr, seq, tool, self.answerer.plan_ahead(cmd),
+                                           client=str(who))):
             self.busy_acks += 1 if cid is not None else 0
             self._ack(cid, addr, AckStatus.FAILED,
                       f"controller busy: {self.inbox.max_waiting} commands from {addr[0]}:{addr[1]} "
                       "wait for the control loop; slow down and send again")
+
+
+    def _refuse(self, cid: str | None, addr: Address, reason: str) -> None:
+        """A command this client may not send: FAILED ack with the reason (an ``ERROR|`` reply
+        to the sender when it has no ID, so nothing is refused in silence)."""
+        if cid is not None:
+            self._ack(cid, addr, AckStatus.FAILED, reason)
+        else:
+            self._reply(format_error(reason), addr)
+            self._log_invalid(addr, reason)
+
+    def _subscription(self, cmd: C.Subscribe | C.Unsubscribe, cid: str | None, addr: Address) -> None:
+        """SUBSCRIBE / UNSUBSCRIBE: only for the socket that sends it (the status stream is
+        never sent to an address that did not ask: no reflection of a forged request)."""
+        if cmd.port != addr[1]:
+            self._refuse(cid, addr, f"{cmd.name} applies to the socket that sends it: send "
+                                    f"{cmd.name}|{cmd.port} from port {cmd.port} (this came from port {addr[1]})")
+            return
+        if isinstance(cmd, C.Unsubscribe):
+            self.stream.unsubscribe((addr[0], cmd.port))
+            self._ack(cid, addr, AckStatus.COMPLETED, "unsubscribed")
+            return
+        err = self.stream.subscribe((addr[0], cmd.port), cmd.every_n_ticks)
+        self._ack(cid, addr, *((AckStatus.FAILED, err) if err else (AckStatus.COMPLETED, "subscribed")))
+
+    def _control(self, cmd: C.Control, cid: str | None, addr: Address, who: ClientId, now: float) -> None:
+        """CONTROL|TAKE / CONTROL|RELEASE."""
+        busy = self.answerer.busy()
+        if cmd.action == "RELEASE":
+            ok, text = self.lease.release(who, now, busy)
+            self._ack(cid, addr, AckStatus.COMPLETED if ok else AckStatus.FAILED, text)
+            return
+        ok, text, prev = self.lease.take(who, now, force=cmd.force, secret=cmd.secret, busy=busy)
+        if ok and prev is not None:
+            # the previous holder's commands stop with the lease (the STOP lane: first frame)
+            log.warning("%s", text)
+            self.inbox.put_safety(Submission(C.Stop(), None, None, addr, self.received))
+        self._ack(cid, addr, AckStatus.COMPLETED if ok else AckStatus.FAILED, text)
+        if cid is None and not ok:
+            self._reply(format_error(text), addr)
 
 
 def _looks_like_query(data: bytes) -> bool:

@@ -13,7 +13,6 @@ import threading
 import time
 from collections.abc import Callable
 from functools import partial
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from nicegui import app, ui
@@ -22,6 +21,8 @@ from parolkit.client.core import RobotState, RobotStatus
 from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError, ParolkitValueError
 from parolkit.gui import geometry
+from parolkit.gui.control import ControlWatch, local_host_for
+from parolkit.gui.control_badge import ControlBadge
 from parolkit.gui.eventlog import EventLog, Level
 from parolkit.gui.highlight import line_decorations, mark_decorations
 from parolkit.gui.jog import (
@@ -37,6 +38,8 @@ from parolkit.gui.jog import (
     key_label,
 )
 from parolkit.gui.link import ControllerLink
+from parolkit.gui.programs import ProgramsFolder, default_programs_dir
+from parolkit.gui.programs_panel import ProgramsPanel
 from parolkit.gui.status import (
     POSE_LABELS,
     format_angles,
@@ -131,20 +134,29 @@ KEY_JS = """
 class Commander:
     """Process-wide state: the link, the log, the current jog hold and the program run."""
 
-    def __init__(self, link: ControllerLink, *, mode_label: str, program_dir: Path | None = None,
-                 jog_repeat_s: float = JOG_REPEAT_S, cart_jog_repeat_s: float | None = None) -> None:
+    def __init__(self, link: ControllerLink, *, mode_label: str, programs: ProgramsFolder | None = None,
+                 jog_repeat_s: float = JOG_REPEAT_S, cart_jog_repeat_s: float | None = None,
+                 secret: str | None = None, login: bool = False) -> None:
         """``jog_repeat_s`` / ``cart_jog_repeat_s``: period of the streamed joint / Cartesian
         jog updates, s; both must stay below the controller's stream watchdog (20 ms by
         default, 150 ms for a controller the GUI starts).  Every CARTJOG update is planned
-        anew by the controller, so fewer, longer updates move more smoothly."""
+        anew by the controller, so fewer, longer updates move more smoothly.  ``programs``:
+        the only folder Open / Save use (default :func:`default_programs_dir`); ``secret``:
+        the controller's shared secret (``controller.secret``) if it has one; ``login``: the
+        pages sit behind a login (a Log out button is shown)."""
         self.link = link
         self.jog_repeat_s = jog_repeat_s
         self.cart_jog_repeat_s = jog_repeat_s if cart_jog_repeat_s is None else cart_jog_repeat_s
         self.log: EventLog = link.log
         self.mode_label = mode_label
-        self.program_dir = program_dir or Path.cwd()
+        self.programs = programs or ProgramsFolder(default_programs_dir())
+        self.login = login
         self._hold: asyncio.Task[None] | None = None
         self.program = ProgramRunner(self)
+        self.control = ControlWatch(link.robot, link.send, local_host=local_host_for(link.host),
+                                    runner_port=self.program.port, secret=secret)
+        #: connected pages (browser tabs); when the last one goes the lease is given back
+        self.pages = 0
 
     # ---- jogging ----
 
@@ -156,6 +168,7 @@ class Commander:
 
     async def _hold_loop(self, make_command: Callable[[], str], period_s: float) -> None:
         try:
+            self.control.ensure()
             self.link.send("STREAM|ON", label="STREAM ON", quiet=True)
             while True:
                 self.link.send(make_command(), label="jog", quiet=True)  # only refusals are logged
@@ -184,6 +197,8 @@ class Commander:
 
     def command(self, text: str, label: str | None = None) -> None:
         try:
+            if text not in ("STOP", "ESTOP", "DISABLE"):  # open to every client
+                self.control.ensure()
             self.link.send(text, label=label)
             self.log.info(f"sent {label or text}")
         except (RobotError, OSError) as exc:
@@ -213,6 +228,12 @@ class ProgramRunner:
         self.state = "idle"  # idle, running, paused, error
         self.message = ""
         self.version = 0
+
+    def port(self) -> int | None:
+        """Local UDP port of the runner's client while a program runs (the controller names
+        the lease holder by it), else None."""
+        robot = self.robot
+        return None if robot is None else robot.ack_port
 
     def _on_line(self, progress: Any) -> None:
         """Interpreter callback: ``progress.line`` is the line about to run (1-based)."""
@@ -249,6 +270,9 @@ class ProgramRunner:
             self.version += 1
             return []
         link = self.commander.link
+        # the runner is another client of the controller: the link gives the lease back
+        # first, then the runner takes it (_run) and gives it back when the program ends
+        await self.commander.control.hand_over()
         try:
             # its own ephemeral socket: the controller acks it there (ACK_HERE)
             robot = Robot(host=link.host, port=link.port, ack_port=0)
@@ -275,6 +299,17 @@ class ProgramRunner:
         if interpreter is None:
             raise RuntimeError("ProgramRunner._run needs the interpreter that start() creates")
         try:
+            try:
+                if self.robot is None:
+                    raise RuntimeError("ProgramRunner._run needs the client that start() creates")
+                self.robot.take_control(secret=self.commander.control.secret)
+            except RobotError as exc:
+                self.state = "error"
+                self.message = f"cannot take control of the robot: {exc}"
+                self.commander.log.error(f"program not started: {self.message}")
+                return
+            finally:
+                self.commander.control.refresh_soon()
             interpreter.start()
             result = interpreter.wait()
             if result is not None and not result.ok and result.state.value != "stopped":
@@ -390,6 +425,7 @@ class CommanderPage:
             self.link_chip = ui.chip("NO LINK", icon="link_off", color="grey").props("outline").props("data-testid=link-chip")
             self.mode_chip = ui.chip(self.c.mode_label, icon="memory", color="indigo").props("data-testid=mode-chip")
             self.state_chip = ui.chip("—", color="grey").classes("text-weight-bold").props("data-testid=state-chip")
+            self.control_badge = ControlBadge(self.c.control)
             ui.space()
             ui.button("Home", icon="home", on_click=lambda: self.c.command("HOME", "Home")).props("unelevated dense color=primary").classes("px-2").props("data-testid=btn-home")
             ui.button("Enable", icon="power_settings_new", on_click=lambda: self.c.command("ENABLE", "Enable")).props("unelevated dense color=positive").classes("px-2").props("data-testid=btn-enable")
@@ -399,6 +435,9 @@ class CommanderPage:
             ui.button(icon="help_outline", on_click=lambda: self.help.open()).props("flat round color=grey-4 data-testid=help-button").tooltip("keyboard shortcuts")
             self.estop_btn = ui.button("E-STOP", icon="dangerous", on_click=self.c.estop).props("color=red-8 size=lg").classes("pk-estop").props("data-testid=btn-estop")
             self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
+            if self.c.login:
+                ui.button(icon="logout", on_click=lambda: ui.navigate.to("/logout")) \
+                    .props("flat round color=grey-4 data-testid=btn-logout").tooltip("log out")
 
     def build_scene(self) -> None:
         with ui.card().classes("pk-card w-full p-2 gap-1"):
@@ -597,11 +636,7 @@ class CommanderPage:
                 with ui.menu():
                     for name, text in SEED_EXAMPLES.items():
                         ui.menu_item(name, on_click=lambda text=text: self.set_program(text))
-        with ui.row().classes("w-full items-center gap-2"):
-            self.path_input = ui.input("file", value=str(self.c.program_dir / "program.txt")).classes("grow").props("dense")
-            ui.button("Open", icon="folder_open", on_click=self.open_file).props("flat dense color=grey-4")
-            ui.button("Save", icon="save", on_click=lambda: self.save_file(self.path_input.value)).props("flat dense color=grey-4")
-            ui.button("Save as…", icon="save_as", on_click=self.save_as).props("flat dense color=grey-4")
+        self.files = ProgramsPanel(self.c.programs, self.c.log, lambda: self.editor.value or "", self.set_program)
         self.editor = ui.codemirror(SEED_EXAMPLES["Output click"], on_change=self.on_edit, theme="githubLight") \
             .classes("w-full pk-editor").style("height: 300px").props("data-testid=editor")
         self.prog_status = ui.label("").classes("text-sm pk-mono").props("data-testid=prog-status")
@@ -770,37 +805,6 @@ class CommanderPage:
         self.c.program.stop()
         self.c.command("STOP", "Stop")
 
-    async def open_file(self) -> None:
-        path = Path(self.path_input.value).expanduser()
-        try:
-            self.set_program(path.read_text(encoding="utf-8-sig"))
-            self.c.log.info(f"opened {path}")
-        except (OSError, UnicodeDecodeError) as exc:
-            self.c.log.error(f"cannot open {path}: {exc}")
-            ui.notify(f"cannot open {path}: {exc}", type="negative")
-
-    def save_file(self, name: str) -> None:
-        path = Path(name).expanduser()
-        try:
-            path.write_text(self.editor.value or "", encoding="utf-8")
-            self.c.log.add(f"saved {path}", Level.SUCCESS)
-            ui.notify(f"saved {path}", type="positive")
-        except OSError as exc:
-            self.c.log.error(f"cannot save {path}: {exc}")
-            ui.notify(f"cannot save {path}: {exc}", type="negative")
-
-    async def save_as(self) -> None:
-        with ui.dialog() as dlg, ui.card().classes("pk-card"):
-            ui.label("Save program as").classes("font-bold")
-            name = ui.input("path", value=self.path_input.value).classes("w-96")
-            with ui.row():
-                ui.button("Save", on_click=lambda: dlg.submit(name.value)).props("unelevated color=primary")
-                ui.button("Cancel", on_click=lambda: dlg.submit(None)).props("flat")
-        result = await dlg
-        if result:
-            self.path_input.value = result
-            self.save_file(result)
-
     # ---------------------------------------------------------------- periodic updates
 
     def update_scene(self) -> None:
@@ -842,6 +846,7 @@ class CommanderPage:
         self.path.set_points(pts)
 
     def update_readouts(self) -> None:
+        self.control_badge.update()
         link_up = self.link.link_up
         st = self.link.status
         self.link_chip.set_text("LINKED" if link_up else "NO LINK")
@@ -986,18 +991,37 @@ def build_app(commander: Commander) -> Callable[[], None]:
 
     async def startup() -> None:
         await commander.link.start()
+        commander.control.start()
 
     async def shutdown() -> None:
         commander.jog_release()
         commander.program.stop("stopped: commander shutting down")
-        await commander.link.close()
+        await commander.control.stop()
+        await commander.link.close()  # gives the control lease back (CONTROL|RELEASE)
 
     app.on_startup(startup)
     app.on_shutdown(shutdown)
 
+    def opened() -> None:
+        commander.pages += 1
+
+    def closed() -> None:
+        """A page's connection went away: end its jog; when no page is connected any more the
+        commander gives the control lease back (unless a program runs: the runner holds the
+        lease then and gives it back itself when the program ends)."""
+        commander.jog_release()
+        commander.pages = max(0, commander.pages - 1)
+        if commander.pages == 0 and not commander.program.running:
+            try:
+                commander.control.release()
+            except RobotError as exc:
+                commander.log.error(f"release control: {exc}")
+
     def root() -> None:
         page = CommanderPage(commander)
-        ui.context.client.on_disconnect(lambda: commander.jog_release())
+        # once per socket connection (a reconnecting page connects again)
+        ui.context.client.on_connect(opened)
+        ui.context.client.on_disconnect(closed)
         ui.page_title("parolkit commander")
         del page  # the page's timers and handlers keep it alive with the client
 

@@ -1,19 +1,23 @@
 """``parolkit gui``: start (or connect to) a controller and serve the commander.
 
     parolkit gui [--sim | --port /dev/ttyACM0 | --connect HOST:PORT] [--http-port 8080]
-                 [--host 127.0.0.1] [--no-browser]
+                 [--host 127.0.0.1] [--programs-dir DIR] [--no-browser]
 
 With ``--sim`` (the default) or ``--port`` a ``parolkit serve`` subprocess is started on
 free UDP ports and stopped with the GUI.  ``--connect`` uses a running controller.  The GUI
 receives its acks on its own socket (``ACK_HERE``), never on the controller's ack port
 (``--ack-port`` only sets that port for a controller the GUI starts).
+
+The web server answers only its own names (``Host`` / ``Origin`` allow-list), asks for
+``gui.password`` whenever one is set, and refuses to start beyond loopback without one
+(:mod:`parolkit.gui.security`); Open / Save use only the programs folder
+(:mod:`parolkit.gui.programs`).
 """
 
 from __future__ import annotations
 
 import argparse
 import faulthandler
-import ipaddress
 import signal
 import socket
 import subprocess
@@ -68,7 +72,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
                         "acks on its own socket (ACK_HERE), so with --connect this is informational only")
     p.add_argument("--http-port", type=_port, default=None, help="HTTP port of the GUI (default from config: 8080)")
     p.add_argument("--host", default=None,
-                   help="address the GUI binds (default 127.0.0.1; anything else exposes robot control to the network)")
+                   help="address the GUI binds (default 127.0.0.1); anything beyond loopback exposes robot control "
+                        "to the network and needs gui.password in the config")
+    p.add_argument("--programs-dir", type=Path, default=None, metavar="DIR",
+                   help="the only folder Open / Save use (default gui.programs_dir, else "
+                        "~/.local/share/parolkit/programs); created if missing")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
     p.add_argument("--config", type=Path, default=None, help="parolkit.toml to use")
     p.set_defaults(func=main)
@@ -150,15 +158,29 @@ def main(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         print(f"parolkit gui: {exc}", file=sys.stderr)
         return 2
+    from parolkit.gui.programs import ProgramsFolder, default_programs_dir
+    from parolkit.gui.security import AccessPolicy, LoginGate, is_loopback_bind
+
     http_port = args.http_port or cfg.gui.http_port
     host = args.host or cfg.gui.host
-    try:
-        loopback = ipaddress.ip_address(socket.gethostbyname(host)).is_loopback
-    except (OSError, ValueError):
-        loopback = False
-    if not loopback:
-        print(f"WARNING: the commander binds {host}: anyone who can reach this address can move the robot.",
+    password = cfg.gui.password
+    if not is_loopback_bind(host):
+        if password is None:
+            print(f"parolkit gui: refusing to bind {host}: beyond loopback anyone who can reach this address "
+                  "could move the robot; set a login password (gui.password, 8..256 characters) in the config "
+                  f"({cfg.source or 'parolkit.toml'}), or bind 127.0.0.1 and use an SSH tunnel",
+                  file=sys.stderr)
+            return 2
+        print(f"WARNING: the commander binds {host}: the login password is all that stands between the network "
+              "and the robot, and plain HTTP sends it unencrypted (use a TLS proxy or an SSH tunnel).",
               file=sys.stderr)
+    programs = ProgramsFolder(args.programs_dir or cfg.gui.programs_dir or default_programs_dir())
+    try:
+        programs.create()
+    except OSError as exc:
+        print(f"parolkit gui: cannot create the programs folder {programs.root}: {exc}", file=sys.stderr)
+        return 2
+    policy = AccessPolicy.for_bind(host, cfg.gui.allowed_hosts)
 
     proc: subprocess.Popen[bytes] | None = None
     if args.connect:
@@ -178,28 +200,35 @@ def main(args: argparse.Namespace) -> int:
             print(f"parolkit gui: {exc}", file=sys.stderr)
             return 1
 
-    from nicegui import ui
+    from nicegui import app, core, ui
 
     from parolkit.gui.app import Commander, build_app
     from parolkit.gui.link import ControllerLink
+    from parolkit.gui.security import SecurityMiddleware
 
     link = ControllerLink(ctl_host, ctl_port, ack_port, every_n_ticks=2)  # 50 Hz status for a 30 fps view
     # our own controller has a 150 ms stream watchdog: 20 Hz jog updates are plenty; a
     # controller we connect to has its own (20 ms by default): send every control tick
     own = proc is not None
-    commander = Commander(link, mode_label=mode, jog_repeat_s=0.05 if own else 0.01,
-                          cart_jog_repeat_s=0.1 if own else 0.01)
+    commander = Commander(link, mode_label=mode, programs=programs, jog_repeat_s=0.05 if own else 0.01,
+                          cart_jog_repeat_s=0.1 if own else 0.01, secret=cfg.controller.secret,
+                          login=password is not None)
     root = build_app(commander)
+    # every request and websocket: Host, Origin, login (gui/security.py); socket.io checks the
+    # Origin of its handshakes against the same list (it would otherwise accept any)
+    app.add_middleware(SecurityMiddleware, policy=policy,
+                       login=LoginGate(password) if password is not None else None)
+    core.sio.eio.cors_allowed_origins = policy.origin_allowed
     if hasattr(signal, "SIGUSR1"):  # `kill -USR1 PID` prints every thread's stack to stderr
         faulthandler.register(signal.SIGUSR1, all_threads=True)
     if proc is not None:
-        from nicegui import app
-
         # uvicorn ends the process by re-raising SIGTERM / SIGINT after the app's shutdown
         # handlers, so the ``finally`` below is not reached then: stop the controller here
         # (after build_app's handler closed the link)
         app.on_shutdown(lambda: stop_controller_process(proc))
-    print(f"parolkit commander on http://{host}:{http_port}/", file=sys.stderr, flush=True)
+    print(f"parolkit commander on http://{host}:{http_port}/ (programs folder {programs.root}; answers the "
+          f"names {', '.join(sorted(policy.allowed))}{'; login required' if password else ''})",
+          file=sys.stderr, flush=True)
     try:
         ui.run(root, host=host, port=http_port, title="parolkit commander", reload=False,
                show=not args.no_browser, show_welcome_message=False, dark=True, favicon="🦾",

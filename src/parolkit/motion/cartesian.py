@@ -14,6 +14,11 @@ Timing:
   speed is 1.5x the mapped mean speed).  When a joint
   cannot follow (speed or acceleration), the duration is stretched and a note says so.
 
+Joint speeds: position-tracked paths (board command 156, the default) keep every joint within
+:meth:`RobotModel.max_tracked_speed_steps_s` (the board's GO TO loop starts every tick 1.27x
+faster than the stream moves at 100 Hz), checked on every sample's speed and on every tick's
+step from the start on; speed-tracked paths (123) within the maximum speed.
+
 A path through a singularity shows up as a joint needing an unbounded speed; beyond
 :data:`MAX_STRETCH` times the requested duration the move is refused and the message names
 the nearest singularity.
@@ -22,7 +27,7 @@ the nearest singularity.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
@@ -192,14 +197,15 @@ def plan_cart_jog(
     # speed to send at tick k: the motion to the next sample; the last: the rest of the jog
     full = np.vstack([start[None, :], q])
     step = np.diff(full, axis=0) / dt  # step[k]: speed from sample k-1 to sample k
-    # a jog stops before the sample a joint cannot reach at its maximum speed (singularity)
-    vmax = model.max_speed_deg_s
+    # a jog stops before the sample a joint cannot reach at its (position-tracking) maximum
+    # speed (singularity)
+    vmax = validate.speed_limits(model, rate_hz, True).array / model.steps_per_deg
     too_fast = np.nonzero(np.any(np.abs(step) > vmax, axis=1))[0]
     if len(too_fast):
         k = int(too_fast[0])
         j = int(np.argmax(np.abs(step[k]) / vmax))
-        notes = [f"stopped after {k / rate_hz:.2f} s: {JOINT_NAMES[j]} would exceed its maximum "
-                 f"speed{_sing_text(q[k], tool)}"]
+        notes = [f"stopped after {k / rate_hz:.2f} s: {JOINT_NAMES[j]} would exceed its position-tracking "
+                 f"maximum speed{_sing_text(q[k], tool)}"]
         if k == 0:
             q0 = np.asarray(start, dtype=float)[None, :]
             return build_trajectory(move, np.array([1.0 / rate_hz]), q0, np.zeros((1, 6)),
@@ -474,55 +480,143 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
         if move.speed_pct is None and not approach:
             notes.append(f"no duration or speed given: path speed {DEFAULT_CART_SPEED_PCT:g} % "
                          f"({v_lin:g} mm/s, {w_ang:g} deg/s)")
+    limits = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION)
+    vmax = limits.array
+
+    def timed(prof: ScalarProfile) -> _TimedPath:
+        return _TimedPath(name, prof, path, start, model, tool, rate_hz, limits)
+
     stretch = 1.0
-    T = duration
     for _attempt in range(4):
-        prof = _path_profile(profile, base, duration, stretch)
-        T = prof.T
-        t = sample_times(T, rate_hz)
-        s, _, _ = prof(t)
-        pos, rots = path.evaluate(s)
-        q = _solve_ik(name, pos, rots, start, tool, t)
-        qd = _derivative(q, start, rate_hz, t, T)
-        spd = model.steps_per_deg
-        vmax = np.asarray(model.max_speed_steps_s, dtype=float)
-        amax = float(model.accel_range_steps_s2[1])
-        v_steps = qd * spd
-        acc = np.diff(np.vstack([np.zeros((1, 6)), v_steps]), axis=0) * rate_hz
-        # what the board is asked to cover in each tick, from the start on: the samples' speeds
-        # are central differences, zero at the end, so a move shorter than a tick (one sample,
-        # speed 0) hid a jump of up to 2x the maximum speed
-        v_tick: NDArray[np.float64] = np.diff(np.vstack([start[None, :], q]), axis=0) * (rate_hz * spd)
-        v_chk: NDArray[np.float64] = np.where(np.abs(v_tick) > np.abs(v_steps), v_tick, v_steps)
-        r_v = float(np.max(np.abs(v_chk) / vmax))
-        r_a = float(np.max(np.abs(acc))) / (amax * (1 + validate.ACCEL_TOLERANCE))
-        if r_v <= 1.0 and r_a <= 1.0:
+        tm = timed(_path_profile(profile, base, duration, stretch))
+        if tm.fits:
             break
-        factor = max(r_v, math.sqrt(r_a))
-        if factor > MAX_STRETCH and _near_singularity(q, v_steps, vmax):
-            _refuse_singular(name, t, q, v_steps, vmax, tool)
+        factor = tm.factor
+        if factor > MAX_STRETCH and _near_singularity(tm.q, tm.v_steps, vmax):
+            _refuse_singular(name, tm.t, tm.q, tm.v_steps, vmax, tool)
         if duration is not None:
-            # (a move shorter than a tick is still played in one: it lasts a tick at least)
-            least = max(T, 1.0 / rate_hz) * factor * 1.02
-            hint = f"give a duration of at least {math.ceil(least * 100) / 100:.2f} s"
-            validate.check_speeds(name, t, v_chk, model, hint=hint)
-            validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
+            tm.refuse(_least_duration(tm, profile, base, timed))
         stretch *= factor * 1.02
     else:
         # stretching does not help: a kink (a sharp corner, or a singularity grazed)
-        hint = ("the path has a sharp corner or grazes a singularity here: round the corners "
-                "(blend radius) or change the path")
-        validate.check_speeds(name, t, v_chk, model, hint=hint)
-        validate.check_accels(name, t, v_steps, model, rate_hz, hint=hint)
+        tm.refuse("the path has a sharp corner or grazes a singularity here: round the corners "
+                  "(blend radius) or change the path")
         raise PlanningError(name, "no feasible timing found within the joint limits after stretching")
+    t, q, qd, T = tm.t, tm.q, tm.qd, tm.T
     if stretch > 1.0:
-        j = int(np.argmax(np.max(np.abs(v_steps) / vmax, axis=0)))
+        j = int(np.argmax(np.max(np.abs(tm.v_steps) / vmax, axis=0)))
         notes.append(f"duration stretched from {_nominal(profile, base):.2f} s to {T:.2f} s: "
                      f"joint speed/acceleration limits ({JOINT_NAMES[j]} the busiest)")
     _check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
     # speeds and accelerations were checked sample by sample in the loop above (proven)
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
                             notes=notes, target_deg=q[-1], proven=True)
+
+
+#: A path lasting at most this many ticks is also checked on a finer grid than the ticks
+#: (:class:`_TimedPath`): its samples may not resolve it (a whole circle in one tick is one sample,
+#: back at the start).
+FINE_CHECK_TICKS = 20
+#: Points of that finer grid (at least; 4 per tick for longer ones).
+FINE_CHECK_POINTS = 32
+
+
+class _TimedPath:
+    """A path timed by ``prof`` and sampled at the ticks: joint angles, speeds, and how far
+    they are over the limits (``r_v``, ``r_a``: 1 = at the limit).
+
+    Speeds are checked three ways: the samples' speeds (central differences), what each tick
+    asks the board to cover, from the start on (a move shorter than a tick is one sample of
+    speed 0 that hid a jump of up to 2x the maximum speed), and, for short paths, the joints'
+    speeds along the path itself on a finer grid than the ticks."""
+
+    def __init__(self, name: str, prof: ScalarProfile, path: Path, start: NDArray[np.float64], model: RobotModel,
+                 tool: str | Tool | None, rate_hz: float, limits: validate.SpeedLimits) -> None:
+        self.name, self.model, self.rate_hz, self.limits = name, model, rate_hz, limits
+        T = self.T = prof.T
+        t = self.t = sample_times(T, rate_hz)
+        s, _, _ = prof(t)
+        pos, rots = path.evaluate(s)
+        q = self.q = _solve_ik(name, pos, rots, start, tool, t)
+        qd = self.qd = _derivative(q, start, rate_hz, t, T)
+        spd = model.steps_per_deg
+        vmax = limits.array
+        amax = float(model.accel_range_steps_s2[1])
+        v_steps = self.v_steps = qd * spd
+        self.acc: NDArray[np.float64] = np.diff(np.vstack([np.zeros((1, 6)), v_steps]), axis=0) * rate_hz
+        v_tick: NDArray[np.float64] = np.diff(np.vstack([start[None, :], q]), axis=0) * (rate_hz * spd)
+        self.v_chk: NDArray[np.float64] = np.where(np.abs(v_tick) > np.abs(v_steps), v_tick, v_steps)
+        self.r_v = float(np.max(np.abs(self.v_chk) / vmax))
+        self.fine: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        if len(t) <= FINE_CHECK_TICKS:
+            n = max(FINE_CHECK_POINTS, 4 * len(t))
+            tf = np.linspace(0.0, T, n + 1)[1:]
+            sf, _, _ = prof(tf)
+            posf, rotsf = path.evaluate(sf)
+            qf = _solve_ik(name, posf, rotsf, start, tool, tf)
+            vf: NDArray[np.float64] = np.diff(np.vstack([start[None, :], qf]), axis=0) * (spd * n / T)
+            self.fine = (tf, vf)
+            self.r_v = max(self.r_v, float(np.max(np.abs(vf) / vmax)))
+        self.r_a = float(np.max(np.abs(self.acc))) / (amax * (1 + validate.ACCEL_TOLERANCE))
+
+    @property
+    def fits(self) -> bool:
+        return self.r_v <= 1.0 and self.r_a <= 1.0
+
+    @property
+    def factor(self) -> float:
+        """How much longer the path must take to fit (speeds scale with 1 / time,
+        accelerations with 1 / time^2)."""
+        return max(self.r_v, math.sqrt(self.r_a), 1.0)
+
+    def refuse(self, hint: str) -> None:
+        """Raise the PlanningError of the first limit exceeded (joint, time, value, limit), with
+        ``hint``; return when nothing is exceeded."""
+        validate.check_speeds(self.name, self.t, self.v_chk, self.model, hint=hint, limits=self.limits)
+        if self.fine is not None:
+            tf, vf = self.fine
+            validate.check_speeds(self.name, tf, vf, self.model, hint=hint, limits=self.limits)
+        validate.check_accels(self.name, self.t, self.v_steps, self.model, self.rate_hz, hint=hint)
+
+
+#: The refusal of a duration names the shortest one that fits, searched up to this long (s).
+LEAST_DURATION_SEARCH_S = 600.0
+
+
+def _least_duration(tm: _TimedPath, profile: Profile, base: float,
+                    timed: Callable[[ScalarProfile], _TimedPath]) -> str:
+    """How the refusal of ``tm``'s duration says what would fit: ``"give a duration of at
+    least X s"`` with the shortest duration (to 0.01 s) at which the path fits.  Searched, not
+    scaled: a move of less than a tick does not scale like a longer one (its one sample hid
+    the path).  Grows the duration (by the overload, at most 4x a step) until it fits, then
+    halves the interval down to 0.01 s; a dozen plans of the path at most, on refusals only."""
+
+    def fits(T: float) -> tuple[bool, float]:
+        try:
+            trial = timed(_path_profile(profile, base, T, 1.0))
+        except PlanningError:
+            return False, 2.0
+        return trial.fits, trial.factor
+
+    lo = tm.T
+    hi = max(math.ceil(max(tm.T, 1.0 / tm.rate_hz) * 100 - 1e-6) / 100, 0.01)
+    factor = tm.factor
+    ok = hi > lo and fits(hi)[0]
+    while not ok:
+        lo = hi
+        hi = math.ceil(hi * min(max(factor * 1.02, 1.1), 4.0) * 100) / 100
+        if hi > LEAST_DURATION_SEARCH_S:
+            return f"no duration up to {LEAST_DURATION_SEARCH_S:g} s fits"
+        ok, factor = fits(hi)
+    while hi - lo > 0.0101:
+        mid = math.ceil((lo + hi) / 2 * 100 - 1e-6) / 100
+        if mid >= hi:
+            break
+        if fits(mid)[0]:
+            hi = mid
+        else:
+            lo = mid
+    return f"give a duration of at least {hi:.2f} s"
 
 
 #: |J5| (deg) at or below which the start counts as exactly on the wrist singularity.
@@ -743,7 +837,7 @@ def _toppra_path(
     pos, rots = path.evaluate(s_grid)
     q_grid = _solve_ik(name, pos, rots, start, tool, s_grid)
     spd = model.steps_per_deg
-    vmax = np.asarray(model.max_speed_steps_s, dtype=float) / spd
+    vmax = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION).array / spd
     amax = float(model.accel_range_steps_s2[1]) / spd
     # a 7th coordinate = s itself (unconstrained) recovers s(t) from the joint-space result
     aug = np.hstack([q_grid, s_grid[:, None]])

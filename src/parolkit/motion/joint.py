@@ -8,6 +8,11 @@ module imports neither of them, so the three form no import cycle.
 
 Timing rules (the seed's, see docs/motion.md):
 
+* Speed limits: a position-tracked move (board command 156) keeps every joint within
+  :meth:`RobotModel.max_tracked_speed_steps_s` (76 % of the maximum at 100 Hz: the board's
+  GO TO loop starts every tick 1.27x faster than the stream moves, see
+  :func:`parolkit.robot.goto_tracking_factor`), a speed-tracked one (123) within the maximum.
+
 * ``duration_s`` given: exactly that long (rounded UP to whole ticks; the profile itself lasts
   exactly ``duration_s``), default POLY; if a joint would exceed its speed or acceleration
   limit the move is REFUSED (the message gives the shortest feasible duration).
@@ -98,8 +103,9 @@ def build_trajectory(
     SPEED tracking gets a trailing zero-speed sample when the last speed is not zero.
     ``proven``: the caller has bounded the peak speed and acceleration analytically (a
     synchronised poly / trap profile checked against every joint's maxima); the sampled
-    values cannot exceed those peaks (the speed limits are whole steps/s, so rounding cannot
-    cross them either), so only the positions are checked sample by sample.
+    values cannot exceed those peaks, so only the positions are checked sample by sample.
+    Speeds are checked against :func:`validate.speed_limits` for ``tracking`` (position-
+    tracked: the position-tracking maximum), or the maximum jog speed (``jog``).
     """
     name = getattr(move, "name", type(move).__name__)
     spd = validate.model_arrays(model).steps_per_deg
@@ -110,7 +116,8 @@ def build_trajectory(
     sp_f = qd_deg_s * spd
     validate.check_positions(name, t, pos, model)
     if not proven:
-        validate.check_speeds(name, t, sp_f, model, jog=jog, hint=hint)
+        limits = None if jog else validate.speed_limits(model, rate, tracking is Tracking.POSITION)
+        validate.check_speeds(name, t, sp_f, model, jog=jog, hint=hint, limits=limits)
         if check_accel:
             validate.check_accels(name, t, sp_f, model, rate, hint=hint)
     sp = np.rint(sp_f).astype(np.int64)
@@ -214,10 +221,11 @@ def _fast_timed(
     else:
         return None
     ma = validate.model_arrays(model)
+    vlim = validate.speed_limits(model, rate, move.tracking is Tracking.POSITION)
     dist_max = 0.0
     tv = 0.0
     start_l = start.tolist()
-    for q0, q1, k, v, lo, hi, tlo, thi in zip(start_l, target, ma.spd_list, ma.vmax_list,
+    for q0, q1, k, v, lo, hi, tlo, thi in zip(start_l, target, ma.spd_list, vlim.list,
                                               ma.round_lo_list, ma.round_hi_list,
                                               ma.safe_lo_list, ma.safe_hi_list):
         if not tlo <= q1 <= thi:
@@ -252,7 +260,7 @@ def plan_joint_target(
     spd = ma.steps_per_deg
     delta = target - start  # deg
     dist = np.abs(delta * spd)  # steps
-    vmax = ma.vmax
+    limits = validate.speed_limits(model, rate, move.tracking is Tracking.POSITION)
     amax = ma.amax
     notes: list[str] = []
     tracking = move.tracking
@@ -262,14 +270,14 @@ def plan_joint_target(
         if move.speed_pct is not None or move.accel_pct is not None:
             notes.append(_DURATION_NOTE)
         prof, T = _timed_profile(name, move.profile or Profile.POLY, float(move.duration_s), dist,
-                                 vmax, amax, start, delta, spd)
+                                 limits, amax, start, delta, spd)
     else:
         v_pct = move.speed_pct if move.speed_pct is not None else default_pct[0]
         if move.accel_pct is not None:
             a_pct = move.accel_pct
         else:
             a_pct = SPEED_ONLY_ACCEL_PCT if move.speed_pct is not None else default_pct[1]
-        prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, vmax,
+        prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, limits,
                                    amax, start, delta, spd, model, notes)
     if isinstance(prof, ScalarProfile) and prof.kind in ("poly", "trap"):
         return _monotonic_trajectory(move, prof.kind, prof.T, prof.ta, start, start.tolist(),
@@ -395,15 +403,16 @@ def _min_duration(
 
 
 def _timed_profile(
-    name: str, profile: Profile, T: float, dist: NDArray[np.float64], vmax: NDArray[np.float64], amax: float,
+    name: str, profile: Profile, T: float, dist: NDArray[np.float64], limits: validate.SpeedLimits, amax: float,
     start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64],
 ) -> tuple[ScalarProfile | ToppResult, float]:
     """Profile lasting exactly ``T`` s, or a refusal when a joint cannot keep up."""
+    vmax = limits.array
     if profile in (Profile.POLY, Profile.TRAP):
         kind = "poly" if profile is Profile.POLY else "trap"
         tmin, j, why = _min_duration(kind, dist, vmax, amax)
         if T < tmin * (1.0 - 1e-9):
-            _refuse_too_fast(name, kind, T, tmin, j, why, dist, vmax, amax)
+            _refuse_too_fast(name, kind, T, tmin, j, why, dist, limits, amax)
         return (ScalarProfile("poly", T) if kind == "poly" else ScalarProfile("trap", T, T / 3.0)), T
     if profile is Profile.RUCKIG:
         with np.errstate(divide="ignore"):
@@ -431,13 +440,13 @@ def _timed_profile(
 
 def _refuse_too_fast(
     name: str, kind: str, T: float, tmin: float, j: int, why: str, dist: NDArray[np.float64],
-    vmax: NDArray[np.float64], amax: float,
+    limits: validate.SpeedLimits, amax: float,
 ) -> NoReturn:
     if why == "speed":
         k = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
         value = k * dist[j] / T
         t_at = T / 2.0 if kind == "poly" else T / 3.0
-        detail = f"{JOINT_NAMES[j]} would need a speed of {value:.0f} steps/s (maximum {vmax[j]:.0f} steps/s)"
+        detail = f"{JOINT_NAMES[j]} would need a speed of {value:.0f} steps/s, above its {limits.describe(j)}"
     else:
         k = POLY_PEAK_ACCEL if kind == "poly" else TRAP3_PEAK_ACCEL
         value = k * dist[j] / T**2
@@ -453,11 +462,16 @@ def _refuse_too_fast(
 
 
 def _percent_profile(
-    name: str, profile: Profile, v_pct: float, a_pct: float, dist: NDArray[np.float64], vmax: NDArray[np.float64],
+    name: str, profile: Profile, v_pct: float, a_pct: float, dist: NDArray[np.float64], limits: validate.SpeedLimits,
     amax: float, start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64], model: RobotModel,
     notes: list[str],
 ) -> tuple[ScalarProfile | ToppResult, float]:
-    """Leading-joint v/a profile with every joint synchronised (finishing together)."""
+    """Leading-joint v/a profile with every joint synchronised (finishing together).
+
+    The percentage maps onto min..max joint speed as in the original; a position-tracked
+    move cannot go beyond the position-tracking maximum (``limits``): the leading joint is
+    slowed to it and a note says so, as when another joint could not follow."""
+    vmax = limits.array
     lead = int(np.argmax(dist))
     v_lead = float(model.speed_from_percent(v_pct)[lead])
     a_lead = float(model.accel_from_percent(a_pct))
@@ -465,7 +479,13 @@ def _percent_profile(
         # time-optimal: every joint within its own mapped speed and the mapped acceleration
         from parolkit.motion.topp import toppra_parameterize
 
-        v_joint = np.minimum(model.speed_from_percent(v_pct), vmax) / spd
+        mapped = model.speed_from_percent(v_pct)
+        over = np.nonzero((mapped > vmax) & (dist > 0.0))[0]
+        if len(over):
+            j = int(over[0])
+            notes.append(f"joint speeds capped at the position-tracking maximum ({JOINT_NAMES[j]} "
+                         f"{mapped[j]:.0f} -> {vmax[j]:.0f} steps/s)")
+        v_joint = np.minimum(mapped, vmax) / spd
         res = toppra_parameterize(np.array([0.0, 1.0]), np.vstack([start, start + delta]),
                                   v_joint, np.full(6, a_lead) / spd)
         if res is None:
@@ -481,9 +501,10 @@ def _percent_profile(
         a_caps = np.where(moving, amax / np.where(moving, dist, 1.0), np.inf)
     jv = int(np.argmin(v_caps))
     if v_caps[jv] < v_s * (1.0 - 1e-12):
+        which = "position-tracking speed limit" if limits.position_tracked else "speed limit"
         notes.append(
             f"leading joint {JOINT_NAMES[lead]} slowed from {v_lead:.0f} to {v_caps[jv] * d:.0f} steps/s: "
-            f"{JOINT_NAMES[jv]} speed limit {vmax[jv]:.0f} steps/s (all joints finish together)"
+            f"{JOINT_NAMES[jv]} {which} {vmax[jv]:.0f} steps/s (all joints finish together)"
         )
         v_s = float(v_caps[jv])
     ja = int(np.argmin(a_caps))

@@ -16,7 +16,10 @@ from parolkit.robot import JOINT_NAMES, RobotModel
 if TYPE_CHECKING:
     from numpy.typing import NDArray
 
-__all__ = ["check_positions", "check_speeds", "check_accels", "ACCEL_TOLERANCE", "model_arrays"]
+__all__ = [
+    "check_positions", "check_speeds", "check_accels", "ACCEL_TOLERANCE", "model_arrays", "speed_limits",
+    "SpeedLimits",
+]
 
 #: Finite-difference accelerations may exceed the analytic peak by this fraction (sampling).
 ACCEL_TOLERANCE = 0.02
@@ -69,6 +72,53 @@ def model_arrays(model: RobotModel) -> ModelArrays:
     return arrays
 
 
+class SpeedLimits:
+    """The joint speeds (steps/s) a trajectory's samples may ask for, and how to name them.
+
+    Position-tracked streams (board command 156) keep to
+    :meth:`RobotModel.max_tracked_speed_steps_s` (the board's GO TO loop starts every tick
+    1.27x faster than the stream moves at 100 Hz, see :func:`parolkit.robot.goto_tracking_factor`);
+    speed-only streams (123) to the maximum speed itself."""
+
+    def __init__(self, model: RobotModel, rate_hz: float, position_tracked: bool) -> None:
+        full = np.asarray(model.max_speed_steps_s, dtype=float)
+        self.position_tracked = position_tracked
+        self.array = model.max_tracked_speed_steps_s(rate_hz) if position_tracked else full.copy()
+        self.array.setflags(write=False)
+        self.list: list[float] = self.array.tolist()
+        self.full_list: list[float] = full.tolist()
+
+    def describe(self, j: int) -> str:
+        """How a message names joint ``j``'s limit: ``"maximum speed 6500 steps/s"`` or, for a
+        position-tracked trajectory, ``"position-tracking maximum 4961 steps/s (76 % of its
+        maximum speed 6500 steps/s: the board's GO TO loop starts each tick up to 1.31x faster
+        than the stream moves)"``."""
+        v = self.list[j]
+        if not self.position_tracked:
+            return f"maximum speed {v:.0f} steps/s"
+        full = self.full_list[j]
+        return (f"position-tracking maximum {v:.0f} steps/s ({100 * v / full:.0f} % of its maximum speed "
+                f"{full:.0f} steps/s: the board's GO TO loop starts each tick up to {full / v:.2f}x faster "
+                f"than the stream moves)")
+
+
+_LIMITS: dict[tuple[int, float, bool], tuple[RobotModel, SpeedLimits]] = {}
+
+
+def speed_limits(model: RobotModel, rate_hz: float, position_tracked: bool) -> SpeedLimits:
+    """Cached :class:`SpeedLimits` of ``model`` at ``rate_hz`` (Hz) for a position-tracked
+    (156) or speed-only (123) trajectory."""
+    key = (id(model), float(rate_hz), bool(position_tracked))
+    hit = _LIMITS.get(key)
+    if hit is not None and hit[0] is model:
+        return hit[1]
+    lim = SpeedLimits(model, rate_hz, bool(position_tracked))
+    if len(_LIMITS) > 64:
+        _LIMITS.clear()
+    _LIMITS[key] = (model, lim)
+    return lim
+
+
 def inside(values: list[float], lo: list[float], hi: list[float]) -> bool:
     """``lo[j] <= values[j] <= hi[j]`` for every j (False for NaN); plain Python floats."""
     for v, a, b in zip(values, lo, hi):
@@ -108,11 +158,12 @@ def check_positions(name: str, t: NDArray[np.float64], steps: NDArray[np.int64],
 
 def check_speeds(
     name: str, t: NDArray[np.float64], speeds_steps_s: NDArray[np.float64], model: RobotModel, *,
-    jog: bool = False, hint: str = "",
+    jog: bool = False, hint: str = "", limits: SpeedLimits | None = None,
 ) -> None:
-    """Every |speed| within the maximum joint speed (``jog``: the maximum jog speed)."""
+    """Every |speed| within the maximum joint speed (``jog``: the maximum jog speed;
+    ``limits``: those limits, e.g. the position-tracking ones of :func:`speed_limits`)."""
     ma = model_arrays(model)
-    mx = ma.vmax_jog if jog else ma.vmax
+    mx = limits.array if limits is not None else ma.vmax_jog if jog else ma.vmax
     peak = np.abs(speeds_steps_s).max(axis=0)
     if np.all(peak <= mx * (1.0 + 1e-9)):
         return
@@ -121,10 +172,13 @@ def check_speeds(
         return
     k, j = hit
     value = float(speeds_steps_s[k, j])
-    kind = "maximum jog speed" if jog else "maximum speed"
+    if limits is not None:
+        what = limits.describe(j)
+    else:
+        what = f"{'maximum jog speed' if jog else 'maximum speed'} {mx[j]:.0f} steps/s"
     raise PlanningError(
         name,
-        f"{JOINT_NAMES[j]} speed {abs(value):.0f} steps/s exceeds the {kind} {mx[j]:.0f} steps/s"
+        f"{JOINT_NAMES[j]} speed {abs(value):.0f} steps/s exceeds the {what}"
         + (f"; {hint}" if hint else ""),
         time_s=float(t[k]), joint=j, value=value,
     )

@@ -29,6 +29,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import unicodedata
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
@@ -123,9 +124,25 @@ MAX_COORD_MM = 10_000.0
 #: Most waypoints a spline may carry.
 MAX_WAYPOINTS = 500
 
-_ID_RE = re.compile(r"^[A-Za-z0-9-]{8}$")
-_NUM_RE = re.compile(r"^[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?$")
-_INT_RE = re.compile(r"^[+-]?\d+$")
+#: Longest numeric field, characters (checked before any conversion: Python refuses to convert
+#: integers of more than 4,300 digits, and no PAROL6 value needs more than a few dozen)
+MAX_NUMBER_CHARS = 40
+#: Longest value quoted back in an error message, characters (a 60 KB field is not echoed)
+MAX_SHOWN_CHARS = 40
+#: Longest error message (details of an INVALID ack or an ERROR reply), characters
+MAX_MESSAGE_CHARS = 400
+
+_ID_RE = re.compile(r"^[A-Za-z0-9-]{8}$", re.ASCII)
+_RAW_ID_RE = re.compile(rb"^[ \t]*([A-Za-z0-9-]{8})[ \t]*\|")
+_NUM_RE = re.compile(r"^[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?$", re.ASCII)
+_INT_RE = re.compile(r"^[+-]?\d+$", re.ASCII)
+
+
+def _show(text: str) -> str:
+    """``text`` quoted for an error message, cut to MAX_SHOWN_CHARS characters."""
+    if len(text) <= MAX_SHOWN_CHARS:
+        return repr(text)
+    return f"{text[:MAX_SHOWN_CHARS]!r}... ({len(text)} characters)"
 
 
 _E = TypeVar("_E", bound=Enum)
@@ -184,11 +201,14 @@ def _given(text: str) -> bool:
 
 def _number(text: str, fname: str) -> float:
     s = text.strip()
+    if len(s) > MAX_NUMBER_CHARS:
+        raise DatagramError(f"{fname} must be a decimal number of at most {MAX_NUMBER_CHARS} characters, "
+                            f"got {len(s)} characters")
     if not _NUM_RE.match(s):
-        raise DatagramError(f"{fname} must be a decimal number, got {text!r}")
+        raise DatagramError(f"{fname} must be a decimal number, got {_show(text)}")
     v = float(s)
     if not math.isfinite(v):
-        raise DatagramError(f"{fname} must be a finite number, got {text!r}")
+        raise DatagramError(f"{fname} must be a finite number, got {_show(text)}")
     return v
 
 
@@ -209,8 +229,10 @@ def _opt_ranged(text: str, fname: str, lo: float, hi: float, *, lo_open: bool = 
 
 def _integer(text: str, fname: str, lo: int, hi: int) -> int:
     s = text.strip()
+    if len(s) > MAX_NUMBER_CHARS:
+        raise DatagramError(f"{fname} must be an integer in {lo}..{hi}, got {len(s)} characters")
     if not _INT_RE.match(s):
-        raise DatagramError(f"{fname} must be an integer in {lo}..{hi}, got {text!r}")
+        raise DatagramError(f"{fname} must be an integer in {lo}..{hi}, got {_show(text)}")
     v = int(s)
     if not lo <= v <= hi:
         raise DatagramError(f"{fname} = {v} is out of range {lo}..{hi}")
@@ -224,7 +246,7 @@ def _choice(text: str, fname: str, enum: type[_E], *, upper: bool = True) -> _E:
         if member.value == s:
             return member
     allowed = "|".join(m.value for m in enum)
-    raise DatagramError(f"{fname} must be one of {allowed}, got {text!r}")
+    raise DatagramError(f"{fname} must be one of {allowed}, got {_show(text)}")
 
 
 def _opt_choice(text: str, fname: str, enum: type[_E], *, upper: bool = True) -> _E | None:
@@ -237,7 +259,7 @@ def _flag01(text: str, fname: str) -> bool:
         return True
     if s in ("0", "FALSE"):
         return False
-    raise DatagramError(f"{fname} must be 0 or 1, got {text!r}")
+    raise DatagramError(f"{fname} must be 0 or 1, got {_show(text)}")
 
 
 def _numbers(text: str, fname: str, count: int) -> tuple[float, ...]:
@@ -332,6 +354,9 @@ class Command:
 
     NAME: ClassVar[str] = ""
     KIND: ClassVar[CommandKind] = CommandKind.QUEUED
+    #: accepted from any client; False: only from the holder of the control lease
+    #: (docs/protocol.md, "Who may move the robot")
+    OPEN: ClassVar[bool] = False
 
     @property
     def name(self) -> str:
@@ -345,7 +370,7 @@ class Command:
 
 QUERY_NAMES = (
     "GET_POSE", "GET_ANGLES", "GET_IO", "GET_GRIPPER", "GET_SPEEDS", "PING", "GET_STATUS",
-    "GET_STATUS_JSON", "GET_LOOP_STATS", "GET_PLAN", "GET_TOOL", "GET_QUEUE",
+    "GET_STATUS_JSON", "GET_LOOP_STATS", "GET_PLAN", "GET_TOOL", "GET_QUEUE", "GET_CONTROL",
 )
 
 
@@ -355,6 +380,7 @@ class Query(Command):
 
     query: str = "PING"
     KIND: ClassVar[CommandKind] = CommandKind.QUERY
+    OPEN: ClassVar[bool] = True
 
     @property
     def name(self) -> str:
@@ -367,6 +393,7 @@ class Stop(Command):
 
     NAME: ClassVar[str] = "STOP"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -376,6 +403,7 @@ class AckHere(Command):
 
     NAME: ClassVar[str] = "ACK_HERE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -392,6 +420,7 @@ class Disable(Command):
 
     NAME: ClassVar[str] = "DISABLE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -408,6 +437,7 @@ class EStop(Command):
 
     NAME: ClassVar[str] = "ESTOP"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -445,6 +475,21 @@ class Subscribe(Command):
     every_n_ticks: int = 1
     NAME: ClassVar[str] = "SUBSCRIBE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Control(Command):
+    """``CONTROL|TAKE[|FORCE][|secret]`` / ``CONTROL|RELEASE``: take or give back the control
+    lease (docs/protocol.md).  ``force`` takes it from another client (whose queued and running
+    commands are then cancelled); ``secret`` is the controller's shared secret when it has one."""
+
+    action: str = "TAKE"
+    force: bool = False
+    secret: str | None = None
+    NAME: ClassVar[str] = "CONTROL"
+    KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -454,6 +499,7 @@ class Unsubscribe(Command):
     port: int = 0
     NAME: ClassVar[str] = "UNSUBSCRIBE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -742,7 +788,7 @@ def _p_cartjog(a: Sequence[str], m: RobotModel) -> Command:
     word = a[1].strip().upper()
     axis = next((ax for ax in CartAxis if ax.value == word), None)
     if axis is None:
-        raise DatagramError(f"axis must be one of {' '.join(ax.value for ax in CartAxis)}, got {a[1]!r}")
+        raise DatagramError(f"axis must be one of {' '.join(ax.value for ax in CartAxis)}, got {_show(a[1])}")
     return CartJogCommand(CartJog(frame, axis, _pct(a[2], lo_open=True), _duration(a[3])))
 
 
@@ -760,7 +806,7 @@ def _p_pneumatic(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "PNEUMATICGRIPPER", 2)
     action = a[0].strip().lower()
     if action not in ("open", "close"):
-        raise DatagramError(f"action must be open|close, got {a[0]!r}")
+        raise DatagramError(f"action must be open|close, got {_show(a[0])}")
     return PneumaticGripper(action, _integer(a[1], "port", 1, 2))
 
 
@@ -769,7 +815,7 @@ def _p_electric(a: Sequence[str], m: RobotModel) -> Command:
     raw = a[0].strip().lower()
     action = "move" if raw in ("", "none") else raw
     if action not in ("move", "calibrate", "clear_error"):
-        raise DatagramError(f"action must be move|calibrate|clear_error|None, got {a[0]!r}")
+        raise DatagramError(f"action must be move|calibrate|clear_error|None, got {_show(a[0])}")
     rest = list(a[1:]) + ["None"] * (4 - len(a))
     pos = _integer(rest[0], "position", 0, 255) if _given(rest[0]) else 255
     speed = _integer(rest[1], "speed", 0, 255) if _given(rest[1]) else 150
@@ -897,7 +943,7 @@ def _blend_segment(fields: Sequence[str], k: int, frame: Frame) -> tuple[BlendSe
             raise DatagramError(f"{where} SPLINE needs at least 2 waypoints, got {len(wps)}")
         duration = _duration(f[0], f"{where} duration")
         return SplineMove(wps, frame=frame, duration_s=duration), duration
-    raise DatagramError(f"{where} type must be {'|'.join(BLEND_SEGMENT_KINDS)}, got {fields[0]!r}")
+    raise DatagramError(f"{where} type must be {'|'.join(BLEND_SEGMENT_KINDS)}, got {_show(fields[0])}")
 
 
 def _p_blend(a: Sequence[str], m: RobotModel) -> Command:
@@ -935,7 +981,7 @@ def _p_stream(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "STREAM", 1)
     s = a[0].strip().upper()
     if s not in ("ON", "OFF", "1", "0"):
-        raise DatagramError(f"STREAM takes ON|OFF, got {a[0]!r}")
+        raise DatagramError(f"STREAM takes ON|OFF, got {_show(a[0])}")
     return StreamMode(s in ("ON", "1"))
 
 
@@ -943,7 +989,7 @@ def _p_setport(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SET_PORT", 1)
     port = a[0].strip()
     if not port or any(ord(c) < 32 for c in port):
-        raise DatagramError(f"SET_PORT needs a device name such as /dev/ttyACM0, got {a[0]!r}")
+        raise DatagramError(f"SET_PORT needs a device name such as /dev/ttyACM0, got {_show(a[0])}")
     return SetPort(port)
 
 
@@ -951,8 +997,33 @@ def _p_settool(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SET_TOOL", 1)
     name = a[0].strip()
     if not re.match(r"^[A-Za-z0-9_.-]{1,64}$", name):
-        raise DatagramError(f"tool name must be 1..64 characters of [A-Za-z0-9_.-], got {a[0]!r}")
+        raise DatagramError(f"tool name must be 1..64 characters of [A-Za-z0-9_.-], got {_show(a[0])}")
     return SetTool(name)
+
+
+#: a shared secret on the wire: printable ASCII without the separator, 1..128 characters
+_SECRET_RE = re.compile(r"^[!-{}~]{1,128}$", re.ASCII)
+
+
+def _p_control(a: Sequence[str], m: RobotModel) -> Command:
+    if not a:
+        raise DatagramError("CONTROL needs TAKE or RELEASE: CONTROL|TAKE[|FORCE][|secret] or CONTROL|RELEASE")
+    action = a[0].strip().upper()
+    if action == "RELEASE":
+        _nargs(a, "CONTROL|RELEASE", 1)
+        return Control("RELEASE")
+    if action != "TAKE":
+        raise DatagramError(f"CONTROL takes TAKE or RELEASE, got {_show(a[0])}")
+    rest = [f.strip() for f in a[1:]]
+    force = bool(rest) and rest[0].upper() == "FORCE"
+    if force:
+        rest = rest[1:]
+    if len(rest) > 1:
+        raise DatagramError("CONTROL|TAKE takes at most FORCE and a secret: CONTROL|TAKE[|FORCE][|secret]")
+    secret = rest[0] if rest else None
+    if secret is not None and not _SECRET_RE.match(secret):
+        raise DatagramError("the secret must be 1..128 printable ASCII characters without '|' or spaces")
+    return Control("TAKE", force, secret)
 
 
 def _p_subscribe(a: Sequence[str], m: RobotModel) -> Command:
@@ -1005,16 +1076,52 @@ _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "SET_PORT": _p_setport,
     "SET_TOOL": _p_settool,
     "SUBSCRIBE": _p_subscribe,
+    "CONTROL": _p_control,
     "UNSUBSCRIBE": _p_unsubscribe,
 }
+#: every command and query name (upper case)
+_NAMES = frozenset(_PARSERS) | frozenset(QUERY_NAMES)
 
 #: Every command name the controller understands.
 COMMAND_NAMES = tuple(sorted(set(_PARSERS) | set(QUERY_NAMES)))
 
 
 def is_command_id(text: str) -> bool:
-    """True when ``text`` is a command ID: 8 chars of [A-Za-z0-9-], not all upper-case."""
-    return bool(_ID_RE.match(text)) and not text.isupper()
+    """True when ``text`` is a command ID: 8 chars of [A-Za-z0-9-], not all upper-case, and not
+    a command name written in lower case (``movecart|...`` is the command, not an ID)."""
+    return bool(_ID_RE.match(text)) and not text.isupper() and text.upper() not in _NAMES
+
+
+def _non_ascii(text: str) -> str | None:
+    """Why ``text`` is not plain protocol text (printable ASCII, tabs, line ends), or None."""
+    if text.isascii() and text.isprintable():
+        return None
+    for i, ch in enumerate(text):
+        if ch in "\t\r\n":
+            continue
+        if not ch.isascii():
+            name = unicodedata.name(ch, "unnamed character")
+            return (f"character {ch!r} (U+{ord(ch):04X} {name}) at position {i} is not ASCII: the protocol "
+                    f"is plain ASCII, so look-alike letters and digits are refused")
+        if not ch.isprintable():
+            return f"control character U+{ord(ch):04X} at position {i}: the protocol is printable ASCII"
+    return None
+
+
+def _raw_command_id(data: bytes) -> str | None:
+    """The command ID at the start of a datagram's bytes, found before the text is decoded (so a
+    datagram that is not valid text still gets its INVALID ack)."""
+    m = _RAW_ID_RE.match(data[:16])
+    if m is None:
+        return None
+    cid = m.group(1).decode("ascii")
+    return cid if is_command_id(cid) else None
+
+
+def _capped(message: str) -> str:
+    if len(message) <= MAX_MESSAGE_CHARS:
+        return message
+    return message[:MAX_MESSAGE_CHARS - 3] + "..."
 
 
 def parse_datagram(data: bytes | str, model: RobotModel | None = None) -> Parsed:
@@ -1022,18 +1129,37 @@ def parse_datagram(data: bytes | str, model: RobotModel | None = None) -> Parsed
 
     A field outside its wire range is reported with the wire field's name; a motion command's
     move then validates itself (e.g. a helix of more than 100 turns), its message prefixed
-    with the command name."""
-    m = model or PAROL6
+    with the command name.  Only printable ASCII is accepted (a look-alike digit or letter is
+    refused, naming the character); numeric fields are length-capped before conversion; no
+    message is longer than MAX_MESSAGE_CHARS.  The ID is taken from the raw bytes first, so
+    every datagram that starts with one gets it back in the error."""
+    try:
+        return _parse(data, model or PAROL6)
+    except DatagramError as exc:
+        if len(exc.message) > MAX_MESSAGE_CHARS:
+            raise DatagramError(_capped(exc.message), command_id=exc.command_id, name=exc.name) from None
+        raise
+
+
+def _parse(data: bytes | str, m: RobotModel) -> Parsed:
     if isinstance(data, (bytes, bytearray, memoryview)):
-        if len(data) > MAX_DATAGRAM_BYTES:
-            raise DatagramError(f"datagram is {len(data)} bytes, at most {MAX_DATAGRAM_BYTES} allowed")
+        raw = bytes(data)
+        raw_id = _raw_command_id(raw)
+        if len(raw) > MAX_DATAGRAM_BYTES:
+            raise DatagramError(f"datagram is {len(raw)} bytes, at most {MAX_DATAGRAM_BYTES} allowed",
+                                command_id=raw_id)
         try:
-            text = bytes(data).decode("utf-8")
+            text = raw.decode("utf-8")
         except UnicodeDecodeError as exc:
-            raise DatagramError(f"datagram is not UTF-8 text (byte {exc.start})") from None
+            raise DatagramError(f"datagram is not ASCII text (byte 0x{raw[exc.start]:02X} at position "
+                                f"{exc.start})", command_id=raw_id) from None
     else:
         text = data
+        raw_id = _raw_command_id(text[:16].encode("utf-8", "replace"))
     text = text.strip("\r\n\x00 ")
+    why = _non_ascii(text)
+    if why is not None:
+        raise DatagramError(why, command_id=raw_id)
     if not text:
         raise DatagramError("empty datagram: expected [ID|]NAME|args")
     parts = text.split("|")
@@ -1056,10 +1182,9 @@ def parse_datagram(data: bytes | str, model: RobotModel | None = None) -> Parsed
             return Parsed(command_id, Query(name))
         parser = _PARSERS.get(name)
         if parser is None:
-            shown = raw_name if len(raw_name) <= 40 else raw_name[:40] + "..."
             if not name:
                 raise DatagramError("missing command name: expected [ID|]NAME|args")
-            raise DatagramError(f"unknown command {shown!r}")
+            raise DatagramError(f"unknown command {_show(raw_name)}")
         return Parsed(command_id, parser(args, m))
     except DatagramError as exc:
         known = name in _PARSERS or name in QUERY_NAMES
@@ -1067,6 +1192,9 @@ def parse_datagram(data: bytes | str, model: RobotModel | None = None) -> Parsed
         raise DatagramError(msg, command_id=command_id, name=name if known else None) from None
     except ParolkitValueError as exc:  # a move's own checks, a percent mapping of the model
         raise DatagramError(f"{name}: {exc}", command_id=command_id, name=name) from None
+    except (ValueError, ArithmeticError) as exc:  # a check that should have caught it did not
+        raise DatagramError(f"{name}: invalid value ({exc})", command_id=command_id,
+                            name=name if name in _PARSERS else None) from None
 
 
 # ---------------------------------------------------------------------------------------------

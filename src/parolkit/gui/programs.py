@@ -1,0 +1,137 @@
+"""The commander's programs folder: the only place its Open and Save read and write.
+
+The page names a program; it never gives a path.  A name is letters, digits, spaces and
+``- _ .`` (at most :data:`MAX_NAME_LEN` characters, not starting with ``.``); ``.rbt`` is
+appended when missing.  Absolute paths, ``..``, path separators, and files that resolve
+outside the folder (a symbolic link pointing elsewhere) are refused with a
+:class:`ProgramNameError` that names the rule.  No NiceGUI here: tested without a browser.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+from parolkit.errors import ParolkitValueError
+
+__all__ = ["EXTENSION", "MAX_NAME_LEN", "MAX_PROGRAM_BYTES", "ProgramNameError", "ProgramsFolder",
+           "default_programs_dir", "program_name"]
+
+#: file extension of RBTscript programs
+EXTENSION = ".rbt"
+#: longest accepted program name, characters (with the extension)
+MAX_NAME_LEN = 100
+#: largest program the commander opens or saves, bytes
+MAX_PROGRAM_BYTES = 1_000_000
+
+_NAME = re.compile(r"[A-Za-z0-9 _.\-]+")
+RULE = ("a program is named by letters, digits, spaces, '-', '_' and '.' only (no folders, "
+        f"no '..', no absolute path), at most {MAX_NAME_LEN} characters; '{EXTENSION}' is added "
+        "when missing")
+
+
+class ProgramNameError(ParolkitValueError):
+    """A program name or file the commander refuses (the message names the rule)."""
+
+
+def default_programs_dir() -> Path:
+    """``$XDG_DATA_HOME/parolkit/programs``, else ``~/.local/share/parolkit/programs``."""
+    base = os.environ.get("XDG_DATA_HOME", "").strip()
+    root = Path(base) if base and Path(base).is_absolute() else Path.home() / ".local" / "share"
+    return root / "parolkit" / "programs"
+
+
+def program_name(text: str) -> str:
+    """The file name for the program named ``text`` (``.rbt`` appended when missing);
+    raises :class:`ProgramNameError` saying which rule ``text`` breaks."""
+    if not isinstance(text, str):
+        raise ProgramNameError(f"program name must be text, got {type(text).__name__}")
+    name = text.strip()
+    if not name:
+        raise ProgramNameError(f"no program name given: {RULE}")
+    if name.startswith(("/", "\\", "~/", "~\\")) or re.match(r"^[A-Za-z]:[/\\]", name):
+        raise ProgramNameError(f"{text!r} is an absolute path: only names inside the programs folder are "
+                               f"allowed ({RULE})")
+    if "/" in name or "\\" in name:
+        raise ProgramNameError(f"{text!r} contains a path separator: {RULE}")
+    if ".." in name:
+        raise ProgramNameError(f"{text!r} contains '..': {RULE}")
+    if name.startswith("."):
+        raise ProgramNameError(f"{text!r} starts with '.' (a hidden file): {RULE}")
+    bad = sorted({c for c in name if not _NAME.fullmatch(c)})
+    if bad:
+        shown = " ".join(repr(c) for c in bad[:5])
+        raise ProgramNameError(f"{text!r} contains {shown}: {RULE}")
+    if not name.lower().endswith(EXTENSION):
+        name += EXTENSION
+    if len(name) > MAX_NAME_LEN:
+        raise ProgramNameError(f"{text!r} is {len(name)} characters long with its extension: {RULE}")
+    return name
+
+
+class ProgramsFolder:
+    """The folder ``root`` (created, with its parents, by :meth:`create`)."""
+
+    def __init__(self, root: str | Path) -> None:
+        self.root = Path(root).expanduser().absolute()
+
+    def create(self) -> None:
+        """Create the folder (and its parents) if it does not exist; raises OSError naming it
+        when that fails or the path is not a folder."""
+        self.root.mkdir(parents=True, exist_ok=True)
+        if not self.root.is_dir():
+            raise NotADirectoryError(f"the programs folder {self.root} is not a folder")
+
+    def path(self, text: str) -> Path:
+        """The file of the program named ``text``, checked to be (and, for a symbolic link,
+        to resolve) directly inside the folder; raises :class:`ProgramNameError`."""
+        name = program_name(text)
+        root = self.root.resolve()
+        candidate = root / name
+        resolved = candidate.resolve()
+        if resolved.parent != root:
+            raise ProgramNameError(
+                f"{name} is a link to {resolved}, outside the programs folder {root}: refused "
+                "(the commander reads and writes only files inside that folder)")
+        if resolved.exists() and not resolved.is_file():
+            raise ProgramNameError(f"{name} in the programs folder is not a regular file")
+        return resolved
+
+    def read(self, text: str) -> tuple[Path, str]:
+        """(path, contents) of the program named ``text``; ProgramNameError for a refused
+        name, OSError / UnicodeDecodeError for an unreadable file."""
+        path = self.path(text)
+        size = path.stat().st_size
+        if size > MAX_PROGRAM_BYTES:
+            raise ProgramNameError(f"{path.name} is {size} bytes: the commander opens programs of at most "
+                                   f"{MAX_PROGRAM_BYTES} bytes")
+        return path, path.read_text(encoding="utf-8-sig")
+
+    def write(self, text: str, program: str) -> Path:
+        """Save ``program`` as the program named ``text``; returns its path."""
+        path = self.path(text)
+        data = program.encode("utf-8")
+        if len(data) > MAX_PROGRAM_BYTES:
+            raise ProgramNameError(f"the program is {len(data)} bytes: the commander saves programs of at "
+                                   f"most {MAX_PROGRAM_BYTES} bytes")
+        self.create()
+        path.write_bytes(data)
+        return path
+
+    def names(self) -> list[str]:
+        """The programs in the folder (``*.rbt`` files whose names the commander accepts and
+        that resolve inside it), sorted case-insensitively; [] if the folder is missing."""
+        if not self.root.is_dir():
+            return []
+        out = []
+        for entry in self.root.iterdir():
+            if not entry.name.lower().endswith(EXTENSION):
+                continue
+            try:
+                self.path(entry.name)
+            except ProgramNameError:
+                continue
+            if entry.resolve().is_file():
+                out.append(entry.name)
+        return sorted(out, key=str.lower)

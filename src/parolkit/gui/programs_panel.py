@@ -1,0 +1,116 @@
+"""The Program tab's file row: open and save programs by name in the programs folder (NiceGUI).
+
+All file access goes through :class:`~parolkit.gui.programs.ProgramsFolder`; a refused name
+is reported in the row (``file-status``), as a notification and in the event log, with the
+rule it breaks.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from nicegui import ui
+
+from parolkit.gui.eventlog import EventLog, Level
+from parolkit.gui.programs import ProgramNameError, ProgramsFolder
+
+__all__ = ["ProgramsPanel"]
+
+
+class ProgramsPanel:
+    """Name input, Open, Save, Save as… and the list of the folder's programs."""
+
+    def __init__(self, folder: ProgramsFolder, log: EventLog, get_text: Callable[[], str],
+                 set_text: Callable[[str], None], name: str = "program.rbt") -> None:
+        self.folder = folder
+        self.log = log
+        self.get_text = get_text
+        self.set_text = set_text
+        with ui.row().classes("w-full items-center gap-2"):
+            self.name_input = ui.input("program name", value=name).classes("grow") \
+                .props("dense data-testid=prog-name")
+            ui.button("Open", icon="folder_open", on_click=lambda: self.open(self.name_input.value)) \
+                .props("flat dense color=grey-4 data-testid=prog-open")
+            ui.button("Save", icon="save", on_click=lambda: self.save(self.name_input.value)) \
+                .props("flat dense color=grey-4 data-testid=prog-save")
+            ui.button("Save as…", icon="save_as", on_click=self.save_as) \
+                .props("flat dense color=grey-4 data-testid=prog-save-as")
+            ui.button("Programs", icon="list", on_click=self.show_list) \
+                .props("flat dense color=grey-4 data-testid=prog-list")
+        self.status = ui.label(f"programs folder: {folder.root}").classes("text-xs text-slate-500 pk-mono") \
+            .props("data-testid=file-status")
+
+    def _ok(self, text: str) -> None:
+        self.status.set_text(text)
+        self.status.classes(replace="text-xs pk-mono text-green-400")
+        self.log.add(text, Level.SUCCESS)
+
+    def _refused(self, text: str) -> None:
+        self.status.set_text(text)
+        self.status.classes(replace="text-xs pk-mono text-red-400")
+        self.log.error(text)
+        ui.notify(text, type="negative", multi_line=True)
+
+    def open(self, name: str) -> bool:
+        """Load the program ``name`` into the editor; False (and a message) when refused."""
+        try:
+            path, text = self.folder.read(name)
+        except ProgramNameError as exc:
+            self._refused(f"cannot open {name!r}: {exc}")
+            return False
+        except FileNotFoundError:
+            self._refused(f"cannot open {name!r}: there is no such program in {self.folder.root}")
+            return False
+        except (OSError, UnicodeDecodeError) as exc:
+            self._refused(f"cannot open {name!r}: {exc}")
+            return False
+        self.name_input.value = path.name
+        self.set_text(text)
+        self._ok(f"opened {path.name} ({self.folder.root})")
+        return True
+
+    def save(self, name: str) -> bool:
+        """Save the editor's text as the program ``name``; False (and a message) when refused."""
+        try:
+            path = self.folder.write(name, self.get_text())
+        except ProgramNameError as exc:
+            self._refused(f"cannot save {name!r}: {exc}")
+            return False
+        except OSError as exc:
+            self._refused(f"cannot save {name!r}: {exc}")
+            return False
+        self.name_input.value = path.name
+        self._ok(f"saved {path.name} ({self.folder.root})")
+        ui.notify(f"saved {path.name}", type="positive")
+        return True
+
+    async def save_as(self) -> None:
+        with ui.dialog() as dlg, ui.card().classes("pk-card"):
+            ui.label("Save program as").classes("font-bold")
+            ui.label(f"in {self.folder.root}").classes("text-xs text-slate-400 pk-mono")
+            name = ui.input("program name", value=self.name_input.value).classes("w-96") \
+                .props("data-testid=save-as-name")
+            with ui.row():
+                ui.button("Save", on_click=lambda: dlg.submit(name.value)) \
+                    .props("unelevated color=primary data-testid=save-as-confirm")
+                ui.button("Cancel", on_click=lambda: dlg.submit(None)).props("flat")
+        result = await dlg
+        if result:
+            self.save(str(result))
+
+    async def show_list(self) -> None:
+        """A dialog listing the folder's programs; clicking one opens it."""
+        names = self.folder.names()
+        with ui.dialog() as dlg, ui.card().classes("pk-card").style("min-width: 360px"):
+            ui.label("Programs").classes("font-bold")
+            ui.label(str(self.folder.root)).classes("text-xs text-slate-400 pk-mono")
+            if not names:
+                ui.label("no programs yet: Save one").classes("text-sm text-slate-400")
+            with ui.column().classes("gap-0 w-full").style("max-height: 360px; overflow-y: auto"):
+                for n in names:
+                    ui.button(n, on_click=lambda n=n: dlg.submit(n)).props("flat no-caps align=left") \
+                        .classes("w-full").props("data-testid=program-item")
+            ui.button("Close", on_click=lambda: dlg.submit(None)).props("flat")
+        chosen = await dlg
+        if chosen:
+            self.open(str(chosen))

@@ -1,0 +1,97 @@
+"""The datagram path under arbitrary bytes, against the real controller process (issue 13):
+nothing escapes (the controller keeps answering), every ID'd datagram gets exactly one terminal
+ack, and the log stays within its byte budget."""
+
+from __future__ import annotations
+
+import socket
+import time
+from collections import Counter
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from tests.conftest import start_controller, wait_until
+
+from parolkit.controller.server import LOG_BUDGET_BYTES_PER_S
+from parolkit.protocol.commands import _NAMES
+
+TERMINAL = {"COMPLETED", "FAILED", "CANCELLED", "INVALID"}
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    cp = start_controller(log_dir=tmp_path_factory.mktemp("fuzz"))
+    yield cp
+    cp.stop()
+
+
+def _id(n: int) -> str:
+    return f"fz{n:06d}"
+
+
+_NAME = st.sampled_from(sorted(_NAMES) + ["movejoint", "GET_", "ACK", ""])
+_FIELD = st.one_of(st.binary(max_size=12), st.integers().map(lambda v: str(v).encode()),
+                   st.sampled_from([b"", b"None", b"nan", b"1e999", b"0" * 5000, "٣".encode(), b"\xff",
+                                    b"\x00", b"1,2,3", b"x" * 3000]))
+_BODY = st.one_of(
+    st.binary(max_size=200),
+    st.tuples(_NAME, st.lists(_FIELD, max_size=10)).map(
+        lambda t: b"|".join([t[0].encode()] + t[1])),
+)
+
+
+@pytest.mark.slow
+@settings(max_examples=4, deadline=None, suppress_health_check=list(HealthCheck))
+@given(bodies=st.lists(st.tuples(_BODY, st.booleans()), min_size=150, max_size=300))
+def test_arbitrary_datagrams_get_exactly_one_terminal_ack_per_id_and_a_bounded_log(served, bodies):
+    log_before = len(served.log().encode())
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.bind(("127.0.0.1", 0))
+    sock.settimeout(0.2)
+    ctl = (served.host, served.port)
+    try:
+        sock.sendto(b"ACK_HERE", ctl)
+        sent: list[str] = []
+        t0 = time.monotonic()
+        for k, (body, with_id) in enumerate(bodies):
+            if with_id:
+                cid = _id(len(sent))
+                sent.append(cid)
+                data = cid.encode() + b"|" + body
+            else:
+                data = body
+            sock.sendto(data[:65000], ctl)
+            if k % 40 == 39:
+                time.sleep(0.01)  # stay under the per-source share: this is not the flood test
+        sock.sendto(b"STOP", ctl)
+        acks: Counter[str] = Counter()
+        seen: dict[str, list[str]] = {}
+
+        def drain() -> bool:
+            try:
+                while True:
+                    text = sock.recvfrom(65535)[0].decode("utf-8", "replace")
+                    parts = text.split("|", 3)
+                    if parts[0] == "ACK" and len(parts) >= 3:
+                        seen.setdefault(parts[1], []).append(parts[2])
+                        if parts[2] in TERMINAL:
+                            acks[parts[1]] += 1
+            except TimeoutError:
+                pass
+            return all(acks[c] >= 1 for c in sent)
+
+        wait_until(drain, 60, interval=0.0, what="a terminal ack for every ID")
+        time.sleep(0.5)
+        drain()
+        elapsed = time.monotonic() - t0
+    finally:
+        sock.sendto(b"STOP", ctl)
+        sock.close()
+    assert not [c for c in sent if acks[c] != 1], {c: seen.get(c) for c in sent if acks[c] != 1}
+    # the controller still answers, and nothing raised out of the datagram path
+    assert (served.query("PING") or "").startswith("PONG|")
+    log = served.log()
+    assert "Traceback" not in log, log[-3000:]
+    grown = len(log.encode()) - log_before
+    assert grown <= LOG_BUDGET_BYTES_PER_S * (elapsed + 2) + 2000, (grown, elapsed)

@@ -1,0 +1,97 @@
+"""Garbage in, a precise refusal out: look-alike characters, oversized numbers, IDs of
+undecodable datagrams, names that look like IDs (issue 13, item 5)."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from parolkit.protocol.commands import (
+    _NAMES,
+    MAX_MESSAGE_CHARS,
+    DatagramError,
+    is_command_id,
+    parse_datagram,
+)
+
+
+@pytest.mark.parametrize("text, char", [
+    ("MOVEJOINT|٩0|-90|180|0|0|180|2|None", "U+0669"),        # Arabic-Indic digit nine
+    ("MOVEJOINT|90|-９0|180|0|0|180|2|None", "U+FF19"),        # full-width digit
+    ("MОVEJOINT|90|-90|180|0|0|180|2|None", "U+041E"),         # Cyrillic capital O
+    ("abcd1234|HOME\u200b", "U+200B"),                          # zero-width space
+])
+def test_look_alike_characters_are_refused_naming_the_character(text, char):
+    with pytest.raises(DatagramError, match=char.replace("+", "\\+")) as info:
+        parse_datagram(text.encode("utf-8"))
+    assert "not ASCII" in str(info.value)
+
+
+def test_control_characters_are_refused():
+    with pytest.raises(DatagramError, match="control character U\\+001B"):
+        parse_datagram(b"HOME|\x1b[2J")
+
+
+def test_a_datagram_that_is_not_text_still_gets_its_id_back():
+    with pytest.raises(DatagramError) as info:
+        parse_datagram(b"abcd1234|MOVEJOINT|\xff\xfe")
+    assert info.value.command_id == "abcd1234"
+    assert "byte 0xFF" in str(info.value)
+
+
+def test_look_alike_text_with_an_id_gets_its_id_back():
+    with pytest.raises(DatagramError) as info:
+        parse_datagram("abcd1234|HOME|٣".encode())
+    assert info.value.command_id == "abcd1234"
+
+
+@pytest.mark.parametrize("name", ["movecart", "MovePose", "multijog"])
+def test_command_names_in_lower_case_are_names_not_ids(name):
+    assert not is_command_id(name)
+    parsed = parse_datagram(f"{name}|" + ("0|50|2" if name == "multijog" else "100|0|300|0|0|0|2|None"))
+    assert parsed.command_id is None and parsed.command.name.upper() == name.upper()
+
+
+@pytest.mark.parametrize("field", ["9" * 5000, "1" + "0" * 4400, "0." + "1" * 100])
+def test_numeric_fields_are_length_capped_before_conversion(field):
+    with pytest.raises(DatagramError, match="characters") as info:
+        parse_datagram(f"abcd1234|SUBSCRIBE|{field}")
+    assert info.value.command_id == "abcd1234"
+    with pytest.raises(DatagramError, match="at most 40 characters"):
+        parse_datagram(f"MOVEJOINT|{field}|-90|180|0|0|180|2|None")
+
+
+def test_a_60_kb_field_is_not_echoed_back():
+    with pytest.raises(DatagramError) as info:
+        parse_datagram("abcd1234|SET_TOOL|" + "x" * 60_000)
+    assert len(str(info.value)) <= MAX_MESSAGE_CHARS
+    assert "60000 characters" in str(info.value)
+
+
+_ANY_NAME = st.sampled_from(sorted(_NAMES))
+_FIELD = st.one_of(st.text(max_size=20), st.integers().map(str), st.floats().map(str),
+                   st.sampled_from(["", "None", "nan", "inf", "-0", "1e999", "0" * 5000, "٣", "1,2,3"]))
+
+
+@settings(max_examples=3000, deadline=None, suppress_health_check=list(HealthCheck))
+@given(name=_ANY_NAME, fields=st.lists(_FIELD, max_size=14), cid=st.sampled_from([None, "abcd1234", "Zz-09azQ"]))
+def test_any_fields_after_any_name_parse_or_raise_a_datagram_error_with_the_id(name, fields, cid):
+    text = "|".join(([cid] if cid else []) + [name] + fields)
+    try:
+        parsed = parse_datagram(text.encode("utf-8", "surrogatepass"))
+    except DatagramError as exc:
+        assert exc.command_id == cid
+        assert len(str(exc)) <= MAX_MESSAGE_CHARS
+    else:
+        assert parsed.command_id == cid
+
+
+@settings(max_examples=3000, deadline=None, suppress_health_check=list(HealthCheck))
+@given(data=st.binary(max_size=300), cid=st.sampled_from([b"", b"abcd1234|"]))
+def test_arbitrary_bytes_parse_or_raise_a_datagram_error_with_the_id(data, cid):
+    try:
+        parse_datagram(cid + data)
+    except DatagramError as exc:
+        if cid:
+            assert exc.command_id == "abcd1234"
