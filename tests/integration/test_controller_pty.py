@@ -105,6 +105,15 @@ class Bench:
         end = time.monotonic() + 20
         while time.monotonic() < end and self.query("PING", retry=False) != "PONG|SERIAL=1":
             time.sleep(0.05)
+        # and until the start-up probe has told the controller the board's state (a test that
+        # damages the link right away would otherwise damage the probe's answers too)
+        while time.monotonic() < end:
+            try:
+                if self.status().get("board", {}).get("state_known"):
+                    break
+            except (AttributeError, ValueError):
+                pass
+            time.sleep(0.05)
 
     def new_id(self) -> str:
         self._n += 1

@@ -318,7 +318,10 @@ class Stream:
         while not self._stop:
             now = time.monotonic()
             if now - self._renewed > 3.0:
-                self.ctl.send(f"SUBSCRIBE|{self.sock.getsockname()[1]}|1")
+                # from the receiving socket itself: the controller streams only to the socket
+                # that asks (issue 13)
+                self.sock.sendto(f"SUBSCRIBE|{self.sock.getsockname()[1]}|1".encode(),
+                                 (self.ctl.proc.host, self.ctl.proc.port))
                 self._renewed = now
             try:
                 data = self.sock.recvfrom(65535)[0]

@@ -223,8 +223,11 @@ class BoardProbe:
         self._restart()
 
     def cancel(self) -> None:
-        """The answer no longer matters (ENABLE, DISABLE or an E-stop decides it)."""
+        """The answer no longer matters (ENABLE, DISABLE or an E-stop decides it); an answer
+        already given but not yet taken in by the executor is dropped too (else an ENABLE
+        applied in between was undone by a "found disabled" a tick later)."""
         self.active = False
+        self.result = None
 
     def _restart(self) -> None:
         self._i = 0
