@@ -65,6 +65,10 @@ __all__ = [
 
 #: Longest duration any timed move (or jog, delay, wait) may ask for, s.
 MAX_DURATION_S = 3600.0
+#: Shortest duration a timed move may ask for, s (a shorter one is refused before planning:
+#: the square of 1e-300 s is 0.0 in floating point, and no move lasts less than a tick anyway;
+#: durations from here up to a tick are refused by the planner naming the shortest that fits)
+MIN_DURATION_S = 1e-9
 
 
 def _word(value: object) -> object:
@@ -260,8 +264,8 @@ def _opt_duration(value: float | None, name: str = "duration_s") -> float | None
     if value is None:
         return None
     v = _num(value, name)
-    if not 0.0 < v <= MAX_DURATION_S:
-        raise ParolkitValueError(f"{name} must be in (0, {MAX_DURATION_S:g}] s, got {value!r}")
+    if not MIN_DURATION_S <= v <= MAX_DURATION_S:
+        raise ParolkitValueError(f"{name} must be in {MIN_DURATION_S:g}..{MAX_DURATION_S:g} s, got {value!r}")
     return v
 
 

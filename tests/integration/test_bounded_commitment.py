@@ -40,6 +40,9 @@ class KillBench:
         wait_until(lambda: self.query("PING") == "PONG|SERIAL=1", 20, what="the board link")
         wait_until(lambda: self.status().get("loop", {}).get("supervisor") == "ready", 10,
                    what="the stop supervisor ready")
+        # the start-up probe has told the controller that the board is enabled
+        wait_until(lambda: (lambda s: s.get("board", {}).get("state_known") and s.get("enabled"))(self.status()),
+                   10, what="the board's state known (enabled)")
 
     def status(self) -> dict:
         reply = self.query("GET_STATUS_JSON") or ""

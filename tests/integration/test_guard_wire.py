@@ -62,6 +62,13 @@ class WireBench:
         self._n = 0
         wait_until(lambda: self.query("PING") == "PONG|SERIAL=1", 20, what="board link up")
         wait_until(lambda: "HOMED=1,1,1,1,1,1" in (self.query("GET_STATUS") or ""), 20, what="homed status")
+        # the start-up probe asks whether the board is enabled; an emulator process that reads
+        # its first frames in one burst can answer it ambiguously (then the controller takes
+        # the board as disabled): this test is about motion, so it enables the robot then
+        wait_until(lambda: self.status()["board"]["state_known"], 10, what="the board's state")
+        if not self.status()["enabled"]:
+            assert self.acks.terminal(self.send("ENABLE"), 10)[0] == "COMPLETED"
+            wait_until(lambda: self.status()["enabled"], 10, what="enabled")
 
     def send(self, text: str) -> str:
         self._n += 1
@@ -72,7 +79,7 @@ class WireBench:
     def query(self, text: str) -> str | None:
         """One query (retried on a busy machine); replies to an earlier retry are skipped."""
         want = {"PING": "PONG|", "GET_STATUS": "STATUS|", "GET_ANGLES": "ANGLES|",
-                "GET_LOOP_STATS": "LOOP_STATS|"}[text]
+                "GET_LOOP_STATS": "LOOP_STATS|", "GET_STATUS_JSON": "STATUS_JSON|"}[text]
         for _ in range(5):
             self.sock.sendto(text.encode(), (self.ctl.host, self.ctl.port))
             try:
@@ -83,6 +90,9 @@ class WireBench:
             except TimeoutError:
                 continue
         return None
+
+    def status(self) -> dict:
+        return json.loads((self.query("GET_STATUS_JSON") or "|{}").split("|", 1)[1])
 
     def close(self) -> None:
         self.ctl.stop()

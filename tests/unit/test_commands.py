@@ -138,7 +138,7 @@ INVALID = [
     ("MOVEJOINT|190|-90|160|12|12|180|1|None", "J1 angle = 190 deg is out of range"),
     ("MOVEJOINT|90|-90|160|12|12|180|None|None", "neither was given"),
     ("MOVEJOINT|90|-90|160|12|12|180|1|50", "both were given"),
-    ("MOVEJOINT|90|-90|160|12|12|180|0|None", "duration = 0 s is out of range (0, 3600] s"),
+    ("MOVEJOINT|90|-90|160|12|12|180|0|None", "duration = 0 s is out of range [1e-09, 3600] s"),
     ("MOVEJOINT|90|-90|nan|12|12|180|1|None", "J3 angle (deg) must be a decimal number"),
     ("MOVEJOINT|90|-90|inf|12|12|180|1|None", "must be a decimal number"),
     ("MOVEJOINT|90|-90|160|12|12|1|None", "MOVEJOINT takes 8..11 arguments, got 7"),

@@ -95,3 +95,20 @@ def test_arbitrary_bytes_parse_or_raise_a_datagram_error_with_the_id(data, cid):
     except DatagramError as exc:
         if cid:
             assert exc.command_id == "abcd1234"
+
+
+@pytest.mark.parametrize("text", [
+    "MOVECART|0|-19.3936|360|-100|0|0|1e-300|None",   # once: "float division by zero"
+    "MOVEJOINT|80|-80|170|0|0|170|1e-300|None",
+    "MOVECARTRELTRF|0|0|30|0|0|0|1e-300|None",
+])
+def test_a_vanishing_duration_is_refused_in_words_not_by_an_arithmetic_error(text):
+    with pytest.raises(DatagramError, match=r"duration = 1e-300 s is out of range \[1e-09, 3600\] s") as info:
+        parse_datagram(text)
+    assert "division" not in str(info.value)
+    # the move objects refuse it too (the Python API, not only the wire)
+    from parolkit.errors import ParolkitValueError
+    from parolkit.moves import CartMove
+
+    with pytest.raises(ParolkitValueError, match="duration_s must be in 1e-09..3600 s"):
+        CartMove((0, 250, 300, 0, 0, 0), 1e-300)

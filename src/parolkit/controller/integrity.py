@@ -198,7 +198,9 @@ class BoardProbe:
     board is taken as disabled (the user must send ENABLE: the safe side).
     """
 
-    def __init__(self, *, attempts: int = 3, wait_ticks: int = 6) -> None:
+    def __init__(self, *, attempts: int = 8, wait_ticks: int = 8) -> None:
+        # a loaded PC's tty layer delivers replies tens of ms late and in bursts: a lost or
+        # unclear answer is asked again (up to ~0.7 s at 100 Hz) before the safe side is taken
         self.attempts = attempts
         self.wait_ticks = wait_ticks
         self.active = False

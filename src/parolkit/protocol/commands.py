@@ -38,6 +38,7 @@ from typing import Any, ClassVar, TypeVar
 from parolkit.errors import ParolkitValueError
 from parolkit.moves import (
     MAX_DURATION_S,
+    MIN_DURATION_S,
     ArcCenterMove,
     ArcParamMove,
     BlendMove,
@@ -306,7 +307,7 @@ def _start_field(text: str) -> tuple[float, ...] | None:
 
 
 def _duration(text: str, fname: str = "duration") -> float:
-    return _ranged(text, fname, 0.0, MAX_DURATION_S, lo_open=True, unit="s")
+    return _ranged(text, fname, MIN_DURATION_S, MAX_DURATION_S, unit="s")
 
 
 def _opt_duration(text: str, fname: str = "duration") -> float | None:
