@@ -392,13 +392,18 @@ def report(run: ScenarioRun) -> list[str]:
     """The run's figures, one line each (the test's failure message, the bench's output)."""
     errs = [m.error for m in run.moves if not math.isnan(m.error)]
     ends = [e.error_deg for e in run.ends]
+    speed_only = [e.error_deg for e in run.ends if e.text.startswith("MOVEJOINT")]
+    jogs = [e.error_deg for e in run.ends if e.text.startswith("JOG")]
     st = run.stats
     lines = [
         f"{len(run.moves)} MoveJoint t={MOVE_S:g} s at the board (first to last 156 frame): error "
         + (f"mean {sum(errs) / len(errs) * 1e3:+.1f} ms, min {min(errs) * 1e3:+.1f} ms, max {max(errs) * 1e3:+.1f} ms "
            f"(max |error| {max(abs(e) for e in errs) / MOVE_S * 100:.2f} % of {MOVE_S:g} s)" if errs else "n/a"),
-        f"{len(run.ends)} speed-only moves and JOGs with a distance: end error max "
-        + (f"{max(ends):.3f} deg, mean {sum(ends) / len(ends):.3f} deg" if ends else "n/a"),
+        f"end error (board counters against the target): {len(speed_only)} speed-only moves max "
+        + (f"{max(speed_only):.3f} deg, mean {sum(speed_only) / len(speed_only):.3f} deg" if speed_only else "n/a")
+        + f"; {len(jogs)} JOGs with a distance max "
+        + (f"{max(jogs):.3f} deg, mean {sum(jogs) / len(jogs):.3f} deg" if jogs else "n/a")
+        + (f"; over 0.1 deg: {sum(1 for v in ends if v > 0.1)}" if ends else ""),
         f"loop: scheduling {st.get('scheduling')}; tick lateness p50 {st.get('late_p50_ms')} ms, p99 "
         f"{st.get('late_p99_ms')} ms, max {st.get('late_max_ms')} ms; period p99 {st.get('period_p99_ms')} ms, "
         f"overruns {st.get('overruns')} of {st.get('ticks')} ticks",

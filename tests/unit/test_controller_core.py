@@ -263,15 +263,21 @@ def test_speed_streams_end_with_a_zero_speed_frame(rig):
 def test_a_speed_stream_lasts_its_duration_in_time_even_when_ticks_come_late(rig):
     """The board keeps the last speed until the next frame: with ticks 50 ms late (a stalled
     machine) a 0.4 s SPEEDJOINT must still end after about 0.4 s, not after 40 late ticks."""
+    j1 = rig.emu.positions[0]
     rig.submit("aaaa0001|SPEEDJOINT|10|0|0|0|0|0|0.4")
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     t0 = rig.now - 1.0 / RATE  # the tick that activated it sent the first speed frame
     late = 0.05
+    n = len(rig.frames)
     while rig.terminal("aaaa0001") is None:
         rig.tick(dt=late)
         assert rig.now - t0 < 2.0, "the speed stream did not end"
-    ended = rig.now - late - t0
+    # the first zero-speed frame ends the motion (the ack follows once a status frame shows
+    # the board stopped where planned)
+    first_zero = next(i for i, f in enumerate(rig.frames[n:]) if f.speeds == (0,) * 6)
+    ended = (first_zero + 1) * late
     assert 0.4 <= ended <= 0.4 + late + 1e-9
+    assert abs((rig.emu.positions[0] - j1) / PAROL6.steps_per_deg[0] - 4.0) < 0.05  # 10 deg/s x 0.4 s
     assert rig.frames[-1].command == BoardCommand.JOG and rig.frames[-1].speeds == (0,) * 6
 
 

@@ -156,8 +156,9 @@ class TrajectoryActivity(Activity):
       estimates it now to the position the plan has for the next deadline, over at least one
       period (:func:`~parolkit.controller.pacing.tracking_speed`; counting on a shorter time
       would overshoot whenever the next tick comes late), within the maximum speed; after the
-      last sample the remaining error is corrected the same way, then a zero-speed frame ends
-      the move where it was planned.
+      last sample the remaining error is corrected the same way, then zero-speed frames until a
+      status frame shows the board stopped where planned (else one more correction), so the
+      move ends where it was planned.
     """
 
     def __init__(self, samples: Samples, *, settle_ticks: int, max_speed_steps_s: Sequence[float],
@@ -183,6 +184,9 @@ class TrajectoryActivity(Activity):
         self._s: float | None = None
         self._prev_goto: tuple[Sequence[int], float] | None = None
         self._last_target: tuple[int, ...] | None = None
+        #: speed tracking's end: the status frame when the zero-speed frames began (see
+        #: :meth:`_speed_step`; False: none then)
+        self._stop_mark: StatusFrame | bool | None = None
 
     def touch(self, now: float) -> None:
         self.last_update = now
@@ -272,15 +276,37 @@ class TrajectoryActivity(Activity):
             period = 1.0 / ctx.rate_hz
             due_at = self.t0 + (k + 1 - self._offset) * period
             interval = max(due_at - now, period)
+            if last:  # the end: over no less than the last tick gap (should the next be as late)
+                prev = self.log.last_time()
+                interval = max(interval, now - prev if prev is not None else period)
             vm = self.vmax
             speeds = [tracking_speed(target[j], x[j], interval, -vm[j], vm[j]) for j in range(6)]
         if last:
             self.settle_left -= 1
             close = x is None or all(abs(target[j] - x[j]) <= self.settle_tol for j in range(6))
-            if close or self.settle_left < 0 or not any(speeds):
+            st = ctx.status
+            if self.settle_left < 0 or x is None:
                 self.i = self.n
                 self.progress = 1.0
                 return self._ask(now, BoardCommand.JOG, target, _ZERO6, AckStatus.COMPLETED)
+            if close or not any(speeds):
+                # stop, and end once a status frame shows the board stopped where planned (the
+                # reply to the frame after the stop: a stop that reached it late let it run on)
+                if self._stop_mark is None:
+                    self._stop_mark = st if st is not None else False
+                elif st is not None and st is not self._stop_mark and not any(st.speeds):
+                    if all(abs(target[j] - st.positions[j]) <= self.settle_tol for j in range(6)):
+                        self.i = self.n
+                        self.progress = 1.0
+                        return self._ask(now, BoardCommand.JOG, target, _ZERO6, AckStatus.COMPLETED)
+                    self._stop_mark = None
+                    vm = self.vmax
+                    speeds = [tracking_speed(target[j], st.positions[j], interval, -vm[j], vm[j])
+                              for j in range(6)]
+                    self.i = k
+                    self.progress = self.i / self.n
+                    return self._ask(now, BoardCommand.JOG, target, speeds)
+                speeds = _ZERO6
             self.i = k
         else:
             self.i = k + 1
@@ -325,13 +351,14 @@ class SpeedActivity(Activity):
     (``t`` at most ``duration_s``): every frame asks for the speed that takes each moving joint
     from where the board model estimates it now to the planned position at the next deadline,
     over at least one period (:func:`~parolkit.controller.pacing.tracking_speed`), never
-    faster than the commanded speed and never backwards.  The stream ends -- zero-speed frame,
-    COMPLETED -- when the planned distance is covered (within ``tol_steps``), so a JOG with a
-    distance stops where it should: what is left when the time is up is sent as a slower last
-    frame instead of being cut off or overrun.  (The board keeps each speed until the next
-    frame, so a stop frame that comes late still costs ``speed x lateness``.)  If the board
-    does not follow (the estimate never gets there), the stream ends ``overrun_s`` after its
-    time anyway, saying so.  Stops early (COMPLETED, details say why)
+    faster than the commanded speed and never backwards.  When the planned distance is covered
+    (within ``tol_steps``) zero-speed frames follow, and the stream ends -- COMPLETED -- once a
+    status frame shows the board stopped within ``land_tol_steps`` of the plan (one correction
+    frame first, in either direction and within the commanded speed, when a stop that reached
+    the board late let it run on), so a JOG with a distance stops where it should: what is left
+    when the time is up is sent as a slower last frame instead of being cut off or overrun.
+    If the board does not follow (the estimate never gets there), the stream ends
+    ``overrun_s`` after its time anyway, saying so.  Stops early (COMPLETED, details say why)
     when a joint would reach its limit within ``stop_lookahead_ticks`` (homed robots only) or,
     in stream mode, when updates stop.  Always ends with a zero-speed frame.
     """
@@ -341,10 +368,11 @@ class SpeedActivity(Activity):
 
     def __init__(self, speeds_steps_s: Sequence[int], duration_s: float, *, streamed: bool = False,
                  started: float = 0.0, stop_lookahead_ticks: float = 4.0, tol_steps: float = 1.0,
-                 overrun_s: float = 0.25) -> None:
+                 land_tol_steps: float = 4.0, overrun_s: float = 0.25) -> None:
         self.streamed = streamed
         self.lookahead = stop_lookahead_ticks
         self.tol = tol_steps
+        self.land_tol = land_tol_steps
         self.overrun = overrun_s
         self.log = SentLog()
         self.replace(speeds_steps_s, duration_s, started)
@@ -363,6 +391,9 @@ class SpeedActivity(Activity):
         self.started = now
         self.last_update = now
         self.x0: list[float] | None = None
+        #: the status frame when the zero-speed frames began (None: not stopping; False: no
+        #: status then); a newer one showing the joints stopped ends the stream
+        self._stop_mark: StatusFrame | bool | None = None
         #: time the loop held it paused (stop frames instead of its own), s
         self.paused = 0.0
         self._paused_at: float | None = None
@@ -373,6 +404,34 @@ class SpeedActivity(Activity):
         self.log.record(now, stop.command, stop.positions or _ZERO6, stop.speeds)
         if self._paused_at is None:
             self._paused_at = now
+
+    def _land(self, ctx: TickContext, x0: Sequence[float], end: float) -> Step | None:
+        """The planned distance is covered by the estimate: zero-speed frames until a status
+        frame shows the board stopped (its speeds 0: the reply to the frame after the stop),
+        then COMPLETED if its counters are within ``land_tol_steps`` of the plan, else a
+        correction frame (either way, within the commanded speed: a stop frame that reached the
+        board late let it run on).  None: send the zero-speed frame and wait."""
+        st = ctx.status
+        if self._stop_mark is None:
+            self._stop_mark = st if st is not None else False
+            return None
+        moving = [j for j, v in enumerate(self.speeds) if v]
+        if st is None or st is self._stop_mark or any(st.speeds[j] for j in moving):
+            return None
+        want = [x0[j] + self.speeds[j] * end for j in range(6)]
+        if all(abs(want[j] - st.positions[j]) <= self.land_tol for j in moving):
+            return self._stop(ctx, "")
+        self._stop_mark = None
+        gap = self._gap(ctx.now, 1.0 / ctx.rate_hz)
+        corr = [tracking_speed(want[j], st.positions[j], gap, -abs(v), abs(v)) if v else 0
+                for j, v in enumerate(self.speeds)]
+        self.log.record(ctx.now, BoardCommand.JOG, st.positions, corr)
+        return Step(BoardCommand.JOG, st.positions, tuple(corr))
+
+    def _gap(self, now: float, period: float) -> float:
+        """The time since this stream's previous frame, at least a period (s)."""
+        last = self.log.last_time()
+        return period if last is None else max(period, now - last)
 
     def _stop(self, ctx: TickContext, details: str) -> Step:
         pos = ctx.status.positions if ctx.status else None
@@ -413,6 +472,10 @@ class SpeedActivity(Activity):
             e_next = (int(e * ctx.rate_hz + 0.5) + 1) * period
             h = min(e_next, end)
             interval = max(e_next - e, period)
+            if h >= end:
+                # the last of the distance: over no less than the last tick gap (should the next
+                # tick be as late, the joints still stop where planned instead of running past)
+                interval = max(interval, self._gap(now, period))
             x0 = self.x0
             out = []
             for j, v in enumerate(self.speeds):
@@ -424,7 +487,9 @@ class SpeedActivity(Activity):
                     continue
                 out.append(tracking_speed(x0[j] + v * h, x[j], interval, min(0, v), max(0, v)))
             if h >= end and not any(out):
-                return self._stop(ctx, "")
+                landed = self._land(ctx, x0, end)
+                if landed is not None:
+                    return landed
             speeds = out
         self.i += 1
         self.progress = min(1.0, e / end)
