@@ -74,7 +74,7 @@ MICROSTEPS = 32
 MOTOR_DEG_PER_STEP = 360.0 / (FULL_STEPS_PER_REV * MICROSTEPS)
 
 #: GO TO (board command 156) is a P loop the firmware re-evaluates on every pass of its main
-#: loop (../shared/spec/board-firmware.md): ``v = int(((target - current) / 0.01 + v_ff) / 2)``,
+#: loop (docs/board-emulator.md, "Commands"): ``v = int(((target - current) / 0.01 + v_ff) / 2)``,
 #: i.e. ``v = GOTO_FF_GAIN * v_ff + GOTO_GAIN_PER_S * (target - current)`` [steps/s]: the
 #: board heads for ``target + v_ff * GOTO_FF_GAIN / GOTO_GAIN_PER_S`` at a speed proportional
 #: to the distance left, so within one frame its speed decays as ``exp(-GOTO_GAIN_PER_S t)``.

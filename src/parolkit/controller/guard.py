@@ -5,7 +5,7 @@ place where a bad frame can be stopped.  The guard never clamps or edits a motio
 frame that breaks a rule is REPLACED by a safe frame (hold still, zero speed or DISABLE) and
 the violation is returned so the executor can fail the command that produced it.
 
-What the board does with a GO TO (156) frame (../shared/spec/board-firmware.md): on every
+What the board does with a GO TO (156) frame (docs/board-emulator.md, as the firmware): on every
 pass of its main loop it sets ``v = 0.5 v_ff + 50 (target - position)`` steps/s
 (:data:`~parolkit.robot.GOTO_FF_GAIN`, :data:`~parolkit.robot.GOTO_GAIN_PER_S`).  The fastest
 it runs during a frame is therefore the speed it STARTS the frame at (:func:`goto_start_speed`
