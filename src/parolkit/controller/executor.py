@@ -148,6 +148,11 @@ class Executor:
         self.plan_seq = 0
         self.stream_mode = False
         self.enabled = True
+        #: a DISABLE (E-stop, DISABLE, uncommanded motion) not yet written: it goes out before
+        #: anything else, even when an ENABLE arrives in the same tick (the ENABLE follows it;
+        #: a client that re-enabled at once otherwise kept the board from ever getting it)
+        self._disable_owed = False
+        self._disable_paid = -1
         self.estop_latched = False
         self.estop_pressed = False
         self.error: str | None = None
@@ -392,6 +397,7 @@ class Executor:
         if not self.estop_latched:
             log.warning("E-stop: %s", reason)
         self.estop_latched = True
+        self._disable_owed = True
         self.probe.cancel()  # DISABLE every tick from now on, ENABLE needed: the answer is moot
         self._drop_pending_enable()
         self.cancel_all(f"E-stop: {reason}")
@@ -406,6 +412,7 @@ class Executor:
 
     def do_disable(self) -> None:
         self.enabled = False
+        self._disable_owed = True
         self.probe.cancel()
         self._drop_pending_enable()
         self.cancel_all("robot disabled by DISABLE")
@@ -421,6 +428,7 @@ class Executor:
         robot (DISABLE frames from the next tick on, ENABLE required), cancel everything,
         report ``message`` (it names the joints) as the error."""
         self.enabled = False
+        self._disable_owed = True
         self.error = f"uncommanded motion: {message}"
         self._disabled_reason = f"robot disabled after {self.error}: send ENABLE"
         self.probe.cancel()
@@ -922,7 +930,11 @@ class Executor:
         return self._step(tick, now, self._last_status, self._link_up)
 
     def _step(self, tick: int, now: float, status: StatusFrame | None, link_up: bool) -> Step:
-        if self.estop_latched:
+        if self.estop_latched or self._disable_owed or self._disable_paid == tick:
+            if self._disable_owed:
+                # paid by this tick's frame (a preempting STOP recomposes the same tick's
+                # frame: it must stay DISABLE, not become the ENABLE queued behind it)
+                self._disable_owed, self._disable_paid = False, tick
             return Step(BoardCommand.DISABLE)
         if self._pending_code is not None and self.activity is None:
             # ENABLE (101) / CLEAR_ERROR (103) wait for the running command to end: the board
