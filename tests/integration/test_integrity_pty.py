@@ -471,7 +471,8 @@ def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_un
         elif align[c] + 2 > align[s] + 3:
             late += 1
     report.append(f"uncommanded motions the board really made: {events}; DISABLE in time for "
-                  f"{events - len(misses)} ({late} after lost replies delayed the confirmation)")
+                  f"{events - len(misses)} ({late} after lost replies delayed the confirmation); "
+                  f"misses (k, executed, first intact, confirming, frames sent): {misses[:5]}")
 
     # 3. each one counted, with an error naming the joints (or the homing)
     counts = [(st["integrity"]["uncommanded"], st["errors"]["message"]) for _, st in stream.items]
