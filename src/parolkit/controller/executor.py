@@ -337,7 +337,7 @@ class Executor:
 
     def _immediate(self, cmd: C.Command, sub: Submission) -> tuple[AckStatus, str]:
         if isinstance(cmd, C.Stop):
-            self.do_stop()
+            self.do_stop(cmd.reason)
             return AckStatus.COMPLETED, "stopped"
         if isinstance(cmd, C.EStop):
             self.do_estop("software E-stop (ESTOP command)")
@@ -390,8 +390,8 @@ class Executor:
                 n += 1
             return n
 
-    def do_stop(self) -> None:
-        self.cancel_all("stopped by STOP")
+    def do_stop(self, reason: str | None = None) -> None:
+        self.cancel_all(reason or "stopped by STOP")
 
     def do_estop(self, reason: str) -> None:
         if not self.estop_latched:
