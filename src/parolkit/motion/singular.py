@@ -65,7 +65,7 @@ REPORT_DEVIATION_DEG = 0.01
 END_DEVIATION_DEG = 0.01
 #: Share of J4 / J6 speed and acceleration limits the tracker uses (the rest: rounding to
 #: steps, the exact path's own J6 motion, the board's tracking).
-SPEED_SHARE = 0.9
+SPEED_SHARE = 0.8
 ACCEL_SHARE = 0.85
 #: J4 target changes branch (J4 +- 180) only when the other one is this much closer (deg).
 _HYSTERESIS_DEG = 10.0
