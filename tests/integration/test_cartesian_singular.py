@@ -5,7 +5,6 @@ of those positions.  Frames, not wall-clock sleeps, are the unit of time."""
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 
@@ -74,10 +73,11 @@ def _to_standby(bench: Bench) -> None:
 
 def _first_motion_frame(rows, m0: np.ndarray, rotation: bool) -> int | None:
     """Index (frames after the send) of the first exchange whose TCP moved from ``m0``:
-    0.05 mm (translations) or 0.01 deg (rotations; a step of J6 turns the tool 0.006 deg)."""
+    0.05 mm (translations) or 0.005 deg (rotations: 1.5x the largest FK noise of the steps;
+    a J6 step turns the tool 0.0056 deg)."""
     m = _tcp([r[2] for r in rows])
     if rotation:
-        moved = _angle_deg(m[:, :3, :3], m0[:3, :3]) >= 0.01
+        moved = _angle_deg(m[:, :3, :3], m0[:3, :3]) >= 0.005
     else:
         moved = np.linalg.norm(m[:, :3, 3] - m0[:3, 3], axis=1) * 1e3 >= 0.05
     idx = np.nonzero(moved)[0]
@@ -87,6 +87,8 @@ def _first_motion_frame(rows, m0: np.ndarray, rotation: bool) -> int | None:
 @pytest.mark.slow
 def test_every_cartesian_jog_axis_in_both_frames_moves_within_100_ms_from_standby(singular_bench):
     bench, rec = singular_bench
+    # one jog first: the controller process's first Cartesian plan pays one-off start-up costs
+    assert bench.run("CARTJOG|WRF|Z-|50|0.1")[0] == "COMPLETED"
     report = []
     for frame in ("WRF", "TRF"):
         for axis in AXES:
