@@ -557,10 +557,16 @@ class Executor:
         board's position loop: planning every update from it stepped back each time, and a
         held jog covered a fraction of its distance.)"""
         act = self.activity
+        job.jog_start = None
         if self.active is not None and self.active.streamed and isinstance(act, TrajectoryActivity):
             steps = act.commanded()
             if steps is not None:
                 job.stream_anchor = (act, act.i)
+                # the running jog's path orientation and speeds at the commanded sample: the
+                # update continues its wrist turn near J5 = 0 instead of restarting it
+                jog_start = getattr(self.active.trajectory, "jog_start", None)
+                if callable(jog_start):
+                    job.jog_start = jog_start(act.i - 1)
                 return tuple(p / s for p, s in zip(steps, self._spd))
         job.stream_anchor = None
         return self._measured  # type: ignore[return-value]
@@ -602,7 +608,7 @@ class Executor:
         assert item is not None
         job, start, streamed = item
         t0 = time.perf_counter()
-        traj, err = self._plan(job.command, start)
+        traj, err = self._plan(job.command, start, job.jog_start if streamed else None)
         dt = time.perf_counter() - t0
         with self._lock:
             self.planned_count += 1
@@ -646,11 +652,12 @@ class Executor:
             m = self._motion = importlib.import_module("parolkit.motion")
         return m
 
-    def _plan(self, cmd: C.Command, start: Sequence[float]) -> tuple[object | None, str | None]:
+    def _plan(self, cmd: C.Command, start: Sequence[float], jog_start: object = None,
+              ) -> tuple[object | None, str | None]:
         try:
             move = self.to_move(cmd)
             traj = self._motion_module().plan(move, start, model=self.model, tool=self.tool_provider(),
-                                              rate_hz=self.rate_hz)
+                                              rate_hz=self.rate_hz, jog_start=jog_start)
             if len(traj) == 0:
                 return None, "the move plans to zero samples"
             return traj, None
