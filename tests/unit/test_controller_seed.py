@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tests.unit.test_controller_core import RATE, Rig
 
 from parolkit.controller.jobs import TickContext, TrajectoryActivity
 from parolkit.moves import SpeedJointMove
 from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand, GripperMode, IOBits, StatusFrame
 from parolkit.robot import PAROL6, deg_to_steps
-from tests.unit.test_controller_core import RATE, Rig
 
 
 @pytest.fixture
@@ -170,3 +170,20 @@ def test_move_over_a_speed_limit_is_refused_with_the_minimum_t(rig):
     rig.submit("aaaa0002|MOVEJOINT|90|-90|180|0|59|180|0.47|None")
     rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
     assert rig.terminal("aaaa0002") is AckStatus.COMPLETED
+
+
+def test_plan_warnings_join_any_other_detail_of_the_terminal_ack():
+    from parolkit.controller.executor import with_plan_warnings
+    from parolkit.controller.jobs import Job
+    from parolkit.motion import validate
+    from parolkit.protocol.commands import parse_datagram
+
+    job = Job(seq=1, command=parse_datagram("aaaa0001|DELAY|1").command, command_id="aaaa0001", ack_addr=None,
+              accepted_at=0.0, notes=("duration given: it overrides speed and acceleration percentages",
+                                      "warning: J5 needs more", "warning: J6 needs more"))
+    assert with_plan_warnings(job, "") == "warning: J5 needs more; warning: J6 needs more"
+    assert with_plan_warnings(job, "done") == "done; warning: J5 needs more; warning: J6 needs more"
+    job.notes = ()
+    assert with_plan_warnings(job, "done") == "done"
+    from parolkit.controller.executor import PLAN_WARNING_PREFIX
+    assert PLAN_WARNING_PREFIX == validate.WARNING_PREFIX
