@@ -308,10 +308,10 @@ class BoardTester:
         return st
 
     def gripper_move(self, position: int, speed: int, current: int, seconds: float = 2.0) -> StatusFrame:
-        """Move the SSG-48 to ``position`` 0..255 at ``speed`` 0..255 with ``current`` 100..1000 mA."""
+        """Move the SSG-48 to ``position`` 0..255 at ``speed`` 0..255 with ``current`` 0..1300 mA."""
         pos = _check_int(position, "position", 0, 255)
         spd = _check_int(speed, "speed", 0, 255)
-        cur = _check_int(current, "current (mA)", 100, 1000)
+        cur = _check_int(current, "current (mA)", 0, 1300)
         secs = _check_float(seconds, "seconds", 0.05, 60.0)
         self.require_status()
         self.gripper = (pos, spd, cur, int(GRIPPER_MOVE_BITS))
@@ -414,7 +414,7 @@ def _add_actions(parser: argparse.ArgumentParser) -> None:
     gsub = p.add_subparsers(dest="gripper_action", metavar="GRIPPER_ACTION")
     g = gsub.add_parser("calibrate", help="calibrate and activate (mode 1, one frame)")
     g.add_argument("--seconds", type=float, default=2.0)
-    g = gsub.add_parser("move", help="move to POS (0..255) at SPEED (0..255) with CURRENT (100..1000 mA)")
+    g = gsub.add_parser("move", help="move to POS (0..255) at SPEED (0..255) with CURRENT (0..1300 mA)")
     g.add_argument("position", type=int)
     g.add_argument("speed", type=int)
     g.add_argument("current", type=int)

@@ -6,6 +6,7 @@ Example ``parolkit.toml``::
 
     [robot]
     max_speed_steps_s = [15000, 25000, 32000, 10000, 10000, 27000]
+    accel_factor = 3.0        # acceleration limit = 3 x max speed per s (or max_accel_steps_s2)
 
     [controller]
     rate_hz = 250

@@ -139,8 +139,17 @@ class RobotModel:
     max_jog_speed_steps_s: tuple[float, ...] = (1500, 3000, 3600, 7000, 7000, 18000)
     #: Minimum joint speed (also the minimum jog speed), steps/s.
     min_speed_steps_s: tuple[float, ...] = (100, 100, 100, 100, 100, 100)
-    #: Joint acceleration range mapped from 0..100 %, steps/s^2.
+    #: What 0..100 % of an acceleration percentage means, steps/s^2 (the GUI's slider, the
+    #: ``a=`` of a program): a mapping, NOT a limit of the arm (see :attr:`accel_limit_steps_s2`).
     accel_range_steps_s2: tuple[float, float] = (100.0, 32000.0)
+    #: Joint acceleration limit = this factor x the joint's maximum speed, steps/s^2 per
+    #: steps/s (1/s): 3.0 reaches full speed in 1/3 s, as the maintained upstream API
+    #: (19500, 54000, 60000, 66000, 66000, 66000 steps/s^2 with the stock speeds).  Ignored
+    #: when :attr:`max_accel_steps_s2` is given.
+    accel_factor: float = 3.0
+    #: Per-joint acceleration limits, steps/s^2 (J1..J6); None: :attr:`accel_factor` x
+    #: :attr:`max_speed_steps_s`.
+    max_accel_steps_s2: tuple[float, ...] | None = None
     #: Cartesian jog linear speed range mapped from 0..100 %, mm/s.
     cart_linear_speed_range_mm_s: tuple[float, float] = (2.0, 60.0)
     #: Cartesian jog angular speed range mapped from 0..100 %, deg/s.
@@ -184,6 +193,21 @@ class RobotModel:
         lo, hi = self.accel_range_steps_s2
         if not 0 < lo <= hi:
             raise ParolkitValueError("accel_range_steps_s2 must satisfy 0 < low <= high")
+        f = self.accel_factor
+        if isinstance(f, bool) or not isinstance(f, (int, float)) or not (math.isfinite(f) and f > 0):
+            raise ParolkitValueError(
+                f"accel_factor must be a positive number (1/s: the acceleration limit is this times "
+                f"the joint's maximum speed), got {f!r}")
+        if self.max_accel_steps_s2 is not None:
+            if f != 3.0:
+                raise ParolkitValueError(
+                    "give either accel_factor or max_accel_steps_s2 (the per-joint acceleration "
+                    "limits), not both")
+            for i, a in enumerate(_tuple6(self.max_accel_steps_s2, "max_accel_steps_s2")):
+                if not (math.isfinite(a) and a > 0):
+                    raise ParolkitValueError(
+                        f"max_accel_steps_s2: {JOINT_NAMES[i]} must be a positive number of "
+                        f"steps/s^2, got {a!r}")
         if len(self.dh) != NUM_JOINTS:
             raise ParolkitValueError("dh needs one row per joint")
 
@@ -242,9 +266,20 @@ class RobotModel:
         return np.asarray(self.min_speed_steps_s, dtype=np.float64) / self.steps_per_deg
 
     @property
+    def accel_limit_steps_s2(self) -> NDArray[np.float64]:
+        """Per-joint acceleration limit, steps/s^2: :attr:`max_accel_steps_s2` when given, else
+        :attr:`accel_factor` x :attr:`max_speed_steps_s` (stock: 19500, 54000, 60000, 66000,
+        66000, 66000).  Moves without a duration are planned within it; a move with a
+        duration that needs more runs in its time with a warning (the seed: "t overrides a
+        and v"); only the speed limit refuses one."""
+        if self.max_accel_steps_s2 is not None:
+            return np.asarray(self.max_accel_steps_s2, dtype=np.float64)
+        return np.asarray(self.max_speed_steps_s, dtype=np.float64) * float(self.accel_factor)
+
+    @property
     def max_accel_deg_s2(self) -> NDArray[np.float64]:
-        """Per-joint upper acceleration (the top of :attr:`accel_range_steps_s2`) in deg/s^2."""
-        return self.accel_range_steps_s2[1] / self.steps_per_deg
+        """Per-joint acceleration limit (:attr:`accel_limit_steps_s2`) in deg/s^2."""
+        return self.accel_limit_steps_s2 / self.steps_per_deg
 
     # ---- percent mappings used by the original software ----
 

@@ -55,6 +55,11 @@ loaded = sorted(m for m in sys.modules if m.split(".")[0] in ("parolkit", "numpy
 print("RESULT=" + json.dumps({"calls": calls, "loaded": loaded}))
 """
 
+#: the script's sleeps, scaled: its time.sleep(2) after control_electric_gripper("calibrate") is
+#: the seed's "add a Delay() after it" (calibration does not block the controller's queue) and
+#: must still cover the emulated SSG-48's 1 s calibration, or the move sent next is ignored
+SLEEP_SCALE = 0.6
+
 EXPECTED_CALLS = [
     "control_electric_gripper", "control_electric_gripper", "get_robot_joint_angles",
     "get_robot_pose", "control_pneumatic_gripper", "move_robot_joints", "move_robot_pose",
@@ -69,7 +74,7 @@ def test_seed_example_runs_unchanged_and_every_call_returns_real_values(controll
     shutil.copy(SEED_SCRIPT, tmp_path / "seed_example.py")
     proc = subprocess.run(
         [sys.executable, "-I", "-S", "-c", WRAPPER, str(tmp_path), str(controller.port),
-         str(controller.ack_port), str(tmp_path / "seed_example.py"), "0.05"],
+         str(controller.ack_port), str(tmp_path / "seed_example.py"), str(SLEEP_SCALE)],
         capture_output=True, text=True, timeout=60, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr + controller.log()
     assert "robot_api:" not in proc.stderr, proc.stderr  # no query timed out or failed

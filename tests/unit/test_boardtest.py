@@ -66,7 +66,7 @@ def test_an_unanswering_board_is_reported_not_waited_for_forever():
     (lambda t: t.jog(1, 100, 0), "seconds must be in 0.01..60"),
     (lambda t: t.set_output(3, True), "output must be in 1..2"),
     (lambda t: t.gripper_move(256, 10, 500), "position must be in 0..255"),
-    (lambda t: t.gripper_move(10, 10, 50), "current (mA) must be in 100..1000"),
+    (lambda t: t.gripper_move(10, 10, 1301), "current (mA) must be in 0..1300"),
 ])
 def test_bad_action_arguments_name_the_field_and_range_and_send_nothing(call, needle):
     link = _DeadLink()

@@ -276,7 +276,8 @@ def test_extension_fields_are_only_appended_when_given():
     (lambda: robot_api.move_robot_joints([0] * 6), "either duration"),
     (lambda: robot_api.move_robot_joints([0] * 6, duration=1, speed_percentage=5), "not both"),
     (lambda: robot_api.move_robot_joints([0] * 6, speed_percentage=150), "speed_percentage must be in 0..100"),
-    (lambda: robot_api.move_robot_joints([0] * 6, duration=0), "duration must be > 0"),
+    (lambda: robot_api.move_robot_joints([0] * 6, duration=-0.5), "duration must be > 0"),
+    (lambda: robot_api.move_robot_joints([0] * 6, duration=0), "got neither"),  # 0 = not given
     (lambda: robot_api.move_robot_joints([0, 0, float("nan"), 0, 0, 0], duration=1), "angles[2] must be a finite"),
     (lambda: robot_api.move_robot_pose([0] * 6, duration=-1), "duration must be > 0"),
     (lambda: robot_api.move_robot_cartesian([0] * 5, speed_percentage=50), "pose must have 6 values"),
@@ -290,7 +291,8 @@ def test_extension_fields_are_only_appended_when_given():
     (lambda: robot_api.control_pneumatic_gripper("open", 3), "port must be in 1..2"),
     (lambda: robot_api.control_electric_gripper("move", position=256), "position must be in 0..255"),
     (lambda: robot_api.control_electric_gripper("move", speed=-1), "speed must be in 0..255"),
-    (lambda: robot_api.control_electric_gripper("move", current=1300), "current must be in 100..1000"),
+    (lambda: robot_api.control_electric_gripper("move", current=1301), "current must be in 0..1300"),
+    (lambda: robot_api.control_electric_gripper("move", current=-1), "current must be in 0..1300"),
     (lambda: robot_api.delay_robot(0), "duration must be > 0"),
     (lambda: robot_api.smooth_circle([0, 0], 10, duration=1), "center must have 3 values"),
     (lambda: robot_api.smooth_circle([0, 0, 0], 0, duration=1), "radius must be > 0"),
@@ -573,7 +575,7 @@ def test_robot_argument_errors_are_parolkit_value_errors_and_send_nothing(robot,
     with pytest.raises(ParolkitValueError, match="joint must be 1..6"):
         robot.jog_joint(0, 50, duration=1)
     with pytest.raises(ParolkitValueError, match="speed_percentage must be in 0..100"):
-        robot.move_joints([0] * 6, speed=0)
+        robot.move_joints([0] * 6, speed=-1)
     with pytest.raises(ParolkitValueError, match="timeout must be"):
         robot.home(timeout=-1)
     time.sleep(0.05)

@@ -33,7 +33,8 @@ P0 = kin.fk(START)
 #: position-tracked (156) plans keep to this at 100 Hz (issue 12: the board's GO TO loop starts
 #: every tick 1.27x faster than the stream moves)
 VTRACK = PAROL6.max_tracked_speed_steps_s(100)
-AMAX = PAROL6.accel_range_steps_s2[1]
+#: per-joint acceleration limits, steps/s^2 (a duration given may need more: then with a warning)
+AMAX = PAROL6.accel_limit_steps_s2
 
 
 def _tcp(tr) -> tuple[np.ndarray, np.ndarray]:
@@ -50,7 +51,8 @@ def _assert_limits(tr) -> None:
     steps = np.abs(np.diff(np.vstack([np.rint(tr.start_deg * PAROL6.steps_per_deg), tr.positions]), axis=0))
     assert np.all(steps <= VTRACK / tr.rate_hz + 1)  # every tick's target step, from the start on
     acc = np.abs(np.diff(np.vstack([np.zeros(6), tr.speeds.astype(float)]), axis=0)) * tr.rate_hz
-    assert acc.max() <= AMAX * 1.02 + 100
+    if not any(n.startswith("warning: ") for n in tr.notes):
+        assert np.all(acc <= AMAX * 1.02 + 100)
 
 
 def _rot_angle(a: np.ndarray, b: np.ndarray) -> float:

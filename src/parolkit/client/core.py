@@ -788,7 +788,7 @@ class RobotCommands:
 
     def gripper_move(self, position: int, speed: int = 150, current: int = 500,
                      wait: bool = True, timeout: float | None = None) -> Any:
-        """SSG-48: move to ``position`` 0..255 at ``speed`` 0..255 with ``current`` 100..1000 mA."""
+        """SSG-48: move to ``position`` 0..255 at ``speed`` 0..255 with ``current`` 0..1300 mA."""
         return self._command(_check(wire.build_electric_gripper, "move", position, speed, current),
                              wait, _opt_timeout(timeout))
 

@@ -119,7 +119,7 @@ SEGMENT_TYPES = ("LINE", "CIRCLE", "ARC", "SPLINE")
 #: Gripper ranges accepted by the SSG-48 as the controller drives it.
 GRIPPER_POSITION_RANGE = (0, 255)
 GRIPPER_SPEED_RANGE = (0, 255)
-GRIPPER_CURRENT_RANGE_MA = (100, 1000)
+GRIPPER_CURRENT_RANGE_MA = (0, 1300)  # the seed: "0 - 1300 mA"
 
 
 class AckPortBusyError(OSError):
@@ -226,7 +226,16 @@ def _choice(value: Any, name: str, choices: Sequence[str], *, upper: bool = True
     return v
 
 
+def _zero_is_none(value: Any) -> Any:
+    """An explicit 0 duration / speed / acceleration means "not given" (the seed's signature
+    ``MoveJoint(j1, ..., v=0, a=0, t=0)``)."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0:
+        return None
+    return value
+
+
 def _one_timing(duration: Any, speed_percentage: Any) -> Tuple[Optional[float], Optional[float]]:
+    duration, speed_percentage = _zero_is_none(duration), _zero_is_none(speed_percentage)
     if duration is None and speed_percentage is None:
         raise ValueError("give either duration (s, > 0) or speed_percentage (0..100), got neither")
     if duration is not None and speed_percentage is not None:
@@ -289,6 +298,7 @@ def _move_fields(values: List[float], duration: Any, speed_percentage: Any,
                  *, with_accel: bool = True) -> str:
     d, s = _one_timing(duration, speed_percentage)
     parts: List[Union[float, str, None]] = [*values, d, s]
+    accel_percentage = _zero_is_none(accel_percentage)
     a = _percent(accel_percentage, "accel_percentage") if accel_percentage is not None else None
     p = _opt_choice(profile, "profile", PROFILES)
     t = _opt_choice(tracking, "tracking", TRACKING_MODES)
@@ -383,7 +393,7 @@ def build_electric_gripper(action: Any, position: Any = 255, speed: Any = 150,
                            current: Any = 500) -> str:
     """``ELECTRICGRIPPER|move|calibrate|clear_error|None|position|speed|current``.
 
-    position 0..255 (0 open, 255 closed), speed 0..255, current 100..1000 mA.
+    position 0..255 (0 open, 255 closed), speed 0..255, current 0..1300 mA.
     """
     if action is None:
         a = "None"
@@ -976,7 +986,7 @@ def control_electric_gripper(action: str, position: Optional[int] = 255,
                              wait_for_ack: bool = False, timeout: float = 2.0,
                              non_blocking: bool = False) -> Union[Dict[str, Any], str]:
     """SSG-48 gripper: ``action`` 'move' or 'calibrate' (or 'clear_error');
-    position 0..255, speed 0..255, current 100..1000 mA."""
+    position 0..255, speed 0..255, current 0..1300 mA."""
     return _dispatch(build_electric_gripper(action, position, speed, current), wait_for_ack,
                      timeout, non_blocking)
 

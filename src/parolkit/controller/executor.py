@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import importlib
 import logging
+import math
 import threading
 import time
 from collections import deque
@@ -35,7 +36,6 @@ from parolkit.controller.integrity import BoardProbe, StatusIntegrity
 from parolkit.controller.jobs import (
     Activity,
     DelayActivity,
-    GripperCalibrateActivity,
     HomeActivity,
     Job,
     OneShotActivity,
@@ -65,8 +65,13 @@ SET_PORT_SCHEMES = frozenset({"serial"})
 
 #: a planned move may start this far (deg, any joint) from the measured joints
 START_TOLERANCE_DEG = 0.5
-#: an SSG-48 calibration that takes longer than this FAILS, s
-GRIPPER_CALIBRATE_TIMEOUT_S = 10.0
+#: the COMPLETED ack of ELECTRICGRIPPER|calibrate (sent with the one frame that starts it)
+GRIPPER_CALIBRATE_DETAILS = ("calibration started: the gripper reports calibrated in its status "
+                             "(GET_GRIPPER) when done; follow with a Delay")
+#: a position-tracked move FAILS if the board has not reported its exact target (at rest) this
+#: long after the last sample (a few ticks are normal: the GO TO loop closes the last steps at
+#: 50 steps/s per step of error); a speed-tracked one ends then anyway, s
+SETTLE_TIMEOUT_S = 1.0
 #: PNEUMATICGRIPPER FAILS if the board has not reported the new output level by then, s
 OUTPUT_REPORT_TIMEOUT_S = 0.5
 #: how many queued jobs the planner plans ahead
@@ -86,6 +91,22 @@ _STREAMABLE = (C.Jog, C.MultiJog, C.CartJogCommand)
 
 def needs_plan(cmd: C.Command) -> bool:
     return isinstance(cmd, _TRAJECTORY_COMMANDS)
+
+
+#: a plan's notes that start so are warnings (``parolkit.motion.validate.WARNING_PREFIX``, not
+#: imported here: the controller loads the planners only when first needed), e.g. a move
+#: with t that needs more than a joint's acceleration limit: logged when the move starts and
+#: carried in its terminal ack's details
+PLAN_WARNING_PREFIX = "warning: "
+
+
+def with_plan_warnings(job: Job, details: str) -> str:
+    """``details`` of a job's terminal ack with its plan's warnings appended (``"; "``
+    between parts), so a COMPLETED ack says the move ran despite them."""
+    warnings = [n for n in job.notes if n.startswith(PLAN_WARNING_PREFIX)]
+    if not warnings:
+        return details
+    return "; ".join([details, *warnings] if details else warnings)
 
 
 @dataclass
@@ -168,6 +189,8 @@ class Executor:
         self._homed = False
         self._spd = tuple(float(v) for v in model.steps_per_deg)
         self._limits = tuple((int(lo), int(hi)) for lo, hi in model.limits_steps)
+        #: the joint ranges planned moves keep to, deg (SPEEDJOINT is refused beyond them)
+        self._safe_deg = tuple((float(lo), float(hi)) for lo, hi in model.safe_limits_deg)
         self._running = False
         self._planner: threading.Thread | None = None
         self._motion: ModuleType | None = None  # parolkit.motion, imported by the planner thread
@@ -743,8 +766,35 @@ class Executor:
                 speeds[j] = int(round(v * self._spd[j]))
                 if abs(speeds[j]) > m.max_speed_steps_s[j]:
                     return (), 0, f"J{j + 1} speed {v:g} deg/s exceeds the maximum"
-            return tuple(speeds), cmd.move.duration_s, None
+            err = self._speed_joint_range(cmd.move.speeds_deg_s, cmd.move.duration_s)
+            return tuple(speeds), cmd.move.duration_s, err
         return (), 0, f"{cmd.name} is not a speed command"
+
+    def _speed_joint_range(self, speeds_deg_s: Sequence[float], secs: float) -> str | None:
+        """SPEEDJOINT from the measured joints: the refusal when a joint would leave its range
+        within ``secs`` (s) at ``speeds_deg_s`` (deg/s), in the words of the planner's (the
+        script's) refusal of the same SpeedJoint; None when it stays inside.  Plain Python on
+        6 values (the loop thread)."""
+        start = self._measured
+        if start is None:
+            return None  # no status yet: the activity's own limit stop applies
+        worst: tuple[float, int, float, str, float] | None = None
+        for j, (q0, v, (lo, hi)) in enumerate(zip(start, speeds_deg_s, self._safe_deg)):
+            end = q0 + v * secs
+            if lo <= end <= hi:
+                continue
+            bound, side = (hi, "upper") if v > 0 else (lo, "lower")
+            t_hit = max(0.0, (bound - q0) / v) if v != 0 else 0.0
+            if worst is None or t_hit < worst[0]:
+                worst = (t_hit, j, end, side, bound)
+        if worst is None:
+            return None
+        th, j, end, _side, _bound = worst
+        lo, hi = self._safe_deg[j]
+        longest = math.floor(th * self.rate_hz) / self.rate_hz
+        return (f"SpeedJoint refused at t={th:.3f} s: {JOINT_NAMES[j]} would reach {end:.3f} deg, beyond its "
+                f"range {lo:.3f} .. {hi:.3f} deg (it gets there after {th:.3f} s; the longest allowed "
+                f"duration is {longest:.2f} s).")
 
     def _cap_unhomed_travel(self, speeds: Sequence[int], secs: float, now: float, *,
                             continuing: bool) -> tuple[float, str, str | None]:
@@ -781,7 +831,7 @@ class Executor:
 
     def _activate(self, job: Job, now: float) -> None:
         cmd = job.command
-        settle = max(3, int(0.5 * self.rate_hz))
+        settle = max(3, int(SETTLE_TIMEOUT_S * self.rate_hz))
         act: Activity
         if isinstance(cmd, C.Home):
             integrity = self.integrity
@@ -803,6 +853,9 @@ class Executor:
                 return
             act = SpeedActivity(speeds, secs, streamed=job.streamed, started=now)
         elif needs_plan(cmd):
+            for note in job.notes:
+                if note.startswith(PLAN_WARNING_PREFIX):
+                    log.warning("%s (%s): %s", job.name, job.command_id or "no id", note)
             act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now,  # type: ignore[arg-type]
                                      max_speed_steps_s=self.model.max_speed_steps_s)
             self.plan_seq += 1
@@ -819,8 +872,12 @@ class Executor:
                 g.command = GripperCommandBits.ACTIVATE | GripperCommandBits.MOVE | GripperCommandBits.RELEASE_DIR
                 act = OneShotActivity()
             elif cmd.action == "calibrate":
+                # the seed: "Gripper_cal() calibrates and activates the gripper. Add a Delay()
+                # after calling it": one frame with the one-shot CALIBRATE mode, and the next
+                # command (the Delay) starts at once; the gripper reports "calibrated" in its
+                # status (GET_GRIPPER) when done
                 g.command = GripperCommandBits.ACTIVATE | GripperCommandBits.RELEASE_DIR
-                act = GripperCalibrateActivity(ticks_for(GRIPPER_CALIBRATE_TIMEOUT_S, self.rate_hz))
+                act = OneShotActivity(GripperMode.CALIBRATE, details=GRIPPER_CALIBRATE_DETAILS)
             else:
                 act = OneShotActivity(GripperMode.CLEAR_ERROR)
         elif isinstance(cmd, C.WaitInput):
@@ -964,6 +1021,19 @@ class Executor:
             return Step(BoardCommand.IDLE)
         ctx = TickContext(tick, now, self.rate_hz, status, self._homed, self.stream_mode, self.watchdog_s,
                           self._limits)
+        step = self._run_activity(act, ctx)
+        if step.done is not None and act.frameless_end and self.queue:
+            # its end needs no frame of its own (it only saw the board's report): the next
+            # queued command takes this tick (an Output() lasts one tick, as in the original)
+            self._try_activate(now, status)
+            nxt = self.activity
+            if nxt is not None:
+                step = self._run_activity(nxt, ctx)
+        return step
+
+    def _run_activity(self, act: Activity, ctx: TickContext) -> Step:
+        """(loop thread) This tick's step of the active job's activity; ends the job (its
+        terminal ack, with the plan's warnings) when the step says so."""
         try:
             step = act.step(ctx)
         except Exception as exc:
@@ -975,7 +1045,7 @@ class Executor:
                 self.active = None
                 self.activity = None
                 if job is not None:
-                    self._ack(job, step.done, step.details)
+                    self._ack(job, step.done, with_plan_warnings(job, step.details))
                 self._plan_cv.notify_all()
         return step
 

@@ -19,7 +19,7 @@ from parolkit.robot import JOINT_NAMES
 
 __all__ = [
     "Job", "PlanAhead", "Step", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity",
-    "HomeActivity", "DelayActivity", "OneShotActivity", "WaitInputActivity", "GripperCalibrateActivity",
+    "HomeActivity", "DelayActivity", "OneShotActivity", "WaitInputActivity", "OutputActivity",
 ]
 
 _ZERO6 = (0, 0, 0, 0, 0, 0)
@@ -128,6 +128,9 @@ class Activity:
     streams_speed: bool = False
     #: True when its frames move the robot (a paused one gets stop frames, see :meth:`held`)
     moves: bool = False
+    #: True when the step that ends it needs no frame of its own (it ends on what the board
+    #: reported): the executor lets the next queued job take that tick
+    frameless_end: bool = False
 
     def step(self, ctx: TickContext) -> Step:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -153,8 +156,10 @@ class TrajectoryActivity(Activity):
       maximum speed (``fits``, by default :func:`~parolkit.controller.pacing.goto_fits`: the
       target's step since the previous frame and the board's speed right after it); a move
       that fell further behind catches up over the next ticks, and never goes back.  After
-      the last sample the target is held with zero feed-forward until the joints are within
-      ``settle_tol_steps`` (or ``settle_ticks`` passed);
+      the last sample the target is sent with zero feed-forward every tick until a status frame
+      shows the board exactly on it and at rest: then COMPLETED (the seed: "with speed +
+      position the robot reaches exactly the commanded position"); FAILED, naming the joints
+      that are off, if that takes more than ``settle_ticks``;
     * speed tracking (123): the distance a speed covers is speed x the time it actually ran,
       so each frame's speed is the one that takes every joint from where the board model
       estimates it now to the position the plan has for the next deadline, over at least one
@@ -173,6 +178,7 @@ class TrajectoryActivity(Activity):
         #: the next whole sample to play (``n``: all played, settling)
         self.i = 0
         self.settle_left = settle_ticks
+        self.settle_ticks = settle_ticks
         self.settle_tol = settle_tol_steps
         self.streamed = streamed
         self.last_update = started
@@ -220,13 +226,13 @@ class TrajectoryActivity(Activity):
         return (now - self.t0) * rate_hz + self._offset
 
     def _ask(self, now: float, cmd: int, pos: Sequence[int], spd: Sequence[int], done: AckStatus | None = None,
-             ) -> Step:
+             details: str = "") -> Step:
         self.log.record(now, cmd, pos, spd)
         target = tuple(pos)
         if cmd == BoardCommand.GOTO:
             self._prev_goto = (target, now)
         self._last_target = target
-        return Step(cmd, target, tuple(spd), done=done)
+        return Step(cmd, target, tuple(spd), done=done, details=details)
 
     def _at(self, s: float) -> tuple[list[int], list[int]]:
         """Target and feed-forward at sample coordinate ``s``, linear between samples."""
@@ -337,14 +343,31 @@ class TrajectoryActivity(Activity):
             self.progress = self.i / self.n
             tgt, ff = self._at(s)
             return self._ask(now, self.commands[int(s)], tgt, ff)
-        # settle on the final target with zero feed-forward
+        # settle: the final target with zero feed-forward, every tick, until the board reports
+        # it exactly and at rest (the GO TO law v = 50 x error closes the last steps in a few
+        # ticks and cannot overshoot without feed-forward); FAILED if it does not in time
         target = self.positions[-1]
         self.settle_left -= 1
         st = ctx.status
-        close = st is not None and all(abs(a - b) <= self.settle_tol for a, b in zip(st.positions, target))
-        if close or self.settle_left <= 0:
+        if st is not None and all(a == b for a, b in zip(st.positions, target)) and not any(st.speeds):
+            self.progress = 1.0
             return self._ask(now, BoardCommand.GOTO, target, _ZERO6, AckStatus.COMPLETED)
+        if self.settle_left <= 0:
+            return self._ask(now, BoardCommand.GOTO, target, _ZERO6, AckStatus.FAILED,
+                             details=self._missed_target(st, target, ctx.rate_hz))
         return self._ask(now, BoardCommand.GOTO, target, _ZERO6)
+
+    def _missed_target(self, st: StatusFrame | None, target: Sequence[int], rate_hz: float) -> str:
+        """The FAILED details of a position-tracked move whose board did not report its target
+        within the settle time: which joints are how far off."""
+        waited = f"{self.settle_ticks / rate_hz:.2f} s"
+        if st is None:
+            return f"the board did not report its position within {waited} of the move's end"
+        off = [f"{JOINT_NAMES[j]} at {p} steps, {t - p:+d} from the target {t}"
+               for j, (p, t) in enumerate(zip(st.positions, target)) if p != t]
+        moving = [JOINT_NAMES[j] for j, v in enumerate(st.speeds) if v]
+        what = "; ".join(off) if off else "every joint on target but still moving (" + ", ".join(moving) + ")"
+        return f"the board did not reach the exact target within {waited} of the move's end: {what}"
 
 
 class SpeedActivity(Activity):
@@ -585,21 +608,26 @@ class DelayActivity(Activity):
 
 
 class OneShotActivity(Activity):
-    """One frame (optionally with a one-shot gripper mode), then COMPLETED."""
+    """One frame (optionally with a one-shot gripper mode), COMPLETED with it (``details``:
+    the ack's details)."""
 
-    def __init__(self, gripper_mode: int = GripperMode.OPERATE) -> None:
+    def __init__(self, gripper_mode: int = GripperMode.OPERATE, details: str = "") -> None:
         self.mode = gripper_mode
+        self.details = details
 
     def step(self, ctx: TickContext) -> Step:
         self.progress = 1.0
-        return Step(BoardCommand.IDLE, gripper_mode=self.mode, done=AckStatus.COMPLETED)
+        return Step(BoardCommand.IDLE, gripper_mode=self.mode, done=AckStatus.COMPLETED, details=self.details)
 
 
 class OutputActivity(Activity):
     """Drive OUT1/OUT2 (the frame already carries the new level) and complete when the board's
     status reports that level, so a GET_IO after COMPLETED reads what was asked. FAILED after
     ``timeout_ticks`` without that report (a board that does not echo its outputs, or a link
-    dropping every reply)."""
+    dropping every reply).  Its end needs no frame (``frameless_end``): the next queued command
+    takes that tick, so an Output() holds the queue for one tick, as in the original."""
+
+    frameless_end = True
 
     def __init__(self, port: int, on: bool, timeout_ticks: int) -> None:
         self.port = port
@@ -620,33 +648,6 @@ class OutputActivity(Activity):
                         details=f"the board did not report OUT{self.port} = {int(self.on)} within "
                                 f"{self.timeout_ticks / ctx.rate_hz:g} s")
         self.progress = min(0.99, self.i / max(1, self.timeout_ticks))
-        return Step(BoardCommand.IDLE)
-
-
-class GripperCalibrateActivity(Activity):
-    """Send the one-shot CALIBRATE mode in exactly one frame, then wait until the gripper
-    reports "calibrated" (FAILED after ``timeout_ticks``: no gripper, or it did not answer)."""
-
-    def __init__(self, timeout_ticks: int, min_ticks: int = 2) -> None:
-        self.sent = False
-        self.i = 0
-        self.timeout_ticks = timeout_ticks
-        self.min_ticks = min_ticks
-
-    def step(self, ctx: TickContext) -> Step:
-        if not self.sent:
-            self.sent = True
-            return Step(BoardCommand.IDLE, gripper_mode=GripperMode.CALIBRATE)
-        self.i += 1
-        self.progress = min(0.99, self.i / max(1, self.timeout_ticks))
-        st = ctx.status
-        if st is not None and self.i >= self.min_ticks and st.gripper.calibrated:
-            self.progress = 1.0
-            return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
-        if self.i >= self.timeout_ticks:
-            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
-                        details=f"the gripper did not report calibrated within "
-                                f"{self.timeout_ticks / ctx.rate_hz:g} s (is an SSG-48 connected?)")
         return Step(BoardCommand.IDLE)
 
 

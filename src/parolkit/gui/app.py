@@ -611,7 +611,7 @@ class CommanderPage:
                 ui.label().bind_text_from(self.grip_pos, "value", lambda v: f"position {v}").classes("text-xs text-slate-400")
                 self.grip_speed = ui.slider(min=0, max=255, value=60).props("label").props("data-testid=grip-speed")
                 ui.label().bind_text_from(self.grip_speed, "value", lambda v: f"speed {v}").classes("text-xs text-slate-400")
-                self.grip_current = ui.slider(min=100, max=1000, step=10, value=600).props("label").props("data-testid=grip-current")
+                self.grip_current = ui.slider(min=0, max=1300, step=10, value=600).props("label").props("data-testid=grip-current")
                 ui.label().bind_text_from(self.grip_current, "value", lambda v: f"current {v} mA").classes("text-xs text-slate-400")
                 ui.button("Move", icon="play_arrow", on_click=self.gripper_move).props("unelevated color=primary").props("data-testid=grip-move")
                 self.grip_readout = ui.label("—").classes("pk-val text-sm").props("data-testid=grip-readout")

@@ -542,7 +542,9 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
     vmax = limits.array
 
     def timed(prof: ScalarProfile) -> _TimedPath:
-        return _TimedPath(name, prof, path, start, model, tool, rate_hz, limits)
+        # a duration given: only the speed limits refuse it (the acceleration ones warn)
+        return _TimedPath(name, prof, path, start, model, tool, rate_hz, limits,
+                          accel_hard=duration is None)
 
     stretch = 1.0
     wrist_bound = False  # a stretch made for the singular area's bounds
@@ -571,6 +573,10 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
         notes.append(f"duration stretched from {_nominal(profile, base):.2f} s to {T:.2f} s: {why}")
     if tm.area is not None:
         notes.append(tm.area.note())
+    if duration is not None:
+        warning = validate.accel_warning(np.max(np.abs(tm.acc), axis=0), model, duration)
+        if warning is not None:
+            notes.append(warning)
     _check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
     # speeds and accelerations were checked sample by sample in the loop above (proven)
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
@@ -595,8 +601,11 @@ class _TimedPath:
     speeds along the path itself on a finer grid than the ticks."""
 
     def __init__(self, name: str, prof: ScalarProfile, path: Path, start: NDArray[np.float64], model: RobotModel,
-                 tool: str | Tool | None, rate_hz: float, limits: validate.SpeedLimits) -> None:
+                 tool: str | Tool | None, rate_hz: float, limits: validate.SpeedLimits, *,
+                 accel_hard: bool = True) -> None:
         self.name, self.model, self.rate_hz, self.limits = name, model, rate_hz, limits
+        #: False for a duration given: the acceleration limits then do not count in ``fits``
+        self.accel_hard = accel_hard
         T = self.T = prof.T
         t = self.t = sample_times(T, rate_hz)
         s, _, _ = prof(t)
@@ -606,7 +615,7 @@ class _TimedPath:
         q, self.area = _solve_path(name, pos, rots, start, tool, t, model, vmax / spd)
         self.q = q
         qd = self.qd = _derivative(q, start, rate_hz, t, T)
-        amax = float(model.accel_range_steps_s2[1])
+        amax = validate.model_arrays(model).amax  # per joint, steps/s^2
         v_steps = self.v_steps = qd * spd
         self.acc: NDArray[np.float64] = np.diff(np.vstack([np.zeros((1, 6)), v_steps]), axis=0) * rate_hz
         v_tick: NDArray[np.float64] = np.diff(np.vstack([start[None, :], q]), axis=0) * (rate_hz * spd)
@@ -626,17 +635,17 @@ class _TimedPath:
             vf: NDArray[np.float64] = np.diff(np.vstack([start[None, :], qf]), axis=0) * (spd * n / T)
             self.fine = (tf, vf)
             self.r_v = max(self.r_v, float(np.max(np.abs(vf) / vmax)))
-        self.r_a = float(np.max(np.abs(self.acc))) / (amax * (1 + validate.ACCEL_TOLERANCE))
+        self.r_a = float(np.max(np.max(np.abs(self.acc), axis=0) / (amax * (1 + validate.ACCEL_TOLERANCE))))
 
     @property
     def fits(self) -> bool:
-        return self.r_v <= 1.0 and self.r_a <= 1.0 and self.r_dev <= 1.0
+        return self.r_v <= 1.0 and (self.r_a <= 1.0 or not self.accel_hard) and self.r_dev <= 1.0
 
     @property
     def factor(self) -> float:
         """How much longer the path must take to fit (speeds scale with 1 / time,
         accelerations with 1 / time^2; the singular-area deviation roughly with 1 / time)."""
-        return max(self.r_v, math.sqrt(self.r_a), self.r_dev, 1.0)
+        return max(self.r_v, math.sqrt(self.r_a) if self.accel_hard else 1.0, self.r_dev, 1.0)
 
     def refuse(self, hint: str) -> None:
         """Raise the PlanningError of the first limit exceeded (joint, time, value, limit), with
@@ -645,7 +654,8 @@ class _TimedPath:
         if self.fine is not None:
             tf, vf = self.fine
             validate.check_speeds(self.name, tf, vf, self.model, hint=hint, limits=self.limits)
-        validate.check_accels(self.name, self.t, self.v_steps, self.model, self.rate_hz, hint=hint)
+        if self.accel_hard:
+            validate.check_accels(self.name, self.t, self.v_steps, self.model, self.rate_hz, hint=hint)
         if self.r_dev > 1.0 and self.area is not None:
             raise _deviation_error(self.name, self.area, hint)
 
@@ -952,11 +962,15 @@ def _toppra_path(
     q_grid = _solve_ik(name, pos, rots, start, tool, s_grid)
     spd = model.steps_per_deg
     vmax = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION).array / spd
-    amax = float(model.accel_range_steps_s2[1]) / spd
+    amax = validate.model_arrays(model).amax / spd
     # a 7th coordinate = s itself (unconstrained) recovers s(t) from the joint-space result
     aug = np.hstack([q_grid, s_grid[:, None]])
     s_vmax = 1e6 if duration is not None else 1.0 / base
     res = toppra_parameterize(s_grid, aug, np.append(vmax, s_vmax), np.append(amax, 1e9), duration=duration)
+    if duration is not None and (res is None or res.duration > duration * (1 + 1e-6)):
+        # a duration given: the acceleration limits give way (a warning), the speed ones hold
+        res = toppra_parameterize(s_grid, aug, np.append(vmax, s_vmax), np.append(amax * 1e3, 1e9),
+                                  duration=duration)
     if res is None:
         raise PlanningError(name, "TOPP-RA finds no feasible timing within the joint limits")
     if duration is not None and res.duration > duration * (1 + 1e-6):
@@ -973,5 +987,5 @@ def _toppra_path(
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
                             notes=[f"TOPP-RA time-optimal: {res.optimal_duration:.2f} s"
                                    + (f", slowed uniformly to {T:.2f} s" if T > res.optimal_duration * 1.001 else "")],
-                            target_deg=q[-1],
+                            target_deg=q[-1], timed_s=duration,
                             hint="the time-optimal timing exceeds a limit after sampling")

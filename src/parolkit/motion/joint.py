@@ -14,11 +14,15 @@ Timing rules (the seed's, see docs/motion.md):
   :func:`parolkit.robot.goto_tracking_factor`), a speed-tracked one (123) within the maximum.
 
 * ``duration_s`` given: exactly that long (rounded UP to whole ticks; the profile itself lasts
-  exactly ``duration_s``), default POLY; if a joint would exceed its speed or acceleration
-  limit the move is REFUSED (the message gives the shortest feasible duration).
+  exactly ``duration_s``), default POLY ("t overrides a and v").  If a joint would exceed its
+  SPEED limit the move is REFUSED (the message names the joint and gives the shortest
+  duration that works); if it only needs more than a joint's acceleration limit
+  (:attr:`RobotModel.accel_limit_steps_s2`, default 3x its maximum speed per second) it runs
+  in ``duration_s`` and its notes carry a ``"warning: ..."`` naming the joint, the
+  acceleration needed and the limit (the controller puts it into the move's ack and log).
 * ``speed_pct`` / ``accel_pct``: trapezoid on the leading joint (the one with the most steps
-  to go), all joints synchronised; when another joint could not follow, the leading joint is
-  slowed and a note says so.
+  to go), all joints synchronised; when another joint could not follow (speed or
+  acceleration limit), the leading joint is slowed and a note says so.
 * neither: MoveJoint v=45 %, a=27 %; MovePose v=50 %, a=30 % (trapezoid).
 """
 
@@ -95,7 +99,7 @@ def build_trajectory(
     move: Move, t: NDArray[np.float64], q_deg: NDArray[np.float64], qd_deg_s: NDArray[np.float64], *,
     start: NDArray[np.float64], model: RobotModel, rate: float, tracking: Tracking,
     notes: Sequence[str] = (), target_deg: NDArray[np.float64] | None = None, jog: bool = False,
-    check_accel: bool = True, hint: str = "", proven: bool = False,
+    check_accel: bool = True, hint: str = "", proven: bool = False, timed_s: float | None = None,
 ) -> Trajectory:
     """Round to steps, validate (positions, speeds, accelerations) and wrap in a Trajectory.
 
@@ -106,6 +110,8 @@ def build_trajectory(
     values cannot exceed those peaks, so only the positions are checked sample by sample.
     Speeds are checked against :func:`validate.speed_limits` for ``tracking`` (position-
     tracked: the position-tracking maximum), or the maximum jog speed (``jog``).
+    ``timed_s``: the move has this duration (s), given by the user: accelerations over a
+    joint's limit do not refuse it, they add :func:`validate.accel_warning` to the notes.
     """
     name = getattr(move, "name", type(move).__name__)
     spd = validate.model_arrays(model).steps_per_deg
@@ -118,7 +124,11 @@ def build_trajectory(
     if not proven:
         limits = None if jog else validate.speed_limits(model, rate, tracking is Tracking.POSITION)
         validate.check_speeds(name, t, sp_f, model, jog=jog, hint=hint, limits=limits)
-        if check_accel:
+        if timed_s is not None:
+            warning = validate.accel_warning(validate.peak_accels(sp_f, rate), model, timed_s)
+            if warning is not None:
+                notes = (*notes, warning)
+        elif check_accel:
             validate.check_accels(name, t, sp_f, model, rate, hint=hint)
     sp = np.rint(sp_f).astype(np.int64)
     planned = q_deg
@@ -224,10 +234,11 @@ def _fast_timed(
     vlim = validate.speed_limits(model, rate, move.tracking is Tracking.POSITION)
     dist_max = 0.0
     tv = 0.0
+    ra = 0.0  # the largest distance / acceleration limit (s^2 per unit profile acceleration)
     start_l = start.tolist()
-    for q0, q1, k, v, lo, hi, tlo, thi in zip(start_l, target, ma.spd_list, vlim.list,
-                                              ma.round_lo_list, ma.round_hi_list,
-                                              ma.safe_lo_list, ma.safe_hi_list):
+    for q0, q1, k, v, a, lo, hi, tlo, thi in zip(start_l, target, ma.spd_list, vlim.list, ma.amax_list,
+                                                 ma.round_lo_list, ma.round_hi_list,
+                                                 ma.safe_lo_list, ma.safe_hi_list):
         if not tlo <= q1 <= thi:
             return None  # target outside the range: refused by the general path
         if not lo <= q0 * k <= hi:
@@ -238,13 +249,19 @@ def _fast_timed(
         tj = kv * d / v
         if tj > tv:
             tv = tj
+        if d / a > ra:
+            ra = d / a
     if dist_max < 0.5:
         return None  # already there: hold
-    tmin = max(tv, math.sqrt(ka * dist_max / ma.amax))
     T = float(T)
-    if T < tmin * (1.0 - 1e-9):
+    if T < tv * (1.0 - 1e-9):
         return None  # refused by the general path, with the limiting joint
-    notes = (_DURATION_NOTE,) if move.speed_pct is not None or move.accel_pct is not None else ()
+    notes: tuple[str, ...] = (
+        (_DURATION_NOTE,) if move.speed_pct is not None or move.accel_pct is not None else ())
+    if ka * ra > T * T * (1.0 + validate.ACCEL_TOLERANCE):  # over an acceleration limit: a warning
+        warning = _timed_accel_warning(kind, T, start_l, list(target), ma, model)
+        if warning is not None:
+            notes = (*notes, warning)
     return _monotonic_trajectory(move, kind, T, T / 3.0 if kind == "trap" else 0.0, start,
                                  start_l, list(target), model, ma, rate, move.tracking, notes,
                                  start_inside=True)
@@ -280,6 +297,10 @@ def plan_joint_target(
         prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, limits,
                                    amax, start, delta, spd, model, notes)
     if isinstance(prof, ScalarProfile) and prof.kind in ("poly", "trap"):
+        if move.duration_s is not None:
+            warning = _timed_accel_warning(prof.kind, T, start.tolist(), target.tolist(), ma, model)
+            if warning is not None:
+                notes.append(warning)
         return _monotonic_trajectory(move, prof.kind, prof.T, prof.ta, start, start.tolist(),
                                      target.tolist(), model, ma, rate, tracking, notes)
     t = sample_times(T, rate)
@@ -294,7 +315,8 @@ def plan_joint_target(
         qd = np.array(qd, dtype=float)
     qd[-1] = 0.0
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate, tracking=tracking,
-                            notes=notes, target_deg=target, proven=proven)
+                            notes=notes, target_deg=target, proven=proven,
+                            timed_s=None if move.duration_s is None else T)
 
 
 def _monotonic_trajectory(
@@ -316,10 +338,12 @@ def _monotonic_trajectory(
       before: the first offending sample).
     * speeds and accelerations: the caller chose the duration from the closed-form peaks
       (quintic 1.875 |d| / T and 5.7735 |d| / T^2; trapezoid 1 / (T - ta) and
-      1 / (ta (T - ta))) against every joint's maxima.  Sampled speeds cannot exceed the
-      continuous peak (the limits are whole steps/s, so rounding cannot cross them either)
-      and finite differences over one tick cannot exceed the peak |s''| (mean-value theorem),
-      including the first tick from rest and the final stop (speed 0 at or after ``T``).
+      1 / (ta (T - ta))) against every joint's maxima (a user's duration: against the speed
+      limits, with a warning note for the acceleration ones).  Sampled speeds cannot exceed
+      the continuous peak (the limits are whole steps/s, so rounding cannot cross them
+      either) and finite differences over one tick cannot exceed the peak |s''| (mean-value
+      theorem), including the first tick from rest and the final stop (speed 0 at or after
+      ``T``).
 
     ``tests/unit/test_motion_joint.py`` checks this against a sample-by-sample scan.
     """
@@ -388,31 +412,40 @@ def _cached_commands(n: int, value: int) -> NDArray[np.uint8]:
     return out
 
 
-def _min_duration(
-    kind: str, dist: NDArray[np.float64], vmax: NDArray[np.float64], amax: float,
-) -> tuple[float, int, str]:
-    """Shortest duration for a synchronised poly/trap(1/3) move; the limiting joint and why."""
-    kv, ka = (POLY_PEAK_SPEED, POLY_PEAK_ACCEL) if kind == "poly" else (TRAP3_PEAK_SPEED, TRAP3_PEAK_ACCEL)
+def _min_duration(kind: str, dist: NDArray[np.float64], vmax: NDArray[np.float64]) -> tuple[float, int]:
+    """Shortest duration (s) for a synchronised poly/trap(1/3) move within the speed limits
+    ``vmax`` (steps/s), and the limiting joint.  (Acceleration does not limit a move with a
+    duration: see :func:`_timed_accel_warning`.)"""
+    kv = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
     tv = kv * dist / vmax
-    ta = np.sqrt(ka * dist / amax)
-    tv_max = tv.max()
-    ta_max = ta.max()
-    if tv_max >= ta_max:
-        return float(tv_max), int(tv.argmax()), "speed"
-    return float(ta_max), int(ta.argmax()), "acceleration"
+    return float(tv.max()), int(tv.argmax())
+
+
+def _timed_accel_warning(
+    kind: str, T: float, start: Sequence[float], target: Sequence[float], ma: validate.ModelArrays,
+    model: RobotModel,
+) -> str | None:
+    """The warning of a synchronised poly/trap(1/3) move over ``T`` s whose peak acceleration
+    (quintic 5.7735 |d| / T^2, trapezoid 4.5 |d| / T^2) exceeds a joint's limit; None if none."""
+    ka = POLY_PEAK_ACCEL if kind == "poly" else TRAP3_PEAK_ACCEL
+    peaks = [ka * abs((b - a) * k) / (T * T) for a, b, k in zip(start, target, ma.spd_list)]
+    return validate.accel_warning(peaks, model, T)
 
 
 def _timed_profile(
-    name: str, profile: Profile, T: float, dist: NDArray[np.float64], limits: validate.SpeedLimits, amax: float,
-    start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64],
+    name: str, profile: Profile, T: float, dist: NDArray[np.float64], limits: validate.SpeedLimits,
+    amax: NDArray[np.float64], start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64],
 ) -> tuple[ScalarProfile | ToppResult, float]:
-    """Profile lasting exactly ``T`` s, or a refusal when a joint cannot keep up."""
+    """Profile lasting exactly ``T`` s, or a refusal when a joint's SPEED cannot keep up
+    (with the shortest duration that works).  The acceleration limits ``amax`` (steps/s^2)
+    shape the Ruckig and TOPP-RA profiles where the time allows; a move that needs more
+    still lasts ``T`` (the caller adds the warning)."""
     vmax = limits.array
     if profile in (Profile.POLY, Profile.TRAP):
         kind = "poly" if profile is Profile.POLY else "trap"
-        tmin, j, why = _min_duration(kind, dist, vmax, amax)
+        tmin, j = _min_duration(kind, dist, vmax)
         if T < tmin * (1.0 - 1e-9):
-            _refuse_too_fast(name, kind, T, tmin, j, why, dist, limits, amax)
+            _refuse_too_fast(name, kind, T, tmin, j, dist, limits)
         return (ScalarProfile("poly", T) if kind == "poly" else ScalarProfile("trap", T, T / 3.0)), T
     if profile is Profile.RUCKIG:
         with np.errstate(divide="ignore"):
@@ -420,42 +453,61 @@ def _timed_profile(
             a_s = float(np.min(amax / dist))
         j_s = a_s / RUCKIG_JERK_TIME_S
         prof = ruckig_unit_profile(v_s, a_s, j_s, min_duration=T)
-        if prof.T > T * (1.0 + 1e-6):
-            raise PlanningError(
-                name,
-                f"too fast for t={T:g} s: the jerk-limited profile needs at least {prof.T:.3f} s "
-                f"within the joint speed/acceleration limits; give t >= {math.ceil(prof.T * 100) / 100:.2f} s",
-            )
-        return prof, T
+        if prof.T <= T * (1.0 + 1e-6):
+            return prof, T
+
+        def soft(d: float) -> ScalarProfile:
+            # the acceleration and jerk limits give way to the duration (scale-free, as a
+            # Cartesian path's): only the speed limit holds
+            return ruckig_unit_profile(v_s, max(a_s, 16.0 / d**2), max(j_s, 256.0 / d**3), min_duration=d)
+
+        prof = soft(T)
+        if prof.T <= T * (1.0 + 1e-6):
+            return prof, T
+        lo, hi = T, max(prof.T, T * 1.01)
+        while soft(hi).T > hi * (1.0 + 1e-6) and hi < 3600.0:
+            lo, hi = hi, hi * 2.0
+        while hi - lo > 0.005:
+            mid = 0.5 * (lo + hi)
+            if soft(mid).T <= mid * (1.0 + 1e-6):
+                hi = mid
+            else:
+                lo = mid
+        j = int(np.argmin(np.where(dist > 0, vmax / np.where(dist > 0, dist, 1.0), np.inf)))
+        raise PlanningError(
+            name,
+            f"too fast for t={T:g} s: the jerk-limited profile would need {JOINT_NAMES[j]} above its "
+            f"{limits.describe(j)}; give t >= {math.ceil(hi * 100 - 1e-6) / 100:.2f} s",
+            joint=j,
+        )
     # TOPP-RA on the straight joint-space line
     from parolkit.motion.topp import toppra_parameterize
 
-    res = toppra_parameterize(np.array([0.0, 1.0]), np.vstack([start, start + delta]),
-                              vmax / spd, amax / spd, duration=T)
+    path = np.vstack([start, start + delta])
+    res = toppra_parameterize(np.array([0.0, 1.0]), path, vmax / spd, amax / spd, duration=T)
+    if res is not None and res.duration <= T * (1.0 + 1e-6):
+        return res, T
+    # the acceleration limits give way to the duration; only the speed limits hold
+    res = toppra_parameterize(np.array([0.0, 1.0]), path, vmax / spd, amax * 1e3 / spd, duration=T)
     if res is None or res.duration > T * (1.0 + 1e-6):
-        need = "no feasible timing" if res is None else f"at least {res.duration:.3f} s"
-        raise PlanningError(name, f"too fast for t={T:g} s: TOPP-RA finds {need} within the joint limits")
+        need = ("no feasible timing" if res is None
+                else f"at least {res.duration:.3f} s within the joint speed limits; "
+                     f"give t >= {math.ceil(res.duration * 100 - 1e-6) / 100:.2f} s")
+        raise PlanningError(name, f"too fast for t={T:g} s: TOPP-RA finds {need}")
     return res, T
 
 
 def _refuse_too_fast(
-    name: str, kind: str, T: float, tmin: float, j: int, why: str, dist: NDArray[np.float64],
-    limits: validate.SpeedLimits, amax: float,
+    name: str, kind: str, T: float, tmin: float, j: int, dist: NDArray[np.float64],
+    limits: validate.SpeedLimits,
 ) -> NoReturn:
-    if why == "speed":
-        k = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
-        value = k * dist[j] / T
-        t_at = T / 2.0 if kind == "poly" else T / 3.0
-        detail = f"{JOINT_NAMES[j]} would need a speed of {value:.0f} steps/s, above its {limits.describe(j)}"
-    else:
-        k = POLY_PEAK_ACCEL if kind == "poly" else TRAP3_PEAK_ACCEL
-        value = k * dist[j] / T**2
-        t_at = T * (0.5 - 0.5 / math.sqrt(3.0)) if kind == "poly" else 1.0 / 100.0
-        detail = (f"{JOINT_NAMES[j]} would need an acceleration of {value:.0f} steps/s^2 "
-                  f"(maximum {amax:.0f} steps/s^2)")
+    k = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
+    value = k * dist[j] / T
+    t_at = T / 2.0 if kind == "poly" else T / 3.0
     raise PlanningError(
         name,
-        f"too fast for t={T:g} s with the {kind} profile: {detail}; "
+        f"too fast for t={T:g} s with the {kind} profile: {JOINT_NAMES[j]} would need a speed of "
+        f"{value:.0f} steps/s, above its {limits.describe(j)}; "
         f"give t >= {math.ceil(tmin * 100 - 1e-6) / 100:.2f} s",
         time_s=t_at, joint=j, value=value,
     )
@@ -463,14 +515,16 @@ def _refuse_too_fast(
 
 def _percent_profile(
     name: str, profile: Profile, v_pct: float, a_pct: float, dist: NDArray[np.float64], limits: validate.SpeedLimits,
-    amax: float, start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64], model: RobotModel,
-    notes: list[str],
+    amax: NDArray[np.float64], start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64],
+    model: RobotModel, notes: list[str],
 ) -> tuple[ScalarProfile | ToppResult, float]:
     """Leading-joint v/a profile with every joint synchronised (finishing together).
 
-    The percentage maps onto min..max joint speed as in the original; a position-tracked
-    move cannot go beyond the position-tracking maximum (``limits``): the leading joint is
-    slowed to it and a note says so, as when another joint could not follow."""
+    The percentages map onto min..max joint speed and onto ``accel_range_steps_s2`` as in the
+    original; a position-tracked move cannot go beyond the position-tracking maximum
+    (``limits``): the leading joint is slowed to it and a note says so, as when another joint
+    could not follow.  Every joint keeps within its acceleration limit ``amax`` (steps/s^2):
+    when the mapped acceleration is more, the leading joint's is lowered and a note says so."""
     vmax = limits.array
     lead = int(np.argmax(dist))
     v_lead = float(model.speed_from_percent(v_pct)[lead])
@@ -487,7 +541,7 @@ def _percent_profile(
                          f"{mapped[j]:.0f} -> {vmax[j]:.0f} steps/s)")
         v_joint = np.minimum(mapped, vmax) / spd
         res = toppra_parameterize(np.array([0.0, 1.0]), np.vstack([start, start + delta]),
-                                  v_joint, np.full(6, a_lead) / spd)
+                                  v_joint, np.minimum(a_lead, amax) / spd)
         if res is None:
             raise PlanningError(name, "TOPP-RA finds no feasible timing within the joint limits")
         return res, res.duration
@@ -509,6 +563,10 @@ def _percent_profile(
         v_s = float(v_caps[jv])
     ja = int(np.argmin(a_caps))
     if a_caps[ja] < a_s * (1.0 - 1e-12):
+        notes.append(
+            f"leading joint {JOINT_NAMES[lead]} acceleration lowered from {a_lead:.0f} to "
+            f"{a_caps[ja] * d:.0f} steps/s^2: {JOINT_NAMES[ja]} acceleration limit {amax[ja]:.0f} steps/s^2"
+        )
         a_s = float(a_caps[ja])
     if profile is Profile.TRAP:
         T, ta = trapezoid_for_limits(1.0, v_s, a_s)

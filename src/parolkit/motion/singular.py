@@ -133,13 +133,8 @@ def wrist_limits(model: RobotModel, v_limits_deg_s: NDArray[np.float64]) -> tupl
 
 
 def _accel_limits_deg_s2(model: RobotModel) -> NDArray[np.float64]:
-    """Per-joint acceleration limit (deg/s^2): the model's per-joint limit when it has one,
-    else the top of its acceleration range."""
-    per_joint = getattr(model, "max_accel_steps_s2", None)
-    if per_joint is not None:
-        out: NDArray[np.float64] = np.asarray(per_joint, dtype=float) / model.steps_per_deg
-        return out
-    return np.asarray(model.max_accel_deg_s2, dtype=float) * np.ones(6)
+    """Per-joint acceleration limit (deg/s^2): the robot's own (``RobotModel.max_accel_deg_s2``)."""
+    return np.asarray(model.max_accel_deg_s2, dtype=float)
 
 
 def needs_policy(q_full: NDArray[np.float64], tt: NDArray[np.float64], v_lim: NDArray[np.float64]) -> bool:

@@ -2,10 +2,19 @@
 
 Each check finds the FIRST offending sample and raises :class:`PlanningError` naming the move,
 the sample time, the joint and the value with its limit.  Nothing is clamped.
+
+The robot's limits (``RobotModel``): per-joint maximum speed (hard: a move that needs more is
+refused, with the shortest duration that works when it has one) and per-joint acceleration
+limit (:attr:`RobotModel.accel_limit_steps_s2`, default 3x the maximum speed per second).
+Moves without a duration are planned within the acceleration limit; a move WITH a duration
+that needs more acceleration runs in its time and carries a warning
+(:func:`accel_warning`): the seed says "If t is defined, the robot finishes the move in that
+time. t overrides a and v", and the original software enforced only the speed limit.
 """
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,8 +27,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "check_positions", "check_speeds", "check_accels", "ACCEL_TOLERANCE", "model_arrays", "speed_limits",
-    "SpeedLimits",
+    "SpeedLimits", "accel_warning", "accel_excess", "WARNING_PREFIX", "min_duration_for_speed",
+    "peak_accels",
 ]
+
+#: Every planner warning (a note the controller puts into the move's ack and logs) starts so.
+WARNING_PREFIX = "warning: "
 
 #: Finite-difference accelerations may exceed the analytic peak by this fraction (sampling).
 ACCEL_TOLERANCE = 0.02
@@ -36,7 +49,9 @@ class ModelArrays:
         self.safe_deg = model.safe_limits_deg
         self.vmax = np.asarray(model.max_speed_steps_s, dtype=float)
         self.vmax_jog = np.asarray(model.max_jog_speed_steps_s, dtype=float)
-        self.amax = float(model.accel_range_steps_s2[1])
+        #: per-joint acceleration limits, steps/s^2 (``RobotModel.accel_limit_steps_s2``)
+        self.amax = model.accel_limit_steps_s2
+        self.amax_list: list[float] = self.amax.tolist()
         self.safe_lo = self.safe_deg[:, 0].copy()
         self.safe_hi = self.safe_deg[:, 1].copy()
         # float step positions that round (np.rint) into the step limits with room to spare
@@ -53,7 +68,7 @@ class ModelArrays:
         self.vmax_list = self.vmax.tolist()
         for a in (self.steps_per_deg, self.limits_steps, self.lim_lo, self.lim_hi, self.safe_deg,
                   self.vmax, self.vmax_jog, self.safe_lo, self.safe_hi, self.round_lo,
-                  self.round_hi):
+                  self.round_hi, self.amax):
             a.setflags(write=False)
 
 
@@ -184,27 +199,82 @@ def check_speeds(
     )
 
 
-def check_accels(
-    name: str, t: NDArray[np.float64], speeds_steps_s: NDArray[np.float64], model: RobotModel, rate_hz: float,
-    *, hint: str = "",
-) -> None:
-    """Every finite-difference acceleration (from rest) within the top of the acceleration
-    range (plus :data:`ACCEL_TOLERANCE` for sampling)."""
-    amax = model_arrays(model).amax
+def _finite_accels(speeds_steps_s: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
+    """Finite-difference accelerations (steps/s^2) of tick-spaced speeds, the first from rest."""
     acc = np.empty_like(speeds_steps_s, dtype=float)
     acc[0] = speeds_steps_s[0]
     np.subtract(speeds_steps_s[1:], speeds_steps_s[:-1], out=acc[1:])
     acc *= rate_hz
-    if np.abs(acc).max() <= amax * (1.0 + ACCEL_TOLERANCE):
-        return
-    hit = _first(np.abs(acc) > amax * (1.0 + ACCEL_TOLERANCE))
+    return acc
+
+
+def check_accels(
+    name: str, t: NDArray[np.float64], speeds_steps_s: NDArray[np.float64], model: RobotModel, rate_hz: float,
+    *, hint: str = "",
+) -> None:
+    """Every finite-difference acceleration (from rest) within the joint's acceleration limit
+    (:attr:`RobotModel.accel_limit_steps_s2`, plus :data:`ACCEL_TOLERANCE` for sampling).
+    For moves planned without a duration (a duration's move gets :func:`accel_warning`)."""
+    amax = model_arrays(model).amax
+    acc = _finite_accels(speeds_steps_s, rate_hz)
+    over = np.abs(acc) > amax * (1.0 + ACCEL_TOLERANCE)
+    hit = _first(over)
     if hit is None:
         return
     k, j = hit
     value = float(acc[k, j])
     raise PlanningError(
         name,
-        f"{JOINT_NAMES[j]} acceleration {abs(value):.0f} steps/s^2 exceeds the maximum "
-        f"{amax:.0f} steps/s^2" + (f"; {hint}" if hint else ""),
+        f"{JOINT_NAMES[j]} acceleration {abs(value):.0f} steps/s^2 exceeds its limit "
+        f"{amax[j]:.0f} steps/s^2" + (f"; {hint}" if hint else ""),
         time_s=float(t[k]), joint=j, value=value,
     )
+
+
+def accel_excess(peaks_steps_s2: NDArray[np.float64] | list[float], model: RobotModel) -> tuple[int, float] | None:
+    """The joint whose peak |acceleration| (steps/s^2, one value per joint) exceeds its limit
+    the most (by ratio), and that peak; None when every joint is within (plus
+    :data:`ACCEL_TOLERANCE`)."""
+    amax = model_arrays(model).amax_list
+    worst: tuple[int, float] | None = None
+    ratio = 1.0 + ACCEL_TOLERANCE
+    for j, (a, lim) in enumerate(zip(np.abs(np.asarray(peaks_steps_s2, dtype=float)).tolist(), amax)):
+        r = a / lim
+        if r > ratio:
+            ratio, worst = r, (j, a)
+    return worst
+
+
+def accel_warning(
+    peaks_steps_s2: NDArray[np.float64] | list[float], model: RobotModel, duration_s: float,
+) -> str | None:
+    """The warning a move with a duration gets when it needs more acceleration than a joint's
+    limit (it still runs in ``duration_s``), naming the joint, the acceleration needed and the
+    limit, e.g. ``"warning: J5 needs an acceleration of 80107 steps/s^2, above its limit 66000
+    steps/s^2 (1127 deg/s^2 > 928 deg/s^2): the move runs in the t=0.8 s given"``.  None when
+    every joint is within its limit.  ``peaks_steps_s2``: the peak |acceleration| per joint
+    (analytic for a profile, or :func:`peak_accels` of sampled speeds)."""
+    hit = accel_excess(peaks_steps_s2, model)
+    if hit is None:
+        return None
+    j, a = hit
+    ma = model_arrays(model)
+    lim = ma.amax_list[j]
+    k = ma.spd_list[j]
+    return (f"{WARNING_PREFIX}{JOINT_NAMES[j]} needs an acceleration of {a:.0f} steps/s^2, above its "
+            f"limit {lim:.0f} steps/s^2 ({a / k:.0f} deg/s^2 > {lim / k:.0f} deg/s^2): the move runs "
+            f"in the t={duration_s:g} s given")
+
+
+def peak_accels(speeds_steps_s: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
+    """Per-joint peak |finite-difference acceleration| (steps/s^2) of tick-spaced speeds
+    (the first from rest), for :func:`accel_warning`."""
+    peaks: NDArray[np.float64] = np.abs(_finite_accels(speeds_steps_s, rate_hz)).max(axis=0)
+    return peaks
+
+
+def min_duration_for_speed(duration_s: float, peak_ratio: float) -> float:
+    """The shortest duration (s, rounded UP to 0.01 s) at which a move that over
+    ``duration_s`` peaks at ``peak_ratio`` times a joint's speed limit keeps within it
+    (speeds scale with 1 / duration)."""
+    return math.ceil(duration_s * peak_ratio * 100.0 - 1e-6) / 100.0

@@ -124,6 +124,9 @@ MAX_DATAGRAM_BYTES = 65_000
 MAX_COORD_MM = 10_000.0
 #: Most waypoints a spline may carry.
 MAX_WAYPOINTS = 500
+#: SSG-48 gripper current a command may ask for, mA (the seed: "0 - 1300 mA"; below 150 mA the
+#: gripper usually does not move, above 700 mA at high speed it may damage itself or the object)
+GRIPPER_CURRENT_RANGE_MA = (0, 1300)
 
 #: Longest numeric field, characters (checked before any conversion: Python refuses to convert
 #: integers of more than 4,300 digits, and no PAROL6 value needs more than a few dozen)
@@ -709,17 +712,30 @@ def _joint_angles(args: Sequence[str], model: RobotModel) -> tuple[float, ...]:
     return vals
 
 
+def _zero_is_none(text: str) -> str:
+    """A move's duration / speed% / accel% field: an explicit 0 means "not given", as in the
+    seed's signature ``MoveJoint(j1, ..., v=0, a=0, t=0)`` (``"None"`` for a numeric zero)."""
+    s = text.strip()
+    if _given(s) and _NUM_RE.match(s) and len(s) <= MAX_NUMBER_CHARS and float(s) == 0.0:
+        return "None"
+    return text
+
+
 def _move_tail(
     args: Sequence[str], *, with_accel: bool,
 ) -> tuple[float | None, float | None, float | None, Profile | None, Tracking]:
-    """duration|speed% then optional (ext) accel%|profile|tracking (accel only for joint moves)."""
-    duration = _opt_duration(args[0])
-    speed = _opt_pct(args[1], lo_open=True)
+    """duration|speed% then optional (ext) accel%|profile|tracking (accel only for joint moves).
+    A 0 in duration, speed% or accel% means "not given"."""
+    duration = _opt_duration(_zero_is_none(args[0]))
+    speed = _opt_pct(_zero_is_none(args[1]), lo_open=True)
+    if duration is None and speed is None and (_given(args[0]) or _given(args[1])):
+        raise DatagramError("give exactly one of duration (s) and speed% (0..100): neither was given "
+                            "(0 means not given)")
     _duration_xor_speed(duration, speed)
     rest = list(args[2:])
     accel = None
     if with_accel:
-        accel = _opt_pct(rest.pop(0), "accel%", lo_open=True) if rest else None
+        accel = _opt_pct(_zero_is_none(rest.pop(0)), "accel%", lo_open=True) if rest else None
     profile = _opt_choice(rest.pop(0), "profile", Profile, upper=False) if rest else None
     tracking = (_opt_choice(rest.pop(0), "tracking", Tracking, upper=False) if rest else None)
     return duration, speed, accel, profile, tracking or Tracking.POSITION
@@ -824,7 +840,7 @@ def _p_electric(a: Sequence[str], m: RobotModel) -> Command:
     rest = list(a[1:]) + ["None"] * (4 - len(a))
     pos = _integer(rest[0], "position", 0, 255) if _given(rest[0]) else 255
     speed = _integer(rest[1], "speed", 0, 255) if _given(rest[1]) else 150
-    current = _integer(rest[2], "current (mA)", 100, 1000) if _given(rest[2]) else 500
+    current = _integer(rest[2], "current (mA)", *GRIPPER_CURRENT_RANGE_MA) if _given(rest[2]) else 500
     return ElectricGripper(action, pos, speed, current)
 
 

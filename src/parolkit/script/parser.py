@@ -99,7 +99,7 @@ class Limits:
     tick_s: float = 0.01
     max_duration_s: float = 3600.0
     max_wait_s: float = 86400.0
-    gripper_current_ma: tuple[int, int] = (100, 1000)
+    gripper_current_ma: tuple[int, int] = (0, 1300)
 
     @classmethod
     def from_model(cls, model: RobotModel | None = None, *, rate_hz: float = 100.0) -> Limits:
@@ -457,12 +457,13 @@ def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, a
                 ln.fail(opt.col, f"{kw}: {slot if len(slot) > 1 else slot + '='} is given twice "
                                  f"(first at column {seen[slot].col})")
             seen[slot] = opt
+            # an explicit 0 is the seed's "not given" (its signature: v=0, a=0, t=0)
             if slot == "t":
-                duration = ln.ranged(target.keyword_value, "t", 0.0, ln.limits.max_duration_s, "s", lo_open=True)
+                duration = _unless_zero(ln, target.keyword_value, "t", ln.limits.max_duration_s, "s")
             elif slot == "v":
-                speed = ln.ranged(target.keyword_value, "v", 0.0, 100.0, "%", lo_open=True)
+                speed = _unless_zero(ln, target.keyword_value, "v", 100.0, "%")
             elif slot == "a":
-                accel = ln.ranged(target.keyword_value, "a", 0.0, 100.0, "%", lo_open=True)
+                accel = _unless_zero(ln, target.keyword_value, "a", 100.0, "%")
             elif slot == "profile":
                 w = target.word
                 if w not in _PROFILE_WORDS:
@@ -471,7 +472,7 @@ def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, a
             elif slot == "speed":
                 tracking = Tracking.SPEED
         if duration is not None and (speed is not None or accel is not None):
-            which = " and ".join(k + "=" for k in ("v", "a") if k in seen)
+            which = " and ".join(k + "=" for k, v in (("v", speed), ("a", accel)) if v is not None)
             ln.warn(seen["t"].col, f"t= overrides {which}: the move takes exactly {format_number(duration)} s")
         if ln.errors:
             raise _Reject
@@ -489,6 +490,14 @@ def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, a
                               line=line, col=col, text=text)
 
     return build
+
+
+def _unless_zero(ln: _Line, arg: _Arg, what: str, hi: float, unit: str) -> float | None:
+    """A move's ``t=`` / ``v=`` / ``a=`` value in (0, ``hi``], or None for an explicit 0: the
+    seed's signature ``MoveJoint(j1, ..., v=0, a=0, t=0)`` writes "not given" as 0."""
+    if ln.number(arg, what) == 0.0:
+        return None
+    return ln.ranged(arg, what, 0.0, hi, unit, lo_open=True)
 
 
 def _build_speed_joint(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:
