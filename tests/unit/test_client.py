@@ -108,11 +108,11 @@ class FakeController:
             "GET_IO": "IO|1,0,1,0,1",
             "GET_GRIPPER": "GRIPPER|0,100,1,200,177,1",
             "GET_SPEEDS": "SPEEDS|" + ",".join(str(s) for s in self.speeds),
-            "PING": "PONG|SERIAL=1",
+            "PING": "PONG",
             "GET_STATUS": "STATUS|POSE=" + ",".join(f"{v:.6f}" for v in STANDBY_MATRIX)
                           + "|ANGLES=90,-90,180,0,0,180|SPEEDS=" + ",".join(str(s) for s in self.speeds)
                           + "|IO=0,0,0,0,0|GRIPPER=0,0,1,0,0,1|STATE=IDLE|HOMED=1,1,1,1,1,1"
-                          + "|ESTOP=1|QUEUE=0|CMD=None|ERROR=None",
+                          + "|ESTOP=1|QUEUE=0|CMD=None|ERROR=None|SERIAL=1",
             "GET_STATUS_JSON": "STATUS_JSON|" + json.dumps(STATUS_OBJECT),
             "GET_LOOP_STATS": "LOOP_STATS|" + json.dumps(STATUS_OBJECT["loop"]),
             "GET_QUEUE": 'QUEUE|{"active": {"id": "1a2b3c4d", "name": "MOVEJOINT", "progress": 0.5},'
@@ -264,9 +264,9 @@ def test_move_joint_datagram_keeps_the_original_field_order_and_the_values():
 
 def test_extension_fields_are_only_appended_when_given():
     assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], speed_percentage=50) == \
-        "MOVECART|1|2|3|4|5|6|None|50"
+        "MOVECART|1|2|3|4|5|6|NONE|50.0"
     assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], duration=2, tracking="speed") == \
-        "MOVECART|1|2|3|4|5|6|2|None|None|speed"
+        "MOVECART|1|2|3|4|5|6|2|NONE|None|speed"
     assert robot_api.build_move_joint([0] * 6, duration=1, accel_percentage=40) == \
         "MOVEJOINT|0|0|0|0|0|0|1|None|40|None|None"
 
@@ -454,7 +454,7 @@ def test_original_signatures_and_defaults_are_kept():
     import inspect
 
     sig = inspect.signature(robot_api.move_robot_joints)
-    assert list(sig.parameters) == ["angles", "duration", "speed_percentage", "wait_for_ack",
+    assert list(sig.parameters) == ["joint_angles", "duration", "speed_percentage", "wait_for_ack",
                                     "timeout", "non_blocking"]
     assert sig.parameters["timeout"].default == 2.0
     g = inspect.signature(robot_api.control_electric_gripper).parameters
@@ -555,7 +555,7 @@ def test_robot_queries_are_typed(robot, fake):
     q = robot.queue()
     assert q.active.name == "MOVEJOINT" and q.queued == (("5e6f7a8b", "DELAY"),)
     assert robot.plan_info().tcp_path[1] == (1, 250, 200)
-    assert robot.tool().name == "default" and robot.ping() is True
+    assert robot.tool().name == "default" and robot.ping() is True and robot.link_up() is True
 
 
 def test_robot_query_errors(robot, fake):

@@ -201,6 +201,7 @@ class Executor:
     def _ack(self, job: Job, status: AckStatus, details: str = "") -> None:
         if job.terminal is not None:
             return
+        details = job.ack_details(status, details)
         if status.terminal:
             job.terminal = status
             log.debug("job %d %s (%s): %s %s", job.seq, job.name, job.command_id, status.value, details)
