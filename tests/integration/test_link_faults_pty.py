@@ -139,7 +139,7 @@ def test_a_controller_stalled_for_200_ms_is_no_lost_link_and_reports_its_schedul
     try:
         ctl = start_controller(["--port", str(board.link), "--config", str(cfg)], log_dir=tmp_path,
                                wait_homed=False)
-        wait_until(lambda: ctl.query("PING", 0.5) == "PONG|SERIAL=1", 20, what="the board link")
+        wait_until(lambda: (ctl.query("GET_STATUS", 0.5) or "").endswith("|SERIAL=1"), 20, what="the board link")
         client = load.Client(ctl.port, ctl.ack_port)
         status_line = client.query("GET_STATUS", "STATUS|")
         fields = dict(f.split("=", 1) for f in status_line.split("|")[1:])
