@@ -281,7 +281,7 @@ def test_one_percent_corruption_of_the_telemetry_is_filtered_and_moves_complete(
     bench.emu.set_faults(corrupt_rate=0.01, direction="from_board")
     ids = [bench.send(f"MOVEJOINT|{90 - 5 * (i % 2)}|-90|180|0|0|180|0.8|None") for i in range(4)]
     for cid in ids:
-        assert bench.acks.terminal(cid, 40) == ("COMPLETED", "")
+        assert bench.acks.terminal(cid, 40) == ("COMPLETED", "MoveJoint finished successfully")
     stats = json.loads(bench.query("GET_LOOP_STATS").split("|", 1)[1])
     assert stats["implausible_frames"] > 0 and stats["bytes_dropped"] > 0
     assert not bench.status()["estop_latched"]
