@@ -1012,3 +1012,12 @@ def test_get_robot_status_is_a_dict_even_without_a_reply(api, fake, capsys):
     st = api.get_robot_status()
     assert st["pose"] is None and st["angles"] is None and st["stopped"] is False and st["estop"] is False
     assert "no STATUS reply" in capsys.readouterr().err
+
+
+def test_enum_words_are_sent_as_their_values(api, fake):
+    from parolkit.moves import CartAxis, Frame, Plane
+
+    api.jog_cartesian(Frame.TRF, CartAxis.RZ_NEG, 30, 0.5)
+    api.smooth_circle([0, 250, 200], 30, Plane.XZ, Frame.WRF, duration=4)
+    assert fake.wait_for("CARTJOG") == ["CARTJOG|TRF|RZ-|30|0.5"]
+    assert fake.wait_for("SMOOTH_CIRCLE") == ["SMOOTH_CIRCLE|0,250,200|30|XZ|WRF|CURRENT|DURATION|4|0"]

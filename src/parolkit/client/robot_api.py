@@ -237,10 +237,12 @@ def _choice(value: Any, name: str, choices: Sequence[str], *, upper: bool = True
     return v
 
 
-def _word(value: Any, name: str, choices: Sequence[str]) -> str:
+def _word(value: Any, name: str, choices: Sequence[str], *, upper: bool = True) -> str:
     """A word checked against ``choices`` without regard to case and sent as the caller wrote
-    it (``wrf``, ``x+``), as the original client did (the controller reads it in any case)."""
-    _choice(value, name, choices)
+    it (``wrf``, ``x+``), as the original client did (the controller reads it in any case).
+    An enum member is sent as its value (``Frame.WRF`` -> ``WRF``)."""
+    value = getattr(value, "value", value)
+    _choice(value, name, choices, upper=upper)
     return str(value).strip()
 
 
@@ -412,9 +414,9 @@ def build_cartjog(frame: Any, axis: Any, speed_percentage: Any, duration: Any) -
 
 def build_pneumatic_gripper(action: Any, port: Any) -> str:
     """``PNEUMATICGRIPPER|open|close|port`` (port 1 = OUT1, 2 = OUT2)."""
-    _choice(action, "action", ("open", "close"), upper=False)
+    a = _word(action, "action", ("open", "close"), upper=False)
     p = _int(port, "port", 1, 2)
-    return _join("PNEUMATICGRIPPER", str(action).strip(), p)
+    return _join("PNEUMATICGRIPPER", a, p)
 
 
 def build_electric_gripper(action: Any, position: Any = 255, speed: Any = 150,
