@@ -629,6 +629,7 @@ def test_async_robot_shares_the_methods_and_errors(fake):
     async def main():
         async with AsyncRobot(port=fake.port, ack_port=fake.ack_port, timeout=1.0) as r:
             assert await r.angles() == (90.0, -90.0, 180.0007, 0.0, 0.0, 180.0)
+            assert await r.ping() is True and await r.link_up() is True
             res = await r.move_joints([90, -90, 180, 0, 0, 180], duration=1)
             assert res.ok
             fake.acks["HOME"] = [("QUEUED", ""), ("FAILED", "board not connected")]
