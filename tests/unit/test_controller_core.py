@@ -770,3 +770,26 @@ def test_enable_or_clear_error_mid_move_leaves_the_motion_untouched(rig, text):
     assert first > last_goto, "sent while the move was still running"
     assert all(c == BoardCommand.GOTO for c in after[:first])  # the move was never interrupted
     assert after.count(code) == 1
+
+
+@pytest.mark.parametrize("disable", ["ESTOP", "DISABLE", "fault"])
+def test_a_disable_is_written_before_an_enable_that_arrives_in_the_same_tick(rig, disable):
+    """A client that re-enables at once (seeing DISABLED in the status stream) got its ENABLE
+    applied in the same tick as the uncommanded-motion fault: the board got 101 and never the
+    DISABLE (1 in ~250 faults in the 60 s corruption run).  The DISABLE owed goes out first,
+    then the ENABLE; a STOP recomposing that tick's frame keeps it DISABLE."""
+    rig.submit("aaaa0001|MOVEJOINT|90|-80|170|0|0|180|3|None")
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
+    n = len(rig.frames)
+    if disable == "fault":
+        rig.ex.integrity_fault("J2 moved 500 steps beyond anything commanded")
+    else:
+        rig.submit(f"bbbb0001|{disable}")
+    rig.submit("bbbb0002|ENABLE")
+    rig.send("bbbb0003|STOP")  # the safety lane: this tick's frame is composed again
+    rig.tick(3)
+    sent = [f.command for f in rig.frames[n:]]
+    assert sent[0] == BoardCommand.DISABLE, sent
+    assert BoardCommand.ENABLE in sent[1:], sent
+    assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
+    assert rig.ex.enabled

@@ -420,3 +420,30 @@ def test_home_completes_only_after_the_board_rests_homed_even_when_its_homing_is
         assert r.terminal("aaaa0002") is AckStatus.COMPLETED and r.ex.integrity.uncommanded == 0
     finally:
         r.close()
+
+
+def test_a_corrupted_position_of_a_joint_at_rest_during_homing_is_never_shown(faulty):
+    """While J1-J3 home, J5 rests: a reply whose J5 low byte was corrupted (145 steps off, far
+    inside the homing reach of a moving joint) was taken for the truth, and the snapshot showed
+    the false J5 for 100 ms while the homing's own jumps kept later frames from linking (the
+    60 s corruption run).  A joint at rest in two frames stays put or has its counter zeroed /
+    set to standby: nothing else links."""
+    r = faulty
+    r.emu.homing_speedup = r.ex.integrity.homing_speedup = 5.0  # slow enough to catch J1-J3's phase
+    r.submit("aaaa0001|HOME")
+    for _ in range(400):
+        r.tick()
+        if r.emu.homing_phase is HomingPhase.J123_REFERENCE and r.loop.status is not None \
+                and r.loop.status.homed != 0xFF:
+            break
+    j5 = r.loop.status.positions[4]
+    low = j5 & 0xFF
+    r.transport.corrupt_next_reply(18, low ^ 0x91)  # J5 low byte: a step change of 0x91 or so
+    shown = []
+    for _ in range(5):
+        r.tick()
+        if r.loop.status is not None:
+            shown.append(r.loop.status.positions[4])
+    assert r.emu.homing_phase is HomingPhase.J123_REFERENCE, "J5 must still rest for this test"
+    assert all(v == j5 for v in shown), (j5, shown)
+    assert r.terminal("aaaa0001") is None  # the homing goes on

@@ -148,6 +148,11 @@ class Executor:
         self.plan_seq = 0
         self.stream_mode = False
         self.enabled = True
+        #: a DISABLE (E-stop, DISABLE, uncommanded motion) not yet written: it goes out before
+        #: anything else, even when an ENABLE arrives in the same tick (the ENABLE follows it;
+        #: a client that re-enabled at once otherwise kept the board from ever getting it)
+        self._disable_owed = False
+        self._disable_paid = -1
         self.estop_latched = False
         self.estop_pressed = False
         self.error: str | None = None
@@ -333,7 +338,7 @@ class Executor:
 
     def _immediate(self, cmd: C.Command, sub: Submission) -> tuple[AckStatus, str]:
         if isinstance(cmd, C.Stop):
-            self.do_stop()
+            self.do_stop(cmd.reason)
             return AckStatus.COMPLETED, "stopped"
         if isinstance(cmd, C.EStop):
             self.do_estop("software E-stop (ESTOP command)")
@@ -386,13 +391,14 @@ class Executor:
                 n += 1
             return n
 
-    def do_stop(self) -> None:
-        self.cancel_all("stopped by STOP")
+    def do_stop(self, reason: str | None = None) -> None:
+        self.cancel_all(reason or "stopped by STOP")
 
     def do_estop(self, reason: str) -> None:
         if not self.estop_latched:
             log.warning("E-stop: %s", reason)
         self.estop_latched = True
+        self._disable_owed = True
         self.probe.cancel()  # DISABLE every tick from now on, ENABLE needed: the answer is moot
         self._drop_pending_enable()
         self.cancel_all(f"E-stop: {reason}")
@@ -407,6 +413,7 @@ class Executor:
 
     def do_disable(self) -> None:
         self.enabled = False
+        self._disable_owed = True
         self.probe.cancel()
         self._drop_pending_enable()
         self.cancel_all("robot disabled by DISABLE")
@@ -422,6 +429,7 @@ class Executor:
         robot (DISABLE frames from the next tick on, ENABLE required), cancel everything,
         report ``message`` (it names the joints) as the error."""
         self.enabled = False
+        self._disable_owed = True
         self.error = f"uncommanded motion: {message}"
         self._disabled_reason = f"robot disabled after {self.error}: send ENABLE"
         self.probe.cancel()
@@ -550,10 +558,16 @@ class Executor:
         board's position loop: planning every update from it stepped back each time, and a
         held jog covered a fraction of its distance.)"""
         act = self.activity
+        job.jog_start = None
         if self.active is not None and self.active.streamed and isinstance(act, TrajectoryActivity):
             steps = act.commanded()
             if steps is not None:
                 job.stream_anchor = (act, act.i)
+                # the running jog's path orientation and speeds at the commanded sample: the
+                # update continues its wrist turn near J5 = 0 instead of restarting it
+                jog_start = getattr(self.active.trajectory, "jog_start", None)
+                if callable(jog_start):
+                    job.jog_start = jog_start(act.i - 1)
                 return tuple(p / s for p, s in zip(steps, self._spd))
         job.stream_anchor = None
         return self._measured  # type: ignore[return-value]
@@ -595,7 +609,7 @@ class Executor:
         assert item is not None
         job, start, streamed = item
         t0 = time.perf_counter()
-        traj, err = self._plan(job.command, start)
+        traj, err = self._plan(job.command, start, job.jog_start if streamed else None)
         dt = time.perf_counter() - t0
         with self._lock:
             self.planned_count += 1
@@ -639,11 +653,12 @@ class Executor:
             m = self._motion = importlib.import_module("parolkit.motion")
         return m
 
-    def _plan(self, cmd: C.Command, start: Sequence[float]) -> tuple[object | None, str | None]:
+    def _plan(self, cmd: C.Command, start: Sequence[float], jog_start: object = None,
+              ) -> tuple[object | None, str | None]:
         try:
             move = self.to_move(cmd)
             traj = self._motion_module().plan(move, start, model=self.model, tool=self.tool_provider(),
-                                              rate_hz=self.rate_hz)
+                                              rate_hz=self.rate_hz, jog_start=jog_start)
             if len(traj) == 0:
                 return None, "the move plans to zero samples"
             return traj, None
@@ -923,7 +938,11 @@ class Executor:
         return self._step(tick, now, self._last_status, self._link_up)
 
     def _step(self, tick: int, now: float, status: StatusFrame | None, link_up: bool) -> Step:
-        if self.estop_latched:
+        if self.estop_latched or self._disable_owed or self._disable_paid == tick:
+            if self._disable_owed:
+                # paid by this tick's frame (a preempting STOP recomposes the same tick's
+                # frame: it must stay DISABLE, not become the ENABLE queued behind it)
+                self._disable_owed, self._disable_paid = False, tick
             return Step(BoardCommand.DISABLE)
         if self._pending_code is not None and self.activity is None:
             # ENABLE (101) / CLEAR_ERROR (103) wait for the running command to end: the board

@@ -78,6 +78,10 @@ class Job:
     #: streamed Cartesian jog planned from where the running streamed jog was commanded:
     #: (that jog's activity, its sample index then), to line the two up when it takes over
     stream_anchor: tuple[object, int] | None = None
+    #: streamed Cartesian jog: where the running jog's plan was when this one was planned
+    #: from its commanded position (a ``parolkit.motion.cartesian.JogStart``: its path's
+    #: orientation and joint speeds there), so the update continues it; None otherwise
+    jog_start: object | None = None
     terminal: AckStatus | None = None
     #: the plan made ahead for this job before it was queued, until used
     ahead: PlanAhead | None = None

@@ -565,7 +565,7 @@ class UdpServer:
         if ok and prev is not None:
             # the previous holder's commands stop with the lease (the STOP lane: first frame)
             log.warning("%s", text)
-            self.inbox.put_safety(Submission(C.Stop(), None, None, addr, self.received))
+            self.inbox.put_safety(Submission(C.Stop(reason=f"stopped: {text}"), None, None, addr, self.received))
         self._ack(cid, addr, AckStatus.COMPLETED if ok else AckStatus.FAILED, text)
         if cid is None and not ok:
             self._reply(format_error(text), addr)

@@ -28,11 +28,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 
-from parolkit.motion import validate
+from parolkit.motion import singular, validate
 from parolkit.motion.errors import PlanningError
 from parolkit.motion.joint import (
     MOVEJOINT_DEFAULT_PCT,
@@ -84,7 +85,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "plan_cartesian", "plan_cart_jog", "DEFAULT_CART_SPEED_PCT", "MAX_STRETCH",
-    "CART_ACCEL_TIME_S", "ON_PATH_TOL_MM", "CartesianMove",
+    "CART_ACCEL_TIME_S", "ON_PATH_TOL_MM", "CartesianMove", "JogStart", "CartJogTrajectory",
 ]
 
 #: The moves :func:`plan_cartesian` plans (a path of the tool; CartJog has its own planner).
@@ -143,18 +144,53 @@ def plan_cartesian(
     return Trajectory.concatenate(parts, move, notes)
 
 
+@dataclass(frozen=True)
+class JogStart:
+    """Where a streamed jog update continues the running jog (see
+    :func:`plan_cart_jog`): the joint speeds (deg/s) at the start and the TCP orientation the
+    running jog was following there (its path's, which the reached one may deviate from near
+    the wrist singularity)."""
+
+    speeds_deg_s: NDArray[np.float64]
+    rotation: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class CartJogTrajectory(Trajectory):
+    """A Cartesian jog's trajectory; ``path_rotations`` (N, 3, 3): the TCP orientation of the
+    jog's path at every sample (a streamed update continues from it, :class:`JogStart`)."""
+
+    path_rotations: NDArray[np.float64] | None = None
+
+    def jog_start(self, k: int) -> JogStart:
+        """The :class:`JogStart` for an update continuing from sample ``k``."""
+        k = max(0, min(int(k), len(self) - 1))
+        rot = None if self.path_rotations is None or not len(self.path_rotations) else self.path_rotations[
+            min(k, len(self.path_rotations) - 1)]
+        return JogStart(self.speeds[k] / self.model.steps_per_deg, rot)
+
+
 def plan_cart_jog(
     move: CartJog, start: NDArray[np.float64], *, model: RobotModel, tool: str | Tool | None, rate_hz: float,
-) -> Trajectory:
+    jog_start: JogStart | None = None,
+) -> CartJogTrajectory:
     """Constant Cartesian speed along / about one axis of WRF or TRF for ``duration_s``.
 
     Streamed with position + speed (board 156) so the tool stays on the line; the first tick
     already moves at the jog speed (as the original jog); a final zero-speed sample ends it.
+    From or near the wrist singularity (standby) the singular-area policy keeps the TCP
+    position exact from the first tick while J4/J6 turn (:mod:`parolkit.motion.singular`).
+    ``jog_start``: a streamed update continuing a running jog (its orientation and speeds).
     """
     from parolkit import kinematics as kin
 
     t0 = np.asarray(kin.fk_matrix(start, tool), dtype=float)
     p0, r0 = t0[:3, 3] * 1e3, t0[:3, :3]
+    start_speed = None
+    if jog_start is not None:
+        start_speed = np.asarray(jog_start.speeds_deg_s, dtype=float)
+        if jog_start.rotation is not None:
+            r0 = np.asarray(jog_start.rotation, dtype=float)
     jog_axis = CartAxis.parse(move.axis)
     is_rot, ax, sign = jog_axis.is_rotation, jog_axis.axis_index, jog_axis.sign
     axis = np.eye(3)[ax] if move.frame is Frame.WRF else r0[:, ax]
@@ -172,54 +208,75 @@ def plan_cart_jog(
         pos = p0[None, :] + (v * tc)[:, None] * axis[None, :]
         rots = np.repeat(r0[None], n, axis=0)
     notes: list[str] = []
-    # on the wrist singularity (after homing): turn J4/J6 out of the way first, quickly
-    unwind = _unwind_wrist(move, None, start, model, tool, rate_hz, Tracking.POSITION,
-                           pct=(100.0, 100.0), first=(pos[:1], rots[:1]))
-    if unwind is not None:
-        jog = plan_cart_jog(move, _planned_end(unwind), model=model, tool=tool, rate_hz=rate_hz)
-        return Trajectory.concatenate([unwind, jog], move)
+    vmax = validate.speed_limits(model, rate_hz, True).array / model.steps_per_deg
+
+    def stopped(k: int, reason: str) -> None:
+        notes.append(f"stopped after {k / rate_hz:.2f} s: {reason}")
+
+    def at_rest(reason_k: int) -> CartJogTrajectory:
+        q0 = np.asarray(start, dtype=float)[None, :]
+        tr = build_trajectory(move, np.array([1.0 / rate_hz]), q0, np.zeros((1, 6)),
+                              start=start, model=model, rate=rate_hz,
+                              tracking=Tracking.POSITION, notes=notes, check_accel=False)
+        return _jog_trajectory(tr, r0[None])
+
     q: NDArray[np.float64] | None = None
+    area: singular.WristArea | None = None
     while q is None:
         try:
-            q = _solve_ik(move.name, pos, rots, start, tool, t)
+            q, area = _solve_path(move.name, pos, rots, start, tool, t, model, vmax, start_speed, jog=True)
         except PlanningError as exc:
             # a jog stops where the path leaves the workspace or a joint range (with a note)
             k = int(round((exc.time_s or t[0]) * rate_hz)) - 1
-            notes = [f"stopped after {k / rate_hz:.2f} s: {exc.reason}"]
+            notes[:] = []
+            stopped(k, exc.reason)
             if k <= 0:
-                q0 = np.asarray(start, dtype=float)[None, :]
-                return build_trajectory(move, np.array([1.0 / rate_hz]), q0, np.zeros((1, 6)),
-                                        start=start, model=model, rate=rate_hz,
-                                        tracking=Tracking.POSITION, notes=notes, check_accel=False)
+                return at_rest(k)
             t, pos, rots = t[:k], pos[:k], rots[:k]
             n = k
+    if area is not None:
+        over = area.first_over(singular.MAX_DEVIATION_DEG)
+        if over is not None:
+            stopped(over, f"near the wrist singularity the tool orientation would deviate more than "
+                    f"{singular.MAX_DEVIATION_DEG:g} deg while J4/J6 turn (lower the jog speed, or "
+                    f"move J5 away from 0)")
+            if over == 0:
+                return at_rest(0)
+            t, q, pos, rots = t[:over], q[:over], pos[:over], rots[:over]
+            area = singular.WristArea(q, area.deviation_deg[:over], t)
+            n = over
+        notes.insert(0, area.note())
     dt = 1.0 / rate_hz
     # speed to send at tick k: the motion to the next sample; the last: the rest of the jog
     full = np.vstack([start[None, :], q])
     step = np.diff(full, axis=0) / dt  # step[k]: speed from sample k-1 to sample k
     # a jog stops before the sample a joint cannot reach at its (position-tracking) maximum
     # speed (singularity)
-    vmax = validate.speed_limits(model, rate_hz, True).array / model.steps_per_deg
     too_fast = np.nonzero(np.any(np.abs(step) > vmax, axis=1))[0]
     if len(too_fast):
         k = int(too_fast[0])
         j = int(np.argmax(np.abs(step[k]) / vmax))
-        notes = [f"stopped after {k / rate_hz:.2f} s: {JOINT_NAMES[j]} would exceed its position-tracking "
-                 f"maximum speed{_sing_text(q[k], tool)}"]
+        stopped(k, f"{JOINT_NAMES[j]} would exceed its position-tracking maximum speed"
+                   f"{_sing_text(q[k], tool)}")
         if k == 0:
-            q0 = np.asarray(start, dtype=float)[None, :]
-            return build_trajectory(move, np.array([1.0 / rate_hz]), q0, np.zeros((1, 6)),
-                                    start=start, model=model, rate=rate_hz,
-                                    tracking=Tracking.POSITION, notes=notes, check_accel=False)
-        t, q, step = t[:k], q[:k], step[:k]
+            return at_rest(0)
+        t, q, step, rots = t[:k], q[:k], step[:k], rots[:k]
         n = k
     qd = np.vstack([step[1:], np.zeros((1, 6))]) if n > 1 else np.zeros((1, 6))
     t_all = np.append(t, t[-1] + dt)
     q_all = np.vstack([q, q[-1:]])
     qd_all = np.vstack([qd, np.zeros((1, 6))])
-    return build_trajectory(move, t_all, q_all, qd_all, start=start, model=model, rate=rate_hz,
-                            tracking=Tracking.POSITION, check_accel=False, notes=notes,
-                            hint="lower the jog speed")
+    tr = build_trajectory(move, t_all, q_all, qd_all, start=start, model=model, rate=rate_hz,
+                          tracking=Tracking.POSITION, check_accel=False, notes=notes,
+                          hint="lower the jog speed")
+    return _jog_trajectory(tr, np.concatenate([rots, rots[-1:]]))
+
+
+def _jog_trajectory(tr: Trajectory, rots: NDArray[np.float64]) -> CartJogTrajectory:
+    return CartJogTrajectory(
+        t=tr.t, positions=tr.positions, speeds=tr.speeds, commands=tr.commands, rate_hz=tr.rate_hz,
+        move=tr.move, notes=tr.notes, start_deg=tr.start_deg, model=tr.model, planned_deg=tr.planned_deg,
+        path_rotations=np.array(rots, dtype=float))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -466,15 +523,16 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
     notes: list[str] = []
     if base < 1e-9:
         return hold(move, start, np.asarray(start, dtype=float), model, rate_hz, tracking)
-    unwind = _unwind_wrist(move, path, start, model, tool, rate_hz, tracking)
-    if unwind is not None:
-        main = _time_and_solve(move, path, _planned_end(unwind), model, tool, rate_hz,
-                               approach=approach)
-        return Trajectory.concatenate([unwind, main], move)
     profile = move.profile or (Profile.POLY if duration is not None else Profile.TRAP)
     if approach and profile is Profile.TOPPRA:
         profile = Profile.TRAP
     if profile is Profile.TOPPRA:
+        # TOPP-RA times the exact joint path: from the wrist singularity J4/J6 turn first
+        unwind = _unwind_wrist(move, path, start, model, tool, rate_hz, tracking)
+        if unwind is not None:
+            main = _time_and_solve(move, path, _planned_end(unwind), model, tool, rate_hz,
+                                   approach=approach)
+            return Trajectory.concatenate([unwind, main], move)
         return _toppra_path(move, path, start, model, tool, rate_hz, duration, base, tracking)
     if duration is None:
         if move.speed_pct is None and not approach:
@@ -487,11 +545,13 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
         return _TimedPath(name, prof, path, start, model, tool, rate_hz, limits)
 
     stretch = 1.0
+    wrist_bound = False  # a stretch made for the singular area's bounds
     for _attempt in range(4):
         tm = timed(_path_profile(profile, base, duration, stretch))
         if tm.fits:
             break
         factor = tm.factor
+        wrist_bound = wrist_bound or tm.r_dev >= max(tm.r_v, math.sqrt(tm.r_a))
         if factor > MAX_STRETCH and _near_singularity(tm.q, tm.v_steps, vmax):
             _refuse_singular(name, tm.t, tm.q, tm.v_steps, vmax, tool)
         if duration is not None:
@@ -505,8 +565,12 @@ def _time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64],
     t, q, qd, T = tm.t, tm.q, tm.qd, tm.T
     if stretch > 1.0:
         j = int(np.argmax(np.max(np.abs(tm.v_steps) / vmax, axis=0)))
-        notes.append(f"duration stretched from {_nominal(profile, base):.2f} s to {T:.2f} s: "
-                     f"joint speed/acceleration limits ({JOINT_NAMES[j]} the busiest)")
+        why = (f"J4/J6 turning out of the wrist singularity (orientation within "
+               f"{singular.MAX_DEVIATION_DEG:g} deg, exact at the end)" if wrist_bound else
+               f"joint speed/acceleration limits ({JOINT_NAMES[j]} the busiest)")
+        notes.append(f"duration stretched from {_nominal(profile, base):.2f} s to {T:.2f} s: {why}")
+    if tm.area is not None:
+        notes.append(tm.area.note())
     _check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
     # speeds and accelerations were checked sample by sample in the loop above (proven)
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
@@ -537,10 +601,11 @@ class _TimedPath:
         t = self.t = sample_times(T, rate_hz)
         s, _, _ = prof(t)
         pos, rots = path.evaluate(s)
-        q = self.q = _solve_ik(name, pos, rots, start, tool, t)
-        qd = self.qd = _derivative(q, start, rate_hz, t, T)
         spd = model.steps_per_deg
         vmax = limits.array
+        q, self.area = _solve_path(name, pos, rots, start, tool, t, model, vmax / spd)
+        self.q = q
+        qd = self.qd = _derivative(q, start, rate_hz, t, T)
         amax = float(model.accel_range_steps_s2[1])
         v_steps = self.v_steps = qd * spd
         self.acc: NDArray[np.float64] = np.diff(np.vstack([np.zeros((1, 6)), v_steps]), axis=0) * rate_hz
@@ -548,12 +613,16 @@ class _TimedPath:
         self.v_chk: NDArray[np.float64] = np.where(np.abs(v_tick) > np.abs(v_steps), v_tick, v_steps)
         self.r_v = float(np.max(np.abs(self.v_chk) / vmax))
         self.fine: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        #: how far over the singular-area orientation bound (1 = at it)
+        self.r_dev = 0.0 if self.area is None else self.area.overload()
         if len(t) <= FINE_CHECK_TICKS:
             n = max(FINE_CHECK_POINTS, 4 * len(t))
             tf = np.linspace(0.0, T, n + 1)[1:]
             sf, _, _ = prof(tf)
             posf, rotsf = path.evaluate(sf)
-            qf = _solve_ik(name, posf, rotsf, start, tool, tf)
+            qf, area_f = _solve_path(name, posf, rotsf, start, tool, tf, model, vmax / spd)
+            if area_f is not None:
+                self.r_dev = max(self.r_dev, area_f.overload())
             vf: NDArray[np.float64] = np.diff(np.vstack([start[None, :], qf]), axis=0) * (spd * n / T)
             self.fine = (tf, vf)
             self.r_v = max(self.r_v, float(np.max(np.abs(vf) / vmax)))
@@ -561,13 +630,13 @@ class _TimedPath:
 
     @property
     def fits(self) -> bool:
-        return self.r_v <= 1.0 and self.r_a <= 1.0
+        return self.r_v <= 1.0 and self.r_a <= 1.0 and self.r_dev <= 1.0
 
     @property
     def factor(self) -> float:
         """How much longer the path must take to fit (speeds scale with 1 / time,
-        accelerations with 1 / time^2)."""
-        return max(self.r_v, math.sqrt(self.r_a), 1.0)
+        accelerations with 1 / time^2; the singular-area deviation roughly with 1 / time)."""
+        return max(self.r_v, math.sqrt(self.r_a), self.r_dev, 1.0)
 
     def refuse(self, hint: str) -> None:
         """Raise the PlanningError of the first limit exceeded (joint, time, value, limit), with
@@ -577,6 +646,8 @@ class _TimedPath:
             tf, vf = self.fine
             validate.check_speeds(self.name, tf, vf, self.model, hint=hint, limits=self.limits)
         validate.check_accels(self.name, self.t, self.v_steps, self.model, self.rate_hz, hint=hint)
+        if self.r_dev > 1.0 and self.area is not None:
+            raise _deviation_error(self.name, self.area, hint)
 
 
 #: The refusal of a duration names the shortest one that fits, searched up to this long (s).
@@ -755,6 +826,49 @@ def _solve_ik(
             name, f"the path leaves the robot's reach at [{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}] mm: {exc.reason}",
             time_s=float(t[min(k, n - 1)]), joint=exc.joint, value=exc.value,
         ) from exc
+
+
+def _solve_path(
+    name: str, pos_mm: NDArray[np.float64], rots: NDArray[np.float64], seed: NDArray[np.float64],
+    tool: str | Tool | None, t: NDArray[np.float64], model: RobotModel, v_limits_deg_s: NDArray[np.float64],
+    start_speed_deg_s: NDArray[np.float64] | None = None, jog: bool = False,
+) -> tuple[NDArray[np.float64], singular.WristArea | None]:
+    """Joint angles (deg) for the sampled path at times ``t`` (s): the exact IK, or where that
+    turns J4/J6 faster than ``v_limits_deg_s`` near J5 = 0, the singular-area policy
+    (:mod:`parolkit.motion.singular`: TCP position exact, orientation deviation measured).
+    Returns (q, the policy's result or None when the exact solution is used)."""
+    q = _solve_ik(name, pos_mm, rots, seed, tool, t)
+    full = np.vstack([np.asarray(seed, dtype=float)[None, :], q])
+    tt = np.concatenate(([0.0], t))
+    if not singular.needs_policy(full, tt, v_limits_deg_s):
+        return q, None
+    from parolkit import kinematics as kin
+
+    try:
+        area = singular.follow(pos_mm, rots, q, seed, t, model=model, tool=tool,
+                               v_limits_deg_s=v_limits_deg_s, start_speed_deg_s=start_speed_deg_s,
+                               stop_at_end=not jog)
+    except kin.IKError as exc:
+        k = min(exc.sample if exc.sample is not None else 0, len(t) - 1)
+        p = pos_mm[k]
+        raise PlanningError(
+            name, f"the path leaves the robot's reach at [{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}] mm near the "
+            f"wrist singularity: {exc.reason}", time_s=float(t[k])) from exc
+    return area.q_deg, area
+
+
+def _deviation_error(name: str, area: singular.WristArea, hint: str) -> PlanningError:
+    if area.max_deviation_deg <= singular.MAX_DEVIATION_DEG:
+        return PlanningError(
+            name, f"near the wrist singularity (J5 = 0) J4/J6 cannot turn in time: the tool "
+            f"orientation would still deviate {area.end_deviation_deg:.2f} deg from the target at the "
+            f"end: {hint}", time_s=float(area.t[-1]), joint=3, value=area.end_deviation_deg)
+    k = int(np.argmax(area.deviation_deg))
+    return PlanningError(
+        name, f"near the wrist singularity (J5 = 0) the tool orientation would deviate "
+        f"{area.deviation_deg[k]:.1f} deg from the path while J4/J6 turn (at most "
+        f"{singular.MAX_DEVIATION_DEG:g} deg): {hint}", time_s=float(area.t[k]), joint=3,
+        value=float(area.deviation_deg[k]))
 
 
 def _derivative(

@@ -75,6 +75,7 @@ def plan(
     model: RobotModel = PAROL6,
     tool: str | Tool | None = None,
     rate_hz: float = 100.0,
+    jog_start: object = None,
 ) -> Trajectory:
     """Plan ``move`` from the joint angles ``start_deg`` (deg, J1..J6).
 
@@ -82,6 +83,9 @@ def plan(
     accelerations inside the model's maxima) or raises :class:`PlanningError` naming the
     move, the sample time, the joint and the value.  ``tool`` is passed to the kinematics for
     pose-based moves (None = the default tool).  ``rate_hz``: control loop rate (Hz).
+    ``jog_start``: for a :class:`CartJog` that continues a running (streamed) Cartesian jog,
+    the :class:`~parolkit.motion.cartesian.JogStart` of the sample it continues from (that
+    jog's path orientation and joint speeds there); None otherwise.
     """
     rate = _rate(rate_hz)
     try:
@@ -91,7 +95,7 @@ def plan(
     if start.shape != (6,) or not all(map(math.isfinite, start.tolist())):
         raise ParolkitValueError(f"start_deg must be 6 finite joint angles (deg), got {start_deg!r}")
     try:
-        return _dispatch(move, start, model, tool, rate)
+        return _dispatch(move, start, model, tool, rate, jog_start)
     except RuntimeError as exc:  # a profile library that gave up (Ruckig / TOPP-RA)
         name = getattr(move, "name", type(move).__name__)
         raise PlanningError(name, f"the profile could not be computed: {exc}") from exc
@@ -99,6 +103,7 @@ def plan(
 
 def _dispatch(
     move: object, start: NDArray[np.float64], model: RobotModel, tool: str | Tool | None, rate: float,
+    jog_start: object = None,
 ) -> Trajectory:
     if isinstance(move, JointMove):
         return plan_joint_move(move, start, model, rate)
@@ -116,7 +121,9 @@ def _dispatch(
     from parolkit.motion import cartesian  # lazy: needs kinematics
 
     if isinstance(move, CartJog):
-        return cartesian.plan_cart_jog(move, start, model=model, tool=tool, rate_hz=rate)
+        if jog_start is not None and not isinstance(jog_start, cartesian.JogStart):
+            raise ParolkitValueError(f"jog_start must be a JogStart or None, got {type(jog_start).__name__}")
+        return cartesian.plan_cart_jog(move, start, model=model, tool=tool, rate_hz=rate, jog_start=jog_start)
     return cartesian.plan_cartesian(move, start, model=model, tool=tool, rate_hz=rate)
 
 

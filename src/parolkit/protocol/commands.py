@@ -396,6 +396,10 @@ class Stop(Command):
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
     OPEN: ClassVar[bool] = True
 
+    #: why, when the controller stops on its own (never parsed from a datagram): the
+    #: CANCELLED acks of the commands it stops carry it
+    reason: str | None = None
+
 
 @dataclass(frozen=True)
 class AckHere(Command):
