@@ -99,6 +99,11 @@ def query(sock: socket.socket, addr, text: bytes) -> tuple[bytes | None, float]:
     return data, time.perf_counter() - t
 
 
+def link_up(data: bytes | None) -> bool:
+    """True for a GET_STATUS reply saying the board link is up (``...|SERIAL=1``)."""
+    return bool(data) and data.startswith(b"STATUS|") and data.endswith(b"|SERIAL=1")
+
+
 def rss_kb(pid: int) -> int:
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         if line.startswith("VmRSS:"):
@@ -127,10 +132,13 @@ def bench_startup(runs: int = 5) -> None:
                                 stderr=subprocess.DEVNULL)
         got = None
         while time.perf_counter() - t < 20:
-            data, _ = query(s, ("127.0.0.1", port), b"PING")
-            if data and data.startswith(b"PONG") and got is None:
-                got = time.perf_counter() - t
-            if data == b"PONG|SERIAL=1":
+            if got is None:
+                data, _ = query(s, ("127.0.0.1", port), b"PING")
+                if data == b"PONG":
+                    got = time.perf_counter() - t
+                continue
+            data, _ = query(s, ("127.0.0.1", port), b"GET_STATUS")
+            if link_up(data):
                 full.append(time.perf_counter() - t)
                 break
         proc.terminate()
@@ -143,7 +151,7 @@ def bench_startup(runs: int = 5) -> None:
           f"(target <= 1500 ms, aim 500 ms)")
     print(f"  reference `python -c pass`: median {ref * 1e3:.0f} ms  -> ratio {med / ref:.1f}x")
     if full:
-        print(f"  first PONG|SERIAL=1 (board link up, everything loaded): median "
+        print(f"  first GET_STATUS with SERIAL=1 (board link up, everything loaded): median "
               f"{statistics.median(full) * 1e3:.0f} ms, max {max(full) * 1e3:.0f} ms")
 
 
@@ -181,8 +189,8 @@ def bench_loop(rate: float, duration: float, tmp: Path) -> None:
     addr = ("127.0.0.1", port)
     end = time.monotonic() + 20
     while time.monotonic() < end:
-        data, _ = query(s, addr, b"PING")
-        if data == b"PONG|SERIAL=1":
+        data, _ = query(s, addr, b"GET_STATUS")
+        if link_up(data):
             break
         time.sleep(0.05)
     bare = subprocess.Popen([sys.executable, "-c", _BARE_LOOP, str(rate), str(duration)], env=ENV,
@@ -270,8 +278,8 @@ def bench_flood(rate: float, duration: float, estops: int, seed: int, tmp: Path)
         s.settimeout(0.5)
         addr = ("127.0.0.1", port)
         while time.monotonic() < end:
-            data, _ = query(s, addr, b"PING")
-            if data == b"PONG|SERIAL=1":
+            data, _ = query(s, addr, b"GET_STATUS")
+            if link_up(data):
                 break
             time.sleep(0.05)
         rec = flood.AckRecorder(ack)
@@ -320,8 +328,8 @@ def _load_run(tmp: Path, name: str, seconds: float, moves: int, busy: int, realt
             s.settimeout(0.5)
             end = time.monotonic() + 20
             while time.monotonic() < end:
-                data, _ = query(s, ("127.0.0.1", port), b"PING")
-                if data == b"PONG|SERIAL=1":
+                data, _ = query(s, ("127.0.0.1", port), b"GET_STATUS")
+                if link_up(data):
                     break
                 time.sleep(0.05)
             s.close()

@@ -37,7 +37,7 @@ class KillBench:
                                     log_dir=tmp_path, wait_homed=False)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.settimeout(1.0)
-        wait_until(lambda: self.query("PING") == "PONG|SERIAL=1", 20, what="the board link")
+        wait_until(lambda: (self.query("GET_STATUS") or "").endswith("|SERIAL=1"), 20, what="the board link")
         wait_until(lambda: self.status().get("loop", {}).get("supervisor") == "ready", 10,
                    what="the stop supervisor ready")
         # the start-up probe has told the controller that the board is enabled

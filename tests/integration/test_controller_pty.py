@@ -103,7 +103,7 @@ class Bench:
         self._n = 0
         # the controller answers PING at once; wait until the board link is up too
         end = time.monotonic() + 20
-        while time.monotonic() < end and self.query("PING", retry=False) != "PONG|SERIAL=1":
+        while time.monotonic() < end and self.serial(retry=False) != "1":
             time.sleep(0.05)
         # and until the start-up probe has told the controller the board's state (a test that
         # damages the link right away would otherwise damage the probe's answers too)
@@ -131,7 +131,8 @@ class Bench:
         """One query; on a busy machine a reply may take long, so retry a few times.
 
         Replies that do not answer this query (a late one of an earlier retry) are skipped."""
-        want = {"PING": "PONG|", "GET_STATUS_JSON": "STATUS_JSON|", "GET_LOOP_STATS": "LOOP_STATS|"}.get(text)
+        want = {"PING": "PONG", "GET_STATUS": "STATUS|", "GET_STATUS_JSON": "STATUS_JSON|",
+                "GET_LOOP_STATS": "LOOP_STATS|"}.get(text)
         for _ in range(5 if retry else 1):
             self.sock.sendto(text.encode(), (self.ctl.host, self.ctl.port))
             try:
@@ -145,6 +146,11 @@ class Bench:
 
     def status(self) -> dict:
         return json.loads(self.query("GET_STATUS_JSON").split("|", 1)[1])
+
+    def serial(self, retry: bool = True) -> str | None:
+        """``SERIAL=`` of GET_STATUS: "1" while the board link is up, "0" while it is down."""
+        r = self.query("GET_STATUS", retry=retry)
+        return None if r is None else r.rpartition("|SERIAL=")[2]
 
     def close(self) -> int:
         rc = self.ctl.stop()
@@ -196,11 +202,12 @@ def test_every_command_of_the_table_over_a_real_pty(bench):
         if want in ("COMPLETED", "FAILED") and text != "WAIT_INPUT|1|1|0.2":
             assert seq[:2] == ["QUEUED", "EXECUTING"] and seq[-1] == want and len(seq) == 3, (text, seq)
     for q, prefix in [("GET_POSE", "POSE|"), ("GET_ANGLES", "ANGLES|"), ("GET_IO", "IO|"),
-                      ("GET_GRIPPER", "GRIPPER|"), ("GET_SPEEDS", "SPEEDS|"), ("PING", "PONG|SERIAL=1"),
+                      ("GET_GRIPPER", "GRIPPER|"), ("GET_SPEEDS", "SPEEDS|"), ("PING", "PONG"),
                       ("GET_STATUS", "STATUS|"), ("GET_STATUS_JSON", "STATUS_JSON|"),
                       ("GET_LOOP_STATS", "LOOP_STATS|"), ("GET_PLAN", "PLAN|"), ("GET_TOOL", "TOOL|default|"),
                       ("GET_QUEUE", "QUEUE|")]:
         assert bench.query(q).startswith(prefix)
+    assert bench.query("PING") == "PONG" and bench.serial() == "1"  # exactly the original's answer
     assert len(bench.query("GET_POSE").split("|")[1].split(",")) == 16
     # immediate commands
     for text in ("STREAM|ON", "STREAM|OFF", "SET_TOOL|flange", "SET_TOOL|default", "CLEAR_ERROR", "DISABLE",
@@ -254,15 +261,15 @@ def test_pulling_the_cable_mid_move_cancels_reports_and_reconnects_without_resum
     bench.emu.unplug()
     status, details = bench.acks.terminal(a, 2)
     assert status == "CANCELLED" and "link lost" in details
-    assert bench.query("PING") == "PONG|SERIAL=0"
+    assert bench.serial() == "0"
     st = bench.status()
     assert st["state"] == "DISCONNECTED" and st["errors"]["message"]
     time.sleep(0.5)
     bench.emu.replug()
     end = time.monotonic() + 6
-    while bench.query("PING") != "PONG|SERIAL=1" and time.monotonic() < end:
+    while bench.serial() != "1" and time.monotonic() < end:
         time.sleep(0.1)
-    assert bench.query("PING") == "PONG|SERIAL=1"
+    assert bench.serial() == "1"
     j1 = bench.status()["angles"][0]
     time.sleep(0.5)
     assert abs(bench.status()["angles"][0] - j1) < 0.05  # the cancelled move is not resumed
@@ -274,7 +281,7 @@ def test_one_percent_corruption_of_the_telemetry_is_filtered_and_moves_complete(
     bench.emu.set_faults(corrupt_rate=0.01, direction="from_board")
     ids = [bench.send(f"MOVEJOINT|{90 - 5 * (i % 2)}|-90|180|0|0|180|0.8|None") for i in range(4)]
     for cid in ids:
-        assert bench.acks.terminal(cid, 40) == ("COMPLETED", "")
+        assert bench.acks.terminal(cid, 40) == ("COMPLETED", "MoveJoint finished successfully")
     stats = json.loads(bench.query("GET_LOOP_STATS").split("|", 1)[1])
     assert stats["implausible_frames"] > 0 and stats["bytes_dropped"] > 0
     assert not bench.status()["estop_latched"]
@@ -429,7 +436,7 @@ def test_flood_of_5000_datagrams_per_second_keeps_the_loop_and_acks_exact(bench)
           f"max {stats['period_max_ms']:.2f} ms, overruns {stats['overruns'] - before['overruns']}; "
           f"invalid {stats['datagrams_invalid'] - before['datagrams_invalid']}")
     assert bench.ctl.proc.poll() is None
-    assert bench.query("PING") == "PONG|SERIAL=1"
+    assert bench.serial() == "1"
     acked = [cid for cid in res["ids"] if cid in res["acks"]]
     for cid in acked:
         st = res["acks"][cid]
@@ -453,17 +460,17 @@ def test_serial_silence_is_detected_within_the_default_three_ticks(tmp_path):
                 break
             except AssertionError:
                 end = time.monotonic() + 5
-                while b.query("PING") != "PONG|SERIAL=1" and time.monotonic() < end:
+                while b.serial() != "1" and time.monotonic() < end:
                     time.sleep(0.1)
         b.emu.set_faults(silent=True)
         status, details = b.acks.terminal(a, 2)
         assert status == "CANCELLED" and "link lost" in details
-        assert b.query("PING") == "PONG|SERIAL=0"
+        assert b.serial() == "0"
         b.emu.clear_faults()
         end = time.monotonic() + 6
-        while b.query("PING") != "PONG|SERIAL=1" and time.monotonic() < end:
+        while b.serial() != "1" and time.monotonic() < end:
             time.sleep(0.1)
-        assert b.query("PING") == "PONG|SERIAL=1"
+        assert b.serial() == "1"
     finally:
         b.close()
 
@@ -523,7 +530,7 @@ def test_set_port_switches_the_board_link(bench, tmp_path):
             if board["connected"] and str(tmp_path / "p6b") in board["port"]:
                 break
             time.sleep(0.1)
-        assert bench.query("PING") == "PONG|SERIAL=1"
+        assert bench.serial() == "1"
         assert str(tmp_path / "p6b") in bench.status()["board"]["port"]
         assert bench.run("MOVEJOINT|80|-90|180|0|0|180|2|None")[0] == "COMPLETED"
         assert abs(emu2.positions[0] / 113.7777 - 80) < 0.1

@@ -63,7 +63,8 @@ def test_malformed_datagrams_get_invalid_acks_naming_the_field_and_never_stop_th
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as other:
         for junk in (b"\xff\xfe", b"|||", b"MOVEJOINT", b"x" * 60000, b"GET_"):
             other.sendto(junk, (client.ctl.host, client.ctl.port))
-    assert client.query("PING") == "PONG|SERIAL=1"
+    assert client.query("PING") == "PONG"
+    assert client.query("GET_STATUS").endswith("|SERIAL=1")
     # an ID'd query is answered and acked once
     r = client.query("abcdef12|GET_ANGLES")
     assert r.startswith("ANGLES|")
@@ -78,7 +79,7 @@ def test_set_port_accepts_only_a_serial_device_so_a_client_cannot_make_the_contr
         status, details = client.acks.terminal(cid, 5)
         assert status == "INVALID" and details.startswith("SET_PORT: "), (port, details)
     assert not target.exists()
-    assert client.query("PING") == "PONG|SERIAL=1"  # still on its board
+    assert client.query("GET_STATUS").endswith("|SERIAL=1")  # still on its board
 
 
 def test_get_plan_describes_the_active_motion(client):
@@ -133,9 +134,10 @@ def _wait_serial(port: int, timeout: float = 20.0) -> socket.socket:
     s.settimeout(0.3)
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        s.sendto(b"PING", ("127.0.0.1", port))
+        s.sendto(b"GET_STATUS", ("127.0.0.1", port))
         try:
-            if s.recvfrom(100)[0] == b"PONG|SERIAL=1":
+            reply = s.recvfrom(65535)[0]
+            if reply.startswith(b"STATUS|") and reply.endswith(b"|SERIAL=1"):
                 return s
         except TimeoutError:
             pass
@@ -143,7 +145,7 @@ def _wait_serial(port: int, timeout: float = 20.0) -> socket.socket:
 
 
 def _ask(s: socket.socket, port: int, q: bytes, prefix: str) -> str:
-    """Send ``q`` and return the first reply starting with ``prefix`` (late PONGs are skipped)."""
+    """Send ``q`` and return the first reply starting with ``prefix`` (late replies to an earlier query are skipped)."""
     s.sendto(q, ("127.0.0.1", port))
     end = time.monotonic() + 5
     while time.monotonic() < end:

@@ -69,7 +69,8 @@ class Rig:
         cfg.write_text("[controller]\nlink_timeout_ticks = 50\n")
         self.ctl = start_controller(["--port", str(self.link), "--config", str(cfg)], log_dir=tmp_path,
                                     wait_homed=False)
-        wait_until(lambda: self.ctl.query("PING", 0.5) == "PONG|SERIAL=1", 20, what="the board link")
+        wait_until(lambda: (self.ctl.query("GET_STATUS", 0.5) or "").endswith("|SERIAL=1"), 20,
+                   what="the board link")
         wait_until(lambda: "HOMED=1,1,1,1,1,1" in (self.ctl.query("GET_STATUS", 0.5) or ""), 10,
                    what="homed (board-sim --start-homed)")
         self.acks = flood.AckRecorder(self.ctl.ack_port)

@@ -60,7 +60,7 @@ class WireBench:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.settimeout(1.0)
         self._n = 0
-        wait_until(lambda: self.query("PING") == "PONG|SERIAL=1", 20, what="board link up")
+        wait_until(lambda: (self.query("GET_STATUS") or "").endswith("|SERIAL=1"), 20, what="board link up")
         wait_until(lambda: "HOMED=1,1,1,1,1,1" in (self.query("GET_STATUS") or ""), 20, what="homed status")
         # the start-up probe asks whether the board is enabled; an emulator process that reads
         # its first frames in one burst can answer it ambiguously (then the controller takes
@@ -78,7 +78,7 @@ class WireBench:
 
     def query(self, text: str) -> str | None:
         """One query (retried on a busy machine); replies to an earlier retry are skipped."""
-        want = {"PING": "PONG|", "GET_STATUS": "STATUS|", "GET_ANGLES": "ANGLES|",
+        want = {"PING": "PONG", "GET_STATUS": "STATUS|", "GET_ANGLES": "ANGLES|",
                 "GET_LOOP_STATS": "LOOP_STATS|", "GET_STATUS_JSON": "STATUS_JSON|"}[text]
         for _ in range(5):
             self.sock.sendto(text.encode(), (self.ctl.host, self.ctl.port))

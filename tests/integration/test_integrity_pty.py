@@ -148,7 +148,7 @@ class Ctl:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.settimeout(1.0)
         self._n = 0
-        wait_until(lambda: self.query("PING") == "PONG|SERIAL=1", 20, what="the board link")
+        wait_until(lambda: (self.query("GET_STATUS") or "").endswith("|SERIAL=1"), 20, what="the board link")
         # the start-up probe answers within a few ticks
         wait_until(lambda: self.status()["board"]["state_known"], 10, what="the board's state")
 
@@ -162,7 +162,7 @@ class Ctl:
         return self.acks.terminal(self.send(text), timeout)
 
     def query(self, text: str) -> str | None:
-        want = {"PING": "PONG|", "GET_STATUS_JSON": "STATUS_JSON|", "GET_STATUS": "STATUS|"}.get(text)
+        want = {"PING": "PONG", "GET_STATUS_JSON": "STATUS_JSON|", "GET_STATUS": "STATUS|"}.get(text)
         for _ in range(5):
             self.sock.sendto(text.encode(), (self.proc.host, self.proc.port))
             try:

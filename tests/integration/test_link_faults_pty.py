@@ -139,7 +139,7 @@ def test_a_controller_stalled_for_200_ms_is_no_lost_link_and_reports_its_schedul
     try:
         ctl = start_controller(["--port", str(board.link), "--config", str(cfg)], log_dir=tmp_path,
                                wait_homed=False)
-        wait_until(lambda: ctl.query("PING", 0.5) == "PONG|SERIAL=1", 20, what="the board link")
+        wait_until(lambda: (ctl.query("GET_STATUS", 0.5) or "").endswith("|SERIAL=1"), 20, what="the board link")
         client = load.Client(ctl.port, ctl.ack_port)
         status_line = client.query("GET_STATUS", "STATUS|")
         fields = dict(f.split("=", 1) for f in status_line.split("|")[1:])
@@ -151,7 +151,7 @@ def test_a_controller_stalled_for_200_ms_is_no_lost_link_and_reports_its_schedul
         assert fields["LINK_LOSSES"] == "0"
         assert json.loads(client.query("GET_STATUS_JSON", "STATUS_JSON|").split("|", 1)[1])["scheduling"] \
             == fields["SCHED"]
-        for text in ("MOVEJOINT|60|-80|170|10|-10|170|3|None", "JOG|0|40|2|None"):
+        for text, label in (("MOVEJOINT|60|-80|170|10|-10|170|3|None", "MoveJoint"), ("JOG|0|40|2|None", "Jog")):
             cid = client.send(text)
             time.sleep(0.4)
             for _ in range(3):
@@ -159,7 +159,7 @@ def test_a_controller_stalled_for_200_ms_is_no_lost_link_and_reports_its_schedul
                 time.sleep(0.2)
                 os.kill(ctl.proc.pid, signal.SIGCONT)
                 time.sleep(0.4)
-            assert client.terminal(cid, 20) == ("COMPLETED", ""), text
+            assert client.terminal(cid, 20) == ("COMPLETED", f"{label} finished successfully"), text
         stats = client.loop_stats()
         assert stats["link_losses"] == 0, stats
         assert stats["late_max_ms"] >= 190  # the stalls were there, as late ticks

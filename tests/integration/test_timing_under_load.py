@@ -39,7 +39,7 @@ def test_two_cpu_hogs_cause_no_link_loss_and_moves_keep_their_time_and_their_end
         ctl = client = None
         try:
             ctl = start_controller(["--port", str(board.link)], log_dir=tmp_path, wait_homed=False)
-            wait_until(lambda: ctl.query("PING", 0.5) == "PONG|SERIAL=1", 20, what="the board link")
+            wait_until(lambda: (ctl.query("GET_STATUS", 0.5) or "").endswith("|SERIAL=1"), 20, what="the board link")
             client = load.Client(ctl.port, ctl.ack_port)
             run = load.run_scenario(client, board, seconds=SECONDS, moves=MOVES)
             assert busy.alive(), "a busy process died: the load was not there the whole time"

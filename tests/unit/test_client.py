@@ -108,11 +108,11 @@ class FakeController:
             "GET_IO": "IO|1,0,1,0,1",
             "GET_GRIPPER": "GRIPPER|0,100,1,200,177,1",
             "GET_SPEEDS": "SPEEDS|" + ",".join(str(s) for s in self.speeds),
-            "PING": "PONG|SERIAL=1",
+            "PING": "PONG",
             "GET_STATUS": "STATUS|POSE=" + ",".join(f"{v:.6f}" for v in STANDBY_MATRIX)
                           + "|ANGLES=90,-90,180,0,0,180|SPEEDS=" + ",".join(str(s) for s in self.speeds)
                           + "|IO=0,0,0,0,0|GRIPPER=0,0,1,0,0,1|STATE=IDLE|HOMED=1,1,1,1,1,1"
-                          + "|ESTOP=1|QUEUE=0|CMD=None|ERROR=None",
+                          + "|ESTOP=1|QUEUE=0|CMD=None|ERROR=None|SERIAL=1",
             "GET_STATUS_JSON": "STATUS_JSON|" + json.dumps(STATUS_OBJECT),
             "GET_LOOP_STATS": "LOOP_STATS|" + json.dumps(STATUS_OBJECT["loop"]),
             "GET_QUEUE": 'QUEUE|{"active": {"id": "1a2b3c4d", "name": "MOVEJOINT", "progress": 0.5},'
@@ -264,9 +264,9 @@ def test_move_joint_datagram_keeps_the_original_field_order_and_the_values():
 
 def test_extension_fields_are_only_appended_when_given():
     assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], speed_percentage=50) == \
-        "MOVECART|1|2|3|4|5|6|None|50"
+        "MOVECART|1|2|3|4|5|6|NONE|50.0"
     assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], duration=2, tracking="speed") == \
-        "MOVECART|1|2|3|4|5|6|2|None|None|speed"
+        "MOVECART|1|2|3|4|5|6|2|NONE|None|speed"
     assert robot_api.build_move_joint([0] * 6, duration=1, accel_percentage=40) == \
         "MOVEJOINT|0|0|0|0|0|0|1|None|40|None|None"
 
@@ -456,7 +456,7 @@ def test_original_signatures_and_defaults_are_kept():
     import inspect
 
     sig = inspect.signature(robot_api.move_robot_joints)
-    assert list(sig.parameters) == ["angles", "duration", "speed_percentage", "wait_for_ack",
+    assert list(sig.parameters) == ["joint_angles", "duration", "speed_percentage", "wait_for_ack",
                                     "timeout", "non_blocking"]
     assert sig.parameters["timeout"].default == 2.0
     g = inspect.signature(robot_api.control_electric_gripper).parameters
@@ -557,7 +557,7 @@ def test_robot_queries_are_typed(robot, fake):
     q = robot.queue()
     assert q.active.name == "MOVEJOINT" and q.queued == (("5e6f7a8b", "DELAY"),)
     assert robot.plan_info().tcp_path[1] == (1, 250, 200)
-    assert robot.tool().name == "default" and robot.ping() is True
+    assert robot.tool().name == "default" and robot.ping() is True and robot.link_up() is True
 
 
 def test_robot_query_errors(robot, fake):
@@ -631,6 +631,7 @@ def test_async_robot_shares_the_methods_and_errors(fake):
     async def main():
         async with AsyncRobot(port=fake.port, ack_port=fake.ack_port, timeout=1.0) as r:
             assert await r.angles() == (90.0, -90.0, 180.0007, 0.0, 0.0, 180.0)
+            assert await r.ping() is True and await r.link_up() is True
             res = await r.move_joints([90, -90, 180, 0, 0, 180], duration=1)
             assert res.ok
             fake.acks["HOME"] = [("QUEUED", ""), ("FAILED", "board not connected")]
@@ -846,3 +847,180 @@ def test_ack_book_counts_exactly_one_terminal_ack_and_reports_repeats_as_nothing
     assert rec.terminal == (AckStatus.COMPLETED, "done") and len(rec.history) == 2
     assert book.on_datagram("ACK|zzzz9999|COMPLETED|") is None and book.unmatched == 1
     assert book.on_datagram("PONG") is None
+
+
+# ============================================================================================
+# the original client's wire forms, byte for byte (tests/data/original-api.md, "Wire forms")
+# ============================================================================================
+
+WP1, WP2 = [0, 250, 200, -90, 0, -90], [10.5, 250, 210, -90, 0, -90]
+
+#: (call, the datagram the original client sent for it): str() of every value as given, the
+#: durations of JOG and CARTJOG and the speed of MOVECART as floats, NONE in MOVECART
+ORIGINAL_WIRE = [
+    (lambda a: a.move_robot_joints([90, -90, 160, 12, 12, 180], duration=5.5),
+     "MOVEJOINT|90|-90|160|12|12|180|5.5|None"),
+    (lambda a: a.move_robot_joints(joint_angles=[90, -90, 160.5, 12, 12, 180], speed_percentage=50),
+     "MOVEJOINT|90|-90|160.5|12|12|180|None|50"),
+    (lambda a: a.move_robot_pose([7, 250, 200, -100, 0, -90], duration=5.5),
+     "MOVEPOSE|7|250|200|-100|0|-90|5.5|None"),
+    (lambda a: a.move_robot_cartesian([7, 250, 150, -100, 0, -90], speed_percentage=50),
+     "MOVECART|7|250|150|-100|0|-90|NONE|50.0"),
+    (lambda a: a.move_robot_cartesian([7, 250, 150, -100, 0, -90], duration=2),
+     "MOVECART|7|250|150|-100|0|-90|2|NONE"),
+    (lambda a: a.jog_robot_joint(3, 50, duration=1), "JOG|3|50|1.0|None"),
+    (lambda a: a.jog_robot_joint(9, 50, distance_deg=10), "JOG|9|50|None|10"),
+    (lambda a: a.jog_multiple_joints([0, 8], [10, 20.5], 1.5), "MULTIJOG|0,8|10,20.5|1.5"),
+    (lambda a: a.jog_cartesian("wrf", "x+", 50, 1), "CARTJOG|wrf|x+|50|1.0"),
+    (lambda a: a.jog_cartesian("TRF", "RZ-", 30, 0.5), "CARTJOG|TRF|RZ-|30|0.5"),
+    (lambda a: a.control_pneumatic_gripper("open", 1), "PNEUMATICGRIPPER|open|1"),
+    (lambda a: a.control_electric_gripper(action="calibrate"), "ELECTRICGRIPPER|calibrate|255|150|500"),
+    (lambda a: a.control_electric_gripper("move", position=100, speed=150, current=200),
+     "ELECTRICGRIPPER|move|100|150|200"),
+    (lambda a: a.control_electric_gripper("move", position=None), "ELECTRICGRIPPER|move|None|150|500"),
+    (lambda a: a.delay_robot(0.2), "DELAY|0.2"),
+    (lambda a: a.home_robot(), "HOME"),
+    (lambda a: a.stop_robot_movement(), "STOP"),
+    (lambda a: a.smooth_circle([0, 250, 200], 30, duration=4),
+     "SMOOTH_CIRCLE|0,250,200|30|XY|WRF|CURRENT|DURATION|4|0"),
+    (lambda a: a.smooth_circle([0, 250, 200], 30, plane="xz", frame="trf", start_pose=[], speed_percentage=40.0,
+                               clockwise=True),
+     "SMOOTH_CIRCLE|0,250,200|30|xz|trf|CURRENT|SPEED|40.0|1"),
+    (lambda a: a.smooth_arc_center(WP2, [0, 250, 210], start_pose=WP1, duration=2.5),
+     "SMOOTH_ARC_CENTER|10.5,250,210,-90,0,-90|0,250,210|WRF|0,250,200,-90,0,-90|DURATION|2.5|0"),
+    (lambda a: a.smooth_arc_parametric(WP2, 20, 90, "TRF", None, 3),
+     "SMOOTH_ARC_PARAM|10.5,250,210,-90,0,-90|20|90|TRF|CURRENT|DURATION|3|0"),
+    (lambda a: a.smooth_spline([WP1, WP2], duration=3.0),
+     "SMOOTH_SPLINE|2|WRF|CURRENT|DURATION|3.0|0|250|200|-90|0|-90|10.5|250|210|-90|0|-90"),
+    (lambda a: a.smooth_helix([0, 250, 200], 20, 5, -20, duration=5),
+     "SMOOTH_HELIX|0,250,200|20|5|-20|WRF|CURRENT|DURATION|5|0"),
+    (lambda a: a.smooth_blend([{"type": "LINE", "end": WP2},
+                               {"type": "CIRCLE", "center": [0, 250, 200], "radius": 10, "plane": "XZ",
+                                "clockwise": True},
+                               {"type": "ARC", "end": WP1, "center": [0, 0, 0], "duration": 1},
+                               {"type": "SPLINE", "waypoints": [WP1, WP2]}]),
+     "SMOOTH_BLEND|4|0.5|WRF|CURRENT|DEFAULT|LINE|10.5,250,210,-90,0,-90|2.0||CIRCLE|0,250,200|10|XZ|3.0|1"
+     "||ARC|0,250,200,-90,0,-90|0,0,0|1|0||SPLINE|2|0,250,200,-90,0,-90;10.5,250,210,-90,0,-90|3.0"),
+    (lambda a: a.smooth_blend([{"type": "LINE", "end": WP2, "duration": 1.5}], 0.25, "wrf", duration=4),
+     "SMOOTH_BLEND|1|0.25|wrf|CURRENT|DURATION|4|LINE|10.5,250,210,-90,0,-90|1.5"),
+]
+
+
+@pytest.mark.parametrize("call,wire", ORIGINAL_WIRE, ids=[w.split("|")[0] + str(i) for i, (_, w) in
+                                                          enumerate(ORIGINAL_WIRE)])
+def test_every_function_sends_exactly_the_original_clients_datagram(api, fake, call, wire):
+    from parolkit.protocol.commands import parse_datagram
+
+    fired = call(api)
+    assert fired == f"Successfully sent command: '{wire[:50]}...'"  # the original's confirmation
+    name = wire.split("|")[0]
+    assert fake.wait_for(name) == [wire]
+    parse_datagram(wire.encode())  # and the controller reads it
+
+
+def test_chain_and_trajectory_send_the_original_sequence_without_touching_the_callers_dicts(api, fake):
+    motions = [{"type": "arc", "end_pose": WP2, "center": [0, 250, 210], "duration": 2},
+               {"type": "circle", "center": [10.5, 250, 220], "radius": 10, "duration": 3},
+               {"type": "helix", "center": [0, 250, 200], "radius": 5, "pitch": 5, "height": 5, "duration": 3},
+               {"type": "spline", "waypoints": [WP1, WP2], "duration": 2}]
+    copies = [dict(m) for m in motions]
+    out = api.chain_smooth_motions(motions, frame="TRF", wait_for_ack=False)
+    assert motions == copies and len(out) == 4 and all(o.startswith("Successfully sent") for o in out)
+    sent = fake.wait_for("SMOOTH_SPLINE") and [t for t in fake.received if t.startswith("SMOOTH_")]
+    assert sent == [
+        "SMOOTH_ARC_CENTER|10.5,250,210,-90,0,-90|0,250,210|TRF|CURRENT|DURATION|2|0",
+        # after an arc: from its end pose; after a circle or a helix: from where the robot is
+        "SMOOTH_CIRCLE|10.5,250,220|10|XY|TRF|10.5,250,210,-90,0,-90|DURATION|3|0",
+        "SMOOTH_HELIX|0,250,200|5|5|5|TRF|CURRENT|DURATION|3|0",
+        "SMOOTH_SPLINE|2|TRF|CURRENT|DURATION|2|0|250|200|-90|0|-90|10.5|250|210|-90|0|-90",
+    ]
+    fake.received.clear()
+    assert api.execute_trajectory([WP1, WP2], "speed", 40, "linear", wait_for_ack=False)[1].startswith(
+        "Successfully sent")
+    fake.wait_for("MOVECART|10.5")
+    assert [t for t in fake.received if t.startswith("MOVECART")] == [
+        "MOVECART|0|250|200|-90|0|-90|NONE|40.0", "MOVECART|10.5|250|210|-90|0|-90|NONE|40.0"]
+
+
+def test_chain_checks_every_motion_before_sending_the_first(api, fake):
+    with pytest.raises(ValueError, match=r"motions\[1\] \(spline\): waypoints must hold at least 2"):
+        api.chain_smooth_motions([{"type": "circle", "center": [0, 250, 200], "radius": 10, "duration": 3},
+                                  {"type": "spline", "waypoints": [WP1], "duration": 2}], wait_for_ack=False)
+    with pytest.raises(ValueError, match=r"motions\[0\] \(helix\): .*unexpected keyword argument 'radiuss'"):
+        api.chain_smooth_motions([{"type": "helix", "center": [0, 250, 200], "radiuss": 10}])
+    time.sleep(0.1)
+    assert not [t for t in fake.received if t.startswith("SMOOTH_")]
+
+
+def test_a_chain_stops_at_the_first_failed_or_cancelled_motion(api, fake):
+    fake.acks["SMOOTH_CIRCLE"] = [("QUEUED", "Position 1 in queue"), ("CANCELLED", "STOP received")]
+    out = api.chain_smooth_motions([{"type": "circle", "center": [0, 250, 200], "radius": 10, "duration": 3},
+                                    {"type": "helix", "center": [0, 250, 200], "radius": 5, "pitch": 5,
+                                     "height": 5, "duration": 3}], timeout=2)
+    assert [r["status"] for r in out] == ["CANCELLED"]
+    time.sleep(0.1)
+    assert not [t for t in fake.received if "SMOOTH_HELIX" in t]
+
+
+def test_safe_move_with_retry_retries_failures_and_returns_an_accepted_command_at_once(api, fake):
+    fake.acks["MOVEPOSE"] = [("QUEUED", "Position 1 in queue"), ("FAILED", "IK failed: out of reach")]
+    r = api.safe_move_with_retry(api.move_robot_pose, [500, 0, 0, 0, 0, 0], duration=1, max_retries=3,
+                                 retry_delay=0.01)
+    assert r["status"] == "FAILED" and r["details"] == "IK failed: out of reach"
+    assert len([t for t in fake.received if "MOVEPOSE" in t]) == 3
+    # a move still running when the wait ends is not sent a second time
+    fake.acks["MOVEJOINT"] = [("QUEUED", "Position 1 in queue"), ("EXECUTING", "")]
+    r = api.safe_move_with_retry(api.move_robot_joints, [0] * 6, duration=5, timeout=0.3, retry_delay=0.01)
+    assert r["status"] == "TIMEOUT" and r["last_status"] == "EXECUTING"
+    assert len([t for t in fake.received if "MOVEJOINT" in t]) == 1
+    # an INVALID command would be refused again
+    fake.acks["DELAY"] = [("INVALID", "DELAY: seconds out of range")]
+    assert api.safe_move_with_retry(api.delay_robot, 1, retry_delay=0.01)["status"] == "INVALID"
+    assert len([t for t in fake.received if "DELAY" in t]) == 1
+    with pytest.raises(ValueError, match="max_retries must be in 1"):
+        api.safe_move_with_retry(api.delay_robot, 1, max_retries=0)
+
+
+def test_wait_for_ack_results_carry_the_originals_keys_and_datetimes(api, fake):
+    from datetime import datetime
+
+    r = api.delay_robot(0.1, wait_for_ack=True)
+    assert {"command", "sent_time", "status", "details", "completed", "ack_time", "command_id"} <= set(r)
+    assert r["command"] == "DELAY|0.1" and isinstance(r["sent_time"], datetime)
+    assert isinstance(r["ack_time"], datetime) and r["ack_time"] >= r["sent_time"]
+    st = api.get_tracking_stats()
+    assert {"active", "commands_tracked", "memory_bytes", "thread_active"} <= set(st) and st["active"]
+
+
+def test_pose_matrix_is_a_numpy_array_here_and_robot_api_still_imports_numpy_only_there(api, fake):
+    import subprocess
+    import sys
+
+    m = api.get_robot_pose_matrix()
+    assert type(m).__name__ == "ndarray" and m.shape == (4, 4) and m[1, 3] == pytest.approx(0.26257)
+    code = ("import sys; sys.modules['numpy'] = None; sys.path.insert(0, sys.argv[1]); import robot_api; "
+            "robot_api.configure(port=int(sys.argv[2])); m = robot_api.get_robot_pose_matrix(); "
+            "print(type(m).__name__, len(m), len(m[0]), robot_api.get_robot_pose()[1])")
+    src = str(__import__("pathlib").Path(robot_api.__file__).parent)
+    out = subprocess.run([sys.executable, "-I", "-S", "-c", code, src, str(fake.port)],
+                         capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[:3] == ["list", "4", "4"]  # without numpy: lists
+    assert float(out.stdout.split()[3]) == pytest.approx(262.57)
+
+
+def test_get_robot_status_is_a_dict_even_without_a_reply(api, fake, capsys):
+    fake.silent = True
+    api.QUERY_TIMEOUT = 0.2
+    st = api.get_robot_status()
+    assert st["pose"] is None and st["angles"] is None and st["stopped"] is False and st["estop"] is False
+    assert "no STATUS reply" in capsys.readouterr().err
+
+
+def test_enum_words_are_sent_as_their_values(api, fake):
+    from parolkit.moves import CartAxis, Frame, Plane
+
+    api.jog_cartesian(Frame.TRF, CartAxis.RZ_NEG, 30, 0.5)
+    api.smooth_circle([0, 250, 200], 30, Plane.XZ, Frame.WRF, duration=4)
+    assert fake.wait_for("CARTJOG") == ["CARTJOG|TRF|RZ-|30|0.5"]
+    assert fake.wait_for("SMOOTH_CIRCLE") == ["SMOOTH_CIRCLE|0,250,200|30|XZ|WRF|CURRENT|DURATION|4|0"]

@@ -241,3 +241,60 @@ def test_spline_with_the_wrong_number_of_waypoint_fields_names_both_forms():
 
     with pytest.raises(DatagramError, match="2 waypoints announced, 3 fields given"):
         parse_datagram("SMOOTH_SPLINE|2|WRF|CURRENT|DURATION|3|1,2,3,4,5,6|1,2,3,4,5,6|1,2,3,4,5,6")
+
+
+def test_the_original_clients_blend_forms_parse_like_ours():
+    """SMOOTH_BLEND as the original client sent it: ``DEFAULT`` timing without a value field
+    and SPLINE segments as ``n|x,y,z,A,B,C;x,y,...|duration``, lower-case frame."""
+    a, b, c = "0,250,200,-90,0,-90", "10,250,200,-90,0,-90", "20,260,200,-90,0,-90"
+    original = parse(f"SMOOTH_BLEND|2|0.5|wrf|CURRENT|DEFAULT|LINE|{a}|2.0||SPLINE|2|{b};{c}|3.0").command
+    ours = parse(f"SMOOTH_BLEND|2|0.5|WRF|CURRENT|DURATION|None|LINE|{a}|2.0||SPLINE|3.0|{b}|{c}").command
+    assert original == ours
+    assert original.move.duration_s == pytest.approx(5.0)  # DEFAULT: the segments' own durations
+    timed = parse(f"SMOOTH_BLEND|1|0.5|WRF|CURRENT|SPEED|40|SPLINE|2|{b};{c}|3").command.move
+    assert timed.speed_pct == 40.0 and timed.segments[0].waypoints == (
+        (10, 250, 200, -90, 0, -90), (20, 260, 200, -90, 0, -90))
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("SMOOTH_BLEND|1|0.5|WRF|CURRENT|DEFAULT|SPLINE|3|0,250,200,-90,0,-90;1,250,200,-90,0,-90|3",
+     "segment 1 SPLINE: n = 3 waypoints announced, 2 given (separated by ';')"),
+    ("SMOOTH_BLEND|1|0.5|WRF|CURRENT|DEFAULT|SPLINE|1|0,250,200,-90,0,-90|3",
+     "segment 1 SPLINE n (waypoints) = 1 is out of range 2..500"),
+    ("SMOOTH_BLEND|1|0.5|WRF|CURRENT|FAST|LINE|0,250,200,-90,0,-90|3",
+     "timing must be one of DURATION|SPEED|DEFAULT, got 'FAST'"),
+    ("SMOOTH_BLEND|1|0.5|WRF|CURRENT|DEFAULT", "or DEFAULT timing without a value"),
+])
+def test_the_original_blend_forms_are_checked_as_precisely_as_ours(text, needle):
+    with pytest.raises(C.DatagramError) as info:
+        parse(text)
+    assert needle in str(info.value)
+
+
+@pytest.mark.parametrize("original,ours", [
+    ("MOVECART|0|250|200|-90|0|-90|NONE|50.0", "MOVECART|0|250|200|-90|0|-90|None|50"),
+    ("CARTJOG|wrf|x+|50|1.0", "CARTJOG|WRF|X+|50|1"),
+    ("SMOOTH_CIRCLE|0,250,200|20|xy|trf|CURRENT|DURATION|4.0|0",
+     "SMOOTH_CIRCLE|0,250,200|20|XY|TRF|CURRENT|DURATION|4|0"),
+    ("SMOOTH_SPLINE|2|wrf|CURRENT|SPEED|40|0|250|200|-90|0|-90|10|250|200|-90|0|-90",
+     "SMOOTH_SPLINE|2|WRF|CURRENT|SPEED|40|0,250,200,-90,0,-90|10,250,200,-90,0,-90"),
+    ("PNEUMATICGRIPPER|Open|1", "PNEUMATICGRIPPER|open|1"),
+])
+def test_the_original_clients_wire_forms_mean_the_same_as_ours(original, ours):
+    assert parse(original).command == parse(ours).command
+
+
+def test_ack_details_name_the_command_and_carry_the_warnings():
+    from parolkit.controller.jobs import Job
+
+    job = Job(1, parse("MOVEJOINT|90|-90|180|0|0|180|1|None").command, "abcd1234", None, 0.0)
+    assert job.ack_details(C.AckStatus.COMPLETED, "") == "MoveJoint finished successfully"
+    assert job.ack_details(C.AckStatus.COMPLETED, "stopped at the upper limit") == "stopped at the upper limit"
+    assert job.ack_details(C.AckStatus.FAILED, "no") == "no"
+    job.notes = ("duration stretched", "warning: J5 acceleration 41000 steps/s^2 over its limit")
+    assert job.ack_details(C.AckStatus.COMPLETED, "") == (
+        "MoveJoint finished successfully; warning: J5 acceleration 41000 steps/s^2 over its limit")
+    assert job.ack_details(C.AckStatus.EXECUTING, "") == job.warnings[0]
+    assert job.ack_details(C.AckStatus.CANCELLED, "STOP received") == "STOP received"
+    jog = Job(2, parse("CARTJOG|WRF|X+|50|1").command, "abcd1234", None, 0.0)
+    assert jog.ack_details(C.AckStatus.COMPLETED, "") == "CartJog finished successfully"

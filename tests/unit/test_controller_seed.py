@@ -152,9 +152,9 @@ def test_move_over_the_acceleration_limit_completes_in_its_time_with_the_warning
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
     done = _details(rig, "aaaa0001", AckStatus.COMPLETED)
-    assert done.startswith("warning: J5 needs an acceleration of ")
+    assert done.startswith("MoveJoint finished successfully; warning: J5 needs an acceleration of ")
     assert "above its limit 66000 steps/s^2" in done and "the move runs in the t=0.5 s given" in done
-    assert _details(rig, "aaaa0001", AckStatus.EXECUTING) == done
+    assert done.endswith(_details(rig, "aaaa0001", AckStatus.EXECUTING))  # the warning, at the start too
     gotos = [f for f in rig.frames[n0:] if f.command == BoardCommand.GOTO]
     # 50 samples in 0.5 s, then a few ticks while the board closes its last steps
     assert 50 <= len(gotos) <= 50 + 10
@@ -173,17 +173,16 @@ def test_move_over_a_speed_limit_is_refused_with_the_minimum_t(rig):
 
 
 def test_plan_warnings_join_any_other_detail_of_the_terminal_ack():
-    from parolkit.controller.executor import with_plan_warnings
-    from parolkit.controller.jobs import Job
+    from parolkit.controller.jobs import WARNING_PREFIX, Job
     from parolkit.motion import validate
     from parolkit.protocol.commands import parse_datagram
 
     job = Job(seq=1, command=parse_datagram("aaaa0001|DELAY|1").command, command_id="aaaa0001", ack_addr=None,
               accepted_at=0.0, notes=("duration given: it overrides speed and acceleration percentages",
                                       "warning: J5 needs more", "warning: J6 needs more"))
-    assert with_plan_warnings(job, "") == "warning: J5 needs more; warning: J6 needs more"
-    assert with_plan_warnings(job, "done") == "done; warning: J5 needs more; warning: J6 needs more"
+    assert job.ack_details(AckStatus.COMPLETED, "done") == "done; warning: J5 needs more; warning: J6 needs more"
+    assert job.ack_details(AckStatus.EXECUTING, "") == "warning: J5 needs more; warning: J6 needs more"
+    assert job.ack_details(AckStatus.FAILED, "no") == "no"
     job.notes = ()
-    assert with_plan_warnings(job, "done") == "done"
-    from parolkit.controller.executor import PLAN_WARNING_PREFIX
-    assert PLAN_WARNING_PREFIX == validate.WARNING_PREFIX
+    assert job.ack_details(AckStatus.COMPLETED, "done") == "done"
+    assert WARNING_PREFIX == validate.WARNING_PREFIX

@@ -500,7 +500,8 @@ def _parse_status(payload: str) -> RobotStatus:
     return RobotStatus.from_json(_json(payload, "STATUS_JSON"))
 
 
-def _parse_ping(payload: str) -> bool:
+def _parse_link(payload: str) -> bool:
+    """``SERIAL=`` of a GET_STATUS reply: True when the board link is up."""
     return wire.parse_status_fields(payload).get("SERIAL", "0").strip() == "1"
 
 
@@ -531,7 +532,9 @@ QUERIES: dict[str, _Query] = {
     "queue": _Query("GET_QUEUE", "QUEUE", lambda p: QueueInfo.from_dict(_json(p, "QUEUE"))),
     "control": _Query("GET_CONTROL", "CONTROL", lambda p: _json(p, "CONTROL")),
     "tool": _Query("GET_TOOL", "TOOL", _parse_tool),
-    "ping": _Query("PING", "PONG", _parse_ping),
+    # PING is answered with the bare word PONG (as the original controller did)
+    "ping": _Query("PING", "PONG", lambda p: True),
+    "link": _Query("GET_STATUS", "STATUS", _parse_link),
 }
 
 
@@ -955,8 +958,13 @@ class RobotCommands:
         return self._query("tool")
 
     def ping(self) -> Any:
-        """True when the controller's board link is up (False: controller up, board down)."""
+        """True when the controller answers PING (``ControllerUnreachable`` when it does not);
+        :meth:`link_up` says whether its board link is up."""
         return self._query("ping")
+
+    def link_up(self) -> Any:
+        """True when the controller's board link is up (False: controller up, board down)."""
+        return self._query("link")
 
 
 def _jog_index(joint: Any) -> int:

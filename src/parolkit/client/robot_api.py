@@ -17,16 +17,23 @@ Units on the wire and in every function: degrees, millimetres, percent (0..100),
 Every motion/action function has the original keyword arguments ``wait_for_ack=False``,
 ``timeout`` and ``non_blocking=False``:
 
-* ``wait_for_ack=False`` (default): fire and forget; returns a short confirmation string.
-* ``wait_for_ack=True``: the command carries an 8-character ID; returns
-  ``{'status': 'COMPLETED'|'FAILED'|'CANCELLED'|'INVALID'|'TIMEOUT', 'details': str,
-  'command_id': str, 'completed': bool}`` once the terminal acknowledgement arrives or
-  ``timeout`` seconds have passed (then status ``'TIMEOUT'``; the command keeps running).
+* ``wait_for_ack=False`` (default): fire and forget; returns a short confirmation string
+  (``"Successfully sent command: '...'"``).
+* ``wait_for_ack=True``: the command carries an 8-character ID; returns the original's dict
+  ``{'command', 'sent_time', 'status', 'details', 'completed', 'ack_time', 'command_id'}``
+  (times are ``datetime``; status ``'COMPLETED'|'FAILED'|'CANCELLED'|'INVALID'``, details e.g.
+  ``"MoveJoint finished successfully"``) once the terminal acknowledgement arrives, or status
+  ``'TIMEOUT'`` after ``timeout`` seconds (``last_status`` says how far it got; the command
+  keeps running).
 * ``wait_for_ack=True, non_blocking=True``: returns the command ID at once; poll it with
   :func:`check_command_status`.
 
-Acknowledgements arrive on UDP :data:`ACK_PORT` (5002): one shared listener thread binds it
-on first use.  If another program holds that port, :class:`AckPortBusyError` says so.
+Every datagram is the one the original client sent for the same call (``MOVECART|...|NONE|50.0``,
+six fields per spline waypoint, ``SMOOTH_BLEND|...|DEFAULT``, frames and axes as written).
+
+Acknowledgements arrive on UDP :data:`ACK_PORT` (5002): one shared
+:class:`LazyCommandTracker` binds it on first use (nothing runs before).  If another program
+holds that port, :class:`AckPortBusyError` says so.
 
 Arguments are checked BEFORE anything is sent: a bad value raises ``ValueError`` naming the
 argument and the allowed range (for example ``speed_percentage must be in 0..100, got 150``).
@@ -48,21 +55,23 @@ import sys
 import threading
 import time
 from collections import OrderedDict
+from datetime import datetime
 from typing import Any, Dict, FrozenSet, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 __all__ = [
     # configuration
     "SERVER_IP", "SERVER_PORT", "ACK_PORT", "QUERY_TIMEOUT", "configure",
     "AckPortBusyError", "TERMINAL_STATUSES",
-    # sending
-    "send_robot_command", "send_robot_command_tracked", "send_and_wait",
+    # sending and tracking
+    "send_robot_command", "send_robot_command_tracked", "send_and_wait", "LazyCommandTracker",
     # motion and actions (original names and defaults)
     "move_robot_joints", "move_robot_pose", "move_robot_cartesian", "move_robot_cartesian_rel_trf",
     "jog_robot_joint", "jog_multiple_joints", "jog_cartesian",
     "control_pneumatic_gripper", "control_electric_gripper",
     "delay_robot", "home_robot", "stop_robot_movement",
     "smooth_circle", "smooth_arc_center", "smooth_arc_parametric", "smooth_spline",
-    "smooth_helix", "smooth_blend",
+    "smooth_helix", "smooth_blend", "chain_smooth_motions", "execute_trajectory",
+    "safe_move_with_retry",
     # extensions
     "enable_robot", "disable_robot", "clear_robot_error", "estop_robot",
     "speed_robot_joints", "wait_robot_input", "set_robot_tool", "set_stream_mode",
@@ -146,7 +155,7 @@ def configure(host: Optional[str] = None, port: Optional[int] = None,
         new = _int(ack_port, "ack_port", 0, 65535)
         if new != ACK_PORT:
             ACK_PORT = new
-            _tracker.stop()  # re-bound lazily on the next tracked command
+            _stop_tracker()  # re-bound lazily on the next tracked command
     return {"host": SERVER_IP, "port": SERVER_PORT, "ack_port": ACK_PORT}
 
 
@@ -174,7 +183,9 @@ def _number(value: Any, name: str, low: Optional[float] = None, high: Optional[f
         else:
             rng = f"in {low:g}..{high:g}" + (f" (excluding {low:g})" if low_open else "")
         raise ValueError(f"{name} must be {rng}, got {value!r}")
-    return value if type(value) is int else v  # ints keep their text form ("90", not "90.0")
+    if isinstance(value, int) or (hasattr(value, "__index__") and not isinstance(value, float)):
+        return int(value.__index__())  # integers keep their text form ("90", not "90.0")
+    return v
 
 
 def _int(value: Any, name: str, low: int, high: int) -> int:
@@ -234,6 +245,15 @@ def _zero_is_none(value: Any) -> Any:
     return value
 
 
+def _word(value: Any, name: str, choices: Sequence[str], *, upper: bool = True) -> str:
+    """A word checked against ``choices`` without regard to case and sent as the caller wrote
+    it (``wrf``, ``x+``), as the original client did (the controller reads it in any case).
+    An enum member is sent as its value (``Frame.WRF`` -> ``WRF``)."""
+    value = getattr(value, "value", value)
+    _choice(value, name, choices, upper=upper)
+    return str(value).strip()
+
+
 def _one_timing(duration: Any, speed_percentage: Any) -> Tuple[Optional[float], Optional[float]]:
     duration, speed_percentage = _zero_is_none(duration), _zero_is_none(speed_percentage)
     if duration is None and speed_percentage is None:
@@ -278,8 +298,16 @@ def _join(*fields: Any) -> str:
     return "|".join(f if isinstance(f, str) else format_value(f) for f in fields)
 
 
+def _float_text(value: float) -> str:
+    """A number written with a decimal point (``2.0``): the original client's ``str(float(v))``."""
+    return repr(float(value))
+
+
 def _start_field(start_pose: Any) -> str:
-    return "CURRENT" if start_pose is None else _csv(_pose(start_pose, "start_pose"))
+    """``CURRENT`` for no start pose (None or an empty list, as the original), else the pose."""
+    if start_pose is None or (hasattr(start_pose, "__len__") and len(start_pose) == 0):
+        return "CURRENT"
+    return _csv(_pose(start_pose, "start_pose"))
 
 
 def _timing_fields(duration: Any, speed_percentage: Any) -> str:
@@ -324,10 +352,20 @@ def build_move_pose(pose: Any, duration: Any = None, speed_percentage: Any = Non
 
 def build_move_cart(pose: Any, duration: Any = None, speed_percentage: Any = None,
                     profile: Any = None, tracking: Any = None) -> str:
-    """``MOVECART|x|y|z|A|B|C|duration|speed%[|profile|tracking]`` straight line (mm, deg)."""
+    """``MOVECART|x|y|z|A|B|C|duration|speed%[|profile|tracking]`` straight line (mm, deg).
+
+    As the original client: the field not given is ``NONE`` and the speed is written as a
+    float (``MOVECART|...|NONE|50.0``)."""
     p = _pose(pose, "pose")
-    return "MOVECART|" + _move_fields(p, duration, speed_percentage, None, profile, tracking,
-                                      with_accel=False)
+    d, s = _one_timing(duration, speed_percentage)
+    parts: List[str] = [format_value(v) for v in p]
+    parts += [format_value(d) if d is not None else "NONE",
+              _float_text(s) if s is not None else "NONE"]
+    pr = _opt_choice(profile, "profile", PROFILES)
+    t = _opt_choice(tracking, "tracking", TRACKING_MODES)
+    if pr is not None or t is not None:
+        parts += [format_value(pr), format_value(t)]
+    return "MOVECART|" + "|".join(parts)
 
 
 def build_move_cart_rel_trf(delta: Any, duration: Any = None, speed_percentage: Any = None,
@@ -340,12 +378,13 @@ def build_move_cart_rel_trf(delta: Any, duration: Any = None, speed_percentage: 
 
 def build_jog(joint_index: Any, speed_percentage: Any, duration: Any = None,
               distance_deg: Any = None) -> str:
-    """``JOG|index|speed%|duration|distance_deg``; index 0-5 = J1-J6 positive, 6-11 negative."""
+    """``JOG|index|speed%|duration|distance_deg``; index 0-5 = J1-J6 positive, 6-11 negative
+    (the duration written as a float, as the original client)."""
     i = _int(joint_index, "joint_index", 0, 11)
     s = _percent(speed_percentage, "speed_percentage")
     if duration is None and distance_deg is None:
         raise ValueError("give duration (s, > 0) and/or distance_deg (> 0), got neither")
-    d = _positive(duration, "duration") if duration is not None else None
+    d = _float_text(_positive(duration, "duration")) if duration is not None else None
     dist = _positive(distance_deg, "distance_deg") if distance_deg is not None else None
     return _join("JOG", i, s, d, dist)
 
@@ -374,17 +413,18 @@ def build_multijog(joints: Any, speeds: Any, duration: Any) -> str:
 
 
 def build_cartjog(frame: Any, axis: Any, speed_percentage: Any, duration: Any) -> str:
-    """``CARTJOG|WRF|TRF|axis|speed%|duration``."""
-    f = _choice(frame, "frame", FRAMES)
-    a = _choice(axis, "axis", CARTESIAN_AXES)
+    """``CARTJOG|WRF|TRF|axis|speed%|duration`` (frame and axis as the caller wrote them, the
+    duration as a float: the original client's form)."""
+    f = _word(frame, "frame", FRAMES)
+    a = _word(axis, "axis", CARTESIAN_AXES)
     s = _percent(speed_percentage, "speed_percentage")
     d = _positive(duration, "duration")
-    return _join("CARTJOG", f, a, s, d)
+    return _join("CARTJOG", f, a, s, _float_text(d))
 
 
 def build_pneumatic_gripper(action: Any, port: Any) -> str:
     """``PNEUMATICGRIPPER|open|close|port`` (port 1 = OUT1, 2 = OUT2)."""
-    a = _choice(action, "action", ("open", "close"), upper=False)
+    a = _word(action, "action", ("open", "close"), upper=False)
     p = _int(port, "port", 1, 2)
     return _join("PNEUMATICGRIPPER", a, p)
 
@@ -393,16 +433,17 @@ def build_electric_gripper(action: Any, position: Any = 255, speed: Any = 150,
                            current: Any = 500) -> str:
     """``ELECTRICGRIPPER|move|calibrate|clear_error|None|position|speed|current``.
 
-    position 0..255 (0 open, 255 closed), speed 0..255, current 0..1300 mA.
+    position 0..255 (0 open, 255 closed), speed 0..255, current 0..1300 mA; ``None`` (as
+    the original allowed) sends ``None`` and the controller uses 255 / 150 / 500.
     """
     if action is None:
         a = "None"
     else:
         a = _choice(action, "action", ("move", "calibrate", "clear_error", "none"), upper=False)
         a = "None" if a == "none" else a
-    pos = _int(position, "position", *GRIPPER_POSITION_RANGE)
-    spd = _int(speed, "speed", *GRIPPER_SPEED_RANGE)
-    cur = _int(current, "current", *GRIPPER_CURRENT_RANGE_MA)
+    pos = None if position is None else _int(position, "position", *GRIPPER_POSITION_RANGE)
+    spd = None if speed is None else _int(speed, "speed", *GRIPPER_SPEED_RANGE)
+    cur = None if current is None else _int(current, "current", *GRIPPER_CURRENT_RANGE_MA)
     return _join("ELECTRICGRIPPER", a, pos, spd, cur)
 
 
@@ -436,8 +477,8 @@ def build_smooth_circle(center: Any, radius: Any, plane: Any = "XY", frame: Any 
     """``SMOOTH_CIRCLE|cx,cy,cz|radius|plane|frame|start|DURATION|SPEED|value|cw``."""
     c = _numbers(center, 3, "center", " (x, y, z in mm)")
     r = _number(radius, "radius", 0.0, low_open=True)
-    return _join("SMOOTH_CIRCLE", _csv(c), r, _choice(plane, "plane", PLANES),
-                 _choice(frame, "frame", FRAMES), _start_field(start_pose),
+    return _join("SMOOTH_CIRCLE", _csv(c), r, _word(plane, "plane", PLANES),
+                 _word(frame, "frame", FRAMES), _start_field(start_pose),
                  _timing_fields(duration, speed_percentage), "1" if clockwise else "0")
 
 
@@ -447,7 +488,7 @@ def build_smooth_arc_center(end_pose: Any, center: Any, frame: Any = "WRF", star
     """``SMOOTH_ARC_CENTER|end pose|cx,cy,cz|frame|start|timing|value|cw``."""
     e = _pose(end_pose, "end_pose")
     c = _numbers(center, 3, "center", " (x, y, z in mm)")
-    return _join("SMOOTH_ARC_CENTER", _csv(e), _csv(c), _choice(frame, "frame", FRAMES),
+    return _join("SMOOTH_ARC_CENTER", _csv(e), _csv(c), _word(frame, "frame", FRAMES),
                  _start_field(start_pose), _timing_fields(duration, speed_percentage),
                  "1" if clockwise else "0")
 
@@ -461,21 +502,23 @@ def build_smooth_arc_param(end_pose: Any, radius: Any, arc_angle: Any, frame: An
     ang = _number(arc_angle, "arc_angle")
     if ang == 0:
         raise ValueError("arc_angle must be non-zero (deg)")
-    return _join("SMOOTH_ARC_PARAM", _csv(e), r, ang, _choice(frame, "frame", FRAMES),
+    return _join("SMOOTH_ARC_PARAM", _csv(e), r, ang, _word(frame, "frame", FRAMES),
                  _start_field(start_pose), _timing_fields(duration, speed_percentage),
                  "1" if clockwise else "0")
 
 
 def build_smooth_spline(waypoints: Any, frame: Any = "WRF", start_pose: Any = None,
                         duration: Any = None, speed_percentage: Any = None) -> str:
-    """``SMOOTH_SPLINE|n|frame|start|timing|value|x,y,z,A,B,C|...`` (one field per waypoint)."""
+    """``SMOOTH_SPLINE|n|frame|start|timing|value|x|y|z|A|B|C|x|y|...``: six fields per
+    waypoint, the original client's form (the controller also reads one ``x,y,z,A,B,C`` field
+    per waypoint)."""
     if isinstance(waypoints, (str, bytes)) or not hasattr(waypoints, "__iter__"):
         raise ValueError(f"waypoints must be a list of poses [x, y, z, A, B, C], got {waypoints!r}")
     wps = [_pose(w, f"waypoints[{i}]") for i, w in enumerate(waypoints)]
     if len(wps) < 2:
         raise ValueError(f"waypoints must hold at least 2 poses, got {len(wps)}")
-    return _join("SMOOTH_SPLINE", len(wps), _choice(frame, "frame", FRAMES), _start_field(start_pose),
-                 _timing_fields(duration, speed_percentage), *(_csv(w) for w in wps))
+    return _join("SMOOTH_SPLINE", len(wps), _word(frame, "frame", FRAMES), _start_field(start_pose),
+                 _timing_fields(duration, speed_percentage), *(v for w in wps for v in w))
 
 
 def build_smooth_helix(center: Any, radius: Any, pitch: Any, height: Any, frame: Any = "WRF",
@@ -488,7 +531,7 @@ def build_smooth_helix(center: Any, radius: Any, pitch: Any, height: Any, frame:
     h = _number(height, "height")
     if h == 0:
         raise ValueError("height must be non-zero (mm)")
-    return _join("SMOOTH_HELIX", _csv(c), r, p, h, _choice(frame, "frame", FRAMES),
+    return _join("SMOOTH_HELIX", _csv(c), r, p, h, _word(frame, "frame", FRAMES),
                  _start_field(start_pose), _timing_fields(duration, speed_percentage),
                  "1" if clockwise else "0")
 
@@ -512,7 +555,7 @@ def _segment(seg: Any, i: int) -> str:
     if kind == "CIRCLE":
         c = _numbers(need("center"), 3, f"{name}['center']")
         r = _number(need("radius"), f"{name}['radius']", 0.0, low_open=True)
-        plane = _choice(seg.get("plane", "XY"), f"{name}['plane']", PLANES)
+        plane = _word(seg.get("plane", "XY"), f"{name}['plane']", PLANES)
         dur = _positive(seg.get("duration", 3.0), f"{name}['duration']")
         return _join("CIRCLE", _csv(c), r, plane, dur, cw)
     if kind == "ARC":
@@ -527,7 +570,7 @@ def _segment(seg: Any, i: int) -> str:
     if len(poses) < 2:
         raise ValueError(f"{name}['waypoints'] must hold at least 2 poses, got {len(poses)}")
     dur = _positive(seg.get("duration", 3.0), f"{name}['duration']")
-    return _join("SPLINE", dur, *(_csv(p) for p in poses))
+    return _join("SPLINE", len(poses), ";".join(_csv(p) for p in poses), dur)
 
 
 def build_smooth_blend(segments: Any, blend_time: Any = 0.5, frame: Any = "WRF",
@@ -539,9 +582,9 @@ def build_smooth_blend(segments: Any, blend_time: Any = 0.5, frame: Any = "WRF",
     ``{'type': 'CIRCLE', 'center': xyz, 'radius': mm, 'plane': 'XY', 'duration': s,
     'clockwise': bool}``, ``{'type': 'ARC', 'end': pose, 'center': xyz, 'duration': s,
     'clockwise': bool}``, ``{'type': 'SPLINE', 'waypoints': [pose, ...], 'duration': s}``.
-    Without duration/speed_percentage each segment keeps its own duration (``DURATION|None``).
-    Segment wire forms: ``LINE|pose|s``, ``CIRCLE|xyz|r|plane|s|cw``, ``ARC|pose|xyz|s|cw``,
-    ``SPLINE|s|pose|pose|...``.
+    Without duration/speed_percentage the segments keep their own durations (``DEFAULT``, no
+    value field).  Segment wire forms (the original client's): ``LINE|pose|s``,
+    ``CIRCLE|xyz|r|plane|s|cw``, ``ARC|pose|xyz|s|cw``, ``SPLINE|n|pose;pose;...|s``.
     """
     if isinstance(segments, (str, bytes, dict)) or not hasattr(segments, "__iter__"):
         raise ValueError(f"segments must be a list of segment dicts, got {segments!r}")
@@ -550,10 +593,10 @@ def build_smooth_blend(segments: Any, blend_time: Any = 0.5, frame: Any = "WRF",
         raise ValueError("segments must hold at least 1 segment")
     bt = _number(blend_time, "blend_time", 0.0)
     if duration is None and speed_percentage is None:
-        timing = f"{TIMING_MODES[0]}|None"
+        timing = "DEFAULT"
     else:
         timing = _timing_fields(duration, speed_percentage)
-    return _join("SMOOTH_BLEND", len(segs), bt, _choice(frame, "frame", FRAMES),
+    return _join("SMOOTH_BLEND", len(segs), bt, _word(frame, "frame", FRAMES),
                  _start_field(start_pose), timing) + "|" + "||".join(segs)
 
 
@@ -626,9 +669,10 @@ def new_command_id() -> str:
 
 
 def parse_reply(text: str, tag: str) -> str:
-    """The payload of a ``TAG|payload`` reply; ``ValueError`` if the tag differs or on ``ERROR|``."""
-    head, sep, payload = text.partition("|")
-    if head == tag and sep:
+    """The payload of a ``TAG|payload`` reply (``""`` for a bare ``TAG`` such as ``PONG``);
+    ``ValueError`` if the tag differs or on ``ERROR|``."""
+    head, _, payload = text.partition("|")
+    if head == tag:
         return payload
     if head == "ERROR":
         raise ValueError(f"controller answered ERROR: {payload}")
@@ -706,150 +750,16 @@ def matrix_to_pose(matrix: Sequence[Any]) -> List[float]:
 
 
 def send_robot_command(command_string: str) -> str:
-    """Send one datagram to the controller without tracking; returns a confirmation string."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.sendto(command_string.encode("utf-8"), (SERVER_IP, SERVER_PORT))
-    return f"Successfully sent command: '{command_string[:60]}'"
+    """Send one datagram to the controller without tracking (no thread, no extra socket kept).
 
-
-class _AckTracker:
-    """The one shared acknowledgement listener (a daemon thread on ACK_PORT)."""
-
-    HISTORY = 1000
-
-    def __init__(self) -> None:
-        self._cond = threading.Condition()
-        self._records: "OrderedDict[str, Dict[str, Any]]" = OrderedDict()
-        self._sock: Optional[socket.socket] = None
-        self._thread: Optional[threading.Thread] = None
-        self._port: Optional[int] = None
-        #: ack-shaped datagrams ignored because they did not come from the controller
-        self.foreign = 0
-
-    @property
-    def active(self) -> bool:
-        return self._thread is not None and self._thread.is_alive()
-
-    def ensure_started(self) -> None:
-        with self._cond:
-            if self.active and self._port == ACK_PORT:
-                return
-        self.stop()
-        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        try:
-            sock.bind(("", ACK_PORT))
-        except OSError as exc:
-            sock.close()
-            raise AckPortBusyError(
-                exc.errno,
-                f"cannot listen for acknowledgements on UDP port {ACK_PORT}: {exc.strerror}. "
-                "Another program (another robot_api script, or a controller on this machine "
-                "using that port) holds it; call robot_api.configure(ack_port=N) with the port "
-                "the controller sends acks to (its --ack-port), or stop the other program.",
-            ) from None
-        sock.settimeout(0.2)
-        with self._cond:
-            self._sock = sock
-            self._port = ACK_PORT
-            self._thread = threading.Thread(target=self._run, args=(sock,),
-                                            name="robot_api-acks", daemon=True)
-            self._thread.start()
-
-    def stop(self) -> None:
-        with self._cond:
-            sock, thread = self._sock, self._thread
-            self._sock = self._thread = None
-            self._port = None
-        if sock is not None:
-            sock.close()
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(1.0)
-
-    def _run(self, sock: socket.socket) -> None:
-        while True:
-            try:
-                data, addr = sock.recvfrom(65535)
-            except socket.timeout:
-                if self._sock is not sock:
-                    return
-                continue
-            except OSError:
-                if self._sock is not sock:
-                    return  # socket closed by stop()
-                time.sleep(0.01)  # e.g. an ICMP error reported on the socket: keep listening
-                continue
-            ack = parse_ack(data.decode("utf-8", "replace"))
-            if ack is None:
-                continue
-            if not _from_controller(addr):
-                self.foreign += 1  # anyone on the machine can send to this port: not an ack
-                continue
-            cmd_id, status, details = ack
-            with self._cond:
-                rec = self._records.get(cmd_id)
-                if rec is None:
-                    continue  # not a command this process sent
-                if not rec.get("completed"):  # the first terminal ack is final
-                    rec.update(status=status, details=details, ack_time=time.time(),
-                               completed=status in TERMINAL_STATUSES)
-                    rec.setdefault("history", []).append(status)
-                while len(self._records) > self.HISTORY:
-                    self._records.popitem(last=False)
-                self._cond.notify_all()
-
-    def send(self, text: str) -> None:
-        """Send from the listening socket, so a controller that acks the sender's port
-        reaches us even with ``ACK_PORT = 0``."""
-        with self._cond:
-            sock = self._sock
-        if sock is None:
-            raise OSError("the acknowledgement listener is not running")
-        sock.sendto(text.encode("utf-8"), (SERVER_IP, SERVER_PORT))
-
-    def register(self, cmd_id: str, command: str) -> None:
-        with self._cond:
-            self._records[cmd_id] = {"command": command, "sent_time": time.time(),
-                                     "status": "SENT", "details": "", "completed": False,
-                                     "history": []}
-
-    def get(self, cmd_id: str) -> Optional[Dict[str, Any]]:
-        with self._cond:
-            rec = self._records.get(cmd_id)
-            return None if rec is None else dict(rec, command_id=cmd_id)
-
-    def wait(self, cmd_id: str, timeout: float) -> Dict[str, Any]:
-        deadline = time.monotonic() + timeout
-        with self._cond:
-            while True:
-                rec = self._records.get(cmd_id)
-                if rec is not None and rec.get("completed"):
-                    return {"status": rec["status"], "details": rec["details"],
-                            "command_id": cmd_id, "completed": True}
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    last = rec.get("status", "SENT") if rec else "SENT"
-                    return {"status": "TIMEOUT", "completed": False, "command_id": cmd_id,
-                            "details": f"no terminal acknowledgement within {timeout:g} s "
-                                       f"(last status: {last}); the command may still run"}
-                self._cond.wait(left)
-
-    def stats(self) -> Dict[str, Any]:
-        with self._cond:
-            bound = self._sock.getsockname()[1] if self._sock is not None else None
-            return {"active": self.active, "ack_port": bound,
-                    "commands_tracked": len(self._records),
-                    "pending": sum(1 for r in self._records.values() if not r.get("completed"))}
-
-
-def _controller_addresses(host: str, port: int) -> FrozenSet[Tuple[str, int]]:
+    Returns ``"Successfully sent command: '...'"``, or ``"Error sending command: ..."`` when the
+    operating system refused to send it (the original's strings)."""
     try:
-        infos = socket.getaddrinfo(host, port, socket.AF_INET, socket.SOCK_DGRAM)
-    except OSError:
-        return frozenset()
-    return frozenset((str(info[4][0]), port) for info in infos)
-
-
-_resolved: Dict[Tuple[str, int], FrozenSet[Tuple[str, int]]] = {}
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.sendto(command_string.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+    except OSError as exc:
+        return f"Error sending command: {exc}"
+    return f"Successfully sent command: '{command_string[:50]}...'"
 
 
 def _from_controller(addr: Any) -> bool:
@@ -862,55 +772,288 @@ def _from_controller(addr: Any) -> bool:
     return (addr[0], addr[1]) in known
 
 
-_tracker = _AckTracker()
+def _controller_addresses(host: str, port: int) -> FrozenSet[Tuple[str, int]]:
+    try:
+        infos = socket.getaddrinfo(host, port, socket.AF_INET, socket.SOCK_DGRAM)
+    except OSError:
+        return frozenset()
+    return frozenset((str(info[4][0]), port) for info in infos)
 
 
-def send_robot_command_tracked(command_string: str) -> Tuple[str, str]:
+_resolved: Dict[Tuple[str, int], FrozenSet[Tuple[str, int]]] = {}
+
+#: what a wait returns when the tracker never started (the original's answer)
+_NO_TRACKING = {"status": "NO_TRACKING", "details": "Tracker not initialized", "completed": True}
+
+
+class LazyCommandTracker:
+    """The acknowledgement listener: a socket on ``listen_port`` and a daemon thread, both
+    created on the first :meth:`track_command` (nothing runs before), as in the original.
+
+    Acknowledgements are taken only from the controller's address (:data:`SERVER_IP`,
+    :data:`SERVER_PORT`: anyone on the machine can send to this port) and only for IDs this
+    tracker issued; IDs come from the operating system's random source
+    (:func:`new_command_id`).  The first terminal status of a command is final.
+
+    ``history_size``: completed commands kept for :meth:`get_status` (older completed ones are
+    dropped first; commands still waiting for their terminal ack are kept).
+    """
+
+    def __init__(self, listen_port: int = 5002, history_size: int = 100) -> None:
+        self.listen_port = _int(listen_port, "listen_port", 0, 65535)
+        self.history_size = _int(history_size, "history_size", 1, 1_000_000)
+        #: command id -> its record (see :meth:`get_status`), oldest first
+        self.command_history: "OrderedDict[str, Dict[str, Any]]" = OrderedDict()
+        self.lock = threading.Condition()
+        self._socket: Optional[socket.socket] = None
+        self._thread: Optional[threading.Thread] = None
+        self._initialized = False
+        #: ack-shaped datagrams ignored because they did not come from the controller
+        self.foreign = 0
+
+    # ---- lifecycle
+
+    def _lazy_init(self) -> None:
+        """Bind the socket and start the thread (once); :class:`AckPortBusyError` when the port
+        is taken."""
+        with self.lock:
+            if self._initialized:
+                return
+            sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            try:
+                sock.bind(("", self.listen_port))
+            except OSError as exc:
+                sock.close()
+                raise AckPortBusyError(
+                    exc.errno,
+                    f"cannot listen for acknowledgements on UDP port {self.listen_port}: {exc.strerror}. "
+                    "Another program (another robot_api script, or a controller on this machine "
+                    "using that port) holds it; call robot_api.configure(ack_port=N) with the port "
+                    "the controller sends acks to (its --ack-port), or stop the other program.",
+                ) from None
+            sock.settimeout(0.2)
+            self._socket = sock
+            self._thread = threading.Thread(target=self._listen_loop, args=(sock,),
+                                            name="robot_api-acks", daemon=True)
+            self._initialized = True
+            self._thread.start()
+
+    def close(self) -> None:
+        """Stop the thread and close the socket (a later :meth:`track_command` starts again)."""
+        with self.lock:
+            sock, thread = self._socket, self._thread
+            self._socket = self._thread = None
+            self._initialized = False
+        if sock is not None:
+            sock.close()
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(1.0)
+
+    def is_active(self) -> bool:
+        """True once the listener runs."""
+        return self._initialized and self._thread is not None and self._thread.is_alive()
+
+    # ---- receiving
+
+    def _listen_loop(self, sock: socket.socket) -> None:
+        while True:
+            try:
+                data, addr = sock.recvfrom(65535)
+            except socket.timeout:
+                if self._socket is not sock:
+                    return
+                continue
+            except OSError:
+                if self._socket is not sock:
+                    return  # closed by close()
+                time.sleep(0.01)  # e.g. an ICMP error reported on the socket: keep listening
+                continue
+            ack = parse_ack(data.decode("utf-8", "replace"))
+            if ack is None:
+                continue
+            if not _from_controller(addr):
+                self.foreign += 1  # not the controller: not an ack
+                continue
+            self._record(*ack)
+
+    def _record(self, cmd_id: str, status: str, details: str) -> None:
+        with self.lock:
+            rec = self.command_history.get(cmd_id)
+            if rec is None or rec["completed"]:
+                return  # not a command of ours, or already final
+            rec.update(status=status, details=details, ack_time=datetime.now(),
+                       completed=status in TERMINAL_STATUSES)
+            rec["history"].append(status)
+            self._prune()
+            self.lock.notify_all()
+
+    def _prune(self) -> None:
+        done = [k for k, r in self.command_history.items() if r["completed"]]
+        for k in done[: max(0, len(self.command_history) - self.history_size)]:
+            del self.command_history[k]
+        # never more than this many, pending or not (a controller that never answers)
+        while len(self.command_history) > 10 * self.history_size + 1000:
+            self.command_history.popitem(last=False)
+
+    # ---- the original's methods
+
+    def track_command(self, command: str) -> Tuple[str, str]:
+        """Start the listener if needed and register ``command`` under a fresh ID; returns
+        ``(tracked_command, cmd_id)`` where ``tracked_command`` is ``"ID|command"`` to send."""
+        self._lazy_init()
+        cmd_id = new_command_id()
+        with self.lock:
+            self.command_history[cmd_id] = {
+                "command": command, "sent_time": datetime.now(), "status": "SENT", "details": "",
+                "completed": False, "ack_time": None, "history": [],
+            }
+            self._prune()
+        return f"{cmd_id}|{command}", cmd_id
+
+    def get_status(self, cmd_id: str) -> Optional[Dict[str, Any]]:
+        """A copy of the record of ``cmd_id``: ``command``, ``sent_time`` / ``ack_time``
+        (``datetime``; ack_time None before the first ack), ``status`` (SENT, QUEUED,
+        EXECUTING or a terminal status), ``details``, ``completed``, ``history`` (every status
+        received, in order), ``command_id``; None if unknown or never started."""
+        if not self._initialized:
+            return None
+        with self.lock:
+            rec = self.command_history.get(cmd_id)
+            if rec is None:
+                return None
+            return dict(rec, history=list(rec["history"]), command_id=cmd_id)
+
+    def wait_for_completion(self, cmd_id: str, timeout: float = 5.0) -> Dict[str, Any]:
+        """Wait up to ``timeout`` s for the terminal ack of ``cmd_id``; returns its record (as
+        :meth:`get_status`).  Without one in time: ``status`` ``'TIMEOUT'``, ``completed``
+        False, ``last_status`` the last status received (the command may still run)."""
+        t = _number(timeout, "timeout", 0.0)
+        if not self._initialized:
+            return dict(_NO_TRACKING)
+        deadline = time.monotonic() + t
+        with self.lock:
+            while True:
+                rec = self.get_status(cmd_id)
+                if rec is not None and rec["completed"]:
+                    return rec
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    last = rec["status"] if rec else "SENT"
+                    out = rec if rec is not None else {
+                        "command": None, "sent_time": None, "ack_time": None, "history": [],
+                        "command_id": cmd_id}
+                    out.update(status="TIMEOUT", completed=False, last_status=last,
+                               details=f"no terminal acknowledgement within {t:g} s (last status: "
+                                       f"{last}); the command may still run")
+                    return out
+                self.lock.wait(left)
+
+    # ---- parolkit additions
+
+    def send(self, text: str) -> None:
+        """Send ``text`` to the controller from the listening socket, so a controller that
+        acks the sender's port reaches us even on port 0."""
+        with self.lock:
+            sock = self._socket
+        if sock is None:
+            raise OSError("the acknowledgement listener is not running")
+        sock.sendto(text.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+
+    def stats(self) -> Dict[str, Any]:
+        """``active``, ``commands_tracked``, ``memory_bytes``, ``thread_active`` (the
+        original's keys) and ``ack_port`` (the port bound), ``pending``, ``foreign``."""
+        with self.lock:
+            sock = self._socket
+            return {
+                "active": self.is_active(),
+                "commands_tracked": len(self.command_history),
+                "memory_bytes": len(str(self.command_history)),
+                "thread_active": self._thread is not None and self._thread.is_alive(),
+                "ack_port": sock.getsockname()[1] if sock is not None else None,
+                "pending": sum(1 for r in self.command_history.values() if not r["completed"]),
+                "foreign": self.foreign,
+            }
+
+
+#: the module's tracker (created on the first tracked command, on :data:`ACK_PORT`)
+_command_tracker: Optional[LazyCommandTracker] = None
+_tracker_lock = threading.Lock()
+
+
+def _get_tracker() -> LazyCommandTracker:
+    """The module's tracker on :data:`ACK_PORT` (a new one after the port changed)."""
+    global _command_tracker
+    with _tracker_lock:
+        tracker = _command_tracker
+        if tracker is None or tracker.listen_port != ACK_PORT:
+            if tracker is not None:
+                tracker.close()
+            tracker = _command_tracker = LazyCommandTracker(ACK_PORT)
+        return tracker
+
+
+def _stop_tracker() -> None:
+    global _command_tracker
+    with _tracker_lock:
+        old, _command_tracker = _command_tracker, None
+    if old is not None:
+        old.close()
+
+
+def send_robot_command_tracked(command_string: str) -> Tuple[str, Optional[str]]:
     """Send with a fresh ID (starting the ack listener if needed); returns (message, id)."""
-    _tracker.ensure_started()
-    cmd_id = new_command_id()
-    _tracker.register(cmd_id, command_string)
-    _tracker.send(f"{cmd_id}|{command_string}")
+    tracker = _get_tracker()
+    tracked, cmd_id = tracker.track_command(command_string)
+    tracker.send(tracked)
     return f"Command sent with tracking (ID: {cmd_id})", cmd_id
 
 
 def send_and_wait(command_string: str, timeout: float = 2.0,
-                  non_blocking: bool = False) -> Union[Dict[str, Any], str]:
-    """Send with an ID; return the command ID at once (``non_blocking``) or the terminal
-    status dict (``{'status', 'details', 'command_id', 'completed'}``; ``'TIMEOUT'`` when no
-    terminal ack came within ``timeout`` s)."""
+                  non_blocking: bool = False) -> Union[Dict[str, Any], str, None]:
+    """Send with an ID; return the command ID at once (``non_blocking``) or the record of
+    its terminal acknowledgement: ``{'command', 'sent_time', 'status', 'details', 'completed',
+    'ack_time', 'command_id', ...}`` (times are ``datetime``); status ``'TIMEOUT'`` when none
+    came within ``timeout`` s (see :meth:`LazyCommandTracker.wait_for_completion`)."""
     t = _number(timeout, "timeout", 0.0)
     _, cmd_id = send_robot_command_tracked(command_string)
     if non_blocking:
         return cmd_id
-    return _tracker.wait(cmd_id, t)
+    assert cmd_id is not None
+    return _get_tracker().wait_for_completion(cmd_id, t)
 
 
-def _dispatch(command: str, wait_for_ack: bool, timeout: float,
-              non_blocking: bool) -> Union[Dict[str, Any], str]:
+Result = Union[Dict[str, Any], str, None]
+
+
+def _dispatch(command: str, wait_for_ack: bool, timeout: float, non_blocking: bool) -> Result:
     if wait_for_ack:
         return send_and_wait(command, timeout, non_blocking)
     return send_robot_command(command)
 
 
 def check_command_status(command_id: str) -> Optional[Dict[str, Any]]:
-    """The latest known status of a tracked command (``None`` if unknown).
-
-    Keys: ``status`` (SENT, QUEUED, EXECUTING or a terminal status), ``details``,
-    ``completed``, ``command``, ``history`` (every status received, in order), ``command_id``.
-    """
-    return _tracker.get(command_id)
+    """The latest known record of a tracked command (see :meth:`LazyCommandTracker.get_status`),
+    or None if unknown or tracking never started."""
+    tracker = _command_tracker
+    if tracker is None or not tracker.is_active():
+        return None
+    return tracker.get_status(command_id)
 
 
 def is_tracking_active() -> bool:
-    """True once the acknowledgement listener runs."""
-    return _tracker.active
+    """True once the acknowledgement listener runs (False if tracking was never used)."""
+    tracker = _command_tracker
+    return tracker is not None and tracker.is_active()
 
 
 def get_tracking_stats() -> Dict[str, Any]:
-    """Listener state: ``active``, ``ack_port`` (the port bound), ``commands_tracked``,
-    ``pending``."""
-    return _tracker.stats()
+    """``{'active', 'commands_tracked', 'memory_bytes', 'thread_active'}`` as the original,
+    plus ``ack_port`` (the port bound), ``pending`` and ``foreign`` (ignored datagrams)."""
+    tracker = _command_tracker
+    if tracker is None:
+        return {"active": False, "commands_tracked": 0, "memory_bytes": 0, "thread_active": False,
+                "ack_port": None, "pending": 0, "foreign": 0}
+    return tracker.stats()
 
 
 # =============================================================================================
@@ -918,17 +1061,18 @@ def get_tracking_stats() -> Dict[str, Any]:
 # =============================================================================================
 
 
-def move_robot_joints(angles: List[float], duration: Optional[float] = None,
+def move_robot_joints(joint_angles: List[float], duration: Optional[float] = None,
                       speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                      timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
-    """Joint-space move to ``angles`` (J1..J6, deg) in ``duration`` s or at ``speed_percentage``."""
-    return _dispatch(build_move_joint(angles, duration, speed_percentage), wait_for_ack, timeout,
+                      timeout: float = 2.0, non_blocking: bool = False) -> Result:
+    """Joint-space move to ``joint_angles`` (J1..J6, deg) in ``duration`` s or at
+    ``speed_percentage``."""
+    return _dispatch(build_move_joint(joint_angles, duration, speed_percentage), wait_for_ack, timeout,
                      non_blocking)
 
 
 def move_robot_pose(pose: List[float], duration: Optional[float] = None,
                     speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                    timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                    timeout: float = 2.0, non_blocking: bool = False) -> Result:
     """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK, joint-space path."""
     return _dispatch(build_move_pose(pose, duration, speed_percentage), wait_for_ack, timeout,
                      non_blocking)
@@ -936,7 +1080,7 @@ def move_robot_pose(pose: List[float], duration: Optional[float] = None,
 
 def move_robot_cartesian(pose: List[float], duration: Optional[float] = None,
                          speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                         timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                         timeout: float = 2.0, non_blocking: bool = False) -> Result:
     """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg)."""
     return _dispatch(build_move_cart(pose, duration, speed_percentage), wait_for_ack, timeout,
                      non_blocking)
@@ -945,7 +1089,7 @@ def move_robot_cartesian(pose: List[float], duration: Optional[float] = None,
 def move_robot_cartesian_rel_trf(delta: List[float], duration: Optional[float] = None,
                                  speed_percentage: Optional[float] = None,
                                  wait_for_ack: bool = False, timeout: float = 2.0,
-                                 non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                                 non_blocking: bool = False) -> Result:
     """Relative straight-line move in the tool frame: [dx, dy, dz, dA, dB, dC] (mm, deg)."""
     return _dispatch(build_move_cart_rel_trf(delta, duration, speed_percentage), wait_for_ack,
                      timeout, non_blocking)
@@ -953,7 +1097,7 @@ def move_robot_cartesian_rel_trf(delta: List[float], duration: Optional[float] =
 
 def jog_robot_joint(joint_index: int, speed_percentage: float, duration: Optional[float] = None,
                     distance_deg: Optional[float] = None, wait_for_ack: bool = False,
-                    timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                    timeout: float = 2.0, non_blocking: bool = False) -> Result:
     """Jog one joint: index 0-5 = J1-J6 positive, 6-11 = J1-J6 negative; for ``duration`` s
     and/or ``distance_deg`` degrees at ``speed_percentage`` of its jog speed."""
     return _dispatch(build_jog(joint_index, speed_percentage, duration, distance_deg),
@@ -962,21 +1106,21 @@ def jog_robot_joint(joint_index: int, speed_percentage: float, duration: Optiona
 
 def jog_multiple_joints(joints: List[int], speeds: List[float], duration: float,
                         wait_for_ack: bool = False, timeout: float = 2.0,
-                        non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                        non_blocking: bool = False) -> Result:
     """Jog several joints at once (indices as :func:`jog_robot_joint`, speeds in %)."""
     return _dispatch(build_multijog(joints, speeds, duration), wait_for_ack, timeout, non_blocking)
 
 
 def jog_cartesian(frame: str, axis: str, speed_percentage: float, duration: float,
                   wait_for_ack: bool = False, timeout: float = 2.0,
-                  non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                  non_blocking: bool = False) -> Result:
     """Cartesian jog in ``frame`` ('WRF'/'TRF') along/about ``axis`` ('X+' ... 'RZ-')."""
     return _dispatch(build_cartjog(frame, axis, speed_percentage, duration), wait_for_ack, timeout,
                      non_blocking)
 
 
 def control_pneumatic_gripper(action: str, port: int, wait_for_ack: bool = False,
-                              timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                              timeout: float = 2.0, non_blocking: bool = False) -> Result:
     """Open/close the pneumatic gripper on output ``port`` (1 or 2)."""
     return _dispatch(build_pneumatic_gripper(action, port), wait_for_ack, timeout, non_blocking)
 
@@ -984,7 +1128,7 @@ def control_pneumatic_gripper(action: str, port: int, wait_for_ack: bool = False
 def control_electric_gripper(action: str, position: Optional[int] = 255,
                              speed: Optional[int] = 150, current: Optional[int] = 500,
                              wait_for_ack: bool = False, timeout: float = 2.0,
-                             non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                             non_blocking: bool = False) -> Result:
     """SSG-48 gripper: ``action`` 'move' or 'calibrate' (or 'clear_error');
     position 0..255, speed 0..255, current 0..1300 mA."""
     return _dispatch(build_electric_gripper(action, position, speed, current), wait_for_ack,
@@ -992,13 +1136,13 @@ def control_electric_gripper(action: str, position: Optional[int] = 255,
 
 
 def delay_robot(duration: float, wait_for_ack: bool = False, timeout: float = 2.0,
-                non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                non_blocking: bool = False) -> Result:
     """Queue a pause of ``duration`` seconds."""
     return _dispatch(build_delay(duration), wait_for_ack, timeout, non_blocking)
 
 
 def home_robot(wait_for_ack: bool = False, timeout: float = 30.0,
-               non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+               non_blocking: bool = False) -> Result:
     """Run the board's homing sequence."""
     return _dispatch(build_home(), wait_for_ack, timeout, non_blocking)
 
@@ -1031,7 +1175,7 @@ def get_control() -> Optional[Dict[str, Any]]:
 
 
 def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,
-                        non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                        non_blocking: bool = False) -> Result:
     """Cancel the active command and clear the queue; the robot holds position."""
     return _dispatch("STOP", wait_for_ack, timeout, non_blocking)
 
@@ -1040,7 +1184,7 @@ def smooth_circle(center: List[float], radius: float, plane: str = "XY", frame: 
                   start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
                   speed_percentage: Optional[float] = None, clockwise: bool = False,
                   wait_for_ack: bool = False, timeout: float = 10.0,
-                  non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                  non_blocking: bool = False) -> Result:
     """Full circle of ``radius`` mm about ``center`` [x, y, z] mm in ``plane``."""
     return _dispatch(build_smooth_circle(center, radius, plane, frame, start_pose, duration,
                                          speed_percentage, clockwise),
@@ -1051,7 +1195,7 @@ def smooth_arc_center(end_pose: List[float], center: List[float], frame: str = "
                       start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
                       speed_percentage: Optional[float] = None, clockwise: bool = False,
                       wait_for_ack: bool = False, timeout: float = 10.0,
-                      non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                      non_blocking: bool = False) -> Result:
     """Arc to ``end_pose`` about ``center`` [x, y, z] mm."""
     return _dispatch(build_smooth_arc_center(end_pose, center, frame, start_pose, duration,
                                              speed_percentage, clockwise),
@@ -1063,7 +1207,7 @@ def smooth_arc_parametric(end_pose: List[float], radius: float, arc_angle: float
                           duration: Optional[float] = None,
                           speed_percentage: Optional[float] = None, clockwise: bool = False,
                           wait_for_ack: bool = False, timeout: float = 10.0,
-                          non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                          non_blocking: bool = False) -> Result:
     """Arc to ``end_pose`` with ``radius`` mm and ``arc_angle`` degrees."""
     return _dispatch(build_smooth_arc_param(end_pose, radius, arc_angle, frame, start_pose,
                                             duration, speed_percentage, clockwise),
@@ -1073,7 +1217,7 @@ def smooth_arc_parametric(end_pose: List[float], radius: float, arc_angle: float
 def smooth_spline(waypoints: List[List[float]], frame: str = "WRF",
                   start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
                   speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                  timeout: float = 10.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                  timeout: float = 10.0, non_blocking: bool = False) -> Result:
     """Cubic spline through ``waypoints`` (poses [x, y, z, A, B, C] in mm/deg)."""
     return _dispatch(build_smooth_spline(waypoints, frame, start_pose, duration, speed_percentage),
                      wait_for_ack, timeout, non_blocking)
@@ -1083,7 +1227,7 @@ def smooth_helix(center: List[float], radius: float, pitch: float, height: float
                  frame: str = "WRF", start_pose: Optional[List[float]] = None,
                  duration: Optional[float] = None, speed_percentage: Optional[float] = None,
                  clockwise: bool = False, wait_for_ack: bool = False, timeout: float = 10.0,
-                 non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                 non_blocking: bool = False) -> Result:
     """Helix about ``center`` (mm): ``radius``, ``pitch`` per turn and total ``height`` in mm."""
     return _dispatch(build_smooth_helix(center, radius, pitch, height, frame, start_pose, duration,
                                         speed_percentage, clockwise),
@@ -1093,49 +1237,195 @@ def smooth_helix(center: List[float], radius: float, pitch: float, height: float
 def smooth_blend(segments: List[Dict[str, Any]], blend_time: float = 0.5, frame: str = "WRF",
                  start_pose: Optional[List[float]] = None, duration: Optional[float] = None,
                  speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                 timeout: float = 15.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                 timeout: float = 15.0, non_blocking: bool = False) -> Result:
     """Blend LINE/CIRCLE/ARC/SPLINE segments into one path (see :func:`build_smooth_blend`)."""
     return _dispatch(build_smooth_blend(segments, blend_time, frame, start_pose, duration,
                                         speed_percentage),
                      wait_for_ack, timeout, non_blocking)
 
 
+# ---- the original's convenience functions ----
+
+#: chain_smooth_motions types -> (builder, the key holding where the motion ends or None)
+_CHAIN_TYPES: Dict[str, Tuple[Any, Optional[str]]] = {
+    "circle": (build_smooth_circle, None),
+    "arc": (build_smooth_arc_center, "end_pose"),
+    "arc_center": (build_smooth_arc_center, "end_pose"),
+    "arc_param": (build_smooth_arc_param, "end_pose"),
+    "arc_parametric": (build_smooth_arc_param, "end_pose"),
+    "spline": (build_smooth_spline, "waypoints"),
+    "helix": (build_smooth_helix, None),
+}
+
+#: statuses after which a sequence of tracked moves goes no further
+_SEQUENCE_ENDS = ("FAILED", "INVALID", "CANCELLED")
+
+
+def _ended(result: Result) -> bool:
+    return isinstance(result, dict) and result.get("status") in _SEQUENCE_ENDS
+
+
+def chain_smooth_motions(motions: List[Dict[str, Any]], ensure_continuity: bool = True,
+                         frame: str = "WRF", wait_for_ack: bool = True,
+                         timeout: float = 30.0) -> List[Result]:
+    """Send several smooth motions one after another; returns the list of their results.
+
+    Each item is a dict with ``'type'`` (``circle``, ``arc`` / ``arc_center``, ``arc_param`` /
+    ``arc_parametric``, ``spline``, ``helix``) and that function's keyword parameters, e.g.
+    ``{'type': 'circle', 'center': [0, 250, 200], 'radius': 30, 'duration': 4}``; ``frame``
+    applies to all.  With ``ensure_continuity`` each motion after the first starts at the
+    previous one's end pose (an arc's ``end_pose``, a spline's last waypoint; after a circle or
+    a helix the next one starts where the robot is).  With ``wait_for_ack`` (default) each is
+    sent once the previous one is finished (``timeout`` s each) and the chain stops at the
+    first FAILED (and, unlike the original, also at INVALID or CANCELLED: a STOP ends it).
+
+    Every motion is checked before the first one is sent (``ValueError`` naming the item); the
+    caller's dicts are not changed.
+    """
+    if isinstance(motions, (str, bytes, dict)) or not hasattr(motions, "__iter__"):
+        raise ValueError(f"motions must be a list of motion dicts, got {motions!r}")
+    commands: List[str] = []
+    last_end: Any = None
+    for i, motion in enumerate(motions):
+        if not isinstance(motion, dict):
+            raise ValueError(f"motions[{i}] must be a dict with a 'type', got {motion!r}")
+        kind = str(motion.get("type", "")).strip().lower()
+        entry = _CHAIN_TYPES.get(kind)
+        if entry is None:
+            raise ValueError(f"motions[{i}]['type'] must be one of {', '.join(_CHAIN_TYPES)}, "
+                             f"got {motion.get('type')!r}")
+        builder, end_key = entry
+        params = {k: v for k, v in motion.items() if k != "type"}
+        params["frame"] = frame
+        if ensure_continuity and last_end is not None and i > 0:
+            params["start_pose"] = last_end
+        try:
+            commands.append(builder(**params))
+        except TypeError as exc:  # a key the function does not take
+            raise ValueError(f"motions[{i}] ({kind}): {exc}") from None
+        except ValueError as exc:
+            raise ValueError(f"motions[{i}] ({kind}): {exc}") from None
+        if end_key == "waypoints":
+            wps = list(motion.get("waypoints") or [])
+            last_end = wps[-1] if wps else None
+        else:
+            last_end = motion.get(end_key) if end_key else None
+    results: List[Result] = []
+    for command in commands:
+        result = _dispatch(command, wait_for_ack, timeout, False)
+        results.append(result)
+        if wait_for_ack and _ended(result):
+            break
+    return results
+
+
+def execute_trajectory(trajectory: List[List[float]], timing_mode: str = "duration",
+                       timing_value: float = 5.0, motion_type: str = "spline", frame: str = "WRF",
+                       wait_for_ack: bool = True, timeout: float = 30.0) -> Union[Result, List[Result]]:
+    """Move through the poses of ``trajectory`` ([x, y, z, A, B, C] mm/deg each).
+
+    ``motion_type='spline'``: one :func:`smooth_spline` timed by ``timing_mode`` ``'duration'``
+    (``timing_value`` s in total) or ``'speed'`` (``timing_value`` %); returns its result.
+    ``motion_type='linear'``: one :func:`move_robot_cartesian` per pose (the duration split
+    evenly, or every move at the speed %), stopping at the first FAILED (also INVALID or
+    CANCELLED); returns the list of results.  Linear moves are world-frame MOVECARTs: ``frame``
+    must then be ``'WRF'`` (the original ignored a ``'TRF'`` there; this refuses it).
+    Every pose is checked before anything is sent.
+    """
+    mode = _choice(timing_mode, "timing_mode", ("duration", "speed"), upper=False)
+    kind = _choice(motion_type, "motion_type", ("spline", "linear"), upper=False)
+    if isinstance(trajectory, (str, bytes)) or not hasattr(trajectory, "__iter__"):
+        raise ValueError(f"trajectory must be a list of poses [x, y, z, A, B, C], got {trajectory!r}")
+    poses = list(trajectory)
+    timing = {"duration": timing_value} if mode == "duration" else {"speed_percentage": timing_value}
+    if kind == "spline":
+        return _dispatch(build_smooth_spline(poses, frame, None, **timing), wait_for_ack, timeout, False)
+    if _choice(frame, "frame", FRAMES) != "WRF":
+        raise ValueError("linear trajectories are world-frame MOVECART moves: give frame='WRF' "
+                         "(or motion_type='spline' for a tool-frame path)")
+    if not poses:
+        raise ValueError("trajectory must hold at least 1 pose")
+    if mode == "duration":
+        timing = {"duration": _positive(timing_value, "timing_value") / len(poses)}
+    commands = [build_move_cart(_pose(p, f"trajectory[{i}]"), **timing) for i, p in enumerate(poses)]
+    results: List[Result] = []
+    for command in commands:
+        result = _dispatch(command, wait_for_ack, timeout, False)
+        results.append(result)
+        if wait_for_ack and _ended(result):
+            break
+    return results
+
+
+def safe_move_with_retry(move_func: Any, *args: Any, max_retries: int = 3, retry_delay: float = 1.0,
+                         **kwargs: Any) -> Result:
+    """Call ``move_func(*args, **kwargs, wait_for_ack=True)`` until it is accepted.
+
+    A COMPLETED, QUEUED or EXECUTING result is returned at once; FAILED, TIMEOUT or CANCELLED is
+    tried again after ``retry_delay`` s, at most ``max_retries`` attempts in all, and the last
+    result is returned.  Two cases are returned at once instead of being sent again: INVALID
+    (the same datagram would be refused again) and a TIMEOUT whose last status was QUEUED or
+    EXECUTING (the controller has the command and is running it: a retry would run it twice).
+    A result that is not a dict (a function without tracking) is returned as it is.
+    """
+    tries = _int(max_retries, "max_retries", 1, 1_000_000)
+    delay = _number(retry_delay, "retry_delay", 0.0)
+    kwargs["wait_for_ack"] = True
+    result: Result = None
+    for attempt in range(tries):
+        result = move_func(*args, **kwargs)
+        if not isinstance(result, dict):
+            return result
+        status = result.get("status")
+        if status in ("COMPLETED", "QUEUED", "EXECUTING"):
+            return result
+        if status == "TIMEOUT" and result.get("last_status") in ("QUEUED", "EXECUTING"):
+            return result
+        if status not in ("FAILED", "TIMEOUT", "CANCELLED"):
+            return result
+        if attempt < tries - 1:
+            print(f"robot_api: attempt {attempt + 1} of {tries} ended {status}: "
+                  f"{result.get('details', '')}; retrying in {delay:g} s", file=sys.stderr)
+            time.sleep(delay)
+    return result
+
+
 # ---- extensions (parolkit controller) ----
 
 
 def enable_robot(wait_for_ack: bool = False, timeout: float = 2.0,
-                 non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                 non_blocking: bool = False) -> Result:
     """ENABLE: enable the robot; clears a released E-stop latch and a latched error."""
     return _dispatch("ENABLE", wait_for_ack, timeout, non_blocking)
 
 
 def disable_robot(wait_for_ack: bool = False, timeout: float = 2.0,
-                  non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                  non_blocking: bool = False) -> Result:
     """DISABLE the robot (no steps generated)."""
     return _dispatch("DISABLE", wait_for_ack, timeout, non_blocking)
 
 
 def clear_robot_error(wait_for_ack: bool = False, timeout: float = 2.0,
-                      non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                      non_blocking: bool = False) -> Result:
     """CLEAR_ERROR: clear a latched error."""
     return _dispatch("CLEAR_ERROR", wait_for_ack, timeout, non_blocking)
 
 
 def estop_robot(wait_for_ack: bool = False, timeout: float = 2.0,
-                non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                non_blocking: bool = False) -> Result:
     """**(ext)** software E-stop (latched until :func:`enable_robot`)."""
     return _dispatch("ESTOP", wait_for_ack, timeout, non_blocking)
 
 
 def speed_robot_joints(speeds_deg_s: List[float], duration: float, wait_for_ack: bool = False,
-                       timeout: float = 2.0, non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                       timeout: float = 2.0, non_blocking: bool = False) -> Result:
     """**(ext)** constant joint speeds (deg/s, J1..J6) for ``duration`` s."""
     return _dispatch(build_speed_joint(speeds_deg_s, duration), wait_for_ack, timeout, non_blocking)
 
 
 def wait_robot_input(input_number: int, state: int, input_timeout: Optional[float] = None,
                      wait_for_ack: bool = False, timeout: float = 2.0,
-                     non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                     non_blocking: bool = False) -> Result:
     """**(ext)** queue a wait until IN``input_number`` equals ``state`` (FAILED after
     ``input_timeout`` s)."""
     return _dispatch(build_wait_input(input_number, state, input_timeout), wait_for_ack, timeout,
@@ -1143,13 +1433,13 @@ def wait_robot_input(input_number: int, state: int, input_timeout: Optional[floa
 
 
 def set_robot_tool(name: str, wait_for_ack: bool = False, timeout: float = 2.0,
-                   non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                   non_blocking: bool = False) -> Result:
     """**(ext)** select a tool by name ('default', 'flange' or one from the config)."""
     return _dispatch(build_set_tool(name), wait_for_ack, timeout, non_blocking)
 
 
 def set_stream_mode(on: bool, wait_for_ack: bool = False, timeout: float = 2.0,
-                    non_blocking: bool = False) -> Union[Dict[str, Any], str]:
+                    non_blocking: bool = False) -> Result:
     """Streaming jog mode on/off (newest jog replaces the previous one)."""
     return _dispatch(build_stream(on), wait_for_ack, timeout, non_blocking)
 
@@ -1205,15 +1495,28 @@ def _query_values(request: str, tag: str, count: int,
         return None
 
 
-def get_robot_pose_matrix() -> Optional[List[List[float]]]:
-    """The 4x4 tool pose as a list of 4 rows (translation in METRES), or None."""
+def _pose_rows() -> Optional[List[List[float]]]:
     m = _query_values("GET_POSE", "POSE", 16)
     return None if m is None else [m[0:4], m[4:8], m[8:12], m[12:16]]
 
 
+def get_robot_pose_matrix() -> Any:
+    """The 4x4 tool pose (translation in METRES), or None: a numpy array of shape (4, 4) as the
+    original returned, or a list of 4 rows where numpy is not installed (numpy is imported only
+    here, so the module itself needs only the standard library)."""
+    rows = _pose_rows()
+    if rows is None:
+        return None
+    try:
+        import numpy
+    except ImportError:
+        return rows
+    return numpy.array(rows, dtype=float)
+
+
 def get_robot_pose() -> Optional[List[float]]:
     """[x, y, z, A, B, C] in mm / deg (R = Rx(C) Ry(B) Rz(A)), or None."""
-    m = get_robot_pose_matrix()
+    m = _pose_rows()
     return None if m is None else matrix_to_pose(m)
 
 
@@ -1283,17 +1586,25 @@ def is_estop_pressed() -> bool:
     return io[4] == 0
 
 
-def get_robot_status() -> Optional[Dict[str, Any]]:
-    """Everything in one GET_STATUS round trip, or None.
+_STATUS_KEYS = ("pose", "pose_matrix", "angles", "speeds", "io", "gripper", "state", "homed", "queue",
+                "command", "error", "serial")
 
-    Keys: ``pose`` [x, y, z, A, B, C] mm/deg, ``pose_matrix``, ``angles`` deg, ``speeds``
+
+def get_robot_status() -> Dict[str, Any]:
+    """Everything in one GET_STATUS round trip.
+
+    Keys: the original's ``pose`` [x, y, z, A, B, C] mm/deg, ``angles`` deg, ``speeds``
     steps/s, ``io`` [IN1, IN2, OUT1, OUT2, ESTOP], ``gripper`` (as
-    :func:`get_electric_gripper_status`), ``stopped``, ``estop`` (pressed), ``state``,
-    ``homed`` (6 bools), ``queue``, ``command``, ``error``.
+    :func:`get_electric_gripper_status`), ``stopped``, ``estop`` (pressed); and ``pose_matrix``
+    (4 rows), ``state``, ``homed`` (6 bools), ``queue``, ``command``, ``error``, ``serial``
+    (True when the controller's board link is up).  As the original, a dict always: without
+    a reply (message on stderr) every value is None and ``stopped`` / ``estop`` are False.
     """
+    empty: Dict[str, Any] = dict.fromkeys(_STATUS_KEYS)
+    empty.update(stopped=False, estop=False)
     payload = _query("GET_STATUS", "STATUS")
     if payload is None:
-        return None
+        return empty
     f = parse_status_fields(payload)
     try:
         matrix = parse_numbers(f["POSE"], 16, "STATUS POSE")
@@ -1313,19 +1624,21 @@ def get_robot_status() -> Optional[Dict[str, Any]]:
             "queue": int(f["QUEUE"]) if f.get("QUEUE", "").strip().isdigit() else None,
             "command": None if f.get("CMD") in (None, "None", "") else f["CMD"],
             "error": None if f.get("ERROR") in (None, "None", "") else f["ERROR"],
+            "serial": f["SERIAL"].strip() == "1" if "SERIAL" in f else None,
         }
     except (KeyError, ValueError) as exc:
         print(f"robot_api: malformed STATUS reply ({exc!s})", file=sys.stderr)
-        return None
+        return empty
     return out
 
 
 def ping_robot() -> Optional[bool]:
-    """PING: True when the controller's board link is up, False when down, None if no reply."""
-    payload = _query("PING", "PONG")
-    if payload is None:
+    """**(ext)** PING the controller (it answers ``PONG``), then ask whether its board link is
+    up (``SERIAL=`` of GET_STATUS): True when up, False when down (or while the controller
+    still starts), None when it does not answer PING."""
+    if _query("PING", "PONG") is None:
         return None
-    return parse_status_fields(payload).get("SERIAL", "0").strip() == "1"
+    return get_robot_status()["serial"] is True
 
 
 def wait_for_robot_stopped(timeout: float = 10.0, poll_rate: float = 0.1) -> bool:

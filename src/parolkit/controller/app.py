@@ -112,7 +112,7 @@ class Controller:
                                 stream=self.stream, answerer=self, ack_port=cs.ack_port,
                                 lease=ControlLease(cs.lease_timeout_s, cs.secret))
         self.outbox.start()
-        self.server.start()  # PING answers from here on (SERIAL=0 until the link is up)
+        self.server.start()  # PING answers from here on (GET_STATUS: SERIAL=0 until the link is up)
         self.stream.start()
         transport = self._transport
         if transport is None:

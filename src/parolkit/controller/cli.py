@@ -110,7 +110,7 @@ def _bind(host: str, port: int) -> socket.socket:
 
 
 class EarlyPong(threading.Thread):
-    """Answers PING with ``PONG|SERIAL=0`` while the rest of the controller is still loading.
+    """Answers PING with ``PONG`` while the rest of the controller is still loading.
 
     Only a datagram that is exactly ``PING`` is taken off the socket (peeked first); anything
     else stays queued in the socket for the real server, which takes over the same socket.
@@ -133,7 +133,7 @@ class EarlyPong(threading.Thread):
             if data.strip() == b"PING":
                 try:
                     self.sock.recvfrom(64)
-                    self.sock.sendto(b"PONG|SERIAL=0", addr)
+                    self.sock.sendto(b"PONG", addr)
                 except OSError:
                     pass
             else:

@@ -93,22 +93,6 @@ def needs_plan(cmd: C.Command) -> bool:
     return isinstance(cmd, _TRAJECTORY_COMMANDS)
 
 
-#: a plan's notes that start so are warnings (``parolkit.motion.validate.WARNING_PREFIX``, not
-#: imported here: the controller loads the planners only when first needed), e.g. a move
-#: with t that needs more than a joint's acceleration limit: logged when the move starts and
-#: carried in its terminal ack's details
-PLAN_WARNING_PREFIX = "warning: "
-
-
-def with_plan_warnings(job: Job, details: str) -> str:
-    """``details`` of a job's terminal ack with its plan's warnings appended (``"; "``
-    between parts), so a COMPLETED ack says the move ran despite them."""
-    warnings = [n for n in job.notes if n.startswith(PLAN_WARNING_PREFIX)]
-    if not warnings:
-        return details
-    return "; ".join([details, *warnings] if details else warnings)
-
-
 @dataclass
 class GripperSetpoint:
     """Persistent SSG-48 setpoints sent in every frame."""
@@ -229,6 +213,7 @@ class Executor:
     def _ack(self, job: Job, status: AckStatus, details: str = "") -> None:
         if job.terminal is not None:
             return
+        details = job.ack_details(status, details)
         if status.terminal:
             job.terminal = status
             log.debug("job %d %s (%s): %s %s", job.seq, job.name, job.command_id, status.value, details)
@@ -853,9 +838,8 @@ class Executor:
                 return
             act = SpeedActivity(speeds, secs, streamed=job.streamed, started=now)
         elif needs_plan(cmd):
-            for note in job.notes:
-                if note.startswith(PLAN_WARNING_PREFIX):
-                    log.warning("%s (%s): %s", job.name, job.command_id or "no id", note)
+            for note in job.warnings:
+                log.warning("%s (%s): %s", job.name, job.command_id or "no id", note)
             act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now,  # type: ignore[arg-type]
                                      max_speed_steps_s=self.model.max_speed_steps_s)
             self.plan_seq += 1
@@ -1045,7 +1029,7 @@ class Executor:
                 self.active = None
                 self.activity = None
                 if job is not None:
-                    self._ack(job, step.done, with_plan_warnings(job, step.details))
+                    self._ack(job, step.done, step.details)
                 self._plan_cv.notify_all()
         return step
 

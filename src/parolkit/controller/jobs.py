@@ -50,6 +50,11 @@ class PlanAhead:
         self.job: Job | None = None
 
 
+#: a plan's notes that start so are warnings (``parolkit.motion.validate.WARNING_PREFIX``, not
+#: imported here: the controller loads the planners only when first needed)
+WARNING_PREFIX = "warning: "
+
+
 @dataclass
 class Job:
     """One accepted command, from QUEUED to its terminal ack.
@@ -87,10 +92,36 @@ class Job:
     ahead: PlanAhead | None = None
     #: who sent it (see Submission.client)
     client: str = ""
-
     @property
     def name(self) -> str:
         return self.command.name
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The plan's notes that are warnings (``warning: ...``, e.g. a move with t that needs
+        more than a joint's acceleration limit): added to the details of this job's EXECUTING
+        and COMPLETED acks (see :meth:`ack_details`)."""
+        return tuple(n for n in self.notes if n.startswith(WARNING_PREFIX))
+
+    @property
+    def label(self) -> str:
+        """The command in ack details: its class name (``MoveJoint``, ``SmoothCircle``, ``CartJog``)."""
+        return type(self.command).__name__.removesuffix("Command")
+
+    def ack_details(self, status: AckStatus, details: str) -> str:
+        """The details text of this job's ack with ``status``, built here only.
+
+        COMPLETED says ``details`` or, when the activity gave none, ``<label> finished
+        successfully`` (the original controller's "MoveJointCommand finished successfully");
+        EXECUTING and COMPLETED then carry :attr:`warnings`, joined with ``"; "`` (a text
+        already in ``details`` is not repeated).  Other statuses keep ``details`` as they are."""
+        if status is AckStatus.COMPLETED and not details:
+            details = f"{self.label} finished successfully"
+        if status not in (AckStatus.EXECUTING, AckStatus.COMPLETED) or not self.warnings:
+            return details
+        parts = [details] if details else []
+        parts += [w for w in self.warnings if w and w not in details]
+        return "; ".join(parts)
 
 
 @dataclass(frozen=True)

@@ -487,7 +487,7 @@ class UdpServer:
             else:
                 reply = self.answerer.answer_query(cmd.name, str(who))
             self._reply(reply, addr)
-            self._ack(cid, addr, AckStatus.COMPLETED)
+            self._ack(cid, addr, AckStatus.COMPLETED, f"{cmd.name} answered")
             return
         if isinstance(cmd, C.AckHere):
             self._ack(cid, addr, AckStatus.COMPLETED, "acks also go to this socket")

@@ -222,7 +222,9 @@ class Snapshot:
         return "SPEEDS|" + ",".join(str(v) for v in self.status.speeds)
 
     def reply_ping(self) -> str:
-        return f"PONG|SERIAL={int(self.board.connected)}"
+        """``PONG``, exactly as the original controller answered (clients compare the text);
+        whether the board link is up is ``SERIAL=`` of GET_STATUS."""
+        return "PONG"
 
     def reply_status(self) -> str:
         cmd = self.command.name if self.command else "None"
@@ -236,6 +238,7 @@ class Snapshot:
             f"|CMD={cmd}|ERROR={err}|OVERLOAD={self.overload}"
             f"|IMPLAUSIBLE={self.integrity.implausible}|UNCOMMANDED={self.integrity.uncommanded}"
             f"|SCHED={self.scheduling}|LINK_LOSSES={self.loop_view().get('link_losses', 0)}"
+            f"|SERIAL={int(self.board.connected)}"
         )
 
     @property

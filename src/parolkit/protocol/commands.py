@@ -957,31 +957,54 @@ def _blend_segment(fields: Sequence[str], k: int, frame: Frame) -> tuple[BlendSe
             frame=frame, duration_s=duration, clockwise=_flag01(f[3], f"{where} clockwise"),
         ), duration
     if kind == "SPLINE":
-        if len(f) < 2:
-            raise DatagramError(f"{where} SPLINE takes duration|pose|pose|..., got {len(f)} fields")
-        wps = tuple(_pose_field(p, f"{where} waypoint {i + 1}") for i, p in enumerate(f[1:]))
+        if len(f) == 3 and "," not in f[2]:
+            # the original client's form: n|x,y,z,A,B,C;x,y,z,A,B,C;...|duration
+            n = _integer(f[0], f"{where} SPLINE n (waypoints)", 2, MAX_WAYPOINTS)
+            poses = f[1].split(";")
+            if len(poses) != n:
+                raise DatagramError(f"{where} SPLINE: n = {n} waypoints announced, {len(poses)} given "
+                                    "(separated by ';')")
+            duration_text = f[2]
+        elif len(f) >= 2:
+            poses, duration_text = f[1:], f[0]
+        else:
+            raise DatagramError(f"{where} SPLINE takes duration|pose|pose|... or n|pose;pose;...|duration, "
+                                f"got {len(f)} fields")
+        wps = tuple(_pose_field(p, f"{where} waypoint {i + 1}") for i, p in enumerate(poses))
         if len(wps) < 2:
             raise DatagramError(f"{where} SPLINE needs at least 2 waypoints, got {len(wps)}")
-        duration = _duration(f[0], f"{where} duration")
+        duration = _duration(duration_text, f"{where} duration")
         return SplineMove(wps, frame=frame, duration_s=duration), duration
     raise DatagramError(f"{where} type must be {'|'.join(BLEND_SEGMENT_KINDS)}, got {_show(fields[0])}")
 
 
 def _p_blend(a: Sequence[str], m: RobotModel) -> Command:
-    if len(a) < 7:
+    default = len(a) > 4 and a[4].strip().upper() == "DEFAULT"
+    if len(a) < (6 if default else 7):
         raise DatagramError(
-            f"SMOOTH_BLEND takes n|blend_time|frame|start|timing|value|segments, got {len(a)} arguments"
+            f"SMOOTH_BLEND takes n|blend_time|frame|start|timing|value|segments (or DEFAULT timing without "
+            f"a value), got {len(a)} arguments"
         )
     n = _integer(a[0], "n (segments)", 1, 100)
     blend = _ranged(a[1], "blend time (s)", 0.0, 10.0, unit="s")
     frame = _choice(a[2], "frame", Frame)
     start = _start_field(a[3])
-    timing = _choice(a[4], "timing", Timing)
-    value = _timing_value(timing, a[5]) if _given(a[5]) else 0.0
+    if default:
+        # the original client's form: DEFAULT (no value field) = the segments' own durations
+        timing, value, first_segment = Timing.DURATION, 0.0, 5
+    else:
+        word = a[4].strip().upper()
+        found = next((t for t in Timing if t.value == word), None)
+        if found is None:
+            raise DatagramError(f"timing must be one of {'|'.join(t.value for t in Timing)}|DEFAULT, "
+                                f"got {_show(a[4])}")
+        timing = found
+        value = _timing_value(timing, a[5]) if _given(a[5]) else 0.0
+        first_segment = 6
     if timing is Timing.SPEED and value == 0.0:
         raise DatagramError("timing value (SPEED %) must be given for SPEED timing")
     segs_raw: list[list[str]] = [[]]
-    for fld in a[6:]:
+    for fld in a[first_segment:]:
         if fld == "":
             segs_raw.append([])
         else:
