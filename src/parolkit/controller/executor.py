@@ -158,6 +158,9 @@ class Executor:
         #: a client that re-enabled at once otherwise kept the board from ever getting it)
         self._disable_owed = False
         self._disable_paid = -1
+        #: the safety guard's judgement of a 156 frame (``SafetyGuard.accepts_goto``), set by the
+        #: control loop that owns the guard; activities catching up ask it (see TickContext)
+        self.goto_check: Callable[[Sequence[int], Sequence[int], StatusFrame | None, float], bool] | None = None
         self.estop_latched = False
         self.estop_pressed = False
         self.error: str | None = None
@@ -1004,7 +1007,7 @@ class Executor:
         if act is None:
             return Step(BoardCommand.IDLE)
         ctx = TickContext(tick, now, self.rate_hz, status, self._homed, self.stream_mode, self.watchdog_s,
-                          self._limits)
+                          self._limits, self.goto_check)
         step = self._run_activity(act, ctx)
         if step.done is not None and act.frameless_end and self.queue:
             # its end needs no frame of its own (it only saw the board's report): the next

@@ -136,6 +136,9 @@ class TickContext:
     stream_mode: bool
     watchdog_s: float
     limits_steps: tuple[tuple[int, int], ...]
+    #: ``goto_check(targets, feed_forwards, status, now)``: would the safety guard pass this 156
+    #: frame now (``SafetyGuard.accepts_goto``)?  None: judge with the pacing model alone
+    goto_check: Callable[[Sequence[int], Sequence[int], StatusFrame | None, float], bool] | None = None
 
 
 @dataclass(frozen=True)
@@ -277,25 +280,47 @@ class TrajectoryActivity(Activity):
 
     def _goto_sample(self, ctx: TickContext) -> float:
         """Where in the samples the next 156 target is: what is due now, but no further than
-        the board can follow from where it is (and never back)."""
+        the board can follow from where it is (and never back).  With the guard's own
+        judgement at hand (``ctx.goto_check``) every target is one it passes (else the
+        furthest such one from the previous target on); without it, the pacing model
+        judges catch-ups of more than one sample."""
         want = min(max(self._elapsed_samples(ctx.now, ctx.rate_hz), float(self.i)), self.n - 1.0)
         prev, s_prev = self._prev_goto, self._s
         if prev is None or s_prev is None:
             return want
         want = max(want, s_prev)
-        x = self.log.estimate(ctx.status, ctx.now)
-        if x is None or want - s_prev <= 1.0:
-            return want  # the plan's own pace (at most one sample per period: the planner's bound)
+        check = ctx.goto_check
         target, t_prev = prev
-        dt = ctx.now - t_prev
+        if check is not None:
+            def ok(s: float) -> bool:
+                pos, ff = self._at(s)
+                return check(pos, ff, ctx.status, ctx.now)
+        else:
+            x = self.log.estimate(ctx.status, ctx.now)
+            if x is None or want - s_prev <= 1.0:
+                return want  # the plan's own pace (at most one sample per period: the planner's bound)
+            dt = ctx.now - t_prev
 
-        def ok(s: float) -> bool:
-            pos, ff = self._at(s)
-            return self.fits(pos, ff, target, dt, x, self.vmax)
+            def ok(s: float) -> bool:
+                pos, ff = self._at(s)
+                return self.fits(pos, ff, target, dt, x, self.vmax)
 
         if ok(want):
             return want
-        lo, hi = s_prev + 1.0 if ok(s_prev + 1.0) else s_prev, want
+        pace = min(s_prev + 1.0, self.n - 1.0)
+        if check is not None and want < pace and ok(pace):
+            # an early tick: the guard counts the previous frame as running a whole period (the
+            # board is further on than "due now" says): the nearest target ahead that it passes
+            bad, good = want, pace
+            for _ in range(12):
+                mid = 0.5 * (bad + good)
+                if ok(mid):
+                    good = mid
+                else:
+                    bad = mid
+            return good
+        step1 = min(s_prev + 1.0, want)
+        lo, hi = (step1, want) if ok(step1) else (s_prev, step1)
         for _ in range(12):  # to 1/4000 of the catch-up span
             mid = 0.5 * (lo + hi)
             if ok(mid):

@@ -127,6 +127,7 @@ class ControlLoop:
         self.transport = transport
         self.executor = executor
         self.guard = guard
+        executor.goto_check = guard.accepts_goto  # catch-up targets judged as the guard will
         self.rate_hz = rate_hz
         self.period = 1.0 / rate_hz
         if not 1 <= link_hold_frames <= link_timeout_ticks:
