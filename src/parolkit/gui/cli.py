@@ -202,7 +202,8 @@ def main(args: argparse.Namespace) -> int:
 
     from nicegui import app, core, ui
 
-    from parolkit.gui.app import Commander, build_app
+    from parolkit.gui.app import build_app
+    from parolkit.gui.commander import Commander
     from parolkit.gui.link import ControllerLink
     from parolkit.gui.security import SecurityMiddleware
 
