@@ -56,6 +56,8 @@ class CommanderPage:
         ui.add_body_html(f'<script type="application/json" id="pk-keymap">{keys}</script>')
         ui.add_body_html(f'<script src="{static_url("commander.js")}"></script>')
         ui.dark_mode(True)
+        # brand colours dark enough for white text at >= 4.5:1 (Quasar's own are 2.9..4.4:1)
+        ui.colors(primary="#1d4ed8", positive="#15803d", warning="#a16207", negative="#b91c1c", info="#0369a1")
         ui.on("pk_key", self.on_key)
         self.help = HelpDialog()
         self.header = Header(commander, on_help=self.help.open)

@@ -27,7 +27,7 @@ __all__ = [
 #: The TCP pose's six values, named as the Cartesian jog names its axes (RX RY RZ: the
 #: orientation angles in degrees, pose convention R = Rx(RX) @ Ry(RY) @ Rz(RZ) with the
 #: angles as the controller reports them).
-POSE_LABELS = ("X", "Y", "Z", "A", "B", "C")
+POSE_LABELS = ("X", "Y", "Z", "RX", "RY", "RZ")
 POSE_UNITS = ("mm", "mm", "mm", "°", "°", "°")
 
 
@@ -121,9 +121,10 @@ def format_gripper(g: GripperState) -> str:
 
 
 def state_badge(status: RobotStatus | None, link_up: bool) -> tuple[str, str]:
-    """(text, colour) for the state badge: colour is one of 'positive', 'warning', 'negative', 'grey'."""
+    """(text, colour) for the state badge; colour is a Quasar colour: 'positive', 'warning',
+    'negative', 'info' or 'grey-8'."""
     if not link_up or status is None:
-        return "NO LINK", "grey"
+        return "NO LINK", "grey-8"
     if status.estop_latched or status.estop_pressed or status.state is RobotState.ESTOP:
         return "E-STOP", "negative"
     if status.state is RobotState.ERROR or status.errors.message:

@@ -44,14 +44,14 @@ class Header:
                         ui.label("PAROL6 · jog · IO · RBTscript").classes("pk-brand-sub")
                 with ui.element("div").classes("pk-mid"):
                     with ui.element("div").classes("pk-status").props('role=status aria-label="robot status"'):
-                        self.link_chip = ui.chip("NO LINK", icon="link_off", color="grey") \
+                        self.link_chip = ui.chip("NO LINK", icon="link_off", color="grey-8") \
                             .props("data-testid=link-chip")
                         self.mode_chip = ui.chip(c.mode_label, icon="memory", color="indigo") \
                             .props("data-testid=mode-chip")
-                        self.state_chip = ui.chip("—", color="grey").classes("text-weight-bold") \
+                        self.state_chip = ui.chip("—", color="grey-8").classes("text-weight-bold") \
                             .props("data-testid=state-chip")
                         self.control_badge = ControlBadge(c.control)
-                        self.grip_chip = ui.chip("Gripper —", icon="back_hand", color="blue-grey") \
+                        self.grip_chip = ui.chip("Gripper —", icon="back_hand", color="blue-grey-8") \
                             .classes("pk-grip-chip").props("data-testid=grip-compact")
                         self.grip_chip.tooltip("SSG-48 gripper (details in the IO · Gripper tab)")
                     with ui.element("div").classes("pk-actions"):
@@ -88,7 +88,8 @@ class Header:
         if key != self._shown:
             self._shown = key
             self.link_chip.set_text("LINKED" if link_up else "NO LINK")
-            self.link_chip.props(f"color={'positive' if link_up else 'grey'} icon={'link' if link_up else 'link_off'}")
+            self.link_chip.props(f"color={'positive' if link_up else 'grey-8'} "
+                                 f"icon={'link' if link_up else 'link_off'}")
             self.state_chip.set_text(text)
             self.state_chip.props(f"color={colour}")
             if latched:

@@ -13,8 +13,7 @@ class HelpDialog:
     """The ``?`` dialog; Esc closes it (and does not latch E-STOP while it is open)."""
 
     def __init__(self) -> None:
-        with ui.dialog() as self.dialog, ui.card().classes("pk-card") \
-                .props('role=dialog aria-label="Keyboard shortcuts"'):
+        with ui.dialog().props('aria-label="Keyboard shortcuts"') as self.dialog, ui.card().classes("pk-card"):
             ui.label("Keyboard shortcuts").classes("text-lg font-bold")
             with ui.grid(columns=2).classes("gap-x-6 gap-y-1"):
                 for b in KEYMAP:

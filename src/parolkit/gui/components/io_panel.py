@@ -44,7 +44,7 @@ class IoGripperPanel:
                         .props("unelevated color=primary data-testid=grip-cal")
                     ui.button("Clear error", icon="healing",
                               on_click=lambda: c.command("ELECTRICGRIPPER|clear_error", "Gripper clear error")) \
-                        .props('outline color=grey-4 aria-label="Clear gripper error" data-testid=grip-clear')
+                        .props('outline color=grey-4 aria-label="Clear error of the gripper" data-testid=grip-clear')
                 self.grip_pos = ui.slider(min=0, max=255, value=100) \
                     .props('label aria-label="gripper position, 0 to 255" data-testid=grip-pos')
                 ui.label().bind_text_from(self.grip_pos, "value", lambda v: f"position {v}").classes("text-xs pk-muted")

@@ -119,9 +119,10 @@ class JogPanel:
             if self.c.jogging:
                 button.classes(add="pk-held")
 
-        button.on("mousedown", down, ["button"])
-        button.on("touchstart", down, [])
-        for ev in ("mouseup", "mouseleave", "touchend", "touchcancel"):
+        # pointer events: one start per press whatever the pointer (a touch used to start a
+        # jog twice: touchstart, then the browser's emulated mousedown)
+        button.on("pointerdown", down, ["button", "pointerType"])
+        for ev in ("pointerup", "pointerleave", "pointercancel"):
             button.on(ev, lambda _: self.release(), [])
 
     def release(self) -> None:

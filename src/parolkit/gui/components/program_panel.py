@@ -57,7 +57,7 @@ class ProgramPanel:
                         ui.menu_item(name, on_click=lambda text=text: self.set_program(text))
         self.files = ProgramsPanel(self.c.programs, self.c.log, lambda: self.editor.value or "", self.set_program)
         self.editor = ui.codemirror(SEED_EXAMPLES["Output click"], on_change=self.on_edit, theme="githubLight") \
-            .classes("w-full pk-editor").props('data-testid=editor aria-label="RBTscript program"')
+            .classes("w-full pk-editor").props("data-testid=editor")  # commander.js names its text box
         self.prog_status = ui.label("").classes("text-sm pk-mono").props("data-testid=prog-status role=status")
         self.diag_box = ui.column().classes("gap-0 w-full").props("data-testid=diagnostics")
         with ui.element("div").classes("pk-two"):

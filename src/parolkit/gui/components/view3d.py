@@ -51,7 +51,7 @@ class ArmView:
                 ui.space()
                 self.fps_label = ui.label("").classes("text-xs pk-muted pk-mono")
             self.scene = ui.scene(width=684, height=430, grid=(20, 20), background_color="#0d1526", fps=30) \
-                .classes("pk-scene").props('data-testid=scene aria-label="3D view of the arm"')
+                .classes("pk-scene").props('data-testid=scene role=img aria-label="3D view of the arm"')
             with self.scene:
                 self.scene.axes_helper(length=1.2)  # world frame
                 self.groups = self._arm(opacity=1.0)
