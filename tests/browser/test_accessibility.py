@@ -67,7 +67,7 @@ def test_axe_finds_no_serious_or_critical_violation_on_any_tab_or_dialog(apage, 
     page.locator(".q-dialog").first.wait_for(state="visible", timeout=15000)
     page.wait_for_timeout(400)  # the dialog's fade-in (contrast is judged on the final colours)
     found["help dialog"] = _axe(page, axe_js)
-    page.get_by_test_id("help-close").click()
+    page.locator(".q-dialog").get_by_role("button", name="Close").click()
     page.locator(".q-dialog").first.wait_for(state="hidden", timeout=15000)
     bad = {k: v for k, v in found.items() if v}
     assert not bad, "axe-core violations:\n" + "\n".join(f"== {k}\n{_report(v)}" for k, v in bad.items())
@@ -133,7 +133,7 @@ def test_a_touch_starts_a_jog_once_and_its_release_stops_it(browser, gui_url, ap
     """Item 11.  Failed on the old page: a tap started the jog twice (touchstart, then the
     browser's emulated mousedown): two 'jog J1+' starts, and J1 moved 0.37°."""
     recover(apage)
-    ctx = browser.new_context(viewport={"width": 390, "height": 844}, has_touch=True, is_mobile=True)
+    ctx = browser.new_context(viewport={"width": 1024, "height": 768}, has_touch=True)  # a tablet
     page = ctx.new_page()
     try:
         page.goto(gui_url)

@@ -47,7 +47,7 @@ def ready(gui_url, browser):
 def test_estop_stays_in_view_and_nothing_scrolls_sideways(ready, browser, width, height):
     """Item 3.  Failed on the old page: it was always about 1244 px wide, so a phone showed it
     with E-STOP off-screen (and a sideways scroll), 1024 px cut E-STOP off, and at 1280x720
-    the header (with E-STOP) scrolled away with the page."""
+    and 1600x1000 the header (with E-STOP) scrolled away with the page (2560 px passed)."""
     page = browser.new_page(viewport={"width": width, "height": height})
     try:
         page.goto(ready)
@@ -79,10 +79,12 @@ def test_estop_stays_in_view_and_nothing_scrolls_sideways(ready, browser, width,
 
 
 def _readout_boxes(page) -> dict[str, dict]:
-    ids = ([f"angle-{j}" for j in range(1, 7)] + [f"speed-{j}" for j in range(1, 7)]
-           + [f"homed-{j}" for j in range(1, 7)] + ["pose-x", "pose-y", "pose-z", "pose-rx", "pose-ry", "pose-rz"]
-           + ["io-in1", "io-in2", "io-out1", "io-out2", "io-estop", "error-bits", "board-timing", "queue"])
-    return {i: box(page, i) for i in ids}
+    """Bounding boxes of every readout value of the card (joints, pose, IO, errors, stats)."""
+    return page.evaluate("""() => Object.fromEntries([...document.querySelectorAll('[data-testid]')]
+        .filter(e => /^((angle|speed|homed)-[1-6]|pose-[a-z]{1,2}|io-[a-z0-9]+|error-bits|board-timing|queue)$/
+                     .test(e.dataset.testid))
+        .map(e => { const r = e.getBoundingClientRect();
+                    return [e.dataset.testid, {x: r.x, y: r.y, width: r.width, height: r.height}]; }))""")
 
 
 def _overlap(a: dict, b: dict) -> bool:
@@ -102,6 +104,7 @@ def test_readouts_hold_still_when_estop_latches(ready, browser, width):
         wait_ready(page, 60)
         page.wait_for_timeout(500)
         before = _readout_boxes(page)
+        assert len(before) == 6 * 3 + 6 + 5 + 3, sorted(before)  # joints, pose, IO, the rest
         page.get_by_test_id("btn-estop").click()
         wait_until(lambda: "latched" in text(page, "io-estop"), 15, what="the E-stop readout latched", page=page)
         page.wait_for_timeout(300)
@@ -116,8 +119,8 @@ def test_readouts_hold_still_when_estop_latches(ready, browser, width):
               '[data-testid^=angle-], [data-testid^=speed-], [data-testid^=pose-], [data-testid^=io-]')]
             .filter(e => e.scrollWidth > e.clientWidth + 1).map(e => e.dataset.testid)""")
         assert clipped == [], f"readouts cut off: {clipped}"
-        recover(page)
     finally:
+        recover(page)
         page.close()
 
 

@@ -13,11 +13,12 @@ import pytest
 from tests.browser.helpers import wait_linked
 
 import parolkit.gui
-from parolkit.gui.app import STATIC_DIR, STATIC_URL
 
 pytestmark = [pytest.mark.browser]
 
 GUI = Path(parolkit.gui.__file__).resolve().parent
+STATIC_DIR = GUI / "static"  # parolkit.gui.app.STATIC_DIR, without importing NiceGUI here
+STATIC_URL = "/parolkit-static"  # parolkit.gui.app.STATIC_URL
 COMPONENTS = ("header", "view3d", "jog_panel", "io_panel", "program_panel", "telemetry", "help_dialog")
 
 
