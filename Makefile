@@ -30,6 +30,7 @@ run: $(STAMP_RUN)
 ## make test: set everything up, lint and type-check, and run every test (unit, integration, browser)
 test: lint
 	./scripts/ensure-chromium.sh
+	./scripts/ensure-axe.sh
 	$(PY) -m pytest -q
 
 ## make lint: ruff (style, imports, bugs) and mypy --strict (types, the whole package);
@@ -42,9 +43,10 @@ lint: $(STAMP_DEV)
 test-fast: $(STAMP_DEV)
 	$(PY) -m pytest -q tests/unit
 
-## make screenshot: regenerate docs/images/commander.png with the browser test suite
+## make screenshot: regenerate docs/images/commander*.png with the browser test suite
 screenshot: $(STAMP_DEV)
 	./scripts/ensure-chromium.sh
+	./scripts/ensure-axe.sh
 	PAROLKIT_UPDATE_SCREENSHOT=1 $(PY) -m pytest -q tests/browser
 
 ## make bench: run every benchmark script and print its figures

@@ -107,3 +107,13 @@ def page(browser, gui_url):
     pg.goto(gui_url)
     yield pg
     pg.close()
+
+
+@pytest.fixture(scope="session")
+def axe_js() -> str:
+    """axe-core's script (from npm: scripts/ensure-axe.sh, run by make test)."""
+    from tests.browser.helpers import AXE_JS
+
+    if not AXE_JS.exists():
+        pytest.fail(f"axe-core not found at {AXE_JS}: run scripts/ensure-axe.sh (make test does)")
+    return AXE_JS.read_text()

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from parolkit.client.core import QUERIES, PlanInfo, RobotState, RobotStatus, parse_query_reply
+from parolkit.client.core import QUERIES, GripperState, PlanInfo, RobotState, RobotStatus, parse_query_reply
 from parolkit.client.errors import ReplyError
 from parolkit.errors import ParolkitValueError
 from parolkit.gui import geometry
@@ -25,7 +25,15 @@ from parolkit.gui.jog import (
     matrix_to_rpy,
     rpy_to_matrix,
 )
-from parolkit.gui.status import format_angles, format_loop, format_pose, state_badge
+from parolkit.gui.status import (
+    POSE_LABELS,
+    format_angles,
+    format_gripper,
+    format_loop,
+    format_pose,
+    gripper_summary,
+    state_badge,
+)
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.moves import CartAxis, CartJog, Frame, JointJog
 from parolkit.robot import PAROL6
@@ -75,6 +83,29 @@ def test_readout_formatting_units():
     # fields the controller did not send are left out, not shown as zeros
     assert format_loop(RobotStatus.from_json(dict(STATUS, loop={"rate_hz": 99.5})).loop) == "100 Hz"
     assert format_loop(RobotStatus.from_json(dict(STATUS, loop=None)).loop) == "n/a"
+
+
+def test_pose_is_labelled_with_the_jog_axes_names():
+    # the readout names the orientation as the Cartesian jog does (RX RY RZ), not A B C
+    assert POSE_LABELS == ("X", "Y", "Z", "RX", "RY", "RZ")
+    assert [a.value.rstrip("+-") for a in CartAxis][::2] == list(POSE_LABELS)
+
+
+@pytest.mark.parametrize(("status_byte", "summary", "words"), [
+    (0x00, "Gripper · not calibrated", "not calibrated"),
+    (0x01, "Gripper 100 · moving", "calibrated · moving"),
+    (0x31, "Gripper 100 · at its position, no object", "calibrated · at its position, no object"),
+    (0x11, "Gripper 100 · holding an object", "holding an object (stopped on it while closing)"),
+    (0x21, "Gripper 100 · holding an object", "holding an object (stopped on it while opening)"),
+    (0x05, "Gripper 100 · error: timeout", "calibrated · error: timeout"),
+    (0x0B, "Gripper 100 · error: E-stop, over-temperature", "error: E-stop, over-temperature"),
+])
+def test_gripper_status_reads_in_words(status_byte, summary, words):
+    g = GripperState(position=100, speed=60, current=600, status_byte=status_byte, object_detection=1)
+    assert gripper_summary(g) == summary
+    full = format_gripper(g)
+    assert full.startswith("position 100 · speed 60 · current 600 mA · ") and words in full
+    assert "code" not in full and "object no" not in full
 
 
 def test_state_badge_priorities():

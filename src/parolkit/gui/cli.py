@@ -202,7 +202,8 @@ def main(args: argparse.Namespace) -> int:
 
     from nicegui import app, core, ui
 
-    from parolkit.gui.app import Commander, build_app
+    from parolkit.gui.app import build_app
+    from parolkit.gui.commander import Commander
     from parolkit.gui.link import ControllerLink
     from parolkit.gui.security import SecurityMiddleware
 
@@ -232,6 +233,7 @@ def main(args: argparse.Namespace) -> int:
     try:
         ui.run(root, host=host, port=http_port, title="parolkit commander", reload=False,
                show=not args.no_browser, show_welcome_message=False, dark=True, favicon="🦾",
+               language="en-US",  # <html lang="en-US">: screen readers pick the right voice
                reconnect_timeout=30.0,
                # SIGTERM / Ctrl+C: give open pages this long to close, then stop anyway (by
                # default uvicorn waits for every connection, forever if a browser froze)

@@ -83,17 +83,17 @@ def describe_control(info: dict[str, Any] | None, link_port: int | None, runner_
     ``local_host``: their address as the controller sees it (127.0.0.1 for a controller on
     this machine), None when unknown."""
     if info is None:
-        return ControlView(Holder.UNKNOWN, None, "Control: unknown (no answer)", "grey")
+        return ControlView(Holder.UNKNOWN, None, "Control: unknown (no answer)", "grey-8")
     holder = info.get("holder")
     secret = " · secret required" if info.get("secret_required") else ""
     if holder is None:
-        return ControlView(Holder.FREE, None, f"Nobody controls the robot{secret}", "blue-grey")
+        return ControlView(Holder.FREE, None, f"Nobody controls the robot{secret}", "blue-grey-8")
     holder = str(holder)
     if _is_address(holder, link_port, local_host):
         return ControlView(Holder.US, holder, "You control the robot", "positive")
     if _is_address(holder, runner_port, local_host):
         return ControlView(Holder.RUNNER, holder, "Your program controls the robot", "positive")
-    return ControlView(Holder.OTHER, holder, f"Controlled by {holder}", "deep-orange")
+    return ControlView(Holder.OTHER, holder, f"Controlled by {holder}", "deep-orange-10")
 
 
 class ControlWatch:

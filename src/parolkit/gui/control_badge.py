@@ -17,9 +17,9 @@ class ControlBadge:
     def __init__(self, watch: ControlWatch) -> None:
         self.watch = watch
         self._version = -1
-        self.chip = ui.chip("Control: …", icon="lock", color="grey").props("data-testid=control-chip")
+        self.chip = ui.chip("Control: …", icon="lock", color="grey-8").props("data-testid=control-chip")
         self.take_button = ui.button("Take control", icon="pan_tool", on_click=self.confirm_take) \
-            .props("unelevated dense color=deep-orange data-testid=btn-take-control").classes("px-2")
+            .props("unelevated dense color=deep-orange-10 data-testid=btn-take-control").classes("px-2")
         self.take_button.tooltip("take control from the other client (its commands are cancelled)")
         self.take_button.set_visibility(False)
         self.update()
@@ -36,13 +36,13 @@ class ControlBadge:
 
     async def confirm_take(self) -> None:
         holder = self.watch.view.address or "another client"
-        with ui.dialog() as dlg, ui.card().classes("pk-card"):
+        with ui.dialog().props('aria-label="Take control of the robot"') as dlg, ui.card().classes("pk-card"):
             ui.label("Take control of the robot?").classes("font-bold")
             ui.label(f"{holder} controls it now. Taking control cancels its running and queued "
                      "commands; it can take control back the same way.").classes("text-sm w-96")
             with ui.row():
                 ui.button("Take control", on_click=lambda: dlg.submit(True)) \
-                    .props("unelevated color=deep-orange data-testid=confirm-take-control")
+                    .props("unelevated color=deep-orange-10 data-testid=confirm-take-control")
                 ui.button("Cancel", on_click=lambda: dlg.submit(False)).props("flat")
         if await dlg:
             try:

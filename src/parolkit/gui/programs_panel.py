@@ -37,7 +37,7 @@ class ProgramsPanel:
                 .props("flat dense color=grey-4 data-testid=prog-save-as")
             ui.button("Programs", icon="list", on_click=self.show_list) \
                 .props("flat dense color=grey-4 data-testid=prog-list")
-        self.status = ui.label(f"programs folder: {folder.root}").classes("text-xs text-slate-500 pk-mono") \
+        self.status = ui.label(f"programs folder: {folder.root}").classes("text-xs text-slate-400 pk-mono") \
             .props("data-testid=file-status")
 
     def _ok(self, text: str) -> None:
@@ -85,7 +85,7 @@ class ProgramsPanel:
         return True
 
     async def save_as(self) -> None:
-        with ui.dialog() as dlg, ui.card().classes("pk-card"):
+        with ui.dialog().props('aria-label="Save program as"') as dlg, ui.card().classes("pk-card"):
             ui.label("Save program as").classes("font-bold")
             ui.label(f"in {self.folder.root}").classes("text-xs text-slate-400 pk-mono")
             name = ui.input("program name", value=self.name_input.value).classes("w-96") \
@@ -101,7 +101,7 @@ class ProgramsPanel:
     async def show_list(self) -> None:
         """A dialog listing the folder's programs; clicking one opens it."""
         names = self.folder.names()
-        with ui.dialog() as dlg, ui.card().classes("pk-card").style("min-width: 360px"):
+        with ui.dialog().props('aria-label="Programs"') as dlg, ui.card().classes("pk-card").style("min-width: 360px"):
             ui.label("Programs").classes("font-bold")
             ui.label(str(self.folder.root)).classes("text-xs text-slate-400 pk-mono")
             if not names:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from parolkit.client.core import LoopStats, RobotState, RobotStatus
+from parolkit.client.core import GripperState, LoopStats, RobotState, RobotStatus
 
 __all__ = [
     "POSE_LABELS",
@@ -19,10 +19,15 @@ __all__ = [
     "format_speeds",
     "format_bits",
     "format_loop",
+    "format_gripper",
+    "gripper_summary",
     "state_badge",
 ]
 
-POSE_LABELS = ("X", "Y", "Z", "A", "B", "C")
+#: The TCP pose's six values, named as the Cartesian jog names its axes (RX RY RZ: the
+#: orientation angles in degrees, pose convention R = Rx(RX) @ Ry(RY) @ Rz(RZ) with the
+#: angles as the controller reports them).
+POSE_LABELS = ("X", "Y", "Z", "RX", "RY", "RZ")
 POSE_UNITS = ("mm", "mm", "mm", "°", "°", "°")
 
 
@@ -37,7 +42,7 @@ def format_angles(angles: Sequence[float]) -> list[str]:
 
 
 def format_pose(pose: Sequence[float]) -> list[str]:
-    """TCP pose as six strings: x, y, z in mm (2 decimals), A, B, C in degrees (3 decimals)."""
+    """TCP pose as six strings: X, Y, Z in mm (2 decimals), RX, RY, RZ in degrees (3 decimals)."""
     return [f"{v:+.2f} mm" if i < 3 else f"{v:+.3f}°" for i, v in enumerate(pose)]
 
 
@@ -69,10 +74,57 @@ def format_loop(loop: LoopStats) -> str:
     return " · ".join(parts) if parts else "n/a"
 
 
+#: The SSG-48's object code (status byte bits 5 and 4, :attr:`GripperState.object_code`) in words.
+_GRIPPER_MOTION = {
+    0: "moving",
+    1: "holding an object (stopped on it while closing)",
+    2: "holding an object (stopped on it while opening)",
+    3: "at its position, no object",
+}
+
+
+def _gripper_errors(g: GripperState) -> list[str]:
+    bits = []
+    if g.error:
+        bits.append("E-stop")
+    if g.timeout_error:
+        bits.append("timeout")
+    if g.temperature_error:
+        bits.append("over-temperature")
+    return bits
+
+
+def gripper_summary(g: GripperState) -> str:
+    """The SSG-48 in a few words for the always-visible readout, e.g. 'Gripper 100 · at its
+    position, no object', 'Gripper 87 · moving', 'Gripper · not calibrated', 'Gripper 12 ·
+    error: timeout' (position 0..255)."""
+    errors = _gripper_errors(g)
+    if errors:
+        return f"Gripper {g.position} · error: {', '.join(errors)}"
+    if not g.calibrated:
+        return "Gripper · not calibrated"
+    motion = _GRIPPER_MOTION.get(g.object_code, f"object code {g.object_code}")
+    return f"Gripper {g.position} · {motion.split(' (')[0]}"
+
+
+def format_gripper(g: GripperState) -> str:
+    """The SSG-48's full readout in words: position and speed (0..255), current (mA), whether
+    it is calibrated, its errors and what its jaws are doing."""
+    errors = _gripper_errors(g)
+    state = "calibrated" if g.calibrated else "not calibrated"
+    if errors:
+        state += " · error: " + ", ".join(errors)
+    text = f"position {g.position} · speed {g.speed} · current {g.current} mA · {state}"
+    if g.calibrated:  # the jaws' state means nothing before calibration
+        text += " · " + _GRIPPER_MOTION.get(g.object_code, f"object code {g.object_code}")
+    return text
+
+
 def state_badge(status: RobotStatus | None, link_up: bool) -> tuple[str, str]:
-    """(text, colour) for the state badge: colour is one of 'positive', 'warning', 'negative', 'grey'."""
+    """(text, colour) for the state badge; colour is a Quasar colour: 'positive', 'warning',
+    'negative', 'info' or 'grey-8'."""
     if not link_up or status is None:
-        return "NO LINK", "grey"
+        return "NO LINK", "grey-8"
     if status.estop_latched or status.estop_pressed or status.state is RobotState.ESTOP:
         return "E-STOP", "negative"
     if status.state is RobotState.ERROR or status.errors.message:

@@ -1,0 +1,251 @@
+"""Process-wide commander state (no page widgets): the controller link, the event log, the
+jog hold and the RBTscript program runner.
+
+One :class:`Commander` per ``parolkit gui`` process; every browser tab's page
+(:mod:`parolkit.gui.app`) reads from it.  All robot access goes through
+:class:`~parolkit.gui.link.ControllerLink`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from parolkit.client.errors import RobotError
+from parolkit.errors import ParolkitError
+from parolkit.gui.control import ControlWatch, local_host_for
+from parolkit.gui.eventlog import EventLog, Level
+from parolkit.gui.jog import JOG_REPEAT_S
+from parolkit.gui.link import ControllerLink
+from parolkit.gui.programs import ProgramsFolder, default_programs_dir
+
+if TYPE_CHECKING:
+    from parolkit.client.robot import Robot
+    from parolkit.script.interpreter import Interpreter
+
+__all__ = ["Commander", "ProgramRunner"]
+
+
+class Commander:
+    """Process-wide state: the link, the log, the current jog hold and the program run."""
+
+    def __init__(self, link: ControllerLink, *, mode_label: str, programs: ProgramsFolder | None = None,
+                 jog_repeat_s: float = JOG_REPEAT_S, cart_jog_repeat_s: float | None = None,
+                 secret: str | None = None, login: bool = False) -> None:
+        """``jog_repeat_s`` / ``cart_jog_repeat_s``: period of the streamed joint / Cartesian
+        jog updates, s; both must stay below the controller's stream watchdog (20 ms by
+        default, 150 ms for a controller the GUI starts).  Every CARTJOG update is planned
+        anew by the controller, so fewer, longer updates move more smoothly.  ``programs``:
+        the only folder Open / Save use (default :func:`default_programs_dir`); ``secret``:
+        the controller's shared secret (``controller.secret``) if it has one; ``login``: the
+        pages sit behind a login (a Log out button is shown)."""
+        self.link = link
+        self.jog_repeat_s = jog_repeat_s
+        self.cart_jog_repeat_s = jog_repeat_s if cart_jog_repeat_s is None else cart_jog_repeat_s
+        self.log: EventLog = link.log
+        self.mode_label = mode_label
+        self.programs = programs or ProgramsFolder(default_programs_dir())
+        self.login = login
+        self._hold: asyncio.Task[None] | None = None
+        self.program = ProgramRunner(self)
+        self.control = ControlWatch(link.robot, link.send, local_host=local_host_for(link.host),
+                                    runner_port=self.program.port, secret=secret)
+        #: connected pages (browser tabs); when the last one goes the lease is given back
+        self.pages = 0
+
+    # ---- jogging ----
+
+    def jog_press(self, make_command: Callable[[], str], period_s: float | None = None) -> None:
+        """Start streaming a jog (``make_command`` builds each datagram, sent every
+        ``period_s``, default :attr:`jog_repeat_s`) until :meth:`jog_release`."""
+        self.jog_release(send_stop=False)
+        self._hold = asyncio.ensure_future(self._hold_loop(make_command, period_s or self.jog_repeat_s))
+
+    async def _hold_loop(self, make_command: Callable[[], str], period_s: float) -> None:
+        try:
+            self.control.ensure()
+            self.link.send("STREAM|ON", label="STREAM ON", quiet=True)
+            while True:
+                self.link.send(make_command(), label="jog", quiet=True)  # only refusals are logged
+                await asyncio.sleep(period_s)
+        except RobotError as exc:
+            self.log.error(f"jog stopped: {exc}")
+
+    def jog_release(self, *, send_stop: bool = True) -> None:
+        """Stop a held jog: stop sending, then STOP and STREAM|OFF for certainty."""
+        if self._hold is None:
+            return
+        self._hold.cancel()
+        self._hold = None
+        if send_stop:
+            try:
+                self.link.send("STOP", quiet=True)
+                self.link.send("STREAM|OFF", quiet=True)
+            except RobotError as exc:
+                self.log.error(f"jog release: {exc}")
+
+    @property
+    def jogging(self) -> bool:
+        return self._hold is not None
+
+    # ---- robot controls ----
+
+    def command(self, text: str, label: str | None = None) -> None:
+        try:
+            if text not in ("STOP", "ESTOP", "DISABLE"):  # open to every client
+                self.control.ensure()
+            self.link.send(text, label=label)
+            self.log.info(f"sent {label or text}")
+        except (RobotError, OSError) as exc:
+            self.log.error(f"{label or text}: {exc}")
+
+    def estop(self) -> None:
+        self.jog_release(send_stop=False)
+        self.program.stop(reason="E-STOP")
+        try:
+            self.link.send("ESTOP", label="E-STOP")
+            self.log.error("software E-STOP sent")
+        except RobotError as exc:
+            self.log.error(f"E-STOP could not be sent: {exc}")
+
+
+class ProgramRunner:
+    """Runs one RBTscript program at a time with :class:`parolkit.script.Interpreter`."""
+
+    def __init__(self, commander: Commander) -> None:
+        self.commander = commander
+        self.interpreter: Interpreter | None = None
+        self.robot: Robot | None = None
+        #: errors of the last run (check or the failing line), shown inline by the page
+        self.errors: list[Any] = []
+        self.thread: threading.Thread | None = None
+        self.current_line: int | None = None
+        self.state = "idle"  # idle, running, paused, error
+        self.message = ""
+        self.version = 0
+
+    def port(self) -> int | None:
+        """Local UDP port of the runner's client while a program runs (the controller names
+        the lease holder by it), else None."""
+        robot = self.robot
+        return None if robot is None else robot.ack_port
+
+    def _on_line(self, progress: Any) -> None:
+        """Interpreter callback: ``progress.line`` is the line about to run (1-based)."""
+        self.current_line = int(getattr(progress, "line", progress))
+        self.version += 1
+
+    async def start(self, text: str, *, step: bool = False) -> list[Any]:
+        """Parse ``text`` and run it; returns the parse errors (nothing runs when there are any)."""
+        from parolkit.script import parse
+
+        if self.running:
+            if step and self.interpreter is not None:
+                self.interpreter.step()
+            elif self.interpreter is not None and self.state == "paused":
+                self.interpreter.resume()
+                self.state = "running"
+            return []
+        result = parse(text, "editor")
+        if not result.ok:
+            self.state = "error"
+            self.message = f"{len(result.errors)} error(s): nothing was run"
+            self.version += 1
+            return list(result.errors)
+        program = result.program
+        if program is None:
+            raise RuntimeError("the parser found no error but returned no program")
+        try:
+            from parolkit.client import Robot
+            from parolkit.script import Interpreter
+        except ImportError as exc:
+            self.state = "error"
+            self.message = f"the program runner is not available in this build: {exc}"
+            self.commander.log.error(self.message)
+            self.version += 1
+            return []
+        link = self.commander.link
+        # the runner is another client of the controller: the link gives the lease back
+        # first, then the runner takes it (_run) and gives it back when the program ends
+        await self.commander.control.hand_over()
+        try:
+            # its own ephemeral socket: the controller acks it there (ACK_HERE)
+            robot = Robot(host=link.host, port=link.port, ack_port=0)
+        except (OSError, ParolkitError) as exc:
+            self.state = "error"
+            self.message = f"cannot start the program client: {exc}"
+            self.commander.log.error(self.message)
+            self.version += 1
+            return []
+        self.robot = robot
+        self.interpreter = Interpreter(program, robot, on_line=self._on_line, step=step)
+        self.errors = []
+        self.state = "running"
+        self.message = ""
+        self.current_line = None
+        self.version += 1
+        self.thread = threading.Thread(target=self._run, args=(step,), name="rbtscript", daemon=True)
+        self.thread.start()
+        self.commander.log.info("program started")
+        return []
+
+    def _run(self, step: bool) -> None:
+        interpreter = self.interpreter
+        if interpreter is None:
+            raise RuntimeError("ProgramRunner._run needs the interpreter that start() creates")
+        try:
+            try:
+                if self.robot is None:
+                    raise RuntimeError("ProgramRunner._run needs the client that start() creates")
+                self.robot.take_control(secret=self.commander.control.secret)
+            except RobotError as exc:
+                self.state = "error"
+                self.message = f"cannot take control of the robot: {exc}"
+                self.commander.log.error(f"program not started: {self.message}")
+                return
+            finally:
+                self.commander.control.refresh_soon()
+            interpreter.start()
+            result = interpreter.wait()
+            if result is not None and not result.ok and result.state.value != "stopped":
+                self.state = "error"
+                self.message = result.message
+                self.errors = list(result.errors)
+                self.commander.log.error(f"program {result.message}")
+            elif self.state != "error":
+                self.commander.log.add(f"program {result.message if result else 'finished'}", Level.SUCCESS)
+                self.state = "idle"
+            self.current_line = None
+        except ParolkitError as exc:
+            self.state = "error"
+            self.message = str(exc)
+            self.commander.log.error(f"program stopped: {exc}")
+        except Exception as exc:
+            self.state = "error"
+            self.message = f"{type(exc).__name__}: {exc}"
+            self.commander.log.error(f"program crashed: {self.message}")
+        finally:
+            robot, self.robot = self.robot, None
+            if robot is not None:
+                robot.close()
+            self.version += 1
+
+    @property
+    def running(self) -> bool:
+        return self.thread is not None and self.thread.is_alive()
+
+    def pause(self) -> None:
+        if self.running and self.interpreter is not None:
+            self.interpreter.pause()
+            self.state = "paused"
+            self.version += 1
+
+    def stop(self, reason: str = "stopped") -> None:
+        if self.running and self.interpreter is not None:
+            self.interpreter.stop()
+            self.state = "idle"
+            self.message = reason
+            self.commander.log.add(f"program {reason}", Level.WARNING)
+            self.version += 1

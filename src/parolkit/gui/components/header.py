@@ -1,0 +1,107 @@
+"""The header (NiceGUI): always visible (a fixed Quasar header), it holds what must never
+scroll away: link and robot state, who controls the robot, the compact gripper readout, Home /
+Enable / Disable / Clear error / Stop, help and the E-STOP button.
+
+On a narrow screen (phones, <= 760 px) the stylesheet moves E-STOP onto the first row and
+shows the buttons as icons; every button keeps its accessible name (``aria-label``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from nicegui import ui
+
+from parolkit.client.core import RobotStatus
+from parolkit.gui.commander import Commander
+from parolkit.gui.control_badge import ControlBadge
+from parolkit.gui.status import gripper_summary, state_badge
+
+__all__ = ["Header"]
+
+
+def _action(label: str, icon: str, testid: str, props: str, on_click: Callable[[], None],
+            tooltip: str) -> ui.button:
+    """A header button: text and icon, its accessible name = its label."""
+    b = ui.button(label, icon=icon, on_click=on_click) \
+        .props(f'{props} no-caps aria-label="{label}" data-testid={testid}').classes("px-2")
+    b.tooltip(tooltip)
+    return b
+
+
+class Header:
+    """The page's header; :meth:`update` follows the link's status."""
+
+    def __init__(self, commander: Commander, on_help: Callable[[], None]) -> None:
+        c = self.c = commander
+        self._shown: tuple[bool, str, str, bool] | None = None
+        with ui.header(fixed=True).classes("pk-header p-0").props('role=banner'):
+            with ui.element("div").classes("pk-header-row"):
+                with ui.element("div").classes("pk-brand"):
+                    ui.icon("precision_manufacturing", size="30px").classes("text-sky-400")
+                    with ui.element("div"):
+                        ui.label("parolkit commander").classes("pk-brand-title")
+                        ui.label("PAROL6 · jog · IO · RBTscript").classes("pk-brand-sub")
+                with ui.element("div").classes("pk-mid"):
+                    with ui.element("div").classes("pk-status").props('role=status aria-label="robot status"'):
+                        self.link_chip = ui.chip("NO LINK", icon="link_off", color="grey-8") \
+                            .props("data-testid=link-chip")
+                        self.mode_chip = ui.chip(c.mode_label, icon="memory", color="indigo") \
+                            .props("data-testid=mode-chip")
+                        self.state_chip = ui.chip("—", color="grey-8").classes("text-weight-bold") \
+                            .props("data-testid=state-chip")
+                        self.control_badge = ControlBadge(c.control)
+                        self.grip_chip = ui.chip("Gripper —", icon="back_hand", color="blue-grey-8") \
+                            .classes("pk-grip-chip").props("data-testid=grip-compact")
+                        self.grip_chip.tooltip("SSG-48 gripper (details in the IO · Gripper tab)")
+                    with ui.element("div").classes("pk-actions"):
+                        _action("Home", "home", "btn-home", "unelevated dense color=primary",
+                                lambda: c.command("HOME", "Home"), "home the robot")
+                        _action("Enable", "power_settings_new", "btn-enable", "unelevated dense color=positive",
+                                lambda: c.command("ENABLE", "Enable"), "enable the motors (also ends an E-STOP latch)")
+                        _action("Disable", "power_off", "btn-disable", "unelevated dense color=warning",
+                                lambda: c.command("DISABLE", "Disable"), "disable the motors")
+                        _action("Clear error", "healing", "btn-clear", "outline dense color=grey-4",
+                                lambda: c.command("CLEAR_ERROR", "Clear error"), "clear the board's error")
+                        _action("Stop", "stop", "btn-stop", "outline dense color=orange",
+                                lambda: c.command("STOP", "Stop"), "stop motion and cancel the queue (Space)")
+                        ui.button(icon="help_outline", on_click=on_help) \
+                            .props('flat round color=grey-4 aria-label="Keyboard shortcuts" data-testid=help-button') \
+                            .tooltip("keyboard shortcuts")
+                        if c.login:
+                            ui.button(icon="logout", on_click=lambda: ui.navigate.to("/logout")) \
+                                .props('flat round color=grey-4 aria-label="Log out" data-testid=btn-logout') \
+                                .tooltip("log out")
+                with ui.element("div").classes("pk-estop-slot"):
+                    self.estop_btn = ui.button("E-STOP", icon="dangerous", on_click=c.estop) \
+                        .props('color=red-8 size=lg aria-label="E-STOP" data-testid=btn-estop') \
+                        .classes("pk-estop")
+                    self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
+
+    def update(self, st: RobotStatus | None, link_up: bool) -> None:
+        """Show the link, the robot state, the E-STOP latch and the gripper (every 0.1 s;
+        an element is sent to the page only when what it shows changed)."""
+        self.control_badge.update()
+        text, colour = state_badge(st, link_up)
+        latched = st is not None and (st.estop_latched or st.estop_pressed)
+        key = (link_up, text, colour, latched)
+        if key != self._shown:
+            self._shown = key
+            self.link_chip.set_text("LINKED" if link_up else "NO LINK")
+            self.link_chip.props(f"color={'positive' if link_up else 'grey-8'} "
+                                 f"icon={'link' if link_up else 'link_off'}")
+            self.state_chip.set_text(text)
+            self.state_chip.props(f"color={colour}")
+            if latched:
+                self.estop_btn.classes(add="latched")
+            else:
+                self.estop_btn.classes(remove="latched")
+            self.estop_btn.set_text("E-STOP LATCHED" if latched else "E-STOP")
+            self.estop_btn.props(f'aria-label="{"E-STOP, latched" if latched else "E-STOP"}"')
+        if st is None:
+            return
+        if st.board.simulated:
+            self.mode_chip.set_text("SIMULATOR")
+        elif st.board.port:
+            self.mode_chip.set_text(f"REAL · {st.board.port}")
+        self.grip_chip.set_text(gripper_summary(st.gripper))

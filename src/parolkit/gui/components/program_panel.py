@@ -1,0 +1,175 @@
+"""The Program tab (NiceGUI): the RBTscript editor with syntax colouring, Run / Pause / Step /
+Stop with the executing line highlighted, Check (parse + dry run: errors at their line and
+the planned joint positions and speeds), Insert (templates with the current joints / pose),
+Examples (the seed programs) and the programs folder's file row.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from nicegui import ui
+
+from parolkit.errors import ParolkitError
+from parolkit.gui.commander import Commander
+from parolkit.gui.components.telemetry import plan_options
+from parolkit.gui.highlight import line_decorations, mark_decorations
+from parolkit.gui.programs_panel import ProgramsPanel
+from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
+from parolkit.robot import PAROL6
+
+__all__ = ["ProgramPanel"]
+
+
+def _tool(icon: str, label: str, testid: str, props: str, on_click: Any) -> ui.button:
+    """An icon-only toolbar button named by ``label`` (aria-label and tooltip)."""
+    b = ui.button(icon=icon, on_click=on_click).props(f'{props} aria-label="{label}" data-testid={testid}')
+    b.tooltip(label)
+    return b
+
+
+class ProgramPanel:
+    """Editor, runner controls, diagnostics and plan charts; :meth:`update` every 0.1 s."""
+
+    def __init__(self, commander: Commander) -> None:
+        self.c = commander
+        self.link = commander.link
+        self._prog_version = -1
+        self._errors: dict[int, str] = {}
+        with ui.row().classes("w-full items-center gap-2"):
+            _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
+                  lambda: self.run_program(step=False))
+            _tool("pause", "Pause the program", "prog-pause", "unelevated color=warning", self.c.program.pause)
+            _tool("skip_next", "Step one line", "prog-step", "unelevated color=info",
+                  lambda: self.run_program(step=True))
+            _tool("stop", "Stop the program", "prog-stop", "unelevated color=negative", self.stop_program)
+            ui.button("Check", icon="rule", on_click=self.check_program) \
+                .props("outline no-caps color=grey-4 data-testid=prog-check")
+            ui.space()
+            with ui.button("Insert", icon="add").props("outline no-caps color=grey-4 data-testid=prog-insert"):
+                with ui.menu():
+                    for t in TEMPLATES:
+                        ui.menu_item(f"{t.name} — {t.description}", on_click=lambda t=t: self.insert_template(t.name))
+            with ui.button("Examples", icon="library_books") \
+                    .props("outline no-caps color=grey-4 data-testid=prog-examples"):
+                with ui.menu():
+                    for name, text in SEED_EXAMPLES.items():
+                        ui.menu_item(name, on_click=lambda text=text: self.set_program(text))
+        self.files = ProgramsPanel(self.c.programs, self.c.log, lambda: self.editor.value or "", self.set_program)
+        self.editor = ui.codemirror(SEED_EXAMPLES["Output click"], on_change=self.on_edit, theme="githubLight") \
+            .classes("w-full pk-editor").props("data-testid=editor")  # commander.js names its text box
+        self.prog_status = ui.label("").classes("text-sm pk-mono").props("data-testid=prog-status role=status")
+        self.diag_box = ui.column().classes("gap-0 w-full").props("data-testid=diagnostics")
+        with ui.element("div").classes("pk-two"):
+            self.plan_chart = ui.echart(plan_options("deg", "planned positions")).style("height: 200px") \
+                .props('data-testid=plan-chart role=img aria-label="planned joint positions"')
+            self.plan_speed_chart = ui.echart(plan_options("deg/s", "planned speeds")).style("height: 200px") \
+                .props('data-testid=plan-speed-chart role=img aria-label="planned joint speeds"')
+        self.on_edit()
+
+    # ---- editing ----
+
+    def set_program(self, text: str) -> None:
+        self.editor.value = text
+        self.on_edit()
+
+    def insert_template(self, name: str) -> None:
+        st = self.link.status
+        joints = st.angles if st else PAROL6.standby_deg
+        pose = st.pose if st else (0.0,) * 6
+        line = render_template(name, joints, pose)
+        text = self.editor.value or ""
+        if text and not text.endswith("\n"):
+            text += "\n"
+        self.set_program(text + line + "\n")
+
+    def on_edit(self, *_: Any) -> None:
+        """Re-colour the text; old error marks go (their lines may have moved): Check again."""
+        self._errors = {}
+        self._refresh_decorations()
+
+    def _refresh_decorations(self) -> None:
+        text = self.editor.value or ""
+        runner = self.c.program
+        cur = runner.current_line if runner.running or runner.state == "paused" else None
+        decos = mark_decorations(text) + line_decorations(text, current_line=cur, error_lines=self._errors)
+        self.editor.decorations = decos
+        self.editor.line_tooltips = dict(self._errors)
+
+    def _show_errors(self, errors: list[Any]) -> None:
+        self._errors = {}
+        self.diag_box.clear()
+        with self.diag_box:
+            for err in errors:
+                self._errors.setdefault(int(err.line), f"{err.line}:{err.col} {err.message}")
+                ui.label(f"line {err.line}, col {err.col}: {err.message}") \
+                    .classes("text-sm text-red-300 pk-mono").props("data-testid=diagnostic")
+        self._refresh_decorations()
+
+    # ---- check, run, stop ----
+
+    def check_program(self) -> bool:
+        from parolkit.script import parse
+
+        result = parse(self.editor.value or "", "editor")
+        errors = list(result.errors)
+        if not errors:
+            errors = self._dry_run(result.program)
+        self._show_errors(errors)
+        ok = not errors
+        self.prog_status.set_text("✓ program OK" if ok else f"✗ {len(errors)} error(s)")
+        self.prog_status.classes(replace="text-sm pk-mono " + ("text-green-400" if ok else "text-red-300"))
+        return ok
+
+    def _dry_run(self, program: Any) -> list[Any]:
+        """Plan the program without the robot (from the current joints); returns its errors
+        and fills the planned position/speed charts."""
+        from parolkit.script import dry_run
+
+        st = self.link.status
+        try:
+            report = dry_run(program, st.angles if st else None)
+        except (ParolkitError, ValueError) as exc:
+            self.c.log.error(f"dry run: {exc}")
+            return []
+        if report.segments:
+            self._plot_plan(*report.series())
+        return list(report.errors)
+
+    def _plot_plan(self, t: Any, q: Any, v: Any) -> None:
+        step = max(1, len(t) // 400)
+        idx = range(0, len(t), step)
+        for chart, data in ((self.plan_chart, q), (self.plan_speed_chart, v)):
+            opts = chart.options
+            for j in range(6):
+                opts["series"][j]["data"] = [[round(float(t[i]), 3), round(float(data[i][j]), 3)] for i in idx]
+            chart.update()
+
+    async def run_program(self, step: bool) -> None:
+        errors = await self.c.program.start(self.editor.value or "", step=step)
+        self._show_errors(errors)
+        if errors:
+            self.prog_status.set_text(f"✗ {len(errors)} error(s): nothing was run")
+
+    def stop_program(self) -> None:
+        """Stop the program run and send STOP (cancels the move in progress and the queue)."""
+        self.c.program.stop()
+        self.c.command("STOP", "Stop")
+
+    def update(self) -> None:
+        """Follow the program runner: status line, error marks, the executing line."""
+        runner = self.c.program
+        if runner.version == self._prog_version:
+            return
+        self._prog_version = runner.version
+        if runner.state in ("running", "paused"):
+            self.prog_status.set_text(f"▶ {runner.state} · line {runner.current_line or '—'}")
+            self.prog_status.classes(replace="text-sm pk-mono text-amber-300")
+        elif runner.state == "error":
+            if runner.errors:
+                self._show_errors(runner.errors)
+            self.prog_status.set_text(f"✗ {runner.message}")
+            self.prog_status.classes(replace="text-sm pk-mono text-red-300")
+        elif runner.message:
+            self.prog_status.set_text(f"■ {runner.message}")
+        self._refresh_decorations()

@@ -1,0 +1,188 @@
+"""Telemetry (NiceGUI): the readout card (joint angles and speeds, homed bits, TCP pose, IO
+and E-stop, error bits, board timing, loop statistics, queue, the event log) and the live
+charts of joint positions and speeds.
+
+Units: deg, deg/s, mm, ms.  Every readout value has a fixed width in characters
+(``commander.css``): a longer text, such as the E-stop line when E-STOP latches, never moves
+or overlaps its neighbours.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from nicegui import ui
+
+from parolkit.client.core import RobotStatus
+from parolkit.gui.eventlog import EventLog
+from parolkit.gui.link import ControllerLink
+from parolkit.gui.status import POSE_LABELS, format_angles, format_loop, format_pose, format_speeds
+from parolkit.robot import JOINT_NAMES
+
+__all__ = ["Readouts", "LiveCharts", "live_options", "plan_options", "PLOT_WINDOW_S", "JOINT_COLOURS"]
+
+#: the live charts show the last this many seconds
+PLOT_WINDOW_S = 20.0
+JOINT_COLOURS = ("#60a5fa", "#f472b6", "#34d399", "#fbbf24", "#a78bfa", "#f87171")
+
+
+def _fmt_ms(v: float | None) -> str:
+    return "n/a" if v is None else f"{v:.2f} ms"
+
+
+def _html_escape(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def _led(cls: str = "") -> str:
+    return f"<span class='pk-led{cls}' aria-hidden='true'></span>"
+
+
+class Readouts:
+    """The readout card and the log; :meth:`update` every 0.1 s."""
+
+    def __init__(self, log: EventLog) -> None:
+        self.log = log
+        self._log_version = -1
+        with ui.card().classes("pk-card w-full p-3 gap-2").props('role=region aria-label="Readouts"'):
+            with ui.element("div").classes("pk-readouts"):
+                with ui.column().classes("gap-1"):
+                    ui.label("Joints").classes("pk-title")
+                    self.joint_labels: list[ui.label] = []
+                    self.speed_labels: list[ui.label] = []
+                    self.homed_leds: list[ui.html] = []
+                    with ui.element("div").classes("pk-grid pk-grid-joints"):
+                        for name in ("", "angle", "speed", "homed"):
+                            num = " pk-num" if name in ("angle", "speed") else ""
+                            ui.label(name).classes("text-xs pk-muted" + num)
+                        for j in range(6):
+                            ui.label(JOINT_NAMES[j]).classes("text-slate-300 text-sm")
+                            self.joint_labels.append(
+                                ui.label("—").classes("pk-val pk-num text-sm").props(f"data-testid=angle-{j + 1}"))
+                            self.speed_labels.append(
+                                ui.label("—").classes("pk-val pk-num text-xs text-slate-300")
+                                .props(f"data-testid=speed-{j + 1}"))
+                            self.homed_leds.append(ui.html(_led()).props(f"data-testid=homed-{j + 1}"))
+                with ui.column().classes("gap-1"):
+                    ui.label("TCP pose").classes("pk-title")
+                    self.pose_labels: list[ui.label] = []
+                    with ui.element("div").classes("pk-grid pk-grid-pose"):
+                        for name in POSE_LABELS:
+                            ui.label(name).classes("text-slate-300 text-sm")
+                            self.pose_labels.append(
+                                ui.label("—").classes("pk-val pk-num text-sm")
+                                .props(f"data-testid=pose-{name.lower()}"))
+                with ui.column().classes("gap-1"):
+                    ui.label("IO · safety").classes("pk-title")
+                    self.io_leds: dict[str, ui.html] = {}
+                    with ui.element("div").classes("pk-grid pk-grid-io"):
+                        for key, label in (("in1", "IN1"), ("in2", "IN2"), ("out1", "OUT1"), ("out2", "OUT2"),
+                                           ("estop", "E-stop")):
+                            ui.label(label).classes("text-slate-300 text-sm")
+                            self.io_leds[key] = ui.html(f"{_led()} <span class='pk-mono'>—</span>") \
+                                .props(f"data-testid=io-{key}")
+            self.error_label = ui.label("no errors").classes("text-xs pk-muted pk-errors") \
+                .props("data-testid=error-bits")
+            with ui.element("div").classes("pk-stats pk-muted pk-mono"):
+                self.timing_label = ui.label("board —").props("data-testid=board-timing")
+                self.loop_label = ui.label("loop —").props("data-testid=loop-stats")
+                self.queue_label = ui.label("queue —").props("data-testid=queue")
+            ui.label("Log").classes("pk-title")
+            # a scrolling region: focusable so a keyboard can scroll it
+            self.log_box = ui.html("").classes("pk-log w-full") \
+                .props('data-testid=log role=log aria-label="Event log" tabindex=0')
+
+    def update(self, st: RobotStatus | None) -> None:
+        if st is not None:
+            self._update_status(st)
+        if self.log.version != self._log_version:
+            self._log_version = self.log.version
+            rows = "".join(f"<div class='{e.level.value}'>{_html_escape(e.format())}</div>"
+                           for e in reversed(self.log.tail(80)))
+            self.log_box.set_content(rows)
+
+    def _update_status(self, st: RobotStatus) -> None:
+        for lbl, v in zip(self.joint_labels, format_angles(st.angles)):
+            lbl.set_text(v)
+        for lbl, v in zip(self.speed_labels, format_speeds(st.speeds_deg_s)):
+            lbl.set_text(v)
+        for led, h in zip(self.homed_leds, st.homed):
+            led.set_content(_led(" on" if h else ""))
+        for lbl, v in zip(self.pose_labels, format_pose(st.pose)):
+            lbl.set_text(v)
+        io = st.io
+        for key in ("in1", "in2", "out1", "out2"):
+            v = getattr(io, key)
+            self.io_leds[key].set_content(
+                f"{_led(' on' if v else '')} <span class='pk-mono'>{'HIGH' if v else 'LOW'}</span>")
+        pressed = io.estop_pressed
+        self.io_leds["estop"].set_content(
+            f"{_led(' bad' if pressed or st.estop_latched else ' on')} <span class='pk-mono'>"
+            f"{'PRESSED' if pressed else 'released'}{' · latched' if st.estop_latched else ''}</span>")
+        err = st.errors
+        bits = [f"J{j + 1} temp" for j, b in enumerate(err.temperature) if b]
+        bits += [f"J{j + 1} pos" for j, b in enumerate(err.position) if b]
+        if err.message:
+            bits.append(err.message)
+        self.error_label.set_text("errors: " + ", ".join(bits) if bits else "no temperature / position errors")
+        self.error_label.classes(replace="text-xs pk-errors " + ("text-red-300" if bits else "pk-muted"))
+        self.timing_label.set_text(f"board {_fmt_ms(st.board.timing_ms)}")
+        self.loop_label.set_text(f"loop {format_loop(st.loop)}")
+        cmd = st.command
+        progress = "" if cmd is None or cmd.progress is None else f" {cmd.progress * 100:.0f}%"
+        cmd_text = "idle" if cmd is None else cmd.name + progress
+        self.queue_label.set_text(f"queue {st.queue} · {cmd_text}")
+
+
+class LiveCharts:
+    """Joint positions and speeds of the last :data:`PLOT_WINDOW_S` s; :meth:`update` every 0.5 s."""
+
+    def __init__(self, link: ControllerLink) -> None:
+        self.link = link
+        with ui.card().classes("pk-card w-full p-3 gap-1").props('role=region aria-label="Live charts"'):
+            ui.label(f"Live joint positions and speeds (last {PLOT_WINDOW_S:.0f} s)").classes("pk-title")
+            with ui.element("div").classes("pk-two"):
+                self.pos_chart = ui.echart(live_options("deg")).style("height: 230px") \
+                    .props('data-testid=pos-chart role=img aria-label="joint positions, last 20 s"')
+                self.speed_chart = ui.echart(live_options("deg/s")).style("height: 230px") \
+                    .props('data-testid=speed-chart role=img aria-label="joint speeds, last 20 s"')
+
+    def update(self) -> None:
+        hist = list(self.link.history)
+        if not hist:
+            return
+        t_end = hist[-1].t
+        step = max(1, len(hist) // 300)
+        sel = hist[::step]
+        for chart, attr in ((self.pos_chart, "angles"), (self.speed_chart, "speeds")):
+            opts = chart.options
+            for j in range(6):
+                opts["series"][j]["data"] = [[round(s.t - t_end, 2), round(getattr(s, attr)[j], 2)] for s in sel]
+            chart.update()
+
+
+def live_options(unit: str) -> dict[str, Any]:
+    """ECharts options of a live chart: six joint series against time (s, last window)."""
+    return {
+        "animation": False,
+        "backgroundColor": "transparent",
+        "grid": {"left": 52, "right": 14, "top": 30, "bottom": 34},
+        "legend": {"textStyle": {"color": "#cbd5e1"}, "top": 0, "left": 44, "itemWidth": 14, "itemGap": 8},
+        "tooltip": {"trigger": "axis"},
+        "xAxis": {"type": "value", "min": -PLOT_WINDOW_S, "max": 0, "name": "s",
+                  "axisLabel": {"color": "#a3b1c9"}, "splitLine": {"show": False}},
+        "yAxis": {"type": "value", "name": unit, "nameLocation": "middle", "nameGap": 36, "scale": True,
+                  "nameTextStyle": {"color": "#a3b1c9"}, "axisLabel": {"color": "#a3b1c9"},
+                  "splitLine": {"lineStyle": {"color": "#1e293b"}}},
+        "series": [{"name": JOINT_NAMES[j], "type": "line", "showSymbol": False, "data": [],
+                    "lineStyle": {"width": 1.6}, "color": JOINT_COLOURS[j]} for j in range(6)],
+    }
+
+
+def plan_options(unit: str, title: str) -> dict[str, Any]:
+    """ECharts options of a planned-trajectory chart (time from the program's start, s)."""
+    opts = live_options(unit)
+    opts["xAxis"] = {"type": "value", "name": "s", "axisLabel": {"color": "#a3b1c9"}, "splitLine": {"show": False}}
+    opts["title"] = {"text": title + " (Check)", "textStyle": {"color": "#a3b1c9", "fontSize": 11},
+                     "left": "center", "bottom": 0}
+    return opts

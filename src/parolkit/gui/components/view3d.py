@@ -1,0 +1,129 @@
+"""The 3D view (NiceGUI scene): the arm drawn from the DH table, world and tool frames, and
+during a move a translucent ghost at the target with the planned TCP path.
+
+Scene units: :data:`parolkit.gui.geometry.SCENE_SCALE` per metre.  The view fills its card's
+width (the stylesheet sizes ``.pk-scene``; the scene resizes its renderer with the window).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING, Any
+
+from nicegui import ui
+
+from parolkit.client.core import RobotState, RobotStatus
+from parolkit.errors import ParolkitError
+from parolkit.gui import geometry
+from parolkit.gui.link import ControllerLink
+from parolkit.robot import PAROL6
+
+if TYPE_CHECKING:
+    from nicegui.elements.scene.scene_object3d import Object3D
+
+__all__ = ["ArmView", "arm_frames", "SCENE_FPS"]
+
+#: frame rate of the view's updates, Hz
+SCENE_FPS = 30.0
+
+
+def arm_frames(angles_deg: Any, tool: str = "default") -> Any:
+    """The 8 drawing frames (base, 1..5, flange, TCP) from ``parolkit.kinematics.fk_frames``
+    with the controller's current tool (the default TCP if the name is unknown here)."""
+    from parolkit.kinematics import fk_frames
+
+    try:
+        return fk_frames(angles_deg, None if tool == "default" else tool)
+    except (ParolkitError, KeyError, ValueError):
+        return fk_frames(angles_deg, None)
+
+
+class ArmView:
+    """The 3D view card; :meth:`update` moves the arm to the newest status."""
+
+    def __init__(self, link: ControllerLink) -> None:
+        self.link = link
+        self._last_seq = -1
+        self._last_plan_seq: tuple[int | None, bool] | None = None  # (plan seq, shown)
+        with ui.card().classes("pk-card w-full p-2 gap-1").props('role=region aria-label="3D view"'):
+            with ui.row().classes("w-full items-center"):
+                ui.label("3D view").classes("pk-title")
+                ui.space()
+                self.fps_label = ui.label("").classes("text-xs pk-muted pk-mono")
+            self.scene = ui.scene(width=684, height=430, grid=(20, 20), background_color="#0d1526", fps=30) \
+                .classes("pk-scene").props('data-testid=scene role=img aria-label="3D view of the arm"')
+            with self.scene:
+                self.scene.axes_helper(length=1.2)  # world frame
+                self.groups = self._arm(opacity=1.0)
+                self.ghost = self._arm(opacity=0.22, ghost=True)
+                for g in self.ghost:
+                    g.visible(False)
+                self.path = self.scene.point_cloud([], point_size=0.14).material("#22d3ee")
+            self.scene.move_camera(x=4.6, y=-4.2, z=3.9, look_at_x=0, look_at_y=0.8, look_at_z=1.7, duration=0)
+            for g, t in zip(self.groups, geometry.dh_frames(PAROL6.standby_deg)):
+                pos, rot = geometry.frame_pose_for_scene(t)
+                g.move(*pos).rotate_R(rot)
+        self._frames_t = time.monotonic()
+        self._frames_n = 0
+
+    def _arm(self, *, opacity: float, ghost: bool = False) -> list[Any]:
+        colours = {"base": "#475569", "joint": "#f97316", "link": "#cbd5e1", "tool": "#38bdf8"}
+        if ghost:
+            colours = {k: "#a5f3fc" for k in colours}
+        groups = [self.scene.group() for _ in range(geometry.N_FRAMES)]
+        s = geometry.SCENE_SCALE
+        for solid in geometry.arm_solids(PAROL6):
+            with groups[solid.frame]:
+                obj: Object3D
+                if solid.shape == "cylinder":
+                    obj = self.scene.cylinder(solid.radius * s, solid.radius * s, solid.length * s, 28)
+                    obj.move(*(v * s for v in solid.center)).rotate_R(solid.rotation_y_to_axis())
+                elif solid.shape == "sphere":
+                    obj = self.scene.sphere(solid.radius * s).move(*(v * s for v in solid.start))
+                else:
+                    width, height, depth = (v * s for v in solid.size)
+                    obj = self.scene.box(width, height, depth).move(*(v * s for v in solid.start))
+                obj.material(colours[solid.role], opacity=opacity)
+        if not ghost:
+            with groups[7]:
+                self.scene.axes_helper(length=0.6)  # tool frame
+        return groups
+
+    def update(self) -> None:
+        """Move the arm (and the ghost / path) to the newest status; nothing when it is old."""
+        st = self.link.status
+        if st is None or st.seq == self._last_seq:
+            return
+        self._last_seq = st.seq
+        frames = arm_frames(st.angles, st.tool)
+        with self.scene._batch_calls():  # one websocket message per update
+            for g, t in zip(self.groups, frames):
+                pos, rot = geometry.frame_pose_for_scene(t)
+                g.move(*pos).rotate_R(rot)
+            self._update_plan(st)
+        self._frames_n += 1
+        now = time.monotonic()
+        if now - self._frames_t >= 1.0:
+            self.fps_label.set_text(f"{self._frames_n / (now - self._frames_t):.0f} fps · seq {st.seq}")
+            self._frames_t, self._frames_n = now, 0
+
+    def _update_plan(self, st: RobotStatus) -> None:
+        plan = self.link.plan
+        # the ghost and path show while the robot is in motion (state MOVING or HOMING)
+        moving = st.state in (RobotState.MOVING, RobotState.HOMING)
+        shown = plan if plan is not None and moving and plan.seq == st.plan_seq else None
+        show = shown is not None
+        key = (plan.seq if plan else None, show)
+        if key == self._last_plan_seq:
+            return
+        self._last_plan_seq = key
+        s = geometry.SCENE_SCALE / 1000.0
+        if shown is not None and shown.target_angles:
+            for g, t in zip(self.ghost, arm_frames(shown.target_angles, st.tool)):
+                pos, rot = geometry.frame_pose_for_scene(t)
+                g.move(*pos).rotate_R(rot).visible(True)
+        else:
+            for g in self.ghost:
+                g.visible(False)
+        pts = [[p[0] * s, p[1] * s, p[2] * s] for p in shown.tcp_path] if shown is not None else []
+        self.path.set_points(pts)

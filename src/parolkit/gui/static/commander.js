@@ -1,0 +1,104 @@
+// The commander's keyboard and pointer rules (parolkit.gui).  Served from the package as
+// /parolkit-static/commander.js; the key list comes from the page's #pk-keymap data island
+// (parolkit.gui.jog.KEYMAP).  Every key goes to the server as the NiceGUI event "pk_key".
+//
+//  * Esc is E-STOP whatever has the focus (the editor too), except while a dialog or a menu
+//    is open: then Esc only closes it.
+//  * Space is STOP whatever has the focus, except in a text field (it types a space there).
+//    The page takes Space before any button sees it, so a focused button is never "pressed
+//    again" by it.
+//  * Jog keys are ignored while typing (inputs, the editor) or adjusting a slider.
+//  * A held jog ends on any pointer release or cancel anywhere on the page and when the
+//    window loses focus.
+(() => {
+  "use strict";
+  const island = document.getElementById("pk-keymap");
+  const keys = new Set(island ? JSON.parse(island.textContent) : []);
+  // open overlays that own Esc (Quasar dialogs and menus, CodeMirror's completion list)
+  const OVERLAYS = ".q-dialog, .q-menu, .cm-tooltip-autocomplete";
+
+  const send = (key, down) => {
+    if (typeof window.emitEvent === "function") window.emitEvent("pk_key", { key: key, down: down });
+  };
+  const keyName = (e) => (e.key === " " ? " " : String(e.key || "").toLowerCase());
+  const typing = (t) =>
+    !!t && (t.isContentEditable || ["INPUT", "TEXTAREA", "SELECT"].includes(t.tagName));
+  const adjusting = (t) => !!t && typeof t.getAttribute === "function" && t.getAttribute("role") === "slider";
+  const overlayOpen = () => document.querySelector(OVERLAYS) !== null;
+
+  window.addEventListener("keydown", (e) => {
+    const k = keyName(e);
+    const focus = document.activeElement;
+    if (k === "escape") {
+      if (overlayOpen()) return; // Esc closes the dialog or menu (Quasar / CodeMirror do it)
+      e.preventDefault();
+      e.stopPropagation();
+      if (!e.repeat) send("escape", true);
+      return;
+    }
+    if (e.ctrlKey || e.metaKey || e.altKey) return;
+    if (k === " ") {
+      if (typing(focus)) return; // a space in a text field
+      e.preventDefault(); // no button, toggle or tab sees this Space
+      e.stopPropagation();
+      if (!e.repeat) send(" ", true);
+      return;
+    }
+    if (typing(focus) || adjusting(focus) || !keys.has(k)) return;
+    e.preventDefault();
+    if (e.repeat) return;
+    send(k, true);
+  }, true);
+
+  window.addEventListener("keyup", (e) => {
+    const k = keyName(e);
+    if (k === " ") {
+      if (!typing(document.activeElement)) {
+        e.preventDefault(); // a native button would "click" on Space's keyup
+        e.stopPropagation();
+      }
+      return;
+    }
+    if (k !== "escape" && keys.has(k)) send(k, false);
+  }, true);
+
+  window.addEventListener("blur", () => send("blur", false));
+
+  // a held jog button may be greyed out under the pointer (limit reached): a disabled button
+  // sends no pointerup, so any pointer release on the page also ends a held jog
+  const release = () => send("release", false);
+  document.addEventListener("pointerup", release, true);
+  document.addEventListener("pointercancel", release, true);
+
+  // after a pointer press a button or slider gives the keyboard focus back to the page, so
+  // the keyboard shortcuts (arrows, letters) act on the robot, not on that control
+  document.addEventListener("pointerup", (e) => {
+    const control = e.target instanceof Element ? e.target.closest("button, .q-btn, [role=slider], .q-tab") : null;
+    if (control === null) return;
+    setTimeout(() => {
+      const focus = document.activeElement;
+      if (focus instanceof HTMLElement && !typing(focus) && (control.contains(focus) || focus === control)) focus.blur();
+    }, 0);
+  }, true);
+
+  // names that Quasar's and CodeMirror's own elements lack (they are created and re-created
+  // by the page: the editor each time the Program tab opens)
+  const nameUnnamed = () => {
+    const editor = document.querySelector("[data-testid=editor] .cm-content:not([aria-label])");
+    if (editor) editor.setAttribute("aria-label", "RBTscript program");
+    const bar = document.querySelector(".q-loading-bar:not([aria-label])");
+    if (bar) bar.setAttribute("aria-label", "loading");
+  };
+  let naming = false;
+  new MutationObserver(() => {
+    if (naming) return;
+    naming = true;
+    requestAnimationFrame(() => { naming = false; nameUnnamed(); });
+  }).observe(document.body, { childList: true, subtree: true });
+  nameUnnamed();
+
+  // a long press on a jog button must not open the context menu (touch screens)
+  document.addEventListener("contextmenu", (e) => {
+    if (e.target instanceof Element && e.target.closest(".pk-jog .q-btn")) e.preventDefault();
+  }, true);
+})();

@@ -1,0 +1,114 @@
+"""Helpers of the browser tests: waiting on a condition, reading the page's readouts and log,
+screenshots, layout boxes.  Timing comes from what the page shows (readouts, the event log),
+never from fixed sleeps alone: the machine is shared and slow at times."""
+
+from __future__ import annotations
+
+import os
+import re
+import time
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+ARTIFACTS = REPO_ROOT / "test-artifacts" / "browser"
+#: axe-core from npm, installed by scripts/ensure-axe.sh (make test runs it)
+AXE_JS = REPO_ROOT / "build" / "npm" / "node_modules" / "axe-core" / "axe.min.js"
+
+
+def image_path(name: str) -> Path:
+    """Where a documentation screenshot goes: docs/images under `make screenshot`
+    (PAROLKIT_UPDATE_SCREENSHOT=1), else test-artifacts (a test run never changes tracked files)."""
+    folder = REPO_ROOT / "docs" / "images" if os.environ.get("PAROLKIT_UPDATE_SCREENSHOT") == "1" else ARTIFACTS
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder / name
+
+
+def wait_until(predicate, timeout: float = 15.0, interval: float = 0.1, what: str = "condition", page=None):
+    deadline = time.monotonic() + timeout
+    last = None
+    while time.monotonic() < deadline:
+        last = predicate()
+        if last:
+            return last
+        time.sleep(interval)
+    log = ""
+    if page is not None:
+        try:
+            log = "\nGUI log (newest first):\n" + log_text(page)
+        except Exception as exc:  # the page may be gone
+            log = f"\n(GUI log unavailable: {exc})"
+    raise AssertionError(f"timed out after {timeout} s waiting for {what} (last value {last!r}){log}")
+
+
+def text(page, testid: str) -> str:
+    return page.get_by_test_id(testid).inner_text()
+
+
+def number(page, testid: str) -> float:
+    m = re.search(r"[-+]?\d+(?:\.\d+)?", text(page, testid))
+    assert m, f"{testid} shows no number: {text(page, testid)!r}"
+    return float(m.group())
+
+
+def state(page) -> str:
+    return text(page, "state-chip").strip()
+
+
+def log_text(page) -> str:
+    return page.get_by_test_id("log").inner_text()
+
+
+def log_lines(page) -> list[str]:
+    """The event log, oldest first (the page shows the newest 80 entries, newest first)."""
+    return [line for line in reversed(log_text(page).splitlines()) if line.strip()]
+
+
+def count_log(page, needle: str) -> int:
+    return sum(needle in line for line in log_lines(page))
+
+
+def wait_linked(page, timeout: float = 40.0) -> None:
+    wait_until(lambda: "LINKED" in text(page, "link-chip"), timeout, what="link up", page=page)
+
+
+def wait_ready(page, timeout: float = 40.0) -> None:
+    wait_until(lambda: state(page) == "READY", timeout, what="state READY", page=page)
+
+
+def settled(page, testid: str, timeout: float = 10.0) -> float:
+    """The readout once it stopped changing (two reads 0.4 s apart agree)."""
+    prev = number(page, testid)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        page.wait_for_timeout(400)
+        cur = number(page, testid)
+        if abs(cur - prev) < 0.02:
+            return cur
+        prev = cur
+    raise AssertionError(f"{testid} still changing after {timeout} s ({prev})")
+
+
+def box(page, testid: str) -> dict:
+    b = page.get_by_test_id(testid).bounding_box()
+    assert b is not None, f"{testid} is not rendered"
+    return b
+
+
+def inside_viewport(page, b: dict) -> bool:
+    vw, vh = page.evaluate("() => [window.innerWidth, window.innerHeight]")
+    return b["x"] >= 0 and b["y"] >= 0 and b["x"] + b["width"] <= vw + 0.5 and b["y"] + b["height"] <= vh + 0.5
+
+
+def recover(page) -> None:
+    """Leave the robot enabled, homed and idle for the next test: Enable (ends an E-STOP
+    latch), then Home unless READY."""
+    if state(page) == "READY":
+        return
+    page.get_by_test_id("btn-enable").click()
+    try:
+        wait_until(lambda: state(page) in ("READY", "NOT HOMED"), 20, what="enabled", page=page)
+    except AssertionError:
+        pass
+    if state(page) != "READY":
+        page.get_by_test_id("btn-home").click()
+    wait_ready(page, 60)

@@ -1,0 +1,130 @@
+"""Keys that do what they say (issue 15 items 1 and 2), in a real Chromium against
+``parolkit gui --sim``: Space is STOP and Esc is E-STOP whatever has the focus; Esc in an open
+dialog or menu only closes it; a clicked button never turns Space into "press it again".
+
+One GUI process and one page for the module; the tests run in file order and leave the robot
+enabled, homed and idle.
+"""
+
+from __future__ import annotations
+
+import pytest
+from tests.browser.helpers import (
+    count_log,
+    log_text,
+    number,
+    recover,
+    settled,
+    state,
+    wait_linked,
+    wait_ready,
+    wait_until,
+)
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+
+@pytest.fixture(scope="module")
+def kpage(page):
+    wait_linked(page)
+    wait_ready(page, 60)
+    return page
+
+
+def test_space_after_clicking_home_sends_stop_not_home_again(kpage):
+    """Item 1.  Failed on the old page: Quasar's button took Space (it stops the event) and
+    clicked itself on keyup: a second 'sent Home', and no 'sent Stop' at all."""
+    page = kpage
+    homes, stops = count_log(page, "sent Home"), count_log(page, "sent Stop")
+    done = count_log(page, "Home completed")
+    page.get_by_test_id("btn-home").click()
+    wait_until(lambda: count_log(page, "sent Home") == homes + 1, 10, what="Home sent", page=page)
+    # let the homing finish (the board's homing sequence cannot be cut short by a STOP)
+    wait_until(lambda: count_log(page, "Home completed") == done + 1 and state(page) == "READY", 60,
+               what="homed", page=page)
+    page.keyboard.press("Space")
+    wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
+    page.wait_for_timeout(1000)  # a second Home would be logged by now
+    assert count_log(page, "sent Home") == homes + 1, f"Space pressed Home again:\n{log_text(page)}"
+    recover(page)
+
+
+def test_space_stops_a_step_jog_right_after_its_button_was_clicked(kpage):
+    """Item 1, Step mode.  Failed on the old page: the clicked J1 − button kept the focus, took
+    Space for itself, and the 40° step ran to completion (no STOP was sent)."""
+    page = kpage
+    page.get_by_test_id("jog-mode").get_by_text("Step").click()
+    step_input = page.locator("label.q-field", has_text="step °").locator("input")
+    step_input.fill("40")
+    step_input.press("Tab")
+    page.wait_for_timeout(300)
+    try:
+        start = settled(page, "angle-1")
+        stops = count_log(page, "sent Stop")
+        page.get_by_test_id("jog-j1-").click()
+        wait_until(lambda: number(page, "angle-1") < start - 0.3, 15, what="the J1 step moving", page=page)
+        page.keyboard.press("Space")
+        wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
+        end = settled(page, "angle-1", 15)
+        assert end > start - 39.0, f"the 40° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
+    finally:
+        step_input.fill("5")
+        step_input.press("Tab")
+        page.get_by_test_id("jog-mode").get_by_text("Continuous").click()
+    recover(page)
+    page.get_by_test_id("btn-home").click()
+    wait_until(lambda: abs(number(page, "angle-1") - 90.0) < 0.1 and state(page) == "READY", 60,
+               what="homed standby", page=page)
+
+
+def _escape_only_closes(page, open_it, overlay: str, what: str) -> None:
+    estops = count_log(page, "software E-STOP sent")
+    open_it()
+    page.locator(overlay).first.wait_for(state="visible", timeout=15000)
+    page.keyboard.press("Escape")
+    page.locator(overlay).first.wait_for(state="hidden", timeout=15000)
+    page.wait_for_timeout(500)  # an E-STOP would be logged by now
+    assert count_log(page, "software E-STOP sent") == estops, f"Esc in {what} latched E-STOP"
+    assert state(page) != "E-STOP", f"Esc in {what} latched E-STOP"
+
+
+def test_escape_in_a_dialog_or_menu_only_closes_it(kpage):
+    """Item 2.  Failed on the old page: Esc used to close the Help dialog, the Examples menu,
+    Save as… or the Programs list also latched E-STOP (4 of 4)."""
+    page = kpage
+    _escape_only_closes(page, lambda: page.get_by_test_id("help-button").click(), ".q-dialog", "Help")
+    page.get_by_test_id("tab-program").click()
+    _escape_only_closes(page, lambda: page.get_by_test_id("prog-examples").click(), ".q-menu", "Examples")
+    _escape_only_closes(page, lambda: page.get_by_test_id("prog-insert").click(), ".q-menu", "Insert")
+    _escape_only_closes(page, lambda: page.get_by_test_id("prog-save-as").click(), ".q-dialog", "Save as…")
+    _escape_only_closes(page, lambda: page.get_by_test_id("prog-list").click(), ".q-dialog", "Programs")
+    page.get_by_test_id("tab-jog").click()
+
+
+def test_escape_is_estop_wherever_the_focus_is_and_space_types_in_the_editor(kpage):
+    """Esc with no dialog open latches E-STOP from a focused button, a slider and the editor;
+    Space in the editor types a space (a program needs them) instead of stopping."""
+    page = kpage
+    for focus in ("btn-home", "speed-slider", "editor"):
+        wait_ready(page)
+        if focus == "editor":
+            page.get_by_test_id("tab-program").click()
+            page.locator("[data-testid=editor] .cm-content").click()
+        elif focus == "speed-slider":
+            page.get_by_test_id("speed-slider").focus()
+        else:
+            page.get_by_test_id(focus).focus()
+        estops = count_log(page, "software E-STOP sent")
+        page.keyboard.press("Escape")
+        wait_until(lambda: state(page) == "E-STOP", 15, what=f"E-STOP from Esc with {focus} focused", page=page)
+        assert count_log(page, "software E-STOP sent") == estops + 1
+        if focus == "editor":
+            stops = count_log(page, "sent Stop")
+            page.keyboard.press("End")
+            page.keyboard.type(" #x")
+            content = page.locator("[data-testid=editor] .cm-content").inner_text()
+            assert " #x" in content, content
+            page.wait_for_timeout(300)
+            assert count_log(page, "sent Stop") == stops, "Space in the editor sent Stop"
+            page.get_by_test_id("tab-jog").click()
+        recover(page)
