@@ -447,3 +447,31 @@ def test_a_corrupted_position_of_a_joint_at_rest_during_homing_is_never_shown(fa
     assert r.emu.homing_phase is HomingPhase.J123_REFERENCE, "J5 must still rest for this test"
     assert all(v == j5 for v in shown), (j5, shown)
     assert r.terminal("aaaa0001") is None  # the homing goes on
+
+
+def test_stop_during_homing_stops_the_board_and_a_later_enable_or_home_is_no_uncommanded_motion():
+    """The firmware homes to the end whatever it gets but 101/102/103: STOP sent IDLE frames,
+    the board homed on while the robot showed stopped, and the ENABLE that followed made the
+    rest of the homing "uncommanded motion" (found by the commander's key tests).  STOP now
+    sends ENABLE: every motor stops where it is (unhomed); ENABLE and HOME then work."""
+    r = Rig()
+    try:
+        r.emu.homing_speedup = r.ex.integrity.homing_speedup = 1.0
+        r.submit("aaaa0001|HOME")
+        r.run_until(lambda: r.emu.homing_active)
+        r.tick(20)
+        r.send("bbbb0001|STOP")
+        r.tick(3)
+        assert not r.emu.homing_active and r.terminal("aaaa0001") is AckStatus.CANCELLED
+        assert BoardCommand.ENABLE in [f.command for f in r.frames[-3:]]
+        r.tick(30)
+        assert not any(r.emu.speeds) and r.emu.homed != 0xFF and not r.ex.homed
+        r.submit("cccc0001|ENABLE")
+        r.tick(30)
+        assert r.ex.error is None and r.ex.integrity.uncommanded == 0 and r.ex.enabled
+        r.emu.homing_speedup = r.ex.integrity.homing_speedup = 50.0
+        r.submit("dddd0001|HOME")
+        r.run_until(lambda: r.terminal("dddd0001") is not None, max_ticks=5000)
+        assert r.terminal("dddd0001") is AckStatus.COMPLETED and r.ex.homed
+    finally:
+        r.close()

@@ -387,6 +387,13 @@ class Executor:
         """Cancel the active job and every queued one (CANCELLED acks). Returns how many."""
         with self._lock:
             n = 0
+            if (isinstance(self.activity, HomeActivity) and self.activity.sent and self.enabled
+                    and not self.estop_latched):
+                # the firmware runs a homing to its end whatever else it gets, except 101 / 102
+                # / 103: a STOP sends ENABLE (the board stays enabled, every motor stops where
+                # it is, unhomed) -- with IDLE frames it homed on, and the ENABLE that followed
+                # made the rest of its homing "uncommanded motion"
+                self._pending_code = BoardCommand.ENABLE
             if self.active is not None:
                 self._ack(self.active, AckStatus.CANCELLED, reason)
                 self.active = None

@@ -343,6 +343,8 @@ class StatusIntegrity:
         self._sent.clear()
         #: HOME was written (its frame number) and no aborting code since; None: none asked
         self._home_t: int | None = None
+        #: frame number of a 101/102/103 that aborted a homing (None: none pending)
+        self._abort_n: int | None = None
         #: the homed byte of the truth when HOME was written
         self._home_homed = 0xFF
         #: the board was seen homing since (two frames in a row showed it)
@@ -386,8 +388,14 @@ class StatusIntegrity:
             self._home_t, self._home_seen = self._n, False
             self._home_homed = self._ref.f.homed if self._ref is not None else 0xFF
         elif code in _ABORT:
-            self._home_t = None
-            self._unasked = False
+            if self._home_t is not None or self._unasked:
+                # 101/102/103 abort a homing, but the board's reply to it (and to the frame
+                # after) still shows the homing's last pass: homing until a reply to a later
+                # frame shows every joint still (see accept)
+                self._abort_n = self._n
+            else:
+                self._home_t = None
+                self._unasked = False
         if self.probe is not None:
             self.probe.sent(frame, t)
 
@@ -418,6 +426,13 @@ class StatusIntegrity:
             self.probe.observe(f, t, adjacent)
         if self._home_t is not None and not self._home_seen and self._n - self._home_t > 1.0 / self.period:
             self._home_t = None  # the board never started the homing asked for (disabled?)
+        if self._abort_n is not None and rx.ok and (
+                (n > self._abort_n + 1 and not any(f.speeds)) or self._n - self._abort_n > 1.0 / self.period):
+            # the aborted homing has stopped (or a second has passed): the joints are where
+            # they stopped, unhomed; from here on motion is judged as usual
+            self._abort_n = None
+            self._home_t = None
+            self._unasked = False
         if not rx.ok:
             self.implausible += 1
             return False
@@ -560,7 +575,7 @@ class StatusIntegrity:
             return LinkMode.JOG
         if code == _GOTO:
             return LinkMode.GOTO
-        if (self._home_t is not None or self._unasked) and code not in _ABORT:
+        if (self._home_t is not None or self._unasked) and (code not in _ABORT or self._abort_n is not None):
             return LinkMode.HOMING
         return LinkMode.NONE
 
