@@ -77,3 +77,32 @@ def test_with_a_controller_secret_the_commander_takes_control_with_it_and_hands_
     finally:
         cp.stop()
     assert SECRET not in cp.log()
+
+
+def test_a_cartesian_jog_limited_at_the_wrist_singularity_says_so_in_the_log_once(tmp_path):
+    """Holding X+ from the standby pose (J5 = 0) turns J4/J6 while the TCP moves: the jog's
+    EXECUTING ack says so, and the commander showed nothing (issue 14).  Its jog stream is
+    quiet (only failures logged), so the note is logged from the EXECUTING ack, once for the
+    whole stream of updates."""
+    cp = start_controller([], log_dir=tmp_path)
+
+    async def main():
+        link = ControllerLink("127.0.0.1", cp.port, cp.ack_port, every_n_ticks=10)
+        lines = lambda: [e.text for e in link.log.tail(200)]  # noqa: E731
+        await link.start()
+        try:
+            await until(lambda: link.status is not None, what="the first status")
+            for _ in range(8):  # the commander's hold-to-jog: an update every 100 ms
+                link.send("CARTJOG|WRF|X+|50|0.3", label="Jog X+", quiet=True)
+                await asyncio.sleep(0.1)
+            await until(lambda: any("wrist singular area" in m for m in lines()), timeout=10,
+                        what="the singular-area note")
+            notes = [m for m in lines() if "wrist singular area" in m]
+            assert len(notes) == 1 and notes[0].startswith("Jog X+: "), notes
+        finally:
+            await link.close()
+
+    try:
+        asyncio.run(main())
+    finally:
+        cp.stop()

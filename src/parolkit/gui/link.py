@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import re
 import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from parolkit.client.async_robot import AsyncRobot, AsyncStatusSubscription
-from parolkit.client.core import AckRecord, PlanInfo, RobotState, RobotStatus
+from parolkit.client.core import AckRecord, AckStatus, PlanInfo, RobotState, RobotStatus
 from parolkit.client.errors import ControllerUnreachable, ReplyError, RobotError
 from parolkit.gui.eventlog import EventLog, Level, level_of_ack
 
@@ -32,6 +33,8 @@ LINK_TIMEOUT_S = 1.0
 #: controller is picked up at once rather than at the next regular renewal
 RETRY_S = 0.25
 
+
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?")
 
 @dataclass(frozen=True)
 class Sample:
@@ -66,6 +69,7 @@ class ControllerLink:
         self.plan: PlanInfo | None = None
         self._labels: dict[str, str] = {}
         self._quiet: set[str] = set()
+        self._last_note: tuple[str, float] = ("", 0.0)
         self._sub: AsyncStatusSubscription | None = None
         self._tasks: list[asyncio.Task[None]] = []
         self._plan_seq_seen: int | None = None
@@ -196,9 +200,20 @@ class ControllerLink:
                          f"(corrupted?), {bad} in all", Level.WARNING)
             self._implausible_logged = (bad, now)
 
+    #: the same EXECUTING note (a jog stream's every update carries it, with its own figures)
+    #: is logged again only after this long (s)
+    NOTE_REPEAT_S = 5.0
+
     def _on_ack(self, record: AckRecord) -> None:
-        """Ack listener of the client: log the terminal ack of each command we labelled."""
-        if record.terminal is None or record.id not in self._labels:
+        """Ack listener of the client: log the terminal ack of each command we labelled, and
+        the notes an EXECUTING ack carries (a Cartesian jog limited in the wrist's singular
+        area, a move stretched or over an acceleration limit), quiet commands included."""
+        if record.id not in self._labels:
+            return
+        if record.terminal is None:
+            latest = record.latest
+            if latest is not None and latest[0] is AckStatus.EXECUTING and latest[1]:
+                self._note(self._labels[record.id], latest[1])
             return
         status, details = record.terminal
         label = self._labels.pop(record.id)
@@ -207,6 +222,16 @@ class ControllerLink:
         level = level_of_ack(status.value)
         if not quiet or level is Level.ERROR:
             self.log.add(f"{label} {status.value.lower()}{f': {details}' if details else ''}", level)
+
+    def _note(self, label: str, details: str) -> None:
+        now = time.monotonic()
+        kind = _NUMBER.sub("#", details)  # each update's figures differ: the same note all the same
+        last, when = self._last_note
+        if kind == last and now - when < self.NOTE_REPEAT_S:
+            return
+        self._last_note = (kind, now)
+        level = Level.WARNING if "warning" in details or "stopped" in details else Level.INFO
+        self.log.add(f"{label}: {details}", level)
 
     async def _fetch_plan(self) -> None:
         try:
