@@ -33,8 +33,9 @@ LINK_TIMEOUT_S = 1.0
 #: controller is picked up at once rather than at the next regular renewal
 RETRY_S = 0.25
 
-
+#: figures in a note (replaced to tell one kind of note from another)
 _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?")
+
 
 @dataclass(frozen=True)
 class Sample:
