@@ -1310,6 +1310,13 @@ def chain_smooth_motions(motions: List[Dict[str, Any]], ensure_continuity: bool 
             last_end = wps[-1] if wps else None
         else:
             last_end = motion.get(end_key) if end_key else None
+    return _send_in_turn(commands, wait_for_ack, timeout)
+
+
+def _send_in_turn(commands: List[str], wait_for_ack: bool, timeout: float) -> List[Result]:
+    """Send ``commands`` one after the other; with ``wait_for_ack`` each waits for its result
+    and the first one that did not complete (FAILED, INVALID, CANCELLED, TIMEOUT) ends the
+    sequence.  The list of results."""
     results: List[Result] = []
     for command in commands:
         result = _dispatch(command, wait_for_ack, timeout, False)
@@ -1348,13 +1355,7 @@ def execute_trajectory(trajectory: List[List[float]], timing_mode: str = "durati
     if mode == "duration":
         timing = {"duration": _positive(timing_value, "timing_value") / len(poses)}
     commands = [build_move_cart(_pose(p, f"trajectory[{i}]"), **timing) for i, p in enumerate(poses)]
-    results: List[Result] = []
-    for command in commands:
-        result = _dispatch(command, wait_for_ack, timeout, False)
-        results.append(result)
-        if wait_for_ack and _ended(result):
-            break
-    return results
+    return _send_in_turn(commands, wait_for_ack, timeout)
 
 
 def safe_move_with_retry(move_func: Any, *args: Any, max_retries: int = 3, retry_delay: float = 1.0,

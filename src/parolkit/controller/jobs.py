@@ -177,6 +177,18 @@ class Activity:
         (replies went missing); it is stepped again once they come back."""
 
 
+def _boundary(ok: Callable[[float], bool], *, good: float, bad: float, steps: int = 12) -> float:
+    """The sample coordinate nearest ``bad`` that ``ok`` still passes, between ``good`` (passes)
+    and ``bad`` (does not), by bisection to 1/2**steps of the span (1/4000 by default)."""
+    for _ in range(steps):
+        mid = 0.5 * (good + bad)
+        if ok(mid):
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
 class TrajectoryActivity(Activity):
     """Play a planned trajectory against real time, then settle on the target.
 
@@ -309,25 +321,11 @@ class TrajectoryActivity(Activity):
             return want
         pace = min(s_prev + 1.0, self.n - 1.0)
         if check is not None and want < pace and ok(pace):
-            # an early tick: the guard counts the previous frame as running a whole period (the
-            # board is further on than "due now" says): the nearest target ahead that it passes
-            bad, good = want, pace
-            for _ in range(12):
-                mid = 0.5 * (bad + good)
-                if ok(mid):
-                    good = mid
-                else:
-                    bad = mid
-            return good
+            # the board is further on than "due now" says (the previous frame ran longer than
+            # planned for): the nearest target ahead that the guard passes
+            return _boundary(ok, good=pace, bad=want)
         step1 = min(s_prev + 1.0, want)
-        lo, hi = (step1, want) if ok(step1) else (s_prev, step1)
-        for _ in range(12):  # to 1/4000 of the catch-up span
-            mid = 0.5 * (lo + hi)
-            if ok(mid):
-                lo = mid
-            else:
-                hi = mid
-        return lo
+        return _boundary(ok, good=step1, bad=want) if ok(step1) else _boundary(ok, good=s_prev, bad=step1)
 
     def _speed_step(self, ctx: TickContext, k: int) -> Step:
         """A speed-tracked sample ``k``: the speed that reaches its position by the next
