@@ -475,3 +475,36 @@ def test_stop_during_homing_stops_the_board_and_a_later_enable_or_home_is_no_unc
         assert r.terminal("dddd0001") is AckStatus.COMPLETED and r.ex.homed
     finally:
         r.close()
+
+
+def test_stop_frames_after_the_probes_jogs_never_make_an_enabled_board_look_disabled():
+    """Replies late at start-up: the loop paused "motion" with zero-speed JOG frames after the
+    probe's own two JOGs, and two replies to those (123 echoed twice, speeds 0) looked exactly
+    like a disabled board's answer: a fresh, enabled board-sim was "found disabled" under load.
+    Such an attempt can no longer say "disabled"; the board's later clear answer decides."""
+    probe = BoardProbe(attempts=3, wait_ticks=4)
+    probe.start()
+    t = 0.0
+    for _ in range(3):  # IDLE, JOG +-1, JOG 0
+        code, speeds = probe.frame(None, PAROL6.limits_steps)
+        t += 0.01
+        probe.sent(CommandFrame(command=code, speeds=speeds), t)
+    for _ in range(2):  # the loop's stop frames (replies missing): zero-speed JOGs
+        probe.frame(None, PAROL6.limits_steps)
+        t += 0.01
+        probe.sent(CommandFrame(command=BoardCommand.JOG), t)
+    # the replies to the stop frames arrive: 123 echoed twice, speeds 0, a loop pass apart
+    still = StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=int(BoardCommand.JOG))
+    probe.observe(still, t + 0.001, True)
+    probe.observe(still, t + 0.002, True)
+    assert probe.result is None and probe.active  # not "disabled"
+    # the next attempt's answer: J1 moving at the probe's 1 step/s: enabled
+    for _ in range(12):
+        code, speeds = probe.frame(None, PAROL6.limits_steps)
+        t += 0.01
+        probe.sent(CommandFrame(command=code, speeds=speeds), t)
+        if code == BoardCommand.JOG and speeds[0]:
+            sign = speeds[0]
+    probe.observe(StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=int(BoardCommand.JOG),
+                              speeds=(sign, 0, 0, 0, 0, 0)), t + 0.001, True)
+    assert probe.result is True

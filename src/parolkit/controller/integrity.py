@@ -213,6 +213,8 @@ class BoardProbe:
         self._sign = 1
         self._written: list[float | None] = [None, None, None]
         self._prev: tuple[StatusFrame, float, int] | None = None
+        #: a JOG frame was written after the probe's zero JOG in this attempt (see :meth:`sent`)
+        self._jog_after = False
 
     def start(self) -> None:
         """(Re)start from the first frame (a new link session)."""
@@ -231,6 +233,7 @@ class BoardProbe:
 
     def _restart(self) -> None:
         self._i = 0
+        self._jog_after = False
         self._wait = 0
         self._written = [None, None, None]
         self._prev = None
@@ -275,6 +278,11 @@ class BoardProbe:
             else:  # the guard replaced it (E-stop, ...): this attempt says nothing
                 self._i = 3
                 self._wait = self.wait_ticks
+        elif k == 2 and self._written[2] is not None and int(frame.command) == _JOG:
+            # a JOG after the probe's own two (the loop's zero-speed stop frames while replies
+            # were late): two replies to such frames look exactly like "disabled" (123 echoed
+            # twice, speeds 0), so this attempt can no longer say "disabled"
+            self._jog_after = True
 
     def observe(self, f: StatusFrame, t: float, adjacent: bool) -> None:
         """A status frame read at ``t``; ``adjacent``: nothing was lost since the previous one."""
@@ -286,6 +294,7 @@ class BoardProbe:
             self._finish(True, "")
             return
         if (tc is not None and tb is not None and prev is not None and adjacent and f.xtr == _JOG
+                and not self._jog_after
                 and prev[2] == _JOG and prev[1] > tb and t > tc and not any(f.speeds)
                 and f.timing >= TIMER_HZ // 1000):
             self._finish(False, "the board was found disabled: send ENABLE")
@@ -386,6 +395,7 @@ class StatusIntegrity:
         code = int(frame.command)
         if code == _HOME:
             self._home_t, self._home_seen = self._n, False
+            self._abort_n = None  # a new homing: an earlier abort's wait is over
             self._home_homed = self._ref.f.homed if self._ref is not None else 0xFF
         elif code in _ABORT:
             if self._home_t is not None or self._unasked:
