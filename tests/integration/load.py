@@ -4,7 +4,7 @@ Used by ``tests/integration/test_timing_under_load.py`` (which asserts) and
 ``bench/controller.py`` (which prints figures).  Real parts only:
 
 * :class:`BusyProcesses` -- ``python -c "while True: pass"`` processes, one per core to burn;
-* :class:`BoardSim` -- ``parolkit board-sim --frame-log`` on a real pty, its own process: the
+* :class:`BoardSim` (:mod:`tests.integration.boardsim`) -- ``parolkit board-sim`` on a real pty: the
   board's frame log (receive time and command code of every frame) and its ``status`` (step
   counters) are the judges;
 * :class:`Client` -- commands with IDs over UDP, acks on the controller's ack port, queries;
@@ -28,7 +28,8 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from parolkit.board.control import send_control
+from tests.integration.boardsim import BoardSim
+
 from parolkit.client.launch import die_with_parent
 from parolkit.robot import PAROL6
 
@@ -71,93 +72,6 @@ class BusyProcesses:
 
     def alive(self) -> bool:
         return bool(self.procs) and all(p.poll() is None for p in self.procs)
-
-
-#: the SCHED_FIFO priority board-sim asks for (see :class:`BoardSim`); above the controller's
-BOARD_FIFO_PRIORITY = 20
-#: ... and the niceness where SCHED_FIFO is refused
-BOARD_NICE = -10
-
-
-def _board_preexec() -> None:
-    die_with_parent()
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(BOARD_FIFO_PRIORITY))
-        return
-    except (AttributeError, OSError):
-        pass
-    try:
-        os.nice(BOARD_NICE)
-    except OSError:
-        pass  # not permitted: :attr:`BoardSim.scheduling` says what it got
-
-
-class BoardSim:
-    """``parolkit board-sim --start-homed --frame-log N`` on ``tmp/NAME``, its own process.
-
-    ``raised=True`` runs it as SCHED_FIFO (else at nice -10) where the OS allows it: the real
-    board is a microcontroller of its own that answers every frame within a millisecond,
-    whatever the PC does; an emulator at normal priority under two CPU hogs left frames
-    unanswered for 30-100 ms (its threads wait for the interpreter lock held by one the OS
-    has preempted), which a real board never does, so a loss it causes is not the
-    controller's.  :attr:`scheduling` says what it got.  (It does little work per frame and
-    sleeps between frames; the kernel still keeps 5 % of the CPU for everything else.)
-    """
-
-    def __init__(self, tmp: Path, *, name: str = "p6", frame_log: int = 100_000,
-                 env: dict[str, str] | None = None, raised: bool = True) -> None:
-        self.link = tmp / name
-        self.log_path = tmp / f"{name}-board-sim.log"
-        self._log = open(self.log_path, "wb")
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "parolkit", "board-sim", "--link", str(self.link), "--start-homed",
-             "--frame-log", str(frame_log)], stdout=self._log, stderr=subprocess.STDOUT, env=env,
-            preexec_fn=_board_preexec if raised else die_with_parent)
-        pid = self.proc.pid
-        if os.sched_getscheduler(pid) == os.SCHED_FIFO:
-            self.scheduling = f"fifo:{os.sched_getparam(pid).sched_priority}"
-        else:
-            nice = os.getpriority(os.PRIO_PROCESS, pid)
-            self.scheduling = f"nice:{nice}" if nice else "normal"
-        end = time.monotonic() + 20
-        while not (self.link.exists() and Path(f"{self.link}.ctl").exists()):
-            if self.proc.poll() is not None or time.monotonic() > end:
-                raise RuntimeError(f"board-sim did not start: {self.log_path.read_text(errors='replace')}")
-            time.sleep(0.02)
-        self.control_path = f"{self.link}.ctl"
-
-    def control(self, text: str, timeout_s: float = 5.0) -> str:
-        reply = send_control(self.control_path, text, timeout_s=timeout_s)
-        if not reply.startswith("ok"):
-            raise RuntimeError(f"board-sim {text!r}: {reply}")
-        return reply[3:]
-
-    def status(self) -> dict:
-        return json.loads(self.control("status"))
-
-    def positions_deg(self) -> tuple[float, ...]:
-        return tuple(p / s for p, s in zip(self.status()["positions"], SPD))
-
-    def frames(self, since: float) -> list[list]:
-        """Every frame the board received after ``since`` (monotonic s): ``[seq, t, command]``."""
-        out: list[list] = []
-        query = f"frames since={since:.6f}"
-        while True:
-            got = json.loads(self.control(query))
-            out += got["frames"]
-            if not got["more"] or not got["frames"]:
-                return out
-            query = f"frames since={since:.6f} after={got['frames'][-1][0]}"
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        self._log.close()
 
 
 class Client:

@@ -27,16 +27,12 @@ printed next to the flood's (not judged).  On failure the message carries every 
 from __future__ import annotations
 
 import os
-import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from tests.conftest import REPO_ROOT, start_controller, wait_until
+from tests.conftest import start_controller, wait_until
 from tests.integration import flood
-
-from parolkit.client.launch import die_with_parent
+from tests.integration.boardsim import BoardSim
 
 FLOOD_RATE = 20_000       # datagrams/s
 FLOOD_S = 10.0
@@ -54,15 +50,10 @@ class Rig:
 
     def __init__(self, tmp_path: Path) -> None:
         self.link = tmp_path / "p6"
-        self.board_log = open(tmp_path / "board-sim.log", "wb")
-        self.board = subprocess.Popen(
-            [sys.executable, "-m", "parolkit", "board-sim", "--link", str(self.link), "--start-homed",
-             "--frame-log", "20000"], stdout=self.board_log, stderr=subprocess.STDOUT, cwd=REPO_ROOT,
-            preexec_fn=die_with_parent)
+        self.sim = BoardSim(tmp_path, frame_log=20000)
+        self.board = self.sim.proc
         self.ctl = None
         self.acks = None
-        wait_until(lambda: self.board.poll() is not None or self.link.exists(), 10, what="board-sim's pty")
-        assert self.board.poll() is None, (tmp_path / "board-sim.log").read_text()
         # the 2 cores are shared with the flood: allow 50 silent ticks before "link lost", as the
         # other pty tests do (link-loss detection is not what this test is about)
         cfg = tmp_path / "controller.toml"
@@ -80,14 +71,7 @@ class Rig:
             self.acks.kill()
         if self.ctl is not None:
             self.ctl.stop()
-        if self.board.poll() is None:
-            self.board.send_signal(signal.SIGTERM)
-            try:
-                self.board.wait(10)
-            except subprocess.TimeoutExpired:
-                self.board.kill()
-                self.board.wait(5)
-        self.board_log.close()
+        self.sim.close()
 
 
 @pytest.fixture

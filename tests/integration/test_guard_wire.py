@@ -14,15 +14,13 @@ from __future__ import annotations
 
 import json
 import re
-import signal
 import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-from tests.conftest import REPO_ROOT, die_with_parent, start_controller, wait_until
+from tests.conftest import start_controller, wait_until
+from tests.integration.boardsim import BoardSim
 from tests.integration.test_controller_pty import AckListener
 
 from parolkit import kinematics as kin
@@ -43,12 +41,8 @@ class WireBench:
 
     def __init__(self, tmp_path: Path) -> None:
         self.link = tmp_path / "p6"
-        self.board_log = open(tmp_path / "board-sim.log", "wb")
-        self.board = subprocess.Popen(
-            [sys.executable, "-m", "parolkit", "board-sim", "--link", str(self.link), "--start-homed"],
-            stdout=self.board_log, stderr=subprocess.STDOUT, cwd=REPO_ROOT, preexec_fn=die_with_parent)
-        wait_until(lambda: self.board.poll() is not None or self.link.exists(), 10, what="board-sim's pty")
-        assert self.board.poll() is None, (tmp_path / "board-sim.log").read_text()
+        self.sim = BoardSim(tmp_path, frame_log=None)
+        self.board = self.sim.proc
         self.log_path = tmp_path / "frames.log"
         cfg = tmp_path / "controller.toml"
         # (2 busy cores: allow silent ticks; link supervision is not what this test is about)
@@ -98,14 +92,7 @@ class WireBench:
         self.ctl.stop()
         self.acks.close()
         self.sock.close()
-        if self.board.poll() is None:
-            self.board.send_signal(signal.SIGTERM)
-            try:
-                self.board.wait(10)
-            except subprocess.TimeoutExpired:
-                self.board.kill()
-                self.board.wait(5)
-        self.board_log.close()
+        self.sim.close()
 
 
 @pytest.fixture

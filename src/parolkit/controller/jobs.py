@@ -292,7 +292,8 @@ class TrajectoryActivity(Activity):
 
     def _goto_sample(self, ctx: TickContext) -> float:
         """Where in the samples the next 156 target is: what is due now, but no further than
-        the board can follow from where it is (and never back).  With the guard's own
+        the board can follow from where it is (back along the plan only when even the previous
+        target would ask the board for more than its maximum).  With the guard's own
         judgement at hand (``ctx.goto_check``) every target is one it passes (else the
         furthest such one from the previous target on); without it, the pacing model
         judges catch-ups of more than one sample."""
@@ -325,7 +326,16 @@ class TrajectoryActivity(Activity):
             # planned for): the nearest target ahead that the guard passes
             return _boundary(ok, good=pace, bad=want)
         step1 = min(s_prev + 1.0, want)
-        return _boundary(ok, good=step1, bad=want) if ok(step1) else _boundary(ok, good=s_prev, bad=step1)
+        if ok(step1):
+            return _boundary(ok, good=step1, bad=want)
+        if check is None or ok(s_prev):
+            return _boundary(ok, good=s_prev, bad=step1)
+        # the board is further behind than the previous target allows (that frame ran shorter
+        # than planned: an early tick): a target a little back along the plan, still ahead of
+        # the board, keeps its start speed within the maximum; the plan's clock runs on and
+        # the next ticks catch up
+        back = max(0.0, s_prev - 2.0)
+        return _boundary(ok, good=back, bad=s_prev) if ok(back) else s_prev
 
     def _speed_step(self, ctx: TickContext, k: int) -> Step:
         """A speed-tracked sample ``k``: the speed that reaches its position by the next
