@@ -796,11 +796,12 @@ def test_a_disable_is_written_before_an_enable_that_arrives_in_the_same_tick(rig
 
 
 def test_full_speed_moves_under_jittery_ticks_never_meet_a_guard_refusal(rig):
-    """Ticks early and late at random (a loaded machine: a 35 ms gap, then a 2 ms one): a move
-    catching up after a late tick judged its targets by the pacing model's own estimate, while
-    the guard judged by its prediction (at least one period, both hypotheses when uncertain):
-    moves at 100 % FAILED on "would start this frame at ... above its maximum" (the 10-minute
-    load run, test_guard_wire).  Targets are now the ones the guard passes."""
+    """Ticks late at random and the next one on its deadline (a loaded machine): a move
+    catching up judged its targets by the pacing model's own estimate, while the guard judged
+    by its prediction (the previous frame counted as running at least one period, both
+    hypotheses when uncertain): moves at 100 % FAILED on "would start this frame at ... above
+    its maximum" (the 10-minute load run, test_guard_wire).  Targets are now the ones the
+    guard passes."""
     import random
 
     rnd = random.Random(7)
@@ -810,8 +811,17 @@ def test_full_speed_moves_under_jittery_ticks_never_meet_a_guard_refusal(rig):
     for k, text in enumerate(moves * 2):
         cid = f"j{k:07d}"
         rig.submit(f"{cid}|{text}")
+        late = 0.0
         for _ in range(3000):
-            rig.tick(dt=rnd.choice((0.002, 0.006, 0.010, 0.010, 0.014, 0.025, 0.035)))
+            # the loop keeps its deadlines: a tick late by L comes L after its deadline, the next
+            # one on its own deadline (L early against the one before); later than a period:
+            # the missed deadlines are skipped
+            if late:
+                gap, late = 0.010 - late, 0.0
+            else:
+                late = rnd.choice((0.0, 0.0, 0.0, 0.002, 0.004, 0.008, 0.0095))
+                gap = 0.010 + late if rnd.random() < 0.9 else 0.020 + late
+            rig.tick(dt=gap)
             if rig.terminal(cid) is not None:
                 break
         assert rig.terminal(cid) is AckStatus.COMPLETED, (text, rig.acks[-3:])

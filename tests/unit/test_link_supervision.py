@@ -7,6 +7,8 @@ emulator's own (``set_faults``), applied to the board's replies only."""
 
 from __future__ import annotations
 
+import time
+
 import pytest
 from tests.unit.test_controller_core import RATE, Rig
 
@@ -216,3 +218,22 @@ def test_hold_frames_may_not_exceed_the_loss_threshold():
                         link_timeout_ticks=2, link_hold_frames=3)
     finally:
         r.close()
+
+
+def test_a_move_that_starts_while_replies_are_missing_starts_from_where_the_board_rests(rig):
+    """A full-speed move planned and started while the motion was paused (replies missing: the
+    stop frames went out instead of its first frames): its schedule ran on, and when replies
+    came back its first target was the sample due by then, far from the board: the guard
+    refused it and the move FAILED (test_guard_wire on a busy machine).  The first target is
+    now the furthest one the guard passes from where the board rests; the move completes."""
+    _loop(rig, 60, hold=2)
+    rig.submit("aaaa0001|MOVEJOINT|40|-60|200|-30|-20|120|None|100|100")
+    rig.emu.set_faults(drop_rate=1.0, direction="from_board")
+    for _ in range(40):  # the planner thread plans it meanwhile; the loop holds
+        rig.tick()
+        time.sleep(0.002)
+    assert rig.loop.holding and AckStatus.EXECUTING in rig.statuses("aaaa0001")
+    rig.emu.clear_faults()
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED, _details(rig, "aaaa0001")
+    assert rig.loop.guard.violations == 0, rig.loop.guard.last_violation

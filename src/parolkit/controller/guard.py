@@ -31,15 +31,14 @@ the reply" are checked; the worse one decides.  The board's enable state (101 / 
 homing (100, until a reply shows every joint homed and still) are part of the prediction.
 
 Time: ``now`` (s, the loop's clock) tells the guard how long the previous frame has been
-running: the real interval, late or early.  A frame written late has let the board run the
-previous one longer, so it may step further (rule 6), but only as far as the board can follow
-within the maximum speed (rule 7); a frame written early (the loop keeps its deadlines, so the
-tick after a late one comes early) may step only as far as its shorter interval allows.  (An
-interval counted as at least one period let the prediction run ahead of the board by the
-early part of every late/early pair: within a GO TO stream the replies do not re-anchor it,
-so under load the drift grew until no target passed rule 7 and moves FAILED.)  The planners
-leave :data:`~parolkit.robot.GOTO_ARRIVAL_JITTER_S` of margin for the link's delivery jitter.
-An activity that catches up after a late tick asks :meth:`SafetyGuard.accepts_goto`.
+running.  The interval counts as at least one period: the loop writes one frame per tick,
+and a frame written early because the one before was late is judged as if it came on time
+(the planners leave :data:`~parolkit.robot.GOTO_ARRIVAL_JITTER_S` of margin for that).  A
+frame written later than one period after the previous one is judged with the real interval:
+the board has had longer to close the gap, so a late frame may step further (rule 6), but
+only as far as the board can follow within the maximum speed (rule 7).  An activity that
+catches up after a late tick asks :meth:`SafetyGuard.accepts_goto`, so its frames are the
+ones the guard passes.
 
 Rules, in order:
 
@@ -51,7 +50,7 @@ Rules, in order:
 5. GO TO (156): only when homed and while the board's position can be predicted; every target
    inside the published step limits.
 6. GO TO step: a target may move from the previous GO TO target by at most the maximum speed x
-   the time between the two frames; the first GO TO after any other
+   the time between the two frames (at least one period); the first GO TO after any other
    frame may lie at most one period of maximum-speed travel from where the board is.
 7. GO TO start speed: the speed the board will start this frame at,
    ``|0.5 v_ff + 50 (target - position on arrival)|``, within the maximum speed.
@@ -185,14 +184,6 @@ class _Sent:
         if code == BoardCommand.JOG:
             return [a + v * dt for a, v in zip(p, f.speeds)]
         return list(p)  # IDLE, 101-103, unknown codes: still
-
-
-def _interval(now: float, then: float | None, period_s: float) -> float:
-    """How long a frame written at ``then`` ran until ``now`` (s): the real interval (one
-    period when unknown; never below a microsecond: two frames in the same instant)."""
-    if then is None:
-        return period_s
-    return max(now - then, 1e-6)
 
 
 class SafetyGuard:
@@ -424,8 +415,8 @@ class SafetyGuard:
         """The frame to send this tick.
 
         ``status`` is the newest status frame (or None); ``now`` the loop's time (s) as the
-        frame is written: the interval since the previous checked frame (one period when ``now``
-        is None) is how long that frame ran.  A second check at the
+        frame is written: the interval since the previous checked frame (at least one period;
+        one period when ``now`` is None) is how long that frame ran.  A second check at the
         same ``now`` replaces the first (the loop writes only the second: a safety command
         that arrived while the first frame was made)."""
         sent = self._sent
@@ -434,7 +425,7 @@ class SafetyGuard:
         prev = sent[-1] if sent else None
         dt = self.period_s
         if now is not None and prev is not None and prev.t is not None:
-            dt = _interval(now, prev.t, self.period_s)
+            dt = max(dt, now - prev.t)
         if prev is not None:
             prev.dt = dt
         self._sync(status)
@@ -451,14 +442,15 @@ class SafetyGuard:
                      now: float) -> bool:
         """Would :meth:`check` at ``now`` (with ``status``) pass a 156 frame with these targets and
         feed-forwards, the robot homed and no E-stop?  The same rules and the same prediction of
-        where the board will be (anchored on ``status``; both hypotheses when uncertain): an activity that catches up
+        where the board will be (anchored on ``status``; both hypotheses when uncertain; the
+        previous frame counted as running at least one period): an activity that catches up
         after a late tick asks this, so its frame is never one the guard refuses (the pacing
         module's own estimate disagreed under load: an early tick, an uncertain prediction,
         and the move FAILED on a guard refusal)."""
         prev = self._sent[-1] if self._sent else None
         dt = self.period_s
         if prev is not None and prev.t is not None:
-            dt = _interval(now, prev.t, self.period_s)
+            dt = max(dt, now - prev.t)
         self._sync(status)
         frame = CommandFrame(command=BoardCommand.GOTO, positions=tuple(int(p) for p in positions),
                              speeds=tuple(int(v) for v in speeds))
@@ -497,5 +489,5 @@ class SafetyGuard:
         last = self._sent[-1]
         dt = self.period_s
         if now is not None and last.t is not None:
-            dt = _interval(now, last.t, self.period_s)
+            dt = max(dt, now - last.t)
         return last.after(dt)

@@ -239,6 +239,8 @@ class TrajectoryActivity(Activity):
         #: where in the samples the last 156 frame was (fractional), its target and time
         self._s: float | None = None
         self._prev_goto: tuple[Sequence[int], float] | None = None
+        #: ticks waited before the first frame (see :meth:`_waits_to_start`)
+        self._start_waits = 0
         self._last_target: tuple[int, ...] | None = None
         #: speed tracking's end: the status frame when the zero-speed frames began (see
         #: :meth:`_speed_step`; False: none then)
@@ -290,6 +292,28 @@ class TrajectoryActivity(Activity):
         return ([int(round(a + f * (b - a))) for a, b in zip(p0, p1)],
                 [int(round(a + f * (b - a))) for a, b in zip(v0, v1)])
 
+    #: how many ticks a position-tracked move waits for the board to slow down before its first
+    #: frame (then it is sent all the same, and the guard's refusal says why)
+    START_WAIT_TICKS = 50
+
+    def _waits_to_start(self, ctx: TickContext) -> bool:
+        """Before the first 156 frame: True (send IDLE, start the schedule later) while even
+        the first sample is one the guard would refuse -- the board still running from what came
+        before (a STOP's hold, a move cancelled at speed): the IDLE frame stops it, and the move
+        starts a tick later on its full time instead of FAILing on a refusal."""
+        check = ctx.goto_check
+        if check is None or self._prev_goto is not None or self._s is not None:
+            return False
+        if self._start_waits >= self.START_WAIT_TICKS:
+            return False
+        pos, ff = self._at(float(self.i))
+        if check(pos, ff, ctx.status, ctx.now):
+            return False
+        self._start_waits += 1
+        self.t0 = ctx.now + 1.0 / ctx.rate_hz  # sample i is due at the next tick
+        self._offset = self.i
+        return True
+
     def _goto_sample(self, ctx: TickContext) -> float:
         """Where in the samples the next 156 target is: what is due now, but no further than
         the board can follow from where it is (back along the plan only when even the previous
@@ -299,15 +323,25 @@ class TrajectoryActivity(Activity):
         judges catch-ups of more than one sample."""
         want = min(max(self._elapsed_samples(ctx.now, ctx.rate_hz), float(self.i)), self.n - 1.0)
         prev, s_prev = self._prev_goto, self._s
-        if prev is None or s_prev is None:
-            return want
-        want = max(want, s_prev)
         check = ctx.goto_check
+
+        def passes(s: float) -> bool:  # the guard's verdict on the target at sample ``s``
+            assert check is not None
+            pos, ff = self._at(s)
+            return check(pos, ff, ctx.status, ctx.now)
+
+        if prev is None or s_prev is None:
+            # the first target: normally the first sample; after a pause that began before it
+            # (replies missing, stop frames sent) the schedule ran on, but the board is still
+            # where it rested: the furthest target the guard passes from it
+            first = float(self.i)
+            if check is None or want <= first or passes(want):
+                return want
+            return _boundary(passes, good=first, bad=want) if passes(first) else first
+        want = max(want, s_prev)
         target, t_prev = prev
         if check is not None:
-            def ok(s: float) -> bool:
-                pos, ff = self._at(s)
-                return check(pos, ff, ctx.status, ctx.now)
+            ok = passes
         else:
             x = self.log.estimate(ctx.status, ctx.now)
             if x is None or want - s_prev <= 1.0:
@@ -401,6 +435,8 @@ class TrajectoryActivity(Activity):
             if self.commands[k] == BoardCommand.JOG:
                 due = int(self._elapsed_samples(now, ctx.rate_hz) + 0.5)
                 return self._speed_step(ctx, min(max(k, due), self.n - 1))
+            if self._waits_to_start(ctx):
+                return Step(BoardCommand.IDLE)
             s = self._goto_sample(ctx)
             self._s = s
             self.i = self.n if s >= self.n - 1 else int(s) + 1

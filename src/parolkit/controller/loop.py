@@ -127,7 +127,9 @@ class ControlLoop:
         self.transport = transport
         self.executor = executor
         self.guard = guard
-        executor.goto_check = guard.accepts_goto  # catch-up targets judged as the guard will
+        # catch-up targets judged as the guard will judge the frame: with the status it gets
+        # (the loop's, also while a pause hands the executor none)
+        executor.goto_check = lambda pos, ff, _status, now: guard.accepts_goto(pos, ff, self.status, now)
         self.rate_hz = rate_hz
         self.period = 1.0 / rate_hz
         if not 1 <= link_hold_frames <= link_timeout_ticks:

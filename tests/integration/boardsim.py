@@ -1,0 +1,131 @@
+"""``parolkit board-sim`` in its own process on a real pty, for the integration tests and the
+controller bench (one wrapper: the load rig, the link-fault, integrity, guard-on-the-wire and
+flood tests all start it here).
+
+The emulated board runs as SCHED_FIFO (else at nice -10) where the OS allows it: the real
+board is a microcontroller of its own that answers every frame within a millisecond, whatever
+the PC does; an emulator at normal priority on a busy machine left frames unanswered for
+30-100 ms (its threads wait for the interpreter lock held by one the OS has preempted), which
+a real board never does, so a fault it causes is not the controller's.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from parolkit.board.control import send_control
+from parolkit.client.launch import die_with_parent
+from parolkit.robot import PAROL6
+
+__all__ = ["BoardSim", "BOARD_FIFO_PRIORITY", "BOARD_NICE", "REPO_ROOT"]
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+SPD = tuple(float(v) for v in PAROL6.steps_per_deg)
+
+#: the SCHED_FIFO priority board-sim asks for (see :class:`BoardSim`); above the controller's
+BOARD_FIFO_PRIORITY = 20
+#: ... and the niceness where SCHED_FIFO is refused
+BOARD_NICE = -10
+
+
+def _board_preexec() -> None:
+    die_with_parent()
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(BOARD_FIFO_PRIORITY))
+        return
+    except (AttributeError, OSError):
+        pass
+    try:
+        os.nice(BOARD_NICE)
+    except OSError:
+        pass  # not permitted: :attr:`BoardSim.scheduling` says what it got
+
+
+class BoardSim:
+    """``parolkit board-sim --link tmp/NAME`` in its own process.
+
+    ``start_homed`` (``--start-homed``), ``frame_log`` (``--frame-log N``: the receive time and
+    command code of every frame, see :meth:`frames`; None: off), ``exchange_log``
+    (``--exchange-log tmp/NAME-exchange.jsonl``: every frame as sent and as executed and every
+    true status frame, :attr:`record_path`), ``speedup`` (``--speedup``: homing time scale).
+    ``raised`` runs it as SCHED_FIFO (else at nice -10) where the OS allows it (module
+    docstring); :attr:`scheduling` says what it got.  (It does little work per frame and
+    sleeps between frames; the kernel still keeps 5 % of the CPU for everything else.)
+    """
+
+    def __init__(self, tmp: Path, *, name: str = "p6", start_homed: bool = True,
+                 frame_log: int | None = 100_000, exchange_log: bool = False, speedup: float | None = None,
+                 env: dict[str, str] | None = None, raised: bool = True) -> None:
+        self.link = tmp / name
+        self.log_path = tmp / f"{name}-board-sim.log"
+        self.record_path = tmp / f"{name}-exchange.jsonl"
+        args = [sys.executable, "-m", "parolkit", "board-sim", "--link", str(self.link)]
+        if start_homed:
+            args.append("--start-homed")
+        if frame_log is not None:
+            args += ["--frame-log", str(frame_log)]
+        if exchange_log:
+            args += ["--exchange-log", str(self.record_path)]
+        if speedup is not None:
+            args += ["--speedup", str(speedup)]
+        self._log = open(self.log_path, "wb")
+        self.proc = subprocess.Popen(args, stdout=self._log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
+                                     preexec_fn=_board_preexec if raised else die_with_parent)
+        pid = self.proc.pid
+        if os.sched_getscheduler(pid) == os.SCHED_FIFO:
+            self.scheduling = f"fifo:{os.sched_getparam(pid).sched_priority}"
+        else:
+            nice = os.getpriority(os.PRIO_PROCESS, pid)
+            self.scheduling = f"nice:{nice}" if nice else "normal"
+        end = time.monotonic() + 20
+        while not (self.link.exists() and Path(f"{self.link}.ctl").exists()):
+            if self.proc.poll() is not None or time.monotonic() > end:
+                raise RuntimeError(f"board-sim did not start: {self.log_path.read_text(errors='replace')}")
+            time.sleep(0.02)
+        self.control_path = f"{self.link}.ctl"
+
+    def ctl(self, text: str, timeout_s: float = 5.0) -> str:
+        """A control command's reply as it is (``ok ...`` or ``error: ...``)."""
+        return send_control(self.control_path, text, timeout_s=timeout_s)
+
+    def control(self, text: str, timeout_s: float = 5.0) -> str:
+        """A control command's answer (without ``ok ``); RuntimeError on an error reply."""
+        reply = self.ctl(text, timeout_s)
+        if not reply.startswith("ok"):
+            raise RuntimeError(f"board-sim {text!r}: {reply}")
+        return reply[3:]
+
+    def status(self) -> dict:
+        return json.loads(self.control("status"))
+
+    def positions_deg(self) -> tuple[float, ...]:
+        return tuple(p / s for p, s in zip(self.status()["positions"], SPD))
+
+    def frames(self, since: float) -> list[list]:
+        """Every frame the board received after ``since`` (monotonic s): ``[seq, t, command]``."""
+        out: list[list] = []
+        query = f"frames since={since:.6f}"
+        while True:
+            got = json.loads(self.control(query))
+            out += got["frames"]
+            if not got["more"] or not got["frames"]:
+                return out
+            query = f"frames since={since:.6f} after={got['frames'][-1][0]}"
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        self._log.close()
+
+
