@@ -139,3 +139,9 @@ def test_urdf_command_writes_the_file_and_prints_without_o(tmp_path, capsys) -> 
 def test_urdf_command_rejects_an_unknown_tool_precisely(capsys) -> None:  # type: ignore[no-untyped-def]
     assert main(["urdf", "--tool", "no-such-tool"]) == 2
     assert "no-such-tool" in capsys.readouterr().err
+
+
+def test_ros2_command_rejects_a_bad_connect_address_precisely(capsys) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(SystemExit):
+        main(["ros2", "--connect", "localhost:99999"])
+    assert "--connect port must be an integer 1..65535, got '99999'" in capsys.readouterr().err

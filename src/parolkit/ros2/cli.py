@@ -29,8 +29,6 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser], na
         p.add_argument("--config", type=Path, default=None, help="parolkit.toml to use (robot model, user tools)")
         p.set_defaults(func=_run_urdf)
         return p
-    from parolkit.gui.cli import parse_host_port
-
     p = subparsers.add_parser(
         name, help="bridge a controller to ROS 2 (DDS): /joint_states, /robot_description, /joint_trajectory",
         description="A ROS 2 node without ROS: publishes /joint_states, /robot_description, /tf and "
@@ -43,6 +41,16 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser], na
     p.add_argument("--config", type=Path, default=None, help="parolkit.toml to use")
     p.set_defaults(func=_run_ros2)
     return p
+
+
+def parse_host_port(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` -> (host, port), else an argparse error naming the problem."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host:
+        raise argparse.ArgumentTypeError(f"--connect needs HOST:PORT (e.g. 127.0.0.1:5001), got {text!r}")
+    if not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise argparse.ArgumentTypeError(f"--connect port must be an integer 1..65535, got {port!r}")
+    return host.strip("[]"), int(port)
 
 
 def _run_urdf(args: argparse.Namespace) -> int:
