@@ -251,3 +251,23 @@ def test_a_three_point_trajectory_over_4_s_ends_on_time_within_one_tick(setup) -
     print(f"trajectory end: last sample {last_sample - first} ticks after the start (planned "
           f"{round(TIMES[-1] * rate)}); the board within 1 step of the last point after {arrival - first} ticks")
     assert abs((last_sample - first) - round(TIMES[-1] * rate)) <= 1, (last_sample - first, TIMES[-1] * rate)
+
+
+def test_the_bridge_exits_with_status_1_when_the_controller_goes_silent(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    ctl = start_controller(log_dir=tmp_path)
+    env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO_ROOT / "src"))
+    bridge = subprocess.Popen(
+        [sys.executable, "-m", "parolkit", "ros2", "--connect", f"127.0.0.1:{ctl.port}",
+         "--domain", str(100 + (os.getpid() + 50) % 100)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT, text=True)
+    try:
+        lines = [bridge.stdout.readline() for _ in range(2)]  # type: ignore[union-attr]
+        assert any("parolkit ros2: ready" in line for line in lines), lines
+        ctl.stop()
+        assert bridge.wait(30) == 1
+        out = bridge.stdout.read()  # type: ignore[union-attr]
+        assert f"no status from the controller at 127.0.0.1:{ctl.port} for 5 s: exiting" in out, out
+    finally:
+        if bridge.poll() is None:
+            bridge.kill()
+        ctl.stop()

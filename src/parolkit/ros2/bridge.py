@@ -56,6 +56,8 @@ __all__ = ["Ros2Bridge", "run_bridge", "ros_qos", "description_qos", "quaternion
 log = logging.getLogger("parolkit.ros2")
 
 _DEG = math.pi / 180.0
+#: ``parolkit ros2`` exits (status 1) when the controller's status stream is silent this long, s
+STATUS_SILENCE_S = 5.0
 
 
 def ros_qos() -> Qos:
@@ -120,6 +122,7 @@ class Ros2Bridge:
         self._names = list(ROS_JOINT_NAMES)
         self._latest: RobotStatus | None = None
         self._latest_lock = threading.Lock()
+        self._latest_at = time.monotonic()
         self._tick = 0
         self._active: list[CommandHandle] = []
         self._last_event = ""
@@ -133,6 +136,8 @@ class Ros2Bridge:
     # ---- status -> topics ----
     def start(self) -> None:
         """Publish the description, subscribe to the status and start reading trajectories."""
+        with self._latest_lock:
+            self._latest_at = time.monotonic()
         self.description.write(msgs.String(data=make_urdf(self.cfg.robot, config=self.cfg)))
         self._sub = self.robot.subscribe(self.cfg.ros2.joint_states_every_n, callback=self.on_status)
         self._thread = threading.Thread(target=self._trajectory_loop, daemon=True, name="parolkit-ros2-trajectories")
@@ -142,10 +147,15 @@ class Ros2Bridge:
         with self._latest_lock:
             return self._latest
 
+    def status_age_s(self) -> float:
+        """Seconds since the last status arrived (since :meth:`start` before the first)."""
+        with self._latest_lock:
+            return time.monotonic() - self._latest_at
+
     def on_status(self, st: RobotStatus) -> None:
         """Publish one status: joint_states and tf at once (the latency-critical part)."""
         stamp = msgs.time_from_ns(self._clock_ns())
-        header = msgs.Header(stamp=stamp, frame_id="")
+        header = msgs.MsgHeader(stamp=stamp, frame_id="")
         a = st.angles
         v = st.speeds_deg_s
         self.joint_states.write(msgs.JointState(
@@ -156,9 +166,10 @@ class Ros2Bridge:
         self.published += 1
         with self._latest_lock:
             self._latest = st
+            self._latest_at = time.monotonic()
         m = pose_to_matrix(tuple(st.pose))
         self.tf.write(msgs.TFMessage(transforms=[msgs.TransformStamped(
-            header=msgs.Header(stamp=stamp, frame_id=BASE_LINK), child_frame_id=self.tcp_frame,
+            header=msgs.MsgHeader(stamp=stamp, frame_id=BASE_LINK), child_frame_id=self.tcp_frame,
             transform=msgs.Transform(
                 translation=msgs.Vector3(float(m[0, 3]), float(m[1, 3]), float(m[2, 3])),
                 rotation=quaternion_from_matrix(m)))]))
@@ -234,9 +245,12 @@ class Ros2Bridge:
             for seg in segments:
                 handles.append(self.robot.move_joints(seg.target_deg, duration=seg.duration_s, wait=False))
         except RobotError as exc:
-            if handles:
+            if handles:  # earlier segments were queued and may run: stop them, and say so
                 self.robot.stop()
-            self.event(f"refused by the controller: {exc}", logging.WARNING)
+                self.event(f"failed: the controller refused segment {len(handles) + 1} of {len(segments)} "
+                           f"after {len(handles)} were queued (stopped): {exc}", logging.ERROR)
+            else:
+                self.event(f"refused by the controller: {exc}", logging.WARNING)
             return False
         self._active = handles
         total = sum(s.ticks for s in segments)
@@ -285,7 +299,10 @@ def run_bridge(cfg: Config, host: str, port: int) -> int:
     print(f"parolkit ros2: ready (domain {cfg.ros2.domain}, namespace {ns})", flush=True)
     try:
         while not stop.wait(0.5):
-            pass
+            if bridge.status_age_s() > STATUS_SILENCE_S:
+                log.error("no status from the controller at %s:%d for %g s: exiting (restart me when it is back)",
+                          host, port, STATUS_SILENCE_S)
+                return 1
     finally:
         bridge.close()
         robot.close()

@@ -22,7 +22,7 @@ else:
     from cyclonedds.idl.types import sequence
 
 __all__ = [
-    "Time", "Duration", "Header", "String", "JointState", "JointTrajectoryPoint", "JointTrajectory",
+    "Time", "Duration", "MsgHeader", "String", "JointState", "JointTrajectoryPoint", "JointTrajectory",
     "Vector3", "Quaternion", "Transform", "TransformStamped", "TFMessage",
     "topic_name", "time_from_ns", "duration_to_s",
 ]
@@ -45,8 +45,8 @@ class Duration(IdlStruct, typename="builtin_interfaces::msg::dds_::Duration_"):
 
 
 @dataclass
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    """std_msgs/msg/Header."""
+class MsgHeader(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    """std_msgs/msg/Header (named MsgHeader here: parolkit has another Header class)."""
 
     stamp: Time = field(default_factory=Time)
     frame_id: str = ""
@@ -63,7 +63,7 @@ class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
 class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
     """sensor_msgs/msg/JointState: positions in rad, velocities in rad/s, efforts in N m."""
 
-    header: Header = field(default_factory=Header)
+    header: MsgHeader = field(default_factory=MsgHeader)
     name: sequence[str] = field(default_factory=list)
     position: sequence[float64] = field(default_factory=list)
     velocity: sequence[float64] = field(default_factory=list)
@@ -85,7 +85,7 @@ class JointTrajectoryPoint(IdlStruct, typename="trajectory_msgs::msg::dds_::Join
 class JointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectory_"):
     """trajectory_msgs/msg/JointTrajectory."""
 
-    header: Header = field(default_factory=Header)
+    header: MsgHeader = field(default_factory=MsgHeader)
     joint_names: sequence[str] = field(default_factory=list)
     points: sequence[JointTrajectoryPoint] = field(default_factory=list)
 
@@ -121,7 +121,7 @@ class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
 class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
     """geometry_msgs/msg/TransformStamped."""
 
-    header: Header = field(default_factory=Header)
+    header: MsgHeader = field(default_factory=MsgHeader)
     child_frame_id: str = ""
     transform: Transform = field(default_factory=Transform)
 

@@ -29,7 +29,7 @@ from parolkit.moves import JointMove
 from parolkit.robot import NUM_JOINTS, RobotModel
 from parolkit.ros2.urdf import ROS_JOINT_NAMES
 
-__all__ = ["TrajectoryRefused", "TrajectoryPoint", "Segment", "plan_joint_trajectory", "START_TOLERANCE_RAD"]
+__all__ = ["TrajectoryRefused", "TrajectoryPoint", "TrajectorySegment", "plan_joint_trajectory", "START_TOLERANCE_RAD"]
 
 #: A first point at time_from_start 0 must be this close to the current position (rad); it is
 #: then only the start and no segment goes to it (0.001 rad = 0.057 deg, a few microsteps).
@@ -51,7 +51,7 @@ class TrajectoryPoint:
 
 
 @dataclass(frozen=True)
-class Segment:
+class TrajectorySegment:
     """One MoveJoint of a trajectory: target (deg, J1..J6), duration (s, whole ticks)."""
 
     target_deg: tuple[float, ...]
@@ -80,7 +80,7 @@ def _order(joint_names: Sequence[str]) -> list[int]:
 def plan_joint_trajectory(
     joint_names: Sequence[str], points: Sequence[TrajectoryPoint], start_deg: Sequence[float],
     model: RobotModel, rate_hz: float,
-) -> list[Segment]:
+) -> list[TrajectorySegment]:
     """The MoveJoint segments of a trajectory starting at ``start_deg`` (deg), each planned with
     the controller's planner at ``rate_hz``; raises :class:`TrajectoryRefused` with the reason."""
     from parolkit.motion import plan
@@ -93,7 +93,7 @@ def plan_joint_trajectory(
     order = _order(joint_names)
     prev_deg = np.array(start_deg, dtype=float)
     prev_tick = 0
-    segments: list[Segment] = []
+    segments: list[TrajectorySegment] = []
     for k, p in enumerate(points):
         pos = list(p.positions_rad)
         if len(pos) != NUM_JOINTS:
@@ -123,7 +123,7 @@ def plan_joint_trajectory(
             raise TrajectoryRefused(f"point {k} (t = {p.time_s:.3f} s): {exc}") from None
         except ParolkitError as exc:
             raise TrajectoryRefused(f"point {k} (t = {p.time_s:.3f} s): {exc}") from None
-        segments.append(Segment(tuple(float(v) for v in deg), ticks / rate_hz, ticks))
+        segments.append(TrajectorySegment(tuple(float(v) for v in deg), ticks / rate_hz, ticks))
         prev_deg, prev_tick = deg, tick
     if not segments:
         raise TrajectoryRefused("the trajectory has no point after time_from_start 0: nothing to do")
