@@ -29,12 +29,14 @@ run: $(STAMP_RUN)
 
 ## make ros-venv: the isolated ROS 2 Jazzy environment (rclpy from PyPI) of tests/integration/test_ros2.py;
 ## ROS is never a dependency of parolkit itself
+# the ROS 2 Jazzy wheels on PyPI are built for CPython 3.11 (cp311, manylinux_2_28 x86_64)
+ROS_PYTHON ?= python3.11
 VENV_ROS  := .venv-ros
 STAMP_ROS := $(VENV_ROS)/.stamp-ros
 ROS_PKGS  := ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-sensor-msgs ros-jazzy-trajectory-msgs
 
 $(STAMP_ROS):
-	$(PYTHON) -m venv $(VENV_ROS)
+	$(ROS_PYTHON) -m venv $(VENV_ROS)
 	$(VENV_ROS)/bin/python -m pip install -q $(ROS_PKGS)
 	touch $@
 
