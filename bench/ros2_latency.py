@@ -47,7 +47,7 @@ def _free_port() -> int:
 
 
 def _key(angles_deg: list[float] | tuple[float, ...]) -> tuple[float, ...]:
-    return tuple(round(a, 3) for a in angles_deg)
+    return tuple(round(a, 4) for a in angles_deg)  # the status carries 4 decimals
 
 
 def main() -> int:
@@ -107,7 +107,9 @@ def main() -> int:
             print("no /joint_states from the bridge", file=sys.stderr)
             return 1
         start = robot.status().angles
-        robot.move_joints([start[0] - 40, *start[1:]], duration=args.seconds / 2, wait=False)
+        # several joints over the whole measuring time: (almost) every tick has new angles
+        robot.move_joints([start[0] - 40, start[1] - 10, start[2] + 10, start[3] + 20, start[4] + 20, start[5] - 40],
+                          duration=args.seconds + 1.0, wait=False)
         got.clear()
         t_end = time.monotonic() + args.seconds
         while time.monotonic() < t_end:
