@@ -235,10 +235,12 @@ def test_a_three_point_trajectory_over_4_s_ends_within_one_step_of_its_last_poin
 
 
 @pytest.mark.xfail(strict=False, raises=AssertionError, reason=(
-    "known controller behaviour (controller/executor.py, not the bridge): a queued MoveJoint is planned "
-    "when it reaches the head of the queue, leaving 0..2 idle ticks between consecutive segments, so "
-    "the last sample of a 3-segment trajectory comes 1..4 ticks late (measured 401..404 of 400); "
-    "on time needs the executor to plan queued moves ahead or a multi-waypoint joint command"))
+    "controller behaviour, not the bridge's: between two queued MoveJoints the status shows the first "
+    "one for an extra tick at progress 1.0 and then an idle tick before the next starts (seen in the "
+    "status stream of this test), so the last sample of a 3-segment trajectory comes 1..5 ticks late "
+    "(measured 401..405 of 400; the board is within 1 step of the last point at 399..401); on time needs "
+    "the executor to start the next queued move on the tick after the last sample, or a "
+    "multi-waypoint joint command"))
 def test_a_three_point_trajectory_over_4_s_ends_on_time_within_one_tick(setup) -> None:  # type: ignore[no-untyped-def]
     # back towards the start of the previous test
     back = [[a - b for a, b in zip(o, OFFSETS[-1])] for o in ([12, -6, 6, 8, 12, -15], [4, -2, 2, 3, 4, -5], [0] * 6)]
