@@ -238,7 +238,7 @@ def test_a_three_point_trajectory_over_4_s_ends_within_one_step_of_its_last_poin
     "controller behaviour, not the bridge's: between two queued MoveJoints the status shows the first "
     "one for an extra tick at progress 1.0 and then an idle tick before the next starts (seen in the "
     "status stream of this test), so the last sample of a 3-segment trajectory comes 1..5 ticks late "
-    "(measured 401..405 of 400; the board is within 1 step of the last point at 399..401); on time needs "
+    "(measured 401..405 of 400; the board is within 1 step of the last point at 398..401); on time needs "
     "the executor to start the next queued move on the tick after the last sample, or a "
     "multi-waypoint joint command"))
 def test_a_three_point_trajectory_over_4_s_ends_on_time_within_one_tick(setup) -> None:  # type: ignore[no-untyped-def]
