@@ -7,7 +7,7 @@ STAMP_RUN  := $(VENV)/.stamp-run
 STAMP_DEV  := $(VENV)/.stamp-dev
 INSTALL_DEPS := pyproject.toml setup.py $(wildcard src/parolkit/*/*.c)
 
-.PHONY: run test test-fast lint bench screenshot clean venv
+.PHONY: run test test-fast lint bench screenshot clean venv ros-venv
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -27,8 +27,23 @@ venv: $(STAMP_RUN)
 run: $(STAMP_RUN)
 	$(VENV)/bin/parolkit gui --sim
 
+## make ros-venv: the isolated ROS 2 Jazzy environment (rclpy from PyPI) of tests/integration/test_ros2.py;
+## ROS is never a dependency of parolkit itself
+# the ROS 2 Jazzy wheels on PyPI are built for CPython 3.11 (cp311, manylinux_2_28 x86_64)
+ROS_PYTHON ?= python3.11
+VENV_ROS  := .venv-ros
+STAMP_ROS := $(VENV_ROS)/.stamp-ros
+ROS_PKGS  := ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-sensor-msgs ros-jazzy-trajectory-msgs
+
+$(STAMP_ROS):
+	$(ROS_PYTHON) -m venv $(VENV_ROS)
+	$(VENV_ROS)/bin/python -m pip install -q $(ROS_PKGS)
+	touch $@
+
+ros-venv: $(STAMP_ROS)
+
 ## make test: set everything up, lint and type-check, and run every test (unit, integration, browser)
-test: lint
+test: lint ros-venv
 	./scripts/ensure-chromium.sh
 	./scripts/ensure-axe.sh
 	$(PY) -m pytest -q
@@ -54,5 +69,5 @@ bench: $(STAMP_DEV)
 	for b in bench/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) build *.egg-info src/*.egg-info .pytest_cache
+	rm -rf $(VENV) $(VENV_ROS) build *.egg-info src/*.egg-info .pytest_cache
 	find src -name '*.so' -delete

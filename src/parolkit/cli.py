@@ -25,6 +25,11 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "fmt": ("parolkit.script.cli", "format RBTscript programs"),
     "plan": ("parolkit.motion.cli", "plan one move and print or plot its trajectory"),
 }
+# ROS 2 (issue 17): the URDF and the DDS bridge (the bridge needs the optional cyclonedds)
+SUBCOMMANDS.update({
+    "urdf": ("parolkit.ros2.cli", "write the PAROL6 URDF generated from the robot model"),
+    "ros2": ("parolkit.ros2.cli", "bridge a controller to ROS 2: joint states out, trajectories in"),
+})
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:

@@ -19,6 +19,10 @@ Example ``parolkit.toml``::
     http_port = 8080
     programs_dir = "~/parol-programs"
 
+    [ros2]                # `parolkit ros2` (docs/ros2.md)
+    domain = 0
+    namespace = "parol6"
+
     [tools.pen]           # a user tool: pose of the TCP in the flange frame, mm / deg
     pose = [0, 0, 120, 0, 0, 0]
 
@@ -52,6 +56,7 @@ __all__ = [
     "SerialSettings",
     "GuiSettings",
     "ToolSettings",
+    "Ros2Settings",
     "Config",
     "load_config",
     "DEFAULT_CONFIG_PATHS",
@@ -257,6 +262,32 @@ def _allowed_host(h: object) -> None:
         "\"robot-pc.local\" or \"192.168.1.20\": no http://, port or path)")
 
 
+_ROS_NAMESPACE = re.compile(r"(/?[A-Za-z][A-Za-z0-9_]*)*/?")
+
+
+@dataclass(frozen=True)
+class Ros2Settings:
+    """``parolkit ros2`` (docs/ros2.md): DDS domain, ROS namespace, publishing rates."""
+
+    #: ROS_DOMAIN_ID, 0..232
+    domain: int = 0
+    #: ROS namespace of the topics ("" = none; e.g. "parol6" -> /parol6/joint_states)
+    namespace: str = ""
+    #: publish /joint_states and /tf every n-th control tick (1 = the controller's status rate)
+    joint_states_every_n: int = 1
+    #: publish parolkit/status every n-th published joint state
+    status_every_n: int = 10
+
+    def __post_init__(self) -> None:
+        _int_range(self.domain, "ros2.domain", 0, 232)
+        if not isinstance(self.namespace, str) or not _ROS_NAMESPACE.fullmatch(self.namespace):
+            raise ParolkitValueError(
+                f"ros2.namespace must be a ROS name such as \"parol6\" or \"lab/arm1\" (letters, digits, _ and /, "
+                f"each part starting with a letter), got {self.namespace!r}")
+        _int_range(self.joint_states_every_n, "ros2.joint_states_every_n", 1, 1000)
+        _int_range(self.status_every_n, "ros2.status_every_n", 1, 100000)
+
+
 @dataclass(frozen=True)
 class ToolSettings:
     """A user tool: the TCP pose in the flange frame, [x, y, z mm, A, B, C deg]."""
@@ -297,6 +328,7 @@ class Config:
     controller: ControllerSettings = field(default_factory=ControllerSettings)
     serial: SerialSettings = field(default_factory=SerialSettings)
     gui: GuiSettings = field(default_factory=GuiSettings)
+    ros2: Ros2Settings = field(default_factory=Ros2Settings)
     tools: tuple[ToolSettings, ...] = ()
     source: str | None = None
 
@@ -319,7 +351,8 @@ def _port(v: object, name: str) -> None:
     _int_range(v, name, 1, 65535)
 
 
-_SECTIONS = {"controller": ControllerSettings, "serial": SerialSettings, "gui": GuiSettings}
+_SECTIONS = {"controller": ControllerSettings, "serial": SerialSettings, "gui": GuiSettings,
+             "ros2": Ros2Settings}
 
 
 def _robot_fields() -> set[str]:
@@ -349,7 +382,7 @@ def _apply(cfg: Config, data: Mapping[str, Any], origin: str) -> Config:
             target, allowed = getattr(cfg, section), {f.name for f in dataclasses.fields(_SECTIONS[section])}
         else:
             raise ParolkitValueError(
-                f"{origin}: unknown section [{section}] (known: robot, controller, serial, gui, tools)"
+                f"{origin}: unknown section [{section}] (known: robot, controller, serial, gui, ros2, tools)"
             )
         if not isinstance(values, Mapping):
             raise ParolkitValueError(f"{origin}: [{section}] must be a table")

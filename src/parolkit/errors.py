@@ -29,6 +29,8 @@ package is drawn here, under its real base class, and that no two share a name):
     |   +-- PtyServerError                parolkit.board.pty_server: the emulator's pty could not be set up
     |   +-- ControlError                  parolkit.board.control: the board-sim control channel failed
     |   +-- BoardTestError                parolkit.boardtest: a board test action could not complete
+    |   +-- TrajectoryRefused             parolkit.ros2.trajectory: a ROS JointTrajectory refused
+    |   |                                 before anything was sent (names the point and reason)
     |   +-- RobotError                    parolkit.client.errors: base of the object API's errors
     |       +-- CommandNotCompleted       a command ended without COMPLETED (command_id, command,
     |       |   |                         status, reason: the controller's words)

@@ -1,0 +1,309 @@
+"""``parolkit ros2``: a ROS 2 node in plain Python (cyclonedds), a client of the controller.
+
+Publishes (ROS names under the namespace ``ns`` of config ``[ros2]`` / ``--namespace``):
+
+* ``/<ns>/joint_states`` (sensor_msgs/msg/JointState): names ``L1``..``L6``, positions in rad,
+  velocities in rad/s, stamped with the wall-clock time the status arrived, for every
+  ``joint_states_every_n``-th control tick (1: the controller's status rate);
+* ``/<ns>/robot_description`` (std_msgs/msg/String, transient local): the URDF of
+  :mod:`parolkit.ros2.urdf`, so a late subscriber (RViz, robot_state_publisher) still gets it;
+* ``/tf`` (tf2_msgs/msg/TFMessage): ``base_link`` -> ``<ns>/parolkit_tcp``, the controller's
+  TCP (its active tool) as it reports it, with every joint state;
+* ``/<ns>/parolkit/status`` (std_msgs/msg/String): a JSON summary of the controller's status
+  every ``status_every_n``-th tick;
+* ``/<ns>/parolkit/events`` (std_msgs/msg/String): one line per trajectory: ``accepted ...``,
+  ``refused: <reason>``, ``done ...``, ``failed: <reason>``.
+
+Subscribes to ``/<ns>/joint_trajectory`` (trajectory_msgs/msg/JointTrajectory) and runs each
+trajectory through the controller as timed MoveJoint commands (see
+:mod:`parolkit.ros2.trajectory`: all-or-nothing pre-check with the controller's planner; the
+controller plans and guards every segment again).  A trajectory arriving while the robot runs a
+command is refused (busy).
+
+QoS as ROS 2's defaults: reliable, keep last 10, volatile; the description transient local,
+keep last 1 (as robot_state_publisher).  ROS_DOMAIN_ID = ``[ros2] domain``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import signal
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from cyclonedds.core import InstanceState, Policy, Qos, ReadCondition, SampleState, ViewState, WaitSet
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+from parolkit.client.core import RobotStatus
+from parolkit.client.errors import RobotError
+from parolkit.client.robot import CommandHandle, Robot
+from parolkit.config import Config
+from parolkit.kinematics.pose import pose_to_matrix
+from parolkit.ros2 import msgs
+from parolkit.ros2.trajectory import TrajectoryPoint, TrajectoryRefused, plan_joint_trajectory
+from parolkit.ros2.urdf import BASE_LINK, ROS_JOINT_NAMES, make_urdf
+
+__all__ = ["Ros2Bridge", "run_bridge", "ros_qos", "description_qos", "quaternion_from_matrix"]
+
+log = logging.getLogger("parolkit.ros2")
+
+_DEG = math.pi / 180.0
+#: ``parolkit ros2`` exits (status 1) when the controller's status stream is silent this long, s
+STATUS_SILENCE_S = 5.0
+
+
+def ros_qos() -> Qos:
+    """ROS 2's default QoS: reliable, keep last 10, volatile."""
+    return Qos(Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
+               Policy.History.KeepLast(10), Policy.Durability.Volatile)
+
+
+def description_qos() -> Qos:
+    """robot_state_publisher's QoS for /robot_description: reliable, keep last 1, transient local."""
+    return Qos(Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
+               Policy.History.KeepLast(1), Policy.Durability.TransientLocal)
+
+
+def quaternion_from_matrix(m: Any) -> msgs.Quaternion:
+    """Unit quaternion (x, y, z, w) of the rotation part of a 4x4 / 3x3 matrix."""
+    r00, r01, r02 = float(m[0][0]), float(m[0][1]), float(m[0][2])
+    r10, r11, r12 = float(m[1][0]), float(m[1][1]), float(m[1][2])
+    r20, r21, r22 = float(m[2][0]), float(m[2][1]), float(m[2][2])
+    tr = r00 + r11 + r22
+    if tr > 0:
+        s = math.sqrt(tr + 1.0) * 2
+        return msgs.Quaternion((r21 - r12) / s, (r02 - r20) / s, (r10 - r01) / s, 0.25 * s)
+    if r00 > r11 and r00 > r22:
+        s = math.sqrt(1.0 + r00 - r11 - r22) * 2
+        return msgs.Quaternion(0.25 * s, (r01 + r10) / s, (r02 + r20) / s, (r21 - r12) / s)
+    if r11 > r22:
+        s = math.sqrt(1.0 + r11 - r00 - r22) * 2
+        return msgs.Quaternion((r01 + r10) / s, 0.25 * s, (r12 + r21) / s, (r02 - r20) / s)
+    s = math.sqrt(1.0 + r22 - r00 - r11) * 2
+    return msgs.Quaternion((r02 + r20) / s, (r12 + r21) / s, 0.25 * s, (r10 - r01) / s)
+
+
+class Ros2Bridge:
+    """The DDS side of ``parolkit ros2``: writers, the trajectory reader and their threads.
+
+    ``robot``: a connected :class:`Robot` (the bridge subscribes to its status and sends its
+    commands); ``cfg``: the config (``[ros2]`` section, robot model).  :meth:`start` subscribes
+    and starts the trajectory thread; :meth:`close` stops both.
+    """
+
+    def __init__(self, cfg: Config, robot: Robot, clock_ns: Callable[[], int] = time.time_ns) -> None:
+        self.cfg = cfg
+        self.robot = robot
+        self._clock_ns = clock_ns
+        r = cfg.ros2
+        self.namespace = r.namespace.strip("/")
+        self.dp = DomainParticipant(r.domain)
+        qos = ros_qos()
+
+        def writer(name: str, typ: type, q: Qos = qos) -> DataWriter[Any]:
+            return DataWriter(self.dp, Topic(self.dp, msgs.topic_name(self.namespace, name), typ), q)
+
+        self.joint_states = writer("joint_states", msgs.JointState)
+        self.description = writer("robot_description", msgs.String, description_qos())
+        self.tf = DataWriter(self.dp, Topic(self.dp, "rt/tf", msgs.TFMessage), qos)
+        self.status_out = writer("parolkit/status", msgs.String)
+        self.events = writer("parolkit/events", msgs.String)
+        self.trajectories = DataReader(
+            self.dp, Topic(self.dp, msgs.topic_name(self.namespace, "joint_trajectory"), msgs.JointTrajectory), qos)
+        self.tcp_frame = f"{self.namespace}/parolkit_tcp" if self.namespace else "parolkit_tcp"
+        self._names = list(ROS_JOINT_NAMES)
+        self._latest: RobotStatus | None = None
+        self._latest_lock = threading.Lock()
+        self._latest_at = time.monotonic()
+        self._tick = 0
+        self._active: list[CommandHandle] = []
+        self._last_event = ""
+        self._stop = threading.Event()
+        self._sub: Any = None
+        self._thread: threading.Thread | None = None
+        self.published = 0
+        #: publishers of joint_trajectory this node has matched (in parolkit/status)
+        self.trajectory_publishers = 0
+
+    # ---- status -> topics ----
+    def start(self) -> None:
+        """Publish the description, subscribe to the status and start reading trajectories."""
+        with self._latest_lock:
+            self._latest_at = time.monotonic()
+        self.description.write(msgs.String(data=make_urdf(self.cfg.robot, config=self.cfg)))
+        self._sub = self.robot.subscribe(self.cfg.ros2.joint_states_every_n, callback=self.on_status)
+        self._thread = threading.Thread(target=self._trajectory_loop, daemon=True, name="parolkit-ros2-trajectories")
+        self._thread.start()
+
+    def latest(self) -> RobotStatus | None:
+        with self._latest_lock:
+            return self._latest
+
+    def status_age_s(self) -> float:
+        """Seconds since the last status arrived (since :meth:`start` before the first)."""
+        with self._latest_lock:
+            return time.monotonic() - self._latest_at
+
+    def on_status(self, st: RobotStatus) -> None:
+        """Publish one status: joint_states and tf at once (the latency-critical part)."""
+        stamp = msgs.time_from_ns(self._clock_ns())
+        header = msgs.MsgHeader(stamp=stamp, frame_id="")
+        a = st.angles
+        v = st.speeds_deg_s
+        self.joint_states.write(msgs.JointState(
+            header=header, name=self._names,
+            position=[a[0] * _DEG, a[1] * _DEG, a[2] * _DEG, a[3] * _DEG, a[4] * _DEG, a[5] * _DEG],
+            velocity=[v[0] * _DEG, v[1] * _DEG, v[2] * _DEG, v[3] * _DEG, v[4] * _DEG, v[5] * _DEG],
+            effort=[]))
+        self.published += 1
+        with self._latest_lock:
+            self._latest = st
+            self._latest_at = time.monotonic()
+        m = pose_to_matrix(tuple(st.pose))
+        self.tf.write(msgs.TFMessage(transforms=[msgs.TransformStamped(
+            header=msgs.MsgHeader(stamp=stamp, frame_id=BASE_LINK), child_frame_id=self.tcp_frame,
+            transform=msgs.Transform(
+                translation=msgs.Vector3(float(m[0, 3]), float(m[1, 3]), float(m[2, 3])),
+                rotation=quaternion_from_matrix(m)))]))
+        self._tick += 1
+        if self._tick % self.cfg.ros2.status_every_n == 0:
+            self.status_out.write(msgs.String(data=json.dumps(self.status_summary(st), separators=(",", ":"))))
+
+    def status_summary(self, st: RobotStatus) -> dict[str, Any]:
+        """The JSON object of ``parolkit/status``."""
+        return {
+            "seq": st.seq, "state": str(st.state), "enabled": st.enabled, "all_homed": st.all_homed,
+            "estop": st.estop_pressed or st.estop_latched, "can_move": st.can_move,
+            "command": st.command.name if st.command is not None else None, "queue": st.queue,
+            "tool": st.tool, "trajectory": self._last_event,
+            "trajectory_publishers": self.trajectory_publishers,
+        }
+
+    def event(self, text: str, level: int = logging.INFO) -> None:
+        """Log ``text`` and publish it on ``parolkit/events``."""
+        log.log(level, "trajectory: %s", text)
+        self._last_event = text
+        self.events.write(msgs.String(data=text))
+
+    # ---- joint_trajectory -> controller ----
+    def _trajectory_loop(self) -> None:
+        ws = WaitSet(self.dp)
+        cond = ReadCondition(self.trajectories, SampleState.NotRead | ViewState.Any | InstanceState.Any)
+        ws.attach(cond)
+        matched = 0
+        while not self._stop.is_set():
+            ws.wait(duration(milliseconds=200))
+            now = len(self.trajectories.get_matched_publications())
+            if now != matched:
+                log.info("joint_trajectory: %d publisher(s) matched", now)
+                matched = now
+                self.trajectory_publishers = now
+            for sample in self.trajectories.take(N=16):
+                if isinstance(sample, msgs.JointTrajectory):
+                    try:
+                        self.execute(sample)
+                    except RobotError as exc:
+                        self.event(f"failed: {exc}", logging.ERROR)
+
+    def busy(self) -> str | None:
+        """Why a new trajectory cannot start now, or None."""
+        self._active = [h for h in self._active if not h.done()]
+        if self._active:
+            return f"busy: a trajectory is running ({len(self._active)} segments left)"
+        st = self.robot.status()
+        if not st.can_move:
+            return (f"the robot cannot move (state {st.state}, enabled={st.enabled}, homed={st.all_homed}, "
+                    f"E-stop={'yes' if st.estop_pressed or st.estop_latched else 'no'})")
+        if st.command is not None or st.queue:
+            return f"busy: the controller runs {st.command.name if st.command else 'a queued command'}"
+        return None
+
+    def execute(self, traj: msgs.JointTrajectory) -> bool:
+        """Check ``traj`` and queue its segments; False (with an event) when refused."""
+        why = self.busy()
+        if why is not None:
+            self.event(f"refused: {why}", logging.WARNING)
+            return False
+        st = self.robot.status()
+        points = [TrajectoryPoint(list(p.positions), msgs.duration_to_s(p.time_from_start)) for p in traj.points]
+        rate = st.loop.rate_hz or self.cfg.controller.rate_hz
+        try:
+            segments = plan_joint_trajectory(list(traj.joint_names), points, st.angles, self.cfg.robot, rate)
+        except TrajectoryRefused as exc:
+            self.event(f"refused: {exc}", logging.WARNING)
+            return False
+        handles: list[CommandHandle] = []
+        try:
+            for seg in segments:
+                handles.append(self.robot.move_joints(seg.target_deg, duration=seg.duration_s, wait=False))
+        except RobotError as exc:
+            if handles:  # earlier segments were queued and may run: stop them, and say so
+                self.robot.stop()
+                self.event(f"failed: the controller refused segment {len(handles) + 1} of {len(segments)} "
+                           f"after {len(handles)} were queued (stopped): {exc}", logging.ERROR)
+            else:
+                self.event(f"refused by the controller: {exc}", logging.WARNING)
+            return False
+        self._active = handles
+        total = sum(s.ticks for s in segments)
+        self.event(f"accepted: {len(segments)} segments, {total} ticks ({total / rate:.3f} s)")
+        threading.Thread(target=self._watch, args=(handles,), daemon=True, name="parolkit-ros2-watch").start()
+        return True
+
+    def _watch(self, handles: list[CommandHandle]) -> None:
+        try:
+            for h in handles:
+                h.result(timeout=None)
+        except RobotError as exc:
+            self.event(f"failed: {exc}", logging.ERROR)
+            return
+        self.event(f"done: {len(handles)} segments")
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._sub is not None:
+            self._sub.close()
+        if self._thread is not None:
+            self._thread.join(2.0)
+
+
+def run_bridge(cfg: Config, host: str, port: int) -> int:
+    """``parolkit ros2``: run until SIGINT/SIGTERM; 1 if the controller cannot be reached."""
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    try:
+        robot = Robot(host, port)
+        first = robot.status()
+    except RobotError as exc:
+        log.error("cannot reach the controller at %s:%d: %s", host, port, exc)
+        return 1
+    bridge = Ros2Bridge(cfg, robot)
+    stop = threading.Event()
+
+    def _on_signal(signum: int, frame: object) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, _on_signal)
+    signal.signal(signal.SIGINT, _on_signal)
+    bridge.start()
+    ns = bridge.namespace or "(none)"
+    log.info("ROS 2 bridge up: domain %d, namespace %s, controller %s:%d (state %s, %g Hz)",
+             cfg.ros2.domain, ns, host, port, first.state, first.loop.rate_hz)
+    print(f"parolkit ros2: ready (domain {cfg.ros2.domain}, namespace {ns})", flush=True)
+    try:
+        while not stop.wait(0.5):
+            if bridge.status_age_s() > STATUS_SILENCE_S:
+                log.error("no status from the controller at %s:%d for %g s: exiting (restart me when it is back)",
+                          host, port, STATUS_SILENCE_S)
+                return 1
+    finally:
+        bridge.close()
+        robot.close()
+    return 0

@@ -1,0 +1,275 @@
+"""`parolkit ros2` against a REAL ROS 2 Jazzy rclpy node (PyPI wheels, Fast DDS) and a real
+simulated controller (``parolkit serve --sim``).
+
+Three processes besides pytest: the controller, ``parolkit ros2`` (cyclonedds) and
+tests/integration/ros2_node.py run by the ROS test venv's python (``make ros-venv`` creates
+``.venv-ros`` with ros-jazzy-rclpy, ros-jazzy-rmw-fastrtps-cpp and the message packages;
+``PAROLKIT_ROS_PYTHON`` overrides the interpreter).  They talk over DDS on a domain of their
+own.  The board's side is judged from the controller's status stream (steps and ticks), not
+from wall-clock sleeps.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import threading
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from tests.conftest import REPO_ROOT, start_controller, wait_until
+
+from parolkit.client.core import RobotStatus
+from parolkit.client.robot import Robot
+from parolkit.robot import PAROL6, rad_to_steps
+
+pytestmark = pytest.mark.slow
+
+ROS_PYTHON = Path(os.environ.get("PAROLKIT_ROS_PYTHON", REPO_ROOT / ".venv-ros" / "bin" / "python"))
+NODE = Path(__file__).with_name("ros2_node.py")
+NAMES = ["L1", "L2", "L3", "L4", "L5", "L6"]
+
+
+class RosNode:
+    """The rclpy node subprocess: send a JSON request, read its JSON reply."""
+
+    def __init__(self, domain: int, namespace: str) -> None:
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain), RMW_IMPLEMENTATION="rmw_fastrtps_cpp")
+        env.pop("PYTHONPATH", None)  # the ROS venv must not see parolkit: DDS is the only link
+        self.proc = subprocess.Popen([str(ROS_PYTHON), str(NODE), namespace], stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        first = self._read(60)
+        assert first == {"ready": True}, first
+
+    def _read(self, timeout: float) -> Any:
+        out: list[str] = []
+        t = threading.Thread(target=lambda: out.append(self.proc.stdout.readline()))  # type: ignore[union-attr]
+        t.start()
+        t.join(timeout)
+        if not out or not out[0]:
+            self.proc.kill()
+            raise AssertionError(f"rclpy node gave no reply within {timeout} s; stderr:\n{self.proc.stderr.read()}")  # type: ignore[union-attr]
+        return json.loads(out[0])
+
+    def ask(self, timeout: float = 60, **req: Any) -> Any:
+        self.proc.stdin.write(json.dumps(req) + "\n")  # type: ignore[union-attr]
+        self.proc.stdin.flush()  # type: ignore[union-attr]
+        return self._read(timeout)
+
+    def close(self) -> None:
+        try:
+            self.ask(timeout=10, cmd="quit")
+        except (AssertionError, OSError, ValueError):
+            pass
+        try:
+            self.proc.wait(10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(5)
+
+
+class StatusLog:
+    """Every status of the controller (one per tick) as the test sees it."""
+
+    def __init__(self, robot: Robot) -> None:
+        self.items: list[RobotStatus] = []
+        self._lock = threading.Lock()
+        self.sub = robot.subscribe(1, callback=self._add)
+
+    def _add(self, st: RobotStatus) -> None:
+        with self._lock:
+            self.items.append(st)
+
+    def snapshot(self) -> list[RobotStatus]:
+        with self._lock:
+            return list(self.items)
+
+    def clear(self) -> None:
+        with self._lock:
+            self.items.clear()
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):  # type: ignore[no-untyped-def]
+    if not ROS_PYTHON.exists():
+        pytest.fail(f"the ROS 2 test environment {ROS_PYTHON} is missing: run `make ros-venv` "
+                    "(or set PAROLKIT_ROS_PYTHON to a python with ros-jazzy-rclpy)")
+    log_dir = tmp_path_factory.mktemp("ros2")
+    ctl = start_controller(log_dir=log_dir)
+    domain = 100 + os.getpid() % 100
+    ns = "parol6"
+    env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO_ROOT / "src"))
+    bridge_log = open(log_dir / "bridge.log", "w")
+    bridge = subprocess.Popen(
+        [sys.executable, "-m", "parolkit", "ros2", "--connect", f"127.0.0.1:{ctl.port}",
+         "--domain", str(domain), "--namespace", ns],
+        stdout=bridge_log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT)
+    node = RosNode(domain, ns)
+    robot = Robot(port=ctl.port, timeout=2.0)
+    log = StatusLog(robot)
+    yield {"ctl": ctl, "node": node, "robot": robot, "log": log, "bridge": bridge,
+           "bridge_log": log_dir / "bridge.log"}
+    log.sub.close()
+    robot.close()
+    node.close()
+    bridge.terminate()
+    try:
+        bridge.wait(10)
+    except subprocess.TimeoutExpired:
+        bridge.kill()
+    bridge_log.close()
+    ctl.stop()
+
+
+def test_robot_description_arrives_transient_local_and_parses_as_the_parol6_urdf(setup) -> None:  # type: ignore[no-untyped-def]
+    urdf = setup["node"].ask(cmd="description")["urdf"]
+    assert urdf is not None, setup["bridge_log"].read_text()
+    root = ET.fromstring(urdf)
+    assert root.get("name") == "parol6"
+    assert [j.get("name") for j in root.findall("joint") if j.get("type") == "revolute"] == NAMES
+
+
+def test_joint_states_reach_rclpy_in_radians_at_the_status_rate(setup) -> None:  # type: ignore[no-untyped-def]
+    msgs = setup["node"].ask(cmd="joint_states", n=50)["msgs"]
+    assert len(msgs) >= 50, setup["bridge_log"].read_text()
+    st = setup["robot"].status()
+    for m in msgs:
+        assert m["name"] == NAMES
+        np.testing.assert_allclose(m["position"], np.radians(st.angles), atol=1e-6)  # idle robot
+        assert m["velocity"] == [0.0] * 6
+    stamps = [m["stamp"] for m in msgs]
+    assert all(b > a for a, b in zip(stamps, stamps[1:]))
+    # one message per control tick: the mean interval is the controller's period
+    mean = (stamps[-1] - stamps[0]) / (len(stamps) - 1)
+    period = 1.0 / st.loop.rate_hz
+    assert 0.5 * period < mean < 2.0 * period, (mean, period)
+
+
+def _points_rad(start_deg: tuple[float, ...], offsets_deg: list[list[float]]) -> list[list[float]]:
+    return [list(np.radians(np.array(start_deg) + np.array(o))) for o in offsets_deg]
+
+
+def test_a_trajectory_over_the_speed_limit_is_refused_and_nothing_moves(setup) -> None:  # type: ignore[no-untyped-def]
+    node, robot, log = setup["node"], setup["robot"], setup["log"]
+    start = robot.status()
+    assert start.command is None and start.queue == 0
+    # J1 -40 deg in 0.3 s (about 133 deg/s; J1's maximum is 57 deg/s) after a reachable first point
+    pts = _points_rad(start.angles, [[-5, 0, 0, 0, 0, 0], [-45, 0, 0, 0, 0, 0]])
+    log.clear()
+    node.ask(cmd="publish", names=NAMES, points=[[1.0, pts[0]], [1.3, pts[1]]])
+    ev = node.ask(cmd="event")["event"]
+    assert ev is not None and ev.startswith("refused:") and "J1" in ev and "too fast" in ev, ev
+    # nothing was sent: every status since the publish shows the same steps and no command
+    wait_until(lambda: len(log.snapshot()) >= 50, timeout=10, what="50 statuses")
+    seen = log.snapshot()
+    assert all(s.raw["steps"] == start.raw["steps"] and s.command is None and s.queue == 0 for s in seen)
+    assert "refused" in setup["bridge_log"].read_text()
+
+
+def _run_trajectory(setup, offsets: list[list[float]], times: list[float]):  # type: ignore[no-untyped-def]
+    """Publish a trajectory from the current position; return (points rad, statuses seen, rate)."""
+    node, robot, log = setup["node"], setup["robot"], setup["log"]
+    start = robot.status()
+    rate = start.loop.rate_hz
+    pts = _points_rad(start.angles, offsets)
+    log.clear()
+    node.ask(cmd="publish", names=NAMES, points=[[t, q] for t, q in zip(times, pts)])
+    ev = node.ask(cmd="event")["event"]
+    assert ev is not None and ev.startswith("accepted:"), (ev, setup["bridge_log"].read_text())
+    done = node.ask(cmd="event", timeout=30)["event"]
+    assert done is not None and done.startswith("done:"), done
+    wait_until(lambda: log.snapshot()[-1].command is None, timeout=10, what="the last segment to end")
+    return pts, log.snapshot(), rate
+
+
+def _segments(seen: list[RobotStatus]) -> list[list[RobotStatus]]:
+    """The statuses of each command, in order (by command id)."""
+    out: dict[str, list[RobotStatus]] = {}
+    for s in seen:
+        if s.command is not None and s.command.id:
+            out.setdefault(s.command.id, []).append(s)
+    return list(out.values())
+
+
+def _start_seq(seg: list[RobotStatus], planned_ticks: int) -> int:
+    """The tick (seq) before a segment's first sample, from the first status seen of it and its
+    progress (k / planned_ticks after k samples): right even when the test lost status datagrams
+    at the segment's start (a loaded machine), as seq counts the controller's ticks."""
+    first = seg[0]
+    assert first.command is not None and first.command.progress is not None
+    return first.seq - round(first.command.progress * planned_ticks)
+
+
+OFFSETS = [[8, -5, 6, 10, 8, -12], [15, -8, 10, 5, 15, -20], [20, -10, 12, 15, 20, -25]]
+TIMES = [1.5, 3.0, 4.0]
+
+
+def test_a_three_point_trajectory_over_4_s_ends_within_one_step_of_its_last_point(setup) -> None:  # type: ignore[no-untyped-def]
+    pts, seen, rate = _run_trajectory(setup, OFFSETS, TIMES)
+    segs = _segments(seen)
+    assert len(segs) == 3
+    # each point is reached at the board within one step, at the end of its segment, and each
+    # segment runs its share of the timing: the ticks from its start to its end (progress 1)
+    # are the ticks between its point and the previous one, within one tick
+    prev_t = 0.0
+    for k, (seg, t) in enumerate(zip(segs, TIMES)):
+        target = rad_to_steps(pts[k], PAROL6)
+        end = next(s.seq for s in seg if s.command is not None and s.command.progress == 1.0)
+        planned = round(t * rate) - round(prev_t * rate)
+        ticks = end - _start_seq(seg, planned)
+        assert abs(ticks - planned) <= 1, (k, ticks, planned)
+        reached = np.array(seg[-1].raw["steps"])
+        assert np.abs(reached - target).max() <= 1, (k, reached.tolist(), target.tolist())
+        prev_t = t
+    final = np.array(seen[-1].raw["steps"])
+    assert np.abs(final - rad_to_steps(pts[-1], PAROL6)).max() <= 1
+    # the joint states the ROS node sees now are the last point
+    msgs = setup["node"].ask(cmd="joint_states", n=5)["msgs"]
+    np.testing.assert_allclose(msgs[-1]["position"], pts[-1], atol=math.radians(0.01))
+
+
+@pytest.mark.xfail(strict=False, raises=AssertionError, reason=(
+    "controller behaviour, not the bridge's: between two queued MoveJoints the status shows the first "
+    "one for an extra tick at progress 1.0 and then an idle tick before the next starts (seen in the "
+    "status stream of this test), so the last sample of a 3-segment trajectory comes 1..5 ticks late "
+    "(measured 401..405 of 400; the board is within 1 step of the last point at 398..401); on time needs "
+    "the executor to start the next queued move on the tick after the last sample, or a "
+    "multi-waypoint joint command"))
+def test_a_three_point_trajectory_over_4_s_ends_on_time_within_one_tick(setup) -> None:  # type: ignore[no-untyped-def]
+    # back towards the start of the previous test
+    back = [[a - b for a, b in zip(o, OFFSETS[-1])] for o in ([12, -6, 6, 8, 12, -15], [4, -2, 2, 3, 4, -5], [0] * 6)]
+    pts, seen, rate = _run_trajectory(setup, back, TIMES)
+    segs = _segments(seen)
+    first = _start_seq(segs[0], round(TIMES[0] * rate))
+    target = rad_to_steps(pts[-1], PAROL6)
+    arrival = next(s.seq for s in seen if np.abs(np.array(s.raw["steps"]) - target).max() <= 1)
+    last_sample = next(s.seq for s in segs[-1] if s.command is not None and s.command.progress == 1.0)
+    print(f"trajectory end: last sample {last_sample - first} ticks after the start (planned "
+          f"{round(TIMES[-1] * rate)}); the board within 1 step of the last point after {arrival - first} ticks")
+    assert abs((last_sample - first) - round(TIMES[-1] * rate)) <= 1, (last_sample - first, TIMES[-1] * rate)
+
+
+def test_the_bridge_exits_with_status_1_when_the_controller_goes_silent(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    ctl = start_controller(log_dir=tmp_path)
+    env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO_ROOT / "src"))
+    bridge = subprocess.Popen(
+        [sys.executable, "-m", "parolkit", "ros2", "--connect", f"127.0.0.1:{ctl.port}",
+         "--domain", str(100 + (os.getpid() + 50) % 100)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT, text=True)
+    try:
+        lines = [bridge.stdout.readline() for _ in range(2)]  # type: ignore[union-attr]
+        assert any("parolkit ros2: ready" in line for line in lines), lines
+        ctl.stop()
+        assert bridge.wait(30) == 1
+        out = bridge.stdout.read()  # type: ignore[union-attr]
+        assert f"no status from the controller at 127.0.0.1:{ctl.port} for 5 s: exiting" in out, out
+    finally:
+        if bridge.poll() is None:
+            bridge.kill()
+        ctl.stop()
