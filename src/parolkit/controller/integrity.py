@@ -297,6 +297,9 @@ class BoardProbe:
                 and not self._jog_after
                 and prev[2] == _JOG and prev[1] > tb and t > tc and not any(f.speeds)
                 and f.timing >= TIMER_HZ // 1000):
+            log.info("board probe: replies echoing 123 twice at rest (%.1f ms and %.1f ms after the "
+                     "+-1 JOG was written; board interval %d ticks): disabled", (prev[1] - tb) * 1e3,
+                     (t - tb) * 1e3, f.timing)
             self._finish(False, "the board was found disabled: send ENABLE")
 
     def _finish(self, enabled: bool, reason: str) -> None:
@@ -457,10 +460,14 @@ class StatusIntegrity:
         if pending is not None:
             sus, sdev, left = pending
             if linked and prev is sus:
-                # the next frame follows from it: the board really went there
+                # the next frame follows from it: the board really went there.  Not the truth
+                # yet: nothing commanded says where the joints are, and a frame linked only by
+                # the board's own account of a fast motion may carry a corrupted low byte (a
+                # racing J3 was shown 5 steps off); the next frame that links to it is
                 self._suspect = None
                 self._fault(sdev.message)
-                return self._truth(rx)
+                self.implausible += 1
+                return False
             if ref is not None and self._outside_hull(ref, rx, sdev.joints):
                 # a second frame shows the same joints beyond anything commanded
                 self._suspect = None
