@@ -8,6 +8,7 @@ ROS 2 messages are decoded with mcap-ros2-support, JSON channels with :mod:`json
 from __future__ import annotations
 
 import json
+import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -83,7 +84,7 @@ class _Scan:
                         self.metadata[rec.name] = dict(rec.metadata)
                     elif isinstance(rec, (DataEnd, Footer)):
                         self.complete = True
-            except (McapError, EOFError, ValueError, KeyError) as exc:
+            except (McapError, EOFError, ValueError, KeyError, struct.error) as exc:
                 # a file cut short (killed writer): everything before the cut is kept
                 self.error = f"{type(exc).__name__}: {exc}"
 

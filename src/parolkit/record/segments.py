@@ -6,8 +6,9 @@
   used by ``teach`` on any demonstration (jogs included).
 * :func:`fit_joint_move`: the MoveJoint (target = where the motion came to rest; duration a
   whole number of ticks, or the default speed) whose plan is closest to the recorded positions
-  tick by tick (the smallest largest deviation in steps over a lag of 0..``max_lag`` ticks:
-  the board reports a position one frame or more after it was sent).
+  tick by tick (the smallest largest deviation in steps over a lag of -3..``max_lag`` ticks:
+  the board reports a position one frame or more after it was sent; a motion found from the
+  positions alone starts where the first step shows, a tick or more into the plan).
 """
 
 from __future__ import annotations
@@ -112,7 +113,7 @@ def fit_joint_move(rec: Recording, seg: Segment, *, max_lag: int = 4, model: Rob
             traj = plan(_joint_move(target, duration), start_deg, model=model, rate_hz=rate)
         except PlanningError:
             return 1 << 30
-        errs = [(_error(traj.positions, rec, first, lag, tail), lag) for lag in range(max_lag + 1)]
+        errs = [(_error(traj.positions, rec, first, lag, tail), lag) for lag in range(-3, max_lag + 1)]
         err, lag = min(errs)
         if best is None or err < best.error_steps:
             best = FittedMove(target, duration, err, lag, traj.positions)
