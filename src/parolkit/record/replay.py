@@ -190,7 +190,12 @@ def replay_command(args: argparse.Namespace) -> int:
     try:
         if args.connect is not None:
             host, port = args.connect
-            if not args.real_robot and not _is_simulated(host, port):
+            simulated = _is_simulated(host, port)
+            if simulated is None:
+                print(f"parolkit replay: no status from the controller at {host}:{port}: is it running?",
+                      file=sys.stderr)
+                return 1
+            if not args.real_robot and not simulated:
                 print(f"parolkit replay: the controller at {host}:{port} drives a real robot (its board is not "
                       f"simulated): add --real-robot to replay onto it", file=sys.stderr)
                 return 2
@@ -213,8 +218,8 @@ def replay_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _is_simulated(host: str, port: int) -> bool:
-    """Whether the controller at host:port reports a simulated board (False if unknown)."""
+def _is_simulated(host: str, port: int) -> bool | None:
+    """Whether the controller at host:port reports a simulated board (None: no answer)."""
     import json
 
     with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_DGRAM) as sock:
@@ -223,9 +228,9 @@ def _is_simulated(host: str, port: int) -> bool:
             sock.sendto(b"GET_STATUS_JSON", (host, port))
             reply = sock.recv(65535).decode(errors="replace")
         except OSError:
-            return False
+            return None
     if not reply.startswith("STATUS_JSON|"):
-        return False
+        return None
     return bool(json.loads(reply.partition("|")[2]).get("board", {}).get("simulated"))
 
 
