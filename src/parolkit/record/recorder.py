@@ -23,6 +23,7 @@ from typing import Any
 
 from parolkit.client import robot_api as wire
 from parolkit.client.core import SUBSCRIBE_RENEW_S, bind_address
+from parolkit.client.errors import ControllerUnreachable, ReplyError
 from parolkit.record import messages
 from parolkit.record.schemas import (
     JOINT_STATE,
@@ -43,8 +44,9 @@ _PLAN = b"PLAN|"
 _ACK = b"ACK|"
 
 
-class RecorderError(RuntimeError):
-    """The controller could not be recorded (no answer, subscription refused)."""
+#: what :meth:`Recorder.run` raises: no status for ``silence_timeout_s`` (ControllerUnreachable)
+#: or the subscription refused / an ``ERROR|`` answer (ReplyError)
+RecorderError = (ControllerUnreachable, ReplyError)
 
 
 @dataclass
@@ -181,14 +183,14 @@ class Recorder:
             self.writer.write_json(TOPIC_ACKS, ack, now, self.stats.last_tick or 0)
             self.stats.acks += 1
             if ack["status"] == "FAILED" and "SUBSCRIBE" in str(ack["details"]).upper():
-                raise RecorderError(f"the controller refused the subscription: {ack['details']}")
+                raise ReplyError(f"the controller refused the subscription: {ack['details']}")
         elif data.startswith(_PLAN):
             plan = json.loads(data[len(_PLAN):])
             plan["tick"] = self.stats.last_tick
             self.writer.write_json(TOPIC_PLANS, plan, now, self.stats.last_tick or 0)
             self.stats.plans += 1
         elif data.startswith(b"ERROR|"):
-            raise RecorderError(f"the controller answered: {data.decode(errors='replace')}")
+            raise ReplyError(f"the controller answered: {data.decode(errors='replace')}")
 
     # ------------------------------------------------------------------ main loop
 
@@ -196,7 +198,8 @@ class Recorder:
             on_progress: Callable[[RecorderStats], None] | None = None) -> RecorderStats:
         """Record until :meth:`stop` or ``duration_s`` (s, from the first status); close the file.
 
-        Raises :class:`RecorderError` when no status arrives for ``silence_timeout_s``.
+        Raises ControllerUnreachable when no status arrives for ``silence_timeout_s``, ReplyError
+        when the controller refuses the subscription (the file is closed either way).
         """
         start = time.monotonic()
         first: float | None = None
@@ -213,7 +216,7 @@ class Recorder:
                     closed_by = "duration"
                     break
                 if now - last_rx > self.silence_timeout_s:
-                    raise RecorderError(f"no status from {self.host}:{self.port} for "
+                    raise ControllerUnreachable(f"no status from {self.host}:{self.port} for "
                                         f"{self.silence_timeout_s:g} s: is the controller running?")
                 try:
                     data = self._sock.recv(65536)
