@@ -82,14 +82,16 @@ def _free_udp_port() -> int:
 
 
 class SimController:
-    """``parolkit serve --sim`` on free ports for one replay (stopped by :meth:`close`)."""
+    """``parolkit serve --sim --rate RATE_HZ`` on free ports for one replay (stopped by
+    :meth:`close`); the rate is the recording's, so the replay runs tick for tick like it."""
 
-    def __init__(self) -> None:
+    def __init__(self, rate_hz: float = 100.0) -> None:
         from parolkit.client.launch import spawn_controller
 
         self.port, self.ack_port = _free_udp_port(), _free_udp_port()
         self.log = tempfile.TemporaryFile()
-        self.proc = spawn_controller(["--sim", "--udp-port", str(self.port), "--ack-port", str(self.ack_port)],
+        self.proc = spawn_controller(["--sim", "--rate", f"{rate_hz:g}", "--udp-port", str(self.port),
+                                      "--ack-port", str(self.ack_port)],
                                      stdout=self.log, stderr=subprocess.STDOUT)
 
     def wait_ready(self, timeout: float = 60.0) -> None:
@@ -201,7 +203,7 @@ def replay_command(args: argparse.Namespace) -> int:
                 return 2
         else:
             print("starting a controller with the simulated board ...", flush=True)
-            sim = SimController()
+            sim = SimController(rec.rate_hz)
             sim.wait_ready()
             host, port = "127.0.0.1", sim.port
         out = run_replay(host, port, start, steps, speed_pct=args.speed, record_to=args.record)

@@ -22,7 +22,7 @@ from parolkit.moves import JointMove
 from parolkit.record.reader import Recording
 from parolkit.robot import PAROL6, RobotModel
 
-__all__ = ["Segment", "FittedMove", "command_segments", "rest_segments", "fit_joint_move", "steps_to_deg"]
+__all__ = ["MotionSpan", "FittedMove", "command_segments", "rest_segments", "fit_joint_move", "steps_to_deg"]
 
 
 def steps_to_deg(steps: NDArray[np.int64], model: RobotModel = PAROL6) -> NDArray[np.float64]:
@@ -31,7 +31,7 @@ def steps_to_deg(steps: NDArray[np.int64], model: RobotModel = PAROL6) -> NDArra
 
 
 @dataclass(frozen=True)
-class Segment:
+class MotionSpan:
     """One motion: rows ``start``..``end`` of the recording (``start``: the last row before the
     joints move, ``end``: the first row at rest after), its ticks, and the command (if known)."""
 
@@ -95,7 +95,7 @@ def _error(planned: NDArray[np.int64], rec: Recording, first_tick: int, lag: int
     return int(np.abs(ext[have] - got[have]).max())
 
 
-def fit_joint_move(rec: Recording, seg: Segment, *, max_lag: int = 4, model: RobotModel = PAROL6) -> FittedMove:
+def fit_joint_move(rec: Recording, seg: MotionSpan, *, max_lag: int = 4, model: RobotModel = PAROL6) -> FittedMove:
     """See the module docstring.  Raises PlanningError when no candidate can be planned."""
     from parolkit.motion import PlanningError, plan
 
@@ -144,10 +144,10 @@ def _moving(rec: Recording) -> NDArray[np.bool_]:
     return mv
 
 
-def rest_segments(rec: Recording, min_rest_ticks: int = 10) -> list[Segment]:
+def rest_segments(rec: Recording, min_rest_ticks: int = 10) -> list[MotionSpan]:
     """Motions separated by pauses of at least ``min_rest_ticks`` ticks without a joint moving."""
     mv = _moving(rec)
-    segs: list[Segment] = []
+    segs: list[MotionSpan] = []
     i, n = 1, len(rec)
     while i < n:
         if not mv[i]:
@@ -163,7 +163,7 @@ def rest_segments(rec: Recording, min_rest_ticks: int = 10) -> list[Segment]:
                 break
             j += 1
         end = last_move
-        segs.append(Segment(start, end, int(rec.ticks[start]), int(rec.ticks[end])))
+        segs.append(MotionSpan(start, end, int(rec.ticks[start]), int(rec.ticks[end])))
         i = j
     return segs
 
@@ -207,11 +207,11 @@ def command_runs(rec: Recording) -> list[tuple[int, int, str]]:
     return runs
 
 
-def command_segments(rec: Recording) -> list[Segment]:
+def command_segments(rec: Recording) -> list[MotionSpan]:
     """One segment per recorded command during which (or right after which) the joints moved."""
     mv = _moving(rec)
     runs = command_runs(rec)
-    segs: list[Segment] = []
+    segs: list[MotionSpan] = []
     for a, b, name in runs:
         moved = np.nonzero(mv[a:b])[0]
         if len(moved) == 0:
@@ -224,6 +224,6 @@ def command_segments(rec: Recording) -> list[Segment]:
             k += 1
         start = max(0, a - 1)
         n, first_tick = _planned_ticks(rec, a, b)
-        segs.append(Segment(start, end, int(rec.ticks[start]), int(rec.ticks[end]), name,
+        segs.append(MotionSpan(start, end, int(rec.ticks[start]), int(rec.ticks[end]), name,
                             first_tick, int(rec.ticks[b - 1]) + 1, n))
     return segs

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from parolkit.record.reader import Recording, load_recording
-from parolkit.record.segments import Segment, fit_joint_move, rest_segments, steps_to_deg
+from parolkit.record.segments import MotionSpan, fit_joint_move, rest_segments, steps_to_deg
 
 __all__ = ["TeachResult", "teach", "path_deviation", "planned_path_deg", "teach_command"]
 
@@ -87,7 +87,7 @@ def planned_path_deg(program_text: str, start_deg: tuple[float, ...], rate_hz: f
     return np.vstack(parts)
 
 
-def _split(rec: Recording, seg: Segment, tol_mm: float, tol_deg: float, depth: int = 0) -> list[Any]:
+def _split(rec: Recording, seg: MotionSpan, tol_mm: float, tol_deg: float, depth: int = 0) -> list[Any]:
     """Fitted moves for ``seg``, split at the farthest sample while off by more than the tolerances."""
     fit = fit_joint_move(rec, seg)
     recorded = steps_to_deg(rec.steps[seg.start:seg.end + 1])
@@ -103,8 +103,8 @@ def _split(rec: Recording, seg: Segment, tol_mm: float, tol_deg: float, depth: i
     off = np.abs(recorded - (a + s[:, None] * d)).max(axis=1)
     k = int(np.argmax(off[1:-1])) + 1
     mid = seg.start + k
-    left = Segment(seg.start, mid, int(rec.ticks[seg.start]), int(rec.ticks[mid]))
-    right = Segment(mid, seg.end, int(rec.ticks[mid]), int(rec.ticks[seg.end]))
+    left = MotionSpan(seg.start, mid, int(rec.ticks[seg.start]), int(rec.ticks[mid]))
+    right = MotionSpan(mid, seg.end, int(rec.ticks[mid]), int(rec.ticks[seg.end]))
     return _split(rec, left, tol_mm, tol_deg, depth + 1) + _split(rec, right, tol_mm, tol_deg, depth + 1)
 
 
