@@ -59,3 +59,4 @@ def compare_recordings(a: Recording, b: Recording, *, moving_only_until_rest: bo
         if int(d[k]) > worst[0]:
             worst = (int(d[k]), k, t)
     return Comparison(n, end - ta + 2, worst[0], worst[1], worst[2], offset)
+

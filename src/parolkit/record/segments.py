@@ -169,22 +169,23 @@ def rest_segments(rec: Recording, min_rest_ticks: int = 10) -> list[MotionSpan]:
 
 
 def _planned_ticks(rec: Recording, a: int, b: int) -> tuple[int | None, int]:
-    """(planned length in ticks, first tick) of the command shown in rows a..b-1, from its
-    progress (k/n at its k-th tick; rounded to 4 decimals by the controller)."""
-    prog = [(int(rec.ticks[i]), float((rec.statuses[i].get("command") or {}).get("progress") or 0.0))
-            for i in range(a, b)]
-    prog = [(t, p) for t, p in prog if 0.0 < p < 1.0]
-    if len(prog) < 2 or prog[-1][1] <= prog[0][1]:
-        return None, int(rec.ticks[a])
-    t = np.array([p[0] for p in prog], dtype=float)
-    pr = np.array([p[1] for p in prog])
-    slope, icpt = np.polyfit(t, pr, 1)  # progress = (tick - first + 1) / n: a straight line
-    if not slope > 0:
-        return None, int(rec.ticks[a])
-    n = int(round(1.0 / slope))
-    if n < 1:
-        return None, int(rec.ticks[a])
-    return n, int(round(-icpt / slope)) + 1
+    """(planned length in ticks, first tick) of the command shown in rows a..b-1.
+
+    The length comes from the command's progress (``k/n`` after its k-th sample, rounded to 4
+    decimals by the controller): from the steps between consecutive ticks.  The controller
+    samples a trajectory by the wall clock, so a late tick advances it by two samples or more;
+    such steps (more than 1.5x the smallest) are left out, and the rest averaged."""
+    first = int(rec.ticks[a])
+    pts = [(int(rec.ticks[i]), float((rec.statuses[i].get("command") or {}).get("progress") or 0.0))
+           for i in range(a, b)]
+    pts = [(t, p) for t, p in pts if 0.0 < p < 1.0]
+    steps = [(p1 - p0) for (t0, p0), (t1, p1) in zip(pts, pts[1:]) if t1 - t0 == 1 and p1 > p0]
+    if len(steps) < 2:
+        return None, first
+    smallest = min(steps)
+    regular = [d for d in steps if d <= 1.5 * smallest]
+    n = int(round(len(regular) / sum(regular)))
+    return (n if n >= 1 else None), first
 
 
 def command_runs(rec: Recording) -> list[tuple[int, int, str]]:
