@@ -24,6 +24,11 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "check": ("parolkit.script.cli", "check RBTscript programs without running them"),
     "fmt": ("parolkit.script.cli", "format RBTscript programs"),
     "plan": ("parolkit.motion.cli", "plan one move and print or plot its trajectory"),
+    "record": ("parolkit.record.cli", "record the controller's status stream to an MCAP file"),
+    "replay": ("parolkit.record.cli", "play a recorded joint trajectory into a controller"),
+    "plot": ("parolkit.record.cli", "plot a recording: joints, speeds, TCP path, loop timing"),
+    "export": ("parolkit.record.cli", "export a recording (--csv)"),
+    "teach": ("parolkit.record.cli", "fit an RBTscript program to a recorded demonstration"),
 }
 # ROS 2 (issue 17): the URDF and the DDS bridge (the bridge needs the optional cyclonedds)
 SUBCOMMANDS.update({
