@@ -11,6 +11,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -49,10 +50,16 @@ def example_runs(tmp_path_factory):
             with Robot(cp.host, cp.port, ack_port=cp.ack_port) as robot:
                 program = load(path)
                 lines: list[int] = []
-                interp = Interpreter(program, robot, loops=2 if program.loops else None,
-                                     on_line=lambda p: lines.append(p.line))
+                starts: list[tuple[int, float]] = []
+
+                def on_line(p):
+                    lines.append(p.line)
+                    starts.append((p.line, time.monotonic()))
+
+                interp = Interpreter(program, robot, loops=2 if program.loops else None, on_line=on_line)
                 result = interp.run()
-                return program, interp, result, lines
+                starts.append((-1, time.monotonic()))
+                return program, interp, result, lines, starts
         finally:
             cp.stop()
 
@@ -64,7 +71,7 @@ def example_runs(tmp_path_factory):
 @pytest.mark.slow
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_seed_example_runs_to_completion_and_ends_on_the_last_target(path, example_runs):
-    program, interp, result, lines = example_runs[path.stem]
+    program, interp, result, lines, _ = example_runs[path.stem]
     assert result.state is InterpreterState.FINISHED, result.message
     assert not result.errors
     passes = 2 if program.loops else 1
@@ -84,6 +91,25 @@ def test_seed_example_runs_to_completion_and_ends_on_the_last_target(path, examp
         from parolkit.kinematics import fk
 
         np.testing.assert_allclose(np.asarray(fk(final))[:3], moves[-1].move.pose[:3], atol=0.5)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["cartesian_trf", "cartesian_relative_trf"])
+def test_the_seed_cartesian_programs_run_every_command_on_its_own_time(name, example_runs):
+    """The seed's programs 2 and 3 (MoveJoint to standby, then MoveCart from that singular
+    pose): each command, as it runs on the controller, lasts what the dry run planned (the
+    original's timing) within a few ticks (the exact end at the board, the ack's trip); a
+    MoveCart from standby took 3.71 s for a t=2 s move before."""
+    program, interp, result, lines, starts = example_runs[name]
+    assert result.state is InterpreterState.FINISHED, result.message
+    planned = {r.line: r.duration_s for r in interp.report.rows if r.duration_s}
+    checked = 0
+    for (line, t0), (_, t1) in zip(starts, starts[1:]):
+        keyword = next(c.keyword for c in program.commands if c.line == line)
+        if keyword in ("MoveCart", "MoveCartRelTRF", "MoveJoint") and line in planned:
+            assert t1 - t0 == pytest.approx(planned[line], abs=0.12), (line, keyword, t1 - t0, planned[line])
+            checked += keyword.startswith("MoveCart")
+    assert checked >= 1
 
 
 def _motion_fingerprint(cp):
