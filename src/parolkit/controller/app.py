@@ -107,7 +107,7 @@ class Controller:
             homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
             homing_speedup=self._homing_speedup(), unhomed_jog_travel_deg=cs.unhomed_jog_travel_deg,
         )
-        self.stream = StatusStream(self.sock, lambda: self.snapshot)
+        self.stream = StatusStream(self.sock)
         self.server = UdpServer(self.sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
                                 stream=self.stream, answerer=self, ack_port=cs.ack_port,
                                 lease=ControlLease(cs.lease_timeout_s, cs.secret))
@@ -214,7 +214,7 @@ class Controller:
         status after an ack always sees what the ack reported."""
         self._snapshot = out.snapshot
         self.outbox.send_acks(out.acks)
-        self.stream.notify(out.snapshot.seq)
+        self.stream.notify(out.snapshot)
 
     @property
     def _spd(self) -> tuple[float, ...]:

@@ -23,7 +23,7 @@ import socket
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
 from typing import Protocol
@@ -150,18 +150,29 @@ class _Subscriber:
 
 
 class StatusStream:
-    """Status datagrams to subscribers, woken by the loop every tick."""
+    """Status datagrams to subscribers: every tick's snapshot, in order.
 
-    def __init__(self, sock: socket.socket, snapshot: Callable[[], Snapshot]) -> None:
+    The loop hands each tick's snapshot over (:meth:`notify`, cheap when nobody subscribed);
+    this thread sends each one to the subscribers it is due for.  When the thread falls behind
+    (a loaded machine) the snapshots wait in a queue of :attr:`QUEUE_TICKS` and are all sent
+    when it runs again, so a recorder sees every tick (the stream used to send only the newest
+    snapshot when the thread woke: ticks went missing from recordings under load); should the
+    queue ever fill, the oldest are dropped and counted in :attr:`overflowed`."""
+
+    #: snapshots waiting for the stream thread at most (2.5 s at 100 Hz)
+    QUEUE_TICKS = 256
+
+    def __init__(self, sock: socket.socket) -> None:
         self.sock = sock
-        self._snapshot = snapshot
         self._subs: dict[tuple[str, int], _Subscriber] = {}
         self._lock = threading.Lock()
         self._cv = threading.Condition()
-        self._tick = 0
+        self._pending: deque[Snapshot] = deque(maxlen=self.QUEUE_TICKS)
         self._running = False
         self._thread = threading.Thread(target=self._run, name="parolkit-stream", daemon=True)
         self.sent = 0
+        #: snapshots dropped because the queue was full (the thread stalled for 2.5 s)
+        self.overflowed = 0
 
     def start(self) -> None:
         self._running = True
@@ -192,46 +203,51 @@ class StatusStream:
         with self._lock:
             return self._subs.pop(addr, None) is not None
 
-    def notify(self, tick: int) -> None:
-        """Loop thread: a new snapshot exists (cheap when nobody subscribed)."""
+    def notify(self, snapshot: Snapshot) -> None:
+        """Loop thread: this tick's snapshot (cheap when nobody subscribed)."""
         if not self._subs:
             return
         with self._cv:
-            self._tick = tick
+            if len(self._pending) == self.QUEUE_TICKS:
+                self.overflowed += 1
+            self._pending.append(snapshot)
             self._cv.notify()
 
     def _run(self) -> None:
-        last = -1
         while True:
             with self._cv:
-                while self._running and self._tick == last:
+                while self._running and not self._pending:
                     self._cv.wait(0.5)
                 if not self._running:
                     return
-                tick = self._tick
-            last = tick
-            now = time.monotonic()
-            with self._lock:
-                due = []
-                for k in list(self._subs):
-                    s = self._subs[k]
-                    if s.expires < now:
-                        del self._subs[k]
-                    elif tick % s.every == 0:
-                        due.append(s.addr)
-            if not due:
-                continue
+                batch = list(self._pending)
+                self._pending.clear()
+            for snap in batch:
+                self._send(snap)
+
+    def _send(self, snap: Snapshot) -> None:
+        now = time.monotonic()
+        with self._lock:
+            due = []
+            for k in list(self._subs):
+                s = self._subs[k]
+                if s.expires < now:
+                    del self._subs[k]
+                elif snap.seq % s.every == 0:
+                    due.append(s.addr)
+        if not due:
+            return
+        try:
+            data = snap.reply("GET_STATUS_JSON").encode()
+        except Exception:
+            log.exception("status stream: building the status failed")
+            return
+        for addr in due:
             try:
-                data = self._snapshot().reply("GET_STATUS_JSON").encode()
-            except Exception:
-                log.exception("status stream: building the status failed")
-                continue
-            for addr in due:
-                try:
-                    self.sock.sendto(data, addr)
-                    self.sent += 1
-                except OSError:
-                    pass
+                self.sock.sendto(data, addr)
+                self.sent += 1
+            except OSError:
+                pass
 
 
 class UdpServer:
