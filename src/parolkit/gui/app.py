@@ -84,7 +84,9 @@ class CommanderPage:
                 with ui.tab_panel(t_grip):
                     self.io = IoGripperPanel(self.c)
                 with ui.tab_panel(t_prog):
-                    self.program = ProgramPanel(self.c)
+                    self.program: ProgramPanel = ProgramPanel(self.c)
+            # opening the Program tab creates its editor: scroll the executing line into view then
+            t_prog.on("click", self.program.shown)
 
     def update_readouts(self) -> None:
         st = self.link.status
@@ -108,7 +110,7 @@ class CommanderPage:
         if b.action == "estop":
             self.c.estop()
         elif b.action == "stop":
-            self.c.command("STOP", "Stop")
+            self.c.stop()
         elif b.action == "joint" and b.joint is not None:
             self.jog.joint_press(b.joint, b.direction)
         elif b.action == "cart" and b.axis is not None:

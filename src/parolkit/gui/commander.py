@@ -19,7 +19,9 @@ from parolkit.gui.control import ControlWatch, local_host_for
 from parolkit.gui.eventlog import EventLog, Level
 from parolkit.gui.jog import JOG_REPEAT_S
 from parolkit.gui.link import ControllerLink
+from parolkit.gui.program_doc import ProgramDoc
 from parolkit.gui.programs import ProgramsFolder, default_programs_dir
+from parolkit.gui.templates import SEED_EXAMPLES
 
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
@@ -48,6 +50,8 @@ class Commander:
         self.mode_label = mode_label
         self.programs = programs or ProgramsFolder(default_programs_dir())
         self.login = login
+        #: the one program document every tab edits (kept until saved)
+        self.doc = ProgramDoc(self.programs, self.log, SEED_EXAMPLES["Output click"])
         self._hold: asyncio.Task[None] | None = None
         self.program = ProgramRunner(self)
         self.control = ControlWatch(link.robot, link.send, local_host=local_host_for(link.host),
@@ -92,6 +96,13 @@ class Commander:
 
     # ---- robot controls ----
 
+    def stop(self) -> None:
+        """The header's Stop and Space: end the program run as "stopped", end a held jog and
+        send STOP (cancels the move in progress and the queue)."""
+        self.jog_release(send_stop=False)
+        self.program.stop()
+        self.command("STOP", "Stop")
+
     def command(self, text: str, label: str | None = None) -> None:
         try:
             if text not in ("STOP", "ESTOP", "DISABLE"):  # open to every client
@@ -122,8 +133,13 @@ class ProgramRunner:
         self.errors: list[Any] = []
         self.thread: threading.Thread | None = None
         self.current_line: int | None = None
-        self.state = "idle"  # idle, running, paused, error
+        #: idle (never run), running, paused, finished, stopped, error
+        self.state = "idle"
         self.message = ""
+        #: the text and program name of the program running (or run last): the page shows it
+        self.text = ""
+        self.name = ""
+        self._stopping = False
         self.version = 0
 
     def port(self) -> int | None:
@@ -137,8 +153,9 @@ class ProgramRunner:
         self.current_line = int(getattr(progress, "line", progress))
         self.version += 1
 
-    async def start(self, text: str, *, step: bool = False) -> list[Any]:
-        """Parse ``text`` and run it; returns the parse errors (nothing runs when there are any)."""
+    async def start(self, text: str, *, step: bool = False, name: str = "") -> list[Any]:
+        """Parse ``text`` (the program ``name``) and run it; returns the parse errors (nothing
+        runs when there are any)."""
         from parolkit.script import parse
 
         if self.running:
@@ -184,6 +201,8 @@ class ProgramRunner:
         self.errors = []
         self.state = "running"
         self.message = ""
+        self.text, self.name = text, name
+        self._stopping = False
         self.current_line = None
         self.version += 1
         self.thread = threading.Thread(target=self._run, args=(step,), name="rbtscript", daemon=True)
@@ -209,14 +228,20 @@ class ProgramRunner:
                 self.commander.control.refresh_soon()
             interpreter.start()
             result = interpreter.wait()
-            if result is not None and not result.ok and result.state.value != "stopped":
+            if self._stopping:
+                self.state = "stopped"  # stop() said so (its STOP may have failed the move)
+            elif result is not None and not result.ok and result.state.value != "stopped":
                 self.state = "error"
                 self.message = result.message
                 self.errors = list(result.errors)
                 self.commander.log.error(f"program {result.message}")
+            elif result is not None and result.state.value == "stopped":
+                self.state = "stopped"
+                self.message = self.message or "stopped"
             elif self.state != "error":
                 self.commander.log.add(f"program {result.message if result else 'finished'}", Level.SUCCESS)
-                self.state = "idle"
+                self.state = "finished"
+                self.message = "finished"
             self.current_line = None
         except ParolkitError as exc:
             self.state = "error"
@@ -244,8 +269,9 @@ class ProgramRunner:
 
     def stop(self, reason: str = "stopped") -> None:
         if self.running and self.interpreter is not None:
+            self._stopping = True
             self.interpreter.stop()
-            self.state = "idle"
+            self.state = "stopped"
             self.message = reason
             self.commander.log.add(f"program {reason}", Level.WARNING)
             self.version += 1

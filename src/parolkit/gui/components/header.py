@@ -64,7 +64,7 @@ class Header:
                         _action("Clear error", "healing", "btn-clear", "outline dense color=grey-4",
                                 lambda: c.command("CLEAR_ERROR", "Clear error"), "clear the board's error")
                         _action("Stop", "stop", "btn-stop", "outline dense color=orange",
-                                lambda: c.command("STOP", "Stop"), "stop motion and cancel the queue (Space)")
+                                c.stop, "stop motion and cancel the queue (Space)")
                         ui.button(icon="help_outline", on_click=on_help) \
                             .props('flat round color=grey-4 aria-label="Keyboard shortcuts" data-testid=help-button') \
                             .tooltip("keyboard shortcuts")

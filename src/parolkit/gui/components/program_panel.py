@@ -6,6 +6,7 @@ Examples (the seed programs) and the programs folder's file row.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from nicegui import ui
@@ -35,6 +36,10 @@ class ProgramPanel:
         self.c = commander
         self.link = commander.link
         self._prog_version = -1
+        self._doc_version = -1
+        self._revealed: int | None = None
+        self._locked = False
+        self._reveal_at: float | None = None
         self._errors: dict[int, str] = {}
         with ui.row().classes("w-full items-center gap-2"):
             _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
@@ -55,8 +60,9 @@ class ProgramPanel:
                 with ui.menu():
                     for name, text in SEED_EXAMPLES.items():
                         ui.menu_item(name, on_click=lambda text=text: self.set_program(text))
-        self.files = ProgramsPanel(self.c.programs, self.c.log, lambda: self.editor.value or "", self.set_program)
-        self.editor = ui.codemirror(SEED_EXAMPLES["Output click"], on_change=self.on_edit, theme="githubLight") \
+        self.files = ProgramsPanel(self.c.programs, self.c.log, lambda: self.editor.value or "", self.set_program,
+                                   self.c.doc)
+        self.editor = ui.codemirror(self._shown_text(), on_change=self.on_edit, theme="githubLight") \
             .classes("w-full pk-editor").props("data-testid=editor")  # commander.js names its text box
         self.prog_status = ui.label("").classes("text-sm pk-mono").props("data-testid=prog-status role=status")
         self.diag_box = ui.column().classes("gap-0 w-full").props("data-testid=diagnostics")
@@ -83,15 +89,29 @@ class ProgramPanel:
             text += "\n"
         self.set_program(text + line + "\n")
 
+    def _shown_text(self) -> str:
+        """What the editor shows: the running program's text while it runs, else the shared
+        document (every tab and every reload shows the same)."""
+        runner = self.c.program
+        return runner.text if self._program_active() else self.c.doc.text
+
+    def _program_active(self) -> bool:
+        runner = self.c.program
+        return runner.running or runner.state == "paused"
+
     def on_edit(self, *_: Any) -> None:
-        """Re-colour the text; old error marks go (their lines may have moved): Check again."""
+        """Keep the edit in the shared document (autosaved) and re-colour the text; old error
+        marks go (their lines may have moved): Check again."""
+        if not self._program_active():
+            if self.c.doc.edit(self.editor.value or ""):
+                self._doc_version = self.c.doc.version
         self._errors = {}
         self._refresh_decorations()
 
     def _refresh_decorations(self) -> None:
         text = self.editor.value or ""
         runner = self.c.program
-        cur = runner.current_line if runner.running or runner.state == "paused" else None
+        cur = runner.current_line if self._program_active() else None
         decos = mark_decorations(text) + line_decorations(text, current_line=cur, error_lines=self._errors)
         self.editor.decorations = decos
         self.editor.line_tooltips = dict(self._errors)
@@ -146,30 +166,78 @@ class ProgramPanel:
             chart.update()
 
     async def run_program(self, step: bool) -> None:
-        errors = await self.c.program.start(self.editor.value or "", step=step)
+        text = self.editor.value or ""
+        if not self._program_active():
+            self.c.doc.edit(text)
+        errors = await self.c.program.start(text, step=step, name=self.c.doc.name)
         self._show_errors(errors)
         if errors:
             self.prog_status.set_text(f"✗ {len(errors)} error(s): nothing was run")
 
     def stop_program(self) -> None:
         """Stop the program run and send STOP (cancels the move in progress and the queue)."""
-        self.c.program.stop()
-        self.c.command("STOP", "Stop")
+        self.c.stop()
+
+    def _follow_text(self) -> None:
+        """Show the running program while it runs (read-only), else the shared document as
+        another tab or a file operation left it."""
+        active = self._program_active()
+        changed = active != self._locked
+        if changed:
+            self._locked = active
+            if active:
+                self.editor.disable()
+            else:
+                self.editor.enable()
+        doc = self.c.doc
+        if changed or doc.version != self._doc_version:  # another tab, a file, a run began or ended
+            self._doc_version = doc.version
+            want = self._shown_text()
+            if (self.editor.value or "") != want:
+                self.editor.value = want  # on_edit follows: nothing new to keep
+        self.files.update()
+
+    def shown(self) -> None:
+        """The Program tab was opened (its editor is created then): scroll the executing line
+        into view once the editor is on the page."""
+        self._revealed = None
+        self._reveal_at = time.monotonic() + 0.3  # update() does it (no new element on the page)
+
+    def _reveal(self) -> None:
+        runner = self.c.program
+        line = runner.current_line if self._program_active() else None
+        if line is not None:
+            self.editor.reveal_line(line)
+        self._revealed = line
 
     def update(self) -> None:
-        """Follow the program runner: status line, error marks, the executing line."""
+        """Follow the shared document and the program runner: text, status line, error
+        marks, the executing line (scrolled into view)."""
+        self._follow_text()
+        if self._reveal_at is not None and time.monotonic() >= self._reveal_at:
+            self._reveal_at = None
+            self._reveal()
         runner = self.c.program
         if runner.version == self._prog_version:
             return
         self._prog_version = runner.version
         if runner.state in ("running", "paused"):
-            self.prog_status.set_text(f"▶ {runner.state} · line {runner.current_line or '—'}")
+            where = f" · {runner.name}" if runner.name else ""
+            self.prog_status.set_text(f"▶ {runner.state} · line {runner.current_line or '—'}{where}")
             self.prog_status.classes(replace="text-sm pk-mono text-amber-300")
         elif runner.state == "error":
             if runner.errors:
                 self._show_errors(runner.errors)
             self.prog_status.set_text(f"✗ {runner.message}")
             self.prog_status.classes(replace="text-sm pk-mono text-red-300")
-        elif runner.message:
-            self.prog_status.set_text(f"■ {runner.message}")
+        elif runner.state == "finished":
+            self.prog_status.set_text("✓ finished")
+            self.prog_status.classes(replace="text-sm pk-mono text-green-400")
+        elif runner.state == "stopped":
+            self.prog_status.set_text(f"■ {runner.message or 'stopped'}")
+            self.prog_status.classes(replace="text-sm pk-mono text-slate-300")
         self._refresh_decorations()
+        line = runner.current_line if self._program_active() else None
+        if line is not None and line != self._revealed:
+            self.editor.reveal_line(line)
+        self._revealed = line
