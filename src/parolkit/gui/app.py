@@ -59,6 +59,7 @@ class CommanderPage:
         # brand colours dark enough for white text at >= 4.5:1 (Quasar's own are 2.9..4.4:1)
         ui.colors(primary="#1d4ed8", positive="#15803d", warning="#a16207", negative="#b91c1c", info="#0369a1")
         ui.on("pk_key", self.on_key)
+        self._was_up = True  # the first update greys the jog buttons if there is no link
         self.help = HelpDialog()
         self.header = Header(commander, on_help=self.help.open)
         with ui.element("main").classes("pk-main"):
@@ -90,11 +91,17 @@ class CommanderPage:
 
     def update_readouts(self) -> None:
         st = self.link.status
-        self.header.update(st, self.link.link_up)
-        self.readouts.update(st)
-        if st is not None:
+        up = self.link.link_up
+        self.header.update(st, up)
+        self.readouts.update(st, up)
+        self.io.set_online(up)
+        self.program.set_online(up)
+        if st is not None and up:
             self.jog.update(st)
             self.io.update(st)
+        elif self._was_up:
+            self.jog.offline()
+        self._was_up = up
         self.program.update()
 
     def on_key(self, e: Any) -> None:

@@ -25,6 +25,7 @@ from parolkit.gui.templates import SEED_EXAMPLES
 
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
+    from parolkit.gui.own_controller import OwnController
     from parolkit.script.interpreter import Interpreter
 
 __all__ = ["Commander", "ProgramRunner"]
@@ -35,14 +36,16 @@ class Commander:
 
     def __init__(self, link: ControllerLink, *, mode_label: str, programs: ProgramsFolder | None = None,
                  jog_repeat_s: float = JOG_REPEAT_S, cart_jog_repeat_s: float | None = None,
-                 secret: str | None = None, login: bool = False) -> None:
+                 secret: str | None = None, login: bool = False,
+                 own_controller: OwnController | None = None) -> None:
         """``jog_repeat_s`` / ``cart_jog_repeat_s``: period of the streamed joint / Cartesian
         jog updates, s; both must stay below the controller's stream watchdog (20 ms by
         default, 150 ms for a controller the GUI starts).  Every CARTJOG update is planned
         anew by the controller, so fewer, longer updates move more smoothly.  ``programs``:
         the only folder Open / Save use (default :func:`default_programs_dir`); ``secret``:
         the controller's shared secret (``controller.secret``) if it has one; ``login``: the
-        pages sit behind a login (a Log out button is shown)."""
+        pages sit behind a login (a Log out button is shown); ``own_controller``: the
+        controller process this GUI started (the page offers to restart it)."""
         self.link = link
         self.jog_repeat_s = jog_repeat_s
         self.cart_jog_repeat_s = jog_repeat_s if cart_jog_repeat_s is None else cart_jog_repeat_s
@@ -50,6 +53,7 @@ class Commander:
         self.mode_label = mode_label
         self.programs = programs or ProgramsFolder(default_programs_dir())
         self.login = login
+        self.own_controller = own_controller
         #: the one program document every tab edits (kept until saved)
         self.doc = ProgramDoc(self.programs, self.log, SEED_EXAMPLES["Output click"])
         self._hold: asyncio.Task[None] | None = None
@@ -68,6 +72,9 @@ class Commander:
         self._hold = asyncio.ensure_future(self._hold_loop(make_command, period_s or self.jog_repeat_s))
 
     async def _hold_loop(self, make_command: Callable[[], str], period_s: float) -> None:
+        if not self.link.link_up:
+            self.log.error("jog not sent: no link to the controller")
+            return
         try:
             self.control.ensure()
             self.link.send("STREAM|ON", label="STREAM ON", quiet=True)
@@ -104,6 +111,11 @@ class Commander:
         self.command("STOP", "Stop")
 
     def command(self, text: str, label: str | None = None) -> None:
+        """Send ``text``; logs "sent" only when there is a link to the controller (STOP and
+        E-STOP are sent anyway: a controller that only lost its status stream still acts)."""
+        if not self.link.link_up and text not in ("STOP", "ESTOP"):
+            self.log.error(f"{label or text} not sent: no link to the controller")
+            return
         try:
             if text not in ("STOP", "ESTOP", "DISABLE"):  # open to every client
                 self.control.ensure()
@@ -111,6 +123,22 @@ class Commander:
             self.log.info(f"sent {label or text}")
         except (RobotError, OSError) as exc:
             self.log.error(f"{label or text}: {exc}")
+
+    async def restart_controller(self) -> None:
+        """Restart the controller process this GUI started (the page's banner offers it)."""
+        own = self.own_controller
+        if own is None:
+            self.log.error("this commander did not start the controller: restart it where it runs")
+            return
+        if own.restarting:
+            return
+        self.log.info("restarting the controller ...")
+        try:
+            await asyncio.to_thread(own.restart)
+        except (RuntimeError, OSError) as exc:
+            self.log.error(f"controller restart failed: {exc}")
+            return
+        self.log.add("controller restarted", Level.SUCCESS)
 
     def estop(self) -> None:
         self.jog_release(send_stop=False)

@@ -39,14 +39,15 @@ class ProgramPanel:
         self._doc_version = -1
         self._revealed: int | None = None
         self._locked = False
+        self._online: bool | None = None
         self._reveal_at: float | None = None
         self._errors: dict[int, str] = {}
         with ui.row().classes("w-full items-center gap-2"):
-            _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
-                  lambda: self.run_program(step=False))
+            self._run_btn = _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
+                                  lambda: self.run_program(step=False))
             _tool("pause", "Pause the program", "prog-pause", "unelevated color=warning", self.c.program.pause)
-            _tool("skip_next", "Step one line", "prog-step", "unelevated color=info",
-                  lambda: self.run_program(step=True))
+            self._step_btn = _tool("skip_next", "Step one line", "prog-step", "unelevated color=info",
+                                   lambda: self.run_program(step=True))
             _tool("stop", "Stop the program", "prog-stop", "unelevated color=negative", self.stop_program)
             ui.button("Check", icon="rule", on_click=self.check_program) \
                 .props("outline no-caps color=grey-4 data-testid=prog-check")
@@ -196,6 +197,13 @@ class ProgramPanel:
             if (self.editor.value or "") != want:
                 self.editor.value = want  # on_edit follows: nothing new to keep
         self.files.update()
+
+    def set_online(self, online: bool) -> None:
+        """Run and Step only with a link to the controller."""
+        if online != self._online:
+            self._online = online
+            self._run_btn.set_enabled(online)
+            self._step_btn.set_enabled(online)
 
     def shown(self) -> None:
         """The Program tab was opened (its editor is created then): scroll the executing line

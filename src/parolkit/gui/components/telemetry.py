@@ -44,6 +44,7 @@ class Readouts:
     def __init__(self, log: EventLog) -> None:
         self.log = log
         self._log_version = -1
+        self._offline_shown = False
         with ui.card().classes("pk-card w-full p-3 gap-2").props('role=region aria-label="Readouts"'):
             with ui.element("div").classes("pk-readouts"):
                 with ui.column().classes("gap-1"):
@@ -92,9 +93,18 @@ class Readouts:
             self.log_box = ui.html("").classes("pk-log w-full") \
                 .props('data-testid=log role=log aria-label="Event log" tabindex=0')
 
-    def update(self, st: RobotStatus | None) -> None:
-        if st is not None:
+    def update(self, st: RobotStatus | None, link_up: bool = True) -> None:
+        """Show ``st`` (readouts only change on the page when their text changed); with no
+        link every LED goes dark and the IO reads "—": nothing shown is live."""
+        if st is not None and link_up:
+            self._offline_shown = False
             self._update_status(st)
+        elif not self._offline_shown:
+            self._offline_shown = True
+            for led in self.homed_leds:
+                led.set_content(_led())
+            for led in self.io_leds.values():
+                led.set_content(f"{_led()} <span class='pk-mono'>—</span>")
         if self.log.version != self._log_version:
             self._log_version = self.log.version
             rows = "".join(f"<div class='{e.level.value}'>{_html_escape(e.format())}</div>"

@@ -97,6 +97,41 @@
   }).observe(document.body, { childList: true, subtree: true });
   nameUnnamed();
 
+  // the commander's own server gone (process exited, network down): NiceGUI only shows a
+  // small toast and the page keeps showing the last state.  Say it loudly, mark the link and
+  // state chips, and grey every control until the socket is back (the page reloads then).
+  let serverLost = false;
+  const showServerLost = (lost) => {
+    if (lost === serverLost) return;
+    serverLost = lost;
+    document.body.classList.toggle("pk-server-lost", lost);
+    let banner = document.getElementById("pk-server-banner");
+    if (lost && banner === null) {
+      banner = document.createElement("div");
+      banner.id = "pk-server-banner";
+      banner.setAttribute("role", "alert");
+      banner.setAttribute("data-testid", "server-banner");
+      banner.textContent = "DISCONNECTED: the commander's server is not answering. Nothing on this page is live " +
+        "and the controls do nothing until it is back (restart `parolkit gui`; this page reconnects by itself).";
+      document.body.appendChild(banner);
+    }
+    if (banner !== null) banner.hidden = !lost;
+    for (const id of ["link-chip", "state-chip"]) {
+      const chip = document.querySelector(`[data-testid=${id}] .q-chip__content`);
+      if (chip === null) continue;
+      if (lost) {
+        chip.dataset.pkText = chip.textContent;
+        chip.textContent = id === "link-chip" ? "DISCONNECTED" : "UNKNOWN";
+      } else if (chip.dataset.pkText !== undefined) {
+        chip.textContent = chip.dataset.pkText;
+      }
+    }
+  };
+  setInterval(() => {
+    const sock = window.socket;
+    if (sock && window.did_handshake) showServerLost(!sock.connected);
+  }, 250);
+
   // a long press on a jog button must not open the context menu (touch screens)
   document.addEventListener("contextmenu", (e) => {
     if (e.target instanceof Element && e.target.closest(".pk-jog .q-btn")) e.preventDefault();
