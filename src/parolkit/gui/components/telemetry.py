@@ -9,6 +9,7 @@ or overlaps its neighbours.
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 from nicegui import ui
@@ -144,11 +145,17 @@ class Readouts:
         self.queue_label.set_text(f"queue {st.queue} · {cmd_text}")
 
 
+#: spacing of the live chart samples pushed to the page, s (300 points per 20 s window)
+SAMPLE_SPACING_S = 1.0 / 15
+
+
 class LiveCharts:
     """Joint positions and speeds of the last :data:`PLOT_WINDOW_S` s; :meth:`update` every 0.5 s."""
 
     def __init__(self, link: ControllerLink) -> None:
         self.link = link
+        #: time (monotonic s) of the newest sample pushed to the page
+        self._sent_t = -1e18
         with ui.card().classes("pk-card w-full p-3 gap-1").props('role=region aria-label="Live charts"'):
             ui.label(f"Live joint positions and speeds (last {PLOT_WINDOW_S:.0f} s)").classes("pk-title")
             with ui.element("div").classes("pk-two"):
@@ -158,17 +165,22 @@ class LiveCharts:
                     .props('data-testid=speed-chart role=img aria-label="joint speeds, last 20 s"')
 
     def update(self) -> None:
-        hist = list(self.link.history)
+        """Push only the samples newer than the last push (the page keeps the window:
+        ``pkLive`` in commander.js); a new page gets the whole window on its first push."""
+        hist = self.link.history
         if not hist:
             return
-        t_end = hist[-1].t
-        step = max(1, len(hist) // 300)
-        sel = hist[::step]
-        for chart, attr in ((self.pos_chart, "angles"), (self.speed_chart, "speeds")):
-            opts = chart.options
-            for j in range(6):
-                opts["series"][j]["data"] = [[round(s.t - t_end, 2), round(getattr(s, attr)[j], 2)] for s in sel]
-            chart.update()
+        rows: list[list[float]] = []
+        last = self._sent_t
+        for s in hist:
+            if s.t > last + SAMPLE_SPACING_S - 1e-9:
+                rows.append([round(s.t, 3), *(round(v, 2) for v in s.angles), *(round(v, 2) for v in s.speeds)])
+                last = s.t
+        if not rows:
+            return
+        self._sent_t = last
+        ui.run_javascript(f"window.pkLive && window.pkLive({self.pos_chart.id}, {self.speed_chart.id}, "
+                          f"{json.dumps(rows, separators=(',', ':'))}, {PLOT_WINDOW_S})")
 
 
 def live_options(unit: str) -> dict[str, Any]:

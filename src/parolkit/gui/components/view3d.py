@@ -44,6 +44,8 @@ class ArmView:
     def __init__(self, link: ControllerLink) -> None:
         self.link = link
         self._last_seq = -1
+        self._last_pose: tuple[tuple[float, ...], str] | None = None
+        self._last_plan_key: tuple[object, ...] | None = None
         self._last_plan_seq: tuple[int | None, bool] | None = None  # (plan seq, shown)
         with ui.card().classes("pk-card w-full p-2 gap-1").props('role=region aria-label="3D view"'):
             with ui.row().classes("w-full items-center"):
@@ -95,6 +97,11 @@ class ArmView:
         if st is None or st.seq == self._last_seq:
             return
         self._last_seq = st.seq
+        pose_key = (tuple(round(a, 3) for a in st.angles), st.tool)
+        plan_key = (self.link.plan.seq if self.link.plan else None, st.state, st.plan_seq)
+        if pose_key == self._last_pose and plan_key == self._last_plan_key:
+            return  # the arm stands still: nothing to send (an idle page costs next to nothing)
+        self._last_pose, self._last_plan_key = pose_key, plan_key
         frames = arm_frames(st.angles, st.tool)
         with self.scene._batch_calls():  # one websocket message per update
             for g, t in zip(self.groups, frames):

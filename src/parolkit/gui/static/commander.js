@@ -132,6 +132,26 @@
     if (sock && window.did_handshake) showServerLost(!sock.connected);
   }, 250);
 
+  // the live charts: the server pushes only the new samples ([t, q1..q6, v1..v6], t in s of
+  // the server's clock); the page keeps the last `windowS` seconds and redraws both charts
+  const live = { rows: [] };
+  window.pkLive = (posId, speedId, rows, windowS) => {
+    live.rows.push(...rows);
+    const tEnd = live.rows[live.rows.length - 1][0];
+    let cut = 0;
+    while (cut < live.rows.length && live.rows[cut][0] < tEnd - windowS) cut++;
+    if (cut) live.rows.splice(0, cut);
+    for (const [id, offset] of [[posId, 1], [speedId, 7]]) {
+      const el = typeof getElement === "function" ? getElement(id) : null;
+      if (!el || !el.chart) continue;
+      const series = [];
+      for (let j = 0; j < 6; j++) {
+        series.push({ data: live.rows.map((r) => [Math.round((r[0] - tEnd) * 100) / 100, r[offset + j]]) });
+      }
+      el.chart.setOption({ series: series });
+    }
+  };
+
   // a long press on a jog button must not open the context menu (touch screens)
   document.addEventListener("contextmenu", (e) => {
     if (e.target instanceof Element && e.target.closest(".pk-jog .q-btn")) e.preventDefault();
