@@ -7,7 +7,10 @@ the bytes of every websocket frame each page receives (Chrome DevTools Protocol
 utime + stime; the controller child is not counted).  Prints bytes/s per page and the GUI
 server's CPU %.  Needs Chromium (scripts/ensure-chromium.sh).
 
-    python bench/gui_bandwidth.py [--pages 3] [--seconds 20]
+    python bench/gui_bandwidth.py [--pages 3] [--seconds 20] [--src OTHER/src]
+
+``--src`` measures another checkout's ``src`` (e.g. a worktree of an older commit) with the
+same script: the reference for the figures in README's performance table.
 """
 
 from __future__ import annotations
@@ -42,9 +45,9 @@ def _cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def _start_gui(programs: str) -> tuple[subprocess.Popen[bytes], str]:
+def _start_gui(programs: str, src: Path) -> tuple[subprocess.Popen[bytes], str]:
     port = _free_port()
-    env = dict(os.environ, PYTHONPATH=str(REPO / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(os.environ, PYTHONPATH=str(src) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", "--sim", "--no-browser", "--http-port",
                              str(port), "--programs-dir", programs], env=env, cwd=REPO,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -64,12 +67,12 @@ def _start_gui(programs: str) -> tuple[subprocess.Popen[bytes], str]:
     raise SystemExit("parolkit gui did not answer within 60 s")
 
 
-def measure(pages: int, seconds: float) -> tuple[list[float], float, float]:
+def measure(pages: int, seconds: float, src: Path = REPO / "src") -> tuple[list[float], float, float]:
     """(bytes/s of each page, GUI CPU % before any page, GUI CPU % with the pages open)."""
     from playwright.sync_api import sync_playwright
 
     with tempfile.TemporaryDirectory() as programs:
-        proc, url = _start_gui(programs)
+        proc, url = _start_gui(programs, src)
         try:
             time.sleep(3)
             c0, t0 = _cpu_s(proc.pid), time.monotonic()
@@ -89,6 +92,8 @@ def measure(pages: int, seconds: float) -> tuple[list[float], float, float]:
                     cdp.on("Network.webSocketFrameReceived", on_frame)
                     page.goto(url)
                     page.get_by_text("LINKED").first.wait_for(timeout=60000)
+                # idle means homed and standing still (the simulator homes at start)
+                page.locator("[data-testid=state-chip]", has_text="READY").wait_for(timeout=90000)
                 time.sleep(3)  # let the pages settle
                 start = list(counts)
                 c0, t0 = _cpu_s(proc.pid), time.monotonic()
@@ -109,10 +114,15 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pages", type=int, default=3, help="idle pages to open (default 3)")
     ap.add_argument("--seconds", type=float, default=20.0, help="measuring time, s (default 20)")
+    ap.add_argument("--src", type=Path, default=REPO / "src",
+                    help="the parolkit sources to run (default: this checkout's src)")
     args = ap.parse_args()
     if args.pages < 1 or args.seconds <= 0:
         ap.error("--pages must be >= 1 and --seconds > 0")
-    rates, cpu_idle, cpu = measure(args.pages, args.seconds)
+    if not (args.src / "parolkit" / "gui").is_dir():
+        ap.error(f"--src {args.src}: no parolkit/gui package there")
+    print(f"measuring {args.src} with {args.pages} idle page(s) for {args.seconds:g} s")
+    rates, cpu_idle, cpu = measure(args.pages, args.seconds, args.src.resolve())
     for i, r in enumerate(rates):
         print(f"page {i + 1}: {r / 1000:.1f} KB/s received over the websocket (idle, linked)")
     print(f"GUI server CPU: {cpu_idle:.1f} % with no page, {cpu:.1f} % with {args.pages} page(s) open "
