@@ -19,7 +19,10 @@ from parolkit.gui.programs_panel import ProgramsPanel
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.robot import PAROL6
 
-__all__ = ["ProgramPanel"]
+__all__ = ["ProgramPanel", "DIAG_DELAY_S"]
+
+#: the parser's diagnostics are shown this long after the last keystroke, s
+DIAG_DELAY_S = 0.4
 
 
 def _tool(icon: str, label: str, testid: str, props: str, on_click: Any) -> ui.button:
@@ -40,6 +43,9 @@ class ProgramPanel:
         self._revealed: int | None = None
         self._locked = False
         self._online: bool | None = None
+        self._diag_at: float | None = None
+        self._plan_shown = False
+        self._shown_errors: list[str] | None = None
         self._reveal_at: float | None = None
         self._errors: dict[int, str] = {}
         with ui.row().classes("w-full items-center gap-2"):
@@ -106,8 +112,27 @@ class ProgramPanel:
         if not self._program_active():
             if self.c.doc.edit(self.editor.value or ""):
                 self._doc_version = self.c.doc.version
-        self._errors = {}
+        self._diag_at = time.monotonic() + DIAG_DELAY_S  # the parser's diagnostics once typing pauses
+        self._clear_plan()
         self._refresh_decorations()
+
+    def _clear_plan(self) -> None:
+        """The planned charts belong to the program that was checked: an edit clears them."""
+        if not self._plan_shown:
+            return
+        self._plan_shown = False
+        for chart in (self.plan_chart, self.plan_speed_chart):
+            for series in chart.options["series"]:
+                series["data"] = []
+            chart.update()
+
+    def _diagnose(self) -> None:
+        """Parse the text with the real parser and show its errors (line:col) at their lines;
+        none left clears the marks and the list."""
+        from parolkit.script import parse
+
+        result = parse(self.editor.value or "", "editor")
+        self._show_errors(list(result.errors))
 
     def _refresh_decorations(self) -> None:
         text = self.editor.value or ""
@@ -118,6 +143,10 @@ class ProgramPanel:
         self.editor.line_tooltips = dict(self._errors)
 
     def _show_errors(self, errors: list[Any]) -> None:
+        shown = [f"line {err.line}, col {err.col}: {err.message}" for err in errors]
+        if shown == self._shown_errors:
+            return  # the same list: nothing to send
+        self._shown_errors = shown
         self._errors = {}
         self.diag_box.clear()
         with self.diag_box:
@@ -155,6 +184,7 @@ class ProgramPanel:
             return []
         if report.segments:
             self._plot_plan(*report.series())
+            self._plan_shown = True
         return list(report.errors)
 
     def _plot_plan(self, t: Any, q: Any, v: Any) -> None:
@@ -222,6 +252,9 @@ class ProgramPanel:
         """Follow the shared document and the program runner: text, status line, error
         marks, the executing line (scrolled into view)."""
         self._follow_text()
+        if self._diag_at is not None and time.monotonic() >= self._diag_at:
+            self._diag_at = None
+            self._diagnose()
         if self._reveal_at is not None and time.monotonic() >= self._reveal_at:
             self._reveal_at = None
             self._reveal()

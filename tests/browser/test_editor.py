@@ -1,0 +1,76 @@
+"""Editor for learners (issue 15 item 10, the parts done): diagnostics from the real parser as
+you type (line:col, marked at the line) that go when the error is fixed, plan charts cleared
+when the program changes, and all five seed examples in Examples.
+
+Each fails on the code before this change: errors appeared only after Check and an edit did
+not bring them back, the plan charts stayed from an earlier program, and the seed's
+"Cartesian TRF example" was missing.
+"""
+
+from __future__ import annotations
+
+import pytest
+from tests.browser.helpers import wait_linked, wait_until
+
+pytestmark = [pytest.mark.browser]
+
+PLAN_POINTS = """(testid) => {
+  const host = document.querySelector(`[data-testid=${testid}]`);
+  const el = host && getElement(host.id.replace(/^c/, ''));
+  return el && el.chart ? el.chart.getOption().series[0].data.length : -1;
+}"""
+
+
+def _type(page, program: str) -> None:
+    content = page.locator("[data-testid=editor] .cm-content")
+    content.click()
+    page.keyboard.press("Control+A")
+    page.keyboard.press("Delete")
+    page.keyboard.insert_text(program)
+
+
+def _diagnostics(page) -> list[str]:
+    return page.get_by_test_id("diagnostic").all_inner_texts()
+
+
+def test_the_parser_marks_errors_as_you_type_and_clears_them_when_fixed(page):
+    wait_linked(page)
+    page.get_by_test_id("tab-program").click()
+    _type(page, "Begin()\nDelay(1)\nMoveJoint(90,-90,180,0,0\nEnd()\n")
+    wait_until(lambda: _diagnostics(page) and _diagnostics(page)[0].startswith("line 3, col "), 10,
+               what="a diagnostic at line 3 without Check", page=page)
+    err = page.locator(".cm-line.rbt-error")
+    wait_until(lambda: err.count() == 1, 5, what="line 3 marked", page=page)
+    assert err.first.inner_text().startswith("MoveJoint")
+    page.keyboard.press("Control+End")
+    _type(page, "Begin()\nDelay(1)\nMoveJoint(90,-90,180,0,0,180)\nEnd()\n")
+    wait_until(lambda: _diagnostics(page) == [] and err.count() == 0, 10, what="diagnostics cleared when fixed",
+               page=page)
+
+
+def test_an_edit_clears_the_plan_charts_of_the_checked_program(page):
+    page.get_by_test_id("tab-program").click()
+    _type(page, "Begin()\nMoveJoint(80,-90,180,0,0,180,t=2)\nMoveJoint(90,-90,180,0,0,180,t=2)\nEnd()\n")
+    page.get_by_test_id("prog-check").click()
+    wait_until(lambda: page.evaluate(PLAN_POINTS, "plan-chart") > 10, 20, what="the plan drawn", page=page)
+    page.locator("[data-testid=editor] .cm-content").click()
+    page.keyboard.press("Control+End")
+    page.keyboard.type("# changed")
+    wait_until(lambda: page.evaluate(PLAN_POINTS, "plan-chart") == 0 and
+               page.evaluate(PLAN_POINTS, "plan-speed-chart") == 0, 10, what="plan charts cleared", page=page)
+
+
+def test_examples_offer_all_five_seed_programs(page):
+    page.get_by_test_id("tab-program").click()
+    page.get_by_test_id("prog-examples").click()
+    items = page.locator(".q-menu .q-item")
+    items.first.wait_for()
+    names = items.all_inner_texts()
+    for name in ("Simple joint space move", "Cartesian TRF example", "Cartesian relative TRF", "Output click",
+                 "SSG48 gripper test"):
+        assert any(name in n for n in names), (name, names)
+    items.filter(has_text="Cartesian TRF example").click()
+    wait_until(lambda: "MoveCart(0.0,263.23,161.241,-90.0,0.0,-89.499)" in
+               page.locator("[data-testid=editor] .cm-content").inner_text(), 10, what="the example loaded", page=page)
+    page.wait_for_timeout(800)
+    assert _diagnostics(page) == []
