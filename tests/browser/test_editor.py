@@ -74,3 +74,29 @@ def test_examples_offer_all_five_seed_programs(page):
                page.locator("[data-testid=editor] .cm-content").inner_text(), 10, what="the example loaded", page=page)
     page.wait_for_timeout(800)
     assert _diagnostics(page) == []
+
+
+def test_completion_offers_commands_with_their_arguments_and_words_inside_a_call(page):
+    page.get_by_test_id("tab-program").click()
+    _type(page, "Begin()\n")
+    estops = page.get_by_test_id("log").inner_text().count("software E-STOP sent")
+    page.keyboard.type("Mov")
+    items = page.get_by_test_id("completion")
+    wait_until(lambda: items.count() == 4, 10, what="four Move commands offered", page=page)
+    labels = page.locator("[data-testid=completion] .pk-completion-label").all_inner_texts()
+    assert labels == ["MoveJoint", "MovePose", "MoveCart", "MoveCartRelTRF"], labels
+    page.keyboard.press("ArrowDown")
+    page.keyboard.press("Enter")
+    wait_until(lambda: "MovePose(x,y,z,rx,ry,rz,t=2)" in page.locator("[data-testid=editor] .cm-content").inner_text(),
+               5, what="MovePose with its arguments inserted", page=page)
+    assert items.count() == 0
+    # inside a call: keyword arguments; Esc closes the list and is not E-STOP
+    page.keyboard.press("Enter")
+    page.keyboard.type("Delay(1,")
+    page.keyboard.type("t")
+    wait_until(lambda: "t=" in page.locator("[data-testid=completion] .pk-completion-label").all_inner_texts(), 5,
+               what="t= offered", page=page)
+    page.keyboard.press("Escape")
+    wait_until(lambda: items.count() == 0, 5, what="the list closed", page=page)
+    page.wait_for_timeout(500)
+    assert page.get_by_test_id("log").inner_text().count("software E-STOP sent") == estops

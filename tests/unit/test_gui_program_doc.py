@@ -62,3 +62,14 @@ def test_an_autosave_folder_that_is_a_link_elsewhere_is_refused(tmp_path):
     os.symlink(tmp_path / "other", tmp_path / "programs" / ".autosave")
     with pytest.raises(ProgramNameError, match="outside the programs folder"):
         ProgramsFolder(tmp_path / "programs").write_autosave("x", "data")
+
+
+def test_completion_covers_every_command_of_the_parsers_table_and_its_inserts_parse():
+    from parolkit.gui.completion import COMPLETIONS
+    from parolkit.script import parse
+    from parolkit.script.parser import COMMAND_NAMES
+
+    calls = {c.label: c.insert for c in COMPLETIONS if c.call}
+    assert set(calls) == set(COMMAND_NAMES)
+    # the argument-free inserts are whole, valid commands
+    assert parse("Begin()\n" + calls["Delay"] + "\n" + calls["Output"] + "\nEnd()\n").ok

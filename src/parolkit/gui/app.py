@@ -19,6 +19,7 @@ from nicegui import app, ui
 
 from parolkit.client.errors import RobotError
 from parolkit.gui.commander import Commander
+from parolkit.gui.completion import completion_table
 from parolkit.gui.components.header import Header
 from parolkit.gui.components.help_dialog import HelpDialog
 from parolkit.gui.components.io_panel import IoGripperPanel
@@ -54,6 +55,9 @@ class CommanderPage:
         # the key list as a JSON data island, read by commander.js
         keys = json.dumps([b.key for b in KEYMAP]).replace("<", "\\u003c")
         ui.add_body_html(f'<script type="application/json" id="pk-keymap">{keys}</script>')
+        # the editor's completion items (parolkit.gui.completion), read by commander.js
+        items = json.dumps(completion_table()).replace("<", "\\u003c")
+        ui.add_body_html(f'<script type="application/json" id="pk-completions">{items}</script>')
         ui.add_body_html(f'<script src="{static_url("commander.js")}"></script>')
         ui.dark_mode(True)
         # brand colours dark enough for white text at >= 4.5:1 (Quasar's own are 2.9..4.4:1)
