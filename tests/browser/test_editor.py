@@ -100,3 +100,25 @@ def test_completion_offers_commands_with_their_arguments_and_words_inside_a_call
     wait_until(lambda: items.count() == 0, 5, what="the list closed", page=page)
     page.wait_for_timeout(500)
     assert page.get_by_test_id("log").inner_text().count("software E-STOP sent") == estops
+
+
+def test_record_point_inserts_the_current_joints_and_pose_after_the_cursor_line(page):
+    """Teach by jogging (issue 15 "See before you run"): there was no such button."""
+    from tests.browser.helpers import number, wait_ready
+
+    wait_ready(page, 60)
+    page.get_by_test_id("tab-program").click()
+    _type(page, "Begin()\nEnd()\n")
+    page.locator("[data-testid=editor] .cm-line").first.click()  # the cursor on Begin()
+    page.get_by_test_id("prog-record").click()
+    page.get_by_test_id("record-movejoint").click()
+    j1 = number(page, "angle-1")
+    lines = lambda: page.locator("[data-testid=editor] .cm-line").all_inner_texts()  # noqa: E731
+    wait_until(lambda: lines()[1].startswith("MoveJoint("), 10, what="MoveJoint recorded on line 2", page=page)
+    assert abs(float(lines()[1][len("MoveJoint("):].split(",")[0]) - j1) < 0.01, lines()
+    page.get_by_test_id("prog-record").click()
+    page.get_by_test_id("record-movecart").click()
+    wait_until(lambda: lines()[2].startswith("MoveCart("), 10, what="MoveCart recorded on line 3", page=page)
+    assert lines()[0] == "Begin()" and lines()[3] == "End()", lines()
+    page.wait_for_timeout(800)
+    assert _diagnostics(page) == [], _diagnostics(page)

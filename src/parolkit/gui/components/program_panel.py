@@ -6,6 +6,7 @@ Examples (the seed programs) and the programs folder's file row.
 
 from __future__ import annotations
 
+import json
 import time
 from typing import Any
 
@@ -58,6 +59,14 @@ class ProgramPanel:
             ui.button("Check", icon="rule", on_click=self.check_program) \
                 .props("outline no-caps color=grey-4 data-testid=prog-check")
             ui.space()
+            with ui.button("Record point", icon="add_location_alt") \
+                    .props('outline no-caps color=grey-4 data-testid=prog-record '
+                           'aria-label="Record point: the current pose at the cursor"'):
+                with ui.menu():
+                    ui.menu_item("as MoveJoint (the current joints)", on_click=lambda: self.record_point("MoveJoint")) \
+                        .props("data-testid=record-movejoint")
+                    ui.menu_item("as MoveCart (the current TCP pose)", on_click=lambda: self.record_point("MoveCart")) \
+                        .props("data-testid=record-movecart")
             with ui.button("Insert", icon="add").props("outline no-caps color=grey-4 data-testid=prog-insert"):
                 with ui.menu():
                     for t in TEMPLATES:
@@ -95,6 +104,20 @@ class ProgramPanel:
         if text and not text.endswith("\n"):
             text += "\n"
         self.set_program(text + line + "\n")
+
+    def record_point(self, kind: str) -> None:
+        """Teach by jogging: insert the robot's current joints (``MoveJoint``) or TCP pose
+        (``MoveCart``) as a new line after the cursor's line (commander.js ``pkInsertLine``)."""
+        st = self.link.status
+        if st is None or not self.link.link_up:
+            self.c.log.error("record point: no status from the controller")
+            return
+        if self._program_active():
+            self.c.log.error("record point: the editor is read-only while a program runs")
+            return
+        line = render_template(kind, st.angles, st.pose)
+        ui.run_javascript(f"window.pkInsertLine && window.pkInsertLine({json.dumps(line)})")
+        self.c.log.info(f"recorded {line}")
 
     def _shown_text(self) -> str:
         """What the editor shows: the running program's text while it runs, else the shared

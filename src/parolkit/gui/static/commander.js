@@ -306,6 +306,21 @@
     }, 150);
   }, true);
 
+  // "Record point": the server sends the line; it goes in after the cursor's line (the end
+  // of the program if the editor never had the cursor), and the cursor moves to its end
+  window.pkInsertLine = (text) => {
+    const view = editorView();
+    if (view === null) return;
+    const doc = view.state.doc;
+    const line = doc.lineAt(view.state.selection.main.head);
+    const atEnd = line.number === doc.lines;
+    const insert = line.text.trim() === "" ? text : (atEnd ? "\n" : "") + text + (atEnd ? "" : "\n");
+    const from = line.text.trim() === "" ? line.from : (atEnd ? line.to : line.to + 1);
+    view.dispatch({ changes: { from: from, to: line.text.trim() === "" ? line.to : from, insert: insert },
+      selection: { anchor: from + insert.length - (atEnd || line.text.trim() === "" ? 0 : 1) } });
+    view.focus();
+  };
+
   // a long press on a jog button must not open the context menu (touch screens)
   document.addEventListener("contextmenu", (e) => {
     if (e.target instanceof Element && e.target.closest(".pk-jog .q-btn")) e.preventDefault();
