@@ -122,3 +122,24 @@ def test_record_point_inserts_the_current_joints_and_pose_after_the_cursor_line(
     assert lines()[0] == "Begin()" and lines()[3] == "End()", lines()
     page.wait_for_timeout(800)
     assert _diagnostics(page) == [], _diagnostics(page)
+
+
+PREVIEW_POINTS = """() => {
+  const host = document.querySelector('[data-testid=scene]');
+  const comp = host && getElement(host.id.replace(/^c/, ''));
+  const obj = comp && comp.objects && comp.objects.get(host.dataset.previewId);
+  const mesh = obj && (obj.mesh || obj);
+  return mesh && mesh.geometry ? mesh.geometry.attributes.position.count : -1;
+}"""
+
+
+def test_check_draws_the_programs_tcp_path_in_the_3d_view_and_an_edit_clears_it(page):
+    """See before you run: the dry run's TCP path was drawn nowhere."""
+    page.get_by_test_id("tab-program").click()
+    _type(page, "Begin()\nMoveJoint(60,-90,180,0,0,180,t=2)\nMoveJoint(120,-90,180,0,0,180,t=2)\nEnd()\n")
+    page.get_by_test_id("prog-check").click()
+    wait_until(lambda: page.evaluate(PREVIEW_POINTS) > 20, 20, what="the TCP path drawn", page=page)
+    page.locator("[data-testid=editor] .cm-content").click()
+    page.keyboard.press("Control+End")
+    page.keyboard.type("# changed")
+    wait_until(lambda: page.evaluate(PREVIEW_POINTS) == 0, 10, what="the TCP path cleared", page=page)

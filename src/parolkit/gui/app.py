@@ -73,6 +73,7 @@ class CommanderPage:
             with ui.element("div").classes("pk-col"):
                 self._build_tabs()
                 self.charts = LiveCharts(self.link)
+        self.program.on_preview = self.view.show_preview
         ui.timer(1.0 / SCENE_FPS, self.view.update)
         ui.timer(READOUT_PERIOD_S, self.update_readouts)
         ui.timer(PLOT_PERIOD_S, self.charts.update)

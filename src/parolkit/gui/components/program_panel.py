@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from typing import Any
 
 from nicegui import ui
@@ -46,6 +47,8 @@ class ProgramPanel:
         self._online: bool | None = None
         self._diag_at: float | None = None
         self._plan_shown = False
+        #: draws the checked program's TCP path in the 3D view (joint samples, deg; tool)
+        self.on_preview: Callable[[list[list[float]], str], None] | None = None
         self._shown_errors: list[str] | None = None
         self._reveal_at: float | None = None
         self._errors: dict[int, str] = {}
@@ -144,6 +147,8 @@ class ProgramPanel:
         if not self._plan_shown:
             return
         self._plan_shown = False
+        if self.on_preview is not None:
+            self.on_preview([], "default")
         for chart in (self.plan_chart, self.plan_speed_chart):
             for series in chart.options["series"]:
                 series["data"] = []
@@ -206,8 +211,11 @@ class ProgramPanel:
             self.c.log.error(f"dry run: {exc}")
             return []
         if report.segments:
-            self._plot_plan(*report.series())
+            t, q, v = report.series()
+            self._plot_plan(t, q, v)
             self._plan_shown = True
+            if self.on_preview is not None:
+                self.on_preview([list(row) for row in q], st.tool if st else "default")
         return list(report.errors)
 
     def _plot_plan(self, t: Any, q: Any, v: Any) -> None:

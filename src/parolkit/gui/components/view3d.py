@@ -61,12 +61,23 @@ class ArmView:
                 for g in self.ghost:
                     g.visible(False)
                 self.path = self.scene.point_cloud([], point_size=0.14).material("#22d3ee")
+                # the checked program's TCP path (the dry run), shown before it runs
+                self.preview = self.scene.point_cloud([], point_size=0.1).material("#facc15")
+            self.scene.props(f"data-preview-id={self.preview.id}")
             self.scene.move_camera(x=4.6, y=-4.2, z=3.9, look_at_x=0, look_at_y=0.8, look_at_z=1.7, duration=0)
             for g, t in zip(self.groups, geometry.dh_frames(PAROL6.standby_deg)):
                 pos, rot = geometry.frame_pose_for_scene(t)
                 g.move(*pos).rotate_R(rot)
         self._frames_t = time.monotonic()
         self._frames_n = 0
+
+    def show_preview(self, joint_samples_deg: Any, tool: str = "default") -> None:
+        """Draw the TCP path of planned joint samples (deg, one row per sample; at most 300
+        drawn); an empty list clears it."""
+        rows = list(joint_samples_deg)
+        step = max(1, len(rows) // 300)
+        pts = [geometry.frame_pose_for_scene(arm_frames(q, tool)[-1])[0] for q in rows[::step]]
+        self.preview.set_points(pts)
 
     def _arm(self, *, opacity: float, ghost: bool = False) -> list[Any]:
         colours = {"base": "#475569", "joint": "#f97316", "link": "#cbd5e1", "tool": "#38bdf8"}
