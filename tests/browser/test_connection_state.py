@@ -93,7 +93,7 @@ def test_a_dead_controller_greys_the_controls_and_the_page_restarts_it(browser, 
     page.get_by_test_id("link-restart").click()
     wait_until(lambda: "LINKED" in text(page, "link-chip"), 60, what="link back after the restart", page=page)
     wait_until(lambda: not banner.is_visible(), 10, what="banner gone", page=page)
-    assert "controller restarted" in log_text(page)
+    wait_until(lambda: "controller restarted" in log_text(page), 30, what="the restart logged", page=page)
     wait_until(lambda: page.get_by_test_id("btn-home").is_enabled(), 10, what="Home enabled again", page=page)
     page.close()
 

@@ -196,7 +196,8 @@ def main(args: argparse.Namespace) -> int:
         mode = f"REAL · {serial_port}" if serial_port else "SIMULATOR"
         print(f"starting controller ({'serial ' + serial_port if serial_port else 'simulated robot'}) "
               f"on UDP {ctl_port}, acks on {ack_port}", file=sys.stderr)
-        own_ctl = OwnController.for_args(serial_port, ctl_port, ack_port, args.config)
+        own_ctl = OwnController(
+            lambda: start_controller_process(serial_port, ctl_port, ack_port, args.config), stop_controller_process)
         try:
             own_ctl.start()
         except (RuntimeError, OSError) as exc:

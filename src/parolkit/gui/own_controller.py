@@ -6,7 +6,6 @@ from __future__ import annotations
 import subprocess
 import threading
 from collections.abc import Callable
-from pathlib import Path
 
 __all__ = ["OwnController"]
 
@@ -23,13 +22,6 @@ class OwnController:
         self._lock = threading.Lock()
         self.proc: subprocess.Popen[bytes] | None = None
         self.restarting = False
-
-    @classmethod
-    def for_args(cls, serial_port: str | None, udp_port: int, ack_port: int, config: Path | None) -> OwnController:
-        from parolkit.gui.cli import start_controller_process, stop_controller_process
-
-        return cls(lambda: start_controller_process(serial_port, udp_port, ack_port, config),
-                   stop_controller_process)
 
     def start(self) -> None:
         with self._lock:
