@@ -19,6 +19,7 @@ from nicegui import app, ui
 
 from parolkit.client.errors import RobotError
 from parolkit.gui.commander import Commander
+from parolkit.gui.completion import completion_table
 from parolkit.gui.components.header import Header
 from parolkit.gui.components.help_dialog import HelpDialog
 from parolkit.gui.components.io_panel import IoGripperPanel
@@ -54,11 +55,15 @@ class CommanderPage:
         # the key list as a JSON data island, read by commander.js
         keys = json.dumps([b.key for b in KEYMAP]).replace("<", "\\u003c")
         ui.add_body_html(f'<script type="application/json" id="pk-keymap">{keys}</script>')
+        # the editor's completion items (parolkit.gui.completion), read by commander.js
+        items = json.dumps(completion_table()).replace("<", "\\u003c")
+        ui.add_body_html(f'<script type="application/json" id="pk-completions">{items}</script>')
         ui.add_body_html(f'<script src="{static_url("commander.js")}"></script>')
         ui.dark_mode(True)
         # brand colours dark enough for white text at >= 4.5:1 (Quasar's own are 2.9..4.4:1)
         ui.colors(primary="#1d4ed8", positive="#15803d", warning="#a16207", negative="#b91c1c", info="#0369a1")
         ui.on("pk_key", self.on_key)
+        self._was_up = True  # the first update greys the jog buttons if there is no link
         self.help = HelpDialog()
         self.header = Header(commander, on_help=self.help.open)
         with ui.element("main").classes("pk-main"):
@@ -68,6 +73,7 @@ class CommanderPage:
             with ui.element("div").classes("pk-col"):
                 self._build_tabs()
                 self.charts = LiveCharts(self.link)
+        self.program.on_preview = self.view.show_preview
         ui.timer(1.0 / SCENE_FPS, self.view.update)
         ui.timer(READOUT_PERIOD_S, self.update_readouts)
         ui.timer(PLOT_PERIOD_S, self.charts.update)
@@ -84,15 +90,23 @@ class CommanderPage:
                 with ui.tab_panel(t_grip):
                     self.io = IoGripperPanel(self.c)
                 with ui.tab_panel(t_prog):
-                    self.program = ProgramPanel(self.c)
+                    self.program: ProgramPanel = ProgramPanel(self.c)
+            # opening the Program tab creates its editor: scroll the executing line into view then
+            t_prog.on("click", self.program.shown)
 
     def update_readouts(self) -> None:
         st = self.link.status
-        self.header.update(st, self.link.link_up)
-        self.readouts.update(st)
-        if st is not None:
+        up = self.link.link_up
+        self.header.update(st, up)
+        self.readouts.update(st, up)
+        self.io.set_online(up)
+        self.program.set_online(up)
+        if st is not None and up:
             self.jog.update(st)
             self.io.update(st)
+        elif self._was_up:
+            self.jog.offline()
+        self._was_up = up
         self.program.update()
 
     def on_key(self, e: Any) -> None:
@@ -108,7 +122,7 @@ class CommanderPage:
         if b.action == "estop":
             self.c.estop()
         elif b.action == "stop":
-            self.c.command("STOP", "Stop")
+            self.c.stop()
         elif b.action == "joint" and b.joint is not None:
             self.jog.joint_press(b.joint, b.direction)
         elif b.action == "cart" and b.axis is not None:

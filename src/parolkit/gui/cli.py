@@ -182,7 +182,9 @@ def main(args: argparse.Namespace) -> int:
         return 2
     policy = AccessPolicy.for_bind(host, cfg.gui.allowed_hosts)
 
-    proc: subprocess.Popen[bytes] | None = None
+    from parolkit.gui.own_controller import OwnController
+
+    own_ctl: OwnController | None = None
     if args.connect:
         ctl_host, ctl_port = args.connect
         ack_port = args.ack_port or 5002
@@ -194,8 +196,10 @@ def main(args: argparse.Namespace) -> int:
         mode = f"REAL · {serial_port}" if serial_port else "SIMULATOR"
         print(f"starting controller ({'serial ' + serial_port if serial_port else 'simulated robot'}) "
               f"on UDP {ctl_port}, acks on {ack_port}", file=sys.stderr)
+        own_ctl = OwnController(
+            lambda: start_controller_process(serial_port, ctl_port, ack_port, args.config), stop_controller_process)
         try:
-            proc = start_controller_process(serial_port, ctl_port, ack_port, args.config)
+            own_ctl.start()
         except (RuntimeError, OSError) as exc:
             print(f"parolkit gui: {exc}", file=sys.stderr)
             return 1
@@ -210,10 +214,10 @@ def main(args: argparse.Namespace) -> int:
     link = ControllerLink(ctl_host, ctl_port, ack_port, every_n_ticks=2)  # 50 Hz status for a 30 fps view
     # our own controller has a 150 ms stream watchdog: 20 Hz jog updates are plenty; a
     # controller we connect to has its own (20 ms by default): send every control tick
-    own = proc is not None
+    own = own_ctl is not None
     commander = Commander(link, mode_label=mode, programs=programs, jog_repeat_s=0.05 if own else 0.01,
                           cart_jog_repeat_s=0.1 if own else 0.01, secret=cfg.controller.secret,
-                          login=password is not None)
+                          login=password is not None, own_controller=own_ctl)
     root = build_app(commander)
     # every request and websocket: Host, Origin, login (gui/security.py); socket.io checks the
     # Origin of its handshakes against the same list (it would otherwise accept any)
@@ -222,11 +226,11 @@ def main(args: argparse.Namespace) -> int:
     core.sio.eio.cors_allowed_origins = policy.origin_allowed
     if hasattr(signal, "SIGUSR1"):  # `kill -USR1 PID` prints every thread's stack to stderr
         faulthandler.register(signal.SIGUSR1, all_threads=True)
-    if proc is not None:
+    if own_ctl is not None:
         # uvicorn ends the process by re-raising SIGTERM / SIGINT after the app's shutdown
         # handlers, so the ``finally`` below is not reached then: stop the controller here
         # (after build_app's handler closed the link)
-        app.on_shutdown(lambda: stop_controller_process(proc))
+        app.on_shutdown(own_ctl.stop)
     print(f"parolkit commander on http://{host}:{http_port}/ (programs folder {programs.root}; answers the "
           f"names {', '.join(sorted(policy.allowed))}{'; login required' if password else ''})",
           file=sys.stderr, flush=True)
@@ -239,6 +243,6 @@ def main(args: argparse.Namespace) -> int:
                # default uvicorn waits for every connection, forever if a browser froze)
                timeout_graceful_shutdown=GRACEFUL_SHUTDOWN_S)
     finally:
-        if proc is not None:
-            stop_controller_process(proc)
+        if own_ctl is not None:
+            own_ctl.stop()
     return 0

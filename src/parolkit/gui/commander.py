@@ -19,10 +19,13 @@ from parolkit.gui.control import ControlWatch, local_host_for
 from parolkit.gui.eventlog import EventLog, Level
 from parolkit.gui.jog import JOG_REPEAT_S
 from parolkit.gui.link import ControllerLink
+from parolkit.gui.program_doc import ProgramDoc
 from parolkit.gui.programs import ProgramsFolder, default_programs_dir
+from parolkit.gui.templates import SEED_EXAMPLES
 
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
+    from parolkit.gui.own_controller import OwnController
     from parolkit.script.interpreter import Interpreter
 
 __all__ = ["Commander", "ProgramRunner"]
@@ -33,14 +36,16 @@ class Commander:
 
     def __init__(self, link: ControllerLink, *, mode_label: str, programs: ProgramsFolder | None = None,
                  jog_repeat_s: float = JOG_REPEAT_S, cart_jog_repeat_s: float | None = None,
-                 secret: str | None = None, login: bool = False) -> None:
+                 secret: str | None = None, login: bool = False,
+                 own_controller: OwnController | None = None) -> None:
         """``jog_repeat_s`` / ``cart_jog_repeat_s``: period of the streamed joint / Cartesian
         jog updates, s; both must stay below the controller's stream watchdog (20 ms by
         default, 150 ms for a controller the GUI starts).  Every CARTJOG update is planned
         anew by the controller, so fewer, longer updates move more smoothly.  ``programs``:
         the only folder Open / Save use (default :func:`default_programs_dir`); ``secret``:
         the controller's shared secret (``controller.secret``) if it has one; ``login``: the
-        pages sit behind a login (a Log out button is shown)."""
+        pages sit behind a login (a Log out button is shown); ``own_controller``: the
+        controller process this GUI started (the page offers to restart it)."""
         self.link = link
         self.jog_repeat_s = jog_repeat_s
         self.cart_jog_repeat_s = jog_repeat_s if cart_jog_repeat_s is None else cart_jog_repeat_s
@@ -48,6 +53,9 @@ class Commander:
         self.mode_label = mode_label
         self.programs = programs or ProgramsFolder(default_programs_dir())
         self.login = login
+        self.own_controller = own_controller
+        #: the one program document every tab edits (kept until saved)
+        self.doc = ProgramDoc(self.programs, self.log, SEED_EXAMPLES["Output click"])
         self._hold: asyncio.Task[None] | None = None
         self.program = ProgramRunner(self)
         self.control = ControlWatch(link.robot, link.send, local_host=local_host_for(link.host),
@@ -64,6 +72,9 @@ class Commander:
         self._hold = asyncio.ensure_future(self._hold_loop(make_command, period_s or self.jog_repeat_s))
 
     async def _hold_loop(self, make_command: Callable[[], str], period_s: float) -> None:
+        if not self.link.link_up:
+            self.log.error("jog not sent: no link to the controller")
+            return
         try:
             self.control.ensure()
             self.link.send("STREAM|ON", label="STREAM ON", quiet=True)
@@ -92,7 +103,19 @@ class Commander:
 
     # ---- robot controls ----
 
+    def stop(self) -> None:
+        """The header's Stop and Space: end the program run as "stopped", end a held jog and
+        send STOP (cancels the move in progress and the queue)."""
+        self.jog_release(send_stop=False)
+        self.program.stop()
+        self.command("STOP", "Stop")
+
     def command(self, text: str, label: str | None = None) -> None:
+        """Send ``text``; logs "sent" only when there is a link to the controller (STOP and
+        E-STOP are sent anyway: a controller that only lost its status stream still acts)."""
+        if not self.link.link_up and text not in ("STOP", "ESTOP"):
+            self.log.error(f"{label or text} not sent: no link to the controller")
+            return
         try:
             if text not in ("STOP", "ESTOP", "DISABLE"):  # open to every client
                 self.control.ensure()
@@ -100,6 +123,22 @@ class Commander:
             self.log.info(f"sent {label or text}")
         except (RobotError, OSError) as exc:
             self.log.error(f"{label or text}: {exc}")
+
+    async def restart_controller(self) -> None:
+        """Restart the controller process this GUI started (the page's banner offers it)."""
+        own = self.own_controller
+        if own is None:
+            self.log.error("this commander did not start the controller: restart it where it runs")
+            return
+        if own.restarting:
+            return
+        self.log.info("restarting the controller ...")
+        try:
+            await asyncio.to_thread(own.restart)
+        except (RuntimeError, OSError) as exc:
+            self.log.error(f"controller restart failed: {exc}")
+            return
+        self.log.add("controller restarted", Level.SUCCESS)
 
     def estop(self) -> None:
         self.jog_release(send_stop=False)
@@ -122,8 +161,13 @@ class ProgramRunner:
         self.errors: list[Any] = []
         self.thread: threading.Thread | None = None
         self.current_line: int | None = None
-        self.state = "idle"  # idle, running, paused, error
+        #: idle (never run), running, paused, finished, stopped, error
+        self.state = "idle"
         self.message = ""
+        #: the text and program name of the program running (or run last): the page shows it
+        self.text = ""
+        self.name = ""
+        self._stopping = False
         self.version = 0
 
     def port(self) -> int | None:
@@ -137,8 +181,9 @@ class ProgramRunner:
         self.current_line = int(getattr(progress, "line", progress))
         self.version += 1
 
-    async def start(self, text: str, *, step: bool = False) -> list[Any]:
-        """Parse ``text`` and run it; returns the parse errors (nothing runs when there are any)."""
+    async def start(self, text: str, *, step: bool = False, name: str = "") -> list[Any]:
+        """Parse ``text`` (the program ``name``) and run it; returns the parse errors (nothing
+        runs when there are any)."""
         from parolkit.script import parse
 
         if self.running:
@@ -184,6 +229,8 @@ class ProgramRunner:
         self.errors = []
         self.state = "running"
         self.message = ""
+        self.text, self.name = text, name
+        self._stopping = False
         self.current_line = None
         self.version += 1
         self.thread = threading.Thread(target=self._run, args=(step,), name="rbtscript", daemon=True)
@@ -209,14 +256,20 @@ class ProgramRunner:
                 self.commander.control.refresh_soon()
             interpreter.start()
             result = interpreter.wait()
-            if result is not None and not result.ok and result.state.value != "stopped":
+            if self._stopping:
+                self.state = "stopped"  # stop() said so (its STOP may have failed the move)
+            elif result is not None and not result.ok and result.state.value != "stopped":
                 self.state = "error"
                 self.message = result.message
                 self.errors = list(result.errors)
                 self.commander.log.error(f"program {result.message}")
+            elif result is not None and result.state.value == "stopped":
+                self.state = "stopped"
+                self.message = self.message or "stopped"
             elif self.state != "error":
                 self.commander.log.add(f"program {result.message if result else 'finished'}", Level.SUCCESS)
-                self.state = "idle"
+                self.state = "finished"
+                self.message = "finished"
             self.current_line = None
         except ParolkitError as exc:
             self.state = "error"
@@ -244,8 +297,9 @@ class ProgramRunner:
 
     def stop(self, reason: str = "stopped") -> None:
         if self.running and self.interpreter is not None:
+            self._stopping = True
             self.interpreter.stop()
-            self.state = "idle"
+            self.state = "stopped"
             self.message = reason
             self.commander.log.add(f"program {reason}", Level.WARNING)
             self.version += 1

@@ -15,13 +15,15 @@ from pathlib import Path
 
 from parolkit.errors import ParolkitValueError
 
-__all__ = ["EXTENSION", "MAX_NAME_LEN", "MAX_PROGRAM_BYTES", "ProgramNameError", "ProgramsFolder",
+__all__ = ["AUTOSAVE_DIR", "EXTENSION", "MAX_NAME_LEN", "MAX_PROGRAM_BYTES", "ProgramNameError", "ProgramsFolder",
            "default_programs_dir", "program_name"]
 
 #: file extension of RBTscript programs
 EXTENSION = ".rbt"
 #: longest accepted program name, characters (with the extension)
 MAX_NAME_LEN = 100
+#: the folder, inside the programs folder, that keeps unsaved edits (one file per program name)
+AUTOSAVE_DIR = ".autosave"
 #: largest program the commander opens or saves, bytes
 MAX_PROGRAM_BYTES = 1_000_000
 
@@ -135,3 +137,66 @@ class ProgramsFolder:
             if entry.resolve().is_file():
                 out.append(entry.name)
         return sorted(out, key=str.lower)
+
+    # ---- autosave: unsaved edits, one file per program name, in <folder>/.autosave ----
+
+    @property
+    def autosave_root(self) -> Path:
+        """``<folder>/.autosave`` (never listed by :meth:`names`: it is not a program)."""
+        return self.root / AUTOSAVE_DIR
+
+    def autosave_path(self, text: str) -> Path:
+        """The autosave file of the program named ``text`` (same name rules as :meth:`path`),
+        checked to resolve directly inside :attr:`autosave_root`; raises ProgramNameError."""
+        name = program_name(text)
+        box = self.autosave_root.resolve()
+        if box.parent != self.root.resolve():
+            raise ProgramNameError(f"the autosave folder {self.autosave_root} resolves to {box}, outside the "
+                                   f"programs folder {self.root}: refused")
+        resolved = (box / name).resolve()
+        if resolved.parent != box:
+            raise ProgramNameError(f"autosave of {name} resolves to {resolved}, outside {box}: refused")
+        return resolved
+
+    def write_autosave(self, text: str, program: str) -> Path:
+        """Keep ``program`` as the unsaved edits of the program named ``text``."""
+        path = self.autosave_path(text)
+        data = program.encode("utf-8")
+        if len(data) > MAX_PROGRAM_BYTES:
+            raise ProgramNameError(f"the program is {len(data)} bytes: the commander keeps programs of at "
+                                   f"most {MAX_PROGRAM_BYTES} bytes")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+        return path
+
+    def read_autosave(self, text: str) -> str | None:
+        """The unsaved edits of the program named ``text``, None when there are none."""
+        path = self.autosave_path(text)
+        if not path.is_file() or path.stat().st_size > MAX_PROGRAM_BYTES:
+            return None
+        return path.read_text(encoding="utf-8")
+
+    def drop_autosave(self, text: str) -> None:
+        """Forget the unsaved edits of the program named ``text`` (it was saved)."""
+        self.autosave_path(text).unlink(missing_ok=True)
+
+    def latest_autosave(self) -> str | None:
+        """Name of the program whose unsaved edits were kept last, None when there are none."""
+        box = self.autosave_root
+        if not box.is_dir():
+            return None
+        best: tuple[float, str] | None = None
+        for entry in box.iterdir():
+            if not entry.name.lower().endswith(EXTENSION):
+                continue
+            try:
+                path = self.autosave_path(entry.name)
+            except ProgramNameError:
+                continue
+            if path.is_file():
+                mtime = path.stat().st_mtime
+                if best is None or mtime > best[0]:
+                    best = (mtime, entry.name)
+        return None if best is None else best[1]

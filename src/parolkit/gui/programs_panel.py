@@ -12,17 +12,21 @@ from collections.abc import Callable
 from nicegui import ui
 
 from parolkit.gui.eventlog import EventLog, Level
+from parolkit.gui.program_doc import ProgramDoc
 from parolkit.gui.programs import ProgramNameError, ProgramsFolder
 
 __all__ = ["ProgramsPanel"]
 
 
 class ProgramsPanel:
-    """Name input, Open, Save, Save as… and the list of the folder's programs."""
+    """Name input, Open, Save, Save as…, the list of the folder's programs and whether the
+    shared document (``doc``) has unsaved edits (kept in the folder's autosave place)."""
 
     def __init__(self, folder: ProgramsFolder, log: EventLog, get_text: Callable[[], str],
-                 set_text: Callable[[str], None], name: str = "program.rbt") -> None:
+                 set_text: Callable[[str], None], doc: ProgramDoc) -> None:
         self.folder = folder
+        self.doc = doc
+        name = doc.name
         self.log = log
         self.get_text = get_text
         self.set_text = set_text
@@ -39,6 +43,21 @@ class ProgramsPanel:
                 .props("flat dense color=grey-4 data-testid=prog-list")
         self.status = ui.label(f"programs folder: {folder.root}").classes("text-xs text-slate-400 pk-mono") \
             .props("data-testid=file-status")
+        self.doc_state = ui.label("").classes("text-xs text-amber-300 pk-mono") \
+            .props("data-testid=doc-state role=status")
+        self._shown: tuple[str, bool] | None = None
+        self.update()
+
+    def update(self) -> None:
+        """Show the document's program name and whether it has unsaved edits (when changed)."""
+        key = (self.doc.name, self.doc.dirty)
+        if key == self._shown:
+            return
+        self._shown = key
+        if self.name_input.value != self.doc.name:
+            self.name_input.value = self.doc.name
+        self.doc_state.set_text(f"{self.doc.name}: unsaved edits (kept until saved)" if self.doc.dirty
+                                else f"{self.doc.name}: saved")
 
     def _ok(self, text: str) -> None:
         self.status.set_text(text)
@@ -64,22 +83,27 @@ class ProgramsPanel:
         except (OSError, UnicodeDecodeError) as exc:
             self._refused(f"cannot open {name!r}: {exc}")
             return False
+        self.doc.opened(path.name, text)
         self.name_input.value = path.name
-        self.set_text(text)
+        self.set_text(self.doc.text)
         self._ok(f"opened {path.name} ({self.folder.root})")
         return True
 
     def save(self, name: str) -> bool:
         """Save the editor's text as the program ``name``; False (and a message) when refused."""
+        program = self.get_text()
         try:
-            path = self.folder.write(name, self.get_text())
+            path = self.folder.write(name, program)
         except ProgramNameError as exc:
             self._refused(f"cannot save {name!r}: {exc}")
             return False
         except OSError as exc:
             self._refused(f"cannot save {name!r}: {exc}")
             return False
+        self.doc.edit(program)
+        self.doc.saved(path.name)
         self.name_input.value = path.name
+        self.update()
         self._ok(f"saved {path.name} ({self.folder.root})")
         ui.notify(f"saved {path.name}", type="positive")
         return True

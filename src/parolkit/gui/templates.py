@@ -59,6 +59,14 @@ SEED_EXAMPLES: dict[str, str] = {
     "Simple joint space move": (
         "Begin()\nDelay(1)\nMoveJoint(85.078,-111.195,143.513,-32.92,18.084,129.448,t=3)\nDelay(1)\n"
         "MoveJoint(66.129,-117.368,136.77,46.28,-29.588,149.293)\nDelay(1)\nLoop()\n"),
+    "Cartesian TRF example": (
+        "Begin()\nDelay(1)\nMoveJoint(90.0,-90.0,180.001,0.0,0.0,180.0,t=4)\nDelay(1)\n"
+        "MoveCart(0.0,263.23,161.241,-90.0,0.0,-89.499)\nDelay(1)\n"
+        "MoveCart(81.565,262.804,161.047,-90.135,-0.029,-89.578)\nDelay(1)\n"
+        "MoveCart(81.649,194.981,160.077,-90.14,-0.043,-89.593)\nDelay(1)\n"
+        "MoveCart(83.598,194.356,161.493,-91.155,1.306,-80.28)\nDelay(1)\n"
+        "MoveCart(84.56,194.131,162.347,-48.387,1.261,-80.188)\nDelay(1)\n"
+        "MoveCart(82.89,191.698,162.369,-40.587,26.026,-107.028)\nDelay(1)\nEnd()\n"),
     "Cartesian relative TRF": (
         "Begin()\nDelay(1)\nMoveJoint(90.0,-90.0,180.001,0.0,0.0,180.0,t=4)\nDelay(1)\n"
         "MoveCartRelTRF(-80,0,0,0,0,0)\nDelay(1)\nEnd()\n"),

@@ -55,16 +55,16 @@ class Header:
                             .classes("pk-grip-chip").props("data-testid=grip-compact")
                         self.grip_chip.tooltip("SSG-48 gripper (details in the IO · Gripper tab)")
                     with ui.element("div").classes("pk-actions"):
-                        _action("Home", "home", "btn-home", "unelevated dense color=primary",
-                                lambda: c.command("HOME", "Home"), "home the robot")
+                        self.controls = [_action("Home", "home", "btn-home", "unelevated dense color=primary",
+                                lambda: c.command("HOME", "Home"), "home the robot"),
                         _action("Enable", "power_settings_new", "btn-enable", "unelevated dense color=positive",
-                                lambda: c.command("ENABLE", "Enable"), "enable the motors (also ends an E-STOP latch)")
+                                lambda: c.command("ENABLE", "Enable"), "enable the motors (also ends an E-STOP latch)"),
                         _action("Disable", "power_off", "btn-disable", "unelevated dense color=warning",
-                                lambda: c.command("DISABLE", "Disable"), "disable the motors")
+                                lambda: c.command("DISABLE", "Disable"), "disable the motors"),
                         _action("Clear error", "healing", "btn-clear", "outline dense color=grey-4",
-                                lambda: c.command("CLEAR_ERROR", "Clear error"), "clear the board's error")
+                                lambda: c.command("CLEAR_ERROR", "Clear error"), "clear the board's error")]
                         _action("Stop", "stop", "btn-stop", "outline dense color=orange",
-                                lambda: c.command("STOP", "Stop"), "stop motion and cancel the queue (Space)")
+                                c.stop, "stop motion and cancel the queue (Space)")
                         ui.button(icon="help_outline", on_click=on_help) \
                             .props('flat round color=grey-4 aria-label="Keyboard shortcuts" data-testid=help-button') \
                             .tooltip("keyboard shortcuts")
@@ -77,11 +77,48 @@ class Header:
                         .props('color=red-8 size=lg aria-label="E-STOP" data-testid=btn-estop') \
                         .classes("pk-estop")
                     self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
+            # shown while there is no link to the controller: says so and offers a restart of
+            # the controller this GUI started
+            with ui.element("div").classes("pk-link-banner").props('role=alert data-testid=link-banner') \
+                    as self.banner:
+                ui.icon("link_off", size="22px")
+                self.banner_text = ui.label("").props("data-testid=link-banner-text")
+                self.restart_btn = ui.button("Restart controller", icon="restart_alt", on_click=c.restart_controller) \
+                    .props('unelevated dense no-caps color=primary data-testid=link-restart')
+                self.restart_btn.set_visibility(c.own_controller is not None)
+            self.banner.set_visibility(False)
+        self._banner_key: tuple[bool, str] | None = None
+
+    def _update_banner(self, link_up: bool) -> None:
+        own = self.c.own_controller
+        if link_up:
+            text = ""
+        elif own is not None and own.restarting:
+            text = "No link to the controller: restarting it ... controls are disabled."
+        elif own is not None and not own.alive:
+            text = (f"The controller has stopped (exit code {own.exit_code}): the robot is not controlled and "
+                    "the controls are disabled. Restart it here.")
+        elif own is not None:
+            text = "No status from the controller for 1 s: the controls are disabled. Restart it if it hangs."
+        else:
+            text = ("No status from the controller for 1 s: the controls are disabled. Check the controller "
+                    f"at {self.c.link.host}:{self.c.link.port} (restart it where it runs).")
+        key = (link_up, text)
+        if key == self._banner_key:
+            return
+        self._banner_key = key
+        self.banner.set_visibility(not link_up)
+        self.banner_text.set_text(text)
+        for b in self.controls:
+            b.set_enabled(link_up)
+        if own is not None:
+            self.restart_btn.set_enabled(not own.restarting)
 
     def update(self, st: RobotStatus | None, link_up: bool) -> None:
         """Show the link, the robot state, the E-STOP latch and the gripper (every 0.1 s;
         an element is sent to the page only when what it shows changed)."""
         self.control_badge.update()
+        self._update_banner(link_up)
         text, colour = state_badge(st, link_up)
         latched = st is not None and (st.estop_latched or st.estop_pressed)
         key = (link_up, text, colour, latched)

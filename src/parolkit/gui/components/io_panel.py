@@ -22,7 +22,8 @@ class IoGripperPanel:
 
     def __init__(self, commander: Commander) -> None:
         c = self.c = commander
-        with ui.element("div").classes("pk-wrap"):
+        self._online: bool | None = None
+        with ui.element("div").classes("pk-wrap") as root:
             with ui.column().classes("gap-2"):
                 ui.label("Outputs").classes("pk-title")
                 for n in (1, 2):
@@ -59,6 +60,15 @@ class IoGripperPanel:
                     .props('unelevated color=primary aria-label="Move gripper" data-testid=grip-move')
                 self.grip_readout = ui.label("—").classes("pk-val text-sm").style("white-space: normal") \
                     .props("data-testid=grip-readout")
+        self.controls = [e for e in root.descendants() if isinstance(e, (ui.button, ui.slider))]
+
+    def set_online(self, online: bool) -> None:
+        """Grey the outputs and gripper controls while there is no link to the controller."""
+        if online == self._online:
+            return
+        self._online = online
+        for e in self.controls:
+            e.set_enabled(online)
 
     def gripper_move(self) -> None:
         p, s, cur = int(self.grip_pos.value), int(self.grip_speed.value), int(self.grip_current.value)

@@ -173,6 +173,13 @@ class JogPanel:
 
     # ---- enables ----
 
+    def offline(self) -> None:
+        """No link to the controller: every jog button greyed (until the next status)."""
+        self.release()
+        self._cart_key = None
+        for b in (*self.joint_buttons.values(), *self.cart_buttons.values()):
+            b.set_enabled(False)
+
     def update(self, st: RobotStatus) -> None:
         """Grey jog buttons that cannot move: robot not movable, joint at its limit in that
         direction, or (Cartesian) no IK solution a small step ahead in that direction."""

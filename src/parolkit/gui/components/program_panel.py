@@ -6,6 +6,9 @@ Examples (the seed programs) and the programs folder's file row.
 
 from __future__ import annotations
 
+import json
+import time
+from collections.abc import Callable
 from typing import Any
 
 from nicegui import ui
@@ -18,7 +21,10 @@ from parolkit.gui.programs_panel import ProgramsPanel
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.robot import PAROL6
 
-__all__ = ["ProgramPanel"]
+__all__ = ["ProgramPanel", "DIAG_DELAY_S"]
+
+#: the parser's diagnostics are shown this long after the last keystroke, s
+DIAG_DELAY_S = 0.4
 
 
 def _tool(icon: str, label: str, testid: str, props: str, on_click: Any) -> ui.button:
@@ -35,17 +41,35 @@ class ProgramPanel:
         self.c = commander
         self.link = commander.link
         self._prog_version = -1
+        self._doc_version = -1
+        self._revealed: int | None = None
+        self._locked = False
+        self._online: bool | None = None
+        self._diag_at: float | None = None
+        self._plan_shown = False
+        #: draws the checked program's TCP path in the 3D view (joint samples, deg; tool)
+        self.on_preview: Callable[[list[list[float]], str], None] | None = None
+        self._shown_errors: list[str] | None = None
+        self._reveal_at: float | None = None
         self._errors: dict[int, str] = {}
         with ui.row().classes("w-full items-center gap-2"):
-            _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
-                  lambda: self.run_program(step=False))
+            self._run_btn = _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
+                                  lambda: self.run_program(step=False))
             _tool("pause", "Pause the program", "prog-pause", "unelevated color=warning", self.c.program.pause)
-            _tool("skip_next", "Step one line", "prog-step", "unelevated color=info",
-                  lambda: self.run_program(step=True))
+            self._step_btn = _tool("skip_next", "Step one line", "prog-step", "unelevated color=info",
+                                   lambda: self.run_program(step=True))
             _tool("stop", "Stop the program", "prog-stop", "unelevated color=negative", self.stop_program)
             ui.button("Check", icon="rule", on_click=self.check_program) \
                 .props("outline no-caps color=grey-4 data-testid=prog-check")
             ui.space()
+            with ui.button("Record point", icon="add_location_alt") \
+                    .props('outline no-caps color=grey-4 data-testid=prog-record '
+                           'aria-label="Record point: the current pose at the cursor"'):
+                with ui.menu():
+                    ui.menu_item("as MoveJoint (the current joints)", on_click=lambda: self.record_point("MoveJoint")) \
+                        .props("data-testid=record-movejoint")
+                    ui.menu_item("as MoveCart (the current TCP pose)", on_click=lambda: self.record_point("MoveCart")) \
+                        .props("data-testid=record-movecart")
             with ui.button("Insert", icon="add").props("outline no-caps color=grey-4 data-testid=prog-insert"):
                 with ui.menu():
                     for t in TEMPLATES:
@@ -55,8 +79,9 @@ class ProgramPanel:
                 with ui.menu():
                     for name, text in SEED_EXAMPLES.items():
                         ui.menu_item(name, on_click=lambda text=text: self.set_program(text))
-        self.files = ProgramsPanel(self.c.programs, self.c.log, lambda: self.editor.value or "", self.set_program)
-        self.editor = ui.codemirror(SEED_EXAMPLES["Output click"], on_change=self.on_edit, theme="githubLight") \
+        self.files = ProgramsPanel(self.c.programs, self.c.log, lambda: self.editor.value or "", self.set_program,
+                                   self.c.doc)
+        self.editor = ui.codemirror(self._shown_text(), on_change=self.on_edit, theme="githubLight") \
             .classes("w-full pk-editor").props("data-testid=editor")  # commander.js names its text box
         self.prog_status = ui.label("").classes("text-sm pk-mono").props("data-testid=prog-status role=status")
         self.diag_box = ui.column().classes("gap-0 w-full").props("data-testid=diagnostics")
@@ -83,20 +108,73 @@ class ProgramPanel:
             text += "\n"
         self.set_program(text + line + "\n")
 
+    def record_point(self, kind: str) -> None:
+        """Teach by jogging: insert the robot's current joints (``MoveJoint``) or TCP pose
+        (``MoveCart``) as a new line after the cursor's line (commander.js ``pkInsertLine``)."""
+        st = self.link.status
+        if st is None or not self.link.link_up:
+            self.c.log.error("record point: no status from the controller")
+            return
+        if self._program_active():
+            self.c.log.error("record point: the editor is read-only while a program runs")
+            return
+        line = render_template(kind, st.angles, st.pose)
+        ui.run_javascript(f"window.pkInsertLine && window.pkInsertLine({json.dumps(line)})")
+        self.c.log.info(f"recorded {line}")
+
+    def _shown_text(self) -> str:
+        """What the editor shows: the running program's text while it runs, else the shared
+        document (every tab and every reload shows the same)."""
+        runner = self.c.program
+        return runner.text if self._program_active() else self.c.doc.text
+
+    def _program_active(self) -> bool:
+        runner = self.c.program
+        return runner.running or runner.state == "paused"
+
     def on_edit(self, *_: Any) -> None:
-        """Re-colour the text; old error marks go (their lines may have moved): Check again."""
-        self._errors = {}
+        """Keep the edit in the shared document (autosaved) and re-colour the text; old error
+        marks go (their lines may have moved): Check again."""
+        if not self._program_active():
+            if self.c.doc.edit(self.editor.value or ""):
+                self._doc_version = self.c.doc.version
+        self._diag_at = time.monotonic() + DIAG_DELAY_S  # the parser's diagnostics once typing pauses
+        self._clear_plan()
         self._refresh_decorations()
+
+    def _clear_plan(self) -> None:
+        """The planned charts belong to the program that was checked: an edit clears them."""
+        if not self._plan_shown:
+            return
+        self._plan_shown = False
+        if self.on_preview is not None:
+            self.on_preview([], "default")
+        for chart in (self.plan_chart, self.plan_speed_chart):
+            for series in chart.options["series"]:
+                series["data"] = []
+            chart.update()
+
+    def _diagnose(self) -> None:
+        """Parse the text with the real parser and show its errors (line:col) at their lines;
+        none left clears the marks and the list."""
+        from parolkit.script import parse
+
+        result = parse(self.editor.value or "", "editor")
+        self._show_errors(list(result.errors))
 
     def _refresh_decorations(self) -> None:
         text = self.editor.value or ""
         runner = self.c.program
-        cur = runner.current_line if runner.running or runner.state == "paused" else None
+        cur = runner.current_line if self._program_active() else None
         decos = mark_decorations(text) + line_decorations(text, current_line=cur, error_lines=self._errors)
         self.editor.decorations = decos
         self.editor.line_tooltips = dict(self._errors)
 
     def _show_errors(self, errors: list[Any]) -> None:
+        shown = [f"line {err.line}, col {err.col}: {err.message}" for err in errors]
+        if shown == self._shown_errors:
+            return  # the same list: nothing to send
+        self._shown_errors = shown
         self._errors = {}
         self.diag_box.clear()
         with self.diag_box:
@@ -133,7 +211,11 @@ class ProgramPanel:
             self.c.log.error(f"dry run: {exc}")
             return []
         if report.segments:
-            self._plot_plan(*report.series())
+            t, q, v = report.series()
+            self._plot_plan(t, q, v)
+            self._plan_shown = True
+            if self.on_preview is not None:
+                self.on_preview([list(row) for row in q], st.tool if st else "default")
         return list(report.errors)
 
     def _plot_plan(self, t: Any, q: Any, v: Any) -> None:
@@ -146,30 +228,88 @@ class ProgramPanel:
             chart.update()
 
     async def run_program(self, step: bool) -> None:
-        errors = await self.c.program.start(self.editor.value or "", step=step)
+        text = self.editor.value or ""
+        if not self._program_active():
+            self.c.doc.edit(text)
+        errors = await self.c.program.start(text, step=step, name=self.c.doc.name)
         self._show_errors(errors)
         if errors:
             self.prog_status.set_text(f"✗ {len(errors)} error(s): nothing was run")
 
     def stop_program(self) -> None:
         """Stop the program run and send STOP (cancels the move in progress and the queue)."""
-        self.c.program.stop()
-        self.c.command("STOP", "Stop")
+        self.c.stop()
+
+    def _follow_text(self) -> None:
+        """Show the running program while it runs (read-only), else the shared document as
+        another tab or a file operation left it."""
+        active = self._program_active()
+        changed = active != self._locked
+        if changed:
+            self._locked = active
+            if active:
+                self.editor.disable()
+            else:
+                self.editor.enable()
+        doc = self.c.doc
+        if changed or doc.version != self._doc_version:  # another tab, a file, a run began or ended
+            self._doc_version = doc.version
+            want = self._shown_text()
+            if (self.editor.value or "") != want:
+                self.editor.value = want  # on_edit follows: nothing new to keep
+        self.files.update()
+
+    def set_online(self, online: bool) -> None:
+        """Run and Step only with a link to the controller."""
+        if online != self._online:
+            self._online = online
+            self._run_btn.set_enabled(online)
+            self._step_btn.set_enabled(online)
+
+    def shown(self) -> None:
+        """The Program tab was opened (its editor is created then): scroll the executing line
+        into view once the editor is on the page."""
+        self._revealed = None
+        self._reveal_at = time.monotonic() + 0.3  # update() does it (no new element on the page)
+
+    def _reveal(self) -> None:
+        runner = self.c.program
+        line = runner.current_line if self._program_active() else None
+        if line is not None:
+            self.editor.reveal_line(line)
+        self._revealed = line
 
     def update(self) -> None:
-        """Follow the program runner: status line, error marks, the executing line."""
+        """Follow the shared document and the program runner: text, status line, error
+        marks, the executing line (scrolled into view)."""
+        self._follow_text()
+        if self._diag_at is not None and time.monotonic() >= self._diag_at:
+            self._diag_at = None
+            self._diagnose()
+        if self._reveal_at is not None and time.monotonic() >= self._reveal_at:
+            self._reveal_at = None
+            self._reveal()
         runner = self.c.program
         if runner.version == self._prog_version:
             return
         self._prog_version = runner.version
         if runner.state in ("running", "paused"):
-            self.prog_status.set_text(f"▶ {runner.state} · line {runner.current_line or '—'}")
+            where = f" · {runner.name}" if runner.name else ""
+            self.prog_status.set_text(f"▶ {runner.state} · line {runner.current_line or '—'}{where}")
             self.prog_status.classes(replace="text-sm pk-mono text-amber-300")
         elif runner.state == "error":
             if runner.errors:
                 self._show_errors(runner.errors)
             self.prog_status.set_text(f"✗ {runner.message}")
             self.prog_status.classes(replace="text-sm pk-mono text-red-300")
-        elif runner.message:
-            self.prog_status.set_text(f"■ {runner.message}")
+        elif runner.state == "finished":
+            self.prog_status.set_text("✓ finished")
+            self.prog_status.classes(replace="text-sm pk-mono text-green-400")
+        elif runner.state == "stopped":
+            self.prog_status.set_text(f"■ {runner.message or 'stopped'}")
+            self.prog_status.classes(replace="text-sm pk-mono text-slate-300")
         self._refresh_decorations()
+        line = runner.current_line if self._program_active() else None
+        if line is not None and line != self._revealed:
+            self.editor.reveal_line(line)
+        self._revealed = line

@@ -9,6 +9,7 @@ or overlaps its neighbours.
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 from nicegui import ui
@@ -44,6 +45,7 @@ class Readouts:
     def __init__(self, log: EventLog) -> None:
         self.log = log
         self._log_version = -1
+        self._offline_shown = False
         with ui.card().classes("pk-card w-full p-3 gap-2").props('role=region aria-label="Readouts"'):
             with ui.element("div").classes("pk-readouts"):
                 with ui.column().classes("gap-1"):
@@ -92,9 +94,18 @@ class Readouts:
             self.log_box = ui.html("").classes("pk-log w-full") \
                 .props('data-testid=log role=log aria-label="Event log" tabindex=0')
 
-    def update(self, st: RobotStatus | None) -> None:
-        if st is not None:
+    def update(self, st: RobotStatus | None, link_up: bool = True) -> None:
+        """Show ``st`` (readouts only change on the page when their text changed); with no
+        link every LED goes dark and the IO reads "—": nothing shown is live."""
+        if st is not None and link_up:
+            self._offline_shown = False
             self._update_status(st)
+        elif not self._offline_shown:
+            self._offline_shown = True
+            for led in self.homed_leds:
+                led.set_content(_led())
+            for led in self.io_leds.values():
+                led.set_content(f"{_led()} <span class='pk-mono'>—</span>")
         if self.log.version != self._log_version:
             self._log_version = self.log.version
             rows = "".join(f"<div class='{e.level.value}'>{_html_escape(e.format())}</div>"
@@ -134,11 +145,17 @@ class Readouts:
         self.queue_label.set_text(f"queue {st.queue} · {cmd_text}")
 
 
+#: spacing of the live chart samples pushed to the page, s (300 points per 20 s window)
+SAMPLE_SPACING_S = 1.0 / 15
+
+
 class LiveCharts:
     """Joint positions and speeds of the last :data:`PLOT_WINDOW_S` s; :meth:`update` every 0.5 s."""
 
     def __init__(self, link: ControllerLink) -> None:
         self.link = link
+        #: time (monotonic s) of the newest sample pushed to the page
+        self._sent_t = -1e18
         with ui.card().classes("pk-card w-full p-3 gap-1").props('role=region aria-label="Live charts"'):
             ui.label(f"Live joint positions and speeds (last {PLOT_WINDOW_S:.0f} s)").classes("pk-title")
             with ui.element("div").classes("pk-two"):
@@ -148,17 +165,22 @@ class LiveCharts:
                     .props('data-testid=speed-chart role=img aria-label="joint speeds, last 20 s"')
 
     def update(self) -> None:
-        hist = list(self.link.history)
+        """Push only the samples newer than the last push (the page keeps the window:
+        ``pkLive`` in commander.js); a new page gets the whole window on its first push."""
+        hist = self.link.history
         if not hist:
             return
-        t_end = hist[-1].t
-        step = max(1, len(hist) // 300)
-        sel = hist[::step]
-        for chart, attr in ((self.pos_chart, "angles"), (self.speed_chart, "speeds")):
-            opts = chart.options
-            for j in range(6):
-                opts["series"][j]["data"] = [[round(s.t - t_end, 2), round(getattr(s, attr)[j], 2)] for s in sel]
-            chart.update()
+        rows: list[list[float]] = []
+        last = self._sent_t
+        for s in hist:
+            if s.t > last + SAMPLE_SPACING_S - 1e-9:
+                rows.append([round(s.t, 3), *(round(v, 2) for v in s.angles), *(round(v, 2) for v in s.speeds)])
+                last = s.t
+        if not rows:
+            return
+        self._sent_t = last
+        ui.run_javascript(f"window.pkLive && window.pkLive({self.pos_chart.id}, {self.speed_chart.id}, "
+                          f"{json.dumps(rows, separators=(',', ':'))}, {PLOT_WINDOW_S})")
 
 
 def live_options(unit: str) -> dict[str, Any]:

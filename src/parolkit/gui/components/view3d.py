@@ -44,6 +44,8 @@ class ArmView:
     def __init__(self, link: ControllerLink) -> None:
         self.link = link
         self._last_seq = -1
+        self._last_pose: tuple[tuple[float, ...], str] | None = None
+        self._last_plan_key: tuple[object, ...] | None = None
         self._last_plan_seq: tuple[int | None, bool] | None = None  # (plan seq, shown)
         with ui.card().classes("pk-card w-full p-2 gap-1").props('role=region aria-label="3D view"'):
             with ui.row().classes("w-full items-center"):
@@ -59,12 +61,23 @@ class ArmView:
                 for g in self.ghost:
                     g.visible(False)
                 self.path = self.scene.point_cloud([], point_size=0.14).material("#22d3ee")
+                # the checked program's TCP path (the dry run), shown before it runs
+                self.preview = self.scene.point_cloud([], point_size=0.1).material("#facc15")
+            self.scene.props(f"data-preview-id={self.preview.id}")
             self.scene.move_camera(x=4.6, y=-4.2, z=3.9, look_at_x=0, look_at_y=0.8, look_at_z=1.7, duration=0)
             for g, t in zip(self.groups, geometry.dh_frames(PAROL6.standby_deg)):
                 pos, rot = geometry.frame_pose_for_scene(t)
                 g.move(*pos).rotate_R(rot)
         self._frames_t = time.monotonic()
         self._frames_n = 0
+
+    def show_preview(self, joint_samples_deg: Any, tool: str = "default") -> None:
+        """Draw the TCP path of planned joint samples (deg, one row per sample; at most 300
+        drawn); an empty list clears it."""
+        rows = list(joint_samples_deg)
+        step = max(1, len(rows) // 300)
+        pts = [geometry.frame_pose_for_scene(arm_frames(q, tool)[-1])[0] for q in rows[::step]]
+        self.preview.set_points(pts)
 
     def _arm(self, *, opacity: float, ghost: bool = False) -> list[Any]:
         colours = {"base": "#475569", "joint": "#f97316", "link": "#cbd5e1", "tool": "#38bdf8"}
@@ -95,6 +108,11 @@ class ArmView:
         if st is None or st.seq == self._last_seq:
             return
         self._last_seq = st.seq
+        pose_key = (tuple(round(a, 3) for a in st.angles), st.tool)
+        plan_key = (self.link.plan.seq if self.link.plan else None, st.state, st.plan_seq)
+        if pose_key == self._last_pose and plan_key == self._last_plan_key:
+            return  # the arm stands still: nothing to send (an idle page costs next to nothing)
+        self._last_pose, self._last_plan_key = pose_key, plan_key
         frames = arm_frames(st.angles, st.tool)
         with self.scene._batch_calls():  # one websocket message per update
             for g, t in zip(self.groups, frames):

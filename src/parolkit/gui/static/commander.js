@@ -86,6 +86,7 @@
   const nameUnnamed = () => {
     const editor = document.querySelector("[data-testid=editor] .cm-content:not([aria-label])");
     if (editor) editor.setAttribute("aria-label", "RBTscript program");
+    guardEditor();
     const bar = document.querySelector(".q-loading-bar:not([aria-label])");
     if (bar) bar.setAttribute("aria-label", "loading");
   };
@@ -96,6 +97,229 @@
     requestAnimationFrame(() => { naming = false; nameUnnamed(); });
   }).observe(document.body, { childList: true, subtree: true });
   nameUnnamed();
+
+  // the commander's own server gone (process exited, network down): NiceGUI only shows a
+  // small toast and the page keeps showing the last state.  Say it loudly, mark the link and
+  // state chips, and grey every control until the socket is back (the page reloads then).
+  let serverLost = false;
+  const showServerLost = (lost) => {
+    if (lost === serverLost) return;
+    serverLost = lost;
+    document.body.classList.toggle("pk-server-lost", lost);
+    let banner = document.getElementById("pk-server-banner");
+    if (lost && banner === null) {
+      banner = document.createElement("div");
+      banner.id = "pk-server-banner";
+      banner.setAttribute("role", "alert");
+      banner.setAttribute("data-testid", "server-banner");
+      banner.textContent = "DISCONNECTED: the commander's server is not answering. Nothing on this page is live " +
+        "and the controls do nothing until it is back (restart `parolkit gui`; this page reconnects by itself).";
+      document.body.appendChild(banner);
+    }
+    if (banner !== null) banner.hidden = !lost;
+    for (const id of ["link-chip", "state-chip"]) {
+      const chip = document.querySelector(`[data-testid=${id}] .q-chip__content`);
+      if (chip === null) continue;
+      if (lost) {
+        chip.dataset.pkText = chip.textContent;
+        chip.textContent = id === "link-chip" ? "DISCONNECTED" : "UNKNOWN";
+      } else if (chip.dataset.pkText !== undefined) {
+        chip.textContent = chip.dataset.pkText;
+      }
+    }
+  };
+  setInterval(() => {
+    const sock = window.socket;
+    if (sock && window.did_handshake) showServerLost(!sock.connected);
+  }, 250);
+
+  // the live charts: the server pushes only the new samples ([t, q1..q6, v1..v6], t in s of
+  // the server's clock); the page keeps the last `windowS` seconds and redraws both charts
+  const live = { rows: [] };
+  window.pkLive = (posId, speedId, rows, windowS) => {
+    live.rows.push(...rows);
+    const tEnd = live.rows[live.rows.length - 1][0];
+    let cut = 0;
+    while (cut < live.rows.length && live.rows[cut][0] < tEnd - windowS) cut++;
+    if (cut) live.rows.splice(0, cut);
+    for (const [id, offset] of [[posId, 1], [speedId, 7]]) {
+      const el = typeof getElement === "function" ? getElement(id) : null;
+      if (!el || !el.chart) continue;
+      const series = [];
+      for (let j = 0; j < 6; j++) {
+        series.push({ data: live.rows.map((r) => [Math.round((r[0] - tEnd) * 100) / 100, r[offset + j]]) });
+      }
+      el.chart.setOption({ series: series });
+    }
+  };
+
+  // ---- the editor and the server's echo: every server update of the editor element carries
+  // the server's copy of the text, which lags behind what was typed since; NiceGUI's editor
+  // then replaces the newer text with it (typed characters vanish, the cursor jumps).  The
+  // texts this editor itself had while typing are remembered: one of them coming back is a
+  // late echo and is ignored; any other text (another tab, a file, a run) is shown.
+  // (only texts of the last ECHO_MS count: an echo is never older; a file opened later with
+  // an earlier text is shown)
+  const ECHO_MS = 2000;
+  const typedTexts = [];
+  const rememberText = () => {
+    const view = editorView();
+    if (view === null) return;
+    const text = view.state.doc.toString();
+    const now = performance.now();
+    while (typedTexts.length && (now - typedTexts[0].t > ECHO_MS || typedTexts.length > 200)) typedTexts.shift();
+    typedTexts.push({ text: text, t: now });
+  };
+  const lateEcho = (value) => {
+    const now = performance.now();
+    return typedTexts.some((e) => e.text === value && now - e.t <= ECHO_MS);
+  };
+  function guardEditor() {
+    const host = document.querySelector("[data-testid=editor]");
+    if (!host || typeof getElement !== "function") return;
+    const comp = getElement(host.id.replace(/^c/, ""));
+    if (!comp || comp.pkGuarded || typeof comp.setEditorValue !== "function") return;
+    const original = comp.setEditorValue;
+    comp.setEditorValue = function (value) {
+      const current = this.editor ? this.editor.state.doc.toString() : null;
+      if (current !== null && value !== current && lateEcho(value)) return; // a late echo
+      return original.call(this, value);
+    };
+    comp.pkGuarded = true;
+  }
+  document.addEventListener("input", (e) => {
+    if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) {
+      rememberText();
+      requestAnimationFrame(rememberText);
+    }
+  }, true);
+  document.addEventListener("keydown", (e) => {
+    if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) rememberText();
+  }, true);
+
+  // ---- completion in the program editor: the commands of RBTscript's table with their
+  // arguments at the start of a line, keyword arguments and words inside a call (items from
+  // the #pk-completions data island, parolkit.gui.completion).  Up/Down choose, Enter or Tab
+  // insert, Esc closes the list (it is an overlay: Esc is not E-STOP then).
+  const compIsland = document.getElementById("pk-completions");
+  const COMPLETIONS = compIsland ? JSON.parse(compIsland.textContent) : [];
+  let popup = null;
+  const editorView = () => {
+    const host = document.querySelector("[data-testid=editor]");
+    if (!host || typeof getElement !== "function") return null;
+    const comp = getElement(host.id.replace(/^c/, ""));
+    return comp && comp.editor ? comp.editor : null;
+  };
+  const closePopup = () => {
+    if (popup !== null) popup.el.remove();
+    popup = null;
+  };
+  const acceptItem = (i) => {
+    const p = popup;
+    const item = p.items[i];
+    rememberText();
+    p.view.dispatch({
+      changes: { from: p.from, to: p.to, insert: item.insert },
+      selection: { anchor: p.from + item.insert.length },
+    });
+    rememberText();
+    closePopup();
+    p.view.focus();
+  };
+  const renderPopup = () => {
+    popup.el.replaceChildren(...popup.items.map((item, i) => {
+      const row = document.createElement("div");
+      row.className = "pk-completion" + (i === popup.index ? " selected" : "");
+      row.setAttribute("role", "option");
+      row.setAttribute("aria-selected", String(i === popup.index));
+      row.setAttribute("data-testid", "completion");
+      const label = document.createElement("span");
+      label.className = "pk-completion-label";
+      label.textContent = item.label;
+      row.appendChild(label);
+      const detail = document.createElement("span");
+      detail.className = "pk-completion-detail";
+      detail.textContent = item.detail;
+      row.appendChild(detail);
+      row.addEventListener("mousedown", (e) => { e.preventDefault(); acceptItem(i); });
+      return row;
+    }));
+  };
+  const suggest = () => {
+    const view = editorView();
+    if (view === null || !view.hasFocus) { closePopup(); return; }
+    const sel = view.state.selection.main;
+    if (!sel.empty) { closePopup(); return; }
+    const line = view.state.doc.lineAt(sel.head);
+    const before = line.text.slice(0, sel.head - line.from);
+    const m = /[A-Za-z_]\w*$/.exec(before);
+    const head = m ? before.slice(0, before.length - m[0].length) : "";
+    const inCall = head.includes("(") && !head.includes(")");
+    if (m === null || (!inCall && head.trim() !== "") || /[#]|\/\//.test(head)) { closePopup(); return; }
+    const word = m[0].toLowerCase();
+    const items = COMPLETIONS.filter((c) => c.call === !inCall && c.label.toLowerCase().startsWith(word) &&
+      c.insert !== m[0]);
+    if (!items.length) { closePopup(); return; }
+    const pos = view.coordsAtPos(sel.head);
+    if (pos === null) { closePopup(); return; }
+    if (popup === null) {
+      const el = document.createElement("div");
+      el.className = "pk-completions cm-tooltip-autocomplete"; // an overlay: Esc closes it (above)
+      el.setAttribute("role", "listbox");
+      el.setAttribute("aria-label", "completions");
+      el.setAttribute("data-testid", "completions");
+      document.body.appendChild(el);
+      popup = { el: el };
+    }
+    Object.assign(popup, { items: items, index: 0, from: sel.head - m[0].length, to: sel.head, view: view });
+    popup.el.style.left = `${Math.round(pos.left)}px`;
+    popup.el.style.top = `${Math.round(pos.bottom + 2)}px`;
+    renderPopup();
+  };
+  window.addEventListener("keydown", (e) => {
+    if (popup === null) return;
+    if (e.key === "ArrowDown" || e.key === "ArrowUp") {
+      const n = popup.items.length;
+      popup.index = (popup.index + (e.key === "ArrowDown" ? 1 : n - 1)) % n;
+      renderPopup();
+    } else if (e.key === "Enter" || e.key === "Tab") {
+      acceptItem(popup.index);
+    } else if (e.key === "Escape") {
+      closePopup();
+    } else {
+      return;
+    }
+    e.preventDefault();
+    e.stopPropagation();
+  }, true);
+  document.addEventListener("keyup", (e) => {
+    if (["ArrowDown", "ArrowUp", "Enter", "Tab", "Escape", "Shift", "Control", "Alt", "Meta"].includes(e.key)) return;
+    if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) {
+      rememberText();
+      requestAnimationFrame(suggest);
+    }
+  }, true);
+  document.addEventListener("focusout", (e) => {
+    if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) setTimeout(() => {
+      const view = editorView();
+      if (view === null || !view.hasFocus) closePopup();
+    }, 150);
+  }, true);
+
+  // "Record point": the server sends the line; it goes in after the cursor's line (the end
+  // of the program if the editor never had the cursor), and the cursor moves to its end
+  window.pkInsertLine = (text) => {
+    const view = editorView();
+    if (view === null) return;
+    const doc = view.state.doc;
+    const line = doc.lineAt(view.state.selection.main.head);
+    const atEnd = line.number === doc.lines;
+    const insert = line.text.trim() === "" ? text : (atEnd ? "\n" : "") + text + (atEnd ? "" : "\n");
+    const from = line.text.trim() === "" ? line.from : (atEnd ? line.to : line.to + 1);
+    view.dispatch({ changes: { from: from, to: line.text.trim() === "" ? line.to : from, insert: insert },
+      selection: { anchor: from + insert.length - (atEnd || line.text.trim() === "" ? 0 : 1) } });
+    view.focus();
+  };
 
   // a long press on a jog button must not open the context menu (touch screens)
   document.addEventListener("contextmenu", (e) => {
