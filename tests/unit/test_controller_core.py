@@ -826,3 +826,15 @@ def test_full_speed_moves_under_jittery_ticks_never_meet_a_guard_refusal(rig):
                 break
         assert rig.terminal(cid) is AckStatus.COMPLETED, (text, rig.acks[-3:])
     assert rig.guard.violations == 0, rig.guard.last_violation
+
+
+def test_set_port_to_a_device_that_is_not_there_fails_and_keeps_the_link(rig):
+    """The datagram fuzzer's SET_PORT|None switched a working board link to a port named
+    'None' and lost it; a device that does not exist is refused, the link stays."""
+    rig.submit("aaaa0001|SET_PORT|None")
+    rig.submit("aaaa0002|SET_PORT|/dev/ttyACM-not-there")
+    rig.tick(3)
+    for cid in ("aaaa0001", "aaaa0002"):
+        assert rig.terminal(cid) is AckStatus.FAILED
+    assert "no device at" in [d for c, s, d in rig.acks if c == "aaaa0002"][-1]
+    assert rig.loop.link_up and rig.ex.requested_port is None

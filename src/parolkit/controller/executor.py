@@ -22,6 +22,7 @@ from __future__ import annotations
 import importlib
 import logging
 import math
+import os
 import threading
 import time
 from collections import deque
@@ -370,6 +371,9 @@ class Executor:
         if isinstance(cmd, C.SetPort):
             if self.active is not None or self.queue:
                 return AckStatus.FAILED, "robot is busy: STOP before switching the port"
+            if not os.path.exists(cmd.port):
+                # (a fuzzed SET_PORT|None dropped a working link for a device that is not there)
+                return AckStatus.FAILED, f"SET_PORT: no device at {cmd.port!r}: the board link stays as it is"
             self.requested_port = cmd.port
             return AckStatus.COMPLETED, f"switching to {cmd.port}"
         if isinstance(cmd, C.SetTool):
