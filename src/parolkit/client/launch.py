@@ -1,19 +1,24 @@
 """Start a controller (``parolkit serve``) as a child process that never outlives its parent.
 
 Used by the programs that bring their own controller (``parolkit gui --sim``,
-``parolkit run --sim``).  Standard library only, like the rest of the client: the child is a
-separate program reached over UDP, never imported.
+``parolkit run --sim``, ``parolkit replay``); :class:`SimController` is the whole of it for a
+one-off run on the simulated board (free ports, wait until homed, stop).  Standard library
+only, like the rest of the client: the child is a separate program reached over UDP, never
+imported.
 """
 
 from __future__ import annotations
 
 import os
+import socket
 import subprocess
 import sys
+import tempfile
+import time
 from collections.abc import Sequence
 from typing import IO
 
-__all__ = ["die_with_parent", "spawn_controller"]
+__all__ = ["die_with_parent", "spawn_controller", "free_udp_port", "SimController"]
 
 
 def die_with_parent() -> None:
@@ -39,3 +44,65 @@ def spawn_controller(serve_args: Sequence[str], *, stdout: IO[bytes] | int | Non
     cmd = [sys.executable, "-m", "parolkit", "serve", *serve_args]
     return subprocess.Popen(cmd, stdout=stdout, stderr=stderr, preexec_fn=die_with_parent,
                             env=dict(os.environ, PYTHONUNBUFFERED="1"))
+
+
+def free_udp_port() -> int:
+    """A UDP port on 127.0.0.1 that nothing is bound to right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port: int = s.getsockname()[1]
+        return port
+
+
+class SimController:
+    """``parolkit serve --sim EXTRA_ARGS...`` started for one run on free ports (``port``,
+    ``ack_port``), its log in a temporary file (a pipe nobody reads would fill up and block
+    it); :meth:`wait_ready` until the simulated board has homed, :meth:`close` stops it."""
+
+    def __init__(self, extra_args: Sequence[str] = ()) -> None:
+        self.port = free_udp_port()
+        self.ack_port = free_udp_port()
+        self.log = tempfile.TemporaryFile()
+        self.proc = spawn_controller(["--sim", *extra_args, "--udp-port", str(self.port),
+                                      "--ack-port", str(self.ack_port)], stdout=self.log, stderr=subprocess.STDOUT)
+
+    def log_tail(self, lines: int = 15) -> str:
+        self.log.seek(0)
+        return "\n".join(self.log.read().decode(errors="replace").splitlines()[-lines:])
+
+    def _query(self, text: str, timeout: float) -> str:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.settimeout(timeout)
+            sock.sendto(text.encode(), ("127.0.0.1", self.port))
+            try:
+                return sock.recv(65535).decode(errors="replace")
+            except OSError:  # timeout, or ICMP "port unreachable" while it starts
+                return ""
+
+    def wait_ready(self, timeout: float = 60.0) -> None:
+        """Wait until the controller answers and the simulated board has homed."""
+        deadline = time.monotonic() + timeout
+        last = "no answer"
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"the simulated controller exited with {self.proc.returncode}:\n"
+                                   f"{self.log_tail()}")
+            reply = self._query("GET_STATUS", 0.25)
+            if reply.startswith("STATUS|"):
+                fields = dict(f.partition("=")[::2] for f in reply.split("|")[1:])
+                last = f"state {fields.get('STATE')}, homed {fields.get('HOMED')}"
+                if fields.get("HOMED") == "1,1,1,1,1,1" and fields.get("STATE") != "HOMING":
+                    return
+                time.sleep(0.05)
+        raise RuntimeError(f"the simulated controller was not ready within {timeout:g} s ({last}); "
+                           f"its log:\n{self.log_tail()}")
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        self.log.close()

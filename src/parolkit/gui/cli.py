@@ -19,12 +19,13 @@ from __future__ import annotations
 import argparse
 import faulthandler
 import signal
-import socket
 import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from parolkit.client.launch import free_udp_port
 
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
@@ -81,13 +82,6 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
     p.add_argument("--config", type=Path, default=None, help="parolkit.toml to use")
     p.set_defaults(func=main)
     return p
-
-
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
 
 
 def _answers_ping(robot: Robot) -> bool:
@@ -190,8 +184,8 @@ def main(args: argparse.Namespace) -> int:
         ack_port = args.ack_port or 5002
         mode = f"controller {ctl_host}:{ctl_port}"
     else:
-        ctl_host, ctl_port = "127.0.0.1", _free_udp_port()
-        ack_port = args.ack_port or _free_udp_port()
+        ctl_host, ctl_port = "127.0.0.1", free_udp_port()
+        ack_port = args.ack_port or free_udp_port()
         serial_port = args.port
         mode = f"REAL · {serial_port}" if serial_port else "SIMULATOR"
         print(f"starting controller ({'serial ' + serial_port if serial_port else 'simulated robot'}) "

@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import argparse
 import socket
-import subprocess
 import sys
-import tempfile
 import threading
 import time
 from dataclasses import dataclass
@@ -25,10 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from parolkit.client.launch import SimController
 from parolkit.record.reader import Recording, load_recording
 from parolkit.record.segments import FittedMove, command_segments, fit_joint_move, steps_to_deg
 
-__all__ = ["ReplayStep", "build_replay", "replay_command", "SimController", "DELAY_OVERHEAD_TICKS"]
+__all__ = ["ReplayStep", "build_replay", "replay_command", "DELAY_OVERHEAD_TICKS"]
 
 #: ticks between the end of a command and the start of the next one queued behind it (the
 #: status shows no command for one tick): the ticks between two recorded commands beyond
@@ -72,55 +71,6 @@ def build_replay(rec: Recording) -> tuple[tuple[float, ...], list[ReplayStep]]:
         fit = fit_joint_move(rec, seg)
         steps.append(ReplayStep(move=fit, source=f"{seg.command or 'motion'} ticks {seg.start_tick}..{seg.end_tick}"))
     return start, steps
-
-
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
-
-
-class SimController:
-    """``parolkit serve --sim --rate RATE_HZ`` on free ports for one replay (stopped by
-    :meth:`close`); the rate is the recording's, so the replay runs tick for tick like it."""
-
-    def __init__(self, rate_hz: float = 100.0) -> None:
-        from parolkit.client.launch import spawn_controller
-
-        self.port, self.ack_port = _free_udp_port(), _free_udp_port()
-        self.log = tempfile.TemporaryFile()
-        self.proc = spawn_controller(["--sim", "--rate", f"{rate_hz:g}", "--udp-port", str(self.port),
-                                      "--ack-port", str(self.ack_port)],
-                                     stdout=self.log, stderr=subprocess.STDOUT)
-
-    def wait_ready(self, timeout: float = 60.0) -> None:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                self.log.seek(0)
-                raise RuntimeError(f"the simulated controller exited: {self.log.read().decode(errors='replace')}")
-            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-                sock.settimeout(0.25)
-                try:
-                    sock.sendto(b"GET_STATUS", ("127.0.0.1", self.port))
-                    reply = sock.recv(65535).decode(errors="replace")
-                except OSError:
-                    reply = ""
-            if "HOMED=1,1,1,1,1,1" in reply and "STATE=HOMING" not in reply:
-                return
-            time.sleep(0.05)
-        raise RuntimeError(f"the simulated controller was not ready within {timeout:g} s")
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        self.log.close()
 
 
 def run_replay(host: str, port: int, start: tuple[float, ...], steps: list[ReplayStep], *,
@@ -203,7 +153,7 @@ def replay_command(args: argparse.Namespace) -> int:
                 return 2
         else:
             print("starting a controller with the simulated board ...", flush=True)
-            sim = SimController(rec.rate_hz)
+            sim = SimController(["--rate", f"{rec.rate_hz:g}"])  # tick for tick like the recording
             sim.wait_ready()
             host, port = "127.0.0.1", sim.port
         out = run_replay(host, port, start, steps, speed_pct=args.speed, record_to=args.record)

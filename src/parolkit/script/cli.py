@@ -14,15 +14,14 @@ is not formatted (``fmt --check``); 2 bad command line; 130 interrupted (Ctrl-C 
 from __future__ import annotations
 
 import argparse
-import socket
-import subprocess
 import sys
-import tempfile
 import threading
 import time
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
+
+from parolkit.client.launch import SimController
 
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
@@ -225,70 +224,6 @@ def fmt_main(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------------------
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
-
-
-class _SimController:
-    """``parolkit serve --sim`` started for one run (free ports, stopped afterwards)."""
-
-    def __init__(self, config: str | None) -> None:
-        self.port = _free_udp_port()
-        self.ack_port = _free_udp_port()
-        from parolkit.client.launch import spawn_controller
-
-        serve_args = ["--sim", "--udp-port", str(self.port), "--ack-port", str(self.ack_port)]
-        if config:
-            serve_args += ["--config", config]
-        # the controller's log goes to a file (a pipe nobody reads would fill up and block it)
-        self.log = tempfile.TemporaryFile()
-        self.proc = spawn_controller(serve_args, stdout=self.log, stderr=subprocess.STDOUT)
-
-    def log_tail(self, lines: int = 15) -> str:
-        self.log.seek(0)
-        return "\n".join(self.log.read().decode(errors="replace").splitlines()[-lines:])
-
-    def _query(self, text: str, timeout: float) -> str:
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-            sock.settimeout(timeout)
-            sock.sendto(text.encode(), ("127.0.0.1", self.port))
-            try:
-                return sock.recv(65535).decode(errors="replace")
-            except OSError:  # timeout, or ICMP "port unreachable" while it starts
-                return ""
-
-    def wait_ready(self, timeout: float = 60.0) -> None:
-        """Wait until the controller answers and the simulated board has homed."""
-        deadline = time.monotonic() + timeout
-        last = "no answer"
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError(f"the simulated controller exited with {self.proc.returncode}:\n"
-                                   f"{self.log_tail()}")
-            reply = self._query("GET_STATUS", 0.25)
-            if reply.startswith("STATUS|"):
-                fields = dict(f.partition("=")[::2] for f in reply.split("|")[1:])
-                last = f"state {fields.get('STATE')}, homed {fields.get('HOMED')}"
-                if fields.get("HOMED") == "1,1,1,1,1,1" and fields.get("STATE") != "HOMING":
-                    return
-                time.sleep(0.05)
-        raise RuntimeError(f"the simulated controller was not ready within {timeout:g} s ({last}); "
-                           f"its log:\n{self.log_tail()}")
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        self.log.close()
-
-
 def _fmt_joints(q: Iterable[float]) -> str:
     return "[" + ", ".join(f"{v:.3f}" for v in q) + "]"
 
@@ -409,14 +344,14 @@ def run_main(args: argparse.Namespace) -> int:
     from parolkit.client.robot import Robot
     from parolkit.script.interpreter import Interpreter
 
-    sim: _SimController | None = None
+    sim: SimController | None = None
     port = args.port if args.port is not None else cfg.controller.udp_port
     ack_port = args.ack_port if args.ack_port is not None else cfg.controller.ack_port
     host = args.host
     robot: Robot | None = None
     try:
         if args.sim:
-            sim = _SimController(args.config)
+            sim = SimController(["--config", args.config] if args.config else [])
             host, port, ack_port = "127.0.0.1", sim.port, sim.ack_port
         if sim is not None:
             if not args.quiet:
