@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import os
 import re
-import time
 from pathlib import Path
 
 import pytest
 from playwright.sync_api import expect
+from tests.browser import helpers
+from tests.browser.helpers import number, state, text
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -31,38 +32,11 @@ _PAGE = None  # the module's page, for the GUI log in failure messages
 
 
 def wait_until(predicate, timeout: float = 15.0, interval: float = 0.1, what: str = "condition"):
-    deadline = time.monotonic() + timeout
-    last = None
-    while time.monotonic() < deadline:
-        last = predicate()
-        if last:
-            return last
-        time.sleep(interval)
-    log = ""
-    if _PAGE is not None:
-        try:
-            log = "\nGUI log (newest first):\n" + _PAGE.get_by_test_id("log").inner_text(timeout=2000)
-        except Exception as exc:
-            log = f"\n(GUI log unavailable: {exc})"
-    raise AssertionError(f"timed out after {timeout} s waiting for {what} (last value {last!r}){log}")
-
-
-def text(page, testid: str) -> str:
-    return page.get_by_test_id(testid).inner_text()
-
-
-def number(page, testid: str) -> float:
-    m = re.search(r"[-+]?\d+(?:\.\d+)?", text(page, testid))
-    assert m, f"{testid} shows no number: {text(page, testid)!r}"
-    return float(m.group())
-
-
-def state(page) -> str:
-    return text(page, "state-chip").strip()
+    return helpers.wait_until(predicate, timeout, interval, what, page=_PAGE)
 
 
 def wait_ready(page, timeout: float = 30.0) -> None:
-    wait_until(lambda: state(page) == "READY", timeout, what="state READY")
+    helpers.wait_ready(page, timeout)
 
 
 def hold(page, testid: str, seconds: float) -> None:
@@ -79,17 +53,9 @@ def hold(page, testid: str, seconds: float) -> None:
 
 
 def settled(page, testid: str, timeout: float = 8.0) -> float:
-    """The readout once it stopped changing (two reads 0.4 s apart agree); fails if it keeps
-    changing for ``timeout`` s (i.e. the robot did not stop)."""
-    prev = number(page, testid)
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        page.wait_for_timeout(400)
-        cur = number(page, testid)
-        if abs(cur - prev) < 0.02:
-            return cur
-        prev = cur
-    raise AssertionError(f"{testid} still changing {timeout} s after release ({prev})")
+    """The readout once it stopped changing; fails if it keeps changing for ``timeout`` s
+    (i.e. the robot did not stop)."""
+    return helpers.settled(page, testid, timeout)
 
 
 def test_page_loads_links_and_has_no_console_errors(page):

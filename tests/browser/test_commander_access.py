@@ -10,11 +10,11 @@ on its own socket) competes for the lease.
 from __future__ import annotations
 
 import os
-import time
 from pathlib import Path
 
 import pytest
 from tests.browser.conftest import _stop, start_gui
+from tests.browser.helpers import wait_until
 from tests.conftest import start_controller
 
 from parolkit.client import Robot
@@ -24,17 +24,6 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 PASSWORD = "correct horse battery"
 LEASE_TIMEOUT_S = 3.0
-
-
-def wait_until(predicate, timeout: float = 15.0, interval: float = 0.1, what: str = "condition"):
-    deadline = time.monotonic() + timeout
-    last = None
-    while time.monotonic() < deadline:
-        last = predicate()
-        if last:
-            return last
-        time.sleep(interval)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what} (last value {last!r})")
 
 
 @pytest.fixture(scope="module")
