@@ -423,9 +423,7 @@ class SafetyGuard:
         if now is not None and sent and sent[-1].t == now:
             sent.pop()  # never written
         prev = sent[-1] if sent else None
-        dt = self.period_s
-        if now is not None and prev is not None and prev.t is not None:
-            dt = max(dt, now - prev.t)
+        dt = self._ran(prev, now)
         if prev is not None:
             prev.dt = dt
         self._sync(status)
@@ -438,6 +436,13 @@ class SafetyGuard:
         sent.append(_Sent(res.frame, arrival, now, self._seq, prev))
         return res
 
+    def _ran(self, prev: _Sent | None, now: float | None) -> float:
+        """How long the frame ``prev`` runs when the next one is written at ``now``: at least
+        one period (module docstring, *Time*); one period when either time is unknown."""
+        if now is None or prev is None or prev.t is None:
+            return self.period_s
+        return max(self.period_s, now - prev.t)
+
     def accepts_goto(self, positions: Sequence[int], speeds: Sequence[int], status: StatusFrame | None,
                      now: float) -> bool:
         """Would :meth:`check` at ``now`` (with ``status``) pass a 156 frame with these targets and
@@ -448,9 +453,7 @@ class SafetyGuard:
         module's own estimate disagreed under load: an early tick, an uncertain prediction,
         and the move FAILED on a guard refusal)."""
         prev = self._sent[-1] if self._sent else None
-        dt = self.period_s
-        if prev is not None and prev.t is not None:
-            dt = max(dt, now - prev.t)
+        dt = self._ran(prev, now)
         self._sync(status)
         frame = CommandFrame(command=BoardCommand.GOTO, positions=tuple(int(p) for p in positions),
                              speeds=tuple(int(v) for v in speeds))
@@ -487,7 +490,4 @@ class SafetyGuard:
         if not self._sent:
             return None
         last = self._sent[-1]
-        dt = self.period_s
-        if now is not None and last.t is not None:
-            dt = max(dt, now - last.t)
-        return last.after(dt)
+        return last.after(self._ran(last, now))
