@@ -301,18 +301,21 @@ class TrajectoryActivity(Activity):
         the first sample is one the guard would refuse -- the board still running from what came
         before (a STOP's hold, a move cancelled at speed): the IDLE frame stops it, and the move
         starts a tick later on its full time instead of FAILing on a refusal."""
-        check = ctx.goto_check
-        if check is None or self._prev_goto is not None or self._s is not None:
+        if ctx.goto_check is None or self._prev_goto is not None or self._s is not None:
             return False
-        if self._start_waits >= self.START_WAIT_TICKS:
-            return False
-        pos, ff = self._at(float(self.i))
-        if check(pos, ff, ctx.status, ctx.now):
+        if self._start_waits >= self.START_WAIT_TICKS or self._guard_passes(ctx, float(self.i)):
             return False
         self._start_waits += 1
         self.t0 = ctx.now + 1.0 / ctx.rate_hz  # sample i is due at the next tick
         self._offset = self.i
         return True
+
+    def _guard_passes(self, ctx: TickContext, s: float) -> bool:
+        """The guard's verdict on the 156 frame for sample coordinate ``s`` now
+        (``ctx.goto_check`` must be set)."""
+        assert ctx.goto_check is not None
+        pos, ff = self._at(s)
+        return ctx.goto_check(pos, ff, ctx.status, ctx.now)
 
     def _goto_sample(self, ctx: TickContext) -> float:
         """Where in the samples the next 156 target is: what is due now, but no further than
@@ -325,10 +328,8 @@ class TrajectoryActivity(Activity):
         prev, s_prev = self._prev_goto, self._s
         check = ctx.goto_check
 
-        def passes(s: float) -> bool:  # the guard's verdict on the target at sample ``s``
-            assert check is not None
-            pos, ff = self._at(s)
-            return check(pos, ff, ctx.status, ctx.now)
+        def passes(s: float) -> bool:
+            return self._guard_passes(ctx, s)
 
         if prev is None or s_prev is None:
             # the first target: normally the first sample; after a pause that began before it
@@ -364,10 +365,10 @@ class TrajectoryActivity(Activity):
             return _boundary(ok, good=step1, bad=want)
         if check is None or ok(s_prev):
             return _boundary(ok, good=s_prev, bad=step1)
-        # the board is further behind than the previous target allows (that frame ran shorter
-        # than planned: an early tick): a target a little back along the plan, still ahead of
-        # the board, keeps its start speed within the maximum; the plan's clock runs on and
-        # the next ticks catch up
+        # even the previous target would ask the board for more than its maximum (the guard
+        # sees it further behind than that target allows): a target a little back along the
+        # plan, still ahead of the board, keeps its start speed within the maximum; the plan's
+        # clock runs on and the next ticks catch up
         back = max(0.0, s_prev - 2.0)
         return _boundary(ok, good=back, bad=s_prev) if ok(back) else s_prev
 
