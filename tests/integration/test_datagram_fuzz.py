@@ -4,6 +4,7 @@ ack, and the log stays within its byte budget."""
 
 from __future__ import annotations
 
+import json
 import socket
 import time
 from collections import Counter
@@ -11,7 +12,7 @@ from collections import Counter
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from tests.conftest import start_controller, wait_until
+from tests.conftest import start_controller
 
 from parolkit.controller.server import LOG_BUDGET_BYTES_PER_S
 from parolkit.protocol.commands import _NAMES
@@ -24,6 +25,12 @@ def served(tmp_path_factory):
     cp = start_controller(log_dir=tmp_path_factory.mktemp("fuzz"))
     yield cp
     cp.stop()
+
+
+def _server(served) -> dict:
+    reply = served.query("GET_STATUS_JSON", timeout=2.0)
+    assert reply and reply.startswith("STATUS_JSON|"), reply
+    return json.loads(reply.split("|", 1)[1])["server"]
 
 
 def _id(n: int) -> str:
@@ -46,6 +53,7 @@ _BODY = st.one_of(
 @given(bodies=st.lists(st.tuples(_BODY, st.booleans()), min_size=150, max_size=300))
 def test_arbitrary_datagrams_get_exactly_one_terminal_ack_per_id_and_a_bounded_log(served, bodies):
     log_before = len(served.log().encode())
+    received_before = _server(served)["received"]
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind(("127.0.0.1", 0))
     sock.settimeout(0.2)
@@ -53,11 +61,13 @@ def test_arbitrary_datagrams_get_exactly_one_terminal_ack_per_id_and_a_bounded_l
     try:
         sock.sendto(b"ACK_HERE", ctl)
         sent: list[str] = []
+        bodies_of: dict[str, bytes] = {}
         t0 = time.monotonic()
         for k, (body, with_id) in enumerate(bodies):
             if with_id:
                 cid = _id(len(sent))
                 sent.append(cid)
+                bodies_of[cid] = body
                 data = cid.encode() + b"|" + body
             else:
                 data = body
@@ -81,7 +91,17 @@ def test_arbitrary_datagrams_get_exactly_one_terminal_ack_per_id_and_a_bounded_l
                 pass
             return all(acks[c] >= 1 for c in sent)
 
-        wait_until(drain, 60, interval=0.0, what="a terminal ack for every ID")
+        deadline = time.monotonic() + 60
+        while not drain():
+            if time.monotonic() > deadline:
+                missing = [c for c in sent if not acks[c]]
+                server = _server(served)
+                raise AssertionError(
+                    f"no terminal ack within 60 s for {len(missing)} of {len(sent)} IDs; "
+                    f"the server received {server['received'] - received_before} of "
+                    f"{len(bodies) + 3} datagrams (this query included); server counters {server}; first missing: "
+                    + "; ".join(f"{c}: acks {seen.get(c)} body {bodies_of[c][:120]!r}"
+                                for c in missing[:5]))
         time.sleep(0.5)
         drain()
         elapsed = time.monotonic() - t0

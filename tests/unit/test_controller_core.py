@@ -838,3 +838,54 @@ def test_set_port_to_a_device_that_is_not_there_fails_and_keeps_the_link(rig):
         assert rig.terminal(cid) is AckStatus.FAILED
     assert "no device at" in [d for c, s, d in rig.acks if c == "aaaa0002"][-1]
     assert rig.loop.link_up and rig.ex.requested_port is None
+
+
+class _Answers:
+    """The QueryAnswerer the server needs, for a server without a controller behind it."""
+
+    def answer_query(self, name: str, viewer: str | None = None) -> str:
+        return "PONG" if name == "PING" else "ERROR|not here"
+
+    def resolve_tool(self, name: str) -> object:
+        raise ValueError(name)
+
+    def plan_ahead(self, command):
+        return None
+
+    def busy(self) -> bool:
+        return False
+
+
+def test_ack_here_routes_a_safety_command_read_in_the_same_drain():
+    """ACK_HERE then an ID'd STOP, read by one drain of the socket (a busy server): the STOP
+    skips the queue to the safety lane, so ACK_HERE must take effect when it is read, not
+    when its turn to be served comes, or the STOP's acks never reach the socket that asked
+    (the datagram fuzzer saw an ID'd STOP and DISABLE go unanswered under load)."""
+    import socket
+
+    from parolkit.controller.inbox import CommandInbox
+    from parolkit.controller.server import Outbox, StatusStream, UdpServer
+
+    srv_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    srv_sock.bind(("127.0.0.1", 0))
+    client = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    client.bind(("127.0.0.1", 0))
+    try:
+        inbox = CommandInbox()
+        server = UdpServer(srv_sock, model=PAROL6, inbox=inbox, outbox=Outbox(srv_sock),
+                           stream=StatusStream(srv_sock), answerer=_Answers(), ack_port=5002)
+        dest = srv_sock.getsockname()
+        for text in (b"ACK_HERE", b"stop0001|STOP", b"dis00001|DISABLE"):
+            client.sendto(text, dest)
+        wait_until(lambda: server._nowait.recv(65535, socket.MSG_PEEK) is not None, 2.0)
+        time.sleep(0.05)  # all three have arrived
+        server._drain()  # one drain reads all three, as a busy server does; nothing served yet
+        me = client.getsockname()
+        subs = inbox.take_safety()
+        assert [s.command_id for s in subs] == ["stop0001", "dis00001"]
+        for s in subs:
+            assert me in s.route, (s.command_id, s.route)
+            assert s.client == f"{me[0]}:{me[1]}", s.client
+    finally:
+        srv_sock.close()
+        client.close()

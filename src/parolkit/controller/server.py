@@ -3,7 +3,8 @@
 * :class:`UdpServer` has one thread that alternates two jobs.  It **drains** the socket
   (every datagram waiting, without blocking): a safety command (ESTOP, STOP, DISABLE) goes
   straight to the loop's safety lane, so the next frame written carries it however much other
-  traffic is waiting; everything else waits in a bounded lane per source.  Then it **serves**
+  traffic is waiting (an ACK_HERE takes effect as it is read, so such a command's acks
+  already reach the socket that asked); everything else waits in a bounded lane per source.  Then it **serves**
   a few datagrams, one from each source in turn (round-robin: a flooding client cannot starve
   the others): parse (:mod:`parolkit.protocol.commands`), answer queries from the latest
   snapshot, hand commands to the loop (:class:`~parolkit.controller.inbox.CommandInbox`), and
@@ -378,8 +379,10 @@ class UdpServer:
         self.received += 1
         seq = self.received  # receive order
         try:
-            if len(data) <= 80 and self._safety(data, addr, seq):
-                return
+            if len(data) <= 80:
+                if self._safety(data, addr, seq):
+                    return
+                self._ack_here_now(data, addr)
         except Exception:  # nothing a datagram contains may stop the server
             log.exception("safety check of a datagram from %s failed", addr)
         lane = self._lanes.get(addr)
@@ -407,6 +410,19 @@ class UdpServer:
                                          client=str(self.client(addr))))
         self.safety_fast += 1
         return True
+
+    def _ack_here_now(self, data: bytes, addr: Address) -> None:
+        """ACK_HERE takes effect when it is read, like the safety commands: an ID'd STOP read
+        in the same drain skips the queue, and its acks must already reach this socket (the
+        datagram itself still waits its turn for its own ack)."""
+        if b"ACK_HERE" not in data.upper():
+            return
+        try:
+            parsed = parse_datagram(data, self.model)
+        except DatagramError:
+            return
+        if isinstance(parsed.command, C.AckHere):
+            self.ack_here(addr)
 
     def _shed(self, data: bytes, addr: Address, waiting: int) -> None:
         """Refuse a datagram of a source over its share, saying so where the protocol can."""
