@@ -8,6 +8,7 @@ on its way back, random corruption at a fixed seed."""
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 
 import pytest
@@ -122,11 +123,20 @@ def test_corrupted_replies_never_become_the_status_beyond_the_steppers_own_jitte
                  "MOVEJOINT|70|-100|200|-30|30|120|1.5|None"]
         shown: list[StatusFrame] = []
         for i, text in enumerate(moves * 2):
-            r.submit(f"m{i:07d}|{text}")
-            for _ in range(400):
+            cid = f"m{i:07d}"
+            r.submit(f"{cid}|{text}")
+            ran, deadline = 0, time.monotonic() + 30
+            while r.terminal(cid) is None:
+                # ticks with the move running are counted; while the planner thread plans it
+                # the test waits (a loaded machine once ran 400 idle ticks before a plan came,
+                # queued the next moves behind it and saw a quarter of the statuses)
+                assert ran < 600 and time.monotonic() < deadline, (cid, r.acks[-3:])
+                if r.ex.active is None:
+                    time.sleep(0.001)
+                else:
+                    ran += 1
                 shown += _status_changes(r, 1)
-                if r.terminal(f"m{i:07d}") is not None:
-                    break
+            assert r.terminal(cid) is AckStatus.COMPLETED, (cid, r.acks[-3:])
         true = {tuple(rep.positions): rep for _, rep in log.items}
         exact = sum(tuple(s.positions) in true for s in shown)
         for s in shown:
