@@ -889,3 +889,14 @@ def test_ack_here_routes_a_safety_command_read_in_the_same_drain():
     finally:
         srv_sock.close()
         client.close()
+
+
+def test_the_scheduling_shows_as_soon_as_the_tick_thread_sets_it_even_in_a_young_cached_view():
+    """GET_STATUS right after the link came up said SCHED=not started: its loop view was a
+    cached one (up to 0.25 s old) made before the tick thread set its scheduling."""
+    from parolkit.controller.stats import LoopMetrics
+
+    m = LoopMetrics(RATE)
+    assert m.view(max_age_s=10.0, now=1.0).scheduling == "not started"
+    m.scheduling = "fifo:10"
+    assert m.view(max_age_s=10.0, now=1.01).scheduling == "fifo:10"

@@ -120,11 +120,24 @@ class LoopMetrics:
 
     def __init__(self, rate_hz: float) -> None:
         self.rate_hz = rate_hz
-        #: set once by the tick thread (not reset: it does not change during a run)
-        self.scheduling = "not started"
         self._lock = threading.Lock()
         self._cache: tuple[float, LoopStatsView] | None = None
+        self._scheduling = "not started"
         self.reset()
+
+    @property
+    def scheduling(self) -> str:
+        """The tick thread's scheduling, set once when it starts (not reset: it does not change
+        during a run)."""
+        return self._scheduling
+
+    @scheduling.setter
+    def scheduling(self, value: str) -> None:
+        # a view cached before the tick thread started would say "not started" for up to
+        # max_age_s after it had (GET_STATUS right after the link came up did)
+        with self._lock:
+            self._scheduling = value
+            self._cache = None
 
     def reset(self) -> None:
         with self._lock:
@@ -180,5 +193,5 @@ class LoopMetrics:
                 unanswered_max=self.unanswered_max,
                 scheduling=self.scheduling,
             )
-        self._cache = (t, v)
+            self._cache = (t, v)  # under the lock: a new scheduling never meets a stale cache
         return v
