@@ -119,6 +119,14 @@ def test_readouts_hold_still_when_estop_latches(ready, browser, width):
               '[data-testid^=angle-], [data-testid^=speed-], [data-testid^=pose-], [data-testid^=io-]')]
             .filter(e => e.scrollWidth > e.clientWidth + 1).map(e => e.dataset.testid)""")
         assert clipped == [], f"readouts cut off: {clipped}"
+        # a live value that gains a digit does not move its neighbours either (the board's
+        # timing once went from 10.xx to 7.xx ms between the two looks above at 390 px)
+        widths = page.evaluate("""() => {
+            const e = document.querySelector('[data-testid=board-timing]'), was = e.textContent, w = [];
+            for (const t of ['board 7.03 ms', 'board 10.23 ms', 'board n/a']) {
+                e.textContent = t; w.push(e.getBoundingClientRect().width); }
+            e.textContent = was; return w; }""")
+        assert max(widths) - min(widths) <= 1.0, f"the board timing readout's width follows its value: {widths}"
     finally:
         recover(page)
         page.close()

@@ -86,7 +86,7 @@ class Readouts:
             self.error_label = ui.label("no errors").classes("text-xs pk-muted pk-errors") \
                 .props("data-testid=error-bits")
             with ui.element("div").classes("pk-stats pk-muted pk-mono"):
-                self.timing_label = ui.label("board —").props("data-testid=board-timing")
+                self.timing_label = ui.label("board —").classes("pk-timing").props("data-testid=board-timing")
                 self.loop_label = ui.label("loop —").props("data-testid=loop-stats")
                 self.queue_label = ui.label("queue —").props("data-testid=queue")
             ui.label("Log").classes("pk-title")
