@@ -177,7 +177,8 @@ def _check_samples(
 def _slower(move: JointPathMove, ratio: float, scaled: str) -> str:
     """What to do about a path ``ratio`` times over a speed (or sqrt of an acceleration) limit."""
     last = validate.min_duration_for_speed(move.times_s[-1], ratio)
-    return f"multiply {scaled} by at least {ratio:.2f} (the last point at t >= {last:.2f} s)"
+    factor = math.ceil(ratio * 100.0 - 1e-6) / 100.0  # rounded up: 1.001 is "at least 1.01", not 1.00
+    return f"multiply {scaled} by at least {factor:.2f} (the last point at t >= {last:.2f} s)"
 
 
 def _at_segment(
