@@ -117,10 +117,8 @@ def plan_joint_path(move: JointPathMove, start: NDArray[np.float64], model: Robo
     knots = np.vstack([start[None, :], points])  # deg, knot 0 = the start
     knot_s = ticks / rate
     given = move.velocities_deg_s is not None
-    if move.velocities_deg_s is not None:
-        vel = np.vstack([np.zeros((1, 6)), np.asarray(move.velocities_deg_s, dtype=float)])
-    else:
-        vel = spline_velocities(knot_s, knots)
+    vel = (np.vstack([np.zeros((1, 6)), np.asarray(move.velocities_deg_s, dtype=float)]) if given
+           else spline_velocities(knot_s, knots))
     n_samples = int(ticks[-1])
     tick = np.arange(1, n_samples + 1)
     seg = np.searchsorted(ticks, tick, side="left") - 1  # sample at `tick` lies in (ticks[seg], ticks[seg + 1]]
@@ -155,23 +153,23 @@ def _check_samples(
             validate.check_speeds(move.name, ticks[1:] / rate, given[1:] * spd, model, limits=limits)
         except PlanningError as exc:
             ratio = float(np.max(np.abs(given * spd).max(axis=0) / limits.array))
-            raise _at_segment(move, exc, t, seg, ticks, rate, "too fast", _slower(move, ratio, scaled)) from None
+            raise _at_segment(move, exc, t, seg, ticks, "too fast", _slower(move, ratio, scaled)) from None
     try:
         validate.check_positions(move.name, t, steps, model)
     except PlanningError as exc:
-        raise _at_segment(move, exc, t, seg, ticks, rate, "the path leaves the joint range",
-                          "the spline overshoots between the points: add a point there or keep the points "
-                          "further from the limit") from None
+        raise _at_segment(move, exc, t, seg, ticks, "the path leaves the joint range",
+                          "the cubic overshoots between the points: add a point there, keep the points "
+                          "further from the limit or give velocities") from None
     try:
         validate.check_speeds(move.name, t, sp_f, model, limits=limits)
     except PlanningError as exc:
         ratio = float(np.max(np.abs(sp_f).max(axis=0) / limits.array))
-        raise _at_segment(move, exc, t, seg, ticks, rate, "too fast", _slower(move, ratio, scaled)) from None
+        raise _at_segment(move, exc, t, seg, ticks, "too fast", _slower(move, ratio, scaled)) from None
     try:
         validate.check_accels(move.name, t, sp_f, model, rate)
     except PlanningError as exc:
         ratio = math.sqrt(float(np.max(validate.peak_accels(sp_f, rate) / validate.model_arrays(model).amax)))
-        raise _at_segment(move, exc, t, seg, ticks, rate, "too abrupt", _slower(move, ratio, scaled)) from None
+        raise _at_segment(move, exc, t, seg, ticks, "too abrupt", _slower(move, ratio, scaled)) from None
 
 
 def _slower(move: JointPathMove, ratio: float, scaled: str) -> str:
@@ -183,7 +181,7 @@ def _slower(move: JointPathMove, ratio: float, scaled: str) -> str:
 
 def _at_segment(
     move: JointPathMove, exc: PlanningError, t: NDArray[np.float64], seg: NDArray[np.int64],
-    ticks: NDArray[np.int64], rate: float, what: str, hint: str,
+    ticks: NDArray[np.int64], what: str, hint: str,
 ) -> PlanningError:
     """``exc`` (from a validate check, naming the sample time, joint, value and limit) again,
     naming where on the path: at point k when the sample is a point's, else between the two
