@@ -33,7 +33,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from parolkit.errors import ParolkitValueError
 
@@ -46,6 +46,8 @@ __all__ = [
     "Timing",
     "CartAxis",
     "JointMove",
+    "JointPathMove",
+    "MAX_PATH_POINTS",
     "PoseMove",
     "CartMove",
     "CartRelTRFMove",
@@ -69,6 +71,9 @@ MAX_DURATION_S = 3600.0
 #: the square of 1e-300 s is 0.0 in floating point, and no move lasts less than a tick anyway;
 #: durations from here up to a tick are refused by the planner naming the shortest that fits)
 MIN_DURATION_S = 1e-9
+#: Most points a :class:`JointPathMove` may carry (one datagram holds 200 points with their
+#: velocities in full float precision, under the protocol's datagram cap)
+MAX_PATH_POINTS = 200
 
 
 def _word(value: object) -> object:
@@ -592,6 +597,94 @@ class CartJog:
 
 
 # ---------------------------------------------------------------------------------------------
+# a timed joint-space path (MOVEJOINTPATH, the ROS 2 bridge's JointTrajectory)
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class JointPathMove:
+    """MoveJointPath: pass through ``points_deg`` (J1..J6, degrees) at ``times_s`` (s from the
+    start of the move), played as ONE planned trajectory (no stop at the points).
+
+    The path starts at the joints' position when the move starts (time 0, at rest) and ends at
+    rest on the last point.  ``times_s``: one per point, > 0 and strictly increasing, each at
+    most :data:`MAX_DURATION_S`.  ``velocities_deg_s`` (deg/s): None (the planner chooses them:
+    a smooth C2 spline) or one 6-vector per point, the last all zeros (the path ends at rest).
+    At most :data:`MAX_PATH_POINTS` points.  Always position-tracked (board 156): each point
+    is commanded exactly on its tick.  Joint ranges, speeds and accelerations are the
+    planner's to check (:func:`parolkit.motion.plan`): they depend on the robot model.
+    """
+
+    points_deg: Sequence[Sequence[float]]
+    times_s: Sequence[float]
+    velocities_deg_s: Sequence[Sequence[float]] | None = None
+
+    name = "MoveJointPath"
+
+    def __post_init__(self) -> None:
+        points = _path_points(self.points_deg)
+        object.__setattr__(self, "points_deg", points)
+        object.__setattr__(self, "times_s", _path_times(self.times_s, len(points)))
+        if self.velocities_deg_s is not None:
+            object.__setattr__(self, "velocities_deg_s", _path_velocities(self.velocities_deg_s, len(points)))
+
+    @property
+    def duration_s(self) -> float:
+        """Time of the last point (s): how long the move lasts."""
+        return self.times_s[-1]
+
+    @property
+    def target_deg(self) -> tuple[float, ...]:
+        """The last point (deg): where the move ends."""
+        return tuple(self.points_deg[-1])
+
+
+def _listed(values: object, name: str, what: str) -> list[Any]:
+    """``values`` as a list, or an error naming the field (a str is not a list of numbers)."""
+    if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
+        raise ParolkitValueError(f"{name} must be a list of {what}, got {values!r}")
+    return list(values)
+
+
+def _path_points(values: object) -> tuple[tuple[float, ...], ...]:
+    seq = _listed(values, "points_deg", "joint positions (6 numbers each, deg)")
+    if not 1 <= len(seq) <= MAX_PATH_POINTS:
+        raise ParolkitValueError(f"points_deg must hold 1..{MAX_PATH_POINTS} points, got {len(seq)}")
+    return tuple(_vec(p, 6, f"points_deg[{k}]") for k, p in enumerate(seq))
+
+
+def _path_times(values: object, n: int) -> tuple[float, ...]:
+    seq = _listed(values, "times_s", "times (s)")
+    if len(seq) != n:
+        raise ParolkitValueError(f"times_s must hold one time per point ({n}), got {len(seq)}")
+    times: list[float] = []
+    for k, v in enumerate(seq):
+        t = _num(v, f"times_s[{k}]")
+        if not 0.0 < t <= MAX_DURATION_S:
+            raise ParolkitValueError(f"times_s[{k}] must be in (0, {MAX_DURATION_S:g}] s, got {v!r}")
+        if times and t <= times[-1]:
+            raise ParolkitValueError(
+                f"times_s[{k}] = {t:g} s must be greater than times_s[{k - 1}] = {times[-1]:g} s "
+                f"(times strictly increasing)")
+        times.append(t)
+    return tuple(times)
+
+
+def _path_velocities(values: object, n: int) -> tuple[tuple[float, ...], ...]:
+    seq = _listed(values, "velocities_deg_s", "joint velocities (6 numbers each, deg/s)")
+    if len(seq) != n:
+        raise ParolkitValueError(f"velocities_deg_s must hold one 6-vector per point ({n}), got {len(seq)}")
+    vel = tuple(_vec(v, 6, f"velocities_deg_s[{k}]") for k, v in enumerate(seq))
+    last = vel[-1]
+    if any(v != 0.0 for v in last):
+        j = next(i for i, v in enumerate(last) if v != 0.0)
+        raise ParolkitValueError(
+            f"velocities_deg_s[{n - 1}][{j}] must be 0 deg/s (the path ends at rest on its last point), "
+            f"got {last[j]!r}")
+    return vel
+
+
+# ---------------------------------------------------------------------------------------------
 # smooth paths (mirroring the UDP SMOOTH_* arguments)
 # ---------------------------------------------------------------------------------------------
 
@@ -881,6 +974,6 @@ class BlendMove:
 
 #: Every move :func:`parolkit.motion.plan` accepts.
 Move = (
-    JointMove | PoseMove | CartMove | CartRelTRFMove | SpeedJointMove | JointJog | CartJog
+    JointMove | JointPathMove | PoseMove | CartMove | CartRelTRFMove | SpeedJointMove | JointJog | CartJog
     | CircleMove | ArcCenterMove | ArcParamMove | HelixMove | SplineMove | BlendMove
 )

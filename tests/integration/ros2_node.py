@@ -4,7 +4,7 @@ Driven by tests/integration/test_ros2.py through stdin/stdout, one JSON object p
 
     {"cmd": "description"}                       -> {"urdf": "<robot ...>"}
     {"cmd": "joint_states", "n": 20}             -> {"msgs": [{"name", "position", "velocity", "stamp"}...]}
-    {"cmd": "publish", "names": [...], "points": [[t, [q...]], ...]}   -> {"ok": true}
+    {"cmd": "publish", "names": [...], "points": [[t, [q...]] or [t, [q...], [v...]], ...]}   -> {"ok": true}
     {"cmd": "event", "timeout": 10}              -> {"event": "refused: ..."} (next parolkit/events)
     {"cmd": "quit"}
 
@@ -86,9 +86,11 @@ def main() -> None:
                        and bool(status) and status[-1]["trajectory_publishers"] > 0, 30)
             msg = JointTrajectory()
             msg.joint_names = req["names"]
-            for t, q in req["points"]:
+            for t, q, *vel in req["points"]:
                 p = JointTrajectoryPoint()
                 p.positions = [float(v) for v in q]
+                if vel:
+                    p.velocities = [float(v) for v in vel[0]]
                 p.time_from_start = Duration(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)))
                 msg.points.append(p)
             events.clear()

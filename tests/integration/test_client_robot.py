@@ -7,6 +7,7 @@ tests leave the robot idle and enabled for the next one.
 from __future__ import annotations
 
 import asyncio
+import math
 import socket
 import time
 
@@ -62,6 +63,22 @@ def test_move_joints_waits_until_the_robot_is_at_the_target(robot):
     assert robot.angles() == pytest.approx(target, abs=0.02)
     robot.move_joints(STANDBY, speed=80)
     assert robot.status().angles == pytest.approx(STANDBY, abs=0.02)
+
+
+def test_a_200_point_path_with_velocities_goes_in_one_datagram_and_ends_on_its_last_point(robot):
+    """MOVEJOINTPATH at its largest (200 points, velocities, full float precision: ~50 KB) through
+    the real server: one command, COMPLETED on the last point."""
+    start = robot.angles()
+    amp = [5.0, -3.0, 4.0, 6.0, 5.0, -7.0]  # deg: out and back, q = start + amp (1 - cos(2 pi t / T)) / 2
+    period = 2.0
+    times = [period * (k + 1) / 200 for k in range(200)]
+    points = [[q0 + a * (1 - math.cos(2 * math.pi * t / period)) / 2 for q0, a in zip(start, amp)] for t in times]
+    points[-1] = list(start)
+    velocities = [[a * math.pi / period * math.sin(2 * math.pi * t / period) for a in amp] for t in times]
+    velocities[-1] = [0.0] * 6
+    res = robot.move_joint_path(points, times, velocities, timeout=20)
+    assert res.status is AckStatus.COMPLETED and res.command == "MOVEJOINTPATH"
+    assert robot.angles() == pytest.approx(start, abs=0.02)
 
 
 def test_unreachable_pose_fails_with_the_controllers_ik_reason(robot):

@@ -221,6 +221,10 @@ BUILDS = [
     (lambda: robot_api.build_delay(0.2), "Delay"),
     (lambda: robot_api.build_home(), "Home"),
     (lambda: robot_api.build_speed_joint([1, 2, 3, 4, 5, 6], 1), "SpeedJoint"),
+    (lambda: robot_api.build_move_joint_path([[90, -90, 180, 0, 0, 180], [95.5, -90, 180, 0, 0, 180]], [1, 2.5]),
+     "MoveJointPath"),
+    (lambda: robot_api.build_move_joint_path([[90, -90, 180, 0, 0, 180], [95.5, -90, 180, 0, 0, 180]], [1, 2.5],
+                                             [[3, 0, 0, 0, 0, 0], [0] * 6]), "MoveJointPath"),
     (lambda: robot_api.build_wait_input(1, 1, 2.5), "WaitInput"),
     (lambda: robot_api.build_smooth_circle([0, 250, 200], 30, "XY", "WRF", None, 4), "SmoothCircle"),
     (lambda: robot_api.build_smooth_arc_center([10, 250, 200, -90, 0, -90], [0, 250, 200],
@@ -260,6 +264,40 @@ def test_move_joint_datagram_keeps_the_original_field_order_and_the_values():
     assert text == "MOVEJOINT|90|-90|160|12|12|180.25|5.5|None"
     cmd = parse_datagram(text.encode()).command
     assert tuple(cmd.move.target_deg) == (90, -90, 160, 12, 12, 180.25)
+
+
+def test_move_joint_path_datagram_is_each_point_s_time_angles_and_velocities_in_order():
+    from parolkit.protocol.commands import parse_datagram
+
+    points = [[90, -90, 180, 0, 0, 180], [95.5, -90, 180, 0, 0, 180.25]]
+    assert robot_api.build_move_joint_path(points, [1, 2.5]) == \
+        "MOVEJOINTPATH|2|1|90|-90|180|0|0|180|2.5|95.5|-90|180|0|0|180.25"
+    text = robot_api.build_move_joint_path(points, [1, 2.5], [[3, 0, 0, 0, 0, -1.5], [0] * 6])
+    assert text == "MOVEJOINTPATH|2|1|90|-90|180|0|0|180|3|0|0|0|0|-1.5|2.5|95.5|-90|180|0|0|180.25|0|0|0|0|0|0"
+    move = parse_datagram(text.encode()).command.move
+    assert move.points_deg == tuple(tuple(p) for p in points) and move.times_s == (1, 2.5)
+
+
+@pytest.mark.parametrize("call,needle", [
+    (lambda: robot_api.build_move_joint_path([], []), "points must hold 1..200 points, got 0"),
+    (lambda: robot_api.build_move_joint_path([[0] * 6] * 201, [1] * 201), "points must hold 1..200 points, got 201"),
+    (lambda: robot_api.build_move_joint_path("abc", [1]), "points must be a list of joint positions"),
+    (lambda: robot_api.build_move_joint_path([[0] * 5], [1]), "points[0] must have 6 values (J1..J6 in deg), got 5"),
+    (lambda: robot_api.build_move_joint_path([[0] * 6], [1, 2]), "times must have one entry per point (1), got 2"),
+    (lambda: robot_api.build_move_joint_path([[0] * 6], [0]), "times[0] must be > 0 s, got 0"),
+    (lambda: robot_api.build_move_joint_path([[0] * 6] * 2, [2, 1]),
+     "times[1] = 1 s must be greater than times[0] = 2 s (times strictly increasing)"),
+    (lambda: robot_api.build_move_joint_path([[0] * 6], [1], [[0] * 6] * 2),
+     "velocities must have one entry per point (1), got 2"),
+    (lambda: robot_api.build_move_joint_path([[0] * 6], [1], [[0, float("nan"), 0, 0, 0, 0]]),
+     "velocities[0][1] must be a finite number"),
+    (lambda: robot_api.build_move_joint_path([[0] * 6], [1], [[0, 0, 0, 0, 2, 0]]),
+     "velocities[0][4] must be 0 (the path ends at rest on its last point), got 2"),
+])
+def test_move_joint_path_arguments_are_checked_naming_the_argument(call, needle):
+    with pytest.raises(ValueError) as info:
+        call()
+    assert needle in str(info.value)
 
 
 def test_extension_fields_are_only_appended_when_given():
@@ -504,6 +542,14 @@ def test_robot_move_waits_for_completed_and_sends_extension_fields(robot, fake):
                             tracking="position")
     assert res.status is AckStatus.COMPLETED and res.command == "MOVEJOINT"
     assert fake.wait_for("MOVEJOINT")[0] == f"{res.id}|MOVEJOINT|90|-90|180|0|0|180|None|40|20|ruckig|position"
+
+
+def test_robot_move_joint_path_sends_one_movejointpath_and_waits_for_completed(robot, fake):
+    res = robot.move_joint_path([[90, -90, 180, 0, 0, 180], [95, -90, 180, 0, 0, 180]], [1.5, 3])
+    assert res.status is AckStatus.COMPLETED and res.command == "MOVEJOINTPATH"
+    assert fake.wait_for("MOVEJOINTPATH")[0] == f"{res.id}|MOVEJOINTPATH|2|1.5|90|-90|180|0|0|180|3|95|-90|180|0|0|180"
+    with pytest.raises(ParolkitValueError, match=r"times\[0\] must be > 0 s"):
+        robot.move_joint_path([[90, -90, 180, 0, 0, 180]], [0])
 
 
 def test_robot_wait_false_returns_a_handle_after_the_first_ack(robot, fake):

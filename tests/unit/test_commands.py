@@ -40,6 +40,8 @@ VALID = [
     ("SMOOTH_HELIX|0,250,150|20|5|15|WRF|CURRENT|DURATION|4|1", C.SmoothHelix),
     ("SMOOTH_BLEND|2|0.5|WRF|CURRENT|DURATION|None|LINE|0,250,150,-90,0,-90|1||"
      "ARC|10,250,150,-90,0,-90|5,250,150|1|0", C.SmoothBlend),
+    ("MOVEJOINTPATH|2|1.5|95|-90|170|0|0|180|3|100|-85|160|5|5|170", C.MoveJointPath),
+    ("MOVEJOINTPATH|2|1.5|95|-90|170|0|0|180|0|0|-3|0|0|3|4|100|-85|160|5|5|170|0|0|0|0|0|0", C.MoveJointPath),
     ("STOP", C.Stop),
     ("ENABLE", C.Enable),
     ("DISABLE", C.Disable),
@@ -77,6 +79,28 @@ def test_movejoint_fields_keep_edge_units_and_extensions():
     assert m.profile is moves.Profile.TRAP and m.tracking is moves.Tracking.SPEED
 
 
+def test_movejointpath_carries_points_times_and_velocities_in_edge_units():
+    m = parse("1a2b3c4d|movejointpath|2|1.5|95|-90|170|0|0|180|0|0|-3|0|0|3|"
+              "4|100|-85|160|5|5|170|0|0|0|0|0|0").command.move
+    assert isinstance(m, moves.JointPathMove)
+    assert m.points_deg == ((95, -90, 170, 0, 0, 180), (100, -85, 160, 5, 5, 170))
+    assert m.times_s == (1.5, 4.0)
+    assert m.velocities_deg_s == ((0, 0, -3, 0, 0, 3), (0,) * 6)
+    assert parse("MOVEJOINTPATH|1|2|95|-90|170|0|0|180").command.move.velocities_deg_s is None
+
+
+def test_a_movejointpath_of_200_points_with_velocities_fits_in_one_datagram():
+    fields = ["MOVEJOINTPATH", "200"]
+    for k in range(200):
+        angles = [90.123456789012345, -90.12345678901234, 170.12345678901234, 0.123456789012345678,
+                  -0.123456789012345678, 170.12345678901234]
+        fields += [repr(0.01 * (k + 1) + 1e-13), *[repr(a - 1e-3 * k) for a in angles],
+                   *([repr(-12.345678901234567)] * 6 if k < 199 else ["0"] * 6)]
+    text = "|".join(fields)
+    assert len(text) <= C.MAX_DATAGRAM_BYTES
+    assert len(parse(text).command.move.points_deg) == 200
+
+
 def test_jog_index_rule_maps_6_to_11_to_negative_directions():
     assert parse("JOG|7|50|1|None").command.move.joints == (1,)
     assert parse("JOG|7|50|1|None").command.move.directions == (-1,)
@@ -94,7 +118,8 @@ def test_blend_segments_are_split_on_empty_fields():
 def test_every_motion_command_carries_the_move_the_planner_gets():
     """The executor plans ``command.move`` as it is: no field-by-field conversion."""
     expected = {
-        C.MoveJoint: moves.JointMove, C.MovePose: moves.PoseMove, C.MoveCart: moves.CartMove,
+        C.MoveJoint: moves.JointMove, C.MoveJointPath: moves.JointPathMove, C.MovePose: moves.PoseMove,
+        C.MoveCart: moves.CartMove,
         C.MoveCartRelTRF: moves.CartRelTRFMove, C.Jog: moves.JointJog, C.MultiJog: moves.JointJog,
         C.CartJogCommand: moves.CartJog, C.SpeedJoint: moves.SpeedJointMove,
         C.SmoothCircle: moves.CircleMove, C.SmoothArcCenter: moves.ArcCenterMove,
@@ -144,6 +169,23 @@ INVALID = [
     ("MOVEJOINT|90|-90|inf|12|12|180|1|None", "must be a decimal number"),
     ("MOVEJOINT|90|-90|160|12|12|1|None", "MOVEJOINT takes 8..11 arguments, got 7"),
     ("MOVEJOINT|90|-90|160|12|12|180|1|None|50|cubic", "profile must be one of poly|trap|ruckig|toppra"),
+    ("MOVEJOINTPATH", "MOVEJOINTPATH takes n|time|j1..j6[|v1..v6]|... (n = 1..200 points), got no arguments"),
+    ("MOVEJOINTPATH|0", "MOVEJOINTPATH: n (points) = 0 is out of range 1..200"),
+    ("MOVEJOINTPATH|201", "n (points) = 201 is out of range 1..200"),
+    ("MOVEJOINTPATH|two|1|90|-90|180|0|0|180", "n (points) must be an integer in 1..200, got 'two'"),
+    ("MOVEJOINTPATH|2|1|90|-90|180|0|0|180",
+     "n = 2 points announced, 7 fields given (expected 14: time|j1..j6 per point, or 26: time|j1..j6|v1..v6"),
+    ("MOVEJOINTPATH|1|0|90|-90|180|0|0|180", "point 0 time (s) = 0 s is out of range [1e-09, 3600] s"),
+    ("MOVEJOINTPATH|1|4000|90|-90|180|0|0|180", "point 0 time (s) = 4000 s is out of range [1e-09, 3600] s"),
+    ("MOVEJOINTPATH|2|1|90|-90|180|0|0|180|2|90|-90|180|0|x|180", "point 1 J5 angle (deg) must be a decimal number"),
+    ("MOVEJOINTPATH|2|1|90|-90|180|0|0|180|2|190|-90|180|0|0|180",
+     "point 1 J1 angle = 190 deg is out of range [-123.0469, 123.0469] deg"),
+    ("MOVEJOINTPATH|1|1|90|-90|180|0|0|180|0|0|0|0|999|0",
+     "point 0 J5 velocity (deg/s) = 999 deg/s is out of range [-309.375, 309.375] deg/s"),
+    ("MOVEJOINTPATH|2|2|90|-90|180|0|0|180|1|95|-90|180|0|0|180",
+     "MOVEJOINTPATH: times_s[1] = 1 s must be greater than times_s[0] = 2 s (times strictly increasing)"),
+    ("MOVEJOINTPATH|1|1|90|-90|180|0|0|180|0|0|0|0|0|1",
+     "MOVEJOINTPATH: velocities_deg_s[0][5] must be 0 deg/s (the path ends at rest on its last point), got 1.0"),
     ("MOVEPOSE|7|250|200|-100|0|-90|None|150", "speed% = 150 % is out of range (0, 100] %"),
     ("MOVECART|20000|250|200|-100|0|-90|1|None", "x = 20000 mm is out of range"),
     ("JOG|12|50|1|None", "joint_index = 12 is out of range 0..11"),

@@ -379,6 +379,86 @@ def test_plan_failure_is_reported_as_failed_when_its_turn_comes(rig):
     assert rig.terminal("aaaa0001") is AckStatus.FAILED
 
 
+# ------------------------------------------------------------------- timed joint paths
+
+PATH_OFFSETS = [[8, -5, 6, 10, 8, -12], [15, -8, 10, 5, 15, -20], [20, -10, 12, 15, 20, -25]]
+PATH_TIMES = [1.5, 3.0, 4.0]
+
+
+def _path_datagram(cid: str, start: np.ndarray, offsets=PATH_OFFSETS, times=PATH_TIMES) -> tuple[str, list]:
+    points = [start + np.array(o, dtype=float) for o in offsets]
+    fields = [f"{cid}|MOVEJOINTPATH", str(len(points))]
+    for t, q in zip(times, points):
+        fields += [repr(float(t)), *(repr(float(v)) for v in q)]
+    return "|".join(fields), points
+
+
+def _run_logged(rig: Rig, cid: str) -> list[tuple[CommandFrame | None, np.ndarray]]:
+    """Tick until ``cid`` ends: per tick, the frame sent and the board's steps the tick read."""
+    log = []
+    while rig.terminal(cid) is None:
+        n = len(rig.frames)
+        rig.tick()
+        log.append((rig.frames[-1] if len(rig.frames) > n else None, np.asarray(rig.loop.status.positions)))
+        assert len(log) < 1000, rig.acks[-3:]
+        if rig.ex.active is None:
+            time.sleep(0.001)  # let the planner thread run
+    return log
+
+
+def test_a_three_point_path_commands_each_point_on_its_tick_and_the_board_ends_on_time(rig):
+    """Issue 17's acceptance, tick by tick: a 3-point path over 4 s is one command whose last
+    sample goes out 400 ticks after the start, and the board is within 1 step of the last point
+    on that tick (the points are passed, not stopped at)."""
+    start = rig.angles.copy()
+    text, points = _path_datagram("aaaa0001", start)
+    rig.submit(text)
+    log = _run_logged(rig, "aaaa0001")
+    assert rig.statuses("aaaa0001") == [AckStatus.QUEUED, AckStatus.EXECUTING, AckStatus.COMPLETED]
+    first = next(i for i, (f, _) in enumerate(log) if f is not None and f.command == BoardCommand.GOTO)
+    spd = PAROL6.steps_per_deg
+    for q, t in zip(points, PATH_TIMES):  # sample k (from 1) goes out k - 1 ticks after the first
+        frame, _ = log[first + round(t * RATE) - 1]
+        assert frame.command == BoardCommand.GOTO
+        assert np.array_equal(frame.positions, np.rint(q * spd)), t
+    end = first + round(PATH_TIMES[-1] * RATE) - 1
+    target = np.rint(points[-1] * spd)
+    assert any(log[end - 1][0].speeds)  # still moving one tick before its end
+    assert log[end][0].speeds == (0, 0, 0, 0, 0, 0)
+    assert np.abs(log[end][1] - target).max() <= 1  # the board, as read on the last sample's tick
+    # between the points the path does not stop: every frame before the end moves
+    assert all(any(f.speeds) for f, _ in log[first + 5:end - 5])
+    assert np.abs(rig.angles - points[-1]).max() < 0.01
+
+
+def test_a_path_is_planned_from_where_the_previous_command_ends_and_stop_cancels_it(rig):
+    rig.submit("aaaa0001|MOVEJOINT|80|-90|180|0|0|180|0.5|None")
+    text, points = _path_datagram("aaaa0002", np.array([80.0, -90.0, 180.0, 0.0, 0.0, 180.0]))
+    rig.submit(text)
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0002"))
+    rig.tick(100)
+    rig.send("STOP")
+    rig.tick(3)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
+    assert rig.terminal("aaaa0002") is AckStatus.CANCELLED
+    held = rig.angles.copy()
+    rig.tick(30)
+    assert np.allclose(rig.angles, held, atol=0.5) and rig.frames[-1].command == BoardCommand.IDLE
+
+
+def test_a_path_over_a_limit_fails_naming_the_joint_and_the_point_and_nothing_moves(rig):
+    before = rig.angles.copy()
+    text, _ = _path_datagram("aaaa0001", before, [[-5, 0, 0, 0, 0, 0], [-45, 0, 0, 0, 0, 0]], [1.0, 1.3])
+    rig.submit(text)
+    rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
+    assert rig.terminal("aaaa0001") is AckStatus.FAILED
+    details = [d for c, st, d in rig.acks if c == "aaaa0001" and st is AckStatus.FAILED][0]
+    assert "MoveJointPath refused" in details and "too fast between the start and point 0" in details
+    assert "J1 speed" in details
+    assert not any(f.command == BoardCommand.GOTO for f in rig.frames)
+    assert np.allclose(rig.angles, before)
+
+
 # ---------------------------------------------------------------------------------- guard
 
 

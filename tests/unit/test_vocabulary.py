@@ -53,6 +53,10 @@ def test_robot_api_blend_segment_types_are_the_protocols():
     assert tuple(robot_api.SEGMENT_TYPES) == tuple(protocol.BLEND_SEGMENT_KINDS)
 
 
+def test_robot_api_path_point_limit_is_the_moves():
+    assert robot_api.MAX_PATH_POINTS == moves.MAX_PATH_POINTS
+
+
 def test_robot_api_terminal_statuses_are_the_protocols_terminal_acks():
     assert robot_api.TERMINAL_STATUSES == {s.value for s in protocol.AckStatus if s.terminal}
 

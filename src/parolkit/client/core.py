@@ -759,6 +759,16 @@ class RobotCommands:
         return self._command(_check(wire.build_speed_joint, speeds_deg_s, duration), wait,
                              _opt_timeout(timeout))
 
+    def move_joint_path(self, points: Sequence[Sequence[float]], times: Sequence[float],
+                        velocities: Sequence[Sequence[float]] | None = None, wait: bool = True,
+                        timeout: float | None = None) -> Any:
+        """Pass through ``points`` (each J1..J6 in deg) at ``times`` (s from the start, > 0 and
+        increasing) as ONE trajectory from where the previous command ends, at rest at both
+        ends; ``velocities`` (deg/s per point, the last zeros) or None for the controller's C2
+        spline.  Each point is commanded on tick ``round(time * rate)`` (``MOVEJOINTPATH``)."""
+        return self._command(_check(wire.build_move_joint_path, points, times, velocities), wait,
+                             _opt_timeout(timeout))
+
     def home(self, wait: bool = True, timeout: float | None = None) -> Any:
         """Run the board's homing sequence (completes when every joint is homed)."""
         return self._command(wire.build_home(), wait, _opt_timeout(timeout))

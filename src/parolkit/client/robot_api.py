@@ -86,13 +86,13 @@ __all__ = [
     "parse_numbers", "parse_status_fields",
     "build_move_joint", "build_move_pose", "build_move_cart", "build_move_cart_rel_trf",
     "build_jog", "build_multijog", "build_cartjog", "build_pneumatic_gripper",
-    "build_electric_gripper", "build_delay", "build_home", "build_speed_joint",
+    "build_electric_gripper", "build_delay", "build_home", "build_speed_joint", "build_move_joint_path",
     "build_wait_input", "build_smooth_circle", "build_smooth_arc_center",
     "build_smooth_arc_param", "build_smooth_spline", "build_smooth_helix", "build_smooth_blend",
     "build_stream", "build_set_tool", "build_set_port", "build_subscribe", "build_unsubscribe",
     "build_control", "take_control", "release_control", "get_control",
     "CARTESIAN_AXES", "FRAMES", "PLANES", "PROFILES", "TRACKING_MODES", "TIMING_MODES",
-    "SEGMENT_TYPES",
+    "SEGMENT_TYPES", "MAX_PATH_POINTS",
 ]
 
 #: Controller address.
@@ -124,6 +124,8 @@ TRACKING_MODES = ("position", "speed")
 TIMING_MODES = ("DURATION", "SPEED")
 #: SMOOTH_BLEND segment types (protocol ``BLEND_SEGMENT_KINDS``).
 SEGMENT_TYPES = ("LINE", "CIRCLE", "ARC", "SPLINE")
+#: Most points one MOVEJOINTPATH carries (``parolkit.moves.MAX_PATH_POINTS``).
+MAX_PATH_POINTS = 200
 
 #: Gripper ranges accepted by the SSG-48 as the controller drives it.
 GRIPPER_POSITION_RANGE = (0, 255)
@@ -461,6 +463,48 @@ def build_speed_joint(speeds_deg_s: Any, duration: Any) -> str:
     """**(ext)** ``SPEEDJOINT|s1..s6|duration``: constant joint speeds (deg/s) for duration s."""
     s = _numbers(speeds_deg_s, 6, "speeds_deg_s", " (J1..J6 in deg/s)")
     return _join("SPEEDJOINT", *s, _positive(duration, "duration"))
+
+
+def _path_list(values: Any, name: str, n: int, what: str) -> List[Any]:
+    """``values`` as a list of ``n`` entries (one per path point), or ValueError naming ``name``."""
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise ValueError(f"{name} must be a list of {what}, got {values!r}")
+    seq = list(values)
+    if len(seq) != n:
+        raise ValueError(f"{name} must have one entry per point ({n}), got {len(seq)}")
+    return seq
+
+
+def build_move_joint_path(points: Any, times: Any, velocities: Any = None) -> str:
+    """**(ext)** ``MOVEJOINTPATH|n|t|j1..j6|...`` (7 fields per point) or, with ``velocities``,
+    ``MOVEJOINTPATH|n|t|j1..j6|v1..v6|...`` (13 fields per point): pass through ``points``
+    (J1..J6 in deg) at ``times`` (s from the start of the move, > 0 and increasing) as one
+    trajectory, at rest at both ends; ``velocities`` (deg/s, one 6-vector per point, the last
+    all zeros) or None for a smooth spline chosen by the controller."""
+    if isinstance(points, (str, bytes)) or not hasattr(points, "__iter__"):
+        raise ValueError(f"points must be a list of joint positions (6 numbers each, deg), got {points!r}")
+    pts = list(points)
+    if not 1 <= len(pts) <= MAX_PATH_POINTS:
+        raise ValueError(f"points must hold 1..{MAX_PATH_POINTS} points, got {len(pts)}")
+    n = len(pts)
+    ps = [_numbers(p, 6, f"points[{k}]", " (J1..J6 in deg)") for k, p in enumerate(pts)]
+    ts = [_positive(t, f"times[{k}]") for k, t in enumerate(_path_list(times, "times", n, "times (s)"))]
+    for k in range(1, n):
+        if ts[k] <= ts[k - 1]:
+            raise ValueError(f"times[{k}] = {ts[k]!r} s must be greater than times[{k - 1}] = {ts[k - 1]!r} s "
+                             "(times strictly increasing)")
+    vs: List[List[float]] = []
+    if velocities is not None:
+        raw = _path_list(velocities, "velocities", n, "joint velocities (6 numbers each, deg/s)")
+        vs = [_numbers(v, 6, f"velocities[{k}]", " (J1..J6 in deg/s)") for k, v in enumerate(raw)]
+        moving = [j for j, v in enumerate(vs[-1]) if v != 0]
+        if moving:
+            raise ValueError(f"velocities[{n - 1}][{moving[0]}] must be 0 (the path ends at rest on its last "
+                             f"point), got {vs[-1][moving[0]]!r}")
+    fields: List[Any] = ["MOVEJOINTPATH", n]
+    for k in range(n):
+        fields += [ts[k], *ps[k], *(vs[k] if vs else [])]
+    return _join(*fields)
 
 
 def build_wait_input(input_number: Any, state: Any, timeout: Any = None) -> str:

@@ -83,7 +83,7 @@ HOME_START_TIMEOUT_S = 0.5
 UNHOMED_JOG_TRAVEL_DEG = 20.0
 
 _TRAJECTORY_COMMANDS = (
-    C.MoveJoint, C.MovePose, C.MoveCart, C.MoveCartRelTRF, C.CartJogCommand, C.SmoothCircle,
+    C.MoveJoint, C.MoveJointPath, C.MovePose, C.MoveCart, C.MoveCartRelTRF, C.CartJogCommand, C.SmoothCircle,
     C.SmoothArcCenter, C.SmoothArcParam, C.SmoothSpline, C.SmoothHelix, C.SmoothBlend,
 )
 _SPEED_COMMANDS = (C.Jog, C.MultiJog, C.SpeedJoint)

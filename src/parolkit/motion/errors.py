@@ -18,6 +18,9 @@ class PlanningError(ParolkitError):
             when the problem is not tied to one sample (e.g. an unreachable target).
         joint: 0-based joint index (0 = J1) or None.
         value: the offending value (unit in ``reason``) or None.
+        point: for a path through points (``MoveJointPath``), the 0-based index of the point
+            the problem belongs to (or of the point that ends the offending segment), else
+            None: a caller that numbers the points otherwise (the ROS 2 bridge) re-labels it.
         reason: what is wrong and, where it helps, what to do.
 
     ``str(err)`` is one complete sentence for a user, e.g. ``"MoveJoint refused at t=0.420 s:
@@ -32,12 +35,14 @@ class PlanningError(ParolkitError):
         time_s: float | None = None,
         joint: int | None = None,
         value: float | None = None,
+        point: int | None = None,
     ) -> None:
         self.move = move
         self.reason = reason
         self.time_s = time_s
         self.joint = joint
         self.value = value
+        self.point = point
         where = f" at t={time_s:.3f} s" if time_s is not None else ""
         text = f"{move} refused{where}: {reason}"
         if not text.endswith("."):

@@ -67,6 +67,7 @@ __all__ = [
     "sample_times",
     "build_trajectory",
     "hold",
+    "check_target",
     "plan_joint_move",
     "plan_pose_move",
     "plan_joint_target",
@@ -156,7 +157,11 @@ def hold(move: Move, start: NDArray[np.float64], target: NDArray[np.float64], mo
                             tracking=tracking, notes=[note], target_deg=target, proven=True)
 
 
-def _check_target(name: str, target: NDArray[np.float64], model: RobotModel, what: str = "target") -> None:
+def check_target(
+    name: str, target: NDArray[np.float64], model: RobotModel, what: str = "target", point: int | None = None,
+) -> None:
+    """Refuse a ``target`` (deg) outside the joint range, naming ``what`` it is (``point``: the
+    index of the path point it is, carried by the :class:`PlanningError`)."""
     ma = validate.model_arrays(model)
     if (target >= ma.safe_lo).all() and (target <= ma.safe_hi).all():
         return
@@ -168,7 +173,7 @@ def _check_target(name: str, target: NDArray[np.float64], model: RobotModel, wha
             name,
             f"{what} {JOINT_NAMES[j]} = {target[j]:.3f} deg is outside the joint range "
             f"{lim[j, 0]:.3f} .. {lim[j, 1]:.3f} deg",
-            joint=j, value=float(target[j]),
+            joint=j, value=float(target[j]), point=point,
         )
 
 
@@ -272,7 +277,7 @@ def plan_joint_target(
     rate: float, default_pct: tuple[float, float],
 ) -> Trajectory:
     name = move.name
-    _check_target(name, target, model)
+    check_target(name, target, model)
     ma = validate.model_arrays(model)
     spd = ma.steps_per_deg
     delta = target - start  # deg

@@ -1,7 +1,8 @@
 """``plan(move, start_deg) -> Trajectory``: the one planning entry point.
 
 Joint-space moves (MoveJoint, MovePose, SpeedJoint, joint jogs) are planned in
-:mod:`parolkit.motion.joint`; Cartesian moves and smooth paths in
+:mod:`parolkit.motion.joint`, timed joint paths (MoveJointPath) in
+:mod:`parolkit.motion.path`; Cartesian moves and smooth paths in
 :mod:`parolkit.motion.cartesian` (imported when first needed: it needs the kinematics).
 The timing rules are in those modules' docstrings and in docs/motion.md.
 """
@@ -26,6 +27,7 @@ from parolkit.motion.joint import (
     plan_pose_move,
     plan_speed_joint,
 )
+from parolkit.motion.path import plan_joint_path
 from parolkit.motion.trajectory import Trajectory
 from parolkit.moves import (
     ArcCenterMove,
@@ -38,6 +40,7 @@ from parolkit.moves import (
     HelixMove,
     JointJog,
     JointMove,
+    JointPathMove,
     PoseMove,
     SpeedJointMove,
     SplineMove,
@@ -107,6 +110,8 @@ def _dispatch(
 ) -> Trajectory:
     if isinstance(move, JointMove):
         return plan_joint_move(move, start, model, rate)
+    if isinstance(move, JointPathMove):
+        return plan_joint_path(move, start, model, rate)
     if isinstance(move, PoseMove):
         return plan_pose_move(move, start, model, tool, rate)
     if isinstance(move, SpeedJointMove):
@@ -114,7 +119,7 @@ def _dispatch(
     if isinstance(move, JointJog):
         return plan_joint_jog(move, start, model, rate)
     if not isinstance(move, _CARTESIAN_MOVES):
-        kinds = (JointMove, PoseMove, SpeedJointMove, JointJog) + _CARTESIAN_MOVES
+        kinds = (JointMove, JointPathMove, PoseMove, SpeedJointMove, JointJog) + _CARTESIAN_MOVES
         raise ParolkitValueError(
             f"move must be one of {', '.join(c.__name__ for c in kinds)}, got {type(move).__name__}"
         )

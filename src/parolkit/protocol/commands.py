@@ -38,6 +38,7 @@ from typing import Any, ClassVar, TypeVar
 from parolkit.errors import ParolkitValueError
 from parolkit.moves import (
     MAX_DURATION_S,
+    MAX_PATH_POINTS,
     MIN_DURATION_S,
     ArcCenterMove,
     ArcParamMove,
@@ -52,6 +53,7 @@ from parolkit.moves import (
     HelixMove,
     JointJog,
     JointMove,
+    JointPathMove,
     LineSegment,
     Plane,
     PoseMove,
@@ -89,6 +91,7 @@ __all__ = [
     "Subscribe",
     "Unsubscribe",
     "MoveJoint",
+    "MoveJointPath",
     "MovePose",
     "MoveCart",
     "MoveCartRelTRF",
@@ -528,6 +531,16 @@ class MoveJoint(_Motion):
 
 
 @dataclass(frozen=True)
+class MoveJointPath(_Motion):
+    """(ext) ``MOVEJOINTPATH``: pass through ``move.points_deg`` at ``move.times_s`` (optionally
+    with ``move.velocities_deg_s``) as ONE planned trajectory, from where the previous command
+    ends; see :mod:`parolkit.motion.path`."""
+
+    move: JointPathMove
+    NAME: ClassVar[str] = "MOVEJOINTPATH"
+
+
+@dataclass(frozen=True)
 class MovePose(_Motion):
     """``MOVEPOSE``: IK at the target pose (mm, deg), joint-space path."""
 
@@ -700,16 +713,26 @@ class Parsed:
 # ---------------------------------------------------------------------------------------------
 
 
-def _joint_angles(args: Sequence[str], model: RobotModel) -> tuple[float, ...]:
-    vals = tuple(_number(a, f"{JOINT_NAMES[i]} angle (deg)") for i, a in enumerate(args[:6]))
+def _joint_angles(args: Sequence[str], model: RobotModel, where: str = "") -> tuple[float, ...]:
+    """Six joint angles (deg) inside the joint ranges; ``where`` prefixes the field names
+    (``"point 2 "``)."""
+    vals = tuple(_number(a, f"{where}{JOINT_NAMES[i]} angle (deg)") for i, a in enumerate(args[:6]))
     lim = model.safe_limits_deg
     for i, v in enumerate(vals):
         lo, hi = float(lim[i, 0]), float(lim[i, 1])
         if not lo <= v <= hi:
             raise DatagramError(
-                f"{JOINT_NAMES[i]} angle = {v:g} deg is out of range [{lo:.4f}, {hi:.4f}] deg"
+                f"{where}{JOINT_NAMES[i]} angle = {v:g} deg is out of range [{lo:.4f}, {hi:.4f}] deg"
             )
     return vals
+
+
+def _joint_speeds(args: Sequence[str], model: RobotModel, where: str = "", what: str = "speed") -> tuple[float, ...]:
+    """Six joint speeds (deg/s), each within +- the joint's maximum speed; the fields are named
+    ``f"{where}{joint} {what} (deg/s)"`` (``"J1 speed (deg/s)"``, ``"point 2 J1 velocity (deg/s)"``)."""
+    mx = model.max_speed_deg_s
+    return tuple(_ranged(a, f"{where}{JOINT_NAMES[i]} {what} (deg/s)", -float(mx[i]), float(mx[i]), unit="deg/s")
+                 for i, a in enumerate(args[:6]))
 
 
 def _zero_is_none(text: str) -> str:
@@ -745,6 +768,33 @@ def _p_movejoint(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "MOVEJOINT", 8, 11)
     duration, speed, accel, profile, tracking = _move_tail(a[6:], with_accel=True)
     return MoveJoint(JointMove(_joint_angles(a, m), duration, speed, accel, profile, tracking))
+
+
+#: MOVEJOINTPATH fields per point: time|j1..j6, or time|j1..j6|v1..v6 with velocities
+_PATH_FIELDS = (7, 13)
+
+
+def _p_movejointpath(a: Sequence[str], m: RobotModel) -> Command:
+    """``n|time|j1..j6|...`` (7 fields per point) or ``n|time|j1..j6|v1..v6|...`` (13 fields per
+    point, velocities at every point); points numbered from 0 in messages, as in the move."""
+    if not a:
+        raise DatagramError(f"MOVEJOINTPATH takes n|time|j1..j6[|v1..v6]|... (n = 1..{MAX_PATH_POINTS} points), "
+                            "got no arguments")
+    n = _integer(a[0], "n (points)", 1, MAX_PATH_POINTS)
+    fields = a[1:]
+    per = next((w for w in _PATH_FIELDS if len(fields) == w * n), None)
+    if per is None:
+        raise DatagramError(
+            f"n = {n} points announced, {len(fields)} fields given (expected {7 * n}: time|j1..j6 per point, "
+            f"or {13 * n}: time|j1..j6|v1..v6 per point)")
+    times, points, velocities = [], [], []
+    for k in range(n):
+        f = fields[per * k: per * (k + 1)]
+        times.append(_duration(f[0], f"point {k} time (s)"))
+        points.append(_joint_angles(f[1:7], m, f"point {k} "))
+        if per == 13:
+            velocities.append(_joint_speeds(f[7:13], m, f"point {k} ", "velocity"))
+    return MoveJointPath(JointPathMove(tuple(points), tuple(times), tuple(velocities) if per == 13 else None))
 
 
 def _p_movepose(a: Sequence[str], m: RobotModel) -> Command:
@@ -846,12 +896,7 @@ def _p_electric(a: Sequence[str], m: RobotModel) -> Command:
 
 def _p_speedjoint(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SPEEDJOINT", 7)
-    mx = m.max_speed_deg_s
-    speeds = []
-    for i in range(6):
-        hi = float(mx[i])
-        speeds.append(_ranged(a[i], f"{JOINT_NAMES[i]} speed (deg/s)", -hi, hi, unit="deg/s"))
-    return SpeedJoint(SpeedJointMove(tuple(speeds), _duration(a[6])))
+    return SpeedJoint(SpeedJointMove(_joint_speeds(a, m), _duration(a[6])))
 
 
 def _p_waitinput(a: Sequence[str], m: RobotModel) -> Command:
@@ -1092,6 +1137,7 @@ def _no_args(cls: type[Command]) -> Callable[[Sequence[str], RobotModel], Comman
 
 _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "MOVEJOINT": _p_movejoint,
+    "MOVEJOINTPATH": _p_movejointpath,
     "MOVEPOSE": _p_movepose,
     "MOVECART": _p_movecart,
     "MOVECARTRELTRF": _p_movecartrel,

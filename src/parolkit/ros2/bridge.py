@@ -15,9 +15,10 @@ Publishes (ROS names under the namespace ``ns`` of config ``[ros2]`` / ``--names
   ``refused: <reason>``, ``done ...``, ``failed: <reason>``.
 
 Subscribes to ``/<ns>/joint_trajectory`` (trajectory_msgs/msg/JointTrajectory) and runs each
-trajectory through the controller as timed MoveJoint commands (see
+trajectory through the controller as ONE ``MOVEJOINTPATH`` (see
 :mod:`parolkit.ros2.trajectory`: all-or-nothing pre-check with the controller's planner; the
-controller plans and guards every segment again).  A trajectory arriving while the robot runs a
+controller plans the path again and guards every frame), so the points are passed without
+stopping and the last one is reached on its tick.  A trajectory arriving while the robot runs a
 command is refused (busy).
 
 QoS as ROS 2's defaults: reliable, keep last 10, volatile; the description transient local,
@@ -124,7 +125,7 @@ class Ros2Bridge:
         self._latest_lock = threading.Lock()
         self._latest_at = time.monotonic()
         self._tick = 0
-        self._active: list[CommandHandle] = []
+        self._active: CommandHandle | None = None
         self._last_event = ""
         self._stop = threading.Event()
         self._sub: Any = None
@@ -215,9 +216,8 @@ class Ros2Bridge:
 
     def busy(self) -> str | None:
         """Why a new trajectory cannot start now, or None."""
-        self._active = [h for h in self._active if not h.done()]
-        if self._active:
-            return f"busy: a trajectory is running ({len(self._active)} segments left)"
+        if self._active is not None and not self._active.done():
+            return "busy: a trajectory is running"
         st = self.robot.status()
         if not st.can_move:
             return (f"the robot cannot move (state {st.state}, enabled={st.enabled}, homed={st.all_homed}, "
@@ -227,45 +227,40 @@ class Ros2Bridge:
         return None
 
     def execute(self, traj: msgs.JointTrajectory) -> bool:
-        """Check ``traj`` and queue its segments; False (with an event) when refused."""
+        """Check ``traj`` and send it as one MOVEJOINTPATH; False (with an event) when refused."""
         why = self.busy()
         if why is not None:
             self.event(f"refused: {why}", logging.WARNING)
             return False
         st = self.robot.status()
-        points = [TrajectoryPoint(list(p.positions), msgs.duration_to_s(p.time_from_start)) for p in traj.points]
+        points = [TrajectoryPoint(list(p.positions), msgs.duration_to_s(p.time_from_start), list(p.velocities))
+                  for p in traj.points]
         rate = st.loop.rate_hz or self.cfg.controller.rate_hz
         try:
-            segments = plan_joint_trajectory(list(traj.joint_names), points, st.angles, self.cfg.robot, rate)
+            path = plan_joint_trajectory(list(traj.joint_names), points, st.angles, self.cfg.robot, rate)
         except TrajectoryRefused as exc:
             self.event(f"refused: {exc}", logging.WARNING)
             return False
-        handles: list[CommandHandle] = []
+        move = path.move
         try:
-            for seg in segments:
-                handles.append(self.robot.move_joints(seg.target_deg, duration=seg.duration_s, wait=False))
+            handle = self.robot.move_joint_path(move.points_deg, move.times_s, move.velocities_deg_s, wait=False)
         except RobotError as exc:
-            if handles:  # earlier segments were queued and may run: stop them, and say so
-                self.robot.stop()
-                self.event(f"failed: the controller refused segment {len(handles) + 1} of {len(segments)} "
-                           f"after {len(handles)} were queued (stopped): {exc}", logging.ERROR)
-            else:
-                self.event(f"refused by the controller: {exc}", logging.WARNING)
+            self.event(f"refused by the controller: {exc}", logging.WARNING)
             return False
-        self._active = handles
-        total = sum(s.ticks for s in segments)
-        self.event(f"accepted: {len(segments)} segments, {total} ticks ({total / rate:.3f} s)")
-        threading.Thread(target=self._watch, args=(handles,), daemon=True, name="parolkit-ros2-watch").start()
+        self._active = handle
+        shape = "the message's velocities" if move.velocities_deg_s is not None else "spline velocities"
+        self.event(f"accepted: {path.points} points, {path.ticks} ticks ({path.ticks / rate:.3f} s), {shape}")
+        threading.Thread(target=self._watch, args=(handle, path.points), daemon=True,
+                         name="parolkit-ros2-watch").start()
         return True
 
-    def _watch(self, handles: list[CommandHandle]) -> None:
+    def _watch(self, handle: CommandHandle, points: int) -> None:
         try:
-            for h in handles:
-                h.result(timeout=None)
+            handle.result(timeout=None)
         except RobotError as exc:
             self.event(f"failed: {exc}", logging.ERROR)
             return
-        self.event(f"done: {len(handles)} segments")
+        self.event(f"done: {points} points")
 
     def close(self) -> None:
         self._stop.set()
