@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import socket
 
+from tests.conftest import wait_until
 from tests.unit.test_controller_core import Rig
 
 from parolkit.controller.server import StatusStream
@@ -39,7 +40,9 @@ def test_every_ticks_snapshot_reaches_a_subscriber_in_order_even_after_a_stall()
             data = sub.recv(65535).decode()
             seqs.append(json.loads(data.split("|", 1)[1])["seq"])
         assert seqs == [s.seq for s in snaps]
-        assert stream.overflowed == 0 and stream.sent == 200
+        # (the thread counts a datagram after sendto returns: the 200th may arrive first)
+        wait_until(lambda: stream.sent == 200, 5.0, what="200 counted as sent")
+        assert stream.overflowed == 0
     finally:
         stream.stop()
         out.close()
