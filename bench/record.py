@@ -14,9 +14,6 @@ controller runs in its own process), and the file size per minute.
 from __future__ import annotations
 
 import argparse
-import os
-import socket
-import subprocess
 import sys
 import tempfile
 import threading
@@ -26,30 +23,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "src"))
 
+from parolkit.client.launch import SimController  # noqa: E402
 from parolkit.client.robot import Robot  # noqa: E402
 from parolkit.record.recorder import Recorder  # noqa: E402
-
-
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _wait_homed(port: int, timeout: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-            s.settimeout(0.25)
-            try:
-                s.sendto(b"GET_STATUS", ("127.0.0.1", port))
-                reply = s.recv(65535).decode(errors="replace")
-            except OSError:
-                reply = ""
-        if "HOMED=1,1,1,1,1,1" in reply and "STATE=HOMING" not in reply:
-            return
-        time.sleep(0.05)
-    raise RuntimeError("the simulated controller did not come up")
 
 
 def _mover(port: int, stop: threading.Event) -> None:
@@ -63,19 +39,15 @@ def _mover(port: int, stop: threading.Event) -> None:
 
 
 def bench_rate(rate: float, duration: float) -> dict[str, float]:
-    port, ack = _free_port(), _free_port()
-    log = tempfile.TemporaryFile()
-    proc = subprocess.Popen([sys.executable, "-m", "parolkit", "serve", "--sim", "--rate", f"{rate:g}",
-                             "--udp-port", str(port), "--ack-port", str(ack)], stdout=log, stderr=subprocess.STDOUT,
-                            env=dict(os.environ, PYTHONPATH=str(REPO / "src")))
+    sim = SimController(["--rate", f"{rate:g}"])
     stop = threading.Event()
     try:
-        _wait_homed(port)
-        mover = threading.Thread(target=_mover, args=(port, stop), daemon=True)
+        sim.wait_ready()
+        mover = threading.Thread(target=_mover, args=(sim.port, stop), daemon=True)
         mover.start()
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / f"bench-{rate:g}.mcap"
-            rec = Recorder("127.0.0.1", port, out)
+            rec = Recorder("127.0.0.1", sim.port, out)
             cpu0, wall0 = time.process_time(), time.monotonic()
             stats = rec.run(duration)
             cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
@@ -83,9 +55,7 @@ def bench_rate(rate: float, duration: float) -> dict[str, float]:
         mover.join(10)
     finally:
         stop.set()
-        proc.terminate()
-        proc.wait(10)
-        log.close()
+        sim.close()
     expected = (stats.last_tick or 0) - (stats.first_tick or 0) + 1
     return {"rate_hz": rate, "duration_s": stats.duration_s, "ticks": stats.statuses, "expected": expected,
             "dropped": stats.dropped_ticks, "cpu_pct": 100.0 * cpu / wall,
