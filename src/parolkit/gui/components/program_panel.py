@@ -129,8 +129,7 @@ class ProgramPanel:
         return runner.text if self._program_active() else self.c.doc.text
 
     def _program_active(self) -> bool:
-        runner = self.c.program
-        return runner.running or runner.state == "paused"
+        return self.c.program.active
 
     def on_edit(self, *_: Any) -> None:
         """Keep the edit in the shared document (autosaved) and re-colour the text; old error
@@ -228,10 +227,14 @@ class ProgramPanel:
             chart.update()
 
     async def run_program(self, step: bool) -> None:
+        """Run (or resume, or step) the program.  From the press on, Space and Stop stop it
+        (``ProgramRunner.announce_start``), even before it runs."""
+        runner = self.c.program
         text = self.editor.value or ""
         if not self._program_active():
+            runner.announce_start()
             self.c.doc.edit(text)
-        errors = await self.c.program.start(text, step=step, name=self.c.doc.name)
+        errors = await runner.start(text, step=step, name=self.c.doc.name)
         self._show_errors(errors)
         if errors:
             self.prog_status.set_text(f"✗ {len(errors)} error(s): nothing was run")

@@ -4,9 +4,13 @@
 //
 //  * Esc is E-STOP whatever has the focus (the editor too), except while a dialog or a menu
 //    is open: then Esc only closes it.
-//  * Space is STOP whatever has the focus, except in a text field (it types a space there).
-//    The page takes Space before any button sees it, so a focused button is never "pressed
-//    again" by it.
+//  * Space is STOP whatever has the focus.  Only while nothing moves does Space in a text
+//    field (an input, the editor) type a space: "something moves" (the robot moving or
+//    homing, a command queued, a program starting, running or paused, a held jog) is the
+//    server's data-moving attribute on .pk-motion, read at each keydown.  A Space typed that
+//    way still goes to the server (typed: true), which sends STOP if something moves by then
+//    (it may have started just before the key; the attribute follows every 0.1 s).  The page
+//    takes Space before any button sees it, so a focused button is never "pressed again".
 //  * Jog keys are ignored while typing (inputs, the editor) or adjusting a slider.
 //  * A held jog ends on any pointer release or cancel anywhere on the page and when the
 //    window loses focus.
@@ -17,14 +21,19 @@
   // open overlays that own Esc (Quasar dialogs and menus, CodeMirror's completion list)
   const OVERLAYS = ".q-dialog, .q-menu, .cm-tooltip-autocomplete";
 
-  const send = (key, down) => {
-    if (typeof window.emitEvent === "function") window.emitEvent("pk_key", { key: key, down: down });
+  const send = (key, down, typed = false) => {
+    if (typeof window.emitEvent === "function") window.emitEvent("pk_key", { key: key, down: down, typed: typed });
   };
   const keyName = (e) => (e.key === " " ? " " : String(e.key || "").toLowerCase());
   const typing = (t) =>
     !!t && (t.isContentEditable || ["INPUT", "TEXTAREA", "SELECT"].includes(t.tagName));
   const adjusting = (t) => !!t && typeof t.getAttribute === "function" && t.getAttribute("role") === "slider";
   const overlayOpen = () => document.querySelector(OVERLAYS) !== null;
+  // the server's word on "something moves" (parolkit.gui.app: Commander.moving)
+  const moving = () => {
+    const el = document.querySelector(".pk-motion");
+    return el !== null && el.getAttribute("data-moving") === "1";
+  };
 
   window.addEventListener("keydown", (e) => {
     const k = keyName(e);
@@ -38,8 +47,11 @@
     }
     if (e.ctrlKey || e.metaKey || e.altKey) return;
     if (k === " ") {
-      if (typing(focus)) return; // a space in a text field
-      e.preventDefault(); // no button, toggle or tab sees this Space
+      if (typing(focus) && !moving()) { // a space in a text field; STOP if the server sees motion
+        if (!e.repeat) send(" ", true, true);
+        return;
+      }
+      e.preventDefault(); // no button, toggle, tab or text field sees this Space
       e.stopPropagation();
       if (!e.repeat) send(" ", true);
       return;
@@ -209,6 +221,11 @@
     if (!host || typeof getElement !== "function") return null;
     const comp = getElement(host.id.replace(/^c/, ""));
     return comp && comp.editor ? comp.editor : null;
+  };
+  // the text the editor shows (Check and Run use it: the server's copy may lag behind)
+  window.pkEditorText = () => {
+    const view = editorView();
+    return view === null ? null : view.state.doc.toString();
   };
   const closePopup = () => {
     if (popup !== null) popup.el.remove();
