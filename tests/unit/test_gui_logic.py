@@ -71,6 +71,7 @@ def test_the_page_reads_the_clients_typed_status():
 def test_something_moves_is_a_jog_a_program_or_a_busy_controller(tmp_path):
     """Commander.moving (Space is STOP in a text field then): the client's wait-for-idle test
     on a live status, a program running or paused; nothing while the link is down."""
+    import threading
     import time
 
     from parolkit.gui.commander import Commander
@@ -88,8 +89,16 @@ def test_something_moves_is_a_jog_a_program_or_a_busy_controller(tmp_path):
     link.status_monotonic -= 60  # the link is down: its last status says nothing
     link.status = RobotStatus.from_json(dict(idle, state="MOVING"))
     assert not c.moving
-    c.program.state = "paused"
-    assert c.moving and c.program.active
+    gate = threading.Event()
+    c.program.thread = threading.Thread(target=gate.wait)  # a program's thread
+    c.program.thread.start()
+    try:
+        for program_state, moves in (("running", True), ("paused", True), ("finished", False)):
+            c.program.state = program_state  # finished: the thread still closes its client
+            assert c.moving is moves and c.program.active is moves, program_state
+    finally:
+        gate.set()
+        c.program.thread.join()
 
 
 def test_a_program_stopped_between_run_and_its_start_does_not_run(tmp_path):

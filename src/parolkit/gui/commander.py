@@ -216,13 +216,19 @@ class ProgramRunner:
     async def _start(self, text: str, *, step: bool, name: str) -> list[Any]:
         from parolkit.script import parse
 
-        if self.running:
+        if self.active:
             if step and self.interpreter is not None:
                 self.interpreter.step()
             elif self.interpreter is not None and self.state == "paused":
                 self.interpreter.resume()
                 self.state = "running"
             return []
+        thread = self.thread
+        if thread is not None and thread.is_alive():  # the last run ended and closes its client
+            await asyncio.to_thread(thread.join, 5.0)
+            if thread.is_alive():
+                self.commander.log.error("program not started: the last run has not finished closing")
+                return []
         if self._start_cancelled:
             return []  # stopped before it started (stop() said so)
         result = parse(text, "editor")
@@ -325,23 +331,25 @@ class ProgramRunner:
 
     @property
     def active(self) -> bool:
-        """A program runs or is paused (the editor shows it, read-only)."""
-        return self.running or self.state == "paused"
+        """A program runs or is paused (the editor shows it, read-only).  Not once it ended
+        (finished, stopped, error) while its thread still closes its client: the page says
+        "finished" then, and the editor takes typing again."""
+        return self.running and self.state in ("running", "paused")
 
     def pause(self) -> None:
-        if self.running and self.interpreter is not None:
+        if self.active and self.interpreter is not None:
             self.interpreter.pause()
             self.state = "paused"
             self.version += 1
 
     def stop(self, reason: str = "stopped") -> None:
-        if self.starting and not self.running and not self._start_cancelled:
+        if self.starting and not self.active and not self._start_cancelled:
             self._start_cancelled = True  # start() runs nothing
             self.state = "stopped"
             self.message = reason
             self.commander.log.add(f"program {reason} before it started", Level.WARNING)
             self.version += 1
-        if self.running and self.interpreter is not None:
+        if self.active and self.interpreter is not None:
             self._stopping = True
             self.interpreter.stop()
             self.state = "stopped"
