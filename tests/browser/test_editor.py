@@ -29,6 +29,11 @@ def _type(page, program: str) -> None:
     page.keyboard.insert_text(program)
 
 
+def _text(page) -> str:
+    """The text the page's editor shows (CodeMirror's document, not its rendered lines)."""
+    return page.evaluate("() => window.pkEditorText ? window.pkEditorText() : null") or ""
+
+
 def _diagnostics(page) -> list[str]:
     return page.get_by_test_id("diagnostic").all_inner_texts()
 
@@ -77,23 +82,28 @@ def test_examples_offer_all_five_seed_programs(page):
 
 
 def test_completion_offers_commands_with_their_arguments_and_words_inside_a_call(page):
+    """The list is waited for by the word it completes (``data-word``): a list still showing
+    for "Mo" has the same four items, and Enter on it left "MovePose(...)v" behind."""
     page.get_by_test_id("tab-program").click()
     _type(page, "Begin()\n")
+    wait_until(lambda: _text(page) == "Begin()\n", 10, what="the editor emptied", page=page)
     estops = page.get_by_test_id("log").inner_text().count("software E-STOP sent")
     page.keyboard.type("Mov")
     items = page.get_by_test_id("completion")
+    page.locator("[data-testid=completions][data-word=Mov]").wait_for(timeout=10000)
     wait_until(lambda: items.count() == 4, 10, what="four Move commands offered", page=page)
     labels = page.locator("[data-testid=completion] .pk-completion-label").all_inner_texts()
     assert labels == ["MoveJoint", "MovePose", "MoveCart", "MoveCartRelTRF"], labels
     page.keyboard.press("ArrowDown")
     page.keyboard.press("Enter")
-    wait_until(lambda: "MovePose(x,y,z,rx,ry,rz,t=2)" in page.locator("[data-testid=editor] .cm-content").inner_text(),
-               5, what="MovePose with its arguments inserted", page=page)
+    wait_until(lambda: _text(page) == "Begin()\nMovePose(x,y,z,rx,ry,rz,t=2)", 10,
+               what="MovePose with its arguments inserted", page=page)
     assert items.count() == 0
     # inside a call: keyword arguments; Esc closes the list and is not E-STOP
     page.keyboard.press("Enter")
     page.keyboard.type("Delay(1,")
     page.keyboard.type("t")
+    page.locator("[data-testid=completions][data-word=t]").wait_for(timeout=10000)
     wait_until(lambda: "t=" in page.locator("[data-testid=completion] .pk-completion-label").all_inner_texts(), 5,
                what="t= offered", page=page)
     page.keyboard.press("Escape")

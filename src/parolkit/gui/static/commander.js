@@ -169,10 +169,13 @@
   // the server's copy of the text, which lags behind what was typed since; NiceGUI's editor
   // then replaces the newer text with it (typed characters vanish, the cursor jumps).  The
   // texts this editor itself had while typing are remembered: one of them coming back is a
-  // late echo and is ignored; any other text (another tab, a file, a run) is shown.
-  // (only texts of the last ECHO_MS count: an echo is never older; a file opened later with
-  // an earlier text is shown)
-  const ECHO_MS = 2000;
+  // late echo and is ignored; any other text (another tab, a file, a run) is shown.  The
+  // server's updates come in order, so once it sends the editor's current text it has caught
+  // up at least to the first time the editor had that text: the texts before are forgotten
+  // (a file opened later with an earlier text is shown; the texts after stay, since the
+  // current one may be an undo).  Otherwise a text counts for ECHO_MS (a loaded server may
+  // echo seconds late).
+  const ECHO_MS = 10000;
   const typedTexts = [];
   const rememberText = () => {
     const view = editorView();
@@ -181,6 +184,10 @@
     const now = performance.now();
     while (typedTexts.length && (now - typedTexts[0].t > ECHO_MS || typedTexts.length > 200)) typedTexts.shift();
     typedTexts.push({ text: text, t: now });
+  };
+  const caughtUp = (current) => {
+    const first = typedTexts.findIndex((e) => e.text === current);
+    typedTexts.splice(0, first < 0 ? typedTexts.length : first);
   };
   const lateEcho = (value) => {
     const now = performance.now();
@@ -194,6 +201,7 @@
     const original = comp.setEditorValue;
     comp.setEditorValue = function (value) {
       const current = this.editor ? this.editor.state.doc.toString() : null;
+      if (current !== null && value === current) caughtUp(current);
       if (current !== null && value !== current && lateEcho(value)) return; // a late echo
       return original.call(this, value);
     };
@@ -289,6 +297,7 @@
       popup = { el: el };
     }
     Object.assign(popup, { items: items, index: 0, from: sel.head - m[0].length, to: sel.head, view: view });
+    popup.el.setAttribute("data-word", m[0]); // the word it completes (tests wait for the newest list)
     popup.el.style.left = `${Math.round(pos.left)}px`;
     popup.el.style.top = `${Math.round(pos.bottom + 2)}px`;
     renderPopup();
@@ -331,10 +340,12 @@
     const doc = view.state.doc;
     const line = doc.lineAt(view.state.selection.main.head);
     const atEnd = line.number === doc.lines;
+    rememberText(); // the text before the insertion: its echo is late
     const insert = line.text.trim() === "" ? text : (atEnd ? "\n" : "") + text + (atEnd ? "" : "\n");
     const from = line.text.trim() === "" ? line.from : (atEnd ? line.to : line.to + 1);
     view.dispatch({ changes: { from: from, to: line.text.trim() === "" ? line.to : from, insert: insert },
       selection: { anchor: from + insert.length - (atEnd || line.text.trim() === "" ? 0 : 1) } });
+    rememberText();
     view.focus();
   };
 
