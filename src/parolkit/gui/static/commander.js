@@ -174,7 +174,7 @@
   // up at least to the first time the editor had that text: the texts before are forgotten
   // (a file opened later with an earlier text is shown; the texts after stay, since the
   // current one may be an undo).  Otherwise a text counts for ECHO_MS (a loaded server may
-  // echo seconds late).
+  // echo seconds late).  The text before a change is remembered too (keydown, input).
   const ECHO_MS = 10000;
   const typedTexts = [];
   const rememberText = () => {
@@ -183,7 +183,9 @@
     const text = view.state.doc.toString();
     const now = performance.now();
     while (typedTexts.length && (now - typedTexts[0].t > ECHO_MS || typedTexts.length > 200)) typedTexts.shift();
-    typedTexts.push({ text: text, t: now });
+    const last = typedTexts[typedTexts.length - 1];
+    if (last !== undefined && last.text === text) last.t = now; // the same text again: one entry
+    else typedTexts.push({ text: text, t: now });
   };
   const caughtUp = (current) => {
     const first = typedTexts.findIndex((e) => e.text === current);
@@ -193,19 +195,43 @@
     const now = performance.now();
     return typedTexts.some((e) => e.text === value && now - e.t <= ECHO_MS);
   };
+  // every text the editor's own changes produce is remembered where CodeMirror applies them
+  // (its view's dispatch: typing, keys, paste, completion alike), not the server's updates
+  let applyingServer = false;
   function guardEditor() {
     const host = document.querySelector("[data-testid=editor]");
     if (!host || typeof getElement !== "function") return;
     const comp = getElement(host.id.replace(/^c/, ""));
-    if (!comp || comp.pkGuarded || typeof comp.setEditorValue !== "function") return;
-    const original = comp.setEditorValue;
-    comp.setEditorValue = function (value) {
-      const current = this.editor ? this.editor.state.doc.toString() : null;
-      if (current !== null && value === current) caughtUp(current);
-      if (current !== null && value !== current && lateEcho(value)) return; // a late echo
-      return original.call(this, value);
-    };
-    comp.pkGuarded = true;
+    if (!comp || typeof comp.setEditorValue !== "function") return;
+    if (!comp.pkGuarded) {
+      const original = comp.setEditorValue;
+      comp.setEditorValue = function (value) {
+        const current = this.editor ? this.editor.state.doc.toString() : null;
+        if (current !== null && value === current) caughtUp(current);
+        if (current !== null && value !== current && lateEcho(value)) return; // a late echo
+        applyingServer = true;
+        try {
+          return original.call(this, value);
+        } finally {
+          applyingServer = false;
+        }
+      };
+      comp.pkGuarded = true;
+    }
+    const view = comp.editor;
+    if (view && !view.pkRemembers) {
+      const dispatch = view.dispatch;
+      let last = view.state.doc;
+      view.dispatch = function (...args) {
+        const result = dispatch.apply(this, args);
+        if (view.state.doc !== last) {
+          last = view.state.doc;
+          if (!applyingServer) rememberText();
+        }
+        return result;
+      };
+      view.pkRemembers = true;
+    }
   }
   document.addEventListener("input", (e) => {
     if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) {
