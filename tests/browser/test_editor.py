@@ -29,6 +29,11 @@ def _type(page, program: str) -> None:
     page.keyboard.insert_text(program)
 
 
+def _text(page) -> str:
+    """The text the page's editor shows (CodeMirror's document, not its rendered lines)."""
+    return page.evaluate("() => window.pkEditorText ? window.pkEditorText() : null") or ""
+
+
 def _diagnostics(page) -> list[str]:
     return page.get_by_test_id("diagnostic").all_inner_texts()
 
@@ -77,23 +82,28 @@ def test_examples_offer_all_five_seed_programs(page):
 
 
 def test_completion_offers_commands_with_their_arguments_and_words_inside_a_call(page):
+    """The list is waited for by the word it completes (``data-word``): a list still showing
+    for "Mo" has the same four items, and Enter on it left "MovePose(...)v" behind."""
     page.get_by_test_id("tab-program").click()
     _type(page, "Begin()\n")
+    wait_until(lambda: _text(page) == "Begin()\n", 10, what="the editor emptied", page=page)
     estops = page.get_by_test_id("log").inner_text().count("software E-STOP sent")
     page.keyboard.type("Mov")
     items = page.get_by_test_id("completion")
+    page.locator("[data-testid=completions][data-word=Mov]").wait_for(timeout=10000)
     wait_until(lambda: items.count() == 4, 10, what="four Move commands offered", page=page)
     labels = page.locator("[data-testid=completion] .pk-completion-label").all_inner_texts()
     assert labels == ["MoveJoint", "MovePose", "MoveCart", "MoveCartRelTRF"], labels
     page.keyboard.press("ArrowDown")
     page.keyboard.press("Enter")
-    wait_until(lambda: "MovePose(x,y,z,rx,ry,rz,t=2)" in page.locator("[data-testid=editor] .cm-content").inner_text(),
-               5, what="MovePose with its arguments inserted", page=page)
+    wait_until(lambda: _text(page) == "Begin()\nMovePose(x,y,z,rx,ry,rz,t=2)", 10,
+               what="MovePose with its arguments inserted", page=page)
     assert items.count() == 0
     # inside a call: keyword arguments; Esc closes the list and is not E-STOP
     page.keyboard.press("Enter")
     page.keyboard.type("Delay(1,")
     page.keyboard.type("t")
+    page.locator("[data-testid=completions][data-word=t]").wait_for(timeout=10000)
     wait_until(lambda: "t=" in page.locator("[data-testid=completion] .pk-completion-label").all_inner_texts(), 5,
                what="t= offered", page=page)
     page.keyboard.press("Escape")
@@ -143,3 +153,53 @@ def test_check_draws_the_programs_tcp_path_in_the_3d_view_and_an_edit_clears_it(
     page.keyboard.press("Control+End")
     page.keyboard.type("# changed")
     wait_until(lambda: page.evaluate(PREVIEW_POINTS) == 0, 10, what="the TCP path cleared", page=page)
+
+
+UNSENT_EDIT = """(text) => {
+  const host = document.querySelector('[data-testid=editor]');
+  const comp = getElement(host.id.replace(/^c/, ''));
+  comp.emitting = false;  // NiceGUI's editor sends no change while this is false
+  comp.editor.dispatch({ changes: { from: 0, to: comp.editor.state.doc.length, insert: text } });
+  comp.emitting = true;
+}"""
+
+
+def test_check_and_run_use_the_text_the_page_shows(page):
+    """Check and Run ask the page for its editor text: the server's copy can lag behind it
+    (edits on their way, an echo the page ignored).  Pressed right after typing, without
+    waiting; then with the server's copy made stale for certain (the page's text replaced
+    without telling the server, UNSENT_EDIT).  Failed on the old code at the stale Check (it
+    checked the server's copy).  The typed Runs failed there 2 of 3 times for another reason,
+    fixed too: the runner showed "finished" while its thread still closed its client, and the
+    editor stayed read-only that long, so the program typed right after was lost."""
+    from tests.browser.helpers import text, wait_ready
+
+    wait_ready(page, 60)
+    page.get_by_test_id("tab-program").click()
+    status = page.get_by_test_id("prog-status")
+    _type(page, "Begin()\nDelay(0.1)\nEnd()\n")
+    page.get_by_test_id("prog-check").click()
+    wait_until(lambda: status.inner_text() == "✓ program OK", 10, what="the program checked OK", page=page)
+    page.keyboard.press("Control+End")
+    page.keyboard.insert_text("MoveJoint(90,-90\n")
+    page.get_by_test_id("prog-check").click()
+    wait_until(lambda: status.inner_text().startswith("✗"), 10, what="Check found the typed line's error",
+               page=page)
+    assert any(d.startswith("line 4, col ") for d in _diagnostics(page)), _diagnostics(page)
+    page.evaluate(UNSENT_EDIT, "Begin()\nDelay(0.2)\nEnd()\n")  # the server still has the broken text
+    page.get_by_test_id("prog-check").click()
+    wait_until(lambda: status.inner_text() == "✓ program OK", 10, what="Check used the page's text", page=page)
+
+    def ran(level: str) -> None:
+        page.get_by_test_id("prog-run").click()
+        wait_until(lambda: level in text(page, "io-out2") and "finished" in status.inner_text(), 20,
+                   what=f"the page's program set OUT2 {level}", page=page)
+
+    _type(page, "Begin()\nOutput(2,HIGH)\nEnd()\n")
+    ran("HIGH")
+    _type(page, "Begin()\nOutput(2,LOW)\nEnd()\n")
+    ran("LOW")
+    page.evaluate(UNSENT_EDIT, "Begin()\nOutput(2,HIGH)\nEnd()\n")  # the server still has the LOW program
+    ran("HIGH")
+    _type(page, "Begin()\nOutput(2,LOW)\nEnd()\n")
+    ran("LOW")

@@ -1,6 +1,7 @@
 """Keys that do what they say (issue 15 items 1 and 2), in a real Chromium against
 ``parolkit gui --sim``: Space is STOP and Esc is E-STOP whatever has the focus; Esc in an open
-dialog or menu only closes it; a clicked button never turns Space into "press it again".
+dialog or menu only closes it; a clicked button never turns Space into "press it again"; Space
+in a text field or the editor is STOP while something moves and types a space otherwise.
 
 One GUI process and one page for the module; the tests run in file order and leave the robot
 enabled, homed and idle.
@@ -129,3 +130,132 @@ def test_escape_is_estop_wherever_the_focus_is_and_space_types_in_the_editor(kpa
             assert count_log(page, "sent Stop") == stops, "Space in the editor sent Stop"
             page.get_by_test_id("tab-jog").click()
         recover(page)
+
+
+# ---- Space is STOP in a text field while something moves (issue 15, keys) ----
+
+EDITOR = "[data-testid=editor] .cm-content"
+
+
+def _editor_text(page) -> str:
+    return page.evaluate("() => window.pkEditorText ? window.pkEditorText() : null") or ""
+
+
+def _moving_attr(page) -> str | None:
+    return page.locator(".pk-motion").get_attribute("data-moving")
+
+
+def test_space_in_a_text_input_while_a_step_move_runs_stops_the_robot(kpage):
+    """Failed on the old page: Space in a text field always typed a space there, so with the
+    program name field focused the 40° J1 step ran to completion and no STOP was sent."""
+    page = kpage
+    wait_ready(page)
+    page.get_by_test_id("tab-jog").click()
+    page.get_by_test_id("jog-mode").get_by_text("Step").click()
+    step_input = page.locator("label.q-field", has_text="step °").locator("input")
+    step_input.fill("40")
+    step_input.press("Tab")
+    page.wait_for_timeout(300)
+    name = page.get_by_test_id("prog-name")
+    try:
+        start = settled(page, "angle-1")
+        stops = count_log(page, "sent Stop")
+        page.get_by_test_id("jog-j1-").click()
+        wait_until(lambda: number(page, "angle-1") < start - 0.3, 15, what="the J1 step moving", page=page)
+        page.get_by_test_id("tab-program").click()
+        name.click()
+        before = name.input_value()
+        assert state(page) == "MOVING", f"the step ended before Space could be pressed: {state(page)}"
+        page.keyboard.press("Space")
+        wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
+        end = settled(page, "angle-1", 15)
+        assert end > start - 39.0, f"the 40° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
+        assert name.input_value() == before, "Space typed into the name field while the robot moved"
+    finally:
+        page.get_by_test_id("tab-jog").click()
+        step_input.fill("5")
+        step_input.press("Tab")
+        page.get_by_test_id("jog-mode").get_by_text("Continuous").click()
+    recover(page)
+
+
+LONG = "Begin()\nDelay(30)\nEnd()\n"
+
+
+def _editor_with_long_program(page) -> None:
+    """The Program tab, the editor focused with a 30 s program, its status "✓ program OK"."""
+    page.get_by_test_id("tab-program").click()
+    page.locator(EDITOR).click()
+    page.keyboard.press("Control+A")
+    page.keyboard.press("Delete")
+    page.keyboard.insert_text(LONG)
+    wait_until(lambda: _editor_text(page) == LONG, 10, what="the program typed", page=page)
+    page.get_by_test_id("prog-check").click()
+    wait_until(lambda: page.get_by_test_id("prog-status").inner_text() == "✓ program OK", 10,
+               what="the program checked", page=page)
+    page.locator(EDITOR).click()
+    page.keyboard.press("Control+End")
+
+
+def test_space_in_the_editor_right_after_run_stops_the_program(kpage):
+    """Run pressed without taking the focus from the editor (as a second tab would) and Space
+    at once, in the editor: the program ends "stopped" and STOP is sent.  Failed on the old
+    page: the editor was still editable (the server makes it read-only once the run begins),
+    so Space typed a space there, no STOP was sent and the program ran on."""
+    page = kpage
+    wait_ready(page)
+    _editor_with_long_program(page)
+    stops = count_log(page, "sent Stop")
+    page.get_by_test_id("prog-run").dispatch_event("click")  # the editor keeps the focus
+    page.keyboard.press("Space")
+    status = page.get_by_test_id("prog-status")
+    wait_until(lambda: "stopped" in status.inner_text(), 15, what="the program stopped by Space", page=page)
+    assert count_log(page, "sent Stop") == stops + 1
+    page.wait_for_timeout(1000)
+    assert "stopped" in status.inner_text() and "running" not in status.inner_text(), status.inner_text()
+    wait_until(lambda: _moving_attr(page) == "0", 10, what="nothing moves", page=page)
+    page.get_by_test_id("tab-jog").click()
+    recover(page)
+
+
+def test_space_in_the_editor_while_a_program_runs_stops_it(kpage):
+    """A program started while the editor has the focus: once it runs, Space stops it
+    ("stopped", STOP sent) and types nothing.  (It passed on the old page too: a running
+    program's editor is not editable, so the old page did not take it for a text field.)"""
+    page = kpage
+    wait_ready(page)
+    _editor_with_long_program(page)
+    stops = count_log(page, "sent Stop")
+    page.get_by_test_id("prog-run").dispatch_event("click")  # the editor keeps the focus
+    wait_until(lambda: "running" in page.get_by_test_id("prog-status").inner_text(), 20,
+               what="the program running", page=page)
+    wait_until(lambda: _moving_attr(page) == "1", 10, what="the page told that something moves", page=page)
+    in_editor = page.evaluate("() => !!document.activeElement.closest('[data-testid=editor]')")
+    page.keyboard.press("Space")
+    wait_until(lambda: "stopped" in page.get_by_test_id("prog-status").inner_text(), 10,
+               what=f"the program stopped by Space (focus in the editor: {in_editor})", page=page)
+    assert count_log(page, "sent Stop") == stops + 1
+    wait_until(lambda: _moving_attr(page) == "0", 10, what="nothing moves", page=page)
+    assert _editor_text(page) == LONG, "Space typed into the running program"
+    page.get_by_test_id("tab-jog").click()
+    recover(page)
+
+
+def test_space_in_the_editor_while_nothing_moves_types_a_space(kpage):
+    """The other half of the rule (it passed on the old page too, which always typed): with
+    the robot idle and no program running, Space in the editor types a space and sends no
+    STOP, although the page now tells the server about it."""
+    page = kpage
+    wait_ready(page)
+    page.get_by_test_id("tab-program").click()
+    wait_until(lambda: _moving_attr(page) == "0", 10, what="nothing moves", page=page)
+    content = page.locator(EDITOR)
+    content.click()
+    page.keyboard.press("Control+End")
+    stops = count_log(page, "sent Stop")
+    page.keyboard.type("# a b")
+    wait_until(lambda: _editor_text(page).endswith("# a b"), 10, what="the spaces typed", page=page)
+    page.wait_for_timeout(800)  # a STOP would be logged by now
+    assert count_log(page, "sent Stop") == stops, "Space in the editor sent Stop while nothing moved"
+    assert _editor_text(page).endswith("# a b")
+    page.get_by_test_id("tab-jog").click()

@@ -68,6 +68,59 @@ def test_the_page_reads_the_clients_typed_status():
     assert st.command.name == "MOVEJOINT" and st.command.progress == pytest.approx(0.42)
 
 
+def test_something_moves_is_a_jog_a_program_or_a_busy_controller(tmp_path):
+    """Commander.moving (Space is STOP in a text field then): the client's wait-for-idle test
+    on a live status, a program running or paused; nothing while the link is down."""
+    import threading
+    import time
+
+    from parolkit.gui.commander import Commander
+    from parolkit.gui.link import ControllerLink
+    from parolkit.gui.programs import ProgramsFolder
+
+    link = ControllerLink("127.0.0.1", 9, 9)
+    c = Commander(link, mode_label="test", programs=ProgramsFolder(tmp_path))
+    assert not c.moving  # no status yet
+    idle = dict(STATUS, command=None, queue=0)
+    for change, moves in (({}, False), ({"command": STATUS["command"]}, True), ({"queue": 1}, True),
+                          ({"state": "MOVING"}, True), ({"state": "HOMING"}, True)):
+        link.status, link.status_monotonic = RobotStatus.from_json(dict(idle, **change)), time.monotonic()
+        assert c.moving is moves, change
+    link.status_monotonic -= 60  # the link is down: its last status says nothing
+    link.status = RobotStatus.from_json(dict(idle, state="MOVING"))
+    assert not c.moving
+    gate = threading.Event()
+    c.program.thread = threading.Thread(target=gate.wait)  # a program's thread
+    c.program.thread.start()
+    try:
+        for program_state, moves in (("running", True), ("paused", True), ("finished", False)):
+            c.program.state = program_state  # finished: the thread still closes its client
+            assert c.moving is moves and c.program.active is moves, program_state
+    finally:
+        gate.set()
+        c.program.thread.join()
+
+
+def test_a_program_stopped_between_run_and_its_start_does_not_run(tmp_path):
+    """Run pressed, the page's text still on its way: the program counts as moving (Space is
+    STOP) and stop() cancels it; start() then runs nothing."""
+    import asyncio
+
+    from parolkit.gui.commander import Commander
+    from parolkit.gui.link import ControllerLink
+    from parolkit.gui.programs import ProgramsFolder
+
+    c = Commander(ControllerLink("127.0.0.1", 9, 9), mode_label="test", programs=ProgramsFolder(tmp_path))
+    runner = c.program
+    runner.announce_start()
+    assert c.moving and not runner.active
+    runner.stop()
+    assert runner.state == "stopped" and runner.message == "stopped"
+    assert asyncio.run(runner.start("Begin()\nDelay(1)\nEnd()\n")) == []
+    assert not runner.running and runner.thread is None and not runner.starting and not c.moving
+    assert "program stopped before it started" in [e.text for e in c.log]
+
+
 def test_a_malformed_status_is_a_reply_error_naming_the_field():
     with pytest.raises(ReplyError, match="angles must be a list of 6"):
         RobotStatus.from_json(dict(STATUS, angles=[1, 2, 3]))

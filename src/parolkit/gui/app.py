@@ -64,6 +64,11 @@ class CommanderPage:
         ui.colors(primary="#1d4ed8", positive="#15803d", warning="#a16207", negative="#b91c1c", info="#0369a1")
         ui.on("pk_key", self.on_key)
         self._was_up = True  # the first update greys the jog buttons if there is no link
+        # "something moves" for commander.js: Space is STOP in a text field then (data-moving)
+        self._moving = commander.moving
+        self.motion = ui.element("div").classes("pk-motion") \
+            .props(f"data-moving={int(self._moving)} aria-hidden=true")
+        self.motion.set_visibility(False)
         self.help = HelpDialog()
         self.header = Header(commander, on_help=self.help.open)
         with ui.element("main").classes("pk-main"):
@@ -108,9 +113,15 @@ class CommanderPage:
             self.jog.offline()
         self._was_up = up
         self.program.update()
+        moving = self.c.moving
+        if moving != self._moving:
+            self._moving = moving
+            self.motion.props(f"data-moving={int(moving)}")
 
     def on_key(self, e: Any) -> None:
-        """A key from commander.js: ``{key, down}``; 'blur' and 'release' end a held jog."""
+        """A key from commander.js: ``{key, down, typed}``; 'blur' and 'release' end a held
+        jog.  ``typed``: a Space the page typed into a text field (it saw nothing moving); it
+        is STOP all the same if something moves by now (it may have started just before)."""
         args = e.args if isinstance(e.args, dict) else {}
         key, down = args.get("key", ""), bool(args.get("down"))
         if key == "blur" or not down:
@@ -122,7 +133,8 @@ class CommanderPage:
         if b.action == "estop":
             self.c.estop()
         elif b.action == "stop":
-            self.c.stop()
+            if not args.get("typed") or self.c.moving:
+                self.c.stop()
         elif b.action == "joint" and b.joint is not None:
             self.jog.joint_press(b.joint, b.direction)
         elif b.action == "cart" and b.axis is not None:

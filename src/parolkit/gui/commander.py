@@ -13,6 +13,7 @@ import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from parolkit.client.core import RobotState
 from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError
 from parolkit.gui.control import ControlWatch, local_host_for
@@ -101,6 +102,18 @@ class Commander:
     def jogging(self) -> bool:
         return self._hold is not None
 
+    @property
+    def moving(self) -> bool:
+        """Something moves or is about to: a held jog, a program starting, running or paused, or the
+        controller busy (a command running or queued, state MOVING or HOMING; the same test
+        as the client's wait for idle).  Space is STOP in a text field then (commander.js)."""
+        if self.jogging or self.program.active or self.program.starting:
+            return True
+        st = self.link.status
+        if st is None or not self.link.link_up:
+            return False
+        return st.command is not None or st.queue > 0 or st.state in (RobotState.MOVING, RobotState.HOMING)
+
     # ---- robot controls ----
 
     def stop(self) -> None:
@@ -168,6 +181,10 @@ class ProgramRunner:
         self.text = ""
         self.name = ""
         self._stopping = False
+        #: Run was pressed and the program is not running yet (the page's text is being asked
+        #: for, the lease handed over): Space is STOP then, and stop() cancels the start
+        self.starting = False
+        self._start_cancelled = False
         self.version = 0
 
     def port(self) -> int | None:
@@ -176,6 +193,12 @@ class ProgramRunner:
         robot = self.robot
         return None if robot is None else robot.ack_port
 
+    def announce_start(self) -> None:
+        """Run or Step was pressed: from now until :meth:`start` returns, the program counts
+        as starting (:attr:`starting`) and :meth:`stop` cancels it."""
+        self.starting = True
+        self._start_cancelled = False
+
     def _on_line(self, progress: Any) -> None:
         """Interpreter callback: ``progress.line`` is the line about to run (1-based)."""
         self.current_line = int(getattr(progress, "line", progress))
@@ -183,16 +206,31 @@ class ProgramRunner:
 
     async def start(self, text: str, *, step: bool = False, name: str = "") -> list[Any]:
         """Parse ``text`` (the program ``name``) and run it; returns the parse errors (nothing
-        runs when there are any)."""
+        runs when there are any, nor when :meth:`stop` cancelled the start)."""
+        try:
+            return await self._start(text, step=step, name=name)
+        finally:
+            self.starting = False
+            self._start_cancelled = False
+
+    async def _start(self, text: str, *, step: bool, name: str) -> list[Any]:
         from parolkit.script import parse
 
-        if self.running:
+        if self.active:
             if step and self.interpreter is not None:
                 self.interpreter.step()
             elif self.interpreter is not None and self.state == "paused":
                 self.interpreter.resume()
                 self.state = "running"
             return []
+        thread = self.thread
+        if thread is not None and thread.is_alive():  # the last run ended and closes its client
+            await asyncio.to_thread(thread.join, 5.0)
+            if thread.is_alive():
+                self.commander.log.error("program not started: the last run has not finished closing")
+                return []
+        if self._start_cancelled:
+            return []  # stopped before it started (stop() said so)
         result = parse(text, "editor")
         if not result.ok:
             self.state = "error"
@@ -215,6 +253,8 @@ class ProgramRunner:
         # the runner is another client of the controller: the link gives the lease back
         # first, then the runner takes it (_run) and gives it back when the program ends
         await self.commander.control.hand_over()
+        if self._start_cancelled:
+            return []
         try:
             # its own ephemeral socket: the controller acks it there (ACK_HERE)
             robot = Robot(host=link.host, port=link.port, ack_port=0)
@@ -289,14 +329,27 @@ class ProgramRunner:
     def running(self) -> bool:
         return self.thread is not None and self.thread.is_alive()
 
+    @property
+    def active(self) -> bool:
+        """A program runs or is paused (the editor shows it, read-only).  Not once it ended
+        (finished, stopped, error) while its thread still closes its client: the page says
+        "finished" then, and the editor takes typing again."""
+        return self.running and self.state in ("running", "paused")
+
     def pause(self) -> None:
-        if self.running and self.interpreter is not None:
+        if self.active and self.interpreter is not None:
             self.interpreter.pause()
             self.state = "paused"
             self.version += 1
 
     def stop(self, reason: str = "stopped") -> None:
-        if self.running and self.interpreter is not None:
+        if self.starting and not self.active and not self._start_cancelled:
+            self._start_cancelled = True  # start() runs nothing
+            self.state = "stopped"
+            self.message = reason
+            self.commander.log.add(f"program {reason} before it started", Level.WARNING)
+            self.version += 1
+        if self.active and self.interpreter is not None:
             self._stopping = True
             self.interpreter.stop()
             self.state = "stopped"

@@ -19,9 +19,10 @@ class HelpDialog:
                 for b in KEYMAP:
                     ui.label(key_label(b.key)).classes("pk-mono text-amber-300")
                     ui.label(b.description).classes("text-slate-300")
-            ui.label("Space stops and Esc latches E-STOP whatever has the focus; Space types a space in a "
-                     "text field, and Esc only closes an open dialog or menu. Jog keys are ignored while "
-                     "typing. Cartesian keys use the frame selected in the Jog panel.") \
+            ui.label("Space stops and Esc latches E-STOP whatever has the focus; only while nothing moves "
+                     "does Space type a space in a text field, and Esc only closes an open dialog or menu. "
+                     "Jog keys are ignored while typing. Cartesian keys use the frame selected in the Jog "
+                     "panel.") \
                 .classes("text-xs text-slate-300").style("max-width: 24rem")
             ui.button("Close", on_click=self.dialog.close).props("flat no-caps data-testid=help-close")
 

@@ -25,6 +25,8 @@ __all__ = ["ProgramPanel", "DIAG_DELAY_S"]
 
 #: the parser's diagnostics are shown this long after the last keystroke, s
 DIAG_DELAY_S = 0.4
+#: how long Check and Run wait for the page's editor text before using the server's copy, s
+PAGE_TEXT_TIMEOUT_S = 3.0
 
 
 def _tool(icon: str, label: str, testid: str, props: str, on_click: Any) -> ui.button:
@@ -129,8 +131,7 @@ class ProgramPanel:
         return runner.text if self._program_active() else self.c.doc.text
 
     def _program_active(self) -> bool:
-        runner = self.c.program
-        return runner.running or runner.state == "paused"
+        return self.c.program.active
 
     def on_edit(self, *_: Any) -> None:
         """Keep the edit in the shared document (autosaved) and re-colour the text; old error
@@ -186,10 +187,27 @@ class ProgramPanel:
 
     # ---- check, run, stop ----
 
-    def check_program(self) -> bool:
+    async def page_text(self) -> str:
+        """The text the page's editor shows (commander.js ``pkEditorText``), kept as the
+        editor's value; the server's copy if the page does not answer.  Check and Run use it:
+        the server's copy can lag behind the page (edits on their way, an echo the page
+        ignored), and a Check right after typing must check what the page shows."""
+        try:
+            shown = await ui.run_javascript("window.pkEditorText ? window.pkEditorText() : null",
+                                            timeout=PAGE_TEXT_TIMEOUT_S)
+        except TimeoutError:
+            shown = None
+        if not isinstance(shown, str):
+            return self.editor.value or ""
+        if shown != (self.editor.value or "") and not self._program_active():
+            self.editor.value = shown  # on_edit keeps it in the shared document
+        return shown
+
+    async def check_program(self) -> bool:
         from parolkit.script import parse
 
-        result = parse(self.editor.value or "", "editor")
+        text = await self.page_text()
+        result = parse(text, "editor")
         errors = list(result.errors)
         if not errors:
             errors = self._dry_run(result.program)
@@ -228,10 +246,19 @@ class ProgramPanel:
             chart.update()
 
     async def run_program(self, step: bool) -> None:
+        """Run (or resume, or step) the program the page shows.  From the press on, Space and
+        Stop stop it (``ProgramRunner.announce_start``), even before it runs."""
+        runner = self.c.program
         text = self.editor.value or ""
         if not self._program_active():
-            self.c.doc.edit(text)
-        errors = await self.c.program.start(text, step=step, name=self.c.doc.name)
+            runner.announce_start()
+            try:
+                text = await self.page_text()
+                self.c.doc.edit(text)
+            except BaseException:
+                runner.starting = False
+                raise
+        errors = await runner.start(text, step=step, name=self.c.doc.name)
         self._show_errors(errors)
         if errors:
             self.prog_status.set_text(f"✗ {len(errors)} error(s): nothing was run")

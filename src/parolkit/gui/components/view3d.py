@@ -63,7 +63,9 @@ class ArmView:
                 self.path = self.scene.point_cloud([], point_size=0.14).material("#22d3ee")
                 # the checked program's TCP path (the dry run), shown before it runs
                 self.preview = self.scene.point_cloud([], point_size=0.1).material("#facc15")
-            self.scene.props(f"data-preview-id={self.preview.id}")
+            # the page's scene objects by id, for the browser tests: the path preview and the
+            # TCP axes gizmo (the tool frame's axes, moved with the TCP frame)
+            self.scene.props(f"data-preview-id={self.preview.id} data-tcp-axes-id={self.tcp_axes.id}")
             self.scene.move_camera(x=4.6, y=-4.2, z=3.9, look_at_x=0, look_at_y=0.8, look_at_z=1.7, duration=0)
             for g, t in zip(self.groups, geometry.dh_frames(PAROL6.standby_deg)):
                 pos, rot = geometry.frame_pose_for_scene(t)
@@ -99,7 +101,7 @@ class ArmView:
                 obj.material(colours[solid.role], opacity=opacity)
         if not ghost:
             with groups[7]:
-                self.scene.axes_helper(length=0.6)  # tool frame
+                self.tcp_axes = self.scene.axes_helper(length=0.6)  # tool frame
         return groups
 
     def update(self) -> None:

@@ -4,9 +4,13 @@
 //
 //  * Esc is E-STOP whatever has the focus (the editor too), except while a dialog or a menu
 //    is open: then Esc only closes it.
-//  * Space is STOP whatever has the focus, except in a text field (it types a space there).
-//    The page takes Space before any button sees it, so a focused button is never "pressed
-//    again" by it.
+//  * Space is STOP whatever has the focus.  Only while nothing moves does Space in a text
+//    field (an input, the editor) type a space: "something moves" (the robot moving or
+//    homing, a command queued, a program starting, running or paused, a held jog) is the
+//    server's data-moving attribute on .pk-motion, read at each keydown.  A Space typed that
+//    way still goes to the server (typed: true), which sends STOP if something moves by then
+//    (it may have started just before the key; the attribute follows every 0.1 s).  The page
+//    takes Space before any button sees it, so a focused button is never "pressed again".
 //  * Jog keys are ignored while typing (inputs, the editor) or adjusting a slider.
 //  * A held jog ends on any pointer release or cancel anywhere on the page and when the
 //    window loses focus.
@@ -17,14 +21,19 @@
   // open overlays that own Esc (Quasar dialogs and menus, CodeMirror's completion list)
   const OVERLAYS = ".q-dialog, .q-menu, .cm-tooltip-autocomplete";
 
-  const send = (key, down) => {
-    if (typeof window.emitEvent === "function") window.emitEvent("pk_key", { key: key, down: down });
+  const send = (key, down, typed = false) => {
+    if (typeof window.emitEvent === "function") window.emitEvent("pk_key", { key: key, down: down, typed: typed });
   };
   const keyName = (e) => (e.key === " " ? " " : String(e.key || "").toLowerCase());
   const typing = (t) =>
     !!t && (t.isContentEditable || ["INPUT", "TEXTAREA", "SELECT"].includes(t.tagName));
   const adjusting = (t) => !!t && typeof t.getAttribute === "function" && t.getAttribute("role") === "slider";
   const overlayOpen = () => document.querySelector(OVERLAYS) !== null;
+  // the server's word on "something moves" (parolkit.gui.app: Commander.moving)
+  const moving = () => {
+    const el = document.querySelector(".pk-motion");
+    return el !== null && el.getAttribute("data-moving") === "1";
+  };
 
   window.addEventListener("keydown", (e) => {
     const k = keyName(e);
@@ -38,8 +47,11 @@
     }
     if (e.ctrlKey || e.metaKey || e.altKey) return;
     if (k === " ") {
-      if (typing(focus)) return; // a space in a text field
-      e.preventDefault(); // no button, toggle or tab sees this Space
+      if (typing(focus) && !moving()) { // a space in a text field; STOP if the server sees motion
+        if (!e.repeat) send(" ", true, true);
+        return;
+      }
+      e.preventDefault(); // no button, toggle, tab or text field sees this Space
       e.stopPropagation();
       if (!e.repeat) send(" ", true);
       return;
@@ -157,10 +169,13 @@
   // the server's copy of the text, which lags behind what was typed since; NiceGUI's editor
   // then replaces the newer text with it (typed characters vanish, the cursor jumps).  The
   // texts this editor itself had while typing are remembered: one of them coming back is a
-  // late echo and is ignored; any other text (another tab, a file, a run) is shown.
-  // (only texts of the last ECHO_MS count: an echo is never older; a file opened later with
-  // an earlier text is shown)
-  const ECHO_MS = 2000;
+  // late echo and is ignored; any other text (another tab, a file, a run) is shown.  The
+  // server's updates come in order, so once it sends the editor's current text it has caught
+  // up at least to the first time the editor had that text: the texts before are forgotten
+  // (a file opened later with an earlier text is shown; the texts after stay, since the
+  // current one may be an undo).  Otherwise a text counts for ECHO_MS (a loaded server may
+  // echo seconds late).  The text before a change is remembered too (keydown, input).
+  const ECHO_MS = 10000;
   const typedTexts = [];
   const rememberText = () => {
     const view = editorView();
@@ -168,24 +183,55 @@
     const text = view.state.doc.toString();
     const now = performance.now();
     while (typedTexts.length && (now - typedTexts[0].t > ECHO_MS || typedTexts.length > 200)) typedTexts.shift();
-    typedTexts.push({ text: text, t: now });
+    const last = typedTexts[typedTexts.length - 1];
+    if (last !== undefined && last.text === text) last.t = now; // the same text again: one entry
+    else typedTexts.push({ text: text, t: now });
+  };
+  const caughtUp = (current) => {
+    const first = typedTexts.findIndex((e) => e.text === current);
+    typedTexts.splice(0, first < 0 ? typedTexts.length : first);
   };
   const lateEcho = (value) => {
     const now = performance.now();
     return typedTexts.some((e) => e.text === value && now - e.t <= ECHO_MS);
   };
+  // every text the editor's own changes produce is remembered where CodeMirror applies them
+  // (its view's dispatch: typing, keys, paste, completion alike), not the server's updates
+  let applyingServer = false;
   function guardEditor() {
     const host = document.querySelector("[data-testid=editor]");
     if (!host || typeof getElement !== "function") return;
     const comp = getElement(host.id.replace(/^c/, ""));
-    if (!comp || comp.pkGuarded || typeof comp.setEditorValue !== "function") return;
-    const original = comp.setEditorValue;
-    comp.setEditorValue = function (value) {
-      const current = this.editor ? this.editor.state.doc.toString() : null;
-      if (current !== null && value !== current && lateEcho(value)) return; // a late echo
-      return original.call(this, value);
-    };
-    comp.pkGuarded = true;
+    if (!comp || typeof comp.setEditorValue !== "function") return;
+    if (!comp.pkGuarded) {
+      const original = comp.setEditorValue;
+      comp.setEditorValue = function (value) {
+        const current = this.editor ? this.editor.state.doc.toString() : null;
+        if (current !== null && value === current) caughtUp(current);
+        if (current !== null && value !== current && lateEcho(value)) return; // a late echo
+        applyingServer = true;
+        try {
+          return original.call(this, value);
+        } finally {
+          applyingServer = false;
+        }
+      };
+      comp.pkGuarded = true;
+    }
+    const view = comp.editor;
+    if (view && !view.pkRemembers) {
+      const dispatch = view.dispatch;
+      let last = view.state.doc;
+      view.dispatch = function (...args) {
+        const result = dispatch.apply(this, args);
+        if (view.state.doc !== last) {
+          last = view.state.doc;
+          if (!applyingServer) rememberText();
+        }
+        return result;
+      };
+      view.pkRemembers = true;
+    }
   }
   document.addEventListener("input", (e) => {
     if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) {
@@ -209,6 +255,11 @@
     if (!host || typeof getElement !== "function") return null;
     const comp = getElement(host.id.replace(/^c/, ""));
     return comp && comp.editor ? comp.editor : null;
+  };
+  // the text the editor shows (Check and Run use it: the server's copy may lag behind)
+  window.pkEditorText = () => {
+    const view = editorView();
+    return view === null ? null : view.state.doc.toString();
   };
   const closePopup = () => {
     if (popup !== null) popup.el.remove();
@@ -272,6 +323,7 @@
       popup = { el: el };
     }
     Object.assign(popup, { items: items, index: 0, from: sel.head - m[0].length, to: sel.head, view: view });
+    popup.el.setAttribute("data-word", m[0]); // the word it completes (tests wait for the newest list)
     popup.el.style.left = `${Math.round(pos.left)}px`;
     popup.el.style.top = `${Math.round(pos.bottom + 2)}px`;
     renderPopup();
@@ -314,10 +366,12 @@
     const doc = view.state.doc;
     const line = doc.lineAt(view.state.selection.main.head);
     const atEnd = line.number === doc.lines;
+    rememberText(); // the text before the insertion: its echo is late
     const insert = line.text.trim() === "" ? text : (atEnd ? "\n" : "") + text + (atEnd ? "" : "\n");
     const from = line.text.trim() === "" ? line.from : (atEnd ? line.to : line.to + 1);
     view.dispatch({ changes: { from: from, to: line.text.trim() === "" ? line.to : from, insert: insert },
       selection: { anchor: from + insert.length - (atEnd || line.text.trim() === "" ? 0 : 1) } });
+    rememberText();
     view.focus();
   };
 
