@@ -9,6 +9,7 @@ import sys
 import time
 import urllib.error
 import urllib.request
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -61,6 +62,24 @@ def start_gui(args: list[str]) -> tuple[subprocess.Popen, str, Path]:
             pytest.fail(f"parolkit gui did not serve {url} within 40 s:\n{log_path.read_text(errors='replace')}")
         time.sleep(0.2)
     return proc, url, log_path
+
+
+@contextmanager
+def gui_on_controller(root: Path, controller_args: list[str], gui_args: list[str]):
+    """A controller process (``parolkit serve --sim CONTROLLER_ARGS``, its log in ``root``) and
+    ``parolkit gui --connect`` to it (``GUI_ARGS``); yields (controller, URL, GUI log path) and
+    stops both, the GUI first."""
+    from tests.conftest import start_controller
+
+    controller = start_controller(controller_args, log_dir=root)
+    try:
+        proc, url, log_path = start_gui(["--connect", f"127.0.0.1:{controller.port}", *gui_args])
+        try:
+            yield controller, url, log_path
+        finally:
+            _stop(proc)
+    finally:
+        controller.stop()
 
 
 @pytest.fixture(scope="module")

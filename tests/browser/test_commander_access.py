@@ -13,9 +13,8 @@ import os
 from pathlib import Path
 
 import pytest
-from tests.browser.conftest import _stop, start_gui
+from tests.browser.conftest import gui_on_controller
 from tests.browser.helpers import wait_until
-from tests.conftest import start_controller
 
 from parolkit.client import Robot
 from parolkit.client.errors import CommandCancelled, CommandFailed
@@ -33,16 +32,9 @@ def setup(tmp_path_factory):
     cfg = root / "parolkit.toml"
     cfg.write_text(f'[controller]\nlease_timeout_s = {LEASE_TIMEOUT_S}\n[gui]\npassword = "{PASSWORD}"\n')
     programs = root / "programs"
-    controller = start_controller(["--config", str(cfg)], log_dir=root)
-    try:
-        proc, url, log_path = start_gui(["--connect", f"127.0.0.1:{controller.port}", "--config", str(cfg),
-                                         "--programs-dir", str(programs)])
-        try:
-            yield {"url": url, "controller": controller, "programs": programs, "root": root, "gui_log": log_path}
-        finally:
-            _stop(proc)
-    finally:
-        controller.stop()
+    with gui_on_controller(root, ["--config", str(cfg)],
+                           ["--config", str(cfg), "--programs-dir", str(programs)]) as (controller, url, log_path):
+        yield {"url": url, "controller": controller, "programs": programs, "root": root, "gui_log": log_path}
 
 
 @pytest.fixture(scope="module")

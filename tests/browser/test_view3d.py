@@ -11,9 +11,8 @@ three.js scene (NiceGUI's scene objects by id; the view names the gizmo's id in 
 from __future__ import annotations
 
 import pytest
-from tests.browser.conftest import _stop, start_gui
+from tests.browser.conftest import gui_on_controller
 from tests.browser.helpers import settled, state, wait_linked, wait_ready, wait_until
-from tests.conftest import start_controller
 
 from parolkit.client import Robot
 from parolkit.gui.geometry import SCENE_SCALE
@@ -44,16 +43,9 @@ def setup(tmp_path_factory):
     pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
     root = tmp_path_factory.mktemp("view3d")
     # the watchdog of a controller the GUI would start itself (docs/gui.md, Jogging)
-    controller = start_controller(["--stream-watchdog", "0.15"], log_dir=root)
-    try:
-        proc, url, _ = start_gui(["--connect", f"127.0.0.1:{controller.port}", "--programs-dir",
-                                  str(root / "programs")])
-        try:
-            yield {"url": url, "controller": controller}
-        finally:
-            _stop(proc)
-    finally:
-        controller.stop()
+    with gui_on_controller(root, ["--stream-watchdog", "0.15"], ["--programs-dir", str(root / "programs")]) as (
+            controller, url, _):
+        yield {"url": url, "controller": controller}
 
 
 @pytest.fixture(scope="module")

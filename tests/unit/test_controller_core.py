@@ -143,6 +143,14 @@ def test_commands_run_in_order_each_planned_from_the_previous_end(rig):
     assert np.allclose(rig.angles, [80, -90, 170, 0, 0, 180], atol=0.05)
 
 
+def _holds_still(rig) -> None:
+    """After a STOP: 30 more ticks of IDLE frames and the arm where it stopped."""
+    held = rig.angles.copy()
+    rig.tick(30)
+    assert np.allclose(rig.angles, held, atol=0.5)
+    assert rig.frames[-1].command == BoardCommand.IDLE
+
+
 def test_stop_mid_move_cancels_active_and_queued_and_holds(rig):
     rig.submit("aaaa0001|MOVEJOINT|60|-90|180|0|0|180|2|None")
     rig.submit("aaaa0002|MOVEJOINT|90|-90|180|0|0|180|2|None")
@@ -152,10 +160,7 @@ def test_stop_mid_move_cancels_active_and_queued_and_holds(rig):
     rig.tick(3)
     assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
     assert rig.terminal("aaaa0002") is AckStatus.CANCELLED
-    held = rig.angles.copy()
-    rig.tick(30)
-    assert np.allclose(rig.angles, held, atol=0.5)
-    assert rig.frames[-1].command == BoardCommand.IDLE
+    _holds_still(rig)
 
 
 def test_estop_press_cancels_sends_disable_every_tick_and_latches_until_release_and_enable(rig):
@@ -441,9 +446,7 @@ def test_a_path_is_planned_from_where_the_previous_command_ends_and_stop_cancels
     rig.tick(3)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
     assert rig.terminal("aaaa0002") is AckStatus.CANCELLED
-    held = rig.angles.copy()
-    rig.tick(30)
-    assert np.allclose(rig.angles, held, atol=0.5) and rig.frames[-1].command == BoardCommand.IDLE
+    _holds_still(rig)
 
 
 def test_a_path_over_a_limit_fails_naming_the_joint_and_the_point_and_nothing_moves(rig):
