@@ -250,6 +250,11 @@
   const compIsland = document.getElementById("pk-completions");
   const COMPLETIONS = compIsland ? JSON.parse(compIsland.textContent) : [];
   let popup = null;
+  // the editor's text and cursor where Esc closed the list: a suggestion still pending for
+  // that same state (a keyup or an animation frame late on a loaded machine) must not open
+  // it again; any edit or cursor move ends it
+  let dismissed = null;
+  let pendingSuggest = 0;
   const editorView = () => {
     const host = document.querySelector("[data-testid=editor]");
     if (!host || typeof getElement !== "function") return null;
@@ -301,6 +306,10 @@
     if (view === null || !view.hasFocus) { closePopup(); return; }
     const sel = view.state.selection.main;
     if (!sel.empty) { closePopup(); return; }
+    if (dismissed !== null) {
+      if (dismissed.head === sel.head && dismissed.text === view.state.doc.toString()) { closePopup(); return; }
+      dismissed = null;
+    }
     const line = view.state.doc.lineAt(sel.head);
     const before = line.text.slice(0, sel.head - line.from);
     const m = /[A-Za-z_]\w*$/.exec(before);
@@ -337,6 +346,8 @@
     } else if (e.key === "Enter" || e.key === "Tab") {
       acceptItem(popup.index);
     } else if (e.key === "Escape") {
+      cancelAnimationFrame(pendingSuggest);
+      dismissed = { text: popup.view.state.doc.toString(), head: popup.view.state.selection.main.head };
       closePopup();
     } else {
       return;
@@ -348,7 +359,8 @@
     if (["ArrowDown", "ArrowUp", "Enter", "Tab", "Escape", "Shift", "Control", "Alt", "Meta"].includes(e.key)) return;
     if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) {
       rememberText();
-      requestAnimationFrame(suggest);
+      cancelAnimationFrame(pendingSuggest);
+      pendingSuggest = requestAnimationFrame(suggest);
     }
   }, true);
   document.addEventListener("focusout", (e) => {
