@@ -278,10 +278,23 @@ def test_pulling_the_cable_mid_move_cancels_reports_and_reconnects_without_resum
 
 
 def test_one_percent_corruption_of_the_telemetry_is_filtered_and_moves_complete(bench):
-    bench.emu.set_faults(corrupt_rate=0.01, direction="from_board")
-    ids = [bench.send(f"MOVEJOINT|{90 - 5 * (i % 2)}|-90|180|0|0|180|0.8|None") for i in range(4)]
-    for cid in ids:
-        assert bench.acks.terminal(cid, 40) == ("COMPLETED", "MoveJoint finished successfully")
+    """A corrupted IO byte equal to the last one with only the E-stop bit cleared reads as a
+    press and latches at once (executor._hardware_estop: a real press must stop the board in
+    one tick; 1 in 255 corrupted IO bytes, the safe side).  That may happen once here (a clean
+    run saw it): the batch then runs again after ENABLE.  Every other corruption is filtered."""
+    done = ("COMPLETED", "MoveJoint finished successfully")
+    for attempt in range(2):
+        bench.emu.set_faults(corrupt_rate=0.01, direction="from_board")
+        ids = [bench.send(f"MOVEJOINT|{90 - 5 * (i % 2)}|-90|180|0|0|180|0.8|None") for i in range(4)]
+        results = [bench.acks.terminal(cid, 40) for cid in ids]
+        if all(r == done for r in results):
+            break
+        assert attempt == 0 and ("CANCELLED", "E-stop: hardware E-stop pressed") in results, results
+        assert all(r in (done, ("CANCELLED", "E-stop: hardware E-stop pressed")) for r in results), results
+        bench.emu.clear_faults()
+        assert not bench.emu.estop_pressed
+        wait_until(lambda: bench.run("ENABLE")[0] == "COMPLETED", 10, what="ENABLE after the false press")
+        wait_until(lambda: bench.emu.enabled and not bench.status()["estop_latched"], what="enabled again")
     stats = json.loads(bench.query("GET_LOOP_STATS").split("|", 1)[1])
     assert stats["implausible_frames"] > 0 and stats["bytes_dropped"] > 0
     assert not bench.status()["estop_latched"]
