@@ -79,14 +79,11 @@ class ControllerProcess:
         return self.log_path.read_text(errors="replace") if self.log_path else ""
 
     def stop(self, timeout: float = 10.0) -> int:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-        return self.proc.returncode
+        from parolkit.client.launch import stop_process
+
+        code = stop_process(self.proc, timeout)
+        assert code is not None
+        return code
 
 
 def start_controller(

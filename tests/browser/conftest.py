@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from parolkit.client.launch import die_with_parent
+from parolkit.client.launch import die_with_parent, stop_process
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = REPO_ROOT / "test-artifacts" / "browser"
@@ -96,12 +96,7 @@ def gui_url(tmp_path_factory):
 def _stop(proc: subprocess.Popen) -> None:
     """SIGTERM, then SIGKILL if the GUI has not exited 15 s later (its controller child follows
     it either way: die_with_parent)."""
-    proc.terminate()
-    try:
-        proc.wait(15)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait(5)
+    stop_process(proc, 15)
 
 
 @pytest.fixture(scope="module")

@@ -13,14 +13,13 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 from parolkit.board.control import send_control
-from parolkit.client.launch import die_with_parent
+from parolkit.client.launch import die_with_parent, stop_process
 from parolkit.robot import PAROL6
 
 __all__ = ["BoardSim", "BOARD_FIFO_PRIORITY", "BOARD_NICE", "REPO_ROOT"]
@@ -119,13 +118,7 @@ class BoardSim:
             query = f"frames since={since:.6f} after={got['frames'][-1][0]}"
 
     def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
+        stop_process(self.proc)
         self._log.close()
 
 

@@ -46,6 +46,19 @@ def spawn_controller(serve_args: Sequence[str], *, stdout: IO[bytes] | int | Non
                             env=dict(os.environ, PYTHONUNBUFFERED="1"))
 
 
+def stop_process(proc: subprocess.Popen[bytes], timeout: float = 10.0) -> int | None:
+    """SIGTERM ``proc`` (a controller then stops motion and disables the robot), SIGKILL if it
+    has not exited ``timeout`` s later; returns its exit status."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+    return proc.returncode
+
+
 def free_udp_port() -> int:
     """A UDP port on 127.0.0.1 that nothing is bound to right now."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
@@ -98,11 +111,5 @@ class SimController:
                            f"its log:\n{self.log_tail()}")
 
     def close(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
+        stop_process(self.proc)
         self.log.close()

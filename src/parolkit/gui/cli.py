@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from parolkit.client.launch import free_udp_port
+from parolkit.client.launch import free_udp_port, stop_process
 
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
@@ -135,13 +135,7 @@ def start_controller_process(serial_port: str | None, udp_port: int, ack_port: i
 def stop_controller_process(proc: subprocess.Popen[bytes]) -> None:
     """Terminate a controller started by :func:`start_controller_process` (SIGTERM: it stops
     motion and disables the robot), SIGKILL if it has not exited 10 s later."""
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+    stop_process(proc)
 
 
 def main(args: argparse.Namespace) -> int:
