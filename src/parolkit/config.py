@@ -332,6 +332,23 @@ class Config:
     tools: tuple[ToolSettings, ...] = ()
     source: str | None = None
 
+    def __post_init__(self) -> None:
+        if self.serial.port is None:
+            return
+        base = self.serial._parsed_port().base
+        step = base.options.get("step")
+        if base.scheme.name != "sim" or step is None:
+            return
+        if base.options.get("clock") != "virtual":
+            raise ParolkitValueError(
+                f"serial.port {self.serial.port!r}: step (simulated seconds per frame) needs "
+                "clock=virtual: a real-time board follows the wall clock, not the frames")
+        rate = self.controller.rate_hz
+        if abs(float(step) * rate - 1.0) > 1e-6:  # type: ignore[arg-type]
+            raise ParolkitValueError(
+                f"serial.port {self.serial.port!r}: step must be the control period, "
+                f"1/{rate:g} Hz = {1.0 / rate:g} s, got {step!r}")
+
     def with_overrides(self, overrides: Mapping[str, Mapping[str, Any]]) -> Config:
         """Apply ``{"controller": {"rate_hz": 250}, ...}``; ``None`` values are ignored."""
         return _apply(self, overrides, origin="command line")

@@ -76,3 +76,15 @@ def test_config_is_immutable_and_overrides_make_copies():
     assert cfg.controller.rate_hz == 100 and faster.controller.rate_hz == 250
     with pytest.raises(dataclasses.FrozenInstanceError):
         cfg.controller.rate_hz = 5  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("port, rate, fragment", [
+    ("sim://?clock=virtual&step=0.004", 100.0, r"step must be the control period, 1/100 Hz = 0.01 s, got 0.004"),
+    ("sim://?step=0.01", 100.0, "step .* needs clock=virtual"),
+])
+def test_a_lockstep_simulated_board_must_step_the_control_period(port, rate, fragment):
+    with pytest.raises(ParolkitValueError, match=fragment):
+        Config().with_overrides({"serial": {"port": port}, "controller": {"rate_hz": rate}})
+    ok = Config().with_overrides({"serial": {"port": "sim://?clock=virtual&step=0.004"},
+                                  "controller": {"rate_hz": 250}})
+    assert ok.serial.simulated

@@ -28,12 +28,15 @@ class Rig:
     """One controller core: ticks are driven by the test; the board advances 1/RATE per tick."""
 
     def __init__(self, *, homed: bool = True, queue_size: int = 16, board_disabled: bool = False,
-                 wrap=None, **emu_kw) -> None:
+                 wrap=None, lockstep: bool = False, **emu_kw) -> None:
         self.emu = BoardEmulator(clock="virtual", start_homed=homed, homing_speedup=200, **emu_kw)
         if board_disabled:  # left so by a previous controller
             self.emu.process_frame(CommandFrame(command=BoardCommand.DISABLE))
         # ``wrap(transport)``: a link fault injector around the emulator's link
-        base = EmulatorTransport(emulator=self.emu)
+        # ``lockstep``: the link itself runs the board one period per frame written
+        # (sim://?clock=virtual&step=...), whatever time the test's ticks claim
+        self.lockstep = lockstep
+        base = EmulatorTransport(emulator=self.emu, step_s=1.0 / RATE if lockstep else None)
         self.transport = wrap(base) if wrap is not None else base
         self.transport.open()
         self.acks: list[tuple[str | None, AckStatus, str]] = []
@@ -68,7 +71,7 @@ class Rig:
                 self.frames.append(out.frame)
             self.loop.tick_count += 1
             self.now += dt
-            if self.emu.plugged:
+            if self.emu.plugged and not self.lockstep:
                 self.emu.advance(dt)
 
     def _record(self, acks) -> None:
@@ -983,3 +986,29 @@ def test_the_scheduling_shows_as_soon_as_the_tick_thread_sets_it_even_in_a_young
     assert m.view(max_age_s=10.0, now=1.0).scheduling == "not started"
     m.scheduling = "fifo:10"
     assert m.view(max_age_s=10.0, now=1.01).scheduling == "fifo:10"
+
+
+def test_with_a_board_in_lockstep_late_and_early_ticks_send_the_same_frames_as_punctual_ones():
+    """A board that runs one period per frame (the replay's simulated board): the trajectory
+    follows the tick count, not the wall clock, and the guard judges frame intervals the same
+    way, so ticks 1-25 ms apart send exactly the frames of ticks 10 ms apart (a wall-clock
+    schedule jumped ahead in the plan after a late tick while that board advanced 10 ms)."""
+    def run(jitter: bool, tick_clock: bool = True) -> tuple[list[CommandFrame], list[tuple[int, ...]]]:
+        rig = Rig(lockstep=True)
+        rig.ex.tick_clock = tick_clock
+        rig.submit("aaaa0001|MOVEJOINT|70|-80|165|15|-15|160|1.2|None")
+        rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))  # planned, first frame sent
+        frames, seen = [rig.frames[-1]], []
+        for k in range(400):
+            rig.tick(dt=(0.03 if k % 5 == 1 else 0.0002 if k % 5 in (2, 3) else 1.0 / RATE) if jitter else 1.0 / RATE)
+            frames.append(rig.frames[-1])
+            seen.append(tuple(rig.loop.status.positions))
+            if rig.terminal("aaaa0001") is not None:
+                break
+        assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
+        rig.close()
+        return frames, seen
+
+    punctual = run(jitter=False)
+    assert run(jitter=True) == punctual
+    assert run(jitter=True, tick_clock=False)[0] != punctual[0]  # the wall-clock schedule would differ

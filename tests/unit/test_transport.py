@@ -171,3 +171,32 @@ def test_faulty_transport_checks_its_arguments():
         FaultyTransport(EmulatorTransport(clock="virtual"), corrupt_rate=1.5)
     with pytest.raises(ParolkitValueError, match="bogus"):
         FaultyTransport(EmulatorTransport(clock="virtual"), bogus=1)
+
+
+def test_a_lockstep_board_runs_exactly_one_step_per_frame_whatever_the_wall_clock_does():
+    """``sim://?clock=virtual&step=0.01``: each frame written runs the board 10 ms, so the same
+    frames give the same replies however long the PC waited between them."""
+    jog = CommandFrame(command=BoardCommand.JOG, speeds=(1000, 0, 0, 0, 0, 0)).encode()
+    runs = []
+    for pause in (0.0, 0.03):
+        t = open_transport("sim://?clock=virtual&step=0.01&homed=1")
+        try:
+            assert t.emulator.time_s == 0.0
+            replies = []
+            for _ in range(5):
+                replies += roundtrip(t, jog, wait_s=pause)
+            assert abs(t.emulator.time_s - 0.05) < 1e-9  # 5 frames, 5 steps: no wall-clock time
+            runs.append([f.positions[0] for f in replies])
+        finally:
+            t.close()
+    assert runs[0] == runs[1] and runs[0][-1] - runs[0][0] == 40  # 4 steps of 10 ms at 1000 steps/s
+
+
+@pytest.mark.parametrize("url, fragment", [
+    ("sim://?step=0.01", "step .* needs clock=virtual"),
+    ("sim://?clock=virtual&step=0", r"step='0' is not allowed: expected 0.0001..1 s"),
+    ("sim://?clock=virtual&step=x", "step='x'"),
+])
+def test_a_lockstep_board_needs_the_virtual_clock_and_a_step_in_range(url, fragment):
+    with pytest.raises((ParolkitValueError, TransportError, ValueError), match=fragment):
+        open_transport(url)

@@ -73,7 +73,7 @@ def test_urls_parse_into_layers_with_each_option_on_the_scheme_that_owns_it(
     ("sim://board", r"sim:// takes no path \(got 'board'\)"),
     ("serial://?baud=9600", r"serial:// needs a device"),
     ("sim:", r"write sim:// \(with two slashes\)"),
-    ("sim://?bogus=1", r"unknown option 'bogus'.*options of 'sim://': speedup, clock, homed, pass_hz"),
+    ("sim://?bogus=1", r"unknown option 'bogus'.*options of 'sim://': speedup, clock, step, homed, pass_hz"),
     ("sim://?homing_speedup=3", r"unknown option 'homing_speedup'.*did you mean 'speedup'"),
     ("sim://?baud=9600", r"option 'baud' belongs to serial://, which 'sim://\?baud=9600' does not use"),
     ("/dev/x?drop=0.1", r"option 'drop' belongs to faulty\+.*options of 'serial://': baud, "

@@ -70,13 +70,18 @@ def free_udp_port() -> int:
 class SimController:
     """``parolkit serve --sim EXTRA_ARGS...`` started for one run on free ports (``port``,
     ``ack_port``), its log in a temporary file (a pipe nobody reads would fill up and block
-    it); :meth:`wait_ready` until the simulated board has homed, :meth:`close` stops it."""
+    it); :meth:`wait_ready` until the simulated board has homed, :meth:`close` stops it.
+    ``board``: a ``sim://`` transport URL with options (``--port URL`` instead of ``--sim``),
+    e.g. the lockstep board ``sim://?clock=virtual&step=0.01``."""
 
-    def __init__(self, extra_args: Sequence[str] = ()) -> None:
+    def __init__(self, extra_args: Sequence[str] = (), *, board: str | None = None) -> None:
+        if board is not None and not board.startswith("sim://"):
+            raise ValueError(f"board must be a sim:// transport URL, got {board!r}")
         self.port = free_udp_port()
         self.ack_port = free_udp_port()
         self.log = tempfile.TemporaryFile()
-        self.proc = spawn_controller(["--sim", *extra_args, "--udp-port", str(self.port),
+        source = ["--port", board] if board is not None else ["--sim"]
+        self.proc = spawn_controller([*source, *extra_args, "--udp-port", str(self.port),
                                       "--ack-port", str(self.ack_port)], stdout=self.log, stderr=subprocess.STDOUT)
 
     def log_tail(self, lines: int = 15) -> str:

@@ -162,6 +162,13 @@ class Executor:
         #: the safety guard's judgement of a 156 frame (``SafetyGuard.accepts_goto``), set by the
         #: control loop that owns the guard; activities catching up ask it (see TickContext)
         self.goto_check: Callable[[Sequence[int], Sequence[int], StatusFrame | None, float], bool] | None = None
+        #: the board runs exactly one period per frame (a simulated board in lockstep with the
+        #: frames, set by the control loop): trajectories are scheduled on tick / rate, that
+        #: board's own time, rather than on the wall clock (a late tick would otherwise jump
+        #: ahead in the plan while the board advanced one period)
+        self.tick_clock = False
+        #: the time this tick's trajectory schedule runs on (see TickContext.clock_s)
+        self._sched = 0.0
         self.estop_latched = False
         self.estop_pressed = False
         self.error: str | None = None
@@ -855,7 +862,7 @@ class Executor:
             for note in job.warnings:
                 log.warning("%s (%s): %s", job.name, job.command_id or "no id", note)
             act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now,  # type: ignore[arg-type]
-                                     max_speed_steps_s=self.model.max_speed_steps_s)
+                                     max_speed_steps_s=self.model.max_speed_steps_s, schedule_start=self._sched)
             self.plan_seq += 1
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
@@ -1012,13 +1019,14 @@ class Executor:
             # is the board enabled?  Nothing else runs until it answers (a few ticks)
             code, speeds = self.probe.frame(status, self._limits)
             return Step(code, speeds=speeds)
+        self._sched = tick / self.rate_hz if self.tick_clock else now
         if self.active is None and self.queue:
             self._try_activate(now, status)
         act = self.activity
         if act is None:
             return Step(BoardCommand.IDLE)
         ctx = TickContext(tick, now, self.rate_hz, status, self._homed, self.stream_mode, self.watchdog_s,
-                          self._limits, self.goto_check)
+                          self._limits, self.goto_check, self._sched if self.tick_clock else None)
         step = self._run_activity(act, ctx)
         if step.done is not None and act.frameless_end and self.queue:
             # its end needs no frame of its own (it only saw the board's report): the next

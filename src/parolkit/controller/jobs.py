@@ -139,6 +139,15 @@ class TickContext:
     #: ``goto_check(targets, feed_forwards, status, now)``: would the safety guard pass this 156
     #: frame now (``SafetyGuard.accepts_goto``)?  None: judge with the pacing model alone
     goto_check: Callable[[Sequence[int], Sequence[int], StatusFrame | None, float], bool] | None = None
+    #: the time trajectories are scheduled on (s): ``now``, or, with a board in lockstep with
+    #: the frames (each frame runs it exactly one period: a simulated board with a frame
+    #: clock), ``tick / rate_hz``: that board's own time, which a late tick does not advance
+    clock_s: float | None = None
+
+    @property
+    def schedule_s(self) -> float:
+        """:attr:`clock_s`, or ``now`` when it is not set."""
+        return self.now if self.clock_s is None else self.clock_s
 
 
 @dataclass(frozen=True)
@@ -218,7 +227,7 @@ class TrajectoryActivity(Activity):
 
     def __init__(self, samples: Samples, *, settle_ticks: int, max_speed_steps_s: Sequence[float],
                  settle_tol_steps: int = 4, streamed: bool = False, started: float = 0.0,
-                 fits: GotoFits = goto_fits) -> None:
+                 fits: GotoFits = goto_fits, schedule_start: float | None = None) -> None:
         self.positions, self.speeds, self.commands = samples
         self.n = len(self.positions)
         #: the next whole sample to play (``n``: all played, settling)
@@ -233,7 +242,7 @@ class TrajectoryActivity(Activity):
         self.vmax = tuple(float(v) for v in max_speed_steps_s)
         self.fits = fits
         #: time of the first frame (sample 0 is due then); ``skip`` moves the schedule on
-        self.t0 = started
+        self.t0 = started if schedule_start is None else schedule_start
         self._offset = 0
         self.log = SentLog()
         #: where in the samples the last 156 frame was (fractional), its target and time
@@ -306,7 +315,7 @@ class TrajectoryActivity(Activity):
         if self._start_waits >= self.START_WAIT_TICKS or self._guard_passes(ctx, float(self.i)):
             return False
         self._start_waits += 1
-        self.t0 = ctx.now + 1.0 / ctx.rate_hz  # sample i is due at the next tick
+        self.t0 = ctx.schedule_s + 1.0 / ctx.rate_hz  # sample i is due at the next tick
         self._offset = self.i
         return True
 
@@ -315,7 +324,7 @@ class TrajectoryActivity(Activity):
         (``ctx.goto_check`` must be set)."""
         assert ctx.goto_check is not None
         pos, ff = self._at(s)
-        return ctx.goto_check(pos, ff, ctx.status, ctx.now)
+        return ctx.goto_check(pos, ff, ctx.status, ctx.schedule_s)
 
     def _goto_sample(self, ctx: TickContext) -> float:
         """Where in the samples the next 156 target is: what is due now, but no further than
@@ -324,7 +333,7 @@ class TrajectoryActivity(Activity):
         judgement at hand (``ctx.goto_check``) every target is one it passes (else the
         furthest such one from the previous target on); without it, the pacing model
         judges catch-ups of more than one sample."""
-        want = min(max(self._elapsed_samples(ctx.now, ctx.rate_hz), float(self.i)), self.n - 1.0)
+        want = min(max(self._elapsed_samples(ctx.schedule_s, ctx.rate_hz), float(self.i)), self.n - 1.0)
         prev, s_prev = self._prev_goto, self._s
         check = ctx.goto_check
 
@@ -384,7 +393,7 @@ class TrajectoryActivity(Activity):
         else:
             period = 1.0 / ctx.rate_hz
             due_at = self.t0 + (k + 1 - self._offset) * period
-            interval = max(due_at - now, period)
+            interval = max(due_at - ctx.schedule_s, period)
             if last:  # the end: over no less than the last tick gap (should the next be as late)
                 prev = self.log.last_time()
                 interval = max(interval, now - prev if prev is not None else period)
@@ -434,7 +443,7 @@ class TrajectoryActivity(Activity):
         if self.i < self.n:
             k = self.i
             if self.commands[k] == BoardCommand.JOG:
-                due = int(self._elapsed_samples(now, ctx.rate_hz) + 0.5)
+                due = int(self._elapsed_samples(ctx.schedule_s, ctx.rate_hz) + 0.5)
                 return self._speed_step(ctx, min(max(k, due), self.n - 1))
             if self._waits_to_start(ctx):
                 return Step(BoardCommand.IDLE)

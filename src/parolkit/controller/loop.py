@@ -130,6 +130,13 @@ class ControlLoop:
         # catch-up targets judged as the guard will judge the frame: with the status it gets
         # (the loop's, also while a pause hands the executor none)
         executor.goto_check = lambda pos, ff, _status, now: guard.accepts_goto(pos, ff, self.status, now)
+        # a simulated board in lockstep with the frames (sim://?clock=virtual&step=...) runs
+        # one period per frame: trajectories follow its time, the tick count
+        step_s = getattr(transport, "step_s", None)
+        if step_s is not None and abs(step_s * rate_hz - 1.0) > 1e-6:
+            raise ValueError(f"the simulated board's step ({step_s:g} s per frame) must be the control "
+                             f"period (1/{rate_hz:g} Hz = {1.0 / rate_hz:g} s)")
+        executor.tick_clock = step_s is not None
         self.rate_hz = rate_hz
         self.period = 1.0 / rate_hz
         if not 1 <= link_hold_frames <= link_timeout_ticks:
@@ -270,7 +277,7 @@ class ControlLoop:
         if step is None or not self.transport.is_open:
             return
         try:
-            self._send(self._guarded(step, time.monotonic()))
+            self._send(self._guarded(step, self._guard_time(time.monotonic())))
         except Exception as exc:  # the link is going away anyway
             log.warning("could not write the stop frame before declaring the link lost: %s", exc)
 
@@ -432,6 +439,12 @@ class ControlLoop:
         frame = self._write(step, now) if self.link_up else None
         return TickOutput(frame, tuple(ex.take_acks()), self.snapshot())
 
+    def _guard_time(self, now: float) -> float:
+        """The time the guard judges frame intervals on: ``now``, or with a board in lockstep
+        with the frames (executor.tick_clock) that board's own time, the tick count x period
+        (a tick that ran early or late gave it no more and no less than one period)."""
+        return self.tick_count * self.period if self.executor.tick_clock else now
+
     def _guarded(self, step: Step, now: float) -> CommandFrame:
         """``step`` as a frame, through the guard.  ``now`` (the tick's time, s) tells the
         guard how long the previous frame ran: a GO TO target may step further after a late
@@ -461,11 +474,12 @@ class ControlLoop:
         return t_write
 
     def _write(self, step: Step, now: float) -> CommandFrame | None:
-        frame = self._guarded(step, now)
+        g = self._guard_time(now)
+        frame = self._guarded(step, g)
         if self.inbox.safety_waiting:
             # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
             frame = self._guarded(self.executor.preempt(self.inbox.take_safety(), tick=self.tick_count, now=now),
-                                  now)
+                                  g)
         try:
             t_write = self._send(frame)
         except (LinkLostError, TransportError) as exc:
@@ -493,7 +507,8 @@ class ControlLoop:
         return build_snapshot(
             self.executor, seq=self.tick_count + 1, time=time.monotonic() - self.start_time,
             link_up=self.link_up, status=self.status, last_status=self.last_status, board=board,
-            pose_provider=self.pose_provider, loop_view=self._loop_view, server_view=self.server_view)
+            pose_provider=self.pose_provider, loop_view=self._loop_view, server_view=self.server_view,
+            sent=self.last_frame if self.link_up else None)
 
     def _loop_view(self) -> dict[str, Any]:
         view = self.stats.view(max_age_s=0.25).as_dict()

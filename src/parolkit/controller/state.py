@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from parolkit.controller.integrity import IntegrityView
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps, format_floats
-from parolkit.protocol.frames import IOBits, StatusFrame
+from parolkit.protocol.frames import CommandFrame, IOBits, StatusFrame
 
 if TYPE_CHECKING:  # pragma: no cover
     from parolkit.controller.executor import Executor
@@ -73,7 +73,7 @@ class Snapshot:
     __slots__ = (
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
         "error", "command", "queue", "stream_mode", "tool", "plan_seq", "outputs", "loop_view",
-        "server_view", "integrity", "state_known", "_steps_per_deg", "_pose_provider", "_lock", "_angles",
+        "server_view", "integrity", "state_known", "sent", "_steps_per_deg", "_pose_provider", "_lock", "_angles",
         "_pose", "_matrix", "_replies",
     )
 
@@ -101,6 +101,7 @@ class Snapshot:
         server_view: Callable[[], dict[str, Any]] | None = None,
         integrity: IntegrityView | None = None,
         state_known: bool = True,
+        sent: CommandFrame | None = None,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -124,6 +125,9 @@ class Snapshot:
         #: False while the start-up probe still asks the board whether it is enabled (a few
         #: ticks after link-up): ``enabled`` and ``state`` are provisional until then
         self.state_known = state_known
+        #: the frame written this tick (after the guard): what the board was told, next to
+        #: ``status``, its reply (recordings keep both: a replay sends the same frames)
+        self.sent = sent
         self._steps_per_deg = steps_per_deg
         self._pose_provider = pose_provider
         self._lock = threading.Lock()
@@ -300,6 +304,8 @@ class Snapshot:
             "stream_mode": self.stream_mode,
             "tool": self.tool,
             "plan_seq": self.plan_seq,
+            "sent": ({"command": int(self.sent.command), "steps": list(self.sent.positions),
+                      "speeds": list(self.sent.speeds)} if self.sent is not None else None),
         }
 
     def reply_status_json(self) -> str:
@@ -347,6 +353,7 @@ def build_snapshot(
     pose_provider: PoseProvider | None,
     loop_view: Callable[[], dict[str, Any]],
     server_view: Callable[[], dict[str, Any]] | None = None,
+    sent: CommandFrame | None = None,
 ) -> Snapshot:
     """The snapshot of the executor's state with the board's latest ``status`` (loop thread;
     ``last_status`` is shown while the link is down; ``now``: monotonic s, for the age of
@@ -365,4 +372,5 @@ def build_snapshot(
         # known once the executor has taken the probe's answer in (it does so in the tick after
         # the reply that answered it: until then the snapshot would show the old state as known)
         state_known=not ex.probe.active and ex.probe.result is None,
+        sent=sent,
     )

@@ -8,7 +8,11 @@ planner times every move and every frame passes the controller's guard.  First t
 brought to the recording's start pose with a normal planned move at ``--speed`` %.
 
 The controller is a simulated one started for the replay unless ``--connect`` is given; a
-controller whose board is not simulated is moved only with ``--real-robot``.
+controller whose board is not simulated is moved only with ``--real-robot``.  The simulated
+one runs at the recording's rate with its board in lockstep with the frames
+(``sim://?clock=virtual&step=1/rate``: every frame runs it exactly one period, and the
+controller schedules trajectories on ticks), so the replay is the same tick for tick however
+late the PC's ticks run; a recording made the same way replays within a step at every tick.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from parolkit.client.launch import SimController
 from parolkit.record.reader import Recording, load_recording
 from parolkit.record.segments import FittedMove, command_segments, fit_joint_move, steps_to_deg
 
-__all__ = ["ReplayStep", "build_replay", "replay_command", "DELAY_OVERHEAD_TICKS"]
+__all__ = ["ReplayStep", "build_replay", "replay_command", "lockstep_board", "DELAY_OVERHEAD_TICKS"]
 
 #: ticks between the end of a command and the start of the next one queued behind it (the
 #: status shows no command for one tick): the ticks between two recorded commands beyond
@@ -51,6 +55,11 @@ class ReplayStep:
             return (f"MoveJoint({', '.join(f'{v:.3f}' for v in m.target_deg)}, {timing})  "
                     f"[{self.source}; plan vs recording {m.error_steps} steps]")
         return f"Delay({self.delay_s:g})"
+
+
+def lockstep_board(rate_hz: float) -> str:
+    """The transport URL of a simulated board in lockstep with a controller at ``rate_hz``."""
+    return f"sim://?clock=virtual&step={1.0 / rate_hz!r}"
 
 
 def build_replay(rec: Recording) -> tuple[tuple[float, ...], list[ReplayStep]]:
@@ -153,7 +162,7 @@ def replay_command(args: argparse.Namespace) -> int:
                 return 2
         else:
             print("starting a controller with the simulated board ...", flush=True)
-            sim = SimController(["--rate", f"{rec.rate_hz:g}"])  # tick for tick like the recording
+            sim = SimController(["--rate", f"{rec.rate_hz:g}"], board=lockstep_board(rec.rate_hz))
             sim.wait_ready()
             host, port = "127.0.0.1", sim.port
         out = run_replay(host, port, start, steps, speed_pct=args.speed, record_to=args.record)

@@ -20,6 +20,12 @@ class EmulatorTransport(Transport):
     which case the test advances it).  :attr:`emulator` is the board, for control: press the
     E-stop, unplug, inject faults.  Bytes go through the same codec as a serial link.
 
+    ``step_s`` (with ``clock="virtual"``): every frame written advances the board by exactly
+    this much simulated time (the controller's period): a board in lockstep with the frames,
+    whose motion depends on the frames alone and not on when the PC's ticks happened to run.
+    Deterministic: the same frames give the same status frames, step for step (what a replay
+    compared tick by tick with its recording needs; a real board runs on its own clock).
+
     While the emulator is unplugged, :meth:`read` and :meth:`write` raise
     :class:`LinkLostError`; after ``emulator.replug()`` call :meth:`open` (or
     :meth:`reconnect`) again, exactly as with a real port.
@@ -27,7 +33,8 @@ class EmulatorTransport(Transport):
 
     simulated = True
 
-    def __init__(self, emulator: BoardEmulator | None = None, **emulator_options: Any) -> None:
+    def __init__(self, emulator: BoardEmulator | None = None, *, step_s: float | None = None,
+                 **emulator_options: Any) -> None:
         if emulator is not None and emulator_options:
             raise ParolkitValueError(
                 "pass either an existing emulator or emulator options, not both "
@@ -36,6 +43,14 @@ class EmulatorTransport(Transport):
             raise ParolkitValueError(
                 f"emulator must be a BoardEmulator, got {type(emulator).__name__}")
         self.emulator = emulator if emulator is not None else BoardEmulator(**emulator_options)
+        if step_s is not None:
+            if isinstance(step_s, bool) or not isinstance(step_s, (int, float)) or not 1e-4 <= step_s <= 1.0:
+                raise ParolkitValueError(f"step must be a number of seconds in 0.0001..1, got {step_s!r}")
+            if self.emulator.clock is not ClockMode.VIRTUAL:
+                raise ParolkitValueError(
+                    "step (simulated seconds per frame) needs clock=virtual: a real-time board "
+                    "follows the wall clock, not the frames")
+        self.step_s = step_s
         self._open = False
         self._owns_loop = False
 
@@ -72,6 +87,8 @@ class EmulatorTransport(Transport):
         self._check()
         try:
             self.emulator.write(data)
+            if self.step_s is not None:
+                self.emulator.advance(self.step_s)
         except LinkLostError:
             self._open = False
             raise

@@ -77,6 +77,9 @@ SCHEMES: dict[str, Scheme] = {
                 Option("clock", "clock", _C, "realtime follows the wall clock; virtual stands "
                        "still until the owner calls emulator.advance()",
                        choices=("realtime", "virtual")),
+                Option("step", "step_s", _F, "with clock=virtual: simulated seconds each frame "
+                       "written advances the board (the controller's period: a board in lockstep "
+                       "with the frames, deterministic)", low=0.0001, high=1.0, unit=" s"),
                 Option("homed", "start_homed", _B,
                        "power up as if homing had just finished (not stock behaviour)"),
                 Option("pass_hz", "pass_hz", _I, "simulated firmware main-loop passes per second",
