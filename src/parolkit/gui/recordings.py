@@ -37,7 +37,8 @@ if TYPE_CHECKING:
     from parolkit.record.teach import TeachResult
 
 __all__ = ["EXTENSION", "RECORDINGS_URL", "RecordingInfo", "RecordingNameError", "RecordingNotListed",
-           "RecordingSession", "RecordingsFolder", "TaughtProgram", "default_recordings_dir", "free_program_name",
+           "RecordingSession", "RecordingsFolder", "TaughtProgram", "default_recordings_dir", "fit_text",
+           "free_program_name",
            "recording_name", "size_text", "teach_recording"]
 
 #: file extension of recordings (MCAP)
@@ -302,10 +303,19 @@ def size_text(n: int) -> str:
 # ---------------------------------------------------------------------------- teach
 
 
+def fit_text(result: TeachResult, tol_mm: float, tol_deg: float) -> str:
+    """The fit in words, as ``parolkit teach`` prints it: moves, delays and the deviation of the
+    program's dry run from the recording, against the tolerances."""
+    within = result.deviation_mm <= tol_mm and result.deviation_deg <= tol_deg
+    return (f"{result.moves} moves, {result.delays} delays; deviation along the path "
+            f"{result.deviation_mm:.2f} mm TCP, {result.deviation_deg:.3f} deg joint "
+            f"({'within' if within else 'OUTSIDE'} {tol_mm:g} mm / {tol_deg:g} deg)")
+
+
 @dataclass(frozen=True)
 class TaughtProgram:
-    """What teaching from a recording gave: the program's file in the programs folder, its
-    text and the fit (moves, delays, deviation achieved in TCP mm and joint deg)."""
+    """What teaching from a recording gave: the program's file in the programs folder, the
+    text saved there and the fit (moves, delays, deviation achieved in TCP mm and joint deg)."""
 
     path: Path
     text: str
@@ -313,15 +323,8 @@ class TaughtProgram:
     tol_mm: float
     tol_deg: float
 
-    @property
-    def within(self) -> bool:
-        return self.result.deviation_mm <= self.tol_mm and self.result.deviation_deg <= self.tol_deg
-
     def text_summary(self) -> str:
-        r = self.result
-        return (f"taught {self.path.name}: {r.moves} moves, {r.delays} delays; deviation along the path "
-                f"{r.deviation_mm:.2f} mm TCP, {r.deviation_deg:.3f} deg joint "
-                f"({'within' if self.within else 'OUTSIDE'} {self.tol_mm:g} mm / {self.tol_deg:g} deg)")
+        return f"taught {self.path.name}: {fit_text(self.result, self.tol_mm, self.tol_deg)}"
 
 
 def free_program_name(programs: ProgramsFolder, stem: str) -> str:
@@ -348,6 +351,8 @@ def teach_recording(recordings: RecordingsFolder, programs: ProgramsFolder, name
 
     path = recordings.listed(name)
     result = teach(load_recording(path), tol_mm=tol_mm, tol_deg=tol_deg)
+    # the fit stays with the program: the editor shows where it came from and how close it is
+    text = f"# taught from {path.name}: {fit_text(result, tol_mm, tol_deg)}\n{result.text}"
     program = free_program_name(programs, path.name[:-len(EXTENSION)])
-    saved = programs.write(program, result.text)
-    return TaughtProgram(saved, result.text, result, tol_mm, tol_deg)
+    saved = programs.write(program, text)
+    return TaughtProgram(saved, text, result, tol_mm, tol_deg)
