@@ -14,6 +14,7 @@ from __future__ import annotations
 import http.client
 import os
 import re
+import time
 import urllib.parse
 
 import numpy as np
@@ -23,6 +24,9 @@ from tests.browser.helpers import axe_report, axe_violations, text, wait_linked,
 
 from parolkit.client import Robot
 from parolkit.record.reader import load_recording
+from parolkit.record.schemas import TOPIC_STATUS
+from parolkit.record.writer import RecordingWriter
+from parolkit.robot import PAROL6
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -226,6 +230,62 @@ def test_the_record_tab_with_its_list_and_the_delete_dialog_passes_axe(rpage, se
     page.get_by_test_id("rec-delete-cancel").click()
     bad = {k: v for k, v in found.items() if v}
     assert not bad, "axe-core violations:\n" + "\n".join(f"== {k}\n{axe_report(v)}" for k, v in bad.items())
+
+
+def _demonstration(path, seconds: float, rate_hz: int = 100) -> None:
+    """A recording of ``seconds`` at ``rate_hz`` as the recorder writes its status topic: J1
+    swings 10 deg out and back in 2 s moves with 2 s pauses (long enough that its teach fit
+    takes seconds: the fit compares every recorded sample with the planned path)."""
+    spd = PAROL6.steps_per_deg
+    writer = RecordingWriter(path)
+    n = int(seconds * rate_hz)
+    for k in range(n):
+        t = k / rate_hz
+        phase, leg = t % 4.0, int(t // 4.0)
+        s = (1 - np.cos(np.pi * min(phase, 2.0) / 2.0)) / 2  # 0 -> 1 in the move, 1 in the pause
+        j1 = 90.0 + 10.0 * (s if leg % 2 == 0 else 1 - s)
+        q = [j1, *PAROL6.standby_deg[1:]]
+        status = {"seq": k, "time": t, "steps": [int(round(a * spd[i])) for i, a in enumerate(q)], "angles": q,
+                  "speeds_deg_s": [0.0] * 6, "pose": [0.0] * 6, "loop": {"rate_hz": rate_hz}, "io": {},
+                  "gripper": {}}
+        writer.write_json(TOPIC_STATUS, status, int(t * 1e9), k)
+    writer.close({"duration_s": seconds, "statuses": n})
+
+
+def test_a_long_teach_leaves_the_page_live(rpage, setup):
+    """The fit runs off the commander's event loop: while a long recording is being taught the
+    page keeps showing the running recording's ticks go up (the page's timers are served)."""
+    page = rpage
+    long_demo = "long demo.mcap"
+    setup["recordings"].mkdir(exist_ok=True)
+    _demonstration(setup["recordings"] / long_demo, 40.0)
+    wait_until(lambda: _item(page, long_demo).count() == 1, 15, what="the copied-in recording listed", page=page)
+    assert "4000 ticks" in _item(page, long_demo).get_by_test_id("rec-duration").inner_text()
+    name = _start(page)
+    wait_until(lambda: _ticks(page) >= 10, 20, what="the recording running", page=page)
+    _item(page, long_demo).get_by_test_id("rec-teach").click()
+    polls: list[tuple[float, int]] = []  # (time, ticks shown) while the page says "teaching"
+
+    def taught() -> bool:
+        status = text(page, "teach-status")
+        if "teaching from" in status:
+            polls.append((time.monotonic(), _ticks(page)))
+        return "taught long demo.rbt" in status
+
+    wait_until(taught, 180, interval=0.1, what="the long recording taught", page=page)
+    # the longest time the shown ticks stood still during the fit (a fit on the event loop
+    # freezes them for all of it: seconds here; the page's timers run every 0.1 s)
+    frozen, since = 0.0, polls[0] if polls else (0.0, 0)
+    for t, ticks in polls:
+        if ticks != since[1]:
+            since = (t, ticks)
+        frozen = max(frozen, t - since[0])
+    span = polls[-1][0] - polls[0][0] if polls else 0.0
+    assert frozen < 2.5, f"the page stood still for {frozen:.1f} s of the {span:.1f} s fit: {polls}"
+    assert re.search(r"taught long demo.rbt: 10 moves, 9 delays", text(page, "teach-status")), \
+        text(page, "teach-status")
+    page.get_by_test_id("tab-record").click()
+    _stop(page, name)
 
 
 def _get(url: str, raw_path: str) -> tuple[int, bytes]:
