@@ -56,7 +56,7 @@ class Header:
                         self.grip_chip.tooltip("SSG-48 gripper (details in the IO · Gripper tab)")
                         # while the status stream is recorded (the Record tab), whichever tab is open
                         self.rec_chip = ui.chip("REC", icon="fiber_manual_record", color="red-9") \
-                            .classes("pk-grip-chip").props("data-testid=rec-chip")
+                            .classes("pk-rec-chip").props("data-testid=rec-chip")
                         self.rec_chip.tooltip("recording the robot (stop it in the Record tab)")
                         self.rec_chip.set_visibility(False)
                         self._rec_shown = ""
