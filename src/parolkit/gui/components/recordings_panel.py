@@ -22,6 +22,7 @@ from nicegui import ui
 from parolkit.errors import ParolkitError
 from parolkit.gui.commander import Commander
 from parolkit.gui.eventlog import Level
+from parolkit.gui.programs import ProgramNameError
 from parolkit.gui.recordings import (
     RECORDINGS_URL,
     RecordingInfo,
@@ -237,6 +238,9 @@ class RecordingsPanel:
             taught = await asyncio.to_thread(teach_recording, c.recordings, c.programs, name)
         except RecordingNameError as exc:
             self._message(f"cannot teach from {name!r}: {exc}", ok=False)
+            return
+        except ProgramNameError as exc:
+            self._message(f"cannot save the program taught from {name}: {exc}", ok=False)
             return
         except (ParolkitError, ValueError) as exc:
             self._message(f"nothing taught from {name}: {exc}", ok=False)
