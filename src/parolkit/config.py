@@ -18,6 +18,7 @@ Example ``parolkit.toml``::
     [gui]
     http_port = 8080
     programs_dir = "~/parol-programs"
+    recordings_dir = "~/parol-recordings"
 
     [ros2]                # `parolkit ros2` (docs/ros2.md)
     domain = 0
@@ -210,6 +211,11 @@ class GuiSettings:
     #: None = ``$XDG_DATA_HOME/parolkit/programs`` (``~/.local/share/parolkit/programs``).
     #: ``~`` is expanded; a relative path is taken from the current directory.
     programs_dir: str | None = None
+    #: the only folder the commander's Record writes and its recordings list reads, downloads,
+    #: deletes and teaches from (names only, ``.mcap``); None = ``recordings`` beside the
+    #: default programs folder (``$XDG_DATA_HOME/parolkit/recordings``, i.e.
+    #: ``~/.local/share/parolkit/recordings``).  Created when the first recording starts.
+    recordings_dir: str | None = None
     #: host names or addresses the browser may use to reach the commander, besides
     #: localhost, 127.0.0.1, ::1 and the bound address (the ``Host`` and ``Origin`` allow-list)
     allowed_hosts: tuple[str, ...] = ()
@@ -223,10 +229,8 @@ class GuiSettings:
             raise ParolkitValueError(f"gui.host must be a host name or address, got {self.host!r}")
         if not isinstance(self.open_browser, bool):
             raise ParolkitValueError("gui.open_browser must be true or false")
-        if self.programs_dir is not None and (not isinstance(self.programs_dir, str)
-                                              or not self.programs_dir.strip() or "\0" in self.programs_dir):
-            raise ParolkitValueError(
-                f"gui.programs_dir must be a folder path such as \"~/parol-programs\", got {self.programs_dir!r}")
+        _folder(self.programs_dir, "gui.programs_dir", "~/parol-programs")
+        _folder(self.recordings_dir, "gui.recordings_dir", "~/parol-recordings")
         hosts = self.allowed_hosts
         if isinstance(hosts, str) or not isinstance(hosts, (list, tuple)):
             raise ParolkitValueError(
@@ -244,6 +248,12 @@ class GuiSettings:
         fields = ", ".join(f"{f.name}={'***' if f.name == 'password' and self.password else getattr(self, f.name)!r}"
                            for f in dataclasses.fields(self))
         return f"GuiSettings({fields})"
+
+
+def _folder(v: object, name: str, example: str) -> None:
+    """A folder setting (gui.programs_dir, gui.recordings_dir): None or a non-empty path."""
+    if v is not None and (not isinstance(v, str) or not v.strip() or "\0" in v):
+        raise ParolkitValueError(f"{name} must be a folder path such as \"{example}\", got {v!r}")
 
 
 def _allowed_host(h: object) -> None:

@@ -84,11 +84,12 @@ def gui_on_controller(root: Path, controller_args: list[str], gui_args: list[str
 
 @pytest.fixture(scope="module")
 def gui_url(tmp_path_factory):
-    """Start ``parolkit gui --sim --no-browser`` on a free HTTP port (its programs folder a
-    temporary one); yield its URL."""
+    """Start ``parolkit gui --sim --no-browser`` on a free HTTP port (its programs and
+    recordings folders temporary ones); yield its URL."""
     pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
     programs = tmp_path_factory.mktemp("programs")
-    proc, url, _ = start_gui(["--sim", "--programs-dir", str(programs)])
+    recordings = tmp_path_factory.mktemp("recordings")
+    proc, url, _ = start_gui(["--sim", "--programs-dir", str(programs), "--recordings-dir", str(recordings)])
     yield url
     _stop(proc)
 

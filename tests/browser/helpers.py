@@ -14,6 +14,26 @@ ARTIFACTS = REPO_ROOT / "test-artifacts" / "browser"
 #: axe-core from npm, installed by scripts/ensure-axe.sh (make test runs it)
 AXE_JS = REPO_ROOT / "build" / "npm" / "node_modules" / "axe-core" / "axe.min.js"
 
+#: the axe-core rule sets the tests run
+AXE_TAGS = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa", "best-practice"]
+
+
+def axe_violations(page, axe_js: str) -> list[dict]:
+    """axe-core's serious and critical violations of the page as it is now."""
+    if not page.evaluate("() => typeof window.axe !== 'undefined'"):
+        page.add_script_tag(content=axe_js)
+    result = page.evaluate("""async (tags) => {
+        const r = await axe.run(document, {runOnly: {type: 'tag', values: tags}, resultTypes: ['violations']});
+        return r.violations.map(v => ({id: v.id, impact: v.impact, help: v.help,
+                                       nodes: v.nodes.slice(0, 6).map(n => n.target.join(' ') + ' :: '
+                                              + (n.failureSummary || '').replace(/\\s+/g, ' ').slice(0, 160))}));
+    }""", AXE_TAGS)
+    return [v for v in result if v["impact"] in ("serious", "critical")]
+
+
+def axe_report(violations: list[dict]) -> str:
+    return "\n".join(f"{v['impact']} {v['id']}: {v['help']}\n    " + "\n    ".join(v["nodes"]) for v in violations)
+
 
 def image_path(name: str) -> Path:
     """Where a documentation screenshot goes: docs/images under `make screenshot`

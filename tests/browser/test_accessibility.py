@@ -11,6 +11,8 @@ import re
 
 import pytest
 from tests.browser.helpers import (
+    axe_report,
+    axe_violations,
     count_log,
     log_text,
     number,
@@ -24,31 +26,12 @@ from tests.browser.helpers import (
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
-AXE_TAGS = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa", "best-practice"]
-
 
 @pytest.fixture(scope="module")
 def apage(page):
     wait_linked(page)
     wait_ready(page, 60)
     return page
-
-
-def _axe(page, axe_js: str) -> list[dict]:
-    """axe-core's serious and critical violations of the page as it is now."""
-    if not page.evaluate("() => typeof window.axe !== 'undefined'"):
-        page.add_script_tag(content=axe_js)
-    result = page.evaluate("""async (tags) => {
-        const r = await axe.run(document, {runOnly: {type: 'tag', values: tags}, resultTypes: ['violations']});
-        return r.violations.map(v => ({id: v.id, impact: v.impact, help: v.help,
-                                       nodes: v.nodes.slice(0, 6).map(n => n.target.join(' ') + ' :: '
-                                              + (n.failureSummary || '').replace(/\\s+/g, ' ').slice(0, 160))}));
-    }""", AXE_TAGS)
-    return [v for v in result if v["impact"] in ("serious", "critical")]
-
-
-def _report(violations: list[dict]) -> str:
-    return "\n".join(f"{v['impact']} {v['id']}: {v['help']}\n    " + "\n    ".join(v["nodes"]) for v in violations)
 
 
 def test_axe_finds_no_serious_or_critical_violation_on_any_tab_or_dialog(apage, axe_js):
@@ -58,19 +41,19 @@ def test_axe_finds_no_serious_or_critical_violation_on_any_tab_or_dialog(apage, 
     page = apage
     page.wait_for_timeout(500)
     found = {}
-    for tab in ("tab-jog", "tab-gripper", "tab-program"):
+    for tab in ("tab-jog", "tab-gripper", "tab-program", "tab-record"):
         page.get_by_test_id(tab).click()
         page.wait_for_timeout(500)
-        found[tab] = _axe(page, axe_js)
+        found[tab] = axe_violations(page, axe_js)
     page.get_by_test_id("tab-jog").click()
     page.get_by_test_id("help-button").click()
     page.locator(".q-dialog").first.wait_for(state="visible", timeout=15000)
     page.wait_for_timeout(400)  # the dialog's fade-in (contrast is judged on the final colours)
-    found["help dialog"] = _axe(page, axe_js)
+    found["help dialog"] = axe_violations(page, axe_js)
     page.locator(".q-dialog").get_by_role("button", name="Close").click()
     page.locator(".q-dialog").first.wait_for(state="hidden", timeout=15000)
     bad = {k: v for k, v in found.items() if v}
-    assert not bad, "axe-core violations:\n" + "\n".join(f"== {k}\n{_report(v)}" for k, v in bad.items())
+    assert not bad, "axe-core violations:\n" + "\n".join(f"== {k}\n{axe_report(v)}" for k, v in bad.items())
 
 
 def test_every_control_is_named_and_the_page_says_its_language(apage):
@@ -82,7 +65,8 @@ def test_every_control_is_named_and_the_page_says_its_language(apage):
         .map(b => b.getAttribute('aria-label') || '')""")
     assert len(names) == 24 and all(names), names
     assert {"J1 minus", "J6 plus", "X minus", "RZ plus"} <= set(names)
-    for tab in ("tab-jog", "tab-gripper", "tab-program"):
+    # the Program tab last: its toolbar's names are read below (only the open tab is on the page)
+    for tab in ("tab-jog", "tab-gripper", "tab-record", "tab-program"):
         page.get_by_test_id(tab).click()
         page.wait_for_timeout(300)
         unnamed = page.evaluate("""() => [...document.querySelectorAll('button, [role=button], [role=slider]')]

@@ -9,12 +9,15 @@ static files of the package (``gui/static``), served under :data:`STATIC_URL`.
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from fastapi import Response
+from fastapi.responses import FileResponse, PlainTextResponse
 from nicegui import app, ui
 
 from parolkit.client.errors import RobotError
@@ -25,9 +28,11 @@ from parolkit.gui.components.help_dialog import HelpDialog
 from parolkit.gui.components.io_panel import IoGripperPanel
 from parolkit.gui.components.jog_panel import JogPanel
 from parolkit.gui.components.program_panel import ProgramPanel
+from parolkit.gui.components.recordings_panel import RecordingsPanel
 from parolkit.gui.components.telemetry import LiveCharts, Readouts
 from parolkit.gui.components.view3d import SCENE_FPS, ArmView
 from parolkit.gui.jog import KEYMAP, key_action
+from parolkit.gui.recordings import RECORDINGS_URL, RecordingNameError, RecordingNotListed
 
 __all__ = ["Commander", "CommanderPage", "build_app", "STATIC_DIR", "STATIC_URL", "static_url"]
 
@@ -89,6 +94,7 @@ class CommanderPage:
                 t_jog = ui.tab("Jog", icon="open_with").props("data-testid=tab-jog")
                 t_grip = ui.tab("IO · Gripper", icon="back_hand").props("data-testid=tab-gripper")
                 t_prog = ui.tab("Program", icon="code").props("data-testid=tab-program")
+                t_rec = ui.tab("Record", icon="fiber_manual_record").props("data-testid=tab-record")
             with ui.tab_panels(tabs, value=t_jog).classes("w-full bg-transparent"):
                 with ui.tab_panel(t_jog):
                     self.jog = JogPanel(self.c)
@@ -96,8 +102,15 @@ class CommanderPage:
                     self.io = IoGripperPanel(self.c)
                 with ui.tab_panel(t_prog):
                     self.program: ProgramPanel = ProgramPanel(self.c)
+                with ui.tab_panel(t_rec):
+                    self.recordings = RecordingsPanel(self.c, on_program_opened=lambda: self._show_program(tabs, t_prog))
             # opening the Program tab creates its editor: scroll the executing line into view then
             t_prog.on("click", self.program.shown)
+
+    def _show_program(self, tabs: ui.tabs, t_prog: ui.tab) -> None:
+        """A program was opened from elsewhere (taught from a recording): show it in the editor."""
+        tabs.set_value(t_prog)
+        self.program.shown()
 
     def update_readouts(self) -> None:
         st = self.link.status
@@ -106,6 +119,7 @@ class CommanderPage:
         self.readouts.update(st, up)
         self.io.set_online(up)
         self.program.set_online(up)
+        self.recordings.set_online(up)
         if st is not None and up:
             self.jog.update(st)
             self.io.update(st)
@@ -113,6 +127,7 @@ class CommanderPage:
             self.jog.offline()
         self._was_up = up
         self.program.update()
+        self.recordings.update()
         moving = self.c.moving
         if moving != self._moving:
             self._moving = moving
@@ -141,10 +156,32 @@ class CommanderPage:
             self.jog.cart_press(b.axis)
 
 
+def download_recording(commander: Commander, name: str) -> Response:
+    """``GET /parolkit-recordings/<name>``: the listed recording ``name`` as a file download.
+    The name follows the folder's rules (else 400) and must be one the folder lists (else 404):
+    nothing outside the recordings folder is ever served; the file still being recorded is
+    not served either (409)."""
+    try:
+        path = commander.recordings.listed(name)
+    except RecordingNotListed as exc:
+        return PlainTextResponse(f"{exc}\n", status_code=404)
+    except RecordingNameError as exc:
+        return PlainTextResponse(f"{exc}\n", status_code=400)
+    if path.name == commander.recording.active_name:
+        return PlainTextResponse(f"{path.name} is still being recorded: stop the recording first\n",
+                                 status_code=409)
+    return FileResponse(path, filename=path.name, media_type="application/octet-stream",
+                        headers={"cache-control": "no-store"})
+
+
 def build_app(commander: Commander) -> Callable[[], None]:
-    """The root page function for ``ui.run``; serves the static files and starts/stops the
-    link with the app."""
+    """The root page function for ``ui.run``; serves the static files and the recordings'
+    downloads and starts/stops the link with the app."""
     app.add_static_files(STATIC_URL, STATIC_DIR)
+    # ``:path``: a name with a separator ('../x', '..%2Fx') reaches the name check and is refused
+    # with 400, instead of falling through to the page (NiceGUI's root page answers every path)
+    app.add_api_route(f"{RECORDINGS_URL}/{{name:path}}", lambda name: download_recording(commander, name),
+                      methods=["GET"], include_in_schema=False)
 
     async def startup() -> None:
         await commander.link.start()
@@ -153,6 +190,7 @@ def build_app(commander: Commander) -> Callable[[], None]:
     async def shutdown() -> None:
         commander.jog_release()
         commander.program.stop("stopped: commander shutting down")
+        await asyncio.to_thread(commander.recording.close)  # the file gets its summary
         await commander.control.stop()
         await commander.link.close()  # gives the control lease back (CONTROL|RELEASE)
 

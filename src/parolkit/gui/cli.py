@@ -1,7 +1,7 @@
 """``parolkit gui``: start (or connect to) a controller and serve the commander.
 
     parolkit gui [--sim | --port /dev/ttyACM0 | --connect HOST:PORT] [--http-port 8080]
-                 [--host 127.0.0.1] [--programs-dir DIR] [--no-browser]
+                 [--host 127.0.0.1] [--programs-dir DIR] [--recordings-dir DIR] [--no-browser]
 
 With ``--sim`` (the default) or ``--port`` a ``parolkit serve`` subprocess is started on
 free UDP ports and stopped with the GUI.  ``--connect`` uses a running controller.  The GUI
@@ -11,7 +11,8 @@ receives its acks on its own socket (``ACK_HERE``), never on the controller's ac
 The web server answers only its own names (``Host`` / ``Origin`` allow-list), asks for
 ``gui.password`` whenever one is set, and refuses to start beyond loopback without one
 (:mod:`parolkit.gui.security`); Open / Save use only the programs folder
-(:mod:`parolkit.gui.programs`).
+(:mod:`parolkit.gui.programs`), Record and the recordings list only the recordings folder
+(:mod:`parolkit.gui.recordings`).
 """
 
 from __future__ import annotations
@@ -78,6 +79,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
     p.add_argument("--programs-dir", type=Path, default=None, metavar="DIR",
                    help="the only folder Open / Save use (default gui.programs_dir, else "
                         "~/.local/share/parolkit/programs); created if missing")
+    p.add_argument("--recordings-dir", type=Path, default=None, metavar="DIR",
+                   help="the only folder Record writes and the recordings list reads (default "
+                        "gui.recordings_dir, else ~/.local/share/parolkit/recordings); created by the first recording")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
     p.add_argument("--config", type=Path, default=None, help="parolkit.toml to use")
     p.set_defaults(func=main)
@@ -147,6 +151,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"parolkit gui: {exc}", file=sys.stderr)
         return 2
     from parolkit.gui.programs import ProgramsFolder, default_programs_dir
+    from parolkit.gui.recordings import RecordingsFolder, default_recordings_dir
     from parolkit.gui.security import AccessPolicy, LoginGate, is_loopback_bind
 
     http_port = args.http_port or cfg.gui.http_port
@@ -168,6 +173,7 @@ def main(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"parolkit gui: cannot create the programs folder {programs.root}: {exc}", file=sys.stderr)
         return 2
+    recordings = RecordingsFolder(args.recordings_dir or cfg.gui.recordings_dir or default_recordings_dir())
     policy = AccessPolicy.for_bind(host, cfg.gui.allowed_hosts)
 
     from parolkit.gui.own_controller import OwnController
@@ -203,8 +209,9 @@ def main(args: argparse.Namespace) -> int:
     # our own controller has a 150 ms stream watchdog: 20 Hz jog updates are plenty; a
     # controller we connect to has its own (20 ms by default): send every control tick
     own = own_ctl is not None
-    commander = Commander(link, mode_label=mode, programs=programs, jog_repeat_s=0.05 if own else 0.01,
-                          cart_jog_repeat_s=0.1 if own else 0.01, secret=cfg.controller.secret,
+    commander = Commander(link, mode_label=mode, programs=programs, recordings=recordings,
+                          jog_repeat_s=0.05 if own else 0.01, cart_jog_repeat_s=0.1 if own else 0.01,
+                          secret=cfg.controller.secret,
                           login=password is not None, own_controller=own_ctl)
     root = build_app(commander)
     # every request and websocket: Host, Origin, login (gui/security.py); socket.io checks the
@@ -219,7 +226,8 @@ def main(args: argparse.Namespace) -> int:
         # handlers, so the ``finally`` below is not reached then: stop the controller here
         # (after build_app's handler closed the link)
         app.on_shutdown(own_ctl.stop)
-    print(f"parolkit commander on http://{host}:{http_port}/ (programs folder {programs.root}; answers the "
+    print(f"parolkit commander on http://{host}:{http_port}/ (programs folder {programs.root}; recordings folder "
+          f"{recordings.root}; answers the "
           f"names {', '.join(sorted(policy.allowed))}{'; login required' if password else ''})",
           file=sys.stderr, flush=True)
     try:

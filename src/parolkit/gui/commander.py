@@ -1,5 +1,5 @@
 """Process-wide commander state (no page widgets): the controller link, the event log, the
-jog hold and the RBTscript program runner.
+jog hold, the RBTscript program runner and the recording of the status stream.
 
 One :class:`Commander` per ``parolkit gui`` process; every browser tab's page
 (:mod:`parolkit.gui.app`) reads from it.  All robot access goes through
@@ -22,6 +22,7 @@ from parolkit.gui.jog import JOG_REPEAT_S
 from parolkit.gui.link import ControllerLink
 from parolkit.gui.program_doc import ProgramDoc
 from parolkit.gui.programs import ProgramsFolder, default_programs_dir
+from parolkit.gui.recordings import RecordingSession, RecordingsFolder, default_recordings_dir
 from parolkit.gui.templates import SEED_EXAMPLES
 
 if TYPE_CHECKING:
@@ -36,6 +37,7 @@ class Commander:
     """Process-wide state: the link, the log, the current jog hold and the program run."""
 
     def __init__(self, link: ControllerLink, *, mode_label: str, programs: ProgramsFolder | None = None,
+                 recordings: RecordingsFolder | None = None,
                  jog_repeat_s: float = JOG_REPEAT_S, cart_jog_repeat_s: float | None = None,
                  secret: str | None = None, login: bool = False,
                  own_controller: OwnController | None = None) -> None:
@@ -43,7 +45,9 @@ class Commander:
         jog updates, s; both must stay below the controller's stream watchdog (20 ms by
         default, 150 ms for a controller the GUI starts).  Every CARTJOG update is planned
         anew by the controller, so fewer, longer updates move more smoothly.  ``programs``:
-        the only folder Open / Save use (default :func:`default_programs_dir`); ``secret``:
+        the only folder Open / Save use (default :func:`default_programs_dir`); ``recordings``:
+        the only folder Record writes and the recordings list reads (default
+        :func:`default_recordings_dir`); ``secret``:
         the controller's shared secret (``controller.secret``) if it has one; ``login``: the
         pages sit behind a login (a Log out button is shown); ``own_controller``: the
         controller process this GUI started (the page offers to restart it)."""
@@ -53,6 +57,9 @@ class Commander:
         self.log: EventLog = link.log
         self.mode_label = mode_label
         self.programs = programs or ProgramsFolder(default_programs_dir())
+        self.recordings = recordings or RecordingsFolder(default_recordings_dir())
+        #: the one recording of the controller's status stream (an observer, like `parolkit record`)
+        self.recording = RecordingSession(self.recordings, link.host, link.port, self.log)
         self.login = login
         self.own_controller = own_controller
         #: the one program document every tab edits (kept until saved)

@@ -5,6 +5,10 @@ The page names a program; it never gives a path.  A name is letters, digits, spa
 appended when missing.  Absolute paths, ``..``, path separators, and files that resolve
 outside the folder (a symbolic link pointing elsewhere) are refused with a
 :class:`ProgramNameError` that names the rule.  No NiceGUI here: tested without a browser.
+
+:func:`folder_file_name` and :func:`file_inside` are the one name check of every folder the
+commander names files in from the browser (this one and the recordings folder,
+:mod:`parolkit.gui.recordings`).
 """
 
 from __future__ import annotations
@@ -15,8 +19,8 @@ from pathlib import Path
 
 from parolkit.errors import ParolkitValueError
 
-__all__ = ["AUTOSAVE_DIR", "EXTENSION", "MAX_NAME_LEN", "MAX_PROGRAM_BYTES", "ProgramNameError", "ProgramsFolder",
-           "default_programs_dir", "program_name"]
+__all__ = ["AUTOSAVE_DIR", "EXTENSION", "MAX_NAME_LEN", "MAX_PROGRAM_BYTES", "FolderNameError", "ProgramNameError",
+           "ProgramsFolder", "default_programs_dir", "file_inside", "folder_file_name", "name_rule", "program_name"]
 
 #: file extension of RBTscript programs
 EXTENSION = ".rbt"
@@ -28,12 +32,23 @@ AUTOSAVE_DIR = ".autosave"
 MAX_PROGRAM_BYTES = 1_000_000
 
 _NAME = re.compile(r"[A-Za-z0-9 _.\-]+")
-RULE = ("a program is named by letters, digits, spaces, '-', '_' and '.' only (no folders, "
-        f"no '..', no absolute path), at most {MAX_NAME_LEN} characters; '{EXTENSION}' is added "
-        "when missing")
 
 
-class ProgramNameError(ParolkitValueError):
+def name_rule(kind: str, extension: str) -> str:
+    """The naming rule of the files of one commander folder, stated in every refusal."""
+    return (f"a {kind} is named by letters, digits, spaces, '-', '_' and '.' only (no folders, "
+            f"no '..', no absolute path), at most {MAX_NAME_LEN} characters; '{extension}' is added "
+            "when missing")
+
+
+RULE = name_rule("program", EXTENSION)
+
+
+class FolderNameError(ParolkitValueError):
+    """A file name the commander refuses for one of its folders (the message names the rule)."""
+
+
+class ProgramNameError(FolderNameError):
     """A program name or file the commander refuses (the message names the rule)."""
 
 
@@ -44,32 +59,55 @@ def default_programs_dir() -> Path:
     return root / "parolkit" / "programs"
 
 
-def program_name(text: str) -> str:
-    """The file name for the program named ``text`` (``.rbt`` appended when missing);
-    raises :class:`ProgramNameError` saying which rule ``text`` breaks."""
+def folder_file_name(text: str, *, kind: str, extension: str,
+                     error: type[FolderNameError] = FolderNameError) -> str:
+    """The file name for the ``kind`` (program, recording) named ``text`` in a commander folder
+    (``extension`` appended when missing); raises ``error`` saying which rule ``text`` breaks.
+    The one name check of every folder the browser names files in (programs, recordings)."""
+    rule = name_rule(kind, extension)
     if not isinstance(text, str):
-        raise ProgramNameError(f"program name must be text, got {type(text).__name__}")
+        raise error(f"{kind} name must be text, got {type(text).__name__}")
     name = text.strip()
     if not name:
-        raise ProgramNameError(f"no program name given: {RULE}")
+        raise error(f"no {kind} name given: {rule}")
     if name.startswith(("/", "\\", "~/", "~\\")) or re.match(r"^[A-Za-z]:[/\\]", name):
-        raise ProgramNameError(f"{text!r} is an absolute path: only names inside the programs folder are "
-                               f"allowed ({RULE})")
+        raise error(f"{text!r} is an absolute path: only names inside the {kind}s folder are "
+                    f"allowed ({rule})")
     if "/" in name or "\\" in name:
-        raise ProgramNameError(f"{text!r} contains a path separator: {RULE}")
+        raise error(f"{text!r} contains a path separator: {rule}")
     if ".." in name:
-        raise ProgramNameError(f"{text!r} contains '..': {RULE}")
+        raise error(f"{text!r} contains '..': {rule}")
     if name.startswith("."):
-        raise ProgramNameError(f"{text!r} starts with '.' (a hidden file): {RULE}")
+        raise error(f"{text!r} starts with '.' (a hidden file): {rule}")
     bad = sorted({c for c in name if not _NAME.fullmatch(c)})
     if bad:
         shown = " ".join(repr(c) for c in bad[:5])
-        raise ProgramNameError(f"{text!r} contains {shown}: {RULE}")
-    if not name.lower().endswith(EXTENSION):
-        name += EXTENSION
+        raise error(f"{text!r} contains {shown}: {rule}")
+    if not name.lower().endswith(extension):
+        name += extension
     if len(name) > MAX_NAME_LEN:
-        raise ProgramNameError(f"{text!r} is {len(name)} characters long with its extension: {RULE}")
+        raise error(f"{text!r} is {len(name)} characters long with its extension: {rule}")
     return name
+
+
+def file_inside(root: Path, name: str, *, kind: str, error: type[FolderNameError] = FolderNameError) -> Path:
+    """``root / name`` resolved, checked to be (and, for a symbolic link, to resolve) directly
+    inside ``root`` and not to be something other than a regular file; raises ``error``.
+    ``name`` must have passed :func:`folder_file_name`."""
+    folder = root.resolve()
+    resolved = (folder / name).resolve()
+    if resolved.parent != folder:
+        raise error(f"{name} is a link to {resolved}, outside the {kind}s folder {folder}: refused "
+                    "(the commander reads and writes only files inside that folder)")
+    if resolved.exists() and not resolved.is_file():
+        raise error(f"{name} in the {kind}s folder is not a regular file")
+    return resolved
+
+
+def program_name(text: str) -> str:
+    """The file name for the program named ``text`` (``.rbt`` appended when missing);
+    raises :class:`ProgramNameError` saying which rule ``text`` breaks."""
+    return folder_file_name(text, kind="program", extension=EXTENSION, error=ProgramNameError)
 
 
 class ProgramsFolder:
@@ -88,17 +126,7 @@ class ProgramsFolder:
     def path(self, text: str) -> Path:
         """The file of the program named ``text``, checked to be (and, for a symbolic link,
         to resolve) directly inside the folder; raises :class:`ProgramNameError`."""
-        name = program_name(text)
-        root = self.root.resolve()
-        candidate = root / name
-        resolved = candidate.resolve()
-        if resolved.parent != root:
-            raise ProgramNameError(
-                f"{name} is a link to {resolved}, outside the programs folder {root}: refused "
-                "(the commander reads and writes only files inside that folder)")
-        if resolved.exists() and not resolved.is_file():
-            raise ProgramNameError(f"{name} in the programs folder is not a regular file")
-        return resolved
+        return file_inside(self.root, program_name(text), kind="program", error=ProgramNameError)
 
     def read(self, text: str) -> tuple[Path, str]:
         """(path, contents) of the program named ``text``; ProgramNameError for a refused

@@ -1,6 +1,6 @@
 """The header (NiceGUI): always visible (a fixed Quasar header), it holds what must never
-scroll away: link and robot state, who controls the robot, the compact gripper readout, Home /
-Enable / Disable / Clear error / Stop, help and the E-STOP button.
+scroll away: link and robot state, who controls the robot, the compact gripper readout, REC
+while a recording runs, Home / Enable / Disable / Clear error / Stop, help and the E-STOP button.
 
 On a narrow screen (phones, <= 760 px) the stylesheet moves E-STOP onto the first row and
 shows the buttons as icons; every button keeps its accessible name (``aria-label``).
@@ -54,6 +54,12 @@ class Header:
                         self.grip_chip = ui.chip("Gripper —", icon="back_hand", color="blue-grey-8") \
                             .classes("pk-grip-chip").props("data-testid=grip-compact")
                         self.grip_chip.tooltip("SSG-48 gripper (details in the IO · Gripper tab)")
+                        # while the status stream is recorded (the Record tab), whichever tab is open
+                        self.rec_chip = ui.chip("REC", icon="fiber_manual_record", color="red-9") \
+                            .classes("pk-rec-chip").props("data-testid=rec-chip")
+                        self.rec_chip.tooltip("recording the robot (stop it in the Record tab)")
+                        self.rec_chip.set_visibility(False)
+                        self._rec_shown = ""
                     with ui.element("div").classes("pk-actions"):
                         self.controls = [_action("Home", "home", "btn-home", "unelevated dense color=primary",
                                 lambda: c.command("HOME", "Home"), "home the robot"),
@@ -114,10 +120,19 @@ class Header:
         if own is not None:
             self.restart_btn.set_enabled(not own.restarting)
 
+    def _update_recording(self) -> None:
+        rec = self.c.recording
+        text = f"REC {int(rec.elapsed_s) // 60}:{int(rec.elapsed_s) % 60:02d}" if rec.active else ""
+        if text != self._rec_shown:
+            self.rec_chip.set_visibility(bool(text))
+            self.rec_chip.set_text(text)
+            self._rec_shown = text
+
     def update(self, st: RobotStatus | None, link_up: bool) -> None:
         """Show the link, the robot state, the E-STOP latch and the gripper (every 0.1 s;
         an element is sent to the page only when what it shows changed)."""
         self.control_badge.update()
+        self._update_recording()
         self._update_banner(link_up)
         text, colour = state_badge(st, link_up)
         latched = st is not None and (st.estop_latched or st.estop_pressed)
