@@ -25,13 +25,16 @@ def test_teach_on_a_jog_demonstration_reproduces_it_and_runs(controller_factory,
     rec = _start_recorder(cp.port, demo)
     wait_until(lambda: _statuses_in(demo) > 0, timeout=30, what="the recorder's first chunk")
     with Robot(cp.host, cp.port) as robot:
-        # a demonstration by jogging: three presses with pauses, an output switched between
+        # a demonstration by jogging: four presses with pauses, an output switched between; the
+        # last one a Cartesian jog straight down (its TCP line is taught as a MoveCart)
         robot.jog_joint(1, 40, duration=0.8, wait=True, timeout=30)
         time.sleep(0.6)
         robot.jog_multiple([-2, 3], [30, 30], duration=0.7, wait=True, timeout=30)
         robot.set_output(1, True)
         time.sleep(0.6)
         robot.jog_joint(-5, 50, duration=0.6, wait=True, timeout=30)
+        time.sleep(0.6)
+        robot.jog_cartesian("WRF", "Z-", 40, duration=0.8, wait=True, timeout=30)
         time.sleep(0.5)
     out = _stop(rec)
     assert rec.returncode == 0, out
@@ -42,13 +45,15 @@ def test_teach_on_a_jog_demonstration_reproduces_it_and_runs(controller_factory,
     assert "deviation along the path" in taught.stdout and "within 5 mm / 2 deg" in taught.stdout
     text = prog.read_text()
     print(taught.stdout, text, sep="\n")
-    assert text.count("Delay(") >= 2 and "Output(1, HIGH)" in text
+    assert text.count("Delay(") >= 3 and "Output(1, HIGH)" in text
     assert 4 <= text.count("MoveJoint(") <= 12  # short: the start pose and about one move per press
+    assert text.count("MoveCart(") == 1 and text.rstrip().splitlines()[-2].startswith("MoveCart(")
+    assert "(1 MoveCart)" in taught.stdout
 
     # the dry run of the program, judged here independently of teach's own figure
     r = load_recording(demo)
     segs = rest_segments(r, 30)
-    assert len(segs) == 3
+    assert len(segs) == 4
     start = tuple(float(v) for v in steps_to_deg(r.steps[segs[0].start]))
     planned = planned_path_deg(text, start, r.rate_hz)
     rows = np.arange(segs[0].start, segs[-1].end + 1)

@@ -1,16 +1,21 @@
 """``parolkit teach run.mcap -o prog.rbt``: fit a short RBTscript program to a demonstration.
 
-The demonstration is cut at its pauses (no joint moved for ``min_rest_s``); each motion becomes
-a MoveJoint to where it came to rest, timed like the recording (the duration whose plan is
-closest to it, see :func:`parolkit.record.segments.fit_joint_move`).  A motion whose planned
+The demonstration is cut at its pauses (no joint moved for ``min_rest_s``).  A motion whose
+TCP went along a straight line while its joints did not (a Cartesian jog: a MoveJoint between
+its ends would bow away from the line) becomes one ``MoveCart`` to the pose where it came to
+rest, when that line's plan follows the recording within the tolerances.  Any other motion
+becomes a MoveJoint to where it came to rest, timed like the recording (the duration whose
+plan is closest to it, see :func:`parolkit.record.segments.fit_joint_move`); one whose planned
 path strays from the recorded one by more than the tolerances (TCP mm, joint deg) is split at
 its farthest sample into two MoveJoints, recursively.  Pauses become ``Delay`` lines, changes
 of the digital outputs ``Output`` lines and changes of the electric gripper's commanded
 position ``Gripper`` lines, placed between the moves where they happened.
 
 The deviation printed is measured on the program's own dry run (the planner's paths from the
-recording's start pose): for every recorded sample, the distance to the nearest point of the
-planned path, in TCP mm and in joint deg (largest joint), the largest over the recording.
+recording's start pose): for every recorded sample of a motion, the distance to the nearest
+point of that motion's planned path (its lines' trajectories), in TCP mm and in joint deg
+(largest joint), the largest over the recording.  Motion by motion, so a long demonstration
+costs about its length, not its length squared.
 """
 
 from __future__ import annotations
@@ -27,7 +32,8 @@ from numpy.typing import NDArray
 from parolkit.record.reader import Recording, load_recording
 from parolkit.record.segments import MotionSpan, fit_joint_move, rest_segments, steps_to_deg
 
-__all__ = ["TeachResult", "teach", "path_deviation", "planned_path_deg", "teach_command"]
+__all__ = ["TeachResult", "teach", "path_deviation", "planned_path_deg", "planned_moves_deg", "teach_command",
+           "CART_MIN_MM"]
 
 
 @dataclass(frozen=True)
@@ -39,6 +45,8 @@ class TeachResult:
     delays: int
     deviation_mm: float
     deviation_deg: float
+    #: of ``moves``, the MoveCart lines (straight TCP lines)
+    cart_moves: int = 0
 
 
 def _densify(q: NDArray[np.float64], factor: int = 4) -> NDArray[np.float64]:
@@ -70,8 +78,9 @@ def path_deviation(recorded_deg: NDArray[np.float64], planned_deg: NDArray[np.fl
     return worst_mm, worst_deg
 
 
-def planned_path_deg(program_text: str, start_deg: tuple[float, ...], rate_hz: float) -> NDArray[np.float64]:
-    """Every planned joint sample (deg) of the program's dry run from ``start_deg``, in order."""
+def planned_moves_deg(program_text: str, start_deg: tuple[float, ...], rate_hz: float) -> list[NDArray[np.float64]]:
+    """The planned joint samples (deg) of each motion line of the program's dry run from
+    ``start_deg``, in order (ValueError when it does not parse or plan)."""
     from parolkit.script import parse
     from parolkit.script.dryrun import dry_run
 
@@ -81,10 +90,13 @@ def planned_path_deg(program_text: str, start_deg: tuple[float, ...], rate_hz: f
     report = dry_run(parsed.program, start_deg, rate_hz=rate_hz)
     if not report.ok:
         raise ValueError("the taught program does not plan: " + "; ".join(str(e) for e in report.errors))
-    parts = [np.asarray(start_deg, dtype=float)[None, :]]
-    for _, traj in report.segments:
-        parts.append(np.asarray(traj.positions, dtype=float) / traj.model.steps_per_deg)
-    return np.vstack(parts)
+    return [np.asarray(traj.positions, dtype=float) / traj.model.steps_per_deg for _, traj in report.segments]
+
+
+def planned_path_deg(program_text: str, start_deg: tuple[float, ...], rate_hz: float) -> NDArray[np.float64]:
+    """Every planned joint sample (deg) of the program's dry run from ``start_deg``, in order."""
+    return np.vstack([np.asarray(start_deg, dtype=float)[None, :],
+                      *planned_moves_deg(program_text, start_deg, rate_hz)])
 
 
 def _split(rec: Recording, seg: MotionSpan, tol_mm: float, tol_deg: float, depth: int = 0) -> list[Any]:
@@ -96,16 +108,66 @@ def _split(rec: Recording, seg: MotionSpan, tol_mm: float, tol_deg: float, depth
     if (mm <= tol_mm * 0.8 and deg <= tol_deg * 0.8) or depth >= 6 or seg.end - seg.start < 4:
         return [fit]
     # split at the recorded sample farthest (in joint space) from the straight joint path
-    a, b = recorded[0], recorded[-1]
-    d = b - a
-    denom = float(d @ d) or 1.0
-    s = np.clip(((recorded - a) @ d) / denom, 0.0, 1.0)
-    off = np.abs(recorded - (a + s[:, None] * d)).max(axis=1)
+    off = _joint_chord_offset(recorded)
     k = int(np.argmax(off[1:-1])) + 1
     mid = seg.start + k
     left = MotionSpan(seg.start, mid, int(rec.ticks[seg.start]), int(rec.ticks[mid]))
     right = MotionSpan(mid, seg.end, int(rec.ticks[mid]), int(rec.ticks[seg.end]))
     return _split(rec, left, tol_mm, tol_deg, depth + 1) + _split(rec, right, tol_mm, tol_deg, depth + 1)
+
+
+#: shortest TCP line taught as a MoveCart (mm): below it a MoveJoint cannot bow away by much
+CART_MIN_MM = 5.0
+
+
+def _joint_chord_offset(recorded: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Per sample, how far (deg, largest joint) it lies from the straight joint-space path
+    between the first and the last sample."""
+    a, b = recorded[0], recorded[-1]
+    d = b - a
+    denom = float(d @ d) or 1.0
+    s = np.clip(((recorded - a) @ d) / denom, 0.0, 1.0)
+    return np.asarray(np.abs(recorded - (a + s[:, None] * d)).max(axis=1), dtype=float)
+
+
+def _cart_line(rec: Recording, seg: MotionSpan, tol_mm: float, tol_deg: float) -> str | None:
+    """The ``MoveCart`` line that reproduces ``seg`` when its TCP went along a straight line
+    (within a quarter of ``tol_mm``, at least :data:`CART_MIN_MM` long) straighter than its
+    joints went in joint space (relative to each path's length: a Cartesian jog's TCP is
+    straight to a few hundredths of a mm while its joints bow; one joint turning alone bows the
+    TCP slightly and is a straight joint path), and the line's plan from the motion's start
+    follows the recording within 0.8 x the tolerances; else None.  The recording's time
+    first, then up to twice as long if the planner needs more (the path counts, not the pace).
+    Recordings made with another tool than the default are left to MoveJoint (the pose shown
+    is that tool's)."""
+    first = rec.statuses[seg.start]
+    if first.get("tool", "default") != "default" or rec.statuses[seg.end].get("tool", "default") != "default":
+        return None
+    xyz = rec.pose[seg.start:seg.end + 1, :3]
+    a, b = xyz[0], xyz[-1]
+    length = float(np.linalg.norm(b - a))
+    if length < CART_MIN_MM:
+        return None
+    u = (b - a) / length
+    rel = xyz - a
+    perp = np.linalg.norm(rel - (rel @ u)[:, None] * u, axis=1)
+    if float(perp.max()) > 0.25 * tol_mm:
+        return None
+    recorded = steps_to_deg(rec.steps[seg.start:seg.end + 1])
+    span = float(np.abs(recorded[-1] - recorded[0]).max())
+    if span <= 0.0 or float(perp.max()) / length >= float(_joint_chord_offset(recorded).max()) / span:
+        return None  # the joints went (relatively) as straight: a MoveJoint follows it as well
+    start = tuple(float(v) for v in recorded[0])
+    secs = max(float(rec.ticks[seg.end] - rec.ticks[seg.start]) / rec.rate_hz, 0.05)
+    for factor in (1.0, 1.25, 1.5, 2.0):
+        line = f"MoveCart({_fmt(rec.pose[seg.end])},t={secs * factor:.2f})"
+        try:
+            planned = planned_moves_deg(f"Begin()\n{line}\nEnd()\n", start, rec.rate_hz)
+        except ValueError:
+            continue  # too fast for the planner (or unreachable): slower, or a MoveJoint
+        mm, deg = path_deviation(recorded, np.vstack([recorded[:1], *planned]))
+        return line if mm <= 0.8 * tol_mm and deg <= 0.8 * tol_deg else None
+    return None
 
 
 def rec_model_spd() -> NDArray[np.float64]:
@@ -148,8 +210,9 @@ def teach(rec: Recording, *, tol_mm: float = 5.0, tol_deg: float = 2.0, min_rest
     start = tuple(float(v) for v in steps_to_deg(rec.steps[segs[0].start]))
     lines = ["Begin()", f"MoveJoint({_fmt(start)})  # the demonstration's start pose"]
     events = _io_events(rec)
-    moves = delays = 0
+    moves = delays = carts = 0
     prev_end: int | None = None
+    per_seg: list[int] = []  # motion lines of each motion
     for seg in segs:
         after = -1 if prev_end is None else prev_end
         for _row, text in [e for e in events if after < e[0] <= seg.start]:
@@ -159,27 +222,33 @@ def teach(rec: Recording, *, tol_mm: float = 5.0, tol_deg: float = 2.0, min_rest
             if pause >= 0.01:
                 lines.append(f"Delay({pause:.2f})")
                 delays += 1
-        for fit in _split(rec, seg, tol_mm, tol_deg):
-            timing = f",t={fit.duration_s:.2f}" if fit.duration_s is not None else ""
-            lines.append(f"MoveJoint({_fmt(fit.target_deg)}{timing})")
-            moves += 1
+        cart = _cart_line(rec, seg, tol_mm, tol_deg)
+        if cart is not None:
+            lines.append(cart)
+            carts += 1
+            per_seg.append(1)
+        else:
+            fits = _split(rec, seg, tol_mm, tol_deg)
+            for fit in fits:
+                timing = f",t={fit.duration_s:.2f}" if fit.duration_s is not None else ""
+                lines.append(f"MoveJoint({_fmt(fit.target_deg)}{timing})")
+            per_seg.append(len(fits))
+        moves += per_seg[-1]
         prev_end = seg.end
     for _, text in [e for e in events if prev_end is not None and e[0] > prev_end]:
         lines.append(text)
     lines.append("End()")
     text = "\n".join(lines) + "\n"
-    planned = planned_path_deg(text, start, rate)
-    moving = _moving_rows(rec)
-    mm, deg = path_deviation(steps_to_deg(rec.steps[moving]), planned)
-    return TeachResult(text, moves, delays, mm, deg)
-
-
-def _moving_rows(rec: Recording) -> NDArray[np.intp]:
-    """Rows from the first to the last motion (what the program must reproduce)."""
-    mv = np.nonzero(np.any(rec.steps[1:] != rec.steps[:-1], axis=1))[0]
-    if len(mv) == 0:
-        return np.zeros(0, dtype=np.intp)
-    return np.arange(int(mv[0]), int(mv[-1]) + 2, dtype=np.intp)
+    # the dry run of the whole program, judged motion by motion against its own lines' paths
+    planned = planned_moves_deg(text, start, rate)
+    mm = deg = 0.0
+    k = 1  # trajectory 0 is the move to the start pose
+    for seg, n in zip(segs, per_seg):
+        path = np.vstack([planned[k - 1][-1:], *planned[k:k + n]])
+        m, d = path_deviation(steps_to_deg(rec.steps[seg.start:seg.end + 1]), path)
+        mm, deg = max(mm, m), max(deg, d)
+        k += n
+    return TeachResult(text, moves, delays, mm, deg, carts)
 
 
 def teach_command(args: argparse.Namespace) -> int:
@@ -193,7 +262,8 @@ def teach_command(args: argparse.Namespace) -> int:
         return 2
     Path(args.output).write_text(result.text, encoding="utf-8")
     ok = result.deviation_mm <= args.tolerance_mm and result.deviation_deg <= args.tolerance_deg
-    print(f"wrote {args.output}: {result.moves} moves, {result.delays} delays; deviation along the path "
+    print(f"wrote {args.output}: {result.moves} moves ({result.cart_moves} MoveCart), {result.delays} delays; "
+          f"deviation along the path "
           f"(dry run vs recording): {result.deviation_mm:.2f} mm TCP, {result.deviation_deg:.3f} deg joint "
           f"({'within' if ok else 'OUTSIDE'} {args.tolerance_mm:g} mm / {args.tolerance_deg:g} deg)")
     return 0 if ok else 1
