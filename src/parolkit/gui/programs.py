@@ -19,7 +19,8 @@ from pathlib import Path
 
 from parolkit.errors import ParolkitValueError
 
-__all__ = ["AUTOSAVE_DIR", "EXTENSION", "MAX_NAME_LEN", "MAX_PROGRAM_BYTES", "FolderNameError", "ProgramNameError",
+__all__ = ["AUTOSAVE_DIR", "EXTENSION", "MAX_NAME_LEN", "MAX_PROGRAM_BYTES", "FolderNameError", "NamedFolder",
+           "ProgramNameError",
            "ProgramsFolder", "default_programs_dir", "file_inside", "folder_file_name", "name_rule", "program_name"]
 
 #: file extension of RBTscript programs
@@ -110,8 +111,14 @@ def program_name(text: str) -> str:
     return folder_file_name(text, kind="program", extension=EXTENSION, error=ProgramNameError)
 
 
-class ProgramsFolder:
-    """The folder ``root`` (created, with its parents, by :meth:`create`)."""
+class NamedFolder:
+    """A folder ``root`` of files the page names (created, with its parents, by :meth:`create`):
+    ``KIND`` ("program"), ``EXTENSION`` and ``ERROR`` (the FolderNameError subclass raised for
+    a refused name) set by the subclass; :meth:`path` is the only way from a name to a file."""
+
+    KIND = "file"
+    EXTENSION = ""
+    ERROR: type[FolderNameError] = FolderNameError
 
     def __init__(self, root: str | Path) -> None:
         self.root = Path(root).expanduser().absolute()
@@ -121,12 +128,25 @@ class ProgramsFolder:
         when that fails or the path is not a folder."""
         self.root.mkdir(parents=True, exist_ok=True)
         if not self.root.is_dir():
-            raise NotADirectoryError(f"the programs folder {self.root} is not a folder")
+            raise NotADirectoryError(f"the {self.KIND}s folder {self.root} is not a folder")
+
+    def file_name(self, text: str) -> str:
+        """The file name for ``text`` (the extension appended when missing); raises ``ERROR``
+        saying which rule ``text`` breaks."""
+        return folder_file_name(text, kind=self.KIND, extension=self.EXTENSION, error=self.ERROR)
 
     def path(self, text: str) -> Path:
-        """The file of the program named ``text``, checked to be (and, for a symbolic link,
-        to resolve) directly inside the folder; raises :class:`ProgramNameError`."""
-        return file_inside(self.root, program_name(text), kind="program", error=ProgramNameError)
+        """The file named ``text``, checked to be (and, for a symbolic link, to resolve)
+        directly inside the folder; raises ``ERROR``."""
+        return file_inside(self.root, self.file_name(text), kind=self.KIND, error=self.ERROR)
+
+
+class ProgramsFolder(NamedFolder):
+    """The programs folder (``.rbt`` files)."""
+
+    KIND = "program"
+    EXTENSION = EXTENSION
+    ERROR = ProgramNameError
 
     def read(self, text: str) -> tuple[Path, str]:
         """(path, contents) of the program named ``text``; ProgramNameError for a refused

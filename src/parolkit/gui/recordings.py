@@ -26,9 +26,9 @@ from parolkit.gui.eventlog import EventLog, Level
 from parolkit.gui.programs import (
     MAX_NAME_LEN,
     FolderNameError,
+    NamedFolder,
     ProgramsFolder,
     default_programs_dir,
-    file_inside,
     folder_file_name,
 )
 
@@ -104,24 +104,17 @@ def _summary(path: Path) -> tuple[float | None, int | None]:
     return None, None
 
 
-class RecordingsFolder:
-    """The folder ``root`` (created, with its parents, when the first recording starts)."""
+class RecordingsFolder(NamedFolder):
+    """The recordings folder (``.mcap`` files; created, with its parents, when the first
+    recording starts)."""
+
+    KIND = "recording"
+    EXTENSION = EXTENSION
+    ERROR = RecordingNameError
 
     def __init__(self, root: str | Path) -> None:
-        self.root = Path(root).expanduser().absolute()
+        super().__init__(root)
         self._summaries: dict[tuple[str, int, int], tuple[float | None, int | None]] = {}
-
-    def create(self) -> None:
-        """Create the folder (and its parents) if it does not exist; OSError naming it when
-        that fails or the path is not a folder."""
-        self.root.mkdir(parents=True, exist_ok=True)
-        if not self.root.is_dir():
-            raise NotADirectoryError(f"the recordings folder {self.root} is not a folder")
-
-    def path(self, text: str) -> Path:
-        """The file of the recording named ``text``, checked to be (and, for a symbolic link,
-        to resolve) directly inside the folder; raises :class:`RecordingNameError`."""
-        return file_inside(self.root, recording_name(text), kind="recording", error=RecordingNameError)
 
     def names(self) -> list[str]:
         """The recordings in the folder (``*.mcap`` files whose names the commander accepts
