@@ -140,6 +140,24 @@ class NamedFolder:
         directly inside the folder; raises ``ERROR``."""
         return file_inside(self.root, self.file_name(text), kind=self.KIND, error=self.ERROR)
 
+    def names(self) -> list[str]:
+        """The files of the folder the page may name: ``EXTENSION`` files whose names the
+        commander accepts as they are and that resolve inside it, sorted case-insensitively;
+        [] if the folder is missing."""
+        if not self.root.is_dir():
+            return []
+        out = []
+        for entry in self.root.iterdir():
+            if not entry.name.lower().endswith(self.EXTENSION):
+                continue
+            try:
+                if self.file_name(entry.name) != entry.name or not self.path(entry.name).is_file():
+                    continue
+            except self.ERROR:
+                continue
+            out.append(entry.name)
+        return sorted(out, key=str.lower)
+
 
 class ProgramsFolder(NamedFolder):
     """The programs folder (``.rbt`` files)."""
@@ -169,22 +187,6 @@ class ProgramsFolder(NamedFolder):
         path.write_bytes(data)
         return path
 
-    def names(self) -> list[str]:
-        """The programs in the folder (``*.rbt`` files whose names the commander accepts and
-        that resolve inside it), sorted case-insensitively; [] if the folder is missing."""
-        if not self.root.is_dir():
-            return []
-        out = []
-        for entry in self.root.iterdir():
-            if not entry.name.lower().endswith(EXTENSION):
-                continue
-            try:
-                self.path(entry.name)
-            except ProgramNameError:
-                continue
-            if entry.resolve().is_file():
-                out.append(entry.name)
-        return sorted(out, key=str.lower)
 
     # ---- autosave: unsaved edits, one file per program name, in <folder>/.autosave ----
 

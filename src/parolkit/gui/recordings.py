@@ -116,23 +116,6 @@ class RecordingsFolder(NamedFolder):
         super().__init__(root)
         self._summaries: dict[tuple[str, int, int], tuple[float | None, int | None]] = {}
 
-    def names(self) -> list[str]:
-        """The recordings in the folder (``*.mcap`` files whose names the commander accepts
-        and that resolve inside it); [] if the folder is missing."""
-        if not self.root.is_dir():
-            return []
-        out = []
-        for entry in self.root.iterdir():
-            if not entry.name.lower().endswith(EXTENSION):
-                continue
-            try:
-                if recording_name(entry.name) != entry.name or not self.path(entry.name).is_file():
-                    continue
-            except RecordingNameError:
-                continue
-            out.append(entry.name)
-        return sorted(out, key=str.lower)
-
     def listed(self, text: str) -> Path:
         """The file of the recording named ``text`` that the folder lists: what a name from
         the browser must be.  RecordingNameError for a refused name, RecordingNotListed for
