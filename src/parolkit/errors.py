@@ -17,8 +17,13 @@ package is drawn here, under its real base class, and that no two share a name):
     |   |   +-- FrameError                parolkit.protocol.frames: bytes that are not a board frame
     |   |   +-- DatagramError             parolkit.protocol.commands: a UDP datagram that is not a
     |   |                                 valid command (the controller answers INVALID / ERROR)
-    |   |   +-- ProgramNameError          parolkit.gui.programs: a program name or file the commander
-    |   |                                 refuses (outside its programs folder; names the rule)
+    |   |   +-- FolderNameError           parolkit.gui.programs: a file name the commander refuses
+    |   |       |                         in one of its folders (names the rule)
+    |   |       +-- ProgramNameError      parolkit.gui.programs: a program name or file (outside
+    |   |       |                         its programs folder, too large)
+    |   |       +-- RecordingNameError    parolkit.gui.recordings: a recording name
+    |   |           +-- RecordingNotListed  parolkit.gui.recordings: well formed, but not a
+    |   |                                 recording the folder lists (HTTP 404)
     |   +-- PlanningError                 parolkit.motion: a move refused before anything moved
     |   +-- ProgramError                  parolkit.script: an RBTscript program with errors (all of
     |   |                                 them, as ScriptError diagnostics; those are not exceptions)
