@@ -522,6 +522,29 @@ def test_stop_frames_after_the_probes_jogs_never_make_an_enabled_board_look_disa
     assert probe.result is True
 
 
+def test_a_stop_frame_between_the_probes_jogs_never_makes_an_enabled_board_look_disabled():
+    """The loop paused with a zero-speed JOG written between the probe's +-1 JOG and its zero
+    JOG (replies late at start-up), and the board took the +-1 JOG and that stop in the same
+    instant (both frames in one read of a loaded tty: no loop pass between, so no reply shows
+    the 1 step/s): the replies to the stop and to the probe's zero JOG (123 echoed twice,
+    speeds 0, the second a loop pass later) looked like a disabled board's answer (seen in a
+    clean run: an enabled board-sim "found disabled").  Such an attempt cannot say
+    "disabled"."""
+    probe = BoardProbe(attempts=3, wait_ticks=4)
+    probe.start()
+    t = 0.0
+    for k in range(3):  # IDLE, JOG +-1, (the loop's stop frame), JOG 0
+        code, speeds = probe.frame(None, PAROL6.limits_steps)
+        t += 0.01
+        probe.sent(CommandFrame(command=code, speeds=speeds), t)
+        if k == 1:
+            probe.sent(CommandFrame(command=BoardCommand.JOG), t + 0.005)
+    still = StatusFrame(positions=STANDBY, homed=0xFF, timing=3867, xtr=int(BoardCommand.JOG))
+    for dt in (0.001, 0.002, 0.003):  # the replies to the +-1 JOG, the stop, the zero JOG
+        probe.observe(still, t + dt, True)
+    assert probe.result is None and probe.active  # not "disabled": asked again
+
+
 def test_after_a_lost_reply_the_frame_that_confirms_a_race_is_not_shown_until_checked_against_commands(faulty):
     """A race first seen after a lost reply is confirmed by the next frame linking to it; that
     frame follows by the board's own account alone (a joint at the speed clamp is not checked

@@ -213,7 +213,8 @@ class BoardProbe:
         self._sign = 1
         self._written: list[float | None] = [None, None, None]
         self._prev: tuple[StatusFrame, float, int] | None = None
-        #: a JOG frame was written after the probe's zero JOG in this attempt (see :meth:`sent`)
+        #: a JOG frame other than the probe's two was written after its +-1 JOG in this attempt
+        #: (see :meth:`sent`)
         self._jog_after = False
 
     def start(self) -> None:
@@ -278,10 +279,12 @@ class BoardProbe:
             else:  # the guard replaced it (E-stop, ...): this attempt says nothing
                 self._i = 3
                 self._wait = self.wait_ticks
-        elif k == 2 and self._written[2] is not None and int(frame.command) == _JOG:
-            # a JOG after the probe's own two (the loop's zero-speed stop frames while replies
-            # were late): two replies to such frames look exactly like "disabled" (123 echoed
-            # twice, speeds 0), so this attempt can no longer say "disabled"
+        elif self._written[1] is not None and int(frame.command) == _JOG:
+            # a JOG besides the probe's own two, after its +-1 JOG (the loop's zero-speed stop
+            # frames while replies were late, between the two or after them): two replies to
+            # such frames look exactly like "disabled" (123 echoed twice, speeds 0; a stop the
+            # board took in the same instant as the +-1 JOG leaves no reply showing 1 step/s),
+            # so this attempt can no longer say "disabled"
             self._jog_after = True
 
     def observe(self, f: StatusFrame, t: float, adjacent: bool) -> None:
