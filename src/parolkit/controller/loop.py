@@ -416,6 +416,12 @@ class ControlLoop:
                 log.error("%s", stopped)
                 ex.do_disable()
                 ex.error = stopped
+                # the board ran on while this process stood still, then the supervisor stopped
+                # it: what the next replies show was done behind the integrity check's back, not
+                # against the frames it saw written (judged so, a jog that ran on for the stall
+                # read as "uncommanded motion" and hid the supervisor's report); the truth
+                # starts afresh from two agreeing frames, as after a new link
+                self.filter.reset()
         if self.link_up:
             self._read()
             if self.link_up:
