@@ -217,6 +217,16 @@ def test_every_command_of_the_table_over_a_real_pty(bench):
     assert bench.emu.outputs == (False, False)
 
 
+def test_a_gripper_move_sent_right_after_calibrate_over_a_real_pty_reaches_the_jaws(bench):
+    """Issue 22 item 9 over the serial link: the emulated SSG-48 ignores moves while it
+    calibrates; the move sent right after the calibrate waits for it and reaches the jaws."""
+    cal = bench.send("ELECTRICGRIPPER|calibrate")
+    move = bench.send("ELECTRICGRIPPER|move|200|255|400")
+    assert bench.acks.terminal(cal, 10)[0] == "COMPLETED"
+    assert bench.acks.terminal(move, 10)[0] == "COMPLETED"
+    wait_until(lambda: bench.emu.gripper.position == 200, 10, what="the jaws at 200")
+
+
 def test_stop_mid_move_cancels_and_holds(bench):
     a = bench.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
     b = bench.send("MOVEJOINT|90|-90|180|0|0|180|3|None")

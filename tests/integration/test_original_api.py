@@ -250,10 +250,9 @@ def test_every_original_function_runs_against_the_controller_and_the_robot_does_
     completed(api.control_pneumatic_gripper("close", 1, wait_for_ack=True), "PneumaticGripper")
     assert api.get_robot_io()[2] == 0
     assert api.is_estop_pressed() is False
-    # calibration does not block (the seed): COMPLETED at once, saying so; done when the gripper says
-    cal = api.control_electric_gripper("calibrate", wait_for_ack=True, timeout=20)
-    assert cal["status"] == "COMPLETED" and cal["details"].startswith("calibration started"), cal
-    wait_until(lambda: api.get_electric_gripper_status()[4] & 0x01, 10, what="the gripper calibrated")
+    # COMPLETED once the gripper reports calibrated (a move sent after it is not lost)
+    completed(api.control_electric_gripper("calibrate", wait_for_ack=True, timeout=20), "ElectricGripper")
+    assert api.get_electric_gripper_status()[4] & 0x01
     completed(api.control_electric_gripper("move", position=100, speed=150, current=200, wait_for_ack=True),
               "ElectricGripper")
     wait_until(lambda: api.get_electric_gripper_status()[1] == 100, 10, what="gripper at 100")
@@ -376,6 +375,26 @@ def test_every_original_function_runs_against_the_controller_and_the_robot_does_
 
     want = set(functions) | {f"LazyCommandTracker.{n}" for n in methods}
     assert want - log.called == set(), "not called: " + ", ".join(sorted(want - log.called))
+
+
+def test_a_gripper_move_sent_right_after_calibrate_is_never_lost(api):
+    """Issue 22 item 9, as reported: ``control_electric_gripper('calibrate', wait_for_ack=True)``
+    returned COMPLETED after 0.02 s and the move sent next arrived during the SSG-48's 1 s
+    calibration and was lost for good.  Now the calibrate returns once the gripper reports
+    calibrated, and the move then runs; so does a move sent without waiting at all (it queues
+    behind the calibration)."""
+    completed(api.control_electric_gripper("calibrate", wait_for_ack=True, timeout=10), "ElectricGripper")
+    assert api.get_electric_gripper_status()[4] & 0x01, "COMPLETED before the gripper reported calibrated"
+    completed(api.control_electric_gripper("move", position=180, speed=255, current=400, wait_for_ack=True),
+              "ElectricGripper")
+    wait_until(lambda: api.get_electric_gripper_status()[1] == 180, 10, what="the gripper at 180")
+    # the seed's script without its time.sleep(2): calibrate and move back to back
+    cal = api.control_electric_gripper("calibrate", wait_for_ack=True, non_blocking=True)
+    move = api.control_electric_gripper("move", position=60, speed=255, current=400, wait_for_ack=True,
+                                        timeout=10)
+    completed(move, "ElectricGripper")
+    completed(api.check_command_status(cal), "ElectricGripper")
+    wait_until(lambda: api.get_electric_gripper_status()[1] == 60, 10, what="the gripper at 60")
 
 
 # ============================================================================================

@@ -55,9 +55,9 @@ loaded = sorted(m for m in sys.modules if m.split(".")[0] in ("parolkit", "numpy
 print("RESULT=" + json.dumps({"calls": calls, "loaded": loaded}))
 """
 
-#: the script's sleeps, scaled: its time.sleep(2) after control_electric_gripper("calibrate") is
-#: the seed's "add a Delay() after it" (calibration does not block the controller's queue) and
-#: must still cover the emulated SSG-48's 1 s calibration, or the move sent next is ignored
+#: the script's sleeps, scaled (its time.sleep(2) after control_electric_gripper("calibrate") need
+#: not cover the calibration: the controller's queue holds the move sent next until the gripper
+#: reports calibrated)
 SLEEP_SCALE = 0.6
 
 EXPECTED_CALLS = [

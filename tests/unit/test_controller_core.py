@@ -13,6 +13,7 @@ from parolkit.board import BoardEmulator
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import Submission
+from parolkit.controller.jobs import TickContext
 from parolkit.controller.loop import ControlLoop, TickOutput
 from parolkit.controller.stats import Histogram
 from parolkit.protocol import commands as C
@@ -109,6 +110,11 @@ class Rig:
             if time.monotonic() > end:
                 break
         assert cond(), f"condition not met; acks: {self.acks[-5:]}"
+
+    def tick_of_ack(self, cid: str, status: AckStatus) -> int:
+        """The index in :attr:`outputs` of the tick that sent ``cid``'s ``status`` ack."""
+        return next(k for k, o in enumerate(self.outputs) if any(
+            a.command_id == cid and a.status is status for a in o.acks))
 
     def terminal(self, cid: str) -> AckStatus | None:
         for s in self.statuses(cid):
@@ -351,6 +357,60 @@ def test_gripper_calibrate_is_sent_in_exactly_one_frame(rig):
     rig.tick(5)
     assert sum(f.gripper_mode == GripperMode.CALIBRATE for f in rig.frames) == 1
     assert rig.frames[-1].io & 0x10  # OUT2 on
+
+
+def test_gripper_calibrate_fails_naming_the_cause_when_the_gripper_never_reports_calibrated():
+    """A gripper that never reports calibrated (none connected, or one that takes longer than
+    the timeout: this emulated one takes 60 s) fails the calibrate after 5 s instead of
+    completing it, and the queue goes on."""
+    r = Rig(gripper_calibration_s=60.0)
+    try:
+        n0 = len(r.outputs)
+        r.submit("aaaa0001|ELECTRICGRIPPER|calibrate")
+        r.submit("aaaa0002|DELAY|0.01")
+        r.run_until(lambda: r.terminal("aaaa0002") is not None, max_ticks=600)
+        assert r.terminal("aaaa0001") is AckStatus.FAILED
+        details = next(d for c, s, d in r.acks if c == "aaaa0001" and s is AckStatus.FAILED)
+        assert details == ("the gripper did not report calibrated within 5 s of the calibrate "
+                           "(GET_GRIPPER status 0x00, bit 0x01 clear): is an SSG-48 connected?")
+        cal_at = next(k for k, o in enumerate(r.outputs) if k >= n0 and o.frame is not None
+                      and o.frame.gripper_mode == GripperMode.CALIBRATE)
+        assert r.tick_of_ack("aaaa0001", AckStatus.FAILED) - cal_at == 500  # 5 s at 100 Hz
+        assert r.terminal("aaaa0002") is AckStatus.COMPLETED
+    finally:
+        r.close()
+
+
+def test_gripper_calibrate_takes_the_gripper_word_only_from_two_new_status_frames_in_a_row():
+    """The link has no checksum: one status byte with the calibrated bit flipped neither starts
+    nor ends the calibration, and a reply that did not come (the same frame seen again) is not
+    a second one.  A gripper whose bit never clears fails, saying so."""
+    from parolkit.controller.jobs import GripperCalibrateActivity  # (issue 22: new with the fix)
+
+    def run(act: GripperCalibrateActivity, bits: list[int | StatusFrame]) -> list[AckStatus | None]:
+        out = []
+        for i, b in enumerate(bits):
+            st = b if isinstance(b, StatusFrame) else StatusFrame(gripper_status=0x80 | b)
+            ctx = TickContext(tick=i, now=i / RATE, rate_hz=RATE, status=st, homed=True, stream_mode=False,
+                              watchdog_s=0.2, limits_steps=PAROL6.limits_steps)
+            out.append(act.step(ctx).done)
+        return out
+
+    act = GripperCalibrateActivity(timeout_ticks=100)
+    # calibrated before; one corrupted frame clear; then calibrating; one corrupted frame set
+    done = run(act, [1, 1, 0, 1, 1, 0, 0, 0, 1, 0, 0, 1, 1])
+    assert done == [None] * 12 + [AckStatus.COMPLETED]
+    act = GripperCalibrateActivity(timeout_ticks=100)
+    cal, ok = StatusFrame(gripper_status=0x80), StatusFrame(gripper_status=0x81)
+    assert run(act, [ok, cal, cal, ok, ok]) == [None] * 5  # the same frame twice is one frame
+    act = GripperCalibrateActivity(timeout_ticks=5)
+    steps = [act.step(TickContext(tick=i, now=0.0, rate_hz=RATE, status=StatusFrame(gripper_status=0x81),
+                                  homed=True, stream_mode=False, watchdog_s=0.2,
+                                  limits_steps=PAROL6.limits_steps)) for i in range(6)]
+    assert [s.done for s in steps] == [None] * 5 + [AckStatus.FAILED]
+    assert steps[-1].details == ("the gripper did not report calibrated within 0.05 s of the calibrate "
+                                 "(GET_GRIPPER status 0x81, bit 0x01 never cleared: the gripper did not "
+                                 "start calibrating)")
 
 
 def test_output_completes_only_once_the_board_reports_the_new_level(rig):

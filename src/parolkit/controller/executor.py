@@ -37,6 +37,7 @@ from parolkit.controller.integrity import BoardProbe, StatusIntegrity
 from parolkit.controller.jobs import (
     Activity,
     DelayActivity,
+    GripperCalibrateActivity,
     HomeActivity,
     Job,
     OneShotActivity,
@@ -66,9 +67,10 @@ SET_PORT_SCHEMES = frozenset({"serial"})
 
 #: a planned move may start this far (deg, any joint) from the measured joints
 START_TOLERANCE_DEG = 0.5
-#: the COMPLETED ack of ELECTRICGRIPPER|calibrate (sent with the one frame that starts it)
-GRIPPER_CALIBRATE_DETAILS = ("calibration started: the gripper reports calibrated in its status "
-                             "(GET_GRIPPER) when done; follow with a Delay")
+#: ELECTRICGRIPPER|calibrate FAILS if the gripper has not reported calibrated by then (the
+#: emulated SSG-48 takes 1 s, the seed waits 2-3 s after Gripper_cal(), the original
+#: controller's calibrate returned after about 3 s), s
+GRIPPER_CALIBRATE_TIMEOUT_S = 5.0
 #: a position-tracked move FAILS if the board has not reported its exact target (at rest) this
 #: long after the last sample (a few ticks are normal: the GO TO loop closes the last steps at
 #: 50 steps/s per step of error); a speed-tracked one ends then anyway, s
@@ -877,12 +879,10 @@ class Executor:
                 g.command = GripperCommandBits.ACTIVATE | GripperCommandBits.MOVE | GripperCommandBits.RELEASE_DIR
                 act = OneShotActivity()
             elif cmd.action == "calibrate":
-                # the seed: "Gripper_cal() calibrates and activates the gripper. Add a Delay()
-                # after calling it": one frame with the one-shot CALIBRATE mode, and the next
-                # command (the Delay) starts at once; the gripper reports "calibrated" in its
-                # status (GET_GRIPPER) when done
+                # the whole queue waits for the calibration, as in the original controller:
+                # the gripper ignores moves meanwhile, and COMPLETED means calibrated
                 g.command = GripperCommandBits.ACTIVATE | GripperCommandBits.RELEASE_DIR
-                act = OneShotActivity(GripperMode.CALIBRATE, details=GRIPPER_CALIBRATE_DETAILS)
+                act = GripperCalibrateActivity(ticks_for(GRIPPER_CALIBRATE_TIMEOUT_S, self.rate_hz))
             else:
                 act = OneShotActivity(GripperMode.CLEAR_ERROR)
         elif isinstance(cmd, C.WaitInput):

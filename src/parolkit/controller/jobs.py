@@ -19,7 +19,8 @@ from parolkit.robot import JOINT_NAMES
 
 __all__ = [
     "Job", "PlanAhead", "Step", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity",
-    "HomeActivity", "DelayActivity", "OneShotActivity", "WaitInputActivity", "OutputActivity",
+    "HomeActivity", "DelayActivity", "OneShotActivity", "GripperCalibrateActivity", "WaitInputActivity",
+    "OutputActivity",
 ]
 
 _ZERO6 = (0, 0, 0, 0, 0, 0)
@@ -718,16 +719,63 @@ class DelayActivity(Activity):
 
 
 class OneShotActivity(Activity):
-    """One frame (optionally with a one-shot gripper mode), COMPLETED with it (``details``:
-    the ack's details)."""
+    """One frame (optionally with a one-shot gripper mode), COMPLETED with it."""
 
-    def __init__(self, gripper_mode: int = GripperMode.OPERATE, details: str = "") -> None:
+    def __init__(self, gripper_mode: int = GripperMode.OPERATE) -> None:
         self.mode = gripper_mode
-        self.details = details
 
     def step(self, ctx: TickContext) -> Step:
         self.progress = 1.0
-        return Step(BoardCommand.IDLE, gripper_mode=self.mode, done=AckStatus.COMPLETED, details=self.details)
+        return Step(BoardCommand.IDLE, gripper_mode=self.mode, done=AckStatus.COMPLETED)
+
+
+class GripperCalibrateActivity(Activity):
+    """Calibrate the SSG-48: one frame with the one-shot CALIBRATE mode, then IDLE frames until
+    the gripper's status shows the calibration ran and ended: the "calibrated" bit (0x01)
+    clear, and after that set.  COMPLETED then.
+
+    The gripper ignores moves while it calibrates (a move sent then was lost for good), so the
+    queue waits here: whatever follows reaches a calibrated gripper.  A gripper that was
+    calibrated before reports the bit set until it takes the calibrate message, which is not
+    the end: the bit must be seen clear first.  Each of the two needs two new status frames in
+    a row (the link has no checksum: one corrupted status byte is not the gripper's word).
+    FAILED after ``timeout_ticks`` without that.  Its end needs no frame (``frameless_end``):
+    the next queued command takes that tick."""
+
+    frameless_end = True
+
+    def __init__(self, timeout_ticks: int) -> None:
+        self.timeout_ticks = timeout_ticks
+        self.i = 0
+        #: two status frames in a row showed the calibrated bit clear since the calibrate frame
+        self.calibrating = False
+        #: the newest status frame counted, and how many new ones in a row showed what it shows
+        self._last: StatusFrame | None = None
+        self._run = 0
+
+    def step(self, ctx: TickContext) -> Step:
+        self.i += 1
+        if self.i == 1:
+            return Step(BoardCommand.IDLE, gripper_mode=GripperMode.CALIBRATE)
+        st = ctx.status
+        if st is not None and st is not self._last:
+            same = self._last is not None and self._last.gripper.calibrated == st.gripper.calibrated
+            self._run = self._run + 1 if same else 1
+            self._last = st
+            if self._run >= 2 and not st.gripper.calibrated:
+                self.calibrating = True
+                self.progress = 0.5
+            elif self._run >= 2 and self.calibrating:
+                self.progress = 1.0
+                return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
+        if self.i > self.timeout_ticks:
+            status = "none" if st is None else f"0x{st.gripper_status:02X}"
+            why = ("bit 0x01 clear): is an SSG-48 connected?" if self.calibrating else
+                   "bit 0x01 never cleared: the gripper did not start calibrating)")
+            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
+                        details=f"the gripper did not report calibrated within {self.timeout_ticks / ctx.rate_hz:g} s "
+                                f"of the calibrate (GET_GRIPPER status {status}, {why}")
+        return Step(BoardCommand.IDLE)
 
 
 class OutputActivity(Activity):
