@@ -217,6 +217,11 @@ def test_every_command_of_the_table_over_a_real_pty(bench):
     assert bench.emu.outputs == (False, False)
 
 
+def _gripper(bench) -> list[int]:
+    """GET_GRIPPER's six fields."""
+    return [int(v) for v in bench.query("GET_GRIPPER").split("|")[1].split(",")]
+
+
 def test_a_gripper_move_sent_right_after_calibrate_over_a_real_pty_reaches_the_jaws(bench):
     """Issue 22 item 9 over the serial link: the emulated SSG-48 ignores moves while it
     calibrates; the move sent right after the calibrate waits for it and reaches the jaws."""
@@ -225,6 +230,26 @@ def test_a_gripper_move_sent_right_after_calibrate_over_a_real_pty_reaches_the_j
     assert bench.acks.terminal(cal, 10)[0] == "COMPLETED"
     assert bench.acks.terminal(move, 10)[0] == "COMPLETED"
     wait_until(lambda: bench.emu.gripper.position == 200, 10, what="the jaws at 200")
+
+
+def test_get_gripper_object_detection_over_a_real_pty_follows_the_status_byte(bench):
+    """GET_GRIPPER's object-detection field is 1 only while the status byte reports an object
+    (object code 1 or 2); the board's own byte, a constant 1, read "object" all the time."""
+    assert bench.run("ELECTRICGRIPPER|calibrate")[0] == "COMPLETED"
+    wait_until(lambda: _gripper(bench)[4] & 0x01, 10, what="the gripper calibrated")
+    assert bench.run("ELECTRICGRIPPER|move|255|255|400")[0] == "COMPLETED"
+    # closed on nothing: at its position (object code 3), no object
+    g = wait_until(lambda: (lambda g: g if g[1] == 255 and g[4] & 0x30 == 0x30 else None)(_gripper(bench)), 10,
+                   what="GET_GRIPPER closed at 255")
+    assert g[5] == 0, g
+    assert bench.run("ELECTRICGRIPPER|move|0|255|400")[0] == "COMPLETED"
+    wait_until(lambda: bench.emu.gripper.position == 0, 10, what="the jaws open")
+    bench.emu.place_object(24.0)
+    assert bench.run("ELECTRICGRIPPER|move|255|255|400")[0] == "COMPLETED"
+    # stopped on the 24 mm object while closing: object code 1
+    g = wait_until(lambda: (lambda g: g if g[4] & 0x30 == 0x10 else None)(_gripper(bench)), 10,
+                   what="GET_GRIPPER holding the object")
+    assert g[5] == 1 and g[1] == 128, g
 
 
 def test_stop_mid_move_cancels_and_holds(bench):

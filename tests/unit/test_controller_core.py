@@ -413,6 +413,35 @@ def test_gripper_calibrate_takes_the_gripper_word_only_from_two_new_status_frame
                                  "start calibrating)")
 
 
+def test_get_gripper_object_detection_is_1_only_while_the_status_byte_reports_an_object(rig):
+    """The board's own object-detection byte is a constant 1 (stock firmware): GET_GRIPPER's
+    sixth field (and the status object's ``object_detection``) come from the status byte's
+    object code instead (1 or 2: an object), so a gripper closed on nothing reads 0."""
+    def gripper(cid: str, text: str, position: int, code: int) -> list[int]:
+        rig.submit(f"{cid}|ELECTRICGRIPPER|{text}")
+        rig.run_until(lambda: rig.terminal(cid) is not None)
+        assert rig.terminal(cid) is AckStatus.COMPLETED
+        rig.run_until(lambda: (rig.loop.status.gripper_position, rig.loop.status.gripper.object_code)
+                      == (position, code), max_ticks=200)
+        rig.tick()
+        snap = rig.outputs[-1].snapshot
+        reply = snap.reply("GET_GRIPPER")
+        assert snap.as_dict()["gripper"]["object_detection"] == int(reply.rsplit(",", 1)[1])
+        return [int(v) for v in reply.split("|")[1].split(",")]
+
+    assert rig.loop.status.object_detection == 1  # what the board sends, whatever the jaws do
+    assert gripper("aaaa0001", "calibrate", 0, 3)[5] == 0  # open, at its position
+    closed = gripper("aaaa0002", "move|255|255|400", 255, 3)  # closed on nothing
+    assert closed[5] == 0 and closed[4] & 0x30 == 0x30
+    gripper("aaaa0003", "move|0|255|400", 0, 3)
+    rig.emu.place_object(24.0)
+    held = gripper("aaaa0004", "move|255|255|400", 128, 1)  # stopped by the 24 mm object
+    assert held[5] == 1 and held[4] & 0x30 == 0x10
+    rig.emu.remove_object()
+    rig.tick(2)
+    assert gripper("aaaa0005", "move|0|255|400", 0, 3)[5] == 0
+
+
 def test_output_completes_only_once_the_board_reports_the_new_level(rig):
     """COMPLETED means the board's status shows the output, so a GET_IO after the ack reads it."""
     for cid, action, want in (("aaaa0001", "open", (True, False)), ("aaaa0002", "close", (False, False))):

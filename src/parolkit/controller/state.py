@@ -212,11 +212,18 @@ class Snapshot:
     def reply_io(self) -> str:
         return "IO|" + ",".join(str(v) for v in self.io_values)
 
+    @property
+    def object_detection(self) -> int:
+        """GET_GRIPPER's object-detection field: 1 while the gripper's status byte reports an
+        object (object code 1 or 2), else 0.  The board's own byte is not used: the stock
+        firmware sends a constant 1 (serial-protocol.md)."""
+        return int(self.status.gripper.object_detected)
+
     def _gripper_csv(self) -> str:
         s = self.status
         return ",".join(str(v) for v in (
             s.gripper_id, s.gripper_position, s.gripper_speed, s.gripper_current, s.gripper_status,
-            s.object_detection,
+            self.object_detection,
         ))
 
     def reply_gripper(self) -> str:
@@ -278,7 +285,7 @@ class Snapshot:
             "gripper": {
                 "id": s.gripper_id, "position": s.gripper_position, "speed": s.gripper_speed,
                 "current": s.gripper_current, "status": s.gripper_status,
-                "object_detection": s.object_detection, "activated": g.activated,
+                "object_detection": self.object_detection, "activated": g.activated,
                 "calibrated": g.calibrated, "object_code": g.object_code,
                 "object_detected": g.object_detected,
                 "error": g.estop_error or g.temperature_error or g.timeout_error,
