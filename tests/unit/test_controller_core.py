@@ -13,7 +13,7 @@ from parolkit.board import BoardEmulator
 from parolkit.controller.executor import Executor
 from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import Submission
-from parolkit.controller.jobs import TickContext
+from parolkit.controller.jobs import Step, TickContext
 from parolkit.controller.loop import ControlLoop, TickOutput
 from parolkit.controller.stats import Histogram
 from parolkit.protocol import commands as C
@@ -387,26 +387,24 @@ def test_gripper_calibrate_takes_the_gripper_word_only_from_two_new_status_frame
     a second one.  A gripper whose bit never clears fails, saying so."""
     from parolkit.controller.jobs import GripperCalibrateActivity  # (issue 22: new with the fix)
 
-    def run(act: GripperCalibrateActivity, bits: list[int | StatusFrame]) -> list[AckStatus | None]:
+    def run(act: GripperCalibrateActivity, bits: list[int | StatusFrame]) -> list[Step]:
+        """Step ``act`` once per entry: a status frame, or a new one with these low bits."""
         out = []
         for i, b in enumerate(bits):
             st = b if isinstance(b, StatusFrame) else StatusFrame(gripper_status=0x80 | b)
-            ctx = TickContext(tick=i, now=i / RATE, rate_hz=RATE, status=st, homed=True, stream_mode=False,
-                              watchdog_s=0.2, limits_steps=PAROL6.limits_steps)
-            out.append(act.step(ctx).done)
+            out.append(act.step(TickContext(tick=i, now=i / RATE, rate_hz=RATE, status=st, homed=True,
+                                            stream_mode=False, watchdog_s=0.2, limits_steps=PAROL6.limits_steps)))
         return out
 
-    act = GripperCalibrateActivity(timeout_ticks=100)
     # calibrated before; one corrupted frame clear; then calibrating; one corrupted frame set
-    done = run(act, [1, 1, 0, 1, 1, 0, 0, 0, 1, 0, 0, 1, 1])
-    assert done == [None] * 12 + [AckStatus.COMPLETED]
-    act = GripperCalibrateActivity(timeout_ticks=100)
+    steps = run(GripperCalibrateActivity(timeout_ticks=100), [1, 1, 0, 1, 1, 0, 0, 0, 1, 0, 0, 1, 1])
+    assert [s.done for s in steps] == [None] * 12 + [AckStatus.COMPLETED]
+    assert steps[0].gripper_mode == GripperMode.CALIBRATE
+    assert all(s.gripper_mode == GripperMode.OPERATE for s in steps[1:])
     cal, ok = StatusFrame(gripper_status=0x80), StatusFrame(gripper_status=0x81)
-    assert run(act, [ok, cal, cal, ok, ok]) == [None] * 5  # the same frame twice is one frame
-    act = GripperCalibrateActivity(timeout_ticks=5)
-    steps = [act.step(TickContext(tick=i, now=0.0, rate_hz=RATE, status=StatusFrame(gripper_status=0x81),
-                                  homed=True, stream_mode=False, watchdog_s=0.2,
-                                  limits_steps=PAROL6.limits_steps)) for i in range(6)]
+    steps = run(GripperCalibrateActivity(timeout_ticks=100), [ok, cal, cal, ok, ok])
+    assert [s.done for s in steps] == [None] * 5  # the same frame twice is one frame
+    steps = run(GripperCalibrateActivity(timeout_ticks=5), [1] * 6)
     assert [s.done for s in steps] == [None] * 5 + [AckStatus.FAILED]
     assert steps[-1].details == ("the gripper did not report calibrated within 0.05 s of the calibrate "
                                  "(GET_GRIPPER status 0x81, bit 0x01 never cleared: the gripper did not "
