@@ -49,11 +49,9 @@ class KillBench:
         return json.loads(reply.split("|", 1)[1]) if reply.startswith("STATUS_JSON|") else {}
 
     def query(self, text: str) -> str | None:
-        self.sock.sendto(text.encode(), (self.ctl.host, self.ctl.port))
-        try:
-            return self.sock.recvfrom(65535)[0].decode()
-        except TimeoutError:
-            return None
+        """The reply to ``text``, asked on a socket of its own: a reply to an earlier query that
+        came after its timeout can never be taken for this one's."""
+        return self.ctl.query(text)
 
     def send(self, text: str) -> None:
         self.sock.sendto(text.encode(), (self.ctl.host, self.ctl.port))
