@@ -146,23 +146,35 @@ def test_the_stop_frame_keeps_the_outputs_and_the_supervisor_leaves_quietly_on_a
         b.close()
 
 
-def test_a_frozen_controller_is_stopped_by_the_supervisor_and_reports_it_when_it_resumes(tmp_path):
+def test_a_frozen_controller_mid_jog_is_stopped_within_100_ms_of_its_last_frame_and_reports_it_when_it_resumes(
+        tmp_path):
+    """``kill -STOP`` of the controller mid-jog, default settings: its process is stopped, so
+    the supervisor disables the board 3 loop periods after the last frame (the issue: 995 ms,
+    J6 +101 deg with the old 1 s limit).  Judged by the board's own record: the DISABLE frame
+    arrives within 100 ms of the last frame the controller wrote."""
     import os
     import signal
 
-    b = KillBench(tmp_path, "supervisor_stall_s = 0.2\n")
+    b = KillBench(tmp_path)
     try:
-        b.send("JOG|0|60|20|None")
-        wait_until(lambda: any(b.emu.speeds), 10, interval=0.005, what="the jog to start")
+        b.send("JOG|5|60|20|None")
+        wait_until(lambda: b.emu.speeds[5] != 0, 10, interval=0.005, what="the jog to start")
+        t_sig = time.monotonic()
         os.kill(b.ctl.proc.pid, signal.SIGSTOP)
         try:
             wait_until(lambda: not any(b.emu.speeds), 3, interval=0.005, what="the supervisor's stop")
             assert not b.emu.enabled
         finally:
             os.kill(b.ctl.proc.pid, signal.SIGCONT)
-        status = wait_until(lambda: (lambda r: r if r and "supervisor" in r else None)(b.query("GET_STATUS")), 5,
-                            what="the controller reporting the supervisor's stop")
-        assert "STATE=DISABLED" in status, status
+        frames = b.pty.frame_log.query(since=t_sig - 1.0)["frames"]
+        first_disable = next(i for i, (_, _, cmd) in enumerate(frames) if cmd == BoardCommand.DISABLE)
+        (_, t_last, cmd_last), (_, t_disable, _) = frames[first_disable - 1], frames[first_disable]
+        print(f"DISABLE {(t_disable - t_last) * 1000:.1f} ms after the controller's last frame")
+        assert cmd_last == BoardCommand.JOG and t_disable - t_last <= BOUND_S, frames[first_disable - 3:]
+        status = wait_until(lambda: (lambda r: r if r and "is stopped and wrote no frame" in r else None)(
+            b.query("GET_STATUS")), 5, what="the controller reporting the supervisor's stop")
+        assert "STATE=DISABLED" in status and "the stop supervisor disabled the board" in status, status
+        assert b.status()["loop"]["supervisor_stopped_ms"] == 30.0  # 3 periods at 100 Hz
         # the controller agrees with the board: nothing moves until ENABLE
         time.sleep(0.2)
         assert not any(b.emu.speeds)
