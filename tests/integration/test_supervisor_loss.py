@@ -160,13 +160,14 @@ def _jog_and_check_the_kill_9_stop(b: KillBench) -> None:
     where the first jog came from) stops the board within 100 ms (DISABLE, speeds 0, nothing
     moves after)."""
     b.send("JOG|11|60|20|None")
-    wait_until(lambda: b.emu.speeds[5] != 0, 10, interval=0.005, what="the jog to start")
-    t_frame, t_stop = b.kill_and_time_the_stop()
-    print(f"DISABLE {t_frame * 1000:.1f} ms, speeds 0 {t_stop * 1000:.1f} ms after the kill")
-    assert t_stop <= BOUND_S, t_stop
-    p = b.emu.positions
+    wait_until(lambda: b.speeds()[5] != 0, 10, interval=0.005, what="the jog to start")
+    t_kill, t_last = b.kill_and_time_the_stop()
+    print(f"DISABLE {t_kill * 1000:.1f} ms after the kill, {t_last * 1000:.1f} ms after the last frame")
+    assert t_kill <= BOUND_S, t_kill
+    p = b.board.status()["positions"]
     time.sleep(0.2)
-    assert b.emu.positions == p and not b.emu.enabled and b.emu.command == BoardCommand.DISABLE
+    st = b.board.status()
+    assert st["positions"] == p and not st["enabled"] and st["command"] == BoardCommand.DISABLE
 
 
 def _new_supervisor(b: KillBench, old: int | None = None) -> int:
@@ -187,12 +188,12 @@ def test_kill_9_of_the_supervisor_mid_jog_stops_the_jog_shows_the_error_and_a_ne
     try:
         old = _new_supervisor(b)
         jog = client.send("JOG|5|60|20|None")
-        wait_until(lambda: b.emu.speeds[5] != 0, 10, interval=0.005, what="the jog to start")
+        wait_until(lambda: b.speeds()[5] != 0, 10, interval=0.005, what="the jog to start")
         os.kill(old, signal.SIGKILL)
         what = f"the stop supervisor (pid {old}) exited"
         status, details = client.terminal(jog, 5)
         assert status == "CANCELLED" and details.startswith(f"stopped: {what}"), (status, details)
-        wait_until(lambda: not any(b.emu.speeds), 5, interval=0.005, what="the board stopped")
+        wait_until(lambda: not any(b.speeds()), 5, interval=0.005, what="the board stopped")
         reply = b.query("GET_STATUS") or ""
         assert "|STATE=ERROR|" in reply and f"|ERROR={what}" in reply, reply
         assert b.status()["errors"]["message"].startswith(what)
@@ -216,7 +217,7 @@ def test_a_frozen_supervisor_is_replaced_and_the_new_one_stops_a_killed_controll
     try:
         old = _new_supervisor(b)
         b.send("JOG|5|60|20|None")
-        wait_until(lambda: b.emu.speeds[5] != 0, 10, interval=0.005, what="the jog to start")
+        wait_until(lambda: b.speeds()[5] != 0, 10, interval=0.005, what="the jog to start")
         os.kill(old, signal.SIGSTOP)
         what = f"the stop supervisor (pid {old}) answered none of the last "
         wait_until(lambda: (b.status().get("errors", {}).get("message") or "").startswith(what), 10,
@@ -224,7 +225,7 @@ def test_a_frozen_supervisor_is_replaced_and_the_new_one_stops_a_killed_controll
         from parolkit.controller.supervisor import SILENT_FRAMES_MAX  # (not at the top: main lacks it)
 
         assert b.status()["errors"]["message"].startswith(f"{what}{SILENT_FRAMES_MAX + 1} frames (stopped or hung)")
-        wait_until(lambda: not any(b.emu.speeds), 5, interval=0.005, what="the board stopped")
+        wait_until(lambda: not any(b.speeds()), 5, interval=0.005, what="the board stopped")
         wait_until(lambda: process_state(old) is None, 5, what="the frozen supervisor killed and reaped")
         new = _new_supervisor(b, old)
         assert b.status()["loop"]["supervisor_pid"] == new
