@@ -130,7 +130,10 @@ def test_a_stopped_process_is_seen_stopped_and_a_running_one_is_not():
     assert not controller_stopped(child.pid)  # gone
 
 
-def test_a_supervisor_killed_is_reported_lost_once_with_the_signal_and_a_new_one_can_be_started(port_pipe):
+@pytest.mark.parametrize("found_by", ["poll", "send"])
+def test_a_supervisor_killed_is_reported_lost_once_with_the_signal_and_a_new_one_can_be_started(port_pipe, found_by):
+    """Whether the loop's poll reads its socket's EOF first or the next frame's send fails
+    (EPIPE), the loss reads the same."""
     _, w = port_pipe
     sup = StopSupervisor(period_s=0.01, stall_s=0)
     assert sup.start()
@@ -140,6 +143,9 @@ def test_a_supervisor_killed_is_reported_lost_once_with_the_signal_and_a_new_one
         old = sup.pid
         os.kill(old, signal.SIGKILL)
         wait_until(lambda: process_state(old) == "Z", 5, interval=0.001, what="the supervisor dead")
+        if found_by == "send":
+            sup.sent(b"\x00" * 56)
+            assert sup.state == "dead"
         (ev,) = _wait_events(sup, SupervisorEventKind.LOST)
         assert ev.text == f"the stop supervisor (pid {old}) exited (killed by signal 9)"
         assert sup.state == "dead" and sup.poll() == []

@@ -434,6 +434,8 @@ class StopSupervisor:
                     # the port closed while it was being handed over (the link is being lost):
                     # the supervisor is fine, the reconnect hands it the new port
                     log.warning("the port closed before the stop supervisor got it: %s", exc)
+                elif exc.errno in (errno.EPIPE, errno.ECONNRESET):  # its end closed: it exited
+                    self._gone("exited" + self._exit_status())
                 else:
                     self._gone(f"cannot be reached ({exc})")
 
