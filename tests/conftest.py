@@ -45,6 +45,21 @@ def process_state(pid: int) -> str | None:
         return None
 
 
+def child_pids(pid: int) -> list[int]:
+    """Process ids whose parent is ``pid`` (from /proc; exited ones not yet reaped included)."""
+    out = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+            out.append(int(entry.name))
+    return out
+
+
 def free_udp_port() -> int:
     """A UDP port that was free a moment ago on 127.0.0.1."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:

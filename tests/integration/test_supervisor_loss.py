@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 import pytest
-from tests.conftest import process_state, wait_until
+from tests.conftest import child_pids, process_state, wait_until
 from tests.integration.load import Client
 from tests.integration.test_bounded_commitment import BOUND_S, KillBench
 
@@ -41,17 +41,6 @@ from parolkit.transport import open_transport
 
 RATE = 100.0
 ZERO = (0, 0, 0, 0, 0, 0)
-
-
-def _children(pid: int) -> list[int]:
-    """The child processes of ``pid`` (its supervisor), from /proc (not from the controller)."""
-    kids: list[int] = []
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        try:
-            kids += [int(k) for k in (task / "children").read_text().split()]
-        except OSError:  # a thread that ended meanwhile (the supervisor's restart helper)
-            pass
-    return kids
 
 
 class TickBench:
@@ -174,7 +163,7 @@ def _new_supervisor(b: KillBench, old: int | None = None) -> int:
     """The controller's (new) supervisor process once it is ready: its pid from /proc (the
     controller's own report is checked against it)."""
     def ready() -> int | None:
-        kids = [k for k in _children(b.ctl.proc.pid) if k != old and process_state(k) not in (None, "Z")]
+        kids = [k for k in child_pids(b.ctl.proc.pid) if k != old and process_state(k) not in (None, "Z")]
         return kids[0] if len(kids) == 1 and b.status().get("loop", {}).get("supervisor") == "ready" else None
 
     return wait_until(ready, 10, what="a (new) supervisor ready")
