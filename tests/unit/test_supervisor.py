@@ -81,7 +81,8 @@ def _wait_events(sup: StopSupervisor, kind: SupervisorEventKind, timeout: float 
 
 @pytest.fixture
 def port_pipe():
-    """A pipe standing for the serial port: what the supervisor writes to the board."""
+    """A pipe standing for the serial port: (read end, write end); what the supervisor writes
+    to the board arrives at the read end."""
     r, w = os.pipe()
     os.set_blocking(r, False)
     yield r, w
@@ -89,26 +90,38 @@ def port_pipe():
     os.close(w)
 
 
-def test_a_running_controller_that_writes_nothing_is_stopped_only_after_the_stall_limit(port_pipe):
+@pytest.fixture
+def ready_supervisor(port_pipe):
+    """``start(stall_s)``: a stop supervisor process (period 10 ms) that holds the pipe's write
+    end as its port and said it is ready; closed after the test."""
+    started: list[StopSupervisor] = []
+
+    def start(stall_s: float) -> StopSupervisor:
+        sup = StopSupervisor(period_s=0.01, stall_s=stall_s)
+        started.append(sup)
+        assert sup.start()
+        sup.port_opened(port_pipe[1])
+        _wait_events(sup, SupervisorEventKind.READY)
+        return sup
+
+    yield start
+    for sup in started:
+        sup.close()
+
+
+def test_a_running_controller_that_writes_nothing_is_stopped_only_after_the_stall_limit(port_pipe, ready_supervisor):
     """This process (the supervisor's parent: its controller) runs on but sends no frame: the
     supervisor looks after 3 periods, sees it running, and waits for the stall limit."""
-    r, w = port_pipe
-    sup = StopSupervisor(period_s=0.01, stall_s=0.3)
-    assert sup.start()
-    try:
-        sup.port_opened(w)
-        _wait_events(sup, SupervisorEventKind.READY)
-        jog = CommandFrame(positions=(1, 2, 3, 4, 5, 6), speeds=(0, 0, 0, 0, 0, 900), command=BoardCommand.JOG)
-        t0 = time.monotonic()
-        sup.sent(jog.encode())
-        (ev,) = _wait_events(sup, SupervisorEventKind.STOPPED)
-        assert time.monotonic() - t0 >= 0.3
-        quiet = int(re.search(r"runs but wrote no frame for (\d+) ms \(limit 300 ms\)", ev.text).group(1))
-        assert quiet >= 300, ev.text
-        assert ev.text.endswith("the stop supervisor disabled the board")
-        assert os.read(r, 1000) == stop_frame(jog.encode()) * STOP_COPIES
-    finally:
-        sup.close()
+    sup = ready_supervisor(0.3)
+    jog = CommandFrame(positions=(1, 2, 3, 4, 5, 6), speeds=(0, 0, 0, 0, 0, 900), command=BoardCommand.JOG)
+    t0 = time.monotonic()
+    sup.sent(jog.encode())
+    (ev,) = _wait_events(sup, SupervisorEventKind.STOPPED)
+    assert time.monotonic() - t0 >= 0.3
+    quiet = int(re.search(r"runs but wrote no frame for (\d+) ms \(limit 300 ms\)", ev.text).group(1))
+    assert quiet >= 300, ev.text
+    assert ev.text.endswith("the stop supervisor disabled the board")
+    assert os.read(port_pipe[0], 1000) == stop_frame(jog.encode()) * STOP_COPIES
 
 
 def test_a_stopped_process_is_seen_stopped_and_a_running_one_is_not():
@@ -116,14 +129,9 @@ def test_a_stopped_process_is_seen_stopped_and_a_running_one_is_not():
     try:
         assert not controller_stopped(child.pid)
         os.kill(child.pid, signal.SIGSTOP)
-        deadline = time.monotonic() + 5
-        while not controller_stopped(child.pid):
-            assert time.monotonic() < deadline, "SIGSTOP not seen in /proc"
-            time.sleep(0.005)
+        wait_until(lambda: controller_stopped(child.pid), 5, interval=0.005, what="SIGSTOP seen in /proc")
         os.kill(child.pid, signal.SIGCONT)
-        while controller_stopped(child.pid):
-            assert time.monotonic() < deadline + 5, "SIGCONT not seen in /proc"
-            time.sleep(0.005)
+        wait_until(lambda: not controller_stopped(child.pid), 5, interval=0.005, what="SIGCONT seen in /proc")
     finally:
         child.kill()
         child.wait()
@@ -131,28 +139,23 @@ def test_a_stopped_process_is_seen_stopped_and_a_running_one_is_not():
 
 
 @pytest.mark.parametrize("found_by", ["poll", "send"])
-def test_a_supervisor_killed_is_reported_lost_once_with_the_signal_and_a_new_one_can_be_started(port_pipe, found_by):
+def test_a_supervisor_killed_is_reported_lost_once_with_the_signal_and_a_new_one_can_be_started(
+        port_pipe, ready_supervisor, found_by):
     """Whether the loop's poll reads its socket's EOF first or the next frame's send fails
     (EPIPE), the loss reads the same."""
-    _, w = port_pipe
-    sup = StopSupervisor(period_s=0.01, stall_s=0)
+    sup = ready_supervisor(0)
+    old = sup.pid
+    assert old is not None
+    os.kill(old, signal.SIGKILL)
+    wait_until(lambda: process_state(old) == "Z", 5, interval=0.001, what="the supervisor dead")
+    if found_by == "send":
+        sup.sent(b"\x00" * 56)
+        assert sup.state == "dead"
+    (ev,) = _wait_events(sup, SupervisorEventKind.LOST)
+    assert ev.text == f"the stop supervisor (pid {old}) exited (killed by signal 9)"
+    assert sup.state == "dead" and sup.poll() == []
+    sup.sent(b"\x00" * 56)  # nothing is sent to a lost supervisor, nothing breaks
     assert sup.start()
-    try:
-        sup.port_opened(w)
-        _wait_events(sup, SupervisorEventKind.READY)
-        old = sup.pid
-        os.kill(old, signal.SIGKILL)
-        wait_until(lambda: process_state(old) == "Z", 5, interval=0.001, what="the supervisor dead")
-        if found_by == "send":
-            sup.sent(b"\x00" * 56)
-            assert sup.state == "dead"
-        (ev,) = _wait_events(sup, SupervisorEventKind.LOST)
-        assert ev.text == f"the stop supervisor (pid {old}) exited (killed by signal 9)"
-        assert sup.state == "dead" and sup.poll() == []
-        sup.sent(b"\x00" * 56)  # nothing is sent to a lost supervisor, nothing breaks
-        assert sup.start()
-        sup.port_opened(w)
-        _wait_events(sup, SupervisorEventKind.READY)
-        assert sup.state == "ready" and sup.pid != old and sup.restarts == 1
-    finally:
-        sup.close()
+    sup.port_opened(port_pipe[1])
+    _wait_events(sup, SupervisorEventKind.READY)
+    assert sup.state == "ready" and sup.pid != old and sup.restarts == 1
