@@ -71,6 +71,7 @@ from parolkit.controller.executor import SET_PORT_SCHEMES, Executor
 from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
+from parolkit.controller.scheduling import raise_priority
 from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_snapshot
 from parolkit.controller.stats import LoopMetrics
 from parolkit.controller.supervisor import STOPPED_PERIODS, StopSupervisor, SupervisorEventKind
@@ -570,23 +571,8 @@ class ControlLoop:
         view["supervisor_stall_ms"] = round(sup.stall_s * 1e3, 3) if sup is not None else 0.0
         return view
 
-    @staticmethod
-    def raise_priority(fifo_priority: int) -> str:
-        """Ask the OS to prefer the calling thread: SCHED_FIFO at ``fifo_priority`` (0: do not
-        ask), else nice -10, else nothing.  Returns what it got: ``"fifo:N"``, ``"nice:-10"``
-        or ``"normal"``."""
-        tid = threading.get_native_id()
-        if fifo_priority > 0:
-            try:
-                os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(fifo_priority))
-                return f"fifo:{fifo_priority}"
-            except (AttributeError, OSError, ValueError):
-                pass
-        try:
-            os.setpriority(os.PRIO_PROCESS, tid, -10)
-            return "nice:-10"
-        except (AttributeError, OSError):
-            return "normal"
+    #: SCHED_FIFO at a priority, else nice -10, for the calling thread (:mod:`.scheduling`)
+    raise_priority = staticmethod(raise_priority)
 
     @staticmethod
     def raise_other_threads(nice: int = HELPER_NICE) -> int:

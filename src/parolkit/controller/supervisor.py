@@ -67,6 +67,7 @@ import time
 from dataclasses import dataclass, replace
 from enum import Enum
 
+from parolkit.controller.scheduling import raise_priority
 from parolkit.protocol.frames import COMMAND_FRAME_SIZE, BoardCommand, CommandFrame, FrameError
 
 __all__ = ["StopSupervisor", "SupervisorEvent", "SupervisorEventKind", "stop_frame", "controller_stopped", "main",
@@ -248,22 +249,6 @@ class _Supervisor:
         return 0
 
 
-def _raise_priority(fifo_priority: int) -> str:
-    """SCHED_FIFO at ``fifo_priority`` (0: do not ask), else nice -10, else nothing; returns
-    what it got ("fifo:N", "nice:-10", "normal")."""
-    if fifo_priority > 0:
-        try:
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(fifo_priority))
-            return f"fifo:{fifo_priority}"
-        except (AttributeError, OSError, ValueError):
-            pass
-    try:
-        os.setpriority(os.PRIO_PROCESS, 0, -10)
-        return "nice:-10"
-    except (AttributeError, OSError):
-        return "normal"
-
-
 def main(argv: list[str] | None = None) -> int:
     """``python -m parolkit.controller.supervisor --fd N --period P [--stall S] [--priority F]``
     (started by the controller, not by hand)."""
@@ -282,7 +267,7 @@ def main(argv: list[str] | None = None) -> int:
     # down before the controller has stopped the board: it exits when the controller is gone
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    scheduling = _raise_priority(args.priority)
+    scheduling = raise_priority(args.priority)
     sock = socket.socket(fileno=args.fd)
     return _Supervisor(sock, os.getppid(), max(0.0, args.period), max(0.0, args.stall)).run(scheduling)
 
