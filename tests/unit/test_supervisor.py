@@ -159,3 +159,13 @@ def test_a_supervisor_killed_is_reported_lost_once_with_the_signal_and_a_new_one
     sup.port_opened(port_pipe[1])
     _wait_events(sup, SupervisorEventKind.READY)
     assert sup.state == "ready" and sup.pid != old and sup.restarts == 1
+
+
+def test_after_the_controller_closed_its_supervisor_a_restart_under_way_starts_nothing(ready_supervisor):
+    """Shutdown (close) while the loop's restart helper is about to start a new supervisor:
+    nothing is started that would outlive the controller, and no loss is reported."""
+    sup = ready_supervisor(0)
+    old = sup.pid
+    sup.close()
+    assert not sup.start()
+    assert sup.pid == old and sup.state == "off" and sup.poll() == []

@@ -324,6 +324,7 @@ class StopSupervisor:
         #: supervisors started after the first (each after a loss)
         self.restarts = 0
         self._started = False
+        self._closed = False
         #: the supervisor's scheduling, as it reported it when ready
         self.scheduling = "unknown"
         self._started_at = 0.0
@@ -341,7 +342,10 @@ class StopSupervisor:
     def start(self) -> bool:
         """Start a supervisor process; the previous one, if any, is killed and reaped first (a
         stopped one must never wake up and write to the port).  False when it could not be
-        started: :meth:`poll` then reports the loss."""
+        started: :meth:`poll` then reports the loss (or after :meth:`close`: a restart that was
+        under way when the controller shut down starts nothing)."""
+        if self._closed:
+            return False
         self._retire()
         parent, child = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         try:
@@ -359,6 +363,11 @@ class StopSupervisor:
             child.close()
         parent.setblocking(False)
         with self._lock:
+            if self._closed:  # closed while this one started
+                proc.kill()
+                proc.wait()
+                parent.close()
+                return False
             if self._started:
                 self.restarts += 1
             self._started = True
@@ -476,6 +485,7 @@ class StopSupervisor:
         """Clean shutdown: the controller has stopped the board itself."""
         self._send(b"Q")
         with self._lock:
+            self._closed = True
             sock, self._sock = self._sock, None
             proc = self._proc
             self.state = "off"
