@@ -64,6 +64,10 @@ __all__ = [
     "find_config_file",
 ]
 
+#: ``controller.supervisor_stall_s`` (when not 0) is at least this many loop periods: a
+#: shorter limit would stop a live controller at its first late frames
+SUPERVISOR_STALL_MIN_PERIODS = 10
+
 #: Searched in order when no path is given; the first that exists is used.
 DEFAULT_CONFIG_PATHS = (Path("parolkit.toml"), Path.home() / ".config" / "parolkit" / "parolkit.toml")
 
@@ -112,8 +116,12 @@ class ControllerSettings:
     #: run the stop supervisor on a serial link: a small process that writes a DISABLE frame
     #: the moment this controller dies (the board firmware has no watchdog)
     supervisor: bool = True
-    #: the supervisor also stops the board when the controller, alive, wrote no frame for
-    #: this long (frozen, stopped in a debugger), s; 0 = only when it dies
+    #: the supervisor also stops the board when the controller runs but wrote no frame for
+    #: this long (hung, deadlocked), s: 0 = never, else 0.1..60 and at least
+    #: ``SUPERVISOR_STALL_MIN_PERIODS`` loop periods.  A *stopped* controller (``kill -STOP``,
+    #: a debugger) is stopped after 3 loop periods whatever this says (30 ms at 100 Hz; see
+    #: parolkit.controller.supervisor); a running one only after this limit, as under load a
+    #: live controller's frames come late (gaps of 100-440 ms seen with two CPU hogs)
     supervisor_stall_s: float = 1.0
     #: before homing, one jog press moves a joint at most this far, deg (the limits are unknown)
     unhomed_jog_travel_deg: float = 20.0
@@ -146,15 +154,23 @@ class ControllerSettings:
                 "controller.secret must be 8..128 printable ASCII characters without '|' or spaces")
         if not isinstance(self.supervisor, bool):
             raise ParolkitValueError("controller.supervisor must be true or false")
+        lo = max(0.1, SUPERVISOR_STALL_MIN_PERIODS / self.rate_hz)
         if isinstance(self.supervisor_stall_s, bool) or not isinstance(self.supervisor_stall_s, (int, float)) \
-                or not 0.0 <= self.supervisor_stall_s <= 60.0:
+                or not (self.supervisor_stall_s == 0 or lo <= self.supervisor_stall_s <= 60.0):
             raise ParolkitValueError(
-                f"controller.supervisor_stall_s must be a number of seconds in 0..60 (0 = off), "
+                f"controller.supervisor_stall_s must be 0 (never) or a number of seconds in {lo:g}..60 "
+                f"(at least 0.1 s and {SUPERVISOR_STALL_MIN_PERIODS} loop periods at {self.rate_hz:g} Hz), "
                 f"got {self.supervisor_stall_s!r}")
 
     @property
     def period_s(self) -> float:
         return 1.0 / self.rate_hz
+
+    @property
+    def supervisor_priority(self) -> int:
+        """The SCHED_FIFO priority the stop supervisor asks for: one above the tick thread's
+        (it must run when the tick does not), 0 (nice -10 only) when the tick asks for none."""
+        return min(self.realtime_priority + 1, 99) if self.realtime_priority else 0
 
 
 @dataclass(frozen=True)

@@ -20,28 +20,13 @@ from pathlib import Path
 import pytest
 from tests.browser.conftest import _stop, start_gui
 from tests.browser.helpers import count_log, log_text, state, text, wait_linked, wait_ready, wait_until
+from tests.conftest import child_pids
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
-def _children(pid: int) -> list[int]:
-    """Process ids whose parent is ``pid`` (from /proc)."""
-    out = []
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-        except OSError:
-            continue
-        ppid = int(stat.rsplit(")", 1)[1].split()[1])
-        if ppid == pid:
-            out.append(int(entry.name))
-    return out
-
-
 def _controller_pid(gui_pid: int) -> int:
-    for pid in _children(gui_pid):
+    for pid in child_pids(gui_pid):
         try:
             cmd = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
         except OSError:

@@ -9,7 +9,10 @@
 * A silent board is lost after exactly the configured number of unanswered frames.
 * A controller stalled by SIGSTOP for 200 ms (20 ticks) is not a lost link: the board
   answered every frame it got, the replies wait in the pty.  (``board-sim`` in its own
-  process, as the load rig runs it, so the stall of the test process cannot play a part.)
+  process, as the load rig runs it, so the stall of the test process cannot play a part.
+  The stop supervisor is off there: it disables the board 3 periods into a *stopped*
+  controller, rightly (tests/integration/test_bounded_commitment.py), and SIGSTOP stands for
+  a late one here, which is what the link judging is about.)
 * ``GET_STATUS`` reports the tick thread's scheduling as the OS has it.
 """
 
@@ -134,7 +137,8 @@ def _fifo_thread(pid: int) -> int | None:
 def test_a_controller_stalled_for_200_ms_is_no_lost_link_and_reports_its_scheduling(tmp_path):
     board = load.BoardSim(tmp_path)
     cfg = tmp_path / "controller.toml"
-    cfg.write_text("[controller]\nlink_timeout_ticks = 5\n")  # 50 ms: a fifth of each stall
+    # 50 ms: a fifth of each stall; no stop supervisor (module docstring)
+    cfg.write_text("[controller]\nlink_timeout_ticks = 5\nsupervisor = false\n")
     ctl = client = None
     try:
         ctl = start_controller(["--port", str(board.link), "--config", str(cfg)], log_dir=tmp_path,

@@ -9,6 +9,7 @@ Rooms (one job each):
 * :mod:`~parolkit.controller.executor` queue, planner worker, active job, acks
 * :mod:`~parolkit.controller.loop`     the deadline-based tick: read, decide, guard, write, sleep
 * :mod:`~parolkit.controller.supervisor` the stop supervisor process: DISABLE when the controller dies
+* :mod:`~parolkit.controller.scheduling` SCHED_FIFO / nice for the tick thread and the supervisor
 * :mod:`~parolkit.controller.server`   UDP socket thread: parse, enqueue, answer queries, stream
 * :mod:`~parolkit.controller.app`      wiring, start/stop, signals
 * :mod:`~parolkit.controller.cli`      ``parolkit serve`` / ``headless-commander``

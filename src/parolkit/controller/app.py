@@ -128,7 +128,8 @@ class Controller:
             link_timeout_ticks=cs.link_timeout_ticks, link_hold_frames=cs.link_hold_frames,
             realtime_priority=cs.realtime_priority, inbox=self.inbox, publish=self._publish,
             pose_provider=self._pose_provider,
-            supervisor=StopSupervisor(cs.supervisor_stall_s) if cs.supervisor else None,
+            supervisor=(StopSupervisor(cs.period_s, cs.supervisor_stall_s, priority=cs.supervisor_priority)
+                        if cs.supervisor else None),
         )
         self.loop.server_view = self.server.overload_view
         self.executor.start()
@@ -227,7 +228,7 @@ class Controller:
     def _loop_dict(self) -> dict[str, Any]:
         if self.loop is None:
             return {}
-        return self.loop.stats.view(max_age_s=0.25).as_dict()
+        return self.loop.loop_view()
 
     @property
     def snapshot(self) -> Snapshot:

@@ -202,6 +202,9 @@ class Executor:
                                          on_fault=self.integrity_fault, probe=self.probe)
         #: why the robot is disabled when it was not the user's DISABLE (None otherwise)
         self._disabled_reason: str | None = None
+        #: the stop supervisor is lost (what happened to it) and no new one is ready yet:
+        #: motion is refused (None otherwise; see :meth:`supervisor_lost`)
+        self.supervisor_missing: str | None = None
         #: travel of the current unhomed jog press so far, deg per joint, and its latest
         #: segment: (speeds steps/s, start, planned end; monotonic s)
         self._press_used = [0.0] * 6
@@ -293,6 +296,10 @@ class Executor:
                 return
             if not self._link_up:
                 self._ack(job, AckStatus.FAILED, f"board link is down ({self.error or 'reconnecting'})")
+                return
+            if self.supervisor_missing is not None and (cmd.is_motion or isinstance(cmd, C.Home)):
+                self._ack(job, AckStatus.FAILED, f"motion refused: {self.supervisor_missing}; a new one "
+                                                 f"is starting")
                 return
             if self.stream_mode and isinstance(cmd, _STREAMABLE) and not self.queue and (
                 self.active is None or self.active.streamed
@@ -504,6 +511,23 @@ class Executor:
         self.cancel_all(f"board link lost: {reason}")
         if self.enabled and not self.estop_latched:
             self.probe.start()
+
+    def supervisor_lost(self, what: str) -> None:
+        """(loop thread) The stop supervisor is gone (``what`` says how): a controller crash
+        now would leave the board running its last command.  Motion is stopped as STOP stops
+        it (everything cancelled: the board gets a zero-speed frame after a speed stream),
+        the error is latched, and motion is refused until a new supervisor is ready
+        (:meth:`supervisor_ready`); what was cancelled never resumes by itself."""
+        self.supervisor_missing = what
+        self.error = f"{what}: motion stopped, refused until a new stop supervisor is ready"
+        self.do_stop(f"stopped: {what}")
+
+    def supervisor_ready(self) -> None:
+        """(loop thread) A stop supervisor is ready: motion is accepted again (the error of
+        a loss stays latched, saying that a new supervisor took over, until cleared)."""
+        what, self.supervisor_missing = self.supervisor_missing, None
+        if what is not None and self.error is not None and self.error.startswith(what):
+            self.error = f"{what}: motion was stopped; a new stop supervisor is ready"
 
     # ------------------------------------------------------------------ views
 

@@ -71,9 +71,10 @@ from parolkit.controller.executor import SET_PORT_SCHEMES, Executor
 from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
+from parolkit.controller.scheduling import raise_priority
 from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_snapshot
 from parolkit.controller.stats import LoopMetrics
-from parolkit.controller.supervisor import StopSupervisor
+from parolkit.controller.supervisor import STOPPED_PERIODS, StopSupervisor, SupervisorEventKind
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
 from parolkit.transport.base import LinkLostError, Transport, TransportError
@@ -191,11 +192,14 @@ class ControlLoop:
         self.last_frame: CommandFrame | None = None
         #: the stop supervisor (stops the board if this process dies), or None
         self.supervisor = supervisor
+        self._supervise_lock = threading.Lock()
+        self._supervisor_starting = False
+        self._next_supervisor_start = 0.0
 
     # ------------------------------------------------------------------ lifecycle
 
     def start(self) -> None:
-        self._supervise()
+        self.supervise()
         self._thread = threading.Thread(target=self._run, name="parolkit-loop", daemon=True)
         self._thread.start()
 
@@ -224,9 +228,16 @@ class ControlLoop:
 
     # ------------------------------------------------------------------ link
 
-    def _supervise(self) -> None:
+    def supervise(self) -> None:
         """Hand the open link's file descriptor to the stop supervisor (started on the first
-        link that has one: a serial port; the in-process emulator dies with this process)."""
+        link that has one: a serial port; the in-process emulator dies with this process;
+        started again when the last one was lost).  :meth:`start` does it."""
+        with self._supervise_lock:
+            self._supervise()
+
+    def _supervise(self) -> None:
+        """:meth:`supervise` with :attr:`_supervise_lock` held (the reconnect helper and the
+        supervisor's restart helper may run at once)."""
         sup = self.supervisor
         if sup is None:
             return
@@ -234,13 +245,51 @@ class ControlLoop:
         if fd is None:
             sup.port_closed()
             return
-        if sup.state == "off":
-            try:
-                sup.start()
-            except OSError as exc:
-                log.error("could not start the stop supervisor: %s", exc)
-                return
+        if sup.state in ("off", "dead") and not sup.start():
+            return
         sup.port_opened(fd)
+
+    def _watch_supervisor(self, sup: StopSupervisor, now: float) -> None:
+        """(tick) Take in what the stop supervisor reported; start a new one when it is lost."""
+        ex = self.executor
+        for ev in sup.poll():
+            if ev.kind is SupervisorEventKind.STOPPED:
+                log.error("%s", ev.text)
+                ex.do_disable()
+                ex.error = ev.text
+                # the board ran on while this process stood still, then the supervisor stopped
+                # it: what the next replies show was done behind the integrity check's back, not
+                # against the frames it saw written (judged so, a jog that ran on for the stall
+                # read as "uncommanded motion" and hid the supervisor's report); the truth
+                # starts afresh from two agreeing frames, as after a new link
+                self.filter.reset()
+            elif ev.kind is SupervisorEventKind.LOST:
+                ex.supervisor_lost(ev.text)
+                self._next_supervisor_start = now
+            elif ev.kind is SupervisorEventKind.READY:
+                if ex.supervisor_missing is not None:
+                    log.warning("a new stop supervisor is ready (pid %s, %s): motion is accepted again",
+                                sup.pid, ev.text)
+                ex.supervisor_ready()
+        if (sup.state == "dead" and self.link_up and not self._supervisor_starting
+                and now >= self._next_supervisor_start):
+            self._supervisor_starting = True
+            threading.Thread(target=self._restart_supervisor, name="parolkit-supervisor-start",
+                             daemon=True).start()
+
+    def _restart_supervisor(self) -> None:
+        """(helper thread) Start a new stop supervisor and hand it the port; tried again a
+        second later when it fails.  With the link down, the reconnect does it."""
+        self._helper_priority()
+        try:
+            with self._supervise_lock:
+                if self.link_up:
+                    self._supervise()
+        except Exception as exc:  # never let a restart attempt kill anything
+            log.error("starting a new stop supervisor failed: %s", exc)
+        finally:
+            self._next_supervisor_start = time.monotonic() + 1.0
+            self._supervisor_starting = False
 
     def _lose_link(self, reason: str, *, may_write: bool = True) -> None:
         """The link is lost: cancel motion, latch the error and, if the last frame written still
@@ -335,8 +384,9 @@ class ControlLoop:
             self.unanswered = 0
             self._backlog = 0
             self.holding = False
-            self._supervise()
-            self.link_up = True
+            with self._supervise_lock:
+                self._supervise()
+                self.link_up = True
             log.warning("board link up again: %s", self.transport.description)
         except (TransportError, OSError) as exc:
             log.info("reconnect failed: %s", exc)
@@ -411,17 +461,7 @@ class ControlLoop:
         ex = self.executor
         inbox = self.inbox
         if self.supervisor is not None:
-            stopped = self.supervisor.poll()
-            if stopped is not None:
-                log.error("%s", stopped)
-                ex.do_disable()
-                ex.error = stopped
-                # the board ran on while this process stood still, then the supervisor stopped
-                # it: what the next replies show was done behind the integrity check's back, not
-                # against the frames it saw written (judged so, a jog that ran on for the stall
-                # read as "uncommanded motion" and hid the supervisor's report); the truth
-                # starts afresh from two agreeing frames, as after a new link
-                self.filter.reset()
+            self._watch_supervisor(self.supervisor, now)
         if self.link_up:
             self._read()
             if self.link_up:
@@ -513,31 +553,26 @@ class ControlLoop:
         return build_snapshot(
             self.executor, seq=self.tick_count + 1, time=time.monotonic() - self.start_time,
             link_up=self.link_up, status=self.status, last_status=self.last_status, board=board,
-            pose_provider=self.pose_provider, loop_view=self._loop_view, server_view=self.server_view,
+            pose_provider=self.pose_provider, loop_view=self.loop_view, server_view=self.server_view,
             sent=self.last_frame if self.link_up else None)
 
-    def _loop_view(self) -> dict[str, Any]:
+    def loop_view(self) -> dict[str, Any]:
+        """The loop statistics with the stop supervisor's state, process id (None: none
+        started), restarts, scheduling and limits: a stopped controller is stopped after
+        ``supervisor_stopped_ms`` without a frame, a running one after ``supervisor_stall_ms``
+        (0: never)."""
         view = self.stats.view(max_age_s=0.25).as_dict()
-        view["supervisor"] = self.supervisor.state if self.supervisor is not None else "off"
+        sup = self.supervisor
+        view["supervisor"] = sup.state if sup is not None else "off"
+        view["supervisor_pid"] = sup.pid if sup is not None else None
+        view["supervisor_restarts"] = sup.restarts if sup is not None else 0
+        view["supervisor_scheduling"] = sup.scheduling if sup is not None else "off"
+        view["supervisor_stopped_ms"] = round(STOPPED_PERIODS * sup.period_s * 1e3, 3) if sup is not None else 0.0
+        view["supervisor_stall_ms"] = round(sup.stall_s * 1e3, 3) if sup is not None else 0.0
         return view
 
-    @staticmethod
-    def raise_priority(fifo_priority: int) -> str:
-        """Ask the OS to prefer the calling thread: SCHED_FIFO at ``fifo_priority`` (0: do not
-        ask), else nice -10, else nothing.  Returns what it got: ``"fifo:N"``, ``"nice:-10"``
-        or ``"normal"``."""
-        tid = threading.get_native_id()
-        if fifo_priority > 0:
-            try:
-                os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(fifo_priority))
-                return f"fifo:{fifo_priority}"
-            except (AttributeError, OSError, ValueError):
-                pass
-        try:
-            os.setpriority(os.PRIO_PROCESS, tid, -10)
-            return "nice:-10"
-        except (AttributeError, OSError):
-            return "normal"
+    #: SCHED_FIFO at a priority, else nice -10, for the calling thread (:mod:`.scheduling`)
+    raise_priority = staticmethod(raise_priority)
 
     @staticmethod
     def raise_other_threads(nice: int = HELPER_NICE) -> int:
