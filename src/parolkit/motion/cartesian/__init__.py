@@ -1,6 +1,6 @@
 """Cartesian moves: MoveCart, MoveCartRelTRF, Cartesian jogs and the smooth paths.
 
-Pipeline: geometry (:mod:`parolkit.motion.paths`, mm, exact) -> time-scaling ``s(t)`` of the
+Pipeline: geometry (:mod:`parolkit.motion.cartesian.geometry`, mm, exact) -> time-scaling ``s(t)`` of the
 path progress (poly / trap / ruckig / TOPP-RA) -> the tool pose of every tick -> IK along the
 path (``kinematics.ik_batch``, branch-continuous, seeded with the start joints) -> joint
 speeds by differentiation -> the same sample checks as every move.
@@ -34,15 +34,7 @@ from typing import TYPE_CHECKING, NoReturn
 import numpy as np
 
 from parolkit.motion import singular, validate
-from parolkit.motion.errors import PlanningError
-from parolkit.motion.joint import (
-    MOVEJOINT_DEFAULT_PCT,
-    build_trajectory,
-    hold,
-    plan_joint_target,
-    sample_times,
-)
-from parolkit.motion.paths import (
+from parolkit.motion.cartesian.geometry import (
     Arc,
     Line,
     Path,
@@ -51,6 +43,14 @@ from parolkit.motion.paths import (
     blend_corners,
     rot_about,
     rotation_angle,
+)
+from parolkit.motion.errors import PlanningError
+from parolkit.motion.joint import (
+    MOVEJOINT_DEFAULT_PCT,
+    build_trajectory,
+    hold,
+    plan_joint_target,
+    sample_times,
 )
 from parolkit.motion.profiles import (
     ScalarProfile,
