@@ -32,7 +32,7 @@ package is drawn here, under its real base class, and that no two share a name):
     |   |   +-- TransportURLError         parolkit.transport: a malformed link URL or option (the
     |   |                                 message names the part; also a ParolkitValueError)
     |   +-- PtyServerError                parolkit.board.pty_server: the emulator's pty could not be set up
-    |   +-- ControlError                  parolkit.board.control: the board-sim control channel failed
+    |   +-- ControlError                  parolkit.board.control_channel: the board-sim control channel failed
     |   +-- BoardTestError                parolkit.boardtest: a board test action could not complete
     |   +-- TrajectoryRefused             parolkit.ros2.trajectory: a ROS JointTrajectory refused
     |   |                                 before anything was sent (names the point and reason)

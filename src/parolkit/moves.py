@@ -30,10 +30,10 @@ and the allowed range.  A move says WHAT to do; :func:`parolkit.motion.plan` dec
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, dataclass_transform
 
 from parolkit.errors import ParolkitValueError
 
@@ -304,49 +304,95 @@ if TYPE_CHECKING:  # (structural types for the checker only: no classes built at
     from typing import Protocol
 
     class _Timed(Protocol):
-        """The timing fields :func:`_timing` normalises (read before conversion: the caller's
-        values, so a word may still stand where the enum will)."""
+        """The timing fields :func:`_timing` normalises."""
 
         @property
         def duration_s(self) -> float | None: ...
         @property
         def speed_pct(self) -> float | None: ...
-        @property
-        def profile(self) -> Profile | str | None: ...
-        @property
-        def tracking(self) -> Tracking | str: ...
 
     class _Smooth(_Timed, Protocol):
         """A smooth path's common fields, normalised by :func:`_smooth_common`."""
 
         @property
-        def frame(self) -> Frame | str: ...
-        @property
         def start_pose(self) -> Sequence[float] | None: ...
 
 
 def _timing(obj: _Timed) -> None:
-    """Common fields: duration_s, speed_pct, profile, tracking."""
+    """Common fields: duration_s, speed_pct (profile and tracking are :class:`WordField` descriptors)."""
     object.__setattr__(obj, "duration_s", _opt_duration(obj.duration_s))
     object.__setattr__(
         obj, "speed_pct", _opt_pct(obj.speed_pct, "speed_pct", allow_zero=True)
     )
-    object.__setattr__(obj, "profile", Profile.parse(obj.profile))
-    object.__setattr__(obj, "tracking", Tracking.parse(obj.tracking))
 
 
 # ---------------------------------------------------------------------------------------------
-# typing the moves
+# fields that take the words
 #
-# Every field is typed as what it holds after construction (``profile: Profile | None``,
-# ``frame: Frame``): every consumer reads the enum.  The constructor also takes the words
-# (``JointMove(q, profile="trap")``, ``CartJog("trf", "x+", 50, 1)``) and __post_init__ parses
-# them.  A dataclass's generated __init__ takes its parameter types from the fields, so each
-# class with such a field states its constructor's signature for type checkers in an
-# ``if TYPE_CHECKING:`` block (never executed: at run time the generated __init__ is the one).
-# tests/unit/test_moves_typing.py checks that each of these signatures matches the generated
-# __init__ (names, order, defaults) and widens exactly the enum fields.
+# A field holds the enum (``profile: Profile | None``, ``frame: Frame``): every consumer reads
+# the enum.  The constructor also takes the words (``JointMove(q, profile="trap")``,
+# ``CartJog("trf", "x+", 50, 1)``).  Such a field is a :class:`WordField` descriptor that says
+# both once: ``profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse,
+# default=None)`` takes a Profile, its word or None, and holds what ``Profile.parse`` makes of
+# it (its error names the field and the words allowed).  The generated __init__ assigns the
+# field, which runs the descriptor's ``__set__``; type checkers take the constructor's (and
+# ``dataclasses.replace``'s) parameter type from ``__set__`` and the attribute's type from
+# ``__get__`` (the Python docs, dataclasses, "Descriptor-typed fields"; for a field without a
+# default see :func:`_move`).  tests/unit/test_moves_typing.py runs mypy on user code to check
+# what the constructors accept and what the fields read as.
 # ---------------------------------------------------------------------------------------------
+
+_In = TypeVar("_In")
+_Out = TypeVar("_Out")
+_C = TypeVar("_C")
+
+
+class _Required:
+    """The default of a :class:`WordField` that has none: the field is required."""
+
+    def __repr__(self) -> str:
+        return "<required>"
+
+
+_REQUIRED = _Required()
+
+
+class WordField(Generic[_In, _Out]):
+    """A move field that takes an ``_In`` (the enum or its word) and holds ``parse(value)``, an
+    ``_Out``.  ``default``: the field's default (an ``_Out``), or none: the field is required.
+
+    The value lives in the instance's ``__dict__`` under the field's own name, so a move's
+    ``vars()``, copies and pickles are those of a plain dataclass.
+    """
+
+    __slots__ = ("parse", "default", "name")
+
+    def __init__(self, parse: Callable[[_In], _Out], *, default: _Out | _Required = _REQUIRED) -> None:
+        self.parse = parse
+        self.default = default
+        self.name = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, obj: object | None, owner: type | None = None) -> _Out:
+        if obj is None:  # the class's attribute: dataclasses reads the default here
+            if isinstance(self.default, _Required):
+                raise AttributeError(f"{self.name} has no default")
+            return self.default
+        value: _Out = obj.__dict__[self.name]
+        return value
+
+    def __set__(self, obj: object, value: _In) -> None:
+        obj.__dict__[self.name] = self.parse(value)
+
+
+@dataclass_transform(frozen_default=True, field_specifiers=(WordField,))
+def _move(cls: type[_C]) -> type[_C]:
+    """A move class: a frozen dataclass.  (Declared a dataclass transform whose field specifier
+    is :class:`WordField` so that mypy also takes a REQUIRED WordField's constructor type from
+    ``__set__``: for plain dataclasses it does so only for fields with a default.)"""
+    return dataclass(frozen=True)(cls)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -354,7 +400,7 @@ def _timing(obj: _Timed) -> None:
 # ---------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@_move
 class JointMove:
     """MoveJoint: go to ``target_deg`` (J1..J6, degrees) on a straight joint-space path.
 
@@ -366,17 +412,11 @@ class JointMove:
     duration_s: float | None = None
     speed_pct: float | None = None
     accel_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "MoveJoint"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, target_deg: Sequence[float], duration_s: float | None = None,
-            speed_pct: float | None = None, accel_pct: float | None = None,
-            profile: Profile | str | None = None, tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "target_deg", _vec(self.target_deg, 6, "target_deg"))
@@ -384,7 +424,7 @@ class JointMove:
         object.__setattr__(self, "accel_pct", _opt_pct(self.accel_pct, "accel_pct"))
 
 
-@dataclass(frozen=True)
+@_move
 class PoseMove:
     """MovePose: IK once at ``pose`` [x, y, z mm, A, B, C deg], then a joint-space move.
 
@@ -395,17 +435,11 @@ class PoseMove:
     duration_s: float | None = None
     speed_pct: float | None = None
     accel_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "MovePose"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, pose: Sequence[float], duration_s: float | None = None,
-            speed_pct: float | None = None, accel_pct: float | None = None,
-            profile: Profile | str | None = None, tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pose", _pose(self.pose, "pose"))
@@ -413,7 +447,7 @@ class PoseMove:
         object.__setattr__(self, "accel_pct", _opt_pct(self.accel_pct, "accel_pct"))
 
 
-@dataclass(frozen=True)
+@_move
 class CartMove:
     """MoveCart: straight line to ``pose`` (WRF, mm/deg), orientation by SLERP, IK along it.
 
@@ -424,24 +458,18 @@ class CartMove:
     pose: Sequence[float]
     duration_s: float | None = None
     speed_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "MoveCart"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, pose: Sequence[float], duration_s: float | None = None,
-            speed_pct: float | None = None, profile: Profile | str | None = None,
-            tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pose", _pose(self.pose, "pose"))
         _timing(self)
 
 
-@dataclass(frozen=True)
+@_move
 class CartRelTRFMove:
     """MoveCartRelTRF: straight-line move by ``delta`` [dx, dy, dz mm, dA, dB, dC deg] in
     the tool frame at the start of the move (post-multiplied)."""
@@ -449,24 +477,18 @@ class CartRelTRFMove:
     delta: Sequence[float]
     duration_s: float | None = None
     speed_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "MoveCartRelTRF"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, delta: Sequence[float], duration_s: float | None = None,
-            speed_pct: float | None = None, profile: Profile | str | None = None,
-            tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "delta", _pose(self.delta, "delta"))
         _timing(self)
 
 
-@dataclass(frozen=True)
+@_move
 class SpeedJointMove:
     """SpeedJoint: constant joint speeds ``speeds_deg_s`` (deg/s) for ``duration_s`` s,
     streamed as speed commands (board 123), then a zero-speed sample."""
@@ -486,7 +508,7 @@ class SpeedJointMove:
         object.__setattr__(self, "duration_s", d)
 
 
-@dataclass(frozen=True)
+@_move
 class JointJog:
     """Jog one or several joints at constant speed (board 123).
 
@@ -563,7 +585,7 @@ class JointJog:
         return tuple(j if d > 0 else j + 6 for j, d in zip(self.joints, self.directions))
 
 
-@dataclass(frozen=True)
+@_move
 class CartJog:
     """Cartesian jog along/about one axis of WRF or TRF at a constant speed for ``duration_s``.
 
@@ -572,21 +594,15 @@ class CartJog:
     Rotations turn about the TCP.
     """
 
-    frame: Frame
-    axis: CartAxis
+    frame: WordField[Frame | str, Frame] = WordField(Frame.parse)
+    axis: WordField[CartAxis | str, CartAxis] = WordField(CartAxis.parse)
     speed_pct: float
     duration_s: float
 
     name = "CartJog"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, frame: Frame | str, axis: CartAxis | str, speed_pct: float, duration_s: float,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "frame", Frame.parse(self.frame))
-        object.__setattr__(self, "axis", CartAxis.parse(self.axis))
         object.__setattr__(self, "speed_pct", _opt_pct(self.speed_pct, "speed_pct", allow_zero=False))
         d = _opt_duration(self.duration_s)
         if d is None:
@@ -601,7 +617,7 @@ class CartJog:
 # ---------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@_move
 class JointPathMove:
     """MoveJointPath: pass through ``points_deg`` (J1..J6, degrees) at ``times_s`` (s from the
     start of the move), played as ONE planned trajectory (no stop at the points).
@@ -690,12 +706,11 @@ def _path_velocities(values: object, n: int) -> tuple[tuple[float, ...], ...]:
 
 
 def _smooth_common(obj: _Smooth) -> None:
-    object.__setattr__(obj, "frame", Frame.parse(obj.frame))
     object.__setattr__(obj, "start_pose", _opt_pose(obj.start_pose, "start_pose"))
     _timing(obj)
 
 
-@dataclass(frozen=True)
+@_move
 class CircleMove:
     """A full 360 deg circle of ``radius_mm`` around ``center_mm`` in ``plane`` of ``frame``.
 
@@ -706,35 +721,26 @@ class CircleMove:
 
     center_mm: Sequence[float]
     radius_mm: float
-    plane: Plane = Plane.XY
-    frame: Frame = Frame.WRF
+    plane: WordField[Plane | str, Plane] = WordField(Plane.parse, default=Plane.XY)
+    frame: WordField[Frame | str, Frame] = WordField(Frame.parse, default=Frame.WRF)
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
     clockwise: bool = False
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "SmoothCircle"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, center_mm: Sequence[float], radius_mm: float, plane: Plane | str = Plane.XY,
-            frame: Frame | str = Frame.WRF, start_pose: Sequence[float] | None = None,
-            duration_s: float | None = None, speed_pct: float | None = None,
-            clockwise: bool = False, profile: Profile | str | None = None,
-            tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "center_mm", _vec(self.center_mm, 3, "center_mm"))
         object.__setattr__(self, "radius_mm", _positive(self.radius_mm, "radius_mm", "mm"))
-        object.__setattr__(self, "plane", Plane.parse(self.plane))
         object.__setattr__(self, "clockwise", bool(self.clockwise))
         _smooth_common(self)
 
 
-@dataclass(frozen=True)
+@_move
 class ArcCenterMove:
     """An arc from the start position to ``end_pose`` around ``center_mm``.
 
@@ -745,24 +751,16 @@ class ArcCenterMove:
 
     end_pose: Sequence[float]
     center_mm: Sequence[float]
-    frame: Frame = Frame.WRF
+    frame: WordField[Frame | str, Frame] = WordField(Frame.parse, default=Frame.WRF)
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
     clockwise: bool = False
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "SmoothArcCenter"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, end_pose: Sequence[float], center_mm: Sequence[float],
-            frame: Frame | str = Frame.WRF, start_pose: Sequence[float] | None = None,
-            duration_s: float | None = None, speed_pct: float | None = None,
-            clockwise: bool = False, profile: Profile | str | None = None,
-            tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "end_pose", _pose(self.end_pose, "end_pose"))
@@ -771,7 +769,7 @@ class ArcCenterMove:
         _smooth_common(self)
 
 
-@dataclass(frozen=True)
+@_move
 class ArcParamMove:
     """An arc of ``radius_mm`` sweeping ``angle_deg`` from the start position to ``end_pose``.
 
@@ -782,24 +780,16 @@ class ArcParamMove:
     end_pose: Sequence[float]
     radius_mm: float
     angle_deg: float
-    frame: Frame = Frame.WRF
+    frame: WordField[Frame | str, Frame] = WordField(Frame.parse, default=Frame.WRF)
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
     clockwise: bool = False
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "SmoothArcParam"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, end_pose: Sequence[float], radius_mm: float, angle_deg: float,
-            frame: Frame | str = Frame.WRF, start_pose: Sequence[float] | None = None,
-            duration_s: float | None = None, speed_pct: float | None = None,
-            clockwise: bool = False, profile: Profile | str | None = None,
-            tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "end_pose", _pose(self.end_pose, "end_pose"))
@@ -812,7 +802,7 @@ class ArcParamMove:
         _smooth_common(self)
 
 
-@dataclass(frozen=True)
+@_move
 class HelixMove:
     """A helix around the axis through ``center_mm`` parallel to the frame's Z axis.
 
@@ -825,24 +815,16 @@ class HelixMove:
     radius_mm: float
     pitch_mm: float
     height_mm: float
-    frame: Frame = Frame.WRF
+    frame: WordField[Frame | str, Frame] = WordField(Frame.parse, default=Frame.WRF)
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
     clockwise: bool = False
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "SmoothHelix"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, center_mm: Sequence[float], radius_mm: float, pitch_mm: float, height_mm: float,
-            frame: Frame | str = Frame.WRF, start_pose: Sequence[float] | None = None,
-            duration_s: float | None = None, speed_pct: float | None = None,
-            clockwise: bool = False, profile: Profile | str | None = None,
-            tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "center_mm", _vec(self.center_mm, 3, "center_mm"))
@@ -860,29 +842,22 @@ class HelixMove:
         _smooth_common(self)
 
 
-@dataclass(frozen=True)
+@_move
 class SplineMove:
     """A cubic spline (chord-length parameterised) from the start through ``waypoints``
     (poses mm/deg, at least one); orientation by a smooth rotation spline through the
     waypoint orientations."""
 
     waypoints: Sequence[Sequence[float]]
-    frame: Frame = Frame.WRF
+    frame: WordField[Frame | str, Frame] = WordField(Frame.parse, default=Frame.WRF)
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "SmoothSpline"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, waypoints: Sequence[Sequence[float]], frame: Frame | str = Frame.WRF,
-            start_pose: Sequence[float] | None = None, duration_s: float | None = None,
-            speed_pct: float | None = None, profile: Profile | str | None = None,
-            tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         try:
@@ -897,7 +872,7 @@ class SplineMove:
         _smooth_common(self)
 
 
-@dataclass(frozen=True)
+@_move
 class LineSegment:
     """A straight segment to ``pose`` (mm/deg) inside a :class:`BlendMove`."""
 
@@ -914,7 +889,7 @@ BlendSegment = LineSegment | CircleMove | ArcCenterMove | ArcParamMove | SplineM
 _BLEND_SEGMENT_TYPES = (LineSegment, CircleMove, ArcCenterMove, ArcParamMove, SplineMove)
 
 
-@dataclass(frozen=True)
+@_move
 class BlendMove:
     """Several segments (LINE / CIRCLE / ARC / SPLINE) joined into one path whose corners are
     rounded, then timed as ONE move: continuous in position and velocity.
@@ -928,23 +903,15 @@ class BlendMove:
     segments: Sequence[BlendSegment]
     blend_radius_mm: float | None = None
     blend_time_s: float | None = None
-    frame: Frame = Frame.WRF
+    frame: WordField[Frame | str, Frame] = WordField(Frame.parse, default=Frame.WRF)
     start_pose: Sequence[float] | None = None
     duration_s: float | None = None
     speed_pct: float | None = None
-    profile: Profile | None = None
-    tracking: Tracking = Tracking.POSITION
+    profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
+    tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
 
     name = "SmoothBlend"
 
-    if TYPE_CHECKING:  # the constructor: it also takes the words (see "typing the moves")
-        def __init__(
-            self, segments: Sequence[BlendSegment], blend_radius_mm: float | None = None,
-            blend_time_s: float | None = None, frame: Frame | str = Frame.WRF,
-            start_pose: Sequence[float] | None = None, duration_s: float | None = None,
-            speed_pct: float | None = None, profile: Profile | str | None = None,
-            tracking: Tracking | str = Tracking.POSITION,
-        ) -> None: ...
 
     def __post_init__(self) -> None:
         segs = tuple(self.segments)

@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-from parolkit.board.control import send_control
+from parolkit.board.control_channel import send_control
 from parolkit.client.launch import die_with_parent, stop_process
 from parolkit.robot import PAROL6
 

@@ -311,7 +311,7 @@ class AckRecorder:
 def send_control(path: str, text: str, timeout_s: float = 2.0) -> str:
     """board-sim's control client (imported when first needed: the two processes above run
     without parolkit)."""
-    from parolkit.board.control import send_control as send
+    from parolkit.board.control_channel import send_control as send
 
     return send(path, text, timeout_s=timeout_s)
 

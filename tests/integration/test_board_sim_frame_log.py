@@ -12,7 +12,7 @@ from pathlib import Path
 
 import serial
 
-from parolkit.board.control import send_control
+from parolkit.board.control_channel import send_control
 from parolkit.client.launch import die_with_parent
 from parolkit.protocol import BoardCommand, CommandFrame, StatusParser
 

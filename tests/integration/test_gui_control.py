@@ -1,5 +1,5 @@
 """The commander's side of the control lease against a real controller process over real UDP:
-its link (:class:`~parolkit.gui.link.ControllerLink`) and :class:`~parolkit.gui.control.ControlWatch`
+its link (:class:`~parolkit.gui.link.ControllerLink`) and :class:`~parolkit.gui.lease_watch.ControlWatch`
 (no browser: the page only shows ``watch.view``)."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import time
 from tests.conftest import start_controller
 
 from parolkit.client.robot import Robot
-from parolkit.gui.control import ControlWatch, Holder, local_host_for
+from parolkit.gui.lease_watch import ControlWatch, Holder, local_host_for
 from parolkit.gui.link import ControllerLink
 
 SECRET = "s3cret-words"

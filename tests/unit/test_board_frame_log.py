@@ -7,7 +7,7 @@ import json
 import pytest
 
 from parolkit.board import BoardEmulator
-from parolkit.board.control import execute_control
+from parolkit.board.control_channel import execute_control
 from parolkit.board.pty_server import FRAME_QUERY_MAX, FrameLog, PtyBoardServer
 from parolkit.errors import ParolkitValueError
 from parolkit.protocol import BoardCommand, CommandFrame

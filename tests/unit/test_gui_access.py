@@ -10,7 +10,7 @@ import pytest
 
 from parolkit.config import GuiSettings, load_config
 from parolkit.errors import ParolkitValueError
-from parolkit.gui.control import Holder, describe_control, local_host_for
+from parolkit.gui.lease_watch import Holder, describe_control, local_host_for
 from parolkit.gui.programs import (
     MAX_PROGRAM_BYTES,
     ProgramNameError,

@@ -1,80 +1,136 @@
-"""The move classes' constructor signatures for type checkers agree with the real constructor.
+"""What the move classes accept and hold, for type checkers and at run time.
 
-``parolkit.moves`` types each enum field as the enum it holds after construction and states,
-in an ``if TYPE_CHECKING:`` block that never runs, the wider constructor that also takes the
-words (``profile="trap"``).  These tests keep those hand-written signatures honest: same
-parameters, order and defaults as the generated dataclass ``__init__``, and each annotation the
-field's own, widened by ``| str`` exactly where the field is an enum.
+``parolkit.moves`` declares each enum field once, as a :class:`~parolkit.moves.WordField`
+descriptor that takes the enum or its word and holds the enum
+(``profile: WordField[Profile | str | None, Profile | None]``).  The typing tests run mypy
+(``--strict``) on user code against THIS checkout's ``parolkit`` (site-packages switched off,
+so an installed copy cannot answer instead): the constructors take the words, the fields read
+as the enums, and wrong values, missing arguments and assignments are errors.
 """
 
 from __future__ import annotations
 
-import ast
 import dataclasses
 import inspect
+import pickle
+import re
+import textwrap
 from enum import Enum
 from pathlib import Path
 
 import pytest
 
 import parolkit.moves as moves
+from parolkit.errors import ParolkitValueError
 
+SRC = Path(moves.__file__).resolve().parents[1]
 _ENUMS = {name for name, obj in vars(moves).items() if isinstance(obj, type) and issubclass(obj, Enum)}
 _MOVE_CLASSES = [obj for obj in vars(moves).values() if dataclasses.is_dataclass(obj) and isinstance(obj, type)]
 
+#: User code that must type-check cleanly: every move with a word field, built from words and
+#: from enums, and what each such field reads as.
+ACCEPTED = """
+    import dataclasses
+    from typing import assert_type
 
-def _stubs() -> dict[str, ast.FunctionDef]:
-    tree = ast.parse(Path(moves.__file__).read_text(encoding="utf-8"))
-    out = {}
-    for node in tree.body:
-        if not isinstance(node, ast.ClassDef):
-            continue
-        for stmt in node.body:
-            if isinstance(stmt, ast.If) and ast.unparse(stmt.test) == "TYPE_CHECKING":
-                (init,) = [s for s in stmt.body if isinstance(s, ast.FunctionDef) and s.name == "__init__"]
-                out[node.name] = init
-    return out
+    from parolkit.moves import (
+        ArcCenterMove, ArcParamMove, BlendMove, CartAxis, CartJog, CartMove, CartRelTRFMove,
+        CircleMove, Frame, HelixMove, JointMove, LineSegment, Plane, PoseMove, Profile,
+        SplineMove, Tracking,
+    )
+
+    q = [0.0, -90.0, 180.0, 0.0, 0.0, 180.0]
+    jm = JointMove(q, profile="trap", tracking="speed")
+    assert_type(jm.profile, Profile | None)
+    assert_type(jm.tracking, Tracking)
+    JointMove(q, 2.0, None, None, Profile.POLY, Tracking.POSITION)
+    JointMove(target_deg=q, profile=None)
+    assert_type(dataclasses.replace(jm, profile="ruckig").profile, Profile | None)
+    pm = PoseMove([200.0, 0.0, 300.0, 180.0, 0.0, 0.0], speed_pct=50, profile="toppra")
+    assert_type(pm.profile, Profile | None)
+    cm = CartMove([200.0, 0.0, 300.0, 180.0, 0.0, 0.0], tracking=Tracking.SPEED)
+    assert_type(cm.tracking, Tracking)
+    CartRelTRFMove([0.0, 0.0, 10.0, 0.0, 0.0, 0.0], profile="poly", tracking="position")
+
+    jog = CartJog("trf", "rz-", 50, 1)
+    assert_type(jog.frame, Frame)
+    assert_type(jog.axis, CartAxis)
+    CartJog(Frame.WRF, CartAxis.X_POS, speed_pct=20.0, duration_s=0.5)
+
+    circle = CircleMove((0.0, 0.0, 0.0), 10.0, plane="xz", frame="trf", profile="trap", tracking="speed")
+    assert_type(circle.plane, Plane)
+    assert_type(circle.frame, Frame)
+    arc = ArcCenterMove([200.0, 10.0, 300.0, 180.0, 0.0, 0.0], [200.0, 0.0, 300.0], frame="wrf")
+    assert_type(arc.frame, Frame)
+    ArcParamMove([200.0, 10.0, 300.0, 180.0, 0.0, 0.0], 10.0, 60.0, Frame.TRF, profile=Profile.TRAP)
+    HelixMove([200.0, 0.0, 300.0], 10.0, 5.0, 20.0, frame="trf", tracking="speed")
+    spline = SplineMove([[200.0, 10.0, 300.0, 180.0, 0.0, 0.0]], "wrf", profile="poly")
+    assert_type(spline.profile, Profile | None)
+    blend = BlendMove([LineSegment([200.0, 10.0, 300.0, 180.0, 0.0, 0.0]), circle], 2.0, frame="trf")
+    assert_type(blend.frame, Frame)
+    assert_type(blend.tracking, Tracking)
+"""
+
+#: User code that must NOT type-check: (line, what mypy's error on that line says).
+REFUSED = [
+    ("JointMove(q, profile=3)", 'Argument "profile" to "JointMove" has incompatible type "int"'),
+    ("JointMove(q, tracking=None)", 'Argument "tracking" to "JointMove" has incompatible type "None"'),
+    ("CartMove(q, profile=2.0)", 'Argument "profile" to "CartMove" has incompatible type "float"'),
+    ("CircleMove((0.0, 0.0, 0.0), 10.0, plane=1)", 'Argument "plane" to "CircleMove" has incompatible type "int"'),
+    ("CartJog(1, 'x+', 50, 1)", 'Argument 1 to "CartJog" has incompatible type "int"'),
+    ("CartJog('wrf')", 'Missing positional arguments "axis", "speed_pct", "duration_s" in call to "CartJog"'),
+    ("CartJog(frame='wrf', speed_pct=50, duration_s=1)", 'Missing positional argument "axis" in call to "CartJog"'),
+    ("JointMove(q).profile = Profile.POLY", 'Property "profile" defined in "JointMove" is read-only'),
+    ("CartJog('wrf', 'x+', 50, 1).axis = 'x-'", 'Property "axis" defined in "CartJog" is read-only'),
+    ("word: str = JointMove(q).profile", 'expression has type "Profile | None", variable has type "str"'),
+]
+_REFUSED_HEADER = """\
+from parolkit.moves import CartJog, CartMove, CircleMove, JointMove, Profile
+
+q = [0.0, -90.0, 180.0, 0.0, 0.0, 180.0]
+"""
 
 
-def _enum_of(annotation: str) -> str | None:
-    """The enum an annotation names (``"Profile | None"`` -> ``"Profile"``), else None."""
-    names = [part.strip() for part in annotation.split("|")]
-    found = [n for n in names if n in _ENUMS]
-    return found[0] if found else None
+@pytest.fixture(scope="module")
+def mypy_errors(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[int, list[str]]]:
+    """mypy --strict over the accepted and the refused user code: file -> line -> errors."""
+    api = pytest.importorskip("mypy.api")
+    d = tmp_path_factory.mktemp("moves_typing")
+    (d / "accepted.py").write_text(textwrap.dedent(ACCEPTED).lstrip(), encoding="utf-8")
+    (d / "refused.py").write_text(_REFUSED_HEADER + "".join(f"{code}\n" for code, _ in REFUSED), encoding="utf-8")
+    (d / "mypy.ini").write_text(
+        f"[mypy]\nmypy_path = {SRC}\nstrict = True\nno_site_packages = True\nfollow_imports = silent\n"
+        f"cache_dir = {d / 'cache'}\n", encoding="utf-8")
+    stdout, stderr, _status = api.run(
+        ["--config-file", str(d / "mypy.ini"), str(d / "accepted.py"), str(d / "refused.py")])
+    assert not stderr, stderr
+    errors: dict[str, dict[int, list[str]]] = {"accepted.py": {}, "refused.py": {}}
+    for line in stdout.splitlines():
+        m = re.match(r"(?:.*[/\\])?(accepted\.py|refused\.py):(\d+): error: (.*)", line)
+        if m:
+            errors[m.group(1)].setdefault(int(m.group(2)), []).append(m.group(3))
+    return errors
 
 
-def _widened(annotation: str) -> str:
-    enum = _enum_of(annotation)
-    return annotation if enum is None else annotation.replace(enum, f"{enum} | str", 1)
+def test_the_constructors_take_the_words_and_the_fields_read_as_the_enums(mypy_errors):
+    assert mypy_errors["accepted.py"] == {}
 
 
-STUBS = _stubs()
+@pytest.mark.parametrize("k", range(len(REFUSED)), ids=[code for code, _ in REFUSED])
+def test_a_wrong_value_a_missing_argument_or_an_assignment_is_a_type_error(mypy_errors, k):
+    code, message = REFUSED[k]
+    line = _REFUSED_HEADER.count("\n") + 1 + k
+    assert any(message in e for e in mypy_errors["refused.py"].get(line, [])), (code, mypy_errors["refused.py"])
 
 
-def test_every_move_with_an_enum_field_states_its_wider_constructor():
-    with_enum = {cls.__name__ for cls in _MOVE_CLASSES
-                 if any(_enum_of(str(f.type)) for f in dataclasses.fields(cls))}
-    assert with_enum  # (the check below must not pass vacuously)
-    assert set(STUBS) == with_enum
-
-
-@pytest.mark.parametrize("name", sorted(STUBS))
-def test_the_stated_constructor_matches_the_generated_one(name):
-    cls = getattr(moves, name)
-    stub = STUBS[name]
-    assert not stub.args.kwonlyargs and not stub.args.vararg and not stub.args.kwarg
-    params = stub.args.args[1:]  # without self
-    fields = [f for f in dataclasses.fields(cls) if f.init]
-    assert [p.arg for p in params] == [f.name for f in fields]
-    assert list(inspect.signature(cls).parameters) == [f.name for f in fields]
-    # defaults: the last len(defaults) parameters, as in the generated __init__
-    defaults = stub.args.defaults
-    assert len(defaults) == sum(f.default is not dataclasses.MISSING for f in fields)
-    for p, default in zip(params[len(params) - len(defaults):], defaults):
-        field = next(f for f in fields if f.name == p.arg)
-        assert eval(ast.unparse(default), vars(moves)) == field.default, p.arg
-    for p, f in zip(params, fields):
-        assert ast.unparse(p.annotation) == _widened(str(f.type)), p.arg
+def test_every_enum_field_of_every_move_is_a_parsed_field():
+    with_enum = []
+    for cls in _MOVE_CLASSES:
+        for f in dataclasses.fields(cls):
+            if any(name in _ENUMS for name in re.findall(r"\w+", str(f.type))):
+                with_enum.append(f"{cls.__name__}.{f.name}")
+                assert isinstance(vars(cls)[f.name], moves.WordField), f"{cls.__name__}.{f.name}"
+    assert "CartJog.axis" in with_enum and "CircleMove.plane" in with_enum  # (not vacuous)
 
 
 def test_the_words_are_parsed_into_the_enums_the_fields_are_typed_as():
@@ -83,3 +139,43 @@ def test_the_words_are_parsed_into_the_enums_the_fields_are_typed_as():
         moves.Plane.XZ, moves.Frame.TRF, moves.Profile.TRAP, moves.Tracking.SPEED)
     j = moves.CartJog("wrf", "rz-", 50, 1)
     assert (j.frame, j.axis) == (moves.Frame.WRF, moves.CartAxis.RZ_NEG)
+    r = dataclasses.replace(m, profile="poly", plane=moves.Plane.YZ)
+    assert (r.profile, r.plane, r.frame) == (moves.Profile.POLY, moves.Plane.YZ, moves.Frame.TRF)
+
+
+def test_the_defaults_are_the_enums_and_a_jog_needs_its_frame_and_axis():
+    params = inspect.signature(moves.JointMove).parameters
+    assert params["profile"].default is None
+    assert params["tracking"].default is moves.Tracking.POSITION
+    assert inspect.signature(moves.CircleMove).parameters["plane"].default is moves.Plane.XY
+    assert inspect.signature(moves.SplineMove).parameters["frame"].default is moves.Frame.WRF
+    jog = inspect.signature(moves.CartJog).parameters
+    assert jog["frame"].default is inspect.Parameter.empty and jog["axis"].default is inspect.Parameter.empty
+    m = moves.JointMove([0] * 6)
+    assert (m.profile, m.tracking) == (None, moves.Tracking.POSITION)
+    with pytest.raises(TypeError, match="frame"):
+        moves.CartJog()  # type: ignore[call-arg]
+
+
+@pytest.mark.parametrize(("build", "message"), [
+    (lambda: moves.JointMove([0] * 6, profile="fast"),
+     "profile must be one of poly, trap, ruckig, toppra or None, got 'fast'"),
+    (lambda: moves.CartMove([0] * 6, tracking="torque"), "tracking must be 'position' or 'speed', got 'torque'"),
+    (lambda: moves.SplineMove([[0] * 6], frame="base"), "frame must be WRF or TRF, got 'base'"),
+    (lambda: moves.CircleMove((0, 0, 0), 1, plane="XW"), "plane must be XY, XZ or YZ, got 'XW'"),
+    (lambda: moves.CartJog("wrf", "W+", 50, 1), "axis must be one of X+, X-, Y+, Y-, Z+, Z-, RX+, RX-, RY+, RY-, "
+                                                "RZ+, RZ-, got 'W+'"),
+])
+def test_a_bad_word_is_refused_naming_the_field_and_the_words(build, message):
+    with pytest.raises(ParolkitValueError) as exc:
+        build()
+    assert str(exc.value) == message
+
+
+def test_a_move_is_frozen_and_copies_and_pickles_as_a_plain_dataclass():
+    m = moves.HelixMove((0, 0, 0), 10, 5, 20, frame="trf", profile="trap")
+    assert vars(m)["frame"] is moves.Frame.TRF and vars(m)["profile"] is moves.Profile.TRAP
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        m.frame = moves.Frame.WRF  # type: ignore[misc]
+    back = pickle.loads(pickle.dumps(m))
+    assert back == m and hash(back) == hash(m) and back.frame is moves.Frame.TRF

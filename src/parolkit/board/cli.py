@@ -97,7 +97,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser], na
 
 
 def run(args: argparse.Namespace) -> int:
-    from parolkit.board.control import ControlError, ControlServer, send_control
+    from parolkit.board.control_channel import ControlError, ControlServer, send_control
 
     control_path = args.control or f"{args.link}.ctl"
     if args.ctl is not None:

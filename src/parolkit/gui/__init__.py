@@ -8,6 +8,6 @@ commands, limits, keyboard map), :mod:`parolkit.gui.eventlog`, :mod:`parolkit.gu
 client's :class:`~parolkit.client.async_robot.AsyncRobot` (never its own sockets);
 :mod:`parolkit.gui.app` builds the page.  Access rules, also without NiceGUI:
 :mod:`parolkit.gui.programs` (the programs folder), :mod:`parolkit.gui.security` (Host / Origin
-allow-list and login, an ASGI middleware) and :mod:`parolkit.gui.control` (who controls the
+allow-list and login, an ASGI middleware) and :mod:`parolkit.gui.lease_watch` (who controls the
 robot); ``programs_panel`` and ``control_badge`` are their NiceGUI widgets.
 """

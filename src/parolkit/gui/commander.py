@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING, Any
 from parolkit.client.core import RobotState
 from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError
-from parolkit.gui.control import ControlWatch, local_host_for
 from parolkit.gui.eventlog import EventLog, Level
 from parolkit.gui.jog import JOG_REPEAT_S
+from parolkit.gui.lease_watch import ControlWatch, local_host_for
 from parolkit.gui.link import ControllerLink
 from parolkit.gui.program_doc import ProgramDoc
 from parolkit.gui.programs import ProgramsFolder, default_programs_dir

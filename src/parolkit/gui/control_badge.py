@@ -1,12 +1,12 @@
 """The header's control badge and "Take control" button (NiceGUI); the logic is
-:mod:`parolkit.gui.control`."""
+:mod:`parolkit.gui.lease_watch`."""
 
 from __future__ import annotations
 
 from nicegui import ui
 
 from parolkit.client.errors import RobotError
-from parolkit.gui.control import ControlWatch
+from parolkit.gui.lease_watch import ControlWatch
 
 __all__ = ["ControlBadge"]
 

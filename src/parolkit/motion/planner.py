@@ -2,7 +2,7 @@
 
 Joint-space moves (MoveJoint, MovePose, SpeedJoint, joint jogs) are planned in
 :mod:`parolkit.motion.joint`, timed joint paths (MoveJointPath) in
-:mod:`parolkit.motion.path`; Cartesian moves and smooth paths in
+:mod:`parolkit.motion.joint_path`; Cartesian moves and smooth paths in
 :mod:`parolkit.motion.cartesian` (imported when first needed: it needs the kinematics).
 The timing rules are in those modules' docstrings and in docs/motion.md.
 """
@@ -27,7 +27,7 @@ from parolkit.motion.joint import (
     plan_pose_move,
     plan_speed_joint,
 )
-from parolkit.motion.path import plan_joint_path
+from parolkit.motion.joint_path import plan_joint_path
 from parolkit.motion.trajectory import Trajectory
 from parolkit.moves import (
     ArcCenterMove,

@@ -534,7 +534,7 @@ class MoveJoint(_Motion):
 class MoveJointPath(_Motion):
     """(ext) ``MOVEJOINTPATH``: pass through ``move.points_deg`` at ``move.times_s`` (optionally
     with ``move.velocities_deg_s``) as ONE planned trajectory, from where the previous command
-    ends; see :mod:`parolkit.motion.path`."""
+    ends; see :mod:`parolkit.motion.joint_path`."""
 
     move: JointPathMove
     NAME: ClassVar[str] = "MOVEJOINTPATH"

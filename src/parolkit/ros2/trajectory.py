@@ -10,7 +10,7 @@ reason, before anything is sent.  The controller plans the path again when it ru
 guard checks every frame); the pre-check is what lets the bridge answer "refused" at once.
 
 Timing: point ``k`` is commanded on tick ``round(time_from_start_k * rate)`` after the start
-(:mod:`parolkit.motion.path`), so the last point is due within half a tick of its
+(:mod:`parolkit.motion.joint_path`), so the last point is due within half a tick of its
 ``time_from_start`` and nothing waits at the points: the path is one trajectory, at rest only
 at its start and its end.  The points' velocities are followed when every point has them
 (they shape the cubic between the points); otherwise the controller uses a C2 spline.

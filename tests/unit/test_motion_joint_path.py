@@ -1,4 +1,4 @@
-"""MoveJointPath: timed joint points planned as ONE trajectory (parolkit.motion.path), and the
+"""MoveJointPath: timed joint points planned as ONE trajectory (parolkit.motion.joint_path), and the
 JointPathMove value object's field checks."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 
 from parolkit.errors import ParolkitValueError
 from parolkit.motion import JointPathMove, PlanningError, plan, validate
-from parolkit.motion.path import hermite, spline_velocities
+from parolkit.motion.joint_path import hermite, spline_velocities
 from parolkit.moves import MAX_PATH_POINTS
 from parolkit.robot import PAROL6
 

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "quat_from_matrix", "quat_to_matrix", "slerp", "rotation_angle", "rot_about",
-    "Segment", "Line", "Arc", "Spline", "CubicBezier", "Path", "blend_corners", "frame_axes",
+    "Segment", "Line", "Arc", "SpiralArc", "Spline", "CubicBezier", "Path", "blend_corners", "frame_axes",
 ]
 
 
@@ -193,6 +193,22 @@ class Arc(Segment):
         return (self.center[None, :] + self.radius * (np.cos(phi)[:, None] * self.e1[None, :]
                                                      + np.sin(phi)[:, None] * self.e2[None, :])
                 + (self.rise * u)[:, None] * self.normal[None, :])
+
+
+class SpiralArc(Arc):
+    """An arc whose radius changes linearly from start to end (ends off by <= 1 mm)."""
+
+    def __init__(self, arc: Arc, r_end: float) -> None:
+        self.__dict__.update(arc.__dict__)
+        self.r_end = r_end
+        self.length = float(abs(self.sweep) * (self.radius + r_end) / 2)
+
+    def positions(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
+        u = np.asarray(u, dtype=float)
+        phi = self.phi0 + self.sweep * u
+        rad = self.radius + (self.r_end - self.radius) * u
+        return self.center[None, :] + rad[:, None] * (np.cos(phi)[:, None] * self.e1[None, :]
+                                                     + np.sin(phi)[:, None] * self.e2[None, :])
 
 
 class _TabulatedSegment(Segment):

@@ -9,7 +9,7 @@ import tempfile
 import pytest
 
 from parolkit.board import BoardEmulator
-from parolkit.board.control import ControlError, ControlServer, execute_control, send_control
+from parolkit.board.control_channel import ControlError, ControlServer, execute_control, send_control
 from parolkit.errors import ParolkitValueError
 
 
