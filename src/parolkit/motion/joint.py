@@ -370,16 +370,20 @@ def _fill_reference(
     target), its positions in steps and its speeds in steps/s (``s' * delta``), from the
     sampled profile ``basis`` (columns 1, s) and ``speed`` (s').  The reference of the
     compiled ``_csamples.fill`` (used when that is not built)."""
-    m = np.array((start, target))
-    m[1] -= m[0]  # delta
-    q = np.dot(basis, m)  # start + s * delta (deg)
+    # element by element, a product then a sum, as the compiled fill does: a matrix product
+    # (BLAS) may fuse them into one rounding, and a sample on a half step then rounds the
+    # other way (hypothesis found J6 one step apart)
+    s = basis[:, 1:2]
+    st = np.array(start, dtype=np.float64)
+    delta = np.array(target, dtype=np.float64) - st
+    sd = delta * np.array(spd, dtype=np.float64)
+    q = st + s * delta  # start + s * delta (deg)
     q[-1] = target
-    m *= spd
-    steps_f = np.dot(basis, m)  # the same in steps
+    steps_f = st * np.array(spd, dtype=np.float64) + s * sd  # the same in steps
     steps_f[-1] = np.multiply(target, spd)
     np.rint(steps_f, out=steps_f)
     pos = steps_f.astype(np.int64)
-    sp_f = np.dot(speed, m[1:])  # s' * delta (steps/s); the basis ends at speed 0
+    sp_f = np.reshape(speed, (-1, 1)) * sd  # s' * delta (steps/s); the basis ends at speed 0
     np.rint(sp_f, out=sp_f)
     return q, pos, sp_f.astype(np.int64)
 
