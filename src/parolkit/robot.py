@@ -61,6 +61,8 @@ __all__ = [
     "GOTO_FF_GAIN",
     "GOTO_ARRIVAL_JITTER_S",
     "goto_tracking_factor",
+    "goto_goal",
+    "goto_reach_steps",
 ]
 
 NUM_JOINTS = 6
@@ -85,6 +87,25 @@ GOTO_FF_GAIN = 0.5
 #: reaches the board this much earlier than one period after the one before (a late tick
 #: followed by an on-time one, USB scheduling), s.  See :func:`goto_tracking_factor`.
 GOTO_ARRIVAL_JITTER_S = 0.001
+
+
+
+
+def goto_goal(targets: Sequence[float], feed_forwards: Sequence[float]) -> list[float]:
+    """Where a GO TO frame takes each joint (steps) and stops it: ``target + v_ff x
+    GOTO_FF_GAIN / GOTO_GAIN_PER_S``.  The law is ``v = GOTO_GAIN_PER_S x (goal - x)``: the
+    board's speed is proportional to the distance to the goal and the joint never passes it."""
+    k = GOTO_FF_GAIN / GOTO_GAIN_PER_S
+    return [t + v * k for t, v in zip(targets, feed_forwards)]
+
+
+def goto_reach_steps(max_speed_steps_s: Sequence[float]) -> tuple[float, ...]:
+    """How far (steps) a GO TO frame's goal may lie from the joint for the board to start it
+    within ``max_speed_steps_s``: ``max speed / GOTO_GAIN_PER_S``, the travel of 20 ms at that
+    speed.  A frame whose goal is within it of wherever the joint may be is a *bounded
+    commitment*: the board never exceeds the maximum speed under it, and if no frame follows
+    the joint stops within that distance."""
+    return tuple(float(v) / GOTO_GAIN_PER_S for v in max_speed_steps_s)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,7 @@
 """A :class:`SafetyGuard` in front of a real :class:`BoardEmulator` on a virtual clock, as the
-control loop drives them: check the frame (with the newest reply), write what the guard lets
-through, take the board's reply, let board time run until the next frame.
+control loop drives them: check the frame (against the link record), write what the guard lets
+through, record it, take the board's reply (trusted: the emulator does not lie), let board time
+run until the next frame.
 
 While the board time runs, the steppers' speeds are read every firmware pass (0.5 ms at the
 emulator's 2000 passes/s), so :attr:`GuardedBoard.peak_pass_speed` is the fastest any stepper
@@ -13,6 +14,8 @@ from dataclasses import dataclass, field
 
 from parolkit.board import BoardEmulator
 from parolkit.controller.guard import GuardResult, SafetyGuard
+from parolkit.controller.integrity import StatusIntegrity
+from parolkit.controller.link import LinkHistory
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.robot import PAROL6, RobotModel
 
@@ -43,29 +46,57 @@ class GuardedBoard:
     model: RobotModel = PAROL6
     emu: BoardEmulator = field(init=False)
     guard: SafetyGuard = field(init=False)
+    link: LinkHistory = field(init=False)
+    #: the integrity check, for what it says of homing (the bench trusts every reply: the
+    #: emulator does not lie)
+    integrity: StatusIntegrity = field(init=False)
     status: StatusFrame | None = None
     now: float = 0.0
     #: read the steppers at every firmware pass (False: only as each frame arrives; a GO TO
     #: decays and a JOG is constant within the period, so the start is the fastest anyway)
     every_pass: bool = True
     log: list[Sent] = field(default_factory=list)
+    #: replies on their way: (read time, frame number answered, status)
+    _pending: list[tuple[float, int, StatusFrame]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.emu = BoardEmulator(clock="virtual", start_homed=self.homed, homing_speedup=200, model=self.model)
         self.guard = SafetyGuard(self.model, RATE)
+        self.link = LinkHistory()
+        self.integrity = StatusIntegrity(self.model, RATE, homing_speedup=200)
         self.status = self.emu.status_frame()
+        self.link.trust(0, self.status, self.now)
+
+    def _deliver(self) -> None:
+        """Read every reply due by now, in order (trusted: the emulator does not lie)."""
+        while self._pending and self._pending[0][0] <= self.now + 1e-12:
+            t, n, st = self._pending.pop(0)
+            self.status = st
+            self.integrity.accept(st, t, 0, n)
+            self.link.trust(n, st, t)
+            self.link.homing = self.integrity.homing
 
     @property
     def positions(self) -> tuple[int, ...]:
         return self.emu.positions
 
-    def send(self, frame: CommandFrame, wait: float = PERIOD, *, reply: bool = True) -> GuardResult:
+    def send(self, frame: CommandFrame, wait: float = PERIOD, *, reply: bool = True,
+             reply_delay: float = 0.0) -> GuardResult:
         """One tick: guard ``frame``, write the result, run the board ``wait`` s.  With
-        ``reply=False`` the board's reply is lost (the guard keeps the older status)."""
-        res = self.guard.check(frame, self.status, estop=self.estop, homed=self.homed, now=self.now)
+        ``reply=False`` the board's reply is lost (the guard keeps the older status); with
+        ``reply_delay`` it is read that long after the board sent it (before the first frame
+        written at or after that time)."""
+        self._deliver()
+        res = self.guard.check(frame, self.link, self.status, estop=self.estop, homed=self.homed,
+                               t_write=self.now)
         st = self.emu.process_frame(res.frame)
+        n = self.link.sent(res.frame, self.now)
+        self.integrity.sent(res.frame, self.now, n)
         if reply:
-            self.status = st
+            # the link delivers in order: a reply is never read before the one sent before it
+            t = max(self.now + reply_delay, self._pending[-1][0] if self._pending else 0.0)
+            self._pending.append((t, n, st))
+            self._deliver()
         sent = Sent(frame, res, st, self.emu.speeds, wait)
         peak = [abs(v) for v in sent.start_speeds]
         left = wait

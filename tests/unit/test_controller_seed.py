@@ -85,15 +85,18 @@ def test_100_random_position_tracked_moves_end_exactly_on_their_target_at_the_bo
         assert rig.emu.speeds == (0,) * 6
 
 
+#: the goals the guard would allow around the test's target (the board a few steps from it)
+_BOX = [(p - 100.0, p + 100.0) for p in (10240, -32000, 57905, 100, 0, 32000)]
+
+
 def test_a_board_that_does_not_reach_the_target_fails_the_move_naming_the_joints():
     target = [10240, -32000, 57905, 100, 0, 32000]
-    act = TrajectoryActivity(([target], [[0] * 6], [BoardCommand.GOTO]), settle_ticks=10,
-                             max_speed_steps_s=PAROL6.max_speed_steps_s)
+    act = TrajectoryActivity(([target], [[0] * 6], [BoardCommand.GOTO]), settle_ticks=10)
     short = StatusFrame(positions=(10240, -32000, 57905, 98, 0, 32000), homed=0xFF, io=0x0F)
     steps = []
     for i in range(12):
         ctx = TickContext(tick=i, now=i / RATE, rate_hz=RATE, status=short, homed=True, stream_mode=False,
-                          watchdog_s=0.2, limits_steps=PAROL6.limits_steps)
+                          watchdog_s=0.2, limits_steps=PAROL6.limits_steps, box=_BOX)
         steps.append(act.step(ctx))
     # the target goes out every tick with zero feed-forward until the end
     assert all(s.command == BoardCommand.GOTO and s.positions == tuple(target) and not any(s.speeds)
@@ -103,20 +106,18 @@ def test_a_board_that_does_not_reach_the_target_fails_the_move_naming_the_joints
     assert steps[10].details == ("the board did not reach the exact target within 0.10 s of the move's end: "
                                  "J4 at 98 steps, +2 from the target 100")
     # on target but still moving is not the end either
-    act = TrajectoryActivity(([target], [[0] * 6], [BoardCommand.GOTO]), settle_ticks=3,
-                             max_speed_steps_s=PAROL6.max_speed_steps_s)
+    act = TrajectoryActivity(([target], [[0] * 6], [BoardCommand.GOTO]), settle_ticks=3)
     moving = StatusFrame(positions=tuple(target), speeds=(0, 0, 0, 50, 0, 0), homed=0xFF, io=0x0F)
     ctx = TickContext(tick=0, now=0.0, rate_hz=RATE, status=moving, homed=True, stream_mode=False,
-                      watchdog_s=0.2, limits_steps=PAROL6.limits_steps)
+                      watchdog_s=0.2, limits_steps=PAROL6.limits_steps, box=_BOX)
     act.step(ctx)  # the (only) sample
     assert [act.step(ctx).done for _ in range(2)] == [None, None]
     last = act.step(ctx)
     assert last.done is AckStatus.FAILED and last.details.endswith("every joint on target but still moving (J4)")
     at_rest = StatusFrame(positions=tuple(target), homed=0xFF, io=0x0F)
-    act = TrajectoryActivity(([target], [[0] * 6], [BoardCommand.GOTO]), settle_ticks=3,
-                             max_speed_steps_s=PAROL6.max_speed_steps_s)
+    act = TrajectoryActivity(([target], [[0] * 6], [BoardCommand.GOTO]), settle_ticks=3)
     ctx = TickContext(tick=0, now=0.0, rate_hz=RATE, status=at_rest, homed=True, stream_mode=False,
-                      watchdog_s=0.2, limits_steps=PAROL6.limits_steps)
+                      watchdog_s=0.2, limits_steps=PAROL6.limits_steps, box=_BOX)
     act.step(ctx)
     assert act.step(ctx).done is AckStatus.COMPLETED
 

@@ -1,371 +1,272 @@
-"""The safety guard's rules, one by one, each against the real board emulator where the rule is
-about what the board does (issue 12, item 4: no frame may command more than a joint's maximum
-speed, nor a position step larger than the maximum speed allows in one period)."""
+"""The safety guard, rule by rule, and the link record it judges GO TO frames by.
+
+Each rule has a test that a frame breaking it is replaced (never edited) and names why; the
+bounded-commitment rule (6) is also checked against the real board emulator: a frame the guard
+passes never makes a stepper run faster than its maximum, and a frame just outside what it
+passes would."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import pytest
 from tests.unit.guard_bench import PERIOD, RATE, VMAX, GuardedBoard
 
-from parolkit.controller.guard import (
-    ROUNDING_STEPS,
-    SafetyGuard,
-    goto_position_after,
-    goto_start_speed,
-    max_goto_step,
-)
+from parolkit.board import BoardEmulator
+from parolkit.controller.guard import PROBE_SPEED_STEPS_S, ROUNDING_STEPS, SafetyGuard
+from parolkit.controller.link import LinkHistory
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
-from parolkit.robot import GOTO_GAIN_PER_S, PAROL6, goto_tracking_factor
+from parolkit.robot import GOTO_GAIN_PER_S, PAROL6, goto_goal, goto_reach_steps, goto_tracking_factor
 
-STANDBY = PAROL6.standby_steps
-TICK = [v * PERIOD for v in VMAX]  # steps one period at the maximum speed covers
-
-
-def _moved(base, joint: int, by: float) -> list[float]:
-    out = [float(p) for p in base]
-    out[joint] += by
-    return out
+STANDBY = tuple(int(v) for v in PAROL6.standby_steps)
+REACH = goto_reach_steps(VMAX)
 
 
-def _staircase(board: GuardedBoard, joint: int, speed: float, ticks: int, *, feed_forward: bool = True):
-    """Step ``joint``'s target ``speed x period`` every tick from where the board is (the
-    planners' stream at a constant speed); returns the results."""
-    start = board.positions
-    out = []
-    for k in range(1, ticks + 1):
-        tgt = _moved(start, joint, speed * PERIOD * k)
-        ff = [0.0] * 6
-        if feed_forward:
-            ff[joint] = speed
-        out.append(board.goto(tgt, ff))
-    return out
+def _rig(positions=STANDBY) -> tuple[SafetyGuard, LinkHistory, StatusFrame]:
+    """A guard and a link record whose newest trusted reply shows the board at ``positions``
+    (at rest, homed), read at time 0."""
+    g = SafetyGuard(PAROL6, RATE)
+    link = LinkHistory()
+    st = StatusFrame(positions=tuple(positions), homed=0xFF)
+    link.trust(0, st, 0.0)
+    return g, link, st
 
 
-# ------------------------------------------------------------------- the board's GO TO law
+def _goto(positions, speeds=(0,) * 6) -> CommandFrame:
+    return CommandFrame(positions=tuple(int(p) for p in positions), speeds=tuple(int(v) for v in speeds),
+                        command=BoardCommand.GOTO)
+
+
+def _check(g, link, st, frame, *, t=0.0, homed=True, estop=False, write=True):
+    res = g.check(frame, link, st, estop=estop, homed=homed, t_write=t)
+    if write:
+        link.sent(res.frame, t)
+    return res
 
 
 def test_the_guards_go_to_law_is_the_boards():
-    """goto_start_speed / goto_position_after against the emulator's firmware loop: the start
-    speed exactly, the position a period later within the emulator's pass discretisation."""
-    b = GuardedBoard()
-    p0 = b.positions[0]
-    b.goto(_moved(b.positions, 0, 60), _moved([0] * 6, 0, 1000))
-    assert b.log[-1].start_speeds[0] == int(goto_start_speed(p0 + 60, 1000, p0))  # 50*60 + 500
-    predicted = goto_position_after(p0, p0 + 60, 1000, PERIOD)
-    assert abs(b.positions[0] - predicted) <= 1.0
-    # the board's speed decays within the period: the status answering the next frame shows
-    # the speed of the pass before it (the end of the period), not the start
-    b.goto(_moved(b.log[-1].asked.positions, 0, 0))
-    assert b.status.speeds[0] < 0.7 * b.log[-2].start_speeds[0]
+    """The board's speed under a GO TO is 50 x (goal - position), goal = target + v_ff / 100:
+    the emulator (the firmware's law) sets exactly that on the pass after the frame."""
+    emu = BoardEmulator(clock="virtual", start_homed=True)
+    here = emu.positions
+    target = list(here)
+    target[0] += 40
+    ff = (1000, 0, 0, 0, 0, 0)
+    emu.process_frame(_goto(target, ff))
+    emu.advance(0.0005)
+    goal = goto_goal(target, ff)[0]
+    assert goal == here[0] + 40 + 10
+    assert emu.speeds[0] == int(GOTO_GAIN_PER_S * (goal - here[0]))
 
 
 def test_tracking_factor_is_what_the_board_needs():
-    """The factor is derived, not tuned: a staircase at goto_tracking_factor(rate, 0) of the
-    maximum makes the continuous board model start every period at exactly the maximum."""
-    f = goto_tracking_factor(RATE, 0.0)
-    assert 1 / f == pytest.approx(1.2707, abs=1e-4)
-    a = math.exp(-GOTO_GAIN_PER_S * PERIOD)
-    step = f * VMAX[0] * PERIOD
-    assert GOTO_GAIN_PER_S * step / (1 - a) == pytest.approx(VMAX[0])
-    # with the default 1 ms of arrival jitter the stream is a little slower
-    assert goto_tracking_factor(RATE) == pytest.approx(0.7632, abs=1e-4)
-    assert list(PAROL6.max_tracked_speed_steps_s(RATE)) == [4960, 13737, 15264, 16790, 16790, 16790]
-
-
-# ------------------------------------------------------------------- rules 1-5
+    """A stream stepping its goal v x T per period with replies on time keeps the board at
+    ``v kT / (1 - e^-kT)``: the factor the planners use keeps that within the maximum even
+    for a frame 1 ms early; with frames arriving at any time, the factor falls to what the
+    guard guarantees without the time since the reply (0.565 at 100 Hz, 0.767 at 250 Hz)."""
+    kt = GOTO_GAIN_PER_S * PERIOD
+    assert goto_tracking_factor(RATE, 0.0) == pytest.approx((1 - math.exp(-kt)) / kt)
+    assert goto_tracking_factor(RATE) == pytest.approx(0.7633, abs=1e-4)
+    assert goto_tracking_factor(RATE, PERIOD) == pytest.approx(0.5648, abs=1e-4)
+    assert goto_tracking_factor(250.0, 1 / 250.0) == pytest.approx(0.7673, abs=1e-4)
 
 
 def test_rule1_estop_sends_disable_whatever_was_asked():
-    b = GuardedBoard(estop=True)
-    res = b.goto(STANDBY)
-    assert res.frame.command == BoardCommand.DISABLE and res.replaced and res.violation is None
-    assert not b.emu.enabled
+    g, link, st = _rig()
+    for code in (BoardCommand.GOTO, BoardCommand.JOG, BoardCommand.HOME, BoardCommand.IDLE, BoardCommand.ENABLE):
+        res = _check(g, link, st, CommandFrame(positions=STANDBY, command=code), estop=True)
+        assert res.frame.command == BoardCommand.DISABLE and res.violation is None
 
 
 def test_rule2_only_known_board_codes():
-    b = GuardedBoard()
-    res = b.send(CommandFrame(positions=STANDBY, command=77))
-    assert res.frame.command == BoardCommand.IDLE and "board command 77" in res.violation
+    g, link, st = _rig()
+    res = _check(g, link, st, CommandFrame(positions=STANDBY, command=7))
+    assert res.frame.command == BoardCommand.IDLE and "board command 7" in res.violation
 
 
 def test_rule3_home_is_never_sent_twice_in_a_row():
-    b = GuardedBoard(homed=False)
-    assert b.send(CommandFrame(command=BoardCommand.HOME)).violation is None
-    res = b.send(CommandFrame(command=BoardCommand.HOME))
-    assert res.frame.command == BoardCommand.IDLE and "one frame only" in res.violation
+    g, link, st = _rig()
+    assert _check(g, link, st, CommandFrame(command=BoardCommand.HOME), homed=False).violation is None
+    res = _check(g, link, st, CommandFrame(command=BoardCommand.HOME), homed=False)
+    assert "one frame only" in res.violation and res.frame.command == BoardCommand.IDLE
 
 
-def test_rule4_every_speed_field_within_the_maximum():
-    b = GuardedBoard()
-    over = [0, 0, 0, 0, 0, 0]
-    over[2] = int(VMAX[2]) + 1
-    res = b.goto(STANDBY, over)
-    assert res.frame.command == BoardCommand.IDLE
-    assert "J3 speed 20001 steps/s exceeds the maximum 20000" in res.violation
-    res = b.send(CommandFrame(positions=STANDBY, speeds=tuple(over), command=BoardCommand.IDLE))
-    assert res.replaced and "J3 speed" in res.violation
-    res = b.send(CommandFrame(positions=STANDBY, speeds=tuple(over), command=BoardCommand.JOG))
-    assert res.frame.command == BoardCommand.JOG and res.frame.speeds == (0,) * 6
-    # not homed: the maximum JOG speed
-    b = GuardedBoard(homed=False)
-    jog = [0, 0, 0, 0, 0, 0]
-    jog[0] = int(PAROL6.max_jog_speed_steps_s[0]) + 1
-    res = b.send(CommandFrame(positions=b.positions, speeds=tuple(jog), command=BoardCommand.JOG))
-    assert "maximum jog speed (not homed) 1500" in res.violation
+def test_rule4_a_jog_frame_moves_nothing_but_the_probes_one_step_per_second():
+    g, link, st = _rig()
+    for speeds in [(PROBE_SPEED_STEPS_S, 0, 0, 0, 0, 0), (0, 0, -PROBE_SPEED_STEPS_S, 0, 0, 0), (0,) * 6]:
+        assert _check(g, link, st, CommandFrame(positions=STANDBY, speeds=speeds, command=BoardCommand.JOG),
+                      write=False).violation is None
+    for speeds in [(2, 0, 0, 0, 0, 0), (1, 1, 0, 0, 0, 0), (0, 0, 0, 0, 0, 5000)]:
+        res = _check(g, link, st, CommandFrame(positions=STANDBY, speeds=speeds, command=BoardCommand.JOG))
+        assert res.frame.command == BoardCommand.JOG and res.frame.speeds == (0,) * 6
+        assert "runs without bound" in res.violation
 
 
-def test_rule5_go_to_needs_homing_a_known_position_and_targets_inside_the_limits():
-    b = GuardedBoard(homed=False)
-    assert "until the robot is homed" in b.goto(b.positions).violation
+def test_rule5_go_to_needs_a_known_position_and_targets_inside_the_limits_when_homed():
     g = SafetyGuard(PAROL6, RATE)
-    res = g.check(CommandFrame(positions=STANDBY, command=BoardCommand.GOTO), None, estop=False, homed=True)
+    link = LinkHistory()  # no trusted reply yet
+    res = _check(g, link, None, _goto(STANDBY))
     assert "position is unknown" in res.violation and res.frame.command == BoardCommand.IDLE
-    b = GuardedBoard()
+    g, link, st = _rig()
     bad = list(STANDBY)
     bad[1] = PAROL6.limits_steps[1][1] + 5
-    res = b.goto(bad)
-    assert res.frame.command == BoardCommand.IDLE and "J2 target" in res.violation
-    assert "outside the limits" in res.violation
+    link2 = LinkHistory()
+    link2.trust(0, StatusFrame(positions=tuple(bad), homed=0xFF), 0.0)
+    res = _check(g, link2, st, _goto(bad))
+    assert "J2 target" in res.violation and "outside the limits" in res.violation
+    # not homed: the limits are not known; a goal at the board is still a bounded commitment
+    assert _check(g, link2, st, _goto(bad), homed=False).violation is None
 
 
 def test_rule5_no_go_to_while_the_board_may_be_homing():
-    """HOME makes the board move on its own until it reports every joint homed and still
-    (IDLE frames let homing go on): a GO TO meanwhile is refused, the first one after it is
-    judged from where homing left the board.  (Homed as the controller passes it: HOME at
-    standby, where the board still reported homed before it started.)"""
-    b = GuardedBoard()
-    b.send(CommandFrame(command=BoardCommand.HOME))
-    b.idle()
-    res = b.goto(b.positions)
-    assert "while the board may be homing" in res.violation
-    while not (b.status.all_homed and not any(b.status.speeds)):
-        b.idle(0.05)
-        assert b.now < 30, "homing did not finish"
-    b.idle()
-    assert b.positions == STANDBY
-    assert b.goto(_moved(STANDBY, 0, 20)).violation is None
+    g, link, st = _rig()
+    _check(g, link, st, CommandFrame(command=BoardCommand.HOME), homed=False)
+    n = link.answered(1, 0, after_write=True)
+    homing = StatusFrame(positions=STANDBY, homed=0x03, speeds=(-2050, 0, 0, 0, 0, 0))
+    link.trust(n, homing, 0.0)
+    assert "may be homing" in _check(g, link, homing, _goto(STANDBY), t=0.01).violation
+    # a reply to a frame after HOME showing every joint homed and still is not enough (a HOME
+    # and the next frame delivered together: the reply shows the board before it started)
+    _check(g, link, st, CommandFrame(command=BoardCommand.IDLE), t=0.02)
+    done = StatusFrame(positions=STANDBY, homed=0xFF)
+    link.trust(link.answered(1, 0, after_write=True), done, 0.02)
+    assert "may be homing" in _check(g, link, done, _goto(STANDBY), t=0.03, write=False).violation
+    # the integrity check, which judges the homing from the raw replies, saw it end
+    link.homing = False
+    assert _check(g, link, done, _goto(STANDBY), t=0.03).violation is None
 
 
-# ------------------------------------------------------------------- rule 6: steps
+@pytest.mark.parametrize("joint", range(6))
+def test_rule6_a_goal_within_20_ms_of_travel_of_the_board_passes_and_a_hundredth_more_does_not(joint):
+    g, link, st = _rig()
+    r = REACH[joint]
+    for sign in (1, -1):
+        ok = list(STANDBY)
+        ok[joint] += sign * int(math.floor(r))
+        assert _check(g, link, st, _goto(ok), write=False).violation is None
+        # the same reach made up with the feed-forward's hundredths
+        ff = [0] * 6
+        ff[joint] = sign * int(round((r - math.floor(r)) * 100))
+        assert _check(g, link, st, _goto(ok, ff), write=False).violation is None
+        ff[joint] += sign * 2  # 0.02 steps beyond the reach (0.01 of rounding allowed)
+        res = _check(g, link, st, _goto(ok, ff), write=False)
+        assert res.violation is not None and f"J{joint + 1} goal" in res.violation
+        assert res.frame.command == BoardCommand.IDLE
 
 
-def test_rule6_first_go_to_after_idle_leading_by_three_ticks_of_travel_is_replaced():
-    """Issue 12: the first frame after idle may not lie further from the board than one period
-    of maximum-speed travel (three ticks: the board would start at 1.5x its maximum)."""
-    b = GuardedBoard()
-    b.idle()
-    res = b.goto(_moved(b.positions, 0, 3 * TICK[0]))
-    assert res.replaced and res.frame.command == BoardCommand.IDLE
-    assert "J1 target is 195 steps from where the board is" in res.violation
-    assert "allows 66 steps" in res.violation
-    assert b.emu.speeds == (0,) * 6 and not b.over_max()
+def test_rule6_the_window_spans_the_trusted_reply_and_every_goal_written_since():
+    """Two GO TO frames without a reply since: the board may be anywhere between the reply and
+    the goals, so the next goal must lie within reach of both ends."""
+    g, link, st = _rig()
+    step = int(REACH[0] * 0.8)
+    a = list(STANDBY)
+    a[0] += step
+    assert _check(g, link, st, _goto(a), t=0.0).violation is None
+    b = list(a)
+    b[0] += step  # 1.6 reaches from the reply: the board may still be there
+    res = _check(g, link, st, _goto(b), t=0.0)
+    assert res.violation is not None and "J1 goal" in res.violation
+    win = link.window(0.0)
+    assert win[0] == (STANDBY[0], a[0])
 
 
-def test_rule6_a_sub_tick_jump_is_replaced_first_frame_or_mid_stream():
-    """A move played as one frame (MOVECART t=1e-9 measured J3 at 1.59x): the target jumps
-    1.59 ticks of maximum-speed travel in one period."""
-    b = GuardedBoard()
-    b.idle()
-    res = b.goto(_moved(b.positions, 2, 1.59 * TICK[2]))
-    assert res.replaced and "J3 target is 318 steps from where the board is" in res.violation
-    b = GuardedBoard()
-    _staircase(b, 2, 0.3 * VMAX[2], 5)
-    last = b.log[-1].asked.positions
-    res = b.goto(_moved(last, 2, 1.59 * TICK[2]))
-    assert res.replaced and "J3 target moves 318 steps from the previous one in 10.0 ms" in res.violation
-    assert "allows 201 steps" in res.violation
-    assert not b.over_max()
+def test_rule6_time_since_the_reply_moves_the_near_end_of_the_window_towards_the_goals():
+    """The reply answered frame k (sent as k arrived); frame n is written dt later, so the board
+    has run towards frame k's goal for at least dt: the near end is raised by (1 - e^-50 dt)."""
+    g, link, st = _rig()
+    a = list(STANDBY)
+    a[0] += int(REACH[0])
+    link.sent(_goto(a), 0.0)
+    # the reply shows J1 running towards it (a board that follows GO TO frames)
+    reply = StatusFrame(positions=STANDBY, homed=0xFF, speeds=(int(VMAX[0]) // 2, 0, 0, 0, 0, 0))
+    link.trust(link.answered(1, 0, after_write=True), reply, 0.001)  # read 1 ms after writing
+    for dt in (0.0, 0.005, 0.009, 0.05):
+        lo, hi = link.window(0.001 + dt)[0]
+        assert hi == a[0]
+        assert lo == pytest.approx(STANDBY[0] + (a[0] - STANDBY[0]) * (1 - math.exp(-50 * dt)))
+    # a frame that stood still in between (IDLE): the board may have stopped anywhere
+    link.sent(CommandFrame(positions=STANDBY, command=BoardCommand.IDLE), 0.01)
+    assert link.window(0.02)[0] == (STANDBY[0], a[0])
 
 
-def test_rule6_a_late_frame_may_step_as_far_as_the_time_since_the_previous_one_allows():
-    """Two periods since the previous frame: twice the step (the board had twice as long),
-    when the board can follow within its maximum speed."""
-    b = GuardedBoard()
-    _staircase(b, 1, 0.3 * VMAX[1], 10)
-    last = b.log[-1].asked.positions
-    step = 1.5 * TICK[1]  # more than one period allows, less than two
-    ff = _moved([0] * 6, 1, 0.3 * VMAX[1])
-    b.now += PERIOD  # the loop ran a period late: this frame comes two periods after the last
-    b.emu.advance(PERIOD)
-    res = b.goto(_moved(last, 1, step), ff)
-    assert res.violation is None, res.violation
-    # the same step one period after the previous frame: refused
-    b2 = GuardedBoard()
-    _staircase(b2, 1, 0.3 * VMAX[1], 10)
-    res = b2.goto(_moved(b2.log[-1].asked.positions, 1, step), ff)
-    assert res.replaced and "J2 target moves 270 steps from the previous one in 10.0 ms" in res.violation
-    assert not b.over_max() and not b2.over_max()
+def test_rule6_a_reply_without_motion_raises_nothing_the_board_may_be_disabled():
+    """A disabled board ignores GO TO frames and reports no speed: from such a reply, time
+    says nothing about where it went (had the guard counted on it, a board enabled later would
+    start the goals it was sent at up to 1.65 times its maximum)."""
+    g, link, st = _rig()
+    a = list(STANDBY)
+    a[0] += int(REACH[0])
+    link.sent(_goto(a), 0.0)
+    link.trust(link.answered(1, 0, after_write=True), StatusFrame(positions=STANDBY, homed=0xFF), 0.0)
+    assert link.window(0.05)[0] == (STANDBY[0], a[0])
 
 
-# ------------------------------------------------------------------- rule 7: start speed
+def test_rule6_a_speed_frame_since_the_reply_makes_the_position_unknown():
+    g, link, st = _rig()
+    link.sent(CommandFrame(positions=STANDBY, speeds=(1, 0, 0, 0, 0, 0), command=BoardCommand.JOG), 0.0)
+    assert link.window(0.01) is None
+    res = _check(g, link, st, _goto(STANDBY), t=0.01)
+    assert res.violation is None and res.frame.command == BoardCommand.JOG  # rule 7 first
+    assert "position is unknown" in _check(g, link, st, _goto(STANDBY), t=0.02).violation
 
 
-def test_rule7_a_staircase_at_the_tracking_factor_passes_and_the_board_stays_within_its_maximum():
-    """Issue 12: 100 % speed peaked at 1.27x the maximum on the board.  A stream at
-    1 / 1.2707 of the maximum (the derived factor, no jitter margin) starts every period at
-    the maximum: accepted on every joint at once, and no stepper ever runs faster."""
-    b = GuardedBoard()
-    start = b.positions
-    f = goto_tracking_factor(RATE, 0.0)
-    for k in range(1, 31):
-        tgt = [p + f * v * PERIOD * k for p, v in zip(start, VMAX)]
-        tgt[1] = start[1] - f * VMAX[1] * PERIOD * k  # (J2 down: it starts near its upper limit)
-        ff = [f * v for v in VMAX]
-        ff[1] = -ff[1]
-        res = b.goto(tgt, ff)
-        assert res.violation is None, (k, res.violation)
-    assert not b.over_max()
-    peak = max(s.start_speeds[0] for s in b.log) / VMAX[0]
-    assert 0.97 < peak <= 1.0  # the board does run at (just under) its maximum
-
-
-def test_rule7_a_staircase_at_the_maximum_speed_is_replaced_before_the_board_exceeds_it():
-    """The same stream at 1.0x the maximum: rule 6 allows its steps (one period of travel
-    each), but the board would start every period at 1.27x: replaced as soon as the board's
-    lag would push it past the maximum; no accepted frame made a stepper run faster."""
-    b = GuardedBoard()
-    results = _staircase(b, 0, VMAX[0], 20)
-    bad = [k for k, r in enumerate(results) if r.violation]
-    assert bad and bad[0] <= 4, [r.violation for r in results[:6]]
-    assert "J1 would start this frame at" in results[bad[0]].violation
-    assert "above its maximum 6500 steps/s" in results[bad[0]].violation
-    assert not b.over_max()
-
-
-def test_rule7_a_late_frame_that_would_need_the_board_to_run_faster_is_replaced():
-    """Catching up after a late tick: allowed exactly when the board can do it within its
-    maximum speed; max_goto_step says how far that is."""
-    f = goto_tracking_factor(RATE, 0.0)
-    ff = _moved([0] * 6, 0, f * VMAX[0])
-
-    def stream_then_late(step_ticks: float):
-        b = GuardedBoard()
-        _staircase(b, 0, f * VMAX[0], 30)
-        prev = b.log[-1].asked
-        lag = prev.positions[0] + prev.speeds[0] / 100.0 - b.status.positions[0]
-        b.now += PERIOD
-        b.emu.advance(PERIOD)
-        room = max_goto_step(lag, 2 * PERIOD, VMAX[0])
-        res = b.goto(_moved(prev.positions, 0, step_ticks * f * VMAX[0] * PERIOD), ff)
-        return b, res, room
-
-    # at the tracking factor the board covers 1.33 samples' worth in the two periods: two
-    # samples' step (a full catch-up) would need 1.14x its maximum
-    b, res, room = stream_then_late(2.0)
-    assert res.replaced and "J1 would start this frame at" in res.violation
-    assert room < 2.0 * f * VMAX[0] * PERIOD
-    b, res, room = stream_then_late(room / (f * VMAX[0] * PERIOD) - 0.05)
-    assert res.violation is None, res.violation
-    assert not b.over_max()
-    # at half that speed a full catch-up (two samples' step after two periods) is allowed
-    b = GuardedBoard()
-    _staircase(b, 0, 0.5 * f * VMAX[0], 30)
-    prev = b.log[-1].asked
-    b.now += PERIOD
-    b.emu.advance(PERIOD)
-    res = b.goto(_moved(prev.positions, 0, 2 * 0.5 * f * VMAX[0] * PERIOD), prev.speeds)
-    assert res.violation is None, res.violation
-    assert not b.over_max()
-
-
-def test_the_guard_follows_the_board_through_late_and_lost_replies():
-    """The status a frame's check sees may answer an older frame (a late reply) or none may
-    come for a while (lost replies): matched to the frame it answers, no false refusal of a
-    stream at the tracking factor, and the prediction stays on the board."""
-    b = GuardedBoard()
-    start = b.positions
-    f = goto_tracking_factor(RATE)
-    for k in range(1, 120):
-        tgt = _moved(start, 0, -f * VMAX[0] * PERIOD * k)
-        reply = k % 7 not in (3, 4, 5)  # three replies in a row lost every 7 ticks
-        res = b.goto(tgt, _moved([0] * 6, 0, -f * VMAX[0]), reply=reply)
-        assert res.violation is None, (k, res.violation)
-    predicted = b.guard.predicted_arrival(b.now)
-    assert predicted is not None and abs(predicted[0] - b.positions[0]) <= 2.0
-    assert not b.over_max()
-
-
-def test_a_single_corrupted_reply_does_not_stop_a_stream():
-    """The link has no checksum: one flipped bit in a reply moved J2 by 512 steps (seen in the
-    1 % corruption test on the pty).  One reply that matches no prediction is ignored; the
-    stream at the planners' speed goes on."""
-    b = GuardedBoard()
-    start = b.positions
-    f = goto_tracking_factor(RATE)
-    for k in range(1, 60):
-        if k in (10, 30, 31 + 10):
-            pos = list(b.status.positions)
-            pos[1] += 512
-            pos[0] -= 64 if k == 30 else 0
-            b.status = replace(b.status, positions=tuple(pos))
-        res = b.goto(_moved(start, 0, -f * VMAX[0] * PERIOD * k), _moved([0] * 6, 0, -f * VMAX[0]))
-        assert res.violation is None, (k, res.violation)
-    assert not b.over_max()
-
-
-def test_a_board_that_does_not_follow_is_caught():
-    """The board stops following the stream (here a DISABLE the guard never saw reaches it, as
-    a corrupted frame could; later an ENABLE): its replies match no predicted position, so the
-    guard also checks "it has not moved since", and refuses the frame that would make it jump
-    once it follows again.  No stepper ever runs faster than its maximum."""
-    b = GuardedBoard()
-    start = b.positions
-    v = 0.5 * VMAX[0]
-    violations = []
-    for k in range(1, 30):
-        if k == 5:
-            b.emu.process_frame(CommandFrame(positions=b.positions, command=BoardCommand.DISABLE))
-        if k == 12:
-            b.emu.process_frame(CommandFrame(positions=b.positions, command=BoardCommand.ENABLE))
-        res = b.goto(_moved(start, 0, v * PERIOD * k), _moved([0] * 6, 0, v))
-        if res.violation:
-            violations.append((k, res.violation))
-    assert violations and 5 < violations[0][0] <= 10, violations
-    assert "J1 would start this frame at" in violations[0][1]
-    assert not b.over_max()
-
-
-# ------------------------------------------------------------------- JOG and the stream end
-
-
-def test_rule8_a_jog_may_not_reach_a_limit_within_the_lookahead():
-    b = GuardedBoard()
-    g = b.guard
-    st = StatusFrame(positions=(PAROL6.limits_steps[0][1] - 100, *STANDBY[1:]), homed=0xFF, io=0x0F)
-    res = g.check(CommandFrame(positions=st.positions, speeds=(5000, 0, 0, 0, 0, 0), command=BoardCommand.JOG),
-                  st, estop=False, homed=True)
-    assert res.frame.speeds == (0,) * 6 and "would pass its upper limit 14000 steps" in res.violation
-
-
-def test_rule9_a_speed_stream_is_always_ended_by_a_zero_speed_frame():
-    b = GuardedBoard()
-    b.send(CommandFrame(positions=b.positions, speeds=(1000, 0, 0, 0, 0, 0), command=BoardCommand.JOG))
-    res = b.goto(b.positions)
-    assert res.frame.command == BoardCommand.JOG and res.frame.speeds == (0,) * 6 and res.violation is None
-    assert b.emu.speeds == (0,) * 6
-
-
-def test_a_second_check_at_the_same_time_replaces_the_first():
-    """The loop's safety pre-emption: only the second frame of a tick is written, so the guard
-    judges the next tick's frame against it, not against the frame that never went out."""
-    g = SafetyGuard(PAROL6, RATE)
-    st = StatusFrame(positions=STANDBY, homed=0xFF, io=0x0F)
-    g.check(CommandFrame(positions=STANDBY, command=BoardCommand.IDLE), st, estop=False, homed=True, now=0.0)
-    g.check(CommandFrame(command=BoardCommand.HOME), st, estop=False, homed=True, now=0.01)
-    g.check(CommandFrame(positions=STANDBY, command=BoardCommand.IDLE), st, estop=False, homed=True, now=0.01)
-    # the HOME never went out: a HOME now is not "twice in a row"
-    res = g.check(CommandFrame(command=BoardCommand.HOME), st, estop=False, homed=True, now=0.02)
+def test_rule7_a_speed_frame_is_always_followed_by_a_zero_speed_one():
+    g, link, st = _rig()
+    _check(g, link, st, CommandFrame(positions=STANDBY, speeds=(1, 0, 0, 0, 0, 0), command=BoardCommand.JOG))
+    res = _check(g, link, st, CommandFrame(positions=STANDBY, command=BoardCommand.IDLE), t=0.01)
+    assert res.replaced and res.frame.command == BoardCommand.JOG and res.frame.speeds == (0,) * 6
     assert res.violation is None
+    # DISABLE may follow it directly
+    _check(g, link, st, CommandFrame(positions=STANDBY, speeds=(1, 0, 0, 0, 0, 0), command=BoardCommand.JOG))
+    res = _check(g, link, st, CommandFrame(positions=STANDBY, command=BoardCommand.DISABLE))
+    assert not res.replaced
 
 
-def test_rounding_allowance_is_one_step():
-    assert ROUNDING_STEPS == 1.0
+def test_a_stream_at_the_tracking_factor_passes_and_the_board_stays_within_its_maximum():
     b = GuardedBoard()
-    b.idle()
-    assert b.goto(_moved(b.positions, 0, TICK[0] + 1)).violation is None  # 66 steps: 65 + rounding
+    x = [float(p) for p in b.positions]
+    for k in range(60):
+        f = goto_tracking_factor(RATE) * min(1.0, (k + 1) / 5)  # from rest in 5 ticks, as plans ramp
+        x[0] += f * VMAX[0] * PERIOD
+        ff = (int(f * VMAX[0]), 0, 0, 0, 0, 0)
+        assert b.goto(x, ff).violation is None, k
+    assert not b.over_max()
+    assert max(s.peak_speeds[0] for s in b.log) > 0.95 * VMAX[0]  # and it does run near it
+
+
+@pytest.mark.parametrize("faster", [1.05, 1.3, 2.0])
+def test_a_stream_faster_than_the_board_may_follow_is_replaced_before_the_board_exceeds_its_maximum(faster):
     b = GuardedBoard()
-    b.idle()
-    assert b.goto(_moved(b.positions, 0, TICK[0] + 2)).violation is not None
+    x = [float(p) for p in b.positions]
+    refused = 0
+    for _ in range(60):
+        x[0] += faster * VMAX[0] * PERIOD
+        res = b.goto(x)
+        if res.violation is not None:
+            refused += 1
+            x = [float(p) for p in b.positions]  # the plan restarts from where the board is
+    assert refused > 0
+    assert not b.over_max()
+
+
+def test_bunched_frames_never_overspeed_the_board():
+    """Frames the operating system delivers together (the second arrives the instant after the
+    first, before the board moved): the guard's window assumes no arrival time, so the board
+    still starts every frame within its maximum.  (The guard of 1dfd036 judged a frame as
+    arriving one period after the previous one: delivered together, a stream at 76 % started
+    the next frame at up to 139 % of the maximum; measured 118 % at load 7-9.)"""
+    b = GuardedBoard()
+    x = [float(p) for p in b.positions]
+    f = goto_tracking_factor(RATE)
+    for k in range(80):
+        x[0] += f * VMAX[0] * PERIOD
+        # every fourth frame is delivered together with the next one (wait 0)
+        wait = 0.0 if k % 4 == 0 else PERIOD
+        res = b.goto(x, (int(f * VMAX[0]), 0, 0, 0, 0, 0), wait=wait)
+        if res.violation is not None:
+            x = [float(p) for p in b.positions]  # the plan restarts from where the board is
+    assert not b.over_max()
+
+
+def test_rounding_allowance_is_a_hundredth_of_a_step():
+    assert ROUNDING_STEPS == 0.01

@@ -1,5 +1,6 @@
 """Link supervision, tick by tick: the link is judged by the frames the board left unanswered,
-never by the controller's own late ticks, and when replies go bad the board is stopped first.
+never by the controller's own late ticks, and when replies go bad every frame written is still
+a bounded commitment: the board stops within 20 ms of travel of where the frames could take it.
 
 The real ControlLoop, executor, guard and planner against the real board emulator on a
 virtual clock (``tests/unit/test_controller_core.py``'s ``Rig``); link faults are the
@@ -17,7 +18,7 @@ from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.loop import ControlLoop
 from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand
-from parolkit.robot import PAROL6
+from parolkit.robot import PAROL6, goto_goal
 
 ZERO = (0, 0, 0, 0, 0, 0)
 #: replies that never reach the controller whole: every byte changed, or every byte lost
@@ -62,27 +63,30 @@ def test_replies_read_a_tick_late_still_answer_their_frames(rig):
 
 
 @pytest.mark.parametrize("fault", sorted(BAD_REPLIES))
-def test_bad_replies_mid_jog_stop_the_board_before_the_loss_is_declared(rig, fault):
+def test_bad_replies_mid_jog_leave_the_board_within_bounded_travel_and_the_loss_writes_nothing(rig, fault):
+    """Replies go bad mid-jog: the frames are GO TOs whose goals cannot run ahead of the last
+    trusted reply (each within 20 ms of travel of where the board may be), so the board stops
+    within two such distances of where that reply showed it, whatever happens next; the link
+    is lost after 3 unanswered frames and nothing more is written (nothing needs stopping)."""
     rig.submit("aaaa0001|JOG|0|60|5|None")
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     rig.tick(10)
     assert rig.emu.speeds[0] > 0
+    trusted = rig.loop.link.anchor.status.positions[0]
     rig.emu.set_faults(direction="from_board", **BAD_REPLIES[fault])
     n = len(rig.frames)
     rig.tick(6)
     after = rig.frames[n:]
-    # frame 1's reply is the first bad one; the zero-speed frame is the 3rd after the switch
-    # (2 ticks after that reply), then the link is lost (3 unanswered) and nothing more is written
-    stop = next(i for i, f in enumerate(after) if f.command == BoardCommand.JOG and f.speeds == ZERO)
-    assert stop == 2 and len(after) == 3, [(f.command, f.speeds) for f in after]
-    assert all(f.speeds[0] > 0 for f in after[:stop])
+    assert [f.command for f in after] == [BoardCommand.GOTO] * 3, [(f.command, f.speeds) for f in after]
     assert not rig.loop.link_up
     assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
     assert "board link lost: the board left 3 frames in a row unanswered" in _details(rig, "aaaa0001")
     view = rig.loop.stats.view()
     assert view.link_holds == 1 and view.link_losses == 1
-    # the board's last command is the stop: nothing moves afterwards
+    rig.tick(100)
+    reach = PAROL6.max_speed_steps_s[0] / 50.0
     assert rig.emu.speeds == ZERO
+    assert 0 < rig.emu.positions[0] - trusted <= 2 * reach + 1
     still = rig.emu.positions
     rig.tick(100)
     assert rig.emu.positions == still
@@ -104,10 +108,12 @@ def _loop(r: Rig, timeout: int, hold: int = 2) -> None:
     r.tick(3)
 
 
-def test_a_jog_paused_by_missing_replies_goes_on_when_they_come_back_and_covers_its_distance(rig):
+def test_a_jog_held_by_missing_replies_goes_on_when_they_come_back_and_covers_its_distance(rig):
     """Replies lost for 6 ticks (a loaded PC's tty layer can hold them back that long): the
-    jog is paused with zero-speed frames from the 3rd tick, goes on when they return, and
-    still ends where its distance says; no loss (the threshold is 10 here)."""
+    jog's goals cannot run further ahead of the last trusted reply than 20 ms of travel at the
+    maximum speed beyond its first goal since (a slow jog goes on meanwhile, a fast one slows
+    to that); it goes on when they return and still ends where its distance says; no loss
+    (the threshold is 10 here)."""
     _loop(rig, 10)
     start = rig.emu.positions[0]
     rig.submit("aaaa0001|JOG|0|60|None|4")
@@ -115,10 +121,13 @@ def test_a_jog_paused_by_missing_replies_goes_on_when_they_come_back_and_covers_
     rig.tick(15)
     rig.emu.set_faults(drop_rate=1.0, direction="from_board")
     n = len(rig.frames)
+    trusted = rig.loop.link.anchor.status.positions[0]
     rig.tick(6)
     rig.emu.clear_faults()
-    paused = rig.frames[n + 2:n + 6]
-    assert all(f.command == BoardCommand.JOG and f.speeds == ZERO for f in paused)
+    held = rig.frames[n:n + 6]
+    assert all(f.command == BoardCommand.GOTO for f in held)
+    reach = PAROL6.max_speed_steps_s[0] / 50
+    assert all(goto_goal(f.positions, f.speeds)[0] - trusted <= 2 * reach + 0.1 for f in held)
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED, _details(rig, "aaaa0001")
     assert abs((rig.emu.positions[0] - start) / PAROL6.steps_per_deg[0] - 4.0) <= 0.02
@@ -138,9 +147,8 @@ def test_a_position_move_paused_by_missing_replies_catches_up_and_keeps_its_time
     n = len(rig.frames)
     rig.tick(5)
     rig.emu.clear_faults()
-    held = rig.frames[n + 2:n + 5]
-    assert all(f.command == BoardCommand.GOTO and f.speeds == ZERO and f.positions == rig.frames[n + 1].positions
-               for f in held)
+    held = rig.frames[n:n + 5]
+    assert all(f.command == BoardCommand.GOTO for f in held)
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
     last = next(i for i, f in enumerate(rig.frames) if i > first and f.positions == final)
@@ -148,10 +156,11 @@ def test_a_position_move_paused_by_missing_replies_catches_up_and_keeps_its_time
     assert rig.loop.stats.view().link_losses == 0
 
 
-def test_lost_replies_mid_position_move_pause_it_then_the_loss_leaves_the_board_settled(rig):
-    """A 156 stream whose replies go missing is paused too (nothing moves while the
-    controller cannot see the board, not even an E-stop press): its last target with zero
-    feed-forward; the board settles there (not v_ff / 100 past it) and stays."""
+def test_lost_replies_mid_position_move_leave_the_board_settled_at_its_last_goal(rig):
+    """A 156 stream whose replies go missing: its goals stay within reach of the last trusted
+    reply; at the loss its last goal is written rounded to whole steps with no feed-forward,
+    and the board settles exactly there and stays (a goal between two steps would keep it
+    stepping to and fro)."""
     rig.submit("aaaa0001|MOVEJOINT|50|-90|180|0|0|180|2|None")
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     rig.tick(60)  # mid-move, at speed
@@ -160,21 +169,23 @@ def test_lost_replies_mid_position_move_pause_it_then_the_loss_leaves_the_board_
     rig.tick(5)
     after = rig.frames[n:]
     assert [f.command for f in after] == [BoardCommand.GOTO] * 3
-    assert all(abs(f.speeds[0]) > 100 for f in after[:2])
-    assert after[2].positions == after[1].positions and after[2].speeds == ZERO
-    assert rig.loop.last_frame == after[2]  # nothing written at the loss: the board was stopped
+    goal = goto_goal(after[2].positions, after[2].speeds)
+    stop = rig.loop.last_frame  # written at the loss
+    assert stop.command == BoardCommand.GOTO and stop.speeds == ZERO
+    assert stop.positions == tuple(int(round(g)) for g in goal)
     assert not rig.loop.link_up and rig.loop.stats.view().link_holds == 1
     assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
     rig.tick(50)
-    assert abs(rig.emu.positions[0] - after[2].positions[0]) <= 2 < abs(after[1].speeds[0]) / 100 - 2
+    assert rig.emu.positions == stop.positions
     still = rig.emu.positions
     rig.tick(50)
     assert rig.emu.positions == still
 
 
-def test_the_loss_writes_a_stop_frame_when_the_last_frame_still_moves():
-    """With the pause switched off (hold = loss threshold), the frame written at the loss stops
-    what the last frame commanded."""
+def test_the_loss_ends_a_go_to_stream_on_its_goal_in_whole_steps():
+    """With the pause switched off (hold = loss threshold): the last frame is a GO TO, a
+    bounded commitment; the frame written at the loss takes its goal in whole steps with no
+    feed-forward, and the board stops exactly there."""
     r = Rig()
     try:
         _loop(r, 3, hold=3)
@@ -183,10 +194,13 @@ def test_the_loss_writes_a_stop_frame_when_the_last_frame_still_moves():
         r.emu.set_faults(drop_rate=1.0, direction="from_board")
         n = len(r.frames)
         r.tick(5)
-        assert len(r.frames) - n == 3 and all(f.speeds[0] > 0 for f in r.frames[n:])
+        assert len(r.frames) - n == 3 and all(f.command == BoardCommand.GOTO for f in r.frames[n:])
         stop = r.loop.last_frame
-        assert stop is not None and stop.command == BoardCommand.JOG and stop.speeds == ZERO
-        assert r.emu.speeds == ZERO and not r.loop.link_up
+        goal = goto_goal(r.frames[-1].positions, r.frames[-1].speeds)
+        assert stop.positions == tuple(int(round(g)) for g in goal) and stop.speeds == ZERO
+        assert not r.loop.link_up
+        r.tick(20)
+        assert r.emu.speeds == ZERO and r.emu.positions == stop.positions
     finally:
         r.close()
 

@@ -161,9 +161,10 @@ class Executor:
         #: a client that re-enabled at once otherwise kept the board from ever getting it)
         self._disable_owed = False
         self._disable_paid = -1
-        #: the safety guard's judgement of a 156 frame (``SafetyGuard.accepts_goto``), set by the
-        #: control loop that owns the guard; activities catching up ask it (see TickContext)
-        self.goto_check: Callable[[Sequence[int], Sequence[int], StatusFrame | None, float], bool] | None = None
+        #: this tick's goals the guard allows for a GO TO frame, and where a new motion starts
+        #: from (see TickContext.box and .origin), given by the loop with each tick
+        self._box: Sequence[tuple[float, float]] | None = None
+        self._origin: Sequence[float] | None = None
         #: the board runs exactly one period per frame (a simulated board in lockstep with the
         #: frames, set by the control loop): trajectories are scheduled on tick / rate, that
         #: board's own time, rather than on the wall clock (a late tick would otherwise jump
@@ -181,6 +182,9 @@ class Executor:
         self._measured: tuple[float, ...] | None = None
         self._now = 0.0
         self._link_up = True
+        #: frames in a row the board left unanswered while the loop counts replies as missing
+        #: (0: they come); commands are refused meanwhile
+        self._replies_missing = 0
         self._estop_raw_prev = False
         self._last_status: StatusFrame | None = None
         self._homed = False
@@ -296,6 +300,10 @@ class Executor:
                 return
             if not self._link_up:
                 self._ack(job, AckStatus.FAILED, f"board link is down ({self.error or 'reconnecting'})")
+                return
+            if self._replies_missing:
+                self._ack(job, AckStatus.FAILED, f"the board's replies are missing ({self._replies_missing} frames "
+                                                 "unanswered): nothing is accepted until they return")
                 return
             if self.supervisor_missing is not None and (cmd.is_motion or isinstance(cmd, C.Home)):
                 self._ack(job, AckStatus.FAILED, f"motion refused: {self.supervisor_missing}; a new one "
@@ -754,7 +762,7 @@ class Executor:
                 if err is not None:
                     self._ack(job, AckStatus.FAILED, err)
                     return
-                old_act.replace(speeds, secs, now)
+                old_act.replace(speeds, secs, now, self._sched)
                 self._ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
                 self.active = job
                 self._ack(job, AckStatus.EXECUTING, note)
@@ -883,12 +891,13 @@ class Executor:
             if err is not None:
                 self._ack(job, AckStatus.FAILED, err)
                 return
-            act = SpeedActivity(speeds, secs, streamed=job.streamed, started=now)
+            act = SpeedActivity(speeds, secs, rate_hz=self.rate_hz, settle_ticks=settle, streamed=job.streamed,
+                                started=now, schedule_start=self._sched)
         elif needs_plan(cmd):
             for note in job.warnings:
                 log.warning("%s (%s): %s", job.name, job.command_id or "no id", note)
             act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now,  # type: ignore[arg-type]
-                                     max_speed_steps_s=self.model.max_speed_steps_s, schedule_start=self._sched)
+                                     schedule_start=self._sched)
             self.plan_seq += 1
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
@@ -959,12 +968,21 @@ class Executor:
         status: StatusFrame | None,
         link_up: bool,
         commands: Iterable[Submission] = (),
+        box: Sequence[tuple[float, float]] | None = None,
+        origin: Sequence[float] | None = None,
+        replies_missing: int = 0,
     ) -> Step:
         """This tick's frame content, after taking in ``status`` and applying ``commands``
-        (the server's hand-off, safety commands first).  Loop thread only.  The acks this
-        produced wait in :meth:`take_acks`."""
+        (the server's hand-off, safety commands first).  ``box``: the goals the guard allows
+        for a GO TO frame this tick; ``origin``: where a new motion starts from (see
+        :class:`TickContext`); ``replies_missing``: frames in a row left unanswered, when the loop
+        counts the replies as missing (new commands are refused).  Loop thread only.  The acks this produced wait in
+        :meth:`take_acks`."""
         self._now = now
         self._link_up = link_up
+        self._box = box
+        self._origin = origin
+        self._replies_missing = replies_missing
         if status is not None:
             self._homed = status.all_homed
             self._measured = tuple(p / s for p, s in zip(status.positions, self._spd))
@@ -1050,7 +1068,7 @@ class Executor:
         if act is None:
             return Step(BoardCommand.IDLE)
         ctx = TickContext(tick, now, self.rate_hz, status, self._homed, self.stream_mode, self.watchdog_s,
-                          self._limits, self.goto_check, self._sched if self.tick_clock else None)
+                          self._limits, self._box, self._origin, self._sched if self.tick_clock else None)
         step = self._run_activity(act, ctx)
         if step.done is not None and act.frameless_end and self.queue:
             # its end needs no frame of its own (it only saw the board's report): the next
@@ -1075,6 +1093,8 @@ class Executor:
                 self.active = None
                 self.activity = None
                 if job is not None:
+                    if act.warnings:
+                        job.notes = (*job.notes, *act.warnings)
                     self._ack(job, step.done, step.details)
                 self._plan_cv.notify_all()
         return step

@@ -382,6 +382,13 @@ class StatusIntegrity:
         return self._n
 
     @property
+    def homing(self) -> bool:
+        """A homing may be running: one was asked for (HOME written) and has not been seen
+        ending, one nobody asked for is reported, or an aborted one may still be stopping.
+        Where the joints are is then not known from the frames written."""
+        return self._home_t is not None or self._unasked or self._abort_n is not None
+
+    @property
     def homing_seen(self) -> bool:
         """The board has been seen homing since the last HOME was written."""
         return self._home_seen
@@ -398,9 +405,11 @@ class StatusIntegrity:
 
     # ------------------------------------------------------------------ frames written
 
-    def sent(self, frame: CommandFrame, t: float) -> None:
-        """The loop wrote ``frame`` at ``t`` (monotonic s)."""
-        self._n += 1
+    def sent(self, frame: CommandFrame, t: float, n: int | None = None) -> None:
+        """The loop wrote ``frame`` at ``t`` (monotonic s); ``n``: its number in the link
+        record (:class:`~parolkit.controller.link.LinkHistory`; by default the next one), so
+        a reply's ``answers`` means the same frame here and there."""
+        self._n = self._n + 1 if n is None else int(n)
         self._sent.append((self._n, t, frame))
         code = int(frame.command)
         if code == _HOME:

@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from parolkit.controller.pacing import GotoFits, SentLog, goto_fits, tracking_speed
 from parolkit.protocol.commands import AckStatus, Command
 from parolkit.protocol.frames import BoardCommand, GripperMode, StatusFrame
-from parolkit.robot import JOINT_NAMES
+from parolkit.robot import GOTO_FF_GAIN, GOTO_GAIN_PER_S, JOINT_NAMES, goto_goal
 
 __all__ = [
     "Job", "PlanAhead", "Step", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity",
@@ -24,6 +23,8 @@ __all__ = [
 ]
 
 _ZERO6 = (0, 0, 0, 0, 0, 0)
+#: one feed-forward step/s moves a GO TO goal by this much (steps)
+_FF_STEP = GOTO_FF_GAIN / GOTO_GAIN_PER_S
 
 #: a trajectory's samples as Python lists: per-tick positions and speeds (steps, 6 joints
 #: each) and board command codes
@@ -127,7 +128,8 @@ class Job:
 
 @dataclass(frozen=True)
 class TickContext:
-    """What an activity may look at: tick number, time (s), rate, latest status frame."""
+    """What an activity may look at: tick number, time (s), rate, latest status frame, and the
+    goals the safety guard allows for this tick's GO TO frame."""
 
     tick: int
     now: float
@@ -137,9 +139,12 @@ class TickContext:
     stream_mode: bool
     watchdog_s: float
     limits_steps: tuple[tuple[int, int], ...]
-    #: ``goto_check(targets, feed_forwards, status, now)``: would the safety guard pass this 156
-    #: frame now (``SafetyGuard.accepts_goto``)?  None: judge with the pacing model alone
-    goto_check: Callable[[Sequence[int], Sequence[int], StatusFrame | None, float], bool] | None = None
+    #: per joint, the goals (steps) a GO TO frame written this tick may carry (the guard's rule
+    #: 6: a bounded commitment); None: no GO TO may be sent now (where the board is is not known)
+    box: Sequence[tuple[float, float]] | None = None
+    #: where a new motion starts from (steps): the goal of the last GO TO frame written, or the
+    #: measured positions; None: not known
+    origin: Sequence[float] | None = None
     #: the time trajectories are scheduled on (s): ``now``, or, with a board in lockstep with
     #: the frames (each frame runs it exactly one period: a simulated board with a frame
     #: clock), ``tick / rate_hz``: that board's own time, which a late tick does not advance
@@ -168,23 +173,19 @@ class Activity:
 
     #: progress 0..1 for the status object
     progress: float = 0.0
-    #: True while the activity streams speeds (123)
-    streams_speed: bool = False
-    #: True when its frames move the robot (a paused one gets stop frames, see :meth:`held`)
+    #: True when its frames move the robot
     moves: bool = False
     #: True when the step that ends it needs no frame of its own (it ends on what the board
     #: reported): the executor lets the next queued job take that tick
     frameless_end: bool = False
+    #: warnings for the job's acks (``warning: ...``), added when it ends
+    warnings: tuple[str, ...] = ()
 
     def step(self, ctx: TickContext) -> Step:  # pragma: no cover - abstract
         raise NotImplementedError
 
     def touch(self, now: float) -> None:
         """A streaming update arrived (resets the watchdog)."""
-
-    def held(self, now: float, stop: Step) -> None:
-        """The loop sent the stop frame ``stop`` at ``now`` instead of asking this activity
-        (replies went missing); it is stepped again once they come back."""
 
 
 def _boundary(ok: Callable[[float], bool], *, good: float, bad: float, steps: int = 12) -> float:
@@ -199,74 +200,83 @@ def _boundary(ok: Callable[[float], bool], *, good: float, bad: float, steps: in
     return good
 
 
+def _in_box(pos: Sequence[int], ff: Sequence[int], box: Sequence[tuple[float, float]]) -> bool:
+    for g, (lo, hi) in zip(goto_goal(pos, ff), box):
+        if not lo <= g <= hi:
+            return False
+    return True
+
+
+def _towards(goal: Sequence[float],
+             box: Sequence[tuple[float, float]]) -> tuple[tuple[int, ...], tuple[int, ...]] | None:
+    """A GO TO frame (targets, feed-forwards) whose goal is the point of ``box`` nearest
+    ``goal``, joint by joint (the goal carries hundredths of a step in the feed-forward); None
+    when the box is empty on a joint (no GO TO is safe: hold still instead)."""
+    pos, ff = [], []
+    for g, (lo, hi) in zip(goal, box):
+        if lo > hi:
+            return None
+        x = min(max(g, lo), hi)
+        t = int(round(x))
+        v = int(round((x - t) / _FF_STEP))
+        if not lo <= t + v * _FF_STEP <= hi:  # rounded out of a very narrow box
+            v = int(math.ceil((lo - t) / _FF_STEP)) if t + v * _FF_STEP < lo else int(math.floor((hi - t) / _FF_STEP))
+        pos.append(t)
+        ff.append(v)
+    return tuple(pos), tuple(ff)
+
+
 class TrajectoryActivity(Activity):
-    """Play a planned trajectory against real time, then settle on the target.
+    """Play planned samples as GO TO (156) frames, each a bounded commitment, then settle on
+    the target.
 
     Sample ``i`` is due ``i`` periods after the first frame (its positions are where the joints
-    should be one period later).  A tick plays what is due at the time it actually runs, so a
-    late tick does not push the rest of the move back (a timed move keeps its wall-clock
-    duration):
-
-    * position tracking (156): the target is the plan at the elapsed time (interpolated between
-      samples), but a late tick advances it only as far as the board can follow within its
-      maximum speed (``fits``, by default :func:`~parolkit.controller.pacing.goto_fits`: the
-      target's step since the previous frame and the board's speed right after it); a move
-      that fell further behind catches up over the next ticks, and never goes back.  After
-      the last sample the target is sent with zero feed-forward every tick until a status frame
-      shows the board exactly on it and at rest: then COMPLETED (the seed: "with speed +
-      position the robot reaches exactly the commanded position"); FAILED, naming the joints
-      that are off, if that takes more than ``settle_ticks``;
-    * speed tracking (123): the distance a speed covers is speed x the time it actually ran,
-      so each frame's speed is the one that takes every joint from where the board model
-      estimates it now to the position the plan has for the next deadline, over at least one
-      period (:func:`~parolkit.controller.pacing.tracking_speed`; counting on a shorter time
-      would overshoot whenever the next tick comes late), within the maximum speed; after the
-      last sample the remaining error is corrected the same way, then zero-speed frames until a
-      status frame shows the board stopped where planned (else one more correction), so the
-      move ends where it was planned.
+    should be one period later, its speeds the feed-forward).  A tick plays what is due at the
+    time it runs (interpolated between samples), so a late tick does not push the rest of the
+    move back, but never further than the guard allows: the frame's goal must lie in
+    ``ctx.box``, the goals that keep the board within its maximum speed wherever it may be
+    (:meth:`parolkit.controller.guard.SafetyGuard.goal_box`).  When the plan asks for more
+    (replies came late, so where the board is is known only roughly; or the plan is faster
+    than the board can follow) the target advances only as far as the box allows and the move
+    runs stretched: slower, on its own path, never refused.  When not even the previous target
+    fits (the box moved away from it), the frame goes to the box's nearest point and the plan
+    waits.  After the last sample the target is sent with zero feed-forward every tick until a
+    status frame shows the board exactly on it and at rest: then COMPLETED (the seed: "with
+    speed + position the robot reaches exactly the commanded position"); FAILED, naming the
+    joints that are off, if that takes more than ``settle_ticks``.  Plans for speed tracking
+    (board 123 in the samples) are played the same way: every motion frame is a GO TO.
     """
 
-    def __init__(self, samples: Samples, *, settle_ticks: int, max_speed_steps_s: Sequence[float],
-                 settle_tol_steps: int = 4, streamed: bool = False, started: float = 0.0,
-                 fits: GotoFits = goto_fits, schedule_start: float | None = None) -> None:
-        self.positions, self.speeds, self.commands = samples
-        self.n = len(self.positions)
-        #: the next whole sample to play (``n``: all played, settling)
-        self.i = 0
-        self.settle_left = settle_ticks
+    moves = True
+
+    def __init__(self, samples: Samples, *, settle_ticks: int, settle_tol_steps: int = 4,
+                 streamed: bool = False, started: float = 0.0, schedule_start: float | None = None) -> None:
+        self._load(samples)
         self.settle_ticks = settle_ticks
+        self.settle_left = settle_ticks
         self.settle_tol = settle_tol_steps
         self.streamed = streamed
         self.last_update = started
-        self.streams_speed = bool(self.n) and any(c == BoardCommand.JOG for c in self.commands)
-        self.moves = True
-        self.vmax = tuple(float(v) for v in max_speed_steps_s)
-        self.fits = fits
         #: time of the first frame (sample 0 is due then); ``skip`` moves the schedule on
         self.t0 = started if schedule_start is None else schedule_start
         self._offset = 0
-        self.log = SentLog()
-        #: where in the samples the last 156 frame was (fractional), its target and time
+        #: where in the samples the last frame's target was (fractional); None before the first
         self._s: float | None = None
-        self._prev_goto: tuple[Sequence[int], float] | None = None
-        #: ticks waited before the first frame (see :meth:`_waits_to_start`)
+        #: ticks waited before the first frame (no box yet)
         self._start_waits = 0
         self._last_target: tuple[int, ...] | None = None
-        #: speed tracking's end: the status frame when the zero-speed frames began (see
-        #: :meth:`_speed_step`; False: none then)
-        self._stop_mark: StatusFrame | bool | None = None
+        #: ticks the box held the target back behind the plan
+        self.held_ticks = 0
+
+    def _load(self, samples: Samples) -> None:
+        positions, speeds, commands = samples
+        self.positions, self.speeds, self.commands = positions, speeds, commands
+        self.n = len(positions)
+        #: the next whole sample to play (``n``: all played, settling)
+        self.i = 0
 
     def touch(self, now: float) -> None:
         self.last_update = now
-
-    def held(self, now: float, stop: Step) -> None:
-        """Paused by the loop (``stop`` sent): the board model knows it stopped; the schedule
-        runs on, so once replies are back the move catches up as after a late tick."""
-        self.log.record(now, stop.command, stop.positions or _ZERO6, stop.speeds)
-        if stop.command == BoardCommand.GOTO and stop.positions is not None:
-            # the guard judges the next target's step from this frame (its time), not from
-            # the activity's last own one before the pause
-            self._prev_goto = (tuple(stop.positions), now)
 
     def commanded(self) -> tuple[int, ...] | None:
         """Position (steps) of the last target sent to the board; None before the first."""
@@ -279,198 +289,119 @@ class TrajectoryActivity(Activity):
         self.i = max(0, min(int(k), self.n - 1))
         self._offset = self.i
 
-    def _elapsed_samples(self, now: float, rate_hz: float) -> float:
-        """The (fractional) sample due at ``now``."""
-        return (now - self.t0) * rate_hz + self._offset
+    def _elapsed_samples(self, t: float, rate_hz: float) -> float:
+        """The (fractional) sample due at schedule time ``t``."""
+        return (t - self.t0) * rate_hz + self._offset
 
-    def _ask(self, now: float, cmd: int, pos: Sequence[int], spd: Sequence[int], done: AckStatus | None = None,
+    def _ask(self, pos: Sequence[int], spd: Sequence[int], done: AckStatus | None = None,
              details: str = "") -> Step:
-        self.log.record(now, cmd, pos, spd)
-        target = tuple(pos)
-        if cmd == BoardCommand.GOTO:
-            self._prev_goto = (target, now)
+        target = tuple(int(p) for p in pos)
         self._last_target = target
-        return Step(cmd, target, tuple(spd), done=done, details=details)
+        return Step(BoardCommand.GOTO, target, tuple(int(v) for v in spd), done=done, details=details)
 
     def _at(self, s: float) -> tuple[list[int], list[int]]:
         """Target and feed-forward at sample coordinate ``s``, linear between samples."""
         k = int(s)
         f = s - k
-        if f <= 1e-9 or k + 1 >= self.n or self.commands[k + 1] != self.commands[k]:
+        if f <= 1e-9 or k + 1 >= self.n:
             return self.positions[k], self.speeds[k]
         p0, p1, v0, v1 = self.positions[k], self.positions[k + 1], self.speeds[k], self.speeds[k + 1]
         return ([int(round(a + f * (b - a))) for a, b in zip(p0, p1)],
                 [int(round(a + f * (b - a))) for a, b in zip(v0, v1)])
 
-    #: how many ticks a position-tracked move waits for the board to slow down before its first
-    #: frame (then it is sent all the same, and the guard's refusal says why)
-    START_WAIT_TICKS = 50
-
-    def _waits_to_start(self, ctx: TickContext) -> bool:
-        """Before the first 156 frame: True (send IDLE, start the schedule later) while even
-        the first sample is one the guard would refuse -- the board still running from what came
-        before (a STOP's hold, a move cancelled at speed): the IDLE frame stops it, and the move
-        starts a tick later on its full time instead of FAILing on a refusal."""
-        if ctx.goto_check is None or self._prev_goto is not None or self._s is not None:
-            return False
-        if self._start_waits >= self.START_WAIT_TICKS or self._guard_passes(ctx, float(self.i)):
-            return False
-        self._start_waits += 1
-        self.t0 = ctx.schedule_s + 1.0 / ctx.rate_hz  # sample i is due at the next tick
-        self._offset = self.i
-        return True
-
-    def _guard_passes(self, ctx: TickContext, s: float) -> bool:
-        """The guard's verdict on the 156 frame for sample coordinate ``s`` now
-        (``ctx.goto_check`` must be set)."""
-        assert ctx.goto_check is not None
+    def _fits(self, s: float, box: Sequence[tuple[float, float]]) -> bool:
         pos, ff = self._at(s)
-        return ctx.goto_check(pos, ff, ctx.status, ctx.schedule_s)
+        return _in_box(pos, ff, box)
 
-    def _goto_sample(self, ctx: TickContext) -> float:
-        """Where in the samples the next 156 target is: what is due now, but no further than
-        the board can follow from where it is (back along the plan only when even the previous
-        target would ask the board for more than its maximum).  With the guard's own
-        judgement at hand (``ctx.goto_check``) every target is one it passes (else the
-        furthest such one from the previous target on); without it, the pacing model
-        judges catch-ups of more than one sample."""
-        want = min(max(self._elapsed_samples(ctx.schedule_s, ctx.rate_hz), float(self.i)), self.n - 1.0)
-        prev, s_prev = self._prev_goto, self._s
-        check = ctx.goto_check
+    def _hold(self, s: float, box: Sequence[tuple[float, float]]) -> Step:
+        """Not even the target at ``s`` fits the box: the box's point nearest its goal (or IDLE
+        when no goal is safe on some joint)."""
+        pos, ff = self._at(s)
+        frame = _towards(goto_goal(pos, ff), box)
+        if frame is None:
+            return Step(BoardCommand.IDLE)
+        return self._ask(*frame)
 
-        def passes(s: float) -> bool:
-            return self._guard_passes(ctx, s)
-
-        if prev is None or s_prev is None:
-            # the first target: normally the first sample; after a pause that began before it
-            # (replies missing, stop frames sent) the schedule ran on, but the board is still
-            # where it rested: the furthest target the guard passes from it
-            first = float(self.i)
-            if check is None or want <= first or passes(want):
-                return want
-            return _boundary(passes, good=first, bad=want) if passes(first) else first
-        want = max(want, s_prev)
-        target, t_prev = prev
-        if check is not None:
-            ok = passes
+    def _play(self, ctx: TickContext) -> Step:
+        box = ctx.box
+        period = 1.0 / ctx.rate_hz
+        if box is None:
+            # where the board is is not known (no trusted reply yet, a homing): no GO TO may
+            # go out; before the first frame the schedule waits, later the board stands at
+            # the last goal (a bounded commitment) while the plan's clock runs on
+            if self._s is None:
+                self._start_waits += 1
+                self.t0 = ctx.schedule_s + period
+                self._offset = self.i
+                if self._start_waits > self.settle_ticks:
+                    return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
+                                details=f"the board's position was not known for {self.settle_ticks * period:.2f} s: "
+                                        "the move could not start")
+            self.held_ticks += 1
+            return Step(BoardCommand.IDLE)
+        last = self.n - 1.0
+        first = self._s is None
+        low = float(self.i) if first else self._s
+        assert low is not None
+        want = min(max(self._elapsed_samples(ctx.schedule_s, ctx.rate_hz), low), last)
+        if self._fits(want, box):
+            s = want
+        elif self._fits(low, box):
+            s = _boundary(lambda x: self._fits(x, box), good=low, bad=want)
+            self.held_ticks += 1
         else:
-            x = self.log.estimate(ctx.status, ctx.now)
-            if x is None or want - s_prev <= 1.0:
-                return want  # the plan's own pace (at most one sample per period: the planner's bound)
-            dt = ctx.now - t_prev
-
-            def ok(s: float) -> bool:
-                pos, ff = self._at(s)
-                return self.fits(pos, ff, target, dt, x, self.vmax)
-
-        if ok(want):
-            return want
-        pace = min(s_prev + 1.0, self.n - 1.0)
-        if check is not None and want < pace and ok(pace):
-            # the board is further on than "due now" says (the previous frame ran longer than
-            # planned for): the nearest target ahead that the guard passes
-            return _boundary(ok, good=pace, bad=want)
-        step1 = min(s_prev + 1.0, want)
-        if ok(step1):
-            return _boundary(ok, good=step1, bad=want)
-        if check is None or ok(s_prev):
-            return _boundary(ok, good=s_prev, bad=step1)
-        # even the previous target would ask the board for more than its maximum (the guard
-        # sees it further behind than that target allows): a target a little back along the
-        # plan, still ahead of the board, keeps its start speed within the maximum; the plan's
-        # clock runs on and the next ticks catch up
-        back = max(0.0, s_prev - 2.0)
-        return _boundary(ok, good=back, bad=s_prev) if ok(back) else s_prev
-
-    def _speed_step(self, ctx: TickContext, k: int) -> Step:
-        """A speed-tracked sample ``k``: the speed that reaches its position by the next
-        deadline; on the last sample, the correction of what is left, then zero speed."""
-        now = ctx.now
-        last = k == self.n - 1
-        target = self.positions[k]
-        x = self.log.estimate(ctx.status, now)
-        if x is None:
-            speeds: Sequence[int] = self.speeds[k]
-        else:
-            period = 1.0 / ctx.rate_hz
-            due_at = self.t0 + (k + 1 - self._offset) * period
-            interval = max(due_at - ctx.schedule_s, period)
-            if last:  # the end: over no less than the last tick gap (should the next be as late)
-                prev = self.log.last_time()
-                interval = max(interval, now - prev if prev is not None else period)
-            vm = self.vmax
-            speeds = [tracking_speed(target[j], x[j], interval, -vm[j], vm[j]) for j in range(6)]
-        if last:
-            self.settle_left -= 1
-            close = x is None or all(abs(target[j] - x[j]) <= self.settle_tol for j in range(6))
-            st = ctx.status
-            if self.settle_left < 0 or x is None:
-                self.i = self.n
-                self.progress = 1.0
-                return self._ask(now, BoardCommand.JOG, target, _ZERO6, AckStatus.COMPLETED)
-            if close or not any(speeds):
-                # stop, and end once a status frame shows the board stopped where planned (the
-                # reply to the frame after the stop: a stop that reached it late let it run on)
-                if self._stop_mark is None:
-                    self._stop_mark = st if st is not None else False
-                elif st is not None and st is not self._stop_mark and not any(st.speeds):
-                    if all(abs(target[j] - st.positions[j]) <= self.settle_tol for j in range(6)):
-                        self.i = self.n
-                        self.progress = 1.0
-                        return self._ask(now, BoardCommand.JOG, target, _ZERO6, AckStatus.COMPLETED)
-                    self._stop_mark = None
-                    vm = self.vmax
-                    speeds = [tracking_speed(target[j], st.positions[j], interval, -vm[j], vm[j])
-                              for j in range(6)]
-                    self.i = k
-                    self.progress = self.i / self.n
-                    return self._ask(now, BoardCommand.JOG, target, speeds)
-                speeds = _ZERO6
-            self.i = k
-        else:
-            self.i = k + 1
+            self.held_ticks += 1
+            if first:  # the board is not yet where the plan starts: start a tick later
+                self.t0 = ctx.schedule_s + period
+                self._offset = self.i
+            return self._hold(low, box)
+        self._s = s
+        self.i = self.n if s >= last else int(s) + 1
         self.progress = self.i / self.n
-        return self._ask(now, BoardCommand.JOG, target, speeds)
+        pos, ff = self._at(s)
+        return self._ask(pos, ff)
 
     def step(self, ctx: TickContext) -> Step:
         if self.streamed and ctx.stream_mode and ctx.now - self.last_update > ctx.watchdog_s:
-            pos = ctx.status.positions if ctx.status else None
-            zero = BoardCommand.JOG if self.streams_speed else BoardCommand.IDLE
-            return Step(zero, pos, _ZERO6, done=AckStatus.COMPLETED,
+            # a bounded goal: the board stops within 20 ms of travel of where it is
+            return Step(BoardCommand.IDLE, None, done=AckStatus.COMPLETED,
                         details="stream watchdog: no update, jog stopped")
         if self.n == 0:
             return Step(BoardCommand.IDLE, None, done=AckStatus.COMPLETED, details="nothing to do")
-        now = ctx.now
         if self.i < self.n:
-            k = self.i
-            if self.commands[k] == BoardCommand.JOG:
-                due = int(self._elapsed_samples(ctx.schedule_s, ctx.rate_hz) + 0.5)
-                return self._speed_step(ctx, min(max(k, due), self.n - 1))
-            if self._waits_to_start(ctx):
-                return Step(BoardCommand.IDLE)
-            s = self._goto_sample(ctx)
-            self._s = s
-            self.i = self.n if s >= self.n - 1 else int(s) + 1
-            self.progress = self.i / self.n
-            tgt, ff = self._at(s)
-            return self._ask(now, self.commands[int(s)], tgt, ff)
+            return self._play(ctx)
         # settle: the final target with zero feed-forward, every tick, until the board reports
         # it exactly and at rest (the GO TO law v = 50 x error closes the last steps in a few
         # ticks and cannot overshoot without feed-forward); FAILED if it does not in time
         target = self.positions[-1]
         self.settle_left -= 1
         st = ctx.status
+        box = ctx.box
+        if box is not None and not _in_box(target, _ZERO6, box):
+            return self._hold(self.n - 1.0, box)  # the last sample's goal is still on its way
         if st is not None and all(a == b for a, b in zip(st.positions, target)) and not any(st.speeds):
             self.progress = 1.0
-            return self._ask(now, BoardCommand.GOTO, target, _ZERO6, AckStatus.COMPLETED)
+            self._note_stretch(ctx)
+            return self._ask(target, _ZERO6, AckStatus.COMPLETED)
         if self.settle_left <= 0:
-            return self._ask(now, BoardCommand.GOTO, target, _ZERO6, AckStatus.FAILED,
+            return self._ask(target, _ZERO6, AckStatus.FAILED,
                              details=self._missed_target(st, target, ctx.rate_hz))
-        return self._ask(now, BoardCommand.GOTO, target, _ZERO6)
+        if box is None:
+            return Step(BoardCommand.IDLE)
+        return self._ask(target, _ZERO6)
+
+    def _note_stretch(self, ctx: TickContext) -> None:
+        """A move the box held back for a noticeable time says so in its COMPLETED ack."""
+        if self.held_ticks <= 2:
+            return
+        held = self.held_ticks / ctx.rate_hz
+        self.warnings = (*self.warnings, f"{WARNING_PREFIX}ran stretched: for {held:.2f} s the board could not "
+                         "be asked for more without risking its maximum speed (late replies, or a plan "
+                         "faster than the bounded frames can follow)")
 
     def _missed_target(self, st: StatusFrame | None, target: Sequence[int], rate_hz: float) -> str:
-        """The FAILED details of a position-tracked move whose board did not report its target
-        within the settle time: which joints are how far off."""
+        """The FAILED details of a move whose board did not report its target (at rest) within
+        the settle time: which joints are how far off."""
         waited = f"{self.settle_ticks / rate_hz:.2f} s"
         if st is None:
             return f"the board did not report its position within {waited} of the move's end"
@@ -481,159 +412,93 @@ class TrajectoryActivity(Activity):
         return f"the board did not reach the exact target within {waited} of the move's end: {what}"
 
 
-class SpeedActivity(Activity):
-    """Constant joint speeds (board 123) for ``duration_s``; JOG, MULTIJOG, SPEEDJOINT.
+def speed_samples(origin: Sequence[float], speeds_steps_s: Sequence[int], duration_s: float,
+                  rate_hz: float) -> Samples:
+    """The samples of constant joint speeds for ``duration_s`` from ``origin`` (steps): sample
+    ``i`` is where the joints should be one period after it is due, ``origin + v (i + 1) T``,
+    with the speed as feed-forward; the last is exactly ``origin + v x duration`` (rounded to
+    steps) at rest, so the distance is speed x duration whatever the rate."""
+    period = 1.0 / rate_hz
+    n = max(1, int(math.ceil(duration_s * rate_hz - 1e-9)))
+    pos: list[list[int]] = []
+    spd: list[list[int]] = []
+    v = [int(x) for x in speeds_steps_s]
+    for i in range(n - 1):
+        t = (i + 1) * period
+        pos.append([int(round(o + vj * t)) for o, vj in zip(origin, v)])
+        spd.append(list(v))
+    pos.append([int(round(o + vj * duration_s)) for o, vj in zip(origin, v)])
+    spd.append([0] * 6)
+    return pos, spd, [int(BoardCommand.GOTO)] * n
 
-    The board keeps a speed until the next frame, so the distance moved is speed x the TIME
-    each frame actually ran.  The stream tracks the planned position ``start + speed x t``
-    (``t`` at most ``duration_s``): every frame asks for the speed that takes each moving joint
-    from where the board model estimates it now to the planned position at the next deadline,
-    over at least one period (:func:`~parolkit.controller.pacing.tracking_speed`), never
-    faster than the commanded speed and never backwards.  When the planned distance is covered
-    (within ``tol_steps``) zero-speed frames follow, and the stream ends -- COMPLETED -- once a
-    status frame shows the board stopped within ``land_tol_steps`` of the plan (one correction
-    frame first, in either direction and within the commanded speed, when a stop that reached
-    the board late let it run on), so a JOG with a distance stops where it should: what is left
-    when the time is up is sent as a slower last frame instead of being cut off or overrun.
-    If the board does not follow (the estimate never gets there), the stream ends
-    ``overrun_s`` after its time anyway, saying so.  Stops early (COMPLETED, details say why)
-    when a joint would reach its limit within ``stop_lookahead_ticks`` (homed robots only) or,
-    in stream mode, when updates stop.  Always ends with a zero-speed frame.
-    """
 
-    streams_speed = True
-    moves = True
+class SpeedActivity(TrajectoryActivity):
+    """Constant joint speeds for ``duration_s``: JOG, MULTIJOG, SPEEDJOINT, as GO TO frames.
 
-    def __init__(self, speeds_steps_s: Sequence[int], duration_s: float, *, streamed: bool = False,
-                 started: float = 0.0, stop_lookahead_ticks: float = 4.0, tol_steps: float = 1.0,
-                 land_tol_steps: float = 4.0, overrun_s: float = 0.25) -> None:
-        self.streamed = streamed
-        self.lookahead = stop_lookahead_ticks
-        self.tol = tol_steps
-        self.land_tol = land_tol_steps
-        self.overrun = overrun_s
-        self.log = SentLog()
-        self.replace(speeds_steps_s, duration_s, started)
+    The joints follow ``origin + speed x t`` (``t`` up to ``duration_s``; the origin is where
+    the last GO TO frame's goal left them, or where they stand) like any planned move
+    (:class:`TrajectoryActivity`): each frame a bounded commitment, the distance exactly speed x
+    duration, the end settled on the exact steps.  Homed, a joint that would pass its limit
+    stops short of it (COMPLETED, the details say so).  A streamed jog's update
+    (:meth:`replace`) continues from the target the stream has reached."""
 
-    def touch(self, now: float) -> None:
-        self.last_update = now
+    def __init__(self, speeds_steps_s: Sequence[int], duration_s: float, *, rate_hz: float, settle_ticks: int,
+                 streamed: bool = False, started: float = 0.0, schedule_start: float | None = None) -> None:
+        super().__init__(([], [], []), settle_ticks=settle_ticks, streamed=streamed, started=started,
+                         schedule_start=schedule_start)
+        self.rate_hz = rate_hz
+        self._pending: tuple[tuple[int, ...], float] | None = None
+        self.replace(speeds_steps_s, duration_s, started, schedule_start)
 
-    def replace(self, speeds_steps_s: Sequence[int], duration_s: float, now: float) -> None:
-        """New speeds and duration from ``now`` on (a streamed jog's update); the planned
-        position starts again from where the joints are then."""
+    def replace(self, speeds_steps_s: Sequence[int], duration_s: float, now: float,
+                schedule_s: float | None = None) -> None:
+        """New speeds and duration from ``now`` on (a streamed jog's update): the reference
+        starts again from the target the stream has reached (its samples are built at the next
+        step, where that is known)."""
         if not duration_s > 0.0:
             raise ValueError(f"a speed stream needs a duration > 0 s, got {duration_s!r}")
-        self.speeds = tuple(int(v) for v in speeds_steps_s)
+        self.speeds_steps_s = tuple(int(v) for v in speeds_steps_s)
         self.duration = float(duration_s)
-        self.i = 0
-        self.started = now
+        self._pending = (self.speeds_steps_s, self.duration)
         self.last_update = now
-        self.x0: list[float] | None = None
-        #: the status frame when the zero-speed frames began (None: not stopping; False: no
-        #: status then); a newer one showing the joints stopped ends the stream
-        self._stop_mark: StatusFrame | bool | None = None
-        #: time the loop held it paused (stop frames instead of its own), s
-        self.paused = 0.0
-        self._paused_at: float | None = None
+        self.t0 = now if schedule_s is None else schedule_s
+        self._offset = 0
+        self.limit_note = ""
 
-    def held(self, now: float, stop: Step) -> None:
-        """Paused by the loop (``stop`` sent): the board model knows it stopped, and the time
-        the pause lasts is added to the time the stream may take to cover its distance."""
-        self.log.record(now, stop.command, stop.positions or _ZERO6, stop.speeds)
-        if self._paused_at is None:
-            self._paused_at = now
-
-    def _land(self, ctx: TickContext, x0: Sequence[float], end: float) -> Step | None:
-        """The planned distance is covered by the estimate: zero-speed frames until a status
-        frame shows the board stopped (its speeds 0: the reply to the frame after the stop),
-        then COMPLETED if its counters are within ``land_tol_steps`` of the plan, else a
-        correction frame (either way, within the commanded speed: a stop frame that reached the
-        board late let it run on).  None: send the zero-speed frame and wait."""
-        st = ctx.status
-        if self._stop_mark is None:
-            self._stop_mark = st if st is not None else False
-            return None
-        moving = [j for j, v in enumerate(self.speeds) if v]
-        if st is None or st is self._stop_mark or any(st.speeds[j] for j in moving):
-            return None
-        want = [x0[j] + self.speeds[j] * end for j in range(6)]
-        if all(abs(want[j] - st.positions[j]) <= self.land_tol for j in moving):
-            return self._stop(ctx, "")
-        self._stop_mark = None
-        gap = self._gap(ctx.now, 1.0 / ctx.rate_hz)
-        corr = [tracking_speed(want[j], st.positions[j], gap, -abs(v), abs(v)) if v else 0
-                for j, v in enumerate(self.speeds)]
-        self.log.record(ctx.now, BoardCommand.JOG, st.positions, corr)
-        return Step(BoardCommand.JOG, st.positions, tuple(corr))
-
-    def _gap(self, now: float, period: float) -> float:
-        """The time since this stream's previous frame, at least a period (s)."""
-        last = self.log.last_time()
-        return period if last is None else max(period, now - last)
-
-    def _stop(self, ctx: TickContext, details: str) -> Step:
-        pos = ctx.status.positions if ctx.status else None
-        self.log.record(ctx.now, BoardCommand.JOG, pos or _ZERO6, _ZERO6)
-        return Step(BoardCommand.JOG, pos, _ZERO6, done=AckStatus.COMPLETED, details=details)
-
-    def step(self, ctx: TickContext) -> Step:
-        if self.streamed and ctx.stream_mode and ctx.now - self.last_update > ctx.watchdog_s:
-            return self._stop(ctx, "stream watchdog: no update, jog stopped")
-        st = ctx.status
-        if ctx.homed and st is not None:
-            horizon = self.lookahead / ctx.rate_hz
-            for j, v in enumerate(self.speeds):
+    def _build(self, ctx: TickContext) -> Step | None:
+        assert self._pending is not None
+        speeds, duration = self._pending
+        here = self._last_target if self._last_target is not None else ctx.origin
+        if here is None:
+            return Step(BoardCommand.IDLE)  # nothing known yet: wait (the box is None too)
+        self._pending = None
+        if ctx.homed:
+            for j, v in enumerate(speeds):
                 if v == 0:
                     continue
                 lo, hi = ctx.limits_steps[j]
-                ahead = st.positions[j] + v * horizon
-                if (v > 0 and ahead > hi) or (v < 0 and ahead < lo):
-                    return self._stop(ctx, f"stopped at the {'upper' if v > 0 else 'lower'} limit of {JOINT_NAMES[j]}")
-        now = ctx.now
-        if self._paused_at is not None:
-            self.paused += now - self._paused_at
-            self._paused_at = None
-        period = 1.0 / ctx.rate_hz
-        e = now - self.started
-        end = self.duration
-        x = self.log.estimate(st, now)
-        if x is None:  # no status frame yet: by time alone
-            if self.i and e >= end - 0.5 * period:
-                return self._stop(ctx, "")
-            speeds: Sequence[int] = self.speeds
-        else:
-            if self.x0 is None:
-                self.x0 = x
-            if e >= end + self.paused + self.overrun:
-                return self._stop(ctx, f"ended {self.overrun:g} s after its time: the board did not "
-                                       f"cover the planned distance")
-            e_next = (int(e * ctx.rate_hz + 0.5) + 1) * period
-            h = min(e_next, end)
-            interval = max(e_next - e, period)
-            if h >= end:
-                # the last of the distance: over no less than the last tick gap (should the next
-                # tick be as late, the joints still stop where planned instead of running past)
-                interval = max(interval, self._gap(now, period))
-            x0 = self.x0
-            out = []
-            for j, v in enumerate(self.speeds):
-                if v == 0:
-                    out.append(0)
-                    continue
-                if h >= end and abs(x0[j] + v * end - x[j]) <= self.tol:
-                    out.append(0)
-                    continue
-                out.append(tracking_speed(x0[j] + v * h, x[j], interval, min(0, v), max(0, v)))
-            if h >= end and not any(out):
-                landed = self._land(ctx, x0, end)
-                if landed is not None:
-                    return landed
-            speeds = out
-        self.i += 1
-        self.progress = min(1.0, e / end)
-        pos = st.positions if st else None
-        self.log.record(now, BoardCommand.JOG, pos or _ZERO6, speeds)
-        return Step(BoardCommand.JOG, pos, tuple(speeds))
+                room = (hi - here[j]) / v if v > 0 else (lo - here[j]) / v
+                if room < duration:
+                    duration = max(0.0, room)
+                    self.limit_note = f"stopped at the {'upper' if v > 0 else 'lower'} limit of {JOINT_NAMES[j]}"
+        if duration <= 0.0:
+            return self._ask([int(round(x)) for x in here], _ZERO6, AckStatus.COMPLETED, self.limit_note)
+        self._load(speed_samples(here, speeds, duration, self.rate_hz))
+        self._s = None
+        self.settle_left = self.settle_ticks
+        self.t0 = ctx.schedule_s
+        return None
+
+    def step(self, ctx: TickContext) -> Step:
+        if self._pending is not None and not (self.streamed and ctx.stream_mode
+                                              and ctx.now - self.last_update > ctx.watchdog_s):
+            early = self._build(ctx)
+            if early is not None:
+                return early
+        out = super().step(ctx)
+        if out.done is AckStatus.COMPLETED and self.limit_note and not out.details:
+            return replace(out, details=self.limit_note)
+        return out
 
 
 class HomeActivity(Activity):

@@ -64,19 +64,21 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 from parolkit.controller.executor import SET_PORT_SCHEMES, Executor
 from parolkit.controller.guard import SafetyGuard
 from parolkit.controller.inbox import Ack, CommandInbox
 from parolkit.controller.jobs import Step
+from parolkit.controller.link import LinkHistory
 from parolkit.controller.scheduling import raise_priority
 from parolkit.controller.state import BoardInfo, PoseProvider, Snapshot, build_snapshot
 from parolkit.controller.stats import LoopMetrics
 from parolkit.controller.supervisor import STOPPED_PERIODS, StopSupervisor, SupervisorEventKind
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
+from parolkit.robot import goto_goal
 from parolkit.transport.base import LinkLostError, Transport, TransportError
 
 __all__ = ["ControlLoop", "TickOutput", "MIN_SLEEP_S"]
@@ -128,9 +130,6 @@ class ControlLoop:
         self.transport = transport
         self.executor = executor
         self.guard = guard
-        # catch-up targets judged as the guard will judge the frame: with the status it gets
-        # (the loop's, also while a pause hands the executor none)
-        executor.goto_check = lambda pos, ff, _status, now: guard.accepts_goto(pos, ff, self.status, now)
         # a simulated board in lockstep with the frames (sim://?clock=virtual&step=...) runs
         # one period per frame: trajectories follow its time, the tick count
         step_s = getattr(transport, "step_s", None)
@@ -138,6 +137,14 @@ class ControlLoop:
             raise ValueError(f"the simulated board's step ({step_s:g} s per frame) must be the control "
                              f"period (1/{rate_hz:g} Hz = {1.0 / rate_hz:g} s)")
         executor.tick_clock = step_s is not None
+        #: the board's time stands still between ticks (a simulated board on a virtual clock):
+        #: a reply read in a tick was produced at that tick's time
+        self._virtual = bool(getattr(transport, "virtual_clock", False))
+        #: the one record of the link: frames written, which reply answered which, the newest
+        #: trusted reply (parolkit.controller.link)
+        self.link = LinkHistory()
+        #: this tick's time on the link record's clock (see _guard_time)
+        self._tick_t = 0.0
         self.rate_hz = rate_hz
         self.period = 1.0 / rate_hz
         if not 1 <= link_hold_frames <= link_timeout_ticks:
@@ -166,16 +173,10 @@ class ControlLoop:
         self.tick_count = 0
         self.start_time = time.monotonic()
         self._last_status_tick = 0
-        #: frames written since the last structurally valid status frame arrived
-        self.unanswered = 0
-        #: frames written that still wait for their reply, in order (which frame a late reply
-        #: answers; see :meth:`_read`)
-        self._backlog = 0
-        #: replies went missing during motion: it is paused, frames are stop frames, new
-        #: commands are refused (ends with the next reply, or with the loss)
+        #: replies went missing during motion (at least link_hold_frames in a row): counted and
+        #: logged; every frame being a bounded commitment, the motion holds by itself (its
+        #: goals cannot advance past what the last trusted reply allows)
         self.holding = False
-        #: the stop frame sent every tick while holding
-        self._hold_step: Step | None = None
         self._holds_unlogged = 0
         self._next_hold_log = 0.0
         #: the tick thread's scheduling ("fifo:10", "nice:-10", "normal"), set when it starts
@@ -211,11 +212,13 @@ class ControlLoop:
         self.executor.cancel_all("controller shutting down")
         try:
             if self.transport.is_open:
-                pos = self.status.positions if self.status else (0,) * 6
-                last = self.last_frame
-                if last is not None and last.command == BoardCommand.JOG and any(last.speeds):
-                    self.transport.write(replace(last, speeds=(0,) * 6).encode())
-                self.transport.write(CommandFrame(positions=pos, command=BoardCommand.DISABLE).encode())
+                # through the guard like every frame; the outputs and gripper setpoints stay
+                # (a part held is not dropped), as the stop supervisor leaves them
+                t = self._tick_t if self._virtual else self._guard_time(time.monotonic())
+                stop = self.stop_step(self.last_frame)
+                if stop is not None:
+                    self._send(self._guarded(stop, t), t)
+                self._send(self._guarded(Step(BoardCommand.DISABLE), t), t)
                 self._final_frame_sent = True
         except Exception as exc:
             log.warning("could not send the final DISABLE frame: %s", exc)
@@ -309,15 +312,18 @@ class ControlLoop:
 
     @staticmethod
     def stop_step(last: CommandFrame | None) -> Step | None:
-        """The frame that stops what ``last`` commanded, or None when it commands no motion:
-        123 with a speed -> the same with zero speeds; 156 with a feed-forward -> its target
-        with zero feed-forward (the board settles on it instead of ``v_ff / 100`` past it)."""
+        """The frame that ends what ``last`` commanded, or None when nothing needs ending: 123
+        with a speed (the start-up probe's) -> the same with zero speeds; 156 with a
+        feed-forward -> its goal rounded to whole steps, with none.  (A GO TO stops at its goal
+        by itself, a bounded commitment; but a goal between two steps keeps the joint stepping
+        to and fro across it, one step each way, until the next frame.)"""
         if last is None or not any(last.speeds):
             return None
         if last.command == BoardCommand.JOG:
             return Step(BoardCommand.JOG, last.positions, (0,) * 6)
         if last.command == BoardCommand.GOTO:
-            return Step(BoardCommand.GOTO, last.positions, (0,) * 6)
+            return Step(BoardCommand.GOTO, tuple(int(round(g)) for g in goto_goal(last.positions, last.speeds)),
+                        (0,) * 6)
         return None
 
     def _write_stop(self) -> None:
@@ -325,20 +331,25 @@ class ControlLoop:
         step = self.stop_step(self.last_frame)
         if step is None or not self.transport.is_open:
             return
+        t = self._tick_t if self._virtual else self._guard_time(time.monotonic())
         try:
-            self._send(self._guarded(step, self._guard_time(time.monotonic())))
+            self._send(self._guarded(step, t), t)
         except Exception as exc:  # the link is going away anyway
             log.warning("could not write the stop frame before declaring the link lost: %s", exc)
 
-    def _hold(self, now: float, stop: Step) -> None:
-        """Replies went missing during motion: pause it, the board stopped by ``stop``."""
+    @property
+    def unanswered(self) -> int:
+        """Frames written since the last structurally valid status frame arrived."""
+        return self.link.unanswered
+
+    def _hold(self, now: float) -> None:
+        """Replies went missing during motion: counted and logged (the motion holds by itself)."""
         self.holding = True
-        self._hold_step = stop
         self.stats.link_holds += 1
         self._holds_unlogged += 1
         if now >= self._next_hold_log:
             self._next_hold_log = now + 10.0
-            log.warning("the board left %d frames in a row unanswered: motion paused with stop frames "
+            log.warning("the board left %d frames in a row unanswered: motion holds at its last goal "
                         "(%d such pause(s) since the last report; the link counts as lost after %d)",
                         self.unanswered, self._holds_unlogged, self.link_timeout_ticks)
             self._holds_unlogged = 0
@@ -351,12 +362,9 @@ class ControlLoop:
         if u >= self.link_timeout_ticks:
             self._lose_link(f"the board left {u} frames in a row unanswered")
         elif u >= self.link_hold_frames and not self.holding:
-            last = self.last_frame
             act = self.executor.activity
-            if last is not None and last.command in (BoardCommand.JOG, BoardCommand.GOTO) and (
-                    any(last.speeds) or (act is not None and act.moves)):
-                # 123 -> zero speeds; 156 -> its target with zero feed-forward
-                self._hold(now, Step(last.command, last.positions, (0,) * 6))
+            if act is not None and act.moves:
+                self._hold(now)
 
     def _reconnect_worker(self) -> None:
         self._helper_priority()  # started by the tick thread: do not run with its priority
@@ -379,10 +387,10 @@ class ControlLoop:
                 self.transport.reconnect()
             self.parser.reset()
             self.filter.reset()
+            self.link.reset()
+            self._virtual = bool(getattr(self.transport, "virtual_clock", False))
             self.status = None
             self._last_status_tick = self.tick_count
-            self.unanswered = 0
-            self._backlog = 0
             self.holding = False
             with self._supervise_lock:
                 self._supervise()
@@ -421,26 +429,22 @@ class ControlLoop:
             return
         if data:
             frames = self.parser.feed(data)
-            n = self.filter.frames_written
+            # when it was read, on the link record's clock: a board on a virtual clock
+            # produced it in this tick's time; a real one before this moment
+            t_read = self._tick_t if self._virtual else time.monotonic()
             for i, f in enumerate(frames):
                 self.stats.frames_received += 1
-                if after_write:  # the last one answers the frame just written
-                    answers = n - (len(frames) - 1 - i)
-                else:  # late: the oldest frame still waiting
-                    answers = n - self._backlog + 1
-                self._backlog = max(0, self._backlog - 1)
-                # any structurally valid status frame proves the board answered a frame
-                self.unanswered = 0
+                answers = self.link.answered(len(frames), i, after_write=after_write)
                 self.holding = False
                 if self.filter.accept(f, time.monotonic(), self.parser.stats.bytes_dropped, answers):
                     self.status = f
                     self.last_status = f
                     self._last_status_tick = self.tick_count
+                    self.link.trust(answers, f, t_read)
                 else:
                     self.stats.implausible_frames += 1
+                self.link.homing = self.filter.homing
             self.stats.bytes_dropped = self.parser.stats.bytes_dropped
-            if after_write:
-                self._backlog = 0
 
     def _compose(self, step: Step) -> CommandFrame:
         ex = self.executor
@@ -455,11 +459,23 @@ class ControlLoop:
             gripper_command=g.command, gripper_mode=step.gripper_mode,
         )
 
+    def _motion_bounds(self) -> tuple[list[tuple[float, float]] | None, list[float] | None]:
+        """This tick's goals the guard allows for a GO TO frame, and where a new motion starts:
+        the goal of the last frame if it was a GO TO (the board is on its way there), else
+        the trusted position."""
+        box = self.guard.goal_box(self.link, self._tick_t)
+        last = self.link.last
+        if last is not None and last.command == BoardCommand.GOTO:
+            return box, goto_goal(last.positions, last.speeds)
+        st = self.status
+        return box, [float(p) for p in st.positions] if st is not None else None
+
     def tick(self, now: float) -> TickOutput:
         """One tick at time ``now`` (monotonic s): read, decide, guard, write.  Returns what
         to publish; the caller advances :attr:`tick_count`."""
         ex = self.executor
         inbox = self.inbox
+        self._tick_t = self._guard_time(now)
         if self.supervisor is not None:
             self._watch_supervisor(self.supervisor, now)
         if self.link_up:
@@ -471,14 +487,11 @@ class ControlLoop:
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
         commands = inbox.take_safety()
         commands += inbox.take()
-        up = self.link_up and not self.holding
+        up = self.link_up
+        box, origin = self._motion_bounds() if up else (None, None)
         step = ex.tick(tick=self.tick_count, now=now, status=self.status if up else None,
-                       link_up=up, commands=commands)
-        hold = self._hold_step
-        if self.holding and hold is not None and step.command == BoardCommand.IDLE:
-            step = hold  # the motion is paused: the board is told to stop, every tick
-            if ex.activity is not None:
-                ex.activity.held(now, hold)
+                       link_up=up, commands=commands, box=box, origin=origin,
+                       replies_missing=self.unanswered if self.holding else 0)
         if ex.requested_port is not None:
             port, ex.requested_port = ex.requested_port, None
             self.request_port(port)
@@ -491,30 +504,29 @@ class ControlLoop:
         (a tick that ran early or late gave it no more and no less than one period)."""
         return self.tick_count * self.period if self.executor.tick_clock else now
 
-    def _guarded(self, step: Step, now: float) -> CommandFrame:
-        """``step`` as a frame, through the guard.  ``now`` (the tick's time, s) tells the
-        guard how long the previous frame ran: a GO TO target may step further after a late
-        tick, as far as the board can follow within its maximum speed (guard rules 6, 7)."""
+    def _guarded(self, step: Step, t_write: float) -> CommandFrame:
+        """``step`` as a frame, through the guard; ``t_write``: when it is written, on the link
+        record's clock."""
         ex = self.executor
         frame = self._compose(step)
-        res = self.guard.check(frame, self.status, estop=ex.estop_latched or ex.estop_pressed,
-                               homed=ex.homed, now=now)
+        res = self.guard.check(frame, self.link, self.status, estop=ex.estop_latched or ex.estop_pressed,
+                               homed=ex.homed, t_write=t_write)
         if res.violation is not None:
             log.error("safety guard replaced a %s frame: %s", frame.command, res.violation)
             ex.fail_active(res.violation)
         return res.frame
 
-    def _send(self, frame: CommandFrame) -> float:
-        """Write ``frame`` and tell whoever keeps count (the integrity check, the stop
-        supervisor, the unanswered frames); returns the write time (``perf_counter``)."""
+    def _send(self, frame: CommandFrame, t_link: float) -> float:
+        """Write ``frame`` and tell whoever keeps count (the link record, the integrity check,
+        the stop supervisor); ``t_link``: the write time on the link record's clock.  Returns
+        the write time (``perf_counter``)."""
         data = frame.encode()
         t_write = time.perf_counter()
         self.transport.write(data)
-        self.filter.sent(frame, time.monotonic())
+        n = self.link.sent(frame, t_link)
+        self.filter.sent(frame, time.monotonic(), n)
         self.last_frame = frame
         self.stats.frames_sent += 1
-        self.unanswered += 1
-        self._backlog += 1
         if self.supervisor is not None:
             self.supervisor.sent(data)
         return t_write
@@ -527,7 +539,7 @@ class ControlLoop:
             frame = self._guarded(self.executor.preempt(self.inbox.take_safety(), tick=self.tick_count, now=now),
                                   g)
         try:
-            t_write = self._send(frame)
+            t_write = self._send(frame, g)
         except (LinkLostError, TransportError) as exc:
             self._lose_link(str(exc) or "write failed", may_write=False)
             return None

@@ -36,6 +36,9 @@ class Transport(abc.ABC):
 
     #: True for links to an emulated board
     simulated: bool = False
+    #: True when the far end is a board on a virtual clock (its time stands still between the
+    #: caller's steps: a reply read in a tick was produced in that tick's time)
+    virtual_clock: bool = False
 
     @property
     @abc.abstractmethod

@@ -51,6 +51,7 @@ class EmulatorTransport(Transport):
                     "step (simulated seconds per frame) needs clock=virtual: a real-time board "
                     "follows the wall clock, not the frames")
         self.step_s = step_s
+        self.virtual_clock = self.emulator.clock is ClockMode.VIRTUAL
         self._open = False
         self._owns_loop = False
 

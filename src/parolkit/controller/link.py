@@ -1,0 +1,197 @@
+"""One record of the board link: the frames written, which reply answered which, and where the
+board can be when the next frame arrives.
+
+The guard (is a frame a bounded commitment?), the motion activities (which goal may the next
+frame carry?) and the link supervision (how many frames are unanswered?) all read this one
+record; nothing else keeps its own account of the link.
+
+Where the board can be: a reply answers one frame (the board sends it as it accepts the frame)
+and carries the joints' positions at that moment.  Between frames the board runs the last one
+it accepted: a GO TO (156) moves each joint towards the frame's *goal* ``target + v_ff / 100``
+(the firmware's law ``v = 0.5 v_ff + 50 (target - x)`` is ``v = 50 (goal - x)``) and never past
+it; IDLE, DISABLE, ENABLE and CLEAR_ERROR hold it still; a JOG (123) with a speed runs without
+bound; a HOME runs the homing.  So from the newest *trusted* reply (the one the integrity check
+took as the truth, answering frame ``k``), if frames ``k .. n-1`` were GO TO or standing-still
+frames, each joint is somewhere in the interval spanned by the reply's position and the goals
+of those frames (:meth:`LinkHistory.window`).  When every one of them was a GO TO whose goal lies
+on the same side and the reply shows the joint already running that way (the board follows
+GO TO frames: a disabled board ignores them and reports no speed), the board has also moved
+towards the nearest goal for at least the time between reading that reply and writing the next
+frame (the reply was sent after frame ``k`` arrived; frame ``n`` arrives after it is written):
+that raises the near end of the interval.
+This uses nothing the board might do late or early (a frame held back by the operating system,
+several delivered at once), only the order of events.
+
+Times (s) are the caller's clock: the monotonic clock on a real link, the board's own time
+(ticks x period) on a simulated board in lockstep with the frames, where a reply is produced
+at the time its frame is written.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
+from parolkit.robot import GOTO_GAIN_PER_S, goto_goal
+
+__all__ = ["LinkHistory", "Written", "Anchor"]
+
+_GOTO = int(BoardCommand.GOTO)
+_JOG = int(BoardCommand.JOG)
+_HOME = int(BoardCommand.HOME)
+#: frames remembered (a window longer than this is unknown: the link counts as lost long before)
+_SIZE = 128
+
+
+@dataclass(frozen=True, slots=True)
+class Written:
+    """Frame number ``n`` (from 1 in a session), written at ``t`` (s)."""
+
+    n: int
+    frame: CommandFrame
+    t: float
+
+
+@dataclass(frozen=True, slots=True)
+class Anchor:
+    """A trusted reply: the board's ``status`` as it accepted frame ``n``, read at ``t`` (s)."""
+
+    n: int
+    status: StatusFrame
+    t: float
+
+
+class LinkHistory:
+    """The frames written in this link session, the replies that answered them and the
+    newest trusted reply (see the module docstring).  One owner (the tick); no locking."""
+
+    def __init__(self) -> None:
+        self._written: deque[Written] = deque(maxlen=_SIZE)
+        self.reset()
+
+    def reset(self) -> None:
+        """A new link session: nothing is known of the board."""
+        self._written.clear()
+        self._n = 0
+        #: frames written since the last structurally valid reply arrived
+        self.unanswered = 0
+        #: frames written whose replies have not arrived yet, oldest first (which frame a late
+        #: reply answers: the board answers in order)
+        self._backlog = 0
+        self.anchor: Anchor | None = None
+        #: a homing may be running (the board moves on its own): set when HOME is written,
+        #: cleared by the owner when the integrity check has seen it end (it judges the homing
+        #: from the raw replies: :attr:`parolkit.controller.integrity.StatusIntegrity.homing`)
+        self.homing = False
+
+    # ------------------------------------------------------------------ events
+
+    @property
+    def frames_written(self) -> int:
+        """Number of the newest frame written (they count from 1; 0: none yet)."""
+        return self._n
+
+    @property
+    def last(self) -> CommandFrame | None:
+        """The newest frame written (None before the first of the session)."""
+        return self._written[-1].frame if self._written else None
+
+    def sent(self, frame: CommandFrame, t: float) -> int:
+        """``frame`` was written at ``t``; returns its number."""
+        self._n += 1
+        self._written.append(Written(self._n, frame, t))
+        if int(frame.command) == _HOME:
+            self.homing = True
+        self.unanswered += 1
+        self._backlog += 1
+        return self._n
+
+    def answered(self, count: int, index: int, *, after_write: bool) -> int:
+        """The number of the frame that the ``index``-th (from 0) of ``count`` replies read
+        together answers.  ``after_write``: read while waiting for the reply to the frame just
+        written (the last of them answers it, the ones before it the frames before); else read
+        later, at the start of a tick: the oldest frame still unanswered (the board answers in
+        order; replies the operating system held back arrive several at once)."""
+        if after_write:
+            n = self._n - (count - 1 - index)
+        else:
+            n = self._n - self._backlog + 1
+        self._backlog = max(0, self._backlog - 1)
+        self.unanswered = 0  # any structurally valid reply proves the board answered
+        if after_write and index == count - 1:
+            self._backlog = 0  # the rest were lost
+        return max(0, min(self._n, n))
+
+    def trust(self, n: int, status: StatusFrame, t: float) -> None:
+        """The integrity check took ``status`` (answering frame ``n``, read at ``t``) as the
+        truth: where the board's position is known from."""
+        a = self.anchor
+        if a is None or n >= a.n:
+            self.anchor = Anchor(n, status, t)
+
+    # ------------------------------------------------------------------ where the board can be
+
+    def since(self, n: int) -> list[Written] | None:
+        """The frames written from number ``n`` on, oldest first; None if any of them is no
+        longer remembered."""
+        w = self._written
+        if w and w[0].n > max(n, 1):
+            return None
+        return [x for x in w if x.n >= n]
+
+    def window(self, t_write: float) -> list[tuple[float, float]] | None:
+        """Per joint, the interval (steps) the board's position lies in when a frame written at
+        ``t_write`` (s) arrives; None when that is not known (no trusted reply in this session,
+        frames since then forgotten, a homing or a speed (JOG) frame since then)."""
+        a = self.anchor
+        if a is None or self.homing:
+            return None
+        frames = self.since(a.n)
+        if frames is None:
+            return None
+        goals: list[list[float]] = [[] for _ in range(6)]
+        all_goto = True
+        for w in frames:
+            f = w.frame
+            code = int(f.command)
+            if code == _GOTO:
+                for j, g in enumerate(goto_goal(f.positions, f.speeds)):
+                    goals[j].append(g)
+            elif code == _HOME or (code == _JOG and any(f.speeds)):
+                return None
+            else:
+                all_goto = False  # stood still from that frame on
+        rise = 1.0 - math.exp(-GOTO_GAIN_PER_S * max(0.0, t_write - a.t)) if all_goto else 0.0
+        out = []
+        for j in range(6):
+            p = float(a.status.positions[j])
+            gs = goals[j]
+            if not gs:
+                out.append((p, p))
+                continue
+            lo, hi = min(p, *gs), max(p, *gs)
+            v = a.status.speeds[j]
+            if rise > 0.0:
+                # every goal ahead and the reply shows the joint running that way (the board
+                # follows: a disabled one ignores GO TO and reports no speed): it moved towards
+                # them for at least the time since
+                if lo == p and min(gs) > p and v > 0:
+                    lo = p + (min(gs) - p) * rise
+                elif hi == p and max(gs) < p and v < 0:
+                    hi = p + (max(gs) - p) * rise
+            out.append((lo, hi))
+        return out
+
+    def goal_box(self, t_write: float, reach: Sequence[float]) -> list[tuple[float, float]] | None:
+        """Per joint, the goals (steps) a GO TO frame written at ``t_write`` may carry so that the
+        board starts it within its maximum speed wherever it is in :meth:`window`: within
+        ``reach[j]`` (the maximum speed / 50, i.e. 20 ms of travel at it) of both ends.  An
+        empty interval (low > high) means no goal is safe on that joint (cannot happen for a
+        stream of frames that each passed this box: see the docs).  None: unknown."""
+        win = self.window(t_write)
+        if win is None:
+            return None
+        return [(hi - r, lo + r) for (lo, hi), r in zip(win, reach)]
