@@ -33,7 +33,9 @@ six fields per spline waypoint, ``SMOOTH_BLEND|...|DEFAULT``, frames and axes as
 
 Acknowledgements arrive on UDP :data:`ACK_PORT` (5002): one shared
 :class:`LazyCommandTracker` binds it on first use (nothing runs before).  If another program
-holds that port, :class:`AckPortBusyError` says so.
+holds that port, :class:`AckPortBusyError` says so.  Once it runs, every command (tracked or
+not) goes out from its socket: the controller knows a client by its socket, so the control
+lease taken with :func:`take_control` covers all of this process's commands.
 
 Arguments are checked BEFORE anything is sent: a bad value raises ``ValueError`` naming the
 argument and the allowed range (for example ``speed_percentage must be in 0..100, got 150``).
@@ -794,13 +796,23 @@ def matrix_to_pose(matrix: Sequence[Any]) -> List[float]:
 
 
 def send_robot_command(command_string: str) -> str:
-    """Send one datagram to the controller without tracking (no thread, no extra socket kept).
+    """Send one datagram to the controller without tracking.
+
+    Once the acknowledgement listener runs (the first tracked command or
+    :func:`take_control` starts it) the datagram goes out from its socket, as tracked commands
+    do: the controller knows a client by its socket, so the process is then one client, and
+    the control lease it took covers these commands too.  Before that, from a new socket, as
+    the original client (no thread, no socket kept).
 
     Returns ``"Successfully sent command: '...'"``, or ``"Error sending command: ..."`` when the
     operating system refused to send it (the original's strings)."""
+    tracker = _command_tracker
     try:
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-            sock.sendto(command_string.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+        if tracker is not None and tracker.is_active():
+            tracker.send(command_string)
+        else:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+                sock.sendto(command_string.encode("utf-8"), (SERVER_IP, SERVER_PORT))
     except OSError as exc:
         return f"Error sending command: {exc}"
     return f"Successfully sent command: '{command_string[:50]}...'"
@@ -1193,9 +1205,10 @@ def home_robot(wait_for_ack: bool = False, timeout: float = 30.0,
 
 def take_control(force: bool = False, secret: Optional[str] = None, timeout: float = 2.0
                  ) -> Dict[str, Any]:
-    """**(ext)** Take the control lease (only its holder may move the robot; a free lease is
-    also taken by the first motion command).  ``force`` takes it from another client and
-    cancels that client's commands.  Returns the terminal ack dict."""
+    """**(ext)** Take the control lease: only its holder may move the robot (while nobody holds
+    it, any script may).  From the call on, every command of this process goes out from the
+    acknowledgement listener's socket, the client that holds the lease.  ``force`` takes it from
+    another client and cancels that client's commands.  Returns the terminal ack dict."""
     return send_and_wait(build_control("TAKE", force, secret), timeout)  # type: ignore[return-value]
 
 

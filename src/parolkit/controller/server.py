@@ -33,6 +33,7 @@ from parolkit.controller.executor import SAFETY_COMMANDS, SET_PORT_SCHEMES
 from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
 from parolkit.controller.jobs import PlanAhead
 from parolkit.controller.lease import ClientId, ControlLease, is_loopback
+from parolkit.controller.senders import KnownClients
 from parolkit.controller.state import Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
@@ -252,10 +253,10 @@ class StatusStream:
 
 
 class UdpServer:
-    """The command socket, its receiver and its worker thread (see the module docstring)."""
+    """The command socket, its receiver and its worker thread (see the module docstring).
 
-    #: at most this many ACK_HERE sockets are remembered
-    MAX_ACK_HERE = 256
+    Who sent what (issue 22, :mod:`parolkit.controller.senders`): every sender is its socket
+    (address and port); :attr:`known` are the sockets that asked for their acks."""
 
     def __init__(
         self,
@@ -280,9 +281,8 @@ class UdpServer:
         self.max_waiting = max_waiting_per_source
         #: who may command the robot (see parolkit.controller.lease)
         self.lease = lease if lease is not None else ControlLease()
-        #: sockets that asked for their acks (ACK_HERE), oldest first
-        self._ack_here: dict[Address, None] = {}
-        self._ack_here_lock = threading.Lock()
+        #: sockets that asked for their acks (ACK_HERE)
+        self.known = KnownClients()
         # per-source lanes of (receive number, datagram), and the order sources are served in
         # (server thread only)
         self._lanes: dict[Address, deque[tuple[int, bytes]]] = {}
@@ -300,6 +300,8 @@ class UdpServer:
         #: commands refused with a busy ack (datagram lane or the loop's inbox full)
         self.busy_acks = 0
         self.safety_fast = 0
+        #: ACK_HERE refused because the table of registered sockets was full
+        self.clients_refused = 0
         self._log_window = 0.0
         self._log_bytes = 0
         self._suppressed = 0
@@ -321,6 +323,7 @@ class UdpServer:
             "received": self.received, "invalid": self.invalid, "shed": self.shed,
             "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
             "safety_fast": self.safety_fast, "log_suppressed": self.log_suppressed,
+            "clients_refused": self.clients_refused,
         }
 
     @property
@@ -422,7 +425,7 @@ class UdpServer:
         except DatagramError:
             return
         if isinstance(parsed.command, C.AckHere):
-            self.ack_here(addr)
+            self.ack_here(addr)  # a refusal is answered when the datagram is served
 
     def _shed(self, data: bytes, addr: Address, waiting: int) -> None:
         """Refuse a datagram of a source over its share, saying so where the protocol can."""
@@ -438,25 +441,27 @@ class UdpServer:
 
     # ------------------------------------------------------------------ helpers
 
-    def ack_here(self, addr: Address) -> None:
-        """(ext ACK_HERE) acks of commands from ``addr`` also go to ``addr`` itself."""
-        with self._ack_here_lock:
-            self._ack_here.pop(addr, None)
-            self._ack_here[addr] = None
-            while len(self._ack_here) > self.MAX_ACK_HERE:  # bounded: oldest forgotten first
-                self._ack_here.pop(next(iter(self._ack_here)))
+    def ack_here(self, addr: Address) -> str | None:
+        """(ext ACK_HERE) acks of commands from ``addr`` also go to ``addr`` itself.  None when
+        registered; else why not (the table is full: see
+        :class:`~parolkit.controller.senders.KnownClients`)."""
+        return self.known.admit(addr, time.monotonic(), self._pinned)
+
+    def _pinned(self, addr: Address) -> bool:
+        """A registered socket that must keep its place: the lease holder."""
+        holder = self.lease.holder
+        return holder is not None and holder.address == addr
 
     def client(self, addr: Address) -> ClientId:
-        """Who sent a datagram from ``addr`` (see :class:`~parolkit.controller.lease.ClientId`)."""
-        if addr in self._ack_here:
-            return ClientId(addr[0], addr[1])
-        return ClientId(addr[0], self.ack_port, legacy=True)
+        """Who sent a datagram from ``addr``: that socket (see
+        :class:`~parolkit.controller.lease.ClientId`)."""
+        return ClientId(addr[0], addr[1])
 
     def _ack_addr(self, addr: Address) -> AckRoute:
         """Where the acks of a command from ``addr`` go: the sender's host at the ack port (the
         original protocol), plus the sending socket itself if it asked with ACK_HERE."""
         primary = (addr[0], self.ack_port)
-        if addr[1] != self.ack_port and addr in self._ack_here:
+        if addr[1] != self.ack_port and addr in self.known:
             return (primary, (addr[0], addr[1]))
         return (primary,)
 
@@ -509,10 +514,15 @@ class UdpServer:
             return
         cmd = parsed.command
         cid = parsed.command_id
-        if isinstance(cmd, C.AckHere):
-            self.ack_here(addr)
-        who = self.client(addr)
         now = time.monotonic()
+        self.known.heard(addr, now)
+        if isinstance(cmd, C.AckHere):
+            refusal = self.ack_here(addr)
+            if refusal is not None:
+                self.clients_refused += 1
+                self._refuse(cid, addr, f"ACK_HERE refused: {refusal}")
+                return
+        who = self.client(addr)
         if cmd.KIND is C.CommandKind.QUERY:
             if cmd.name == "GET_CONTROL":
                 reply = "CONTROL|" + C.dumps(self.lease.view(now, self.answerer.busy()))
@@ -531,7 +541,7 @@ class UdpServer:
             self._control(cmd, cid, addr, who, now)
             return
         if not cmd.OPEN:
-            refusal = self.lease.check(who, now, self.answerer.busy())
+            refusal = self.lease.check(who, now, self.answerer.busy(), registered=addr in self.known)
             if refusal is not None:
                 self._refuse(cid, addr, f"{cmd.name} refused: {refusal}")
                 return
