@@ -4,6 +4,7 @@ ack, and the log stays within its byte budget."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import socket
 import time
@@ -33,8 +34,9 @@ def _server(served) -> dict:
     return json.loads(reply.split("|", 1)[1])["server"]
 
 
-def _id(n: int) -> str:
-    return f"fz{n:06d}"
+#: IDs are never reused, not even across examples: an ID belongs to the socket that sent it
+#: (issue 22), and every example sends from a new socket
+_IDS = (f"fz{n:06d}" for n in itertools.count())
 
 
 _NAME = st.sampled_from(sorted(_NAMES) + ["movejoint", "GET_", "ACK", ""])
@@ -65,7 +67,7 @@ def test_arbitrary_datagrams_get_exactly_one_terminal_ack_per_id_and_a_bounded_l
         t0 = time.monotonic()
         for k, (body, with_id) in enumerate(bodies):
             if with_id:
-                cid = _id(len(sent))
+                cid = next(_IDS)
                 sent.append(cid)
                 bodies_of[cid] = body
                 data = cid.encode() + b"|" + body

@@ -1,8 +1,10 @@
-"""Issue 22, item 1: nothing forged by another sender, tried on a real controller process
+"""Issue 22, items 1-2: nothing forged by another sender, tried on a real controller process
 over real UDP sockets, as a hostile process on the same host would.
 
 1. Every sender (address and port) is its own client: once one socket holds the control lease,
    no other socket moves the arm, and a flood of ACK_HERE sockets never pushes the holder out.
+2. A command ID belongs to its sender: another sender reusing it (read from GET_STATUS_JSON)
+   is refused, and nothing with that ID reaches the owner's ack port.
 
 Time is judged by the controller's own tick counter (the status ``seq``), never by wall time.
 """
@@ -188,3 +190,35 @@ def test_robot_api_take_control_covers_the_processs_commands_and_no_other_socket
         assert api.move_robot_joints(STANDBY, duration=0.4, wait_for_ack=True, timeout=10)["status"] == "COMPLETED"
     finally:
         assert api.release_control()["status"] == "COMPLETED"
+
+
+# ------------------------------------------------------------------ 2. a command ID belongs to its sender
+
+
+def test_another_sender_cannot_end_a_running_command_with_its_id(served, api):
+    """The issue's reproduction: the running command's ID is read from GET_STATUS_JSON and sent
+    back as ``<ID>|PING`` (COMPLETED) and ``<ID>|\\xff`` (INVALID); the owner's wait used to
+    return COMPLETED a second into a long move.  Now both are refused to their sender and the
+    owner's only terminal ack is the move's own."""
+    until_idle(served.port)
+    cid = api.move_robot_joints([80, -85, 170, 5, 5, 170], duration=2.0, wait_for_ack=True, non_blocking=True)
+    wait_until(lambda: (status(served.port)["command"] or {}).get("id") == cid, 10, what="the move running")
+    with fresh_socket() as attacker:
+        for forged in (f"{cid}|PING".encode(), f"{cid}|".encode() + b"\xff", f"{cid}|GET_ANGLES".encode(),
+                       f"{cid}|MOVEJOINT|1|2".encode()):
+            attacker.sendto(forged, ("127.0.0.1", served.port))
+            reply = attacker.recv(65535).decode()
+            assert reply.startswith("ERROR|") and f"command ID {cid} belongs to another client" in reply, reply
+            assert receive_all(attacker) == []  # the refusal and nothing else (no PONG, no reply)
+        assert (api.check_command_status(cid) or {}).get("completed") is not True
+        rec = wait_until(lambda: (r := api.check_command_status(cid)) and r["completed"] and r, 15,
+                         what="the move's terminal ack")
+        assert rec["status"] == "COMPLETED" and rec["details"].startswith("MoveJoint finished"), rec
+        assert status(served.port)["angles"] == pytest.approx([80, -85, 170, 5, 5, 170], abs=0.01)
+        assert [s for s in rec["history"] if s in robot_api.TERMINAL_STATUSES] == ["COMPLETED"], rec
+        # an ID that ended a moment ago stays its sender's too
+        attacker.sendto(f"{cid}|PING".encode(), ("127.0.0.1", served.port))
+        assert f"command ID {cid} belongs to another client" in attacker.recv(65535).decode()
+    # counted (the status shows the server's counters as of its last tick)
+    wait_until(lambda: status(served.port)["server"]["foreign_ids"] >= 5, 5, what="5 refusals counted")
+    api.move_robot_joints(STANDBY, speed_percentage=80, wait_for_ack=True, timeout=10)

@@ -1,26 +1,37 @@
 """What the UDP server knows about the senders of datagrams (issue 22).
 
 A sender is its address and port, nothing else: two sockets are two clients, whatever they
-send.  Bounded records, read and written by the server thread:
+send.  Two small records, each bounded, each read and written by the server thread (the
+loop thread only reports finished command IDs, through a lock-free deque):
 
 * :class:`KnownClients`: the sockets that asked for their acks (``ACK_HERE``).  At most
   :data:`MAX_KNOWN_CLIENTS`; when full, a newcomer takes the place of one silent for
-  :data:`KNOWN_CLIENT_IDLE_S`, else it is refused ("busy").  The lease holder is never pushed
-  out.
+  :data:`KNOWN_CLIENT_IDLE_S`, else it is refused ("busy").  The lease holder and a socket with
+  commands still running or queued are never pushed out.
+* :class:`CommandIds`: which sender each command ID belongs to, while the command is live
+  (queued, running, waiting for the loop) and for the :data:`MAX_RECENT_IDS` IDs that ended
+  last.  A datagram that reuses another sender's ID is refused, so no client can make the
+  controller send an ack with someone else's ID (a forged COMPLETED of a running move).  Live
+  IDs are never forgotten, however many new IDs a flood brings.
 """
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
 
 from parolkit.controller.inbox import Address
 
-__all__ = ["KnownClients", "MAX_KNOWN_CLIENTS", "KNOWN_CLIENT_IDLE_S"]
+__all__ = [
+    "KnownClients", "CommandIds", "MAX_KNOWN_CLIENTS", "KNOWN_CLIENT_IDLE_S", "MAX_RECENT_IDS",
+]
 
 #: sockets that sent ACK_HERE, remembered at most
 MAX_KNOWN_CLIENTS = 256
 #: a known socket silent this long may give its place to a newcomer when the table is full, s
 KNOWN_CLIENT_IDLE_S = 60.0
+#: IDs of ended commands still owned by their sender (beyond the live ones, which all are)
+MAX_RECENT_IDS = 4096
 
 
 class KnownClients:
@@ -46,7 +57,7 @@ class KnownClients:
     def admit(self, addr: Address, now: float, pinned: Callable[[Address], bool]) -> str | None:
         """Remember ``addr`` (ACK_HERE).  None when it is in; else why not.  When the table is
         full, the socket silent longest gives way if it has been silent for ``idle_s`` and
-        ``pinned`` (true for the lease holder) is false for it."""
+        ``pinned`` (the lease holder, a socket with live commands) is false for it."""
         if addr in self._heard:
             self.heard(addr, now)
             return None
@@ -65,4 +76,67 @@ class KnownClients:
             del self._heard[victim]
         self._heard[addr] = now
         return None
+
+
+class CommandIds:
+    """Which sender each command ID belongs to (see the module docstring).
+
+    :meth:`claim` is called by the server thread for every datagram that carries an ID;
+    :meth:`ended` by whichever thread sends an ID's terminal ack."""
+
+    def __init__(self, recent: int = MAX_RECENT_IDS) -> None:
+        self.recent_max = recent
+        self._live: dict[str, Address] = {}
+        self._recent: dict[str, Address] = {}  # oldest first
+        self._live_per_sender: dict[Address, int] = {}
+        self._ended: deque[str] = deque()  # appended by any thread, taken by the server thread
+        #: datagrams refused because their ID belonged to another sender
+        self.refused = 0
+
+    def claim(self, cid: str, addr: Address) -> Address | None:
+        """``cid`` arrives from ``addr``: None when it is free or already ``addr``'s (it is then
+        live for ``addr``), else the sender it belongs to (refuse the datagram)."""
+        self._absorb()
+        owner = self._live.get(cid)
+        if owner is None:
+            owner = self._recent.get(cid)
+        if owner is not None and owner != addr:
+            self.refused += 1
+            return owner
+        if cid not in self._live:
+            self._recent.pop(cid, None)
+            self._live[cid] = addr
+            self._live_per_sender[addr] = self._live_per_sender.get(addr, 0) + 1
+        return None
+
+    def ended(self, cid: str) -> None:
+        """The terminal ack of ``cid`` was sent (any thread): it stays its sender's while it is
+        among the :attr:`recent_max` IDs that ended last."""
+        self._ended.append(cid)
+
+    def has_live(self, addr: Address) -> bool:
+        """True while a command ``addr`` sent is live (queued, running, waiting for the loop)."""
+        self._absorb()
+        return addr in self._live_per_sender
+
+    @property
+    def live(self) -> int:
+        self._absorb()
+        return len(self._live)
+
+    def _absorb(self) -> None:
+        ended, live, recent = self._ended, self._live, self._recent
+        while ended:
+            cid = ended.popleft()
+            owner = live.pop(cid, None)
+            if owner is None:
+                continue  # a second terminal ack, or an ID claimed twice by its sender
+            left = self._live_per_sender[owner] - 1
+            if left:
+                self._live_per_sender[owner] = left
+            else:
+                del self._live_per_sender[owner]
+            recent[cid] = owner
+            if len(recent) > self.recent_max:
+                del recent[next(iter(recent))]
 

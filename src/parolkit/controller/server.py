@@ -33,7 +33,7 @@ from parolkit.controller.executor import SAFETY_COMMANDS, SET_PORT_SCHEMES
 from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
 from parolkit.controller.jobs import PlanAhead
 from parolkit.controller.lease import ClientId, ControlLease, is_loopback
-from parolkit.controller.senders import KnownClients
+from parolkit.controller.senders import CommandIds, KnownClients
 from parolkit.controller.state import Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
@@ -256,7 +256,9 @@ class UdpServer:
     """The command socket, its receiver and its worker thread (see the module docstring).
 
     Who sent what (issue 22, :mod:`parolkit.controller.senders`): every sender is its socket
-    (address and port); :attr:`known` are the sockets that asked for their acks."""
+    (address and port); :attr:`known` are the sockets that asked for their acks, :attr:`ids`
+    whose each command ID is (a datagram with another sender's ID is refused to its sender,
+    and nothing reaches the owner)."""
 
     def __init__(
         self,
@@ -283,6 +285,8 @@ class UdpServer:
         self.lease = lease if lease is not None else ControlLease()
         #: sockets that asked for their acks (ACK_HERE)
         self.known = KnownClients()
+        #: the sender of every live (and recently ended) command ID
+        self.ids = CommandIds()
         # per-source lanes of (receive number, datagram), and the order sources are served in
         # (server thread only)
         self._lanes: dict[Address, deque[tuple[int, bytes]]] = {}
@@ -323,8 +327,15 @@ class UdpServer:
             "received": self.received, "invalid": self.invalid, "shed": self.shed,
             "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
             "safety_fast": self.safety_fast, "log_suppressed": self.log_suppressed,
-            "clients_refused": self.clients_refused,
+            "foreign_ids": self.ids.refused, "clients_refused": self.clients_refused,
         }
+
+    def commands_ended(self, acks: Iterable[Ack]) -> None:
+        """(loop thread) ``acks`` were sent: the IDs of the terminal ones are no longer live
+        (they stay their senders' while recent)."""
+        for ack in acks:
+            if ack.status.terminal:
+                self.ids.ended(ack.command_id)
 
     @property
     def overload(self) -> int:
@@ -409,6 +420,9 @@ class UdpServer:
         if not isinstance(parsed.command, SAFETY_COMMANDS):
             return False
         cid = parsed.command_id
+        if cid is not None and not self._claim(cid, addr, f"{parsed.command.name} applied, but its ID",
+                                               applied=True):
+            cid = None  # a stop always works; the ID's owner hears nothing of it
         self.inbox.put_safety(Submission(parsed.command, cid, self._ack_addr(addr) if cid else None, addr, seq,
                                          client=str(self.client(addr))))
         self.safety_fast += 1
@@ -434,8 +448,9 @@ class UdpServer:
                   "slow down and send again")
         head = data[:40].split(b"|", 1)[0].strip().decode("ascii", "replace")
         if is_command_id(head):
-            self.busy_acks += 1
-            self._ack(head, addr, AckStatus.FAILED, reason)
+            if self._claim(head, addr, "the datagram"):
+                self.busy_acks += 1
+                self._ack(head, addr, AckStatus.FAILED, reason)
         elif _looks_like_query(data):
             self._reply(format_error(reason), addr)
 
@@ -448,9 +463,10 @@ class UdpServer:
         return self.known.admit(addr, time.monotonic(), self._pinned)
 
     def _pinned(self, addr: Address) -> bool:
-        """A registered socket that must keep its place: the lease holder."""
+        """A registered socket that must keep its place: the lease holder, or one whose
+        commands are live."""
         holder = self.lease.holder
-        return holder is not None and holder.address == addr
+        return (holder is not None and holder.address == addr) or self.ids.has_live(addr)
 
     def client(self, addr: Address) -> ClientId:
         """Who sent a datagram from ``addr``: that socket (see
@@ -464,6 +480,19 @@ class UdpServer:
         if addr[1] != self.ack_port and addr in self.known:
             return (primary, (addr[0], addr[1]))
         return (primary,)
+
+    def _claim(self, cid: str, addr: Address, what: str, *, applied: bool = False) -> bool:
+        """``cid`` arrives from ``addr``: True when it is free or ``addr``'s own.  Another
+        sender's ID (live or recent) is refused with an ``ERROR|`` reply to ``addr`` alone:
+        no ack with that ID leaves, so nothing reaches its owner."""
+        if self.ids.claim(cid, addr) is None:
+            return True
+        verb = "was not used" if applied else "refused"
+        reason = (f"{what} {verb}: command ID {cid} belongs to another client's command; "
+                  "every command needs a new random ID")
+        self._reply(format_error(reason), addr)
+        self._log_invalid(addr, reason)
+        return False
 
     def _reply(self, text: str, addr: Address) -> None:
         try:
@@ -495,6 +524,7 @@ class UdpServer:
             text = format_ack(command_id, status, details)
             for a in self._ack_addr(addr):
                 self._reply(text, a)
+            self.ids.ended(command_id)
 
     # ------------------------------------------------------------------ dispatch
 
@@ -507,7 +537,8 @@ class UdpServer:
             self.invalid += 1
             self._log_invalid(addr, str(exc))
             if exc.command_id is not None:
-                self._ack(exc.command_id, addr, AckStatus.INVALID, str(exc))
+                if self._claim(exc.command_id, addr, "the datagram"):
+                    self._ack(exc.command_id, addr, AckStatus.INVALID, str(exc))
             elif _looks_like_query(data):
                 # (ext) an invalid query without an ID gets ERROR|details to the sender
                 self._reply(format_error(str(exc)), addr)
@@ -516,6 +547,8 @@ class UdpServer:
         cid = parsed.command_id
         now = time.monotonic()
         self.known.heard(addr, now)
+        if cid is not None and not self._claim(cid, addr, cmd.name):
+            return
         if isinstance(cmd, C.AckHere):
             refusal = self.ack_here(addr)
             if refusal is not None:
