@@ -145,7 +145,11 @@ def test_subscribe_to_a_third_address_is_refused(served):
         victim.bind(("127.0.0.1", 0))
         victim.settimeout(0.5)
         s.settimeout(1.0)
-        s.sendto(f"SUBSCRIBE|{victim.getsockname()[1]}|1".encode(), ("127.0.0.1", served.port))
+        request = f"SUBSCRIBE|{victim.getsockname()[1]}|1"
+        s.sendto(request.encode(), ("127.0.0.1", served.port))
+        cookie = s.recvfrom(65535)[0].decode()  # first the cookie, to the sender alone
+        assert cookie.startswith("COOKIE|") and len(cookie) <= len(request)
+        s.sendto(f"{request}|{cookie.split('|', 1)[1]}".encode(), ("127.0.0.1", served.port))
         reply = s.recvfrom(65535)[0].decode()
         assert reply.startswith("ERROR|") and "applies to the socket that sends it" in reply
         with pytest.raises(TimeoutError):

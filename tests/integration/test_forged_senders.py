@@ -1,10 +1,12 @@
-"""Issue 22, items 1-2: nothing forged by another sender, tried on a real controller process
+"""Issue 22, items 1-3: nothing forged by another sender, tried on a real controller process
 over real UDP sockets, as a hostile process on the same host would.
 
 1. Every sender (address and port) is its own client: once one socket holds the control lease,
    no other socket moves the arm, and a flood of ACK_HERE sockets never pushes the holder out.
 2. A command ID belongs to its sender: another sender reusing it (read from GET_STATUS_JSON)
    is refused, and nothing with that ID reaches the owner's ack port.
+3. No status stream to an address that did not ask: until the subscribing address echoes its
+   cookie, the controller sends it no more bytes than it received.
 
 Time is judged by the controller's own tick counter (the status ``seq``), never by wall time.
 """
@@ -12,7 +14,9 @@ Time is judged by the controller's own tick counter (the status ``seq``), never 
 from __future__ import annotations
 
 import json
+import os
 import socket
+import struct
 import subprocess
 import sys
 
@@ -222,3 +226,45 @@ def test_another_sender_cannot_end_a_running_command_with_its_id(served, api):
     # counted (the status shows the server's counters as of its last tick)
     wait_until(lambda: status(served.port)["server"]["foreign_ids"] >= 5, 5, what="5 refusals counted")
     api.move_robot_joints(STANDBY, speed_percentage=80, wait_for_ack=True, timeout=10)
+
+
+# ------------------------------------------------------------------ 3. no stream to an address that did not ask
+
+
+def test_a_subscriber_that_never_echoes_its_cookie_gets_no_more_than_it_sent(served):
+    """One SUBSCRIBE (with and without an ID) from a socket that never answers: over 100 ticks
+    it receives one COOKIE no longer than its request and no status; no ack leaves either."""
+    with fresh_socket() as silent, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as acks:
+        acks.bind(("127.0.0.1", served.ack_port))
+        port = silent.getsockname()[1]
+        requests = [f"SUBSCRIBE|{port}|1".encode(), f"sub00001|SUBSCRIBE|{port}|1".encode()]
+        for r in requests:
+            silent.sendto(r, ("127.0.0.1", served.port))
+        wait_ticks(served.port, 100)
+        got = receive_all(silent)
+        assert sum(map(len, got)) <= sum(map(len, requests)), [g[:40] for g in got]
+        assert len(got) == 2 and all(g.startswith(b"COOKIE|") for g in got)
+        assert all(len(g) <= len(r) for g, r in zip(got, requests))
+        assert receive_all(acks) == []
+        # echoing the cookie starts the stream
+        cookie = got[0].decode().split("|", 1)[1]
+        silent.sendto(f"SUBSCRIBE|{port}|1|{cookie}".encode(), ("127.0.0.1", served.port))
+        assert silent.recv(65535).startswith(b"STATUS_JSON|")
+        silent.sendto(f"UNSUBSCRIBE|{port}".encode(), ("127.0.0.1", served.port))
+
+
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0,
+                    reason="forging a source port needs a raw socket (root)")
+def test_a_spoofed_subscribe_sends_the_victim_no_stream(served):
+    """The issue's reproduction with a really forged source: a 16-byte SUBSCRIBE whose UDP
+    header names the victim's port (raw socket) used to send the victim the whole stream
+    (1.72 MB, ~108,000x).  The victim now receives one COOKIE of at most 16 bytes."""
+    with fresh_socket() as victim, socket.socket(socket.AF_INET, socket.SOCK_RAW, socket.IPPROTO_UDP) as raw:
+        port = victim.getsockname()[1]
+        payload = f"SUBSCRIBE|{port}|1".encode()
+        header = struct.pack("!HHHH", port, served.port, 8 + len(payload), 0)  # checksum 0: none
+        raw.sendto(header + payload, ("127.0.0.1", 0))
+        wait_ticks(served.port, 100)
+        got = receive_all(victim)
+        assert sum(map(len, got)) <= len(payload), [g[:40] for g in got]
+        assert [g[:7] for g in got] == [b"COOKIE|"]

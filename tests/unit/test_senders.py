@@ -1,6 +1,6 @@
-"""What the server knows about senders (issue 22): registered sockets and command-ID owners;
-and the server's datagram paths that must not let another sender's ID through (the busy
-refusal of a flooded lane, the safety lane, invalid datagrams).
+"""What the server knows about senders (issue 22): registered sockets, command-ID owners and
+return-address cookies; and the server's datagram paths that must not let another sender's ID
+through (the busy refusal of a flooded lane, the safety lane, invalid datagrams).
 
 The records are tested as values; the server paths on a real UdpServer with real sockets
 (no thread: the test calls the server's read and serve steps itself, as
@@ -14,7 +14,12 @@ import pytest
 from tests.unit.test_controller_core import _Answers
 
 from parolkit.controller.inbox import CommandInbox
-from parolkit.controller.senders import CommandIds, KnownClients
+from parolkit.controller.senders import (
+    COOKIE_CHARS,
+    CommandIds,
+    KnownClients,
+    ReturnCookies,
+)
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
 from parolkit.robot import PAROL6
 
@@ -67,6 +72,21 @@ def test_a_full_table_refuses_newcomers_and_never_pushes_out_a_pinned_socket():
     assert B in known and socks[1] in known and socks[2] not in known and socks[0] in known
     assert known.admit(A, 20.0, lambda a: True) is not None  # all pinned: nobody gives way
     assert len(known) == 3
+
+
+# ------------------------------------------------------------------ cookies
+
+
+def test_a_cookie_proves_one_address_for_one_to_two_periods():
+    cookies = ReturnCookies(period_s=30.0)
+    c = cookies.issue(A, 100.0)
+    assert len(c) == COOKIE_CHARS and "|" not in c
+    assert cookies.valid(A, c, 100.0) and cookies.valid(A, c, 119.9)  # same period, next one
+    assert not cookies.valid(A, c, 150.0)  # two periods later
+    assert not cookies.valid(B, c, 100.0)  # another port
+    assert not cookies.valid(("127.0.0.2", A[1]), c, 100.0)  # another host
+    assert not cookies.valid(A, None, 100.0) and not cookies.valid(A, c + "x", 100.0)
+    assert not ReturnCookies().valid(A, ReturnCookies().issue(A, 100.0), 100.0)  # a key per process
 
 
 # ------------------------------------------------------------------ the server's paths

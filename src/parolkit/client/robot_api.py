@@ -85,7 +85,7 @@ __all__ = [
     "check_command_status", "is_tracking_active", "get_tracking_stats",
     # shared building blocks (used by parolkit.Robot / AsyncRobot)
     "new_command_id", "format_value", "matrix_to_pose", "parse_reply", "parse_ack",
-    "parse_numbers", "parse_status_fields",
+    "parse_numbers", "parse_status_fields", "parse_cookie",
     "build_move_joint", "build_move_pose", "build_move_cart", "build_move_cart_rel_trf",
     "build_jog", "build_multijog", "build_cartjog", "build_pneumatic_gripper",
     "build_electric_gripper", "build_delay", "build_home", "build_speed_joint", "build_move_joint_path",
@@ -669,9 +669,16 @@ def build_set_port(name: Any) -> str:
     return f"SET_PORT|{name.strip()}"
 
 
-def build_subscribe(port: Any, every_n: Any = 1) -> str:
-    """**(ext)** ``SUBSCRIBE|port|every_n_ticks``."""
-    return _join("SUBSCRIBE", _int(port, "port", 1, 65535), _int(every_n, "every_n", 1, 1_000_000))
+def build_subscribe(port: Any, every_n: Any = 1, cookie: Optional[str] = None) -> str:
+    """**(ext)** ``SUBSCRIBE|port|every_n_ticks[|cookie]``: ``cookie`` is the text of the
+    controller's last ``COOKIE|`` answer on that socket (see :func:`parse_cookie`); the stream
+    starts only once the socket echoes it."""
+    fields: List[Any] = [_int(port, "port", 1, 65535), _int(every_n, "every_n", 1, 1_000_000)]
+    if cookie is not None:
+        if not isinstance(cookie, str) or not cookie.isascii() or not cookie.isprintable() or "|" in cookie:
+            raise ValueError(f"cookie must be the printable ASCII text of a COOKIE reply, got {cookie!r}")
+        fields.append(cookie)
+    return _join("SUBSCRIBE", *fields)
 
 
 def build_control(action: str, force: bool = False, secret: Optional[str] = None) -> str:
@@ -742,6 +749,13 @@ def parse_ack(text: str) -> Optional[Tuple[str, str, str]]:
     if len(parts) < 3 or parts[0] != "ACK":
         return None
     return parts[1], parts[2].strip().upper(), parts[3] if len(parts) > 3 else ""
+
+
+def parse_cookie(text: str) -> Optional[str]:
+    """The cookie of a ``COOKIE|c`` answer to SUBSCRIBE (send SUBSCRIBE again with it, from the
+    same socket), or ``None`` when ``text`` is something else."""
+    head, sep, cookie = text.partition("|")
+    return cookie.strip() if head == "COOKIE" and sep and cookie.strip() else None
 
 
 def parse_status_fields(payload: str) -> Dict[str, str]:

@@ -1,7 +1,7 @@
 """What the UDP server knows about the senders of datagrams (issue 22).
 
 A sender is its address and port, nothing else: two sockets are two clients, whatever they
-send.  Two small records, each bounded, each read and written by the server thread (the
+send.  Three small records, each bounded, each read and written by the server thread (the
 loop thread only reports finished command IDs, through a lock-free deque):
 
 * :class:`KnownClients`: the sockets that asked for their acks (``ACK_HERE``).  At most
@@ -13,17 +13,26 @@ loop thread only reports finished command IDs, through a lock-free deque):
   last.  A datagram that reuses another sender's ID is refused, so no client can make the
   controller send an ack with someone else's ID (a forged COMPLETED of a running move).  Live
   IDs are never forgotten, however many new IDs a flood brings.
+* :class:`ReturnCookies`: stateless proof that a sender receives datagrams at its address (a
+  forged source address cannot echo what is sent there): an HMAC of the address and a time
+  period under a key drawn at start.  SUBSCRIBE starts a status stream only for an address that
+  echoed its cookie.
 """
 
 from __future__ import annotations
 
+import base64
+import hashlib
+import hmac
+import secrets
 from collections import deque
 from collections.abc import Callable
 
 from parolkit.controller.inbox import Address
 
 __all__ = [
-    "KnownClients", "CommandIds", "MAX_KNOWN_CLIENTS", "KNOWN_CLIENT_IDLE_S", "MAX_RECENT_IDS",
+    "KnownClients", "CommandIds", "ReturnCookies", "MAX_KNOWN_CLIENTS", "KNOWN_CLIENT_IDLE_S",
+    "MAX_RECENT_IDS", "COOKIE_PERIOD_S", "COOKIE_CHARS",
 ]
 
 #: sockets that sent ACK_HERE, remembered at most
@@ -32,6 +41,10 @@ MAX_KNOWN_CLIENTS = 256
 KNOWN_CLIENT_IDLE_S = 60.0
 #: IDs of ended commands still owned by their sender (beyond the live ones, which all are)
 MAX_RECENT_IDS = 4096
+#: a SUBSCRIBE cookie is valid in the period it was issued and the next one (30..60 s), s
+COOKIE_PERIOD_S = 30.0
+#: characters of a cookie (48 bits, URL-safe base64)
+COOKIE_CHARS = 8
 
 
 class KnownClients:
@@ -140,3 +153,25 @@ class CommandIds:
             if len(recent) > self.recent_max:
                 del recent[next(iter(recent))]
 
+
+class ReturnCookies:
+    """Cookies that prove a sender receives at its address (``COOKIE|c`` to it, ``c`` echoed)."""
+
+    def __init__(self, period_s: float = COOKIE_PERIOD_S, key: bytes | None = None) -> None:
+        self.period_s = period_s
+        self._key = key if key is not None else secrets.token_bytes(32)
+
+    def _cookie(self, addr: Address, period: int) -> str:
+        mac = hmac.new(self._key, f"{addr[0]}|{addr[1]}|{period}".encode(), hashlib.sha256).digest()
+        return base64.urlsafe_b64encode(mac[: COOKIE_CHARS * 3 // 4]).decode("ascii")
+
+    def issue(self, addr: Address, now: float) -> str:
+        """The cookie for ``addr`` at time ``now`` (s, monotonic)."""
+        return self._cookie(addr, int(now // self.period_s))
+
+    def valid(self, addr: Address, cookie: str | None, now: float) -> bool:
+        """True when ``cookie`` is ``addr``'s of this period or the one before."""
+        if cookie is None or len(cookie) != COOKIE_CHARS:
+            return False
+        period = int(now // self.period_s)
+        return any(hmac.compare_digest(cookie, self._cookie(addr, p)) for p in (period, period - 1))

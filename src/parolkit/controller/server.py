@@ -33,7 +33,7 @@ from parolkit.controller.executor import SAFETY_COMMANDS, SET_PORT_SCHEMES
 from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
 from parolkit.controller.jobs import PlanAhead
 from parolkit.controller.lease import ClientId, ControlLease, is_loopback
-from parolkit.controller.senders import CommandIds, KnownClients
+from parolkit.controller.senders import CommandIds, KnownClients, ReturnCookies
 from parolkit.controller.state import Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
@@ -258,7 +258,8 @@ class UdpServer:
     Who sent what (issue 22, :mod:`parolkit.controller.senders`): every sender is its socket
     (address and port); :attr:`known` are the sockets that asked for their acks, :attr:`ids`
     whose each command ID is (a datagram with another sender's ID is refused to its sender,
-    and nothing reaches the owner)."""
+    and nothing reaches the owner), :attr:`cookies` prove a subscriber receives where the
+    stream would go."""
 
     def __init__(
         self,
@@ -287,6 +288,8 @@ class UdpServer:
         self.known = KnownClients()
         #: the sender of every live (and recently ended) command ID
         self.ids = CommandIds()
+        #: SUBSCRIBE's return-address proof
+        self.cookies = ReturnCookies()
         # per-source lanes of (receive number, datagram), and the order sources are served in
         # (server thread only)
         self._lanes: dict[Address, deque[tuple[int, bytes]]] = {}
@@ -568,7 +571,7 @@ class UdpServer:
             self._ack(cid, addr, AckStatus.COMPLETED, "acks also go to this socket")
             return
         if isinstance(cmd, (C.Subscribe, C.Unsubscribe)):
-            self._subscription(cmd, cid, addr)
+            self._subscription(cmd, cid, addr, len(data), now)
             return
         if isinstance(cmd, C.Control):
             self._control(cmd, cid, addr, who, now)
@@ -615,9 +618,23 @@ class UdpServer:
             self._reply(format_error(reason), addr)
             self._log_invalid(addr, reason)
 
-    def _subscription(self, cmd: C.Subscribe | C.Unsubscribe, cid: str | None, addr: Address) -> None:
-        """SUBSCRIBE / UNSUBSCRIBE: only for the socket that sends it (the status stream is
-        never sent to an address that did not ask: no reflection of a forged request)."""
+    def _subscription(self, cmd: C.Subscribe | C.Unsubscribe, cid: str | None, addr: Address,
+                      size: int, now: float) -> None:
+        """SUBSCRIBE / UNSUBSCRIBE: only for the socket that sends it, and SUBSCRIBE only once
+        that socket echoed its cookie (the status stream is never sent to an address that did
+        not ask: a forged source address cannot echo what is sent there).  Until it does, the
+        answer is ``COOKIE|c`` alone, no longer than the datagram (``size`` bytes): a forged
+        SUBSCRIBE makes the controller send no more than it received, and no ack."""
+        if isinstance(cmd, C.Subscribe) and not self.cookies.valid(addr, cmd.cookie, now):
+            challenge = C.format_cookie(self.cookies.issue(addr, now))
+            if len(challenge) <= size:
+                self._reply(challenge, addr)
+            else:
+                self._log_invalid(addr, f"SUBSCRIBE of {size} bytes not answered: its cookie answer "
+                                        f"takes {len(challenge)}")
+            if cid is not None:
+                self.ids.ended(cid)
+            return
         if cmd.port != addr[1]:
             self._refuse(cid, addr, f"{cmd.name} applies to the socket that sends it: send "
                                     f"{cmd.name}|{cmd.port} from port {cmd.port} (this came from port {addr[1]})")
