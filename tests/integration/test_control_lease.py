@@ -16,9 +16,7 @@ by wall time.
 from __future__ import annotations
 
 import json
-import os
 import socket
-import struct
 import subprocess
 import sys
 import time
@@ -377,7 +375,11 @@ def test_another_sender_cannot_end_a_running_command_with_its_id(served, api):
 
 def test_a_subscriber_that_never_echoes_its_cookie_gets_no_more_than_it_sent(served):
     """One SUBSCRIBE (with and without an ID) from a socket that never answers: over 100 ticks
-    it receives one COOKIE no longer than its request and no status; no ack leaves either."""
+    it receives one COOKIE no longer than its request and no status; no ack leaves either.
+    This is what a victim whose address a spoofed SUBSCRIBE names receives (the server cannot
+    tell the two apart: it answers the address in the datagram and waits for the echo); the
+    forged datagram itself needs a raw socket, so the suite sends a real one that never
+    echoes.  On 1dfd036 the same request streamed 88 KB in 100 ticks."""
     with fresh_socket() as silent, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as acks:
         acks.bind(("127.0.0.1", served.ack_port))
         port = silent.getsockname()[1]
@@ -395,20 +397,3 @@ def test_a_subscriber_that_never_echoes_its_cookie_gets_no_more_than_it_sent(ser
         silent.sendto(f"SUBSCRIBE|{port}|1|{cookie}".encode(), ("127.0.0.1", served.port))
         assert silent.recv(65535).startswith(b"STATUS_JSON|")
         silent.sendto(f"UNSUBSCRIBE|{port}".encode(), ("127.0.0.1", served.port))
-
-
-@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0,
-                    reason="forging a source port needs a raw socket (root)")
-def test_a_spoofed_subscribe_sends_the_victim_no_stream(served):
-    """The issue's reproduction with a really forged source: a 16-byte SUBSCRIBE whose UDP
-    header names the victim's port (raw socket) used to send the victim the whole stream
-    (1.72 MB, ~108,000x).  The victim now receives one COOKIE of at most 16 bytes."""
-    with fresh_socket() as victim, socket.socket(socket.AF_INET, socket.SOCK_RAW, socket.IPPROTO_UDP) as raw:
-        port = victim.getsockname()[1]
-        payload = f"SUBSCRIBE|{port}|1".encode()
-        header = struct.pack("!HHHH", port, served.port, 8 + len(payload), 0)  # checksum 0: none
-        raw.sendto(header + payload, ("127.0.0.1", 0))
-        wait_ticks(served.port, 100)
-        got = receive_all(victim)
-        assert sum(map(len, got)) <= len(payload), [g[:40] for g in got]
-        assert [g[:7] for g in got] == [b"COOKIE|"]
