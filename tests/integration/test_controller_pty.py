@@ -120,8 +120,11 @@ class Bench:
         return f"t{self._n:07d}"
 
     def send(self, text: str) -> str:
+        return self.send_from(self.sock, text)
+
+    def send_from(self, sock: socket.socket, text: str) -> str:
         cid = self.new_id()
-        self.sock.sendto(f"{cid}|{text}".encode(), (self.ctl.host, self.ctl.port))
+        sock.sendto(f"{cid}|{text}".encode(), (self.ctl.host, self.ctl.port))
         return cid
 
     def run(self, text: str, timeout: float = 20.0) -> tuple[str, str]:
@@ -541,12 +544,19 @@ def test_status_stream_subscribers_get_one_datagram_per_n_ticks(bench):
     sub.bind(("127.0.0.1", 0))
     sub.settimeout(1.0)
     port = sub.getsockname()[1]
+    # the stream starts once the socket echoed its cookie: the first SUBSCRIBE is answered with
+    # COOKIE|c alone (no ack: the controller sends no more than it received)
+    first = bench.new_id()
+    sub.sendto(f"{first}|SUBSCRIBE|{port}|10".encode(), (bench.ctl.host, bench.ctl.port))
+    answer = sub.recvfrom(65535)[0].decode()
+    assert answer.startswith("COOKIE|"), answer
+    cookie = answer.split("|", 1)[1]
     # the stream goes only to the socket that asks: SUBSCRIBE for another port is refused
-    status, details = bench.run(f"SUBSCRIBE|{port}|10")
-    assert status == "FAILED" and f"from port {port}" in details
-    cid = bench.new_id()
-    sub.sendto(f"{cid}|SUBSCRIBE|{port}|10".encode(), (bench.ctl.host, bench.ctl.port))
-    assert bench.acks.terminal(cid)[0] == "COMPLETED"
+    other = port + 1 if port < 65535 else port - 1
+    status, details = bench.acks.terminal(bench.send_from(sub, f"SUBSCRIBE|{other}|10|{cookie}"))
+    assert status == "FAILED" and f"from port {other}" in details
+    assert bench.acks.terminal(bench.send_from(sub, f"SUBSCRIBE|{port}|10|{cookie}"))[0] == "COMPLETED"
+    assert bench.acks.statuses(first) == []
     got = []
     end = time.monotonic() + 1.0
     while time.monotonic() < end:

@@ -290,18 +290,21 @@ class Stream:
         self.items: list[tuple[float, dict]] = []
         self._stop = False
         self._renewed = 0.0
+        self._cookie = ""
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.thread.start()
 
+    def _subscribe(self) -> None:
+        # from the receiving socket itself, echoing its cookie: the controller streams only to
+        # the socket that asks (issue 13) and proves it receives there (issue 22)
+        self.sock.sendto(f"SUBSCRIBE|{self.sock.getsockname()[1]}|1|{self._cookie}".encode(),
+                         (self.ctl.proc.host, self.ctl.proc.port))
+        self._renewed = time.monotonic()
+
     def _run(self) -> None:
         while not self._stop:
-            now = time.monotonic()
-            if now - self._renewed > 3.0:
-                # from the receiving socket itself: the controller streams only to the socket
-                # that asks (issue 13)
-                self.sock.sendto(f"SUBSCRIBE|{self.sock.getsockname()[1]}|1".encode(),
-                                 (self.ctl.proc.host, self.ctl.proc.port))
-                self._renewed = now
+            if time.monotonic() - self._renewed > 3.0:
+                self._subscribe()
             try:
                 data = self.sock.recvfrom(65535)[0]
             except TimeoutError:
@@ -309,6 +312,9 @@ class Stream:
             text = data.decode()
             if text.startswith("STATUS_JSON|"):
                 self.items.append((time.monotonic(), json.loads(text.split("|", 1)[1])))
+            elif text.startswith("COOKIE|"):
+                self._cookie = text.split("|", 1)[1]
+                self._subscribe()
 
     @property
     def latest(self) -> dict | None:

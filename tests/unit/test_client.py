@@ -65,6 +65,9 @@ class FakeController:
     QUEUED, EXECUTING, COMPLETED); ``delay_s`` between acks; ``speeds`` reported.
     """
 
+    #: the cookie a SUBSCRIBE must echo before statuses are sent (as the controller's)
+    COOKIE = "fAkE-c0k"
+
     def __init__(self, ack_port: int | None = None) -> None:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(("127.0.0.1", 0))
@@ -130,6 +133,9 @@ class FakeController:
             return
         if name == "SUBSCRIBE":
             port = int(parts[1])
+            if parts[3:4] != [self.COOKIE]:  # the stream starts once the socket echoed its cookie
+                self.sock.sendto(f"COOKIE|{self.COOKIE}".encode(), addr)
+                return
             for seq in range(3):
                 obj = dict(STATUS_OBJECT, seq=seq)
                 self.sock.sendto(("STATUS_JSON|" + json.dumps(obj)).encode(), ("127.0.0.1", port))
@@ -659,7 +665,9 @@ def test_subscribe_renews_and_unsubscribes(robot, fake, monkeypatch):
             time.sleep(0.02)
     assert got == [0, 1, 2]
     subs = [t for t in fake.received if t.startswith("SUBSCRIBE|")]
-    assert subs[0] == f"SUBSCRIBE|{sub.port}|5" and len(set(subs)) == 1
+    # the first asks for the cookie; the echo and every renewal carry it
+    assert subs[0] == f"SUBSCRIBE|{sub.port}|5"
+    assert set(subs[1:]) == {f"SUBSCRIBE|{sub.port}|5|{fake.COOKIE}"}
     assert fake.wait_for("UNSUBSCRIBE")[0] == f"UNSUBSCRIBE|{sub.port}"
 
 
@@ -842,7 +850,7 @@ def test_subscription_renewal_repeats_ack_here_for_a_restarted_controller(fake):
                 fake.received.clear()
                 sub.renew()
                 await asyncio.sleep(0.1)
-                assert f"SUBSCRIBE|{sub.port}|2" in fake.received and "ACK_HERE" in fake.received
+                assert f"SUBSCRIBE|{sub.port}|2|{fake.COOKIE}" in fake.received and "ACK_HERE" in fake.received
                 fake.acks["STOP"] = [("COMPLETED", "")]
                 assert (await r.stop()).ok  # its acks reach this socket again
 

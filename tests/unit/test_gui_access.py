@@ -223,8 +223,8 @@ def test_the_badge_names_who_controls_the_robot():
     assert view.holder is Holder.US and view.text == "You control the robot" and not view.can_take
     view = describe_control(_info("127.0.0.1:40200"), 40112, 40200, local)
     assert view.holder is Holder.RUNNER and not view.can_take
-    view = describe_control(_info("127.0.0.1:5002 (robot_api scripts)"), 5002, None, local)
-    assert view.holder is Holder.OTHER and view.text == "Controlled by 127.0.0.1:5002 (robot_api scripts)"
+    view = describe_control(_info("127.0.0.1:5002"), 40112, 40200, local)  # a robot_api script
+    assert view.holder is Holder.OTHER and view.text == "Controlled by 127.0.0.1:5002"
     assert view.can_take
     view = describe_control(_info("10.0.0.3:40112"), 40112, None, local)  # same port, other host
     assert view.holder is Holder.OTHER

@@ -462,7 +462,8 @@ def test_controller_link_logs_acks_tracks_the_plan_and_survives_bad_data_and_res
         lines = lambda: [e.text for e in events.tail(200)]  # noqa: E731
         await link.start()
         try:
-            # the fake answers SUBSCRIBE with three statuses (plan_seq 7): link up, plan fetched
+            # the fake answers SUBSCRIBE with its cookie and the echo with three statuses
+            # (plan_seq 7): link up, plan fetched
             await until(lambda: link.link_up and link.plan is not None, what="link up and plan")
             assert link.status.seq == 2 and link.plan.command == "MOVECART" and len(link.history) == 3
             sub_port = link._sub.port
@@ -497,7 +498,7 @@ def test_controller_link_logs_acks_tracks_the_plan_and_survives_bad_data_and_res
             assert not link.link_up
             fake.received.clear()
             await asyncio.sleep(0.8)
-            assert fake.received.count(f"SUBSCRIBE|{sub_port}|2") >= 2 and "ACK_HERE" in fake.received
+            assert fake.received.count(f"SUBSCRIBE|{sub_port}|2|{fake.COOKIE}") >= 2 and "ACK_HERE" in fake.received
             # ... so a restarted controller is picked up again at once
             fake.silent = False
             await until(lambda: link.link_up, what="link up again")

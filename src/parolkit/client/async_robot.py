@@ -108,8 +108,9 @@ class AsyncCommandHandle:
 
 
 class _StreamProtocol(asyncio.DatagramProtocol):
-    def __init__(self, queue: asyncio.Queue[str | None]) -> None:
+    def __init__(self, queue: asyncio.Queue[str | None], on_cookie: Callable[[str], None]) -> None:
         self.queue = queue
+        self.on_cookie = on_cookie
 
     def datagram_received(self, data: bytes, addr: Any) -> None:
         text = data.decode("utf-8", "replace")
@@ -117,6 +118,10 @@ class _StreamProtocol(asyncio.DatagramProtocol):
             if self.queue.full():  # a slow consumer sees the newest statuses, never a backlog
                 self.queue.get_nowait()
             self.queue.put_nowait(text)
+            return
+        cookie = wire.parse_cookie(text)
+        if cookie is not None:
+            self.on_cookie(cookie)
 
     def error_received(self, exc: Exception) -> None:
         pass
@@ -130,7 +135,9 @@ class AsyncStatusSubscription:
     and :class:`~parolkit.client.errors.ReplyError` for a malformed status datagram; both
     leave the subscription usable (call ``next()`` again).  At most ``buffer`` statuses are
     buffered; older ones are dropped for a slow consumer.  Every renewal also repeats the
-    robot's ``ACK_HERE`` registration (:meth:`AsyncRobot.register_for_acks`).
+    robot's ``ACK_HERE`` registration (:meth:`AsyncRobot.register_for_acks`).  The controller
+    starts the stream once this socket echoed its cookie: a ``COOKIE|`` answer is answered at
+    once with SUBSCRIBE and the cookie.
     """
 
     def __init__(self, robot: AsyncRobot, every_n: int, timeout: float, buffer: int = 64) -> None:
@@ -141,6 +148,7 @@ class AsyncStatusSubscription:
         self._transport: asyncio.DatagramTransport | None = None
         self._renewer: asyncio.Task[None] | None = None
         self.port: int | None = None
+        self._cookie: str | None = None
         self.received = 0
         self._closed = False
 
@@ -148,7 +156,7 @@ class AsyncStatusSubscription:
         await self._robot._ensure_open()
         loop = asyncio.get_running_loop()
         self._transport, _ = await loop.create_datagram_endpoint(
-            lambda: _StreamProtocol(self._queue),
+            lambda: _StreamProtocol(self._queue, self._on_cookie),
             local_addr=(bind_address(self._robot.host), 0),
             remote_addr=(self._robot.host, self._robot.port), family=socket.AF_INET)
         self.port = self._transport.get_extra_info("sockname")[1]
@@ -165,10 +173,15 @@ class AsyncStatusSubscription:
         try:
             # from this socket: the controller streams only to the socket that asks
             if self._transport is not None:
-                self._transport.sendto(wire.build_subscribe(self.port, self._every_n).encode("utf-8"))
+                self._transport.sendto(
+                    wire.build_subscribe(self.port, self._every_n, self._cookie).encode("utf-8"))
             self._robot.register_for_acks()
         except (OSError, RobotError):
             pass
+
+    def _on_cookie(self, cookie: str) -> None:
+        self._cookie = cookie
+        self.renew()
 
     async def _renew_loop(self) -> None:
         while not self._closed:

@@ -88,6 +88,10 @@ class CommandHandle:
 class StatusSubscription:
     """Iterator over :class:`RobotStatus` from the SUBSCRIBE stream (renewed every 3 s).
 
+    The controller starts the stream once this socket echoed its cookie: the ``COOKIE|``
+    answer is read like a status and answered at once with SUBSCRIBE and the cookie (also
+    when the controller issues a new one, every 30 s or so).
+
     Use as a context manager or call :meth:`close`; iteration raises
     :class:`ControllerUnreachable` if no status arrives for ``timeout`` seconds.
     """
@@ -104,6 +108,7 @@ class StatusSubscription:
         self.port: int = self._sock.getsockname()[1]
         self._closed = threading.Event()
         self._last_renew = 0.0
+        self._cookie: str | None = None
         self.received = 0
         self._renew()
         self._renewer = threading.Thread(target=self._renew_loop, daemon=True,
@@ -117,7 +122,7 @@ class StatusSubscription:
 
     def _renew(self) -> None:
         # from this socket: the controller streams only to the socket that asks
-        self._sock.send(wire.build_subscribe(self.port, self._every_n).encode("utf-8"))
+        self._sock.send(wire.build_subscribe(self.port, self._every_n, self._cookie).encode("utf-8"))
         self._last_renew = time.monotonic()
 
     def _renew_loop(self) -> None:
@@ -161,6 +166,10 @@ class StatusSubscription:
                 self.received += 1
                 status: RobotStatus = parse_query_reply(QUERIES["status"], text)
                 return status
+            cookie = wire.parse_cookie(text)
+            if cookie is not None:
+                self._cookie = cookie
+                self._renew()
 
     def __iter__(self) -> Iterator[RobotStatus]:
         while True:

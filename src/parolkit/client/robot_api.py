@@ -33,7 +33,9 @@ six fields per spline waypoint, ``SMOOTH_BLEND|...|DEFAULT``, frames and axes as
 
 Acknowledgements arrive on UDP :data:`ACK_PORT` (5002): one shared
 :class:`LazyCommandTracker` binds it on first use (nothing runs before).  If another program
-holds that port, :class:`AckPortBusyError` says so.
+holds that port, :class:`AckPortBusyError` says so.  Once it runs, every command (tracked or
+not) goes out from its socket: the controller knows a client by its socket, so the control
+lease taken with :func:`take_control` covers all of this process's commands.
 
 Arguments are checked BEFORE anything is sent: a bad value raises ``ValueError`` naming the
 argument and the allowed range (for example ``speed_percentage must be in 0..100, got 150``).
@@ -83,7 +85,7 @@ __all__ = [
     "check_command_status", "is_tracking_active", "get_tracking_stats",
     # shared building blocks (used by parolkit.Robot / AsyncRobot)
     "new_command_id", "format_value", "matrix_to_pose", "parse_reply", "parse_ack",
-    "parse_numbers", "parse_status_fields",
+    "parse_numbers", "parse_status_fields", "parse_cookie",
     "build_move_joint", "build_move_pose", "build_move_cart", "build_move_cart_rel_trf",
     "build_jog", "build_multijog", "build_cartjog", "build_pneumatic_gripper",
     "build_electric_gripper", "build_delay", "build_home", "build_speed_joint", "build_move_joint_path",
@@ -667,9 +669,16 @@ def build_set_port(name: Any) -> str:
     return f"SET_PORT|{name.strip()}"
 
 
-def build_subscribe(port: Any, every_n: Any = 1) -> str:
-    """**(ext)** ``SUBSCRIBE|port|every_n_ticks``."""
-    return _join("SUBSCRIBE", _int(port, "port", 1, 65535), _int(every_n, "every_n", 1, 1_000_000))
+def build_subscribe(port: Any, every_n: Any = 1, cookie: Optional[str] = None) -> str:
+    """**(ext)** ``SUBSCRIBE|port|every_n_ticks[|cookie]``: ``cookie`` is the text of the
+    controller's last ``COOKIE|`` answer on that socket (see :func:`parse_cookie`); the stream
+    starts only once the socket echoes it."""
+    fields: List[Any] = [_int(port, "port", 1, 65535), _int(every_n, "every_n", 1, 1_000_000)]
+    if cookie is not None:
+        if not isinstance(cookie, str) or not cookie.isascii() or not cookie.isprintable() or "|" in cookie:
+            raise ValueError(f"cookie must be the printable ASCII text of a COOKIE reply, got {cookie!r}")
+        fields.append(cookie)
+    return _join("SUBSCRIBE", *fields)
 
 
 def build_control(action: str, force: bool = False, secret: Optional[str] = None) -> str:
@@ -742,6 +751,13 @@ def parse_ack(text: str) -> Optional[Tuple[str, str, str]]:
     return parts[1], parts[2].strip().upper(), parts[3] if len(parts) > 3 else ""
 
 
+def parse_cookie(text: str) -> Optional[str]:
+    """The cookie of a ``COOKIE|c`` answer to SUBSCRIBE (send SUBSCRIBE again with it, from the
+    same socket), or ``None`` when ``text`` is something else."""
+    head, sep, cookie = text.partition("|")
+    return cookie.strip() if head == "COOKIE" and sep and cookie.strip() else None
+
+
 def parse_status_fields(payload: str) -> Dict[str, str]:
     """``KEY=value|KEY=value...`` of a GET_STATUS reply -> dict (values as text)."""
     out: Dict[str, str] = {}
@@ -794,13 +810,23 @@ def matrix_to_pose(matrix: Sequence[Any]) -> List[float]:
 
 
 def send_robot_command(command_string: str) -> str:
-    """Send one datagram to the controller without tracking (no thread, no extra socket kept).
+    """Send one datagram to the controller without tracking.
+
+    Once the acknowledgement listener runs (the first tracked command or
+    :func:`take_control` starts it) the datagram goes out from its socket, as tracked commands
+    do: the controller knows a client by its socket, so the process is then one client, and
+    the control lease it took covers these commands too.  Before that, from a new socket, as
+    the original client (no thread, no socket kept).
 
     Returns ``"Successfully sent command: '...'"``, or ``"Error sending command: ..."`` when the
     operating system refused to send it (the original's strings)."""
+    tracker = _command_tracker
     try:
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-            sock.sendto(command_string.encode("utf-8"), (SERVER_IP, SERVER_PORT))
+        if tracker is not None and tracker.is_active():
+            tracker.send(command_string)
+        else:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+                sock.sendto(command_string.encode("utf-8"), (SERVER_IP, SERVER_PORT))
     except OSError as exc:
         return f"Error sending command: {exc}"
     return f"Successfully sent command: '{command_string[:50]}...'"
@@ -1193,9 +1219,10 @@ def home_robot(wait_for_ack: bool = False, timeout: float = 30.0,
 
 def take_control(force: bool = False, secret: Optional[str] = None, timeout: float = 2.0
                  ) -> Dict[str, Any]:
-    """**(ext)** Take the control lease (only its holder may move the robot; a free lease is
-    also taken by the first motion command).  ``force`` takes it from another client and
-    cancels that client's commands.  Returns the terminal ack dict."""
+    """**(ext)** Take the control lease: only its holder may move the robot (while nobody holds
+    it, any script may).  From the call on, every command of this process goes out from the
+    acknowledgement listener's socket, the client that holds the lease.  ``force`` takes it from
+    another client and cancels that client's commands.  Returns the terminal ack dict."""
     return send_and_wait(build_control("TAKE", force, secret), timeout)  # type: ignore[return-value]
 
 

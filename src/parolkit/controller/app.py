@@ -214,7 +214,9 @@ class Controller:
         """(loop thread) The tick's snapshot first, then its acks: a client that reads the
         status after an ack always sees what the ack reported."""
         self._snapshot = out.snapshot
-        self.outbox.send_acks(out.acks)
+        if out.acks:
+            self.outbox.send_acks(out.acks)
+            self.server.commands_ended(out.acks)
         self.stream.notify(out.snapshot)
 
     @property

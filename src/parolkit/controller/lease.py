@@ -5,7 +5,8 @@ are open to every client; motion, IO, gripper and configuration commands are acc
 lease holder only.  The lease is
 
 * **taken** explicitly (``CONTROL|TAKE``) or implicitly by the first command that needs it
-  while nobody holds it (so a single script needs no change);
+  while nobody holds it, if its sender registered its socket (``ACK_HERE``: the ``Robot``
+  classes, the GUI), so a single script needs no change;
 * **kept** by the holder's commands (queries, subscriptions and ACK_HERE renewals do not count:
   a commander left open does not hold the robot forever) and, whatever the silence, while the
   robot still runs or queues commands;
@@ -14,10 +15,13 @@ lease holder only.  The lease is
 * **taken over** with ``CONTROL|TAKE|FORCE`` (the commands of the previous holder are
   cancelled by the server), an explicit, logged act for an operator at the commander.
 
-A client is known by its address.  Clients that asked for their acks (``ACK_HERE``: the
-``Robot`` classes, the GUI) are one client per socket; every other sender on a host is "the
-robot_api scripts of that host": they send from a new socket for each command and all take
-their acks on the one ack port, so they are one client in the protocol's own terms.
+A client is a socket: its address and port (issue 22: any other identity let a second
+process on the host move the arm while a script held the lease).  A sender that never
+registered its socket (the original robot_api sends each command from a new socket) may send
+commands while nobody holds the lease, but is never given the lease implicitly: its next
+command comes from another socket, which would then be refused.  Such a script that wants the
+robot to itself takes the lease explicitly from one socket (our ``robot_api.take_control()``
+sends everything from its acknowledgement listener's socket from then on).
 
 With a shared ``secret`` (config ``controller.secret``, for controllers bound beyond
 loopback) the lease is never taken implicitly: ``CONTROL|TAKE|secret`` first.
@@ -48,15 +52,17 @@ def is_loopback(host: str) -> bool:
 
 @dataclass(frozen=True)
 class ClientId:
-    """Who sent a datagram: ``host``, ``port`` and whether it is a robot_api-style sender
-    (``legacy``: known by its host and the ack port)."""
+    """Who sent a datagram: the sending socket's ``host`` and ``port``."""
 
     host: str
     port: int
-    legacy: bool = False
+
+    @property
+    def address(self) -> tuple[str, int]:
+        return (self.host, self.port)
 
     def __str__(self) -> str:
-        return f"{self.host}:{self.port}" + (" (robot_api scripts)" if self.legacy else "")
+        return f"{self.host}:{self.port}"
 
 
 class ControlLease:
@@ -98,15 +104,17 @@ class ControlLease:
 
     # ------------------------------------------------------------------ decisions
 
-    def check(self, who: ClientId, now: float, busy: bool) -> str | None:
-        """May ``who`` send a command that needs the lease?  None: yes (a free lease is taken
-        implicitly); else the refusal text."""
+    def check(self, who: ClientId, now: float, busy: bool, registered: bool) -> str | None:
+        """May ``who`` send a command that needs the lease?  None: yes; else the refusal text.
+        A free lease is taken implicitly by a ``registered`` socket (one that sent ACK_HERE);
+        any other sender is let through without it (see the module docstring)."""
         self._expire(now, busy)
         if self.holder is None:
             if self.secret is not None:
                 return ("this controller has a shared secret: take control first with CONTROL TAKE and "
                         "the secret (Robot.take_control(secret=...))")
-            self._give(who, now)
+            if registered:
+                self._give(who, now)
             return None
         if who == self.holder:
             self.last_heard = now

@@ -33,6 +33,7 @@ from parolkit.controller.executor import SAFETY_COMMANDS, SET_PORT_SCHEMES
 from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
 from parolkit.controller.jobs import PlanAhead
 from parolkit.controller.lease import ClientId, ControlLease, is_loopback
+from parolkit.controller.senders import CommandIds, KnownClients, ReturnCookies
 from parolkit.controller.state import Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
@@ -252,10 +253,13 @@ class StatusStream:
 
 
 class UdpServer:
-    """The command socket, its receiver and its worker thread (see the module docstring)."""
+    """The command socket, its receiver and its worker thread (see the module docstring).
 
-    #: at most this many ACK_HERE sockets are remembered
-    MAX_ACK_HERE = 256
+    Who sent what (issue 22, :mod:`parolkit.controller.senders`): every sender is its socket
+    (address and port); :attr:`known` are the sockets that asked for their acks, :attr:`ids`
+    whose each command ID is (a datagram with another sender's ID is refused to its sender,
+    and nothing reaches the owner), :attr:`cookies` prove a subscriber receives where the
+    stream would go."""
 
     def __init__(
         self,
@@ -280,9 +284,12 @@ class UdpServer:
         self.max_waiting = max_waiting_per_source
         #: who may command the robot (see parolkit.controller.lease)
         self.lease = lease if lease is not None else ControlLease()
-        #: sockets that asked for their acks (ACK_HERE), oldest first
-        self._ack_here: dict[Address, None] = {}
-        self._ack_here_lock = threading.Lock()
+        #: sockets that asked for their acks (ACK_HERE)
+        self.known = KnownClients()
+        #: the sender of every live (and recently ended) command ID
+        self.ids = CommandIds()
+        #: SUBSCRIBE's return-address proof
+        self.cookies = ReturnCookies()
         # per-source lanes of (receive number, datagram), and the order sources are served in
         # (server thread only)
         self._lanes: dict[Address, deque[tuple[int, bytes]]] = {}
@@ -300,6 +307,8 @@ class UdpServer:
         #: commands refused with a busy ack (datagram lane or the loop's inbox full)
         self.busy_acks = 0
         self.safety_fast = 0
+        #: ACK_HERE refused because the table of registered sockets was full
+        self.clients_refused = 0
         self._log_window = 0.0
         self._log_bytes = 0
         self._suppressed = 0
@@ -321,7 +330,15 @@ class UdpServer:
             "received": self.received, "invalid": self.invalid, "shed": self.shed,
             "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
             "safety_fast": self.safety_fast, "log_suppressed": self.log_suppressed,
+            "foreign_ids": self.ids.refused, "clients_refused": self.clients_refused,
         }
+
+    def commands_ended(self, acks: Iterable[Ack]) -> None:
+        """(loop thread) ``acks`` were sent: the IDs of the terminal ones are no longer live
+        (they stay their senders' while recent)."""
+        for ack in acks:
+            if ack.status.terminal:
+                self.ids.ended(ack.command_id)
 
     @property
     def overload(self) -> int:
@@ -406,6 +423,9 @@ class UdpServer:
         if not isinstance(parsed.command, SAFETY_COMMANDS):
             return False
         cid = parsed.command_id
+        if cid is not None and not self._claim(cid, addr, f"{parsed.command.name} applied, but its ID",
+                                               applied=True):
+            cid = None  # a stop always works; the ID's owner hears nothing of it
         self.inbox.put_safety(Submission(parsed.command, cid, self._ack_addr(addr) if cid else None, addr, seq,
                                          client=str(self.client(addr))))
         self.safety_fast += 1
@@ -422,7 +442,7 @@ class UdpServer:
         except DatagramError:
             return
         if isinstance(parsed.command, C.AckHere):
-            self.ack_here(addr)
+            self.ack_here(addr)  # a refusal is answered when the datagram is served
 
     def _shed(self, data: bytes, addr: Address, waiting: int) -> None:
         """Refuse a datagram of a source over its share, saying so where the protocol can."""
@@ -431,34 +451,51 @@ class UdpServer:
                   "slow down and send again")
         head = data[:40].split(b"|", 1)[0].strip().decode("ascii", "replace")
         if is_command_id(head):
-            self.busy_acks += 1
-            self._ack(head, addr, AckStatus.FAILED, reason)
+            if self._claim(head, addr, "the datagram"):
+                self.busy_acks += 1
+                self._ack(head, addr, AckStatus.FAILED, reason)
         elif _looks_like_query(data):
             self._reply(format_error(reason), addr)
 
     # ------------------------------------------------------------------ helpers
 
-    def ack_here(self, addr: Address) -> None:
-        """(ext ACK_HERE) acks of commands from ``addr`` also go to ``addr`` itself."""
-        with self._ack_here_lock:
-            self._ack_here.pop(addr, None)
-            self._ack_here[addr] = None
-            while len(self._ack_here) > self.MAX_ACK_HERE:  # bounded: oldest forgotten first
-                self._ack_here.pop(next(iter(self._ack_here)))
+    def ack_here(self, addr: Address) -> str | None:
+        """(ext ACK_HERE) acks of commands from ``addr`` also go to ``addr`` itself.  None when
+        registered; else why not (the table is full: see
+        :class:`~parolkit.controller.senders.KnownClients`)."""
+        return self.known.admit(addr, time.monotonic(), self._pinned)
+
+    def _pinned(self, addr: Address) -> bool:
+        """A registered socket that must keep its place: the lease holder, or one whose
+        commands are live."""
+        holder = self.lease.holder
+        return (holder is not None and holder.address == addr) or self.ids.has_live(addr)
 
     def client(self, addr: Address) -> ClientId:
-        """Who sent a datagram from ``addr`` (see :class:`~parolkit.controller.lease.ClientId`)."""
-        if addr in self._ack_here:
-            return ClientId(addr[0], addr[1])
-        return ClientId(addr[0], self.ack_port, legacy=True)
+        """Who sent a datagram from ``addr``: that socket (see
+        :class:`~parolkit.controller.lease.ClientId`)."""
+        return ClientId(addr[0], addr[1])
 
     def _ack_addr(self, addr: Address) -> AckRoute:
         """Where the acks of a command from ``addr`` go: the sender's host at the ack port (the
         original protocol), plus the sending socket itself if it asked with ACK_HERE."""
         primary = (addr[0], self.ack_port)
-        if addr[1] != self.ack_port and addr in self._ack_here:
+        if addr[1] != self.ack_port and addr in self.known:
             return (primary, (addr[0], addr[1]))
         return (primary,)
+
+    def _claim(self, cid: str, addr: Address, what: str, *, applied: bool = False) -> bool:
+        """``cid`` arrives from ``addr``: True when it is free or ``addr``'s own.  Another
+        sender's ID (live or recent) is refused with an ``ERROR|`` reply to ``addr`` alone:
+        no ack with that ID leaves, so nothing reaches its owner."""
+        if self.ids.claim(cid, addr) is None:
+            return True
+        verb = "was not used" if applied else "refused"
+        reason = (f"{what} {verb}: command ID {cid} belongs to another client's command; "
+                  "every command needs a new random ID")
+        self._reply(format_error(reason), addr)
+        self._log_invalid(addr, reason)
+        return False
 
     def _reply(self, text: str, addr: Address) -> None:
         try:
@@ -490,6 +527,7 @@ class UdpServer:
             text = format_ack(command_id, status, details)
             for a in self._ack_addr(addr):
                 self._reply(text, a)
+            self.ids.ended(command_id)
 
     # ------------------------------------------------------------------ dispatch
 
@@ -502,17 +540,25 @@ class UdpServer:
             self.invalid += 1
             self._log_invalid(addr, str(exc))
             if exc.command_id is not None:
-                self._ack(exc.command_id, addr, AckStatus.INVALID, str(exc))
+                if self._claim(exc.command_id, addr, "the datagram"):
+                    self._ack(exc.command_id, addr, AckStatus.INVALID, str(exc))
             elif _looks_like_query(data):
                 # (ext) an invalid query without an ID gets ERROR|details to the sender
                 self._reply(format_error(str(exc)), addr)
             return
         cmd = parsed.command
         cid = parsed.command_id
-        if isinstance(cmd, C.AckHere):
-            self.ack_here(addr)
-        who = self.client(addr)
         now = time.monotonic()
+        self.known.heard(addr, now)
+        if cid is not None and not self._claim(cid, addr, cmd.name):
+            return
+        if isinstance(cmd, C.AckHere):
+            refusal = self.ack_here(addr)
+            if refusal is not None:
+                self.clients_refused += 1
+                self._refuse(cid, addr, f"ACK_HERE refused: {refusal}")
+                return
+        who = self.client(addr)
         if cmd.KIND is C.CommandKind.QUERY:
             if cmd.name == "GET_CONTROL":
                 reply = "CONTROL|" + C.dumps(self.lease.view(now, self.answerer.busy()))
@@ -525,13 +571,13 @@ class UdpServer:
             self._ack(cid, addr, AckStatus.COMPLETED, "acks also go to this socket")
             return
         if isinstance(cmd, (C.Subscribe, C.Unsubscribe)):
-            self._subscription(cmd, cid, addr)
+            self._subscription(cmd, cid, addr, len(data), now)
             return
         if isinstance(cmd, C.Control):
             self._control(cmd, cid, addr, who, now)
             return
         if not cmd.OPEN:
-            refusal = self.lease.check(who, now, self.answerer.busy())
+            refusal = self.lease.check(who, now, self.answerer.busy(), registered=addr in self.known)
             if refusal is not None:
                 self._refuse(cid, addr, f"{cmd.name} refused: {refusal}")
                 return
@@ -572,9 +618,23 @@ class UdpServer:
             self._reply(format_error(reason), addr)
             self._log_invalid(addr, reason)
 
-    def _subscription(self, cmd: C.Subscribe | C.Unsubscribe, cid: str | None, addr: Address) -> None:
-        """SUBSCRIBE / UNSUBSCRIBE: only for the socket that sends it (the status stream is
-        never sent to an address that did not ask: no reflection of a forged request)."""
+    def _subscription(self, cmd: C.Subscribe | C.Unsubscribe, cid: str | None, addr: Address,
+                      size: int, now: float) -> None:
+        """SUBSCRIBE / UNSUBSCRIBE: only for the socket that sends it, and SUBSCRIBE only once
+        that socket echoed its cookie (the status stream is never sent to an address that did
+        not ask: a forged source address cannot echo what is sent there).  Until it does, the
+        answer is ``COOKIE|c`` alone, no longer than the datagram (``size`` bytes): a forged
+        SUBSCRIBE makes the controller send no more than it received, and no ack."""
+        if isinstance(cmd, C.Subscribe) and not self.cookies.valid(addr, cmd.cookie, now):
+            challenge = C.format_cookie(self.cookies.issue(addr, now))
+            if len(challenge) <= size:
+                self._reply(challenge, addr)
+            else:
+                self._log_invalid(addr, f"SUBSCRIBE of {size} bytes not answered: its cookie answer "
+                                        f"takes {len(challenge)}")
+            if cid is not None:
+                self.ids.ended(cid)
+            return
         if cmd.port != addr[1]:
             self._refuse(cid, addr, f"{cmd.name} applies to the socket that sends it: send "
                                     f"{cmd.name}|{cmd.port} from port {cmd.port} (this came from port {addr[1]})")

@@ -65,10 +65,9 @@ def local_host_for(controller_host: str) -> str | None:
 
 
 def _is_address(holder: str, port: int | None, host: str | None) -> bool:
-    """True when the controller's name for the holder (``host:port``, maybe followed by
-    `` (robot_api scripts)``) is the client socket on local ``port`` (and ``host`` when known:
-    through NAT only the port may be recognisable)."""
-    if port is None or " " in holder:
+    """True when the controller's name for the holder (``host:port``) is the client socket on
+    local ``port`` (and ``host`` when known: through NAT only the port may be recognisable)."""
+    if port is None:
         return False
     h, sep, p = holder.rpartition(":")
     if not sep or p != str(port):

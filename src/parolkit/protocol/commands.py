@@ -116,6 +116,7 @@ __all__ = [
     "parse_datagram",
     "format_ack",
     "format_error",
+    "format_cookie",
     "format_floats",
     "dumps",
     "COMMAND_NAMES",
@@ -480,10 +481,13 @@ class SetTool(Command):
 
 @dataclass(frozen=True)
 class Subscribe(Command):
-    """``SUBSCRIBE|port|every_n_ticks``: status stream to (sender address, port)."""
+    """``SUBSCRIBE|port|every_n_ticks|cookie``: status stream to (sender address, port), once
+    the sender echoes the cookie the controller answers a SUBSCRIBE without it with
+    (``COOKIE|c``, docs/protocol.md "Status stream")."""
 
     port: int = 0
     every_n_ticks: int = 1
+    cookie: str | None = None
     NAME: ClassVar[str] = "SUBSCRIBE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
     OPEN: ClassVar[bool] = True
@@ -1116,10 +1120,11 @@ def _p_control(a: Sequence[str], m: RobotModel) -> Command:
 
 
 def _p_subscribe(a: Sequence[str], m: RobotModel) -> Command:
-    _nargs(a, "SUBSCRIBE", 1, 2)
+    _nargs(a, "SUBSCRIBE", 1, 3)
     port = _integer(a[0], "port", 1, 65535)
     every = _integer(a[1], "every_n_ticks", 1, 1_000_000) if len(a) > 1 and _given(a[1]) else 1
-    return Subscribe(port, every)
+    cookie = a[2].strip() if len(a) > 2 and _given(a[2]) else None
+    return Subscribe(port, every, cookie)
 
 
 def _p_unsubscribe(a: Sequence[str], m: RobotModel) -> Command:
@@ -1306,6 +1311,11 @@ def format_ack(command_id: str, status: AckStatus | str, details: str = "") -> s
 def format_error(details: str) -> str:
     """(ext) ``ERROR|details`` for an invalid datagram without an ID."""
     return f"ERROR|{_clean(details)}"
+
+
+def format_cookie(cookie: str) -> str:
+    """(ext) ``COOKIE|c``: the answer to a SUBSCRIBE that did not echo its cookie."""
+    return f"COOKIE|{cookie}"
 
 
 def format_floats(values: Sequence[float], digits: int = 4) -> str:

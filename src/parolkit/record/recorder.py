@@ -108,6 +108,8 @@ class Recorder:
         self._last_command: tuple[Any, Any] | None = None
         self._plan_seq: Any = None
         self._last_renew = 0.0
+        #: the controller's last COOKIE answer (echoed in every SUBSCRIBE)
+        self._cookie: str | None = None
 
     def stop(self) -> None:
         """Ask :meth:`run` to finish (safe from a signal handler: one attribute store)."""
@@ -126,7 +128,7 @@ class Recorder:
                                                 "tick": self.stats.last_tick}, now, self.stats.last_tick or 0)
 
     def _renew(self) -> None:
-        self._send(wire.build_subscribe(self.local_port, self.every_n))
+        self._send(wire.build_subscribe(self.local_port, self.every_n, self._cookie))
         self._last_renew = time.monotonic()
 
     # ------------------------------------------------------------------ receiving
@@ -191,6 +193,11 @@ class Recorder:
             self.stats.plans += 1
         elif data.startswith(b"ERROR|"):
             raise ReplyError(f"the controller answered: {data.decode(errors='replace')}")
+        else:
+            cookie = wire.parse_cookie(data.decode(errors="replace"))
+            if cookie is not None:  # the stream starts once this socket echoes it
+                self._cookie = cookie
+                self._renew()
 
     # ------------------------------------------------------------------ main loop
 
