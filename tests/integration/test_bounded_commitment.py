@@ -22,6 +22,7 @@ from tests.integration.boardsim import BoardSim
 
 from parolkit.board import BoardEmulator, PtyBoardServer
 from parolkit.protocol.frames import BoardCommand, CommandFrame
+from parolkit.robot import PAROL6
 
 BOUND_S = 0.100
 
@@ -29,9 +30,9 @@ BOUND_S = 0.100
 class KillBench:
     """board-sim (its own process, with a frame log) + controller subprocess, for one kill."""
 
-    def __init__(self, tmp_path, extra_config: str = "") -> None:
+    def __init__(self, tmp_path, extra_config: str = "", *, exchange_log: bool = False) -> None:
         tmp_path.mkdir(parents=True, exist_ok=True)
-        self.board = BoardSim(tmp_path, frame_log=5000)
+        self.board = BoardSim(tmp_path, frame_log=5000, exchange_log=exchange_log)
         cfg = tmp_path / "controller.toml"
         cfg.write_text("[controller]\nlink_timeout_ticks = 50\n" + extra_config)
         self.ctl = start_controller(["--port", str(self.board.link), "--config", str(cfg)],
@@ -175,7 +176,7 @@ def test_a_frozen_controller_mid_jog_is_stopped_within_100_ms_of_its_last_frame_
             os.kill(b.ctl.proc.pid, signal.SIGCONT)
         t_disable, t_last, cmd_last = b.first_disable(t_sig - 1.0)
         print(f"DISABLE {(t_disable - t_last) * 1000:.1f} ms after the controller's last frame")
-        assert cmd_last == BoardCommand.JOG and t_disable - t_last <= BOUND_S, (t_disable - t_last, cmd_last)
+        assert cmd_last == BoardCommand.GOTO and t_disable - t_last <= BOUND_S, (t_disable - t_last, cmd_last)
         status = wait_until(lambda: (lambda r: r if r and "is stopped and wrote no frame" in r else None)(
             b.query("GET_STATUS")), 5, what="the controller reporting the supervisor's stop")
         assert "STATE=DISABLED" in status and "the stop supervisor disabled the board" in status, status
@@ -183,5 +184,45 @@ def test_a_frozen_controller_mid_jog_is_stopped_within_100_ms_of_its_last_frame_
         # the controller agrees with the board: nothing moves until ENABLE
         time.sleep(0.2)
         assert not any(b.speeds())
+    finally:
+        b.close()
+
+
+@pytest.mark.parametrize("jog", ["JOG|5|100|20|None", "JOG|0|100|20|None"], ids=["J6", "J1"])
+def test_controller_and_supervisor_killed_together_mid_jog_at_full_speed_stop_within_20_ms_of_travel(
+        tmp_path, jog):
+    """The second line gone too: ``kill -9`` of the stop supervisor and the controller at once,
+    mid-jog at full speed.  Nothing writes a stop frame; the board's last frame is a GO TO whose
+    goal lies within 20 ms of maximum-speed travel of where the joint was as it arrived, so every
+    joint stops by itself within that (on 1dfd036 a JOG frame ran on: J6 +304 deg in 3 s).
+    Judged by the board's own exchange log: its position as the last frame arrived, and where
+    it came to rest."""
+    import os
+    import signal
+
+    b = KillBench(tmp_path, exchange_log=True)
+    try:
+        pid = b.status()["loop"]["supervisor_pid"]
+        b.send(jog)
+        joint = int(jog.split("|")[1])
+        wait_until(lambda: abs(b.speeds()[joint]) > 1000, 10,
+                   interval=0.005, what="the jog at speed")
+        time.sleep(0.2)
+        os.kill(pid, signal.SIGKILL)
+        b.ctl.proc.kill()
+        wait_until(lambda: not any(b.speeds()), 2, interval=0.005, what="the board at rest by itself")
+        rest = b.board.status()["positions"]
+        time.sleep(0.3)
+        assert b.board.status()["positions"] == rest, "the board moved on"
+        assert b.board.status()["enabled"], "something stopped it by DISABLE: nothing should be left to"
+        ex = [json.loads(line) for line in b.board.record_path.read_text().splitlines()]
+        last = [e for e in ex if e["k"] == "ex"][-1]
+        assert last["cmd"] == BoardCommand.GOTO, last
+        at = last["reply"]["p"]  # where the board was as the last frame arrived
+        travel = [abs(r - a) for r, a in zip(rest, at)]
+        ms = [t / v * 1e3 for t, v in zip(travel, PAROL6.max_speed_steps_s)]
+        print(f"{jog}: travel after the last frame, ms at the maximum speed: " + ", ".join(f"{m:.1f}" for m in ms))
+        assert all(m <= 20.0 + 1e3 / v for m, v in zip(ms, PAROL6.max_speed_steps_s)), (ms, rest, at)
+        assert travel[joint] > 0  # it was moving
     finally:
         b.close()

@@ -24,9 +24,8 @@ from tests.integration.boardsim import BoardSim
 from tests.integration.test_controller_pty import AckListener
 
 from parolkit import kinematics as kin
-from parolkit.controller.guard import goto_position_after
-from parolkit.protocol.frames import TIMER_HZ, BoardCommand, CommandFrame, StatusFrame
-from parolkit.robot import GOTO_ARRIVAL_JITTER_S, PAROL6
+from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
+from parolkit.robot import PAROL6
 
 VMAX = [float(v) for v in PAROL6.max_speed_steps_s]
 RATE = 100.0
@@ -132,68 +131,33 @@ def board_start_speed(f: CommandFrame, position: float, j: int) -> int:
 def check_wire(wire) -> dict[str, object]:
     """Every frame against the maxima (module docstring).
 
-    The board's start speed depends on the frames AND on when they reach it: a frame the
-    board gets early (its reply's ``timing`` field is the board's own interval since the
-    previous frame) finds it further behind, and so, less and less, do the next few.  The
-    planners keep the board within its maximum for frames up to GOTO_ARRIVAL_JITTER_S early; an
-    emulator process on two busy cores sometimes reads a frame several ms late and the next
-    one on time, which no USB link does.  So every GO TO frame is checked twice:
+    Every frame is a bounded commitment: its goal lies within 20 ms of maximum-speed travel of
+    wherever the board may be when it arrives, whenever that is.  So every GO TO frame and its
+    reply (the board's position as that frame arrived) must give a start speed within the
+    maximum as delivered, with no allowance for frames the operating system delivered early
+    or together (plus the guard's rounding allowance, 0.01 step = 0.5 steps/s); so must every
+    speed a reply reports; and no JOG frame moves anything but the start-up probe's 1 step/s.
 
-    * as scheduled: the board simulated by the firmware's law from where it rested before the
-      stream, each frame taken to arrive after ``max(its interval, period - jitter)``: what
-      the frames command, whatever the delivery;
-    * as delivered (the frame and its reply): for every frame when no frame of the last six
-      came earlier than the planners allow (an early one's effect has decayed below 5 % by
-      then); so are the speeds the replies report (the speed of the pass before the frame).
-
-    Returns the peak start speeds (fraction of the maximum, as delivered) and how many frames
-    came early."""
+    Returns the peak start speeds (fraction of the maximum) and how many frames were judged."""
     peak = [0.0] * 6
-    early, judged = 0, 0
-    since_early = 99
-    prev: tuple[float, CommandFrame, StatusFrame | None] | None = None
-    sim: list[float] = []
     gotos = 0
-    for k, (t, f, reply) in enumerate(wire):
+    for k, (_t, f, reply) in enumerate(wire):
         where = f"frame {k} (command {f.command})"
         for j in range(6):
             assert abs(f.speeds[j]) <= VMAX[j], (where, "speed field", j, f.speeds)
-        if reply is not None and since_early >= 6:  # (the speed the previous frame left)
+        if f.command == BoardCommand.JOG:
+            assert all(abs(v) <= 1 for v in f.speeds), (where, "a JOG frame with a speed", f.speeds)
+        if reply is not None:  # (the speed the previous frame left)
             for j in range(6):
-                assert abs(reply.speeds[j]) <= VMAX[j], (where, "reported speed", j, reply.speeds)
+                assert abs(reply.speeds[j]) <= VMAX[j] + 1, (where, "reported speed", j, reply.speeds)
         if f.command == BoardCommand.GOTO and reply is not None:
             gotos += 1
-            follows = prev is not None and prev[1].command == BoardCommand.GOTO and prev[2] is not None
-            if follows:
-                assert prev is not None
-                interval = reply.timing / TIMER_HZ
-                since_early = 0 if interval < PERIOD - GOTO_ARRIVAL_JITTER_S - 1e-6 else since_early + 1
-                early += since_early == 0
-                sched = max(interval, PERIOD - GOTO_ARRIVAL_JITTER_S)
-                pf = prev[1]
-                sim = [goto_position_after(sim[j], pf.positions[j], pf.speeds[j], sched) for j in range(6)]
-                dt = max(t - prev[0], PERIOD)
-                for j in range(6):
-                    step = abs(f.positions[j] - pf.positions[j])
-                    assert step <= VMAX[j] * dt + 1, (where, f"J{j + 1} target steps {step}", dt)
-            else:  # the first frame after idle: the board at rest, at most one period of travel away
-                sim = [float(p) for p in reply.positions]
-                since_early = 99
-                for j in range(6):
-                    lead = abs(f.positions[j] - reply.positions[j])
-                    assert lead <= VMAX[j] * PERIOD + 1, (where, f"J{j + 1} leads by {lead}")
             for j in range(6):
-                u_sched = board_start_speed(f, sim[j], j)
-                assert abs(u_sched) <= VMAX[j], (where, f"J{j + 1} would start at {u_sched} steps/s as scheduled")
                 u = board_start_speed(f, reply.positions[j], j)
                 peak[j] = max(peak[j], abs(u) / VMAX[j])
-                if since_early >= 6:
-                    assert abs(u) <= VMAX[j], (where, f"J{j + 1} starts at {u} steps/s", f, reply.positions)
-            judged += since_early >= 6
-        prev = (t, f, reply)
+                assert abs(u) <= VMAX[j] + 0.5, (where, f"J{j + 1} starts at {u} steps/s", f, reply.positions)
     assert gotos > 0
-    return {"peak": [round(p, 3) for p in peak], "goto_frames": gotos, "early": early,
-            "judged_as_delivered": judged}
+    return {"peak": [round(p, 3) for p in peak], "goto_frames": gotos}
 
 
 def _goto_frames_between(wire, t0: float, t1: float) -> int:
@@ -257,8 +221,6 @@ def test_full_speed_moves_first_frames_after_idle_and_sub_tick_moves_on_the_wire
             assert _goto_frames_between(wire, t0, t1) == 0, text
     report = check_wire(wire)
     print("wire:", report)
-    # the J1 trapezoids did run the board at (just under) its maximum: 100 % is the fastest
-    # the board can follow, not 76 % of it
+    # the J1 trapezoids did run the board near its maximum: 100 % is the fastest the board
+    # can follow, not 76 % of it
     assert report["peak"][0] > 0.9, report
-    # most frames reached the board on schedule (else this run judged little as delivered)
-    assert report["judged_as_delivered"] >= 0.5 * report["goto_frames"], report

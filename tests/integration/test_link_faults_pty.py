@@ -1,8 +1,8 @@
 """Link faults over a real pty, judged at the board (issue 12, item 2).
 
 * Replies that go bad mid-jog (every byte corrupted, or every reply lost) while the frames
-  still reach the board: a zero-speed frame reaches the board within 3 ticks of the first
-  bad reply, and after the loss the board's speeds are 0 and its joints stay where they are.
+  still reach the board: every frame is a bounded commitment, so the board comes to rest a
+  bounded distance on, and after the loss its speeds are 0 and its joints stay where they are.
   The emulator and its pty server run in this process (``test_controller_pty.Bench``) so
   every frame the board receives is recorded with its speeds, in order with the moment the
   fault is switched on; the controller is its own process on the pty.
@@ -32,6 +32,7 @@ from tests.integration.test_controller_pty import Bench
 
 from parolkit.protocol.frames import BoardCommand, CommandFrame
 from parolkit.protocol.stream import CommandParser
+from parolkit.robot import PAROL6
 
 ZERO = (0, 0, 0, 0, 0, 0)
 
@@ -77,21 +78,26 @@ def _jog_then_break_replies(bench: Bench, rec: Recorder, **faults: object) -> tu
 
 
 @pytest.mark.parametrize("faults", [{"corrupt_rate": 1.0}, {"drop_rate": 1.0}], ids=["corrupted", "lost"])
-def test_bad_replies_mid_jog_stop_the_board_within_three_ticks_and_nothing_moves_after_the_loss(tmp_path, faults):
+def test_bad_replies_mid_jog_leave_the_board_within_bounded_travel_and_nothing_moves_after_the_loss(
+        tmp_path, faults):
+    """Every frame after the replies went bad is a GO TO whose goal cannot run ahead of the
+    last trusted reply by more than 20 ms of maximum-speed travel beyond the goals already
+    sent: the board comes to rest within a few such distances of where it was when the faults
+    began, and after the loss it stays there."""
     bench = Bench(tmp_path, link_timeout_ticks=10)
     rec = Recorder(bench)
     try:
         cid, mark = _jog_then_break_replies(bench, rec, **faults)
+        at_switch = bench.emu.positions[0]
         status, details = bench.acks.terminal(cid, 10)
         assert status == "CANCELLED" and "board link lost: the board left 10 frames in a row unanswered" in details
         with rec.lock:
             after = [f for _, f in rec.frames[mark:]]
-        # frame 0's reply is the first bad one: the stop is at most 3 ticks after it
-        stop = next(i for i, f in enumerate(after) if f.command == BoardCommand.JOG and f.speeds == ZERO)
-        assert stop <= 3, [(f.command, f.speeds[0]) for f in after[:6]]
-        assert all(f.speeds == ZERO for f in after[stop:])  # stop frames until the loss (and after)
-        # after the loss: the board stopped and stays stopped
-        assert bench.emu.speeds == ZERO
+        assert all(f.command == BoardCommand.GOTO for f in after), [(f.command, f.speeds[0]) for f in after]
+        # after the loss: the board stopped and stays stopped, a bounded distance on
+        wait_until(lambda: bench.emu.speeds == ZERO, 2, what="the board at rest")
+        reach = PAROL6.max_speed_steps_s[0] / 50.0
+        assert 0 <= bench.emu.positions[0] - at_switch <= 3 * reach, (bench.emu.positions[0], at_switch)
         still = bench.emu.positions
         for _ in range(10):
             time.sleep(0.1)
@@ -163,7 +169,10 @@ def test_a_controller_stalled_for_200_ms_is_no_lost_link_and_reports_its_schedul
                 time.sleep(0.2)
                 os.kill(ctl.proc.pid, signal.SIGCONT)
                 time.sleep(0.4)
-            assert client.terminal(cid, 20) == ("COMPLETED", f"{label} finished successfully"), text
+            status, details = client.terminal(cid, 20)
+            # what the stalls cost is a move that ran stretched, and says so
+            assert status == "COMPLETED" and details.startswith(f"{label} finished successfully"), (text, details)
+            assert details == f"{label} finished successfully" or "warning: ran stretched" in details, details
         stats = client.loop_stats()
         assert stats["link_losses"] == 0, stats
         assert stats["late_max_ms"] >= 190  # the stalls were there, as late ticks

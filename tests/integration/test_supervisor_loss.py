@@ -111,8 +111,9 @@ def test_a_killed_supervisor_is_noticed_in_the_next_tick_stops_the_jog_and_motio
 
     out = b.tick()  # the first tick after the death
     what = f"the stop supervisor (pid {old}) exited (killed by signal 9)"
-    # the jog is stopped in this very tick, as STOP stops it: a zero-speed frame, CANCELLED
-    assert out.frame is not None and out.frame.command == BoardCommand.JOG and out.frame.speeds == ZERO
+    # the jog is stopped in this very tick, as STOP stops it: a frame that holds the board
+    # still, CANCELLED
+    assert out.frame is not None and out.frame.command == BoardCommand.IDLE
     assert b.ack("aaaa0001") == (AckStatus.CANCELLED, f"stopped: {what}")
     # the error is latched in this tick's snapshot: GET_STATUS and the JSON status
     snap = out.snapshot
