@@ -9,8 +9,8 @@ is started and handed the port: a ``kill -9`` of the controller after that still
 board within 100 ms.
 
 Real parts: the board emulator behind a real pty, the real serial transport, real supervisor
-processes; first a ControlLoop driven tick by tick by the test (the "one tick" and "refused
-until ready" claims are judged by ticks and by the executor's own answer, never by time),
+processes; first the controller core and its driver ticked by the test (the "one tick" and
+"refused until ready" claims are judged by ticks and by the core's own answer, never by time),
 then the ``parolkit serve`` process (tests/integration/test_bounded_commitment.py's bench).
 """
 
@@ -28,11 +28,10 @@ from tests.integration.load import Client
 from tests.integration.test_bounded_commitment import BOUND_S, KillBench
 
 from parolkit.board import BoardEmulator, PtyBoardServer
-from parolkit.controller.executor import Executor
-from parolkit.controller.guard import SafetyGuard
-from parolkit.controller.inbox import Submission
-from parolkit.controller.loop import ControlLoop, TickOutput
-from parolkit.controller.state import RobotState
+from parolkit.controller.core import ControllerCore, TickOutput
+from parolkit.controller.driver import Driver
+from parolkit.controller.messages import Submission
+from parolkit.controller.snapshot import RobotState
 from parolkit.controller.supervisor import StopSupervisor
 from parolkit.protocol.commands import AckStatus, parse_datagram
 from parolkit.protocol.frames import BoardCommand
@@ -44,20 +43,19 @@ ZERO = (0, 0, 0, 0, 0, 0)
 
 
 class TickBench:
-    """A ControlLoop the test ticks itself (as tests/unit/test_controller_core.py's Rig) on a
-    real serial link: the emulator behind a pty, the serial transport, a stop supervisor
+    """The core and its driver, ticked by the test (as tests/unit/test_controller_core.py's Rig)
+    on a real serial link: the emulator behind a pty, the serial transport, a stop supervisor
     process (no stall limit: this test's own ticks are not the subject)."""
 
     def __init__(self, tmp_path: Path) -> None:
         self.emu = BoardEmulator(start_homed=True)
         self.pty = PtyBoardServer(self.emu, tmp_path / "p6").start()
         self.transport = open_transport(str(tmp_path / "p6"))
-        self.ex = Executor(model=PAROL6, rate_hz=RATE, queue_size=16, watchdog_s=0.02)
+        self.ex = self.core = ControllerCore(model=PAROL6, rate_hz=RATE, queue_size=16, watchdog_s=0.02,
+                                             link_timeout_ticks=50)
         self.sup = StopSupervisor(stall_s=0.0)
-        self.loop = ControlLoop(transport=self.transport, executor=self.ex, guard=SafetyGuard(PAROL6, RATE),
-                                rate_hz=RATE, link_timeout_ticks=50, supervisor=self.sup)
+        self.loop = Driver(self.core, self.transport, supervisor=self.sup, plan_inline=True)
         self.acks: list[tuple[str | None, AckStatus, str]] = []
-        self.ex.start()
         self.loop.supervise()
 
     def tick(self) -> TickOutput:
@@ -75,17 +73,16 @@ class TickBench:
         raise AssertionError(f"{what}: not within {max_ticks} ticks; acks {self.acks[-5:]}")
 
     def apply(self, text: str) -> None:
-        """Apply a command now, as the loop thread does."""
+        """Apply a command now, between ticks."""
         p = parse_datagram(text)
-        self.ex.apply(Submission(p.command, p.command_id, (("127.0.0.1", 1),), ("127.0.0.1", 1)))
-        self.acks += [(a.command_id, a.status, a.details) for a in self.ex.take_acks()]
+        acks = self.core.apply(Submission(p.command, p.command_id, (("127.0.0.1", 1),), ("127.0.0.1", 1)))
+        self.acks += [(a.command_id, a.status, a.details) for a in acks]
 
     def ack(self, cid: str) -> tuple[AckStatus, str]:
         return [(s, d) for c, s, d in self.acks if c == cid][-1]
 
     def close(self) -> None:
         self.loop.stop()
-        self.ex.stop()
         self.pty.stop()
         self.emu.stop()
 
@@ -100,7 +97,7 @@ def bench(tmp_path):
 def test_a_killed_supervisor_is_noticed_in_the_next_tick_stops_the_jog_and_motion_waits_for_a_new_one(
         bench):
     b = bench
-    b.tick_until(lambda: b.sup.state == "ready" and not b.ex.probe.active and b.loop.status is not None,
+    b.tick_until(lambda: b.sup.state == "ready" and not b.ex.probe.active and b.core.status is not None,
                  "the supervisor ready and the board's state known")
     b.apply("aaaa0001|JOG|5|60|20|None")
     b.tick_until(lambda: b.emu.speeds[5] != 0, "the jog moving the board")

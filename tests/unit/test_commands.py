@@ -329,7 +329,7 @@ def test_the_original_clients_wire_forms_mean_the_same_as_ours(original, ours):
 def test_ack_details_name_the_command_and_carry_the_warnings():
     from parolkit.controller.jobs import Job
 
-    job = Job(1, parse("MOVEJOINT|90|-90|180|0|0|180|1|None").command, "abcd1234", None, 0.0)
+    job = Job(1, parse("MOVEJOINT|90|-90|180|0|0|180|1|None").command, "abcd1234", None)
     assert job.ack_details(C.AckStatus.COMPLETED, "") == "MoveJoint finished successfully"
     assert job.ack_details(C.AckStatus.COMPLETED, "stopped at the upper limit") == "stopped at the upper limit"
     assert job.ack_details(C.AckStatus.FAILED, "no") == "no"
@@ -338,5 +338,5 @@ def test_ack_details_name_the_command_and_carry_the_warnings():
         "MoveJoint finished successfully; warning: J5 acceleration 41000 steps/s^2 over its limit")
     assert job.ack_details(C.AckStatus.EXECUTING, "") == job.warnings[0]
     assert job.ack_details(C.AckStatus.CANCELLED, "STOP received") == "STOP received"
-    jog = Job(2, parse("CARTJOG|WRF|X+|50|1").command, "abcd1234", None, 0.0)
+    jog = Job(2, parse("CARTJOG|WRF|X+|50|1").command, "abcd1234", None)
     assert jog.ack_details(C.AckStatus.COMPLETED, "") == "CartJog finished successfully"

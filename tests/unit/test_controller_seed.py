@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from tests.unit.test_controller_core import RATE, Rig
 
-from parolkit.controller.jobs import TickContext, TrajectoryActivity
+from parolkit.controller.activities import TickContext, TrajectoryActivity
 from parolkit.moves import SpeedJointMove
 from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand, GripperCommandBits, GripperMode, IOBits, StatusFrame
@@ -179,12 +179,13 @@ def test_move_over_a_speed_limit_is_refused_with_the_minimum_t(rig):
 
 
 def test_plan_warnings_join_any_other_detail_of_the_terminal_ack():
-    from parolkit.controller.jobs import WARNING_PREFIX, Job
+    from parolkit.controller.activities import WARNING_PREFIX
+    from parolkit.controller.jobs import Job
     from parolkit.motion import validate
     from parolkit.protocol.commands import parse_datagram
 
     job = Job(seq=1, command=parse_datagram("aaaa0001|DELAY|1").command, command_id="aaaa0001", ack_addr=None,
-              accepted_at=0.0, notes=("duration given: it overrides speed and acceleration percentages",
+              notes=("duration given: it overrides speed and acceleration percentages",
                                       "warning: J5 needs more", "warning: J6 needs more"))
     assert job.ack_details(AckStatus.COMPLETED, "done") == "done; warning: J5 needs more; warning: J6 needs more"
     assert job.ack_details(AckStatus.EXECUTING, "") == "warning: J5 needs more; warning: J6 needs more"

@@ -1,4 +1,4 @@
-"""Board link integrity, tick by tick: the real ControlLoop, executor and StatusIntegrity
+"""Board link integrity, tick by tick: the real controller core, its driver and StatusIntegrity
 against the real board emulator on a virtual clock, with deliberate link faults injected on
 the bytes between them (issue 12, items 5 and 7).
 
@@ -102,7 +102,7 @@ def _status_changes(rig: Rig, ticks: int) -> list[StatusFrame]:
     seen = []
     for _ in range(ticks):
         rig.tick()
-        st = rig.loop.status
+        st = rig.core.status
         if st is not None and (not seen or st is not seen[-1]):
             seen.append(st)
     return seen
@@ -119,7 +119,7 @@ def test_corrupted_replies_never_become_the_status_beyond_the_steppers_own_jitte
     try:
         log = Exchanges(r)
         r.emu.set_faults(corrupt_rate=0.01, direction="from_board")
-        r.loop.link_timeout_ticks = 50  # lost replies are not the subject here
+        r.core.link_timeout_ticks = 50  # lost replies are not the subject here
         moves = ["MOVEJOINT|60|-80|170|20|-20|150|None|100", "JOG|1|100|0.6|None",
                  "MOVEJOINT|90|-90|180|0|0|180|None|80", "JOG|9|70|0.5|None", "MULTIJOG|0,4|60,60|0.5",
                  "MOVEJOINT|70|-100|200|-30|30|120|1.5|None"]
@@ -159,8 +159,7 @@ def test_corrupted_replies_never_become_the_status_beyond_the_steppers_own_jitte
 def test_a_frame_off_the_board_s_own_account_is_held_back_and_the_next_true_one_shown():
     """StatusIntegrity alone: two agreeing frames start the truth; a flipped high byte is not
     the truth; the next good frame is; a power cycle (counters 0, homed 0x03) is reported."""
-    faults: list[str] = []
-    integ = StatusIntegrity(PAROL6, RATE, on_fault=faults.append)
+    integ = StatusIntegrity(PAROL6, RATE)
     at = StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=255)
     assert not integ.accept(at, 0.00, 0)  # one frame proves nothing
     assert integ.accept(at, 0.01, 0)
@@ -172,9 +171,11 @@ def test_a_frame_off_the_board_s_own_account_is_held_back_and_the_next_true_one_
     bad_io = StatusFrame(positions=STANDBY, homed=0xFF, io=0x08, timing=7031)
     assert not integ.accept(bad_io, 0.04, 0)  # IO low bits are always 1
     reset = StatusFrame(positions=(0,) * 6, homed=0x03, timing=7031)
-    assert not integ.accept(reset, 0.05, 0) and not faults
+    assert not integ.accept(reset, 0.05, 0) and integ.take_fault() is None
     integ.accept(reset, 0.06, 0)  # the same fallen homed byte twice: not a corrupted byte
-    assert faults and "no longer homed" in faults[0]
+    fault = integ.take_fault()
+    assert fault is not None and "no longer homed" in fault
+    assert integ.take_fault() is None  # reported once
 
 
 def test_a_jog_is_shown_only_where_its_own_speed_and_timing_take_it():
@@ -227,7 +228,7 @@ def test_a_corrupted_frame_that_jogs_a_joint_while_idle_disables_within_three_ti
     assert faulty.ex.integrity.uncommanded == 1
     faulty.tick(5)
     assert all(f.command == BoardCommand.DISABLE for f in faulty.frames[-4:])
-    snap = faulty.loop.snapshot()
+    snap = faulty.outputs[-1].snapshot
     assert "UNCOMMANDED=1" in snap.reply_status() and snap.as_dict()["integrity"]["uncommanded"] == 1
     # ENABLE clears it; the robot moves again
     faulty.send("ENABLE")
@@ -271,7 +272,7 @@ def test_home_at_standby_homes_for_real_then_a_move_runs():
     r = Rig()
     try:
         log = Exchanges(r)
-        assert tuple(r.loop.status.positions) == STANDBY and r.ex.homed
+        assert tuple(r.core.status.positions) == STANDBY and r.ex.homed
         r.submit("aaaa0001|HOME")
         phases = set()
         while r.terminal("aaaa0001") is None:
@@ -292,7 +293,7 @@ def test_a_board_left_disabled_is_found_disabled_and_home_fails_fast_until_enabl
     r = Rig(board_disabled=True)
     try:
         assert not r.ex.enabled and r.ex.error == "the board was found disabled: send ENABLE"
-        assert r.loop.snapshot().state.value == "DISABLED"
+        assert r.outputs[-1].snapshot.state.value == "DISABLED"
         r.submit("aaaa0001|HOME")
         assert r.terminal("aaaa0001") is AckStatus.FAILED
         assert "the board was found disabled" in [a for a in r.acks if a[0] == "aaaa0001"][-1][2]
@@ -445,17 +446,17 @@ def test_a_corrupted_position_of_a_joint_at_rest_during_homing_is_never_shown(fa
     r.submit("aaaa0001|HOME")
     for _ in range(400):
         r.tick()
-        if r.emu.homing_phase is HomingPhase.J123_REFERENCE and r.loop.status is not None \
-                and r.loop.status.homed != 0xFF:
+        if r.emu.homing_phase is HomingPhase.J123_REFERENCE and r.core.status is not None \
+                and r.core.status.homed != 0xFF:
             break
-    j5 = r.loop.status.positions[4]
+    j5 = r.core.status.positions[4]
     low = j5 & 0xFF
     r.transport.corrupt_next_reply(18, low ^ 0x91)  # J5 low byte: a step change of 0x91 or so
     shown = []
     for _ in range(5):
         r.tick()
-        if r.loop.status is not None:
-            shown.append(r.loop.status.positions[4])
+        if r.core.status is not None:
+            shown.append(r.core.status.positions[4])
     assert r.emu.homing_phase is HomingPhase.J123_REFERENCE, "J5 must still rest for this test"
     assert all(v == j5 for v in shown), (j5, shown)
     assert r.terminal("aaaa0001") is None  # the homing goes on
@@ -559,7 +560,7 @@ def test_after_a_lost_reply_the_frame_that_confirms_a_race_is_not_shown_until_ch
 
     def tick() -> None:
         faulty.tick()
-        st = faulty.loop.status
+        st = faulty.core.status
         if st is not None and (not shown or st is not shown[-1]):
             shown.append(st)
 

@@ -2,7 +2,7 @@
 never by the controller's own late ticks, and when replies go bad every frame written is still
 a bounded commitment: the board stops within 20 ms of travel of where the frames could take it.
 
-The real ControlLoop, executor, guard and planner against the real board emulator on a
+The real controller core, its driver, guard and planner against the real board emulator on a
 virtual clock (``tests/unit/test_controller_core.py``'s ``Rig``); link faults are the
 emulator's own (``set_faults``), applied to the board's replies only."""
 
@@ -13,9 +13,7 @@ import time
 import pytest
 from tests.unit.test_controller_core import RATE, Rig
 
-from parolkit.controller.executor import Executor
-from parolkit.controller.guard import SafetyGuard
-from parolkit.controller.loop import ControlLoop
+from parolkit.controller.core import ControllerCore
 from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand
 from parolkit.robot import PAROL6, goto_goal
@@ -46,7 +44,7 @@ def test_late_ticks_of_a_stalled_controller_never_count_as_unanswered_frames(rig
         rig.tick(3)
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
-    view = rig.loop.stats.view()
+    view = rig.core.counters
     assert view.link_losses == 0 and view.link_holds == 0 and view.unanswered_max == 0
 
 
@@ -58,7 +56,7 @@ def test_replies_read_a_tick_late_still_answer_their_frames(rig):
     rig.submit("aaaa0001|JOG|0|50|0.5|None")
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED, _details(rig, "aaaa0001")
-    view = rig.loop.stats.view()
+    view = rig.core.counters
     assert view.link_losses == 0 and view.link_holds == 0 and view.unanswered_max == 1
 
 
@@ -72,16 +70,18 @@ def test_bad_replies_mid_jog_leave_the_board_within_bounded_travel_and_the_loss_
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     rig.tick(10)
     assert rig.emu.speeds[0] > 0
-    trusted = rig.loop.link.anchor.status.positions[0]
+    trusted = rig.core.link.anchor.status.positions[0]
     rig.emu.set_faults(direction="from_board", **BAD_REPLIES[fault])
     n = len(rig.frames)
     rig.tick(6)
     after = rig.frames[n:]
-    assert [f.command for f in after] == [BoardCommand.GOTO] * 3, [(f.command, f.speeds) for f in after]
-    assert not rig.loop.link_up
+    # 3 frames unanswered, then the one that ends the stream on its goal, in whole steps
+    assert [f.command for f in after] == [BoardCommand.GOTO] * 4, [(f.command, f.speeds) for f in after]
+    assert after[3].speeds == ZERO
+    assert not rig.core.link_up
     assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
     assert "board link lost: the board left 3 frames in a row unanswered" in _details(rig, "aaaa0001")
-    view = rig.loop.stats.view()
+    view = rig.core.counters
     assert view.link_holds == 1 and view.link_losses == 1
     rig.tick(100)
     reach = PAROL6.max_speed_steps_s[0] / 50.0
@@ -97,15 +97,15 @@ def test_new_motion_is_refused_while_replies_are_missing(rig):
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     rig.emu.set_faults(drop_rate=1.0, direction="from_board")
     rig.tick(3)  # paused now; the loss comes with the next tick
-    assert rig.loop.holding and rig.loop.link_up
+    assert rig.core.holding and rig.core.link_up
     rig.submit("aaaa0002|JOG|1|60|1|None")
     assert rig.terminal("aaaa0002") is AckStatus.FAILED
 
 
-def _loop(r: Rig, timeout: int, hold: int = 2) -> None:
-    r.loop = ControlLoop(transport=r.transport, executor=r.ex, guard=SafetyGuard(PAROL6, RATE), rate_hz=RATE,
-                         link_timeout_ticks=timeout, link_hold_frames=hold, reply_wait_fraction=0.0)
-    r.tick(3)
+def _loop(r: Rig, timeout: int, hold: int = 2) -> Rig:
+    """A rig whose link is lost after ``timeout`` unanswered frames (held after ``hold``)."""
+    r.close()
+    return Rig(link_timeout_ticks=timeout, link_hold_frames=hold)
 
 
 def test_a_jog_held_by_missing_replies_goes_on_when_they_come_back_and_covers_its_distance(rig):
@@ -114,14 +114,14 @@ def test_a_jog_held_by_missing_replies_goes_on_when_they_come_back_and_covers_it
     maximum speed beyond its first goal since (a slow jog goes on meanwhile, a fast one slows
     to that); it goes on when they return and still ends where its distance says; no loss
     (the threshold is 10 here)."""
-    _loop(rig, 10)
+    rig = _loop(rig, 10)
     start = rig.emu.positions[0]
     rig.submit("aaaa0001|JOG|0|60|None|4")
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     rig.tick(15)
     rig.emu.set_faults(drop_rate=1.0, direction="from_board")
     n = len(rig.frames)
-    trusted = rig.loop.link.anchor.status.positions[0]
+    trusted = rig.core.link.anchor.status.positions[0]
     rig.tick(6)
     rig.emu.clear_faults()
     held = rig.frames[n:n + 6]
@@ -131,12 +131,12 @@ def test_a_jog_held_by_missing_replies_goes_on_when_they_come_back_and_covers_it
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED, _details(rig, "aaaa0001")
     assert abs((rig.emu.positions[0] - start) / PAROL6.steps_per_deg[0] - 4.0) <= 0.02
-    view = rig.loop.stats.view()
+    view = rig.core.counters
     assert view.link_losses == 0 and view.link_holds == 1 and view.unanswered_max == 6
 
 
 def test_a_position_move_paused_by_missing_replies_catches_up_and_keeps_its_time(rig):
-    _loop(rig, 10)
+    rig = _loop(rig, 10)
     rig.submit("aaaa0001|MOVEJOINT|60|-80|170|10|-10|170|2|None")
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     act = rig.ex.activity
@@ -153,7 +153,7 @@ def test_a_position_move_paused_by_missing_replies_catches_up_and_keeps_its_time
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED
     last = next(i for i, f in enumerate(rig.frames) if i > first and f.positions == final)
     assert last - first <= act.n  # the 30 ms pause was caught up: on time
-    assert rig.loop.stats.view().link_losses == 0
+    assert rig.core.counters.link_losses == 0
 
 
 def test_lost_replies_mid_position_move_leave_the_board_settled_at_its_last_goal(rig):
@@ -168,12 +168,12 @@ def test_lost_replies_mid_position_move_leave_the_board_settled_at_its_last_goal
     n = len(rig.frames)
     rig.tick(5)
     after = rig.frames[n:]
-    assert [f.command for f in after] == [BoardCommand.GOTO] * 3
+    assert [f.command for f in after] == [BoardCommand.GOTO] * 4
     goal = goto_goal(after[2].positions, after[2].speeds)
-    stop = rig.loop.last_frame  # written at the loss
+    stop = after[3]  # written at the loss
     assert stop.command == BoardCommand.GOTO and stop.speeds == ZERO
     assert stop.positions == tuple(int(round(g)) for g in goal)
-    assert not rig.loop.link_up and rig.loop.stats.view().link_holds == 1
+    assert not rig.core.link_up and rig.core.counters.link_holds == 1
     assert rig.terminal("aaaa0001") is AckStatus.CANCELLED
     rig.tick(50)
     assert rig.emu.positions == stop.positions
@@ -188,17 +188,17 @@ def test_the_loss_ends_a_go_to_stream_on_its_goal_in_whole_steps():
     feed-forward, and the board stops exactly there."""
     r = Rig()
     try:
-        _loop(r, 3, hold=3)
+        r = _loop(r, 3, hold=3)
         r.submit("aaaa0001|JOG|0|60|5|None")
         r.run_until(lambda: AckStatus.EXECUTING in r.statuses("aaaa0001"))
         r.emu.set_faults(drop_rate=1.0, direction="from_board")
         n = len(r.frames)
         r.tick(5)
-        assert len(r.frames) - n == 3 and all(f.command == BoardCommand.GOTO for f in r.frames[n:])
-        stop = r.loop.last_frame
-        goal = goto_goal(r.frames[-1].positions, r.frames[-1].speeds)
+        assert len(r.frames) - n == 4 and all(f.command == BoardCommand.GOTO for f in r.frames[n:])
+        stop = r.frames[-1]  # written at the loss
+        goal = goto_goal(r.frames[-2].positions, r.frames[-2].speeds)
         assert stop.positions == tuple(int(round(g)) for g in goal) and stop.speeds == ZERO
-        assert not r.loop.link_up
+        assert not r.core.link_up
         r.tick(20)
         assert r.emu.speeds == ZERO and r.emu.positions == stop.positions
     finally:
@@ -208,7 +208,7 @@ def test_the_loss_ends_a_go_to_stream_on_its_goal_in_whole_steps():
 def test_a_silent_board_is_lost_after_the_configured_number_of_unanswered_frames():
     r = Rig()
     try:
-        _loop(r, 5)
+        r = _loop(r, 5)
         r.submit("aaaa0001|DELAY|2")
         r.run_until(lambda: AckStatus.EXECUTING in r.statuses("aaaa0001"))
         r.emu.set_faults(silent=True)
@@ -218,20 +218,14 @@ def test_a_silent_board_is_lost_after_the_configured_number_of_unanswered_frames
         assert all(f.command == BoardCommand.IDLE for f in r.frames[n:])
         assert r.terminal("aaaa0001") is AckStatus.CANCELLED
         assert "5 frames in a row unanswered" in r.ex.error
-        assert r.loop.stats.view().link_holds == 0  # nothing was streaming a speed
+        assert r.core.counters.link_holds == 0  # nothing was streaming a speed
     finally:
         r.close()
 
 
 def test_hold_frames_may_not_exceed_the_loss_threshold():
-    ex = Executor(model=PAROL6, rate_hz=RATE, queue_size=4, watchdog_s=0.02)
-    r = Rig()
-    try:
-        with pytest.raises(ValueError, match="link_hold_frames must be 1..link_timeout_ticks"):
-            ControlLoop(transport=r.transport, executor=ex, guard=SafetyGuard(PAROL6, RATE), rate_hz=RATE,
-                        link_timeout_ticks=2, link_hold_frames=3)
-    finally:
-        r.close()
+    with pytest.raises(ValueError, match="link_hold_frames must be 1..link_timeout_ticks"):
+        ControllerCore(model=PAROL6, rate_hz=RATE, link_timeout_ticks=2, link_hold_frames=3)
 
 
 def test_a_move_that_starts_while_replies_are_missing_starts_from_where_the_board_rests(rig):
@@ -240,14 +234,14 @@ def test_a_move_that_starts_while_replies_are_missing_starts_from_where_the_boar
     came back its first target was the sample due by then, far from the board: the guard
     refused it and the move FAILED (test_guard_wire on a busy machine).  The first target is
     now the furthest one the guard passes from where the board rests; the move completes."""
-    _loop(rig, 60, hold=2)
+    rig = _loop(rig, 60, hold=2)
     rig.submit("aaaa0001|MOVEJOINT|40|-60|200|-30|-20|120|None|100|100")
     rig.emu.set_faults(drop_rate=1.0, direction="from_board")
     for _ in range(40):  # the planner thread plans it meanwhile; the loop holds
         rig.tick()
         time.sleep(0.002)
-    assert rig.loop.holding and AckStatus.EXECUTING in rig.statuses("aaaa0001")
+    assert rig.core.holding and AckStatus.EXECUTING in rig.statuses("aaaa0001")
     rig.emu.clear_faults()
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.COMPLETED, _details(rig, "aaaa0001")
-    assert rig.loop.guard.violations == 0, rig.loop.guard.last_violation
+    assert rig.core.guard.violations == 0, rig.core.guard.last_violation

@@ -13,9 +13,8 @@ import pytest
 
 from parolkit.board import BoardEmulator
 from parolkit.config import load_config
-from parolkit.controller.executor import Executor
-from parolkit.controller.guard import SafetyGuard
-from parolkit.controller.loop import MIN_SLEEP_S, ControlLoop
+from parolkit.controller.core import ControllerCore
+from parolkit.controller.driver import MIN_SLEEP_S, Driver
 from parolkit.errors import ParolkitValueError
 from parolkit.robot import PAROL6
 from parolkit.transport.emulated import EmulatorTransport
@@ -40,7 +39,7 @@ def _in_thread(fn):
 
 @linux_only
 def test_the_reported_policy_is_the_one_the_os_gave_the_thread():
-    got, policy, nice = _in_thread(lambda: ControlLoop.raise_priority(10))
+    got, policy, nice = _in_thread(lambda: Driver.raise_priority(10))
     if got == "fifo:10":
         assert policy == os.SCHED_FIFO
     elif got == "nice:-10":
@@ -51,17 +50,18 @@ def test_the_reported_policy_is_the_one_the_os_gave_the_thread():
 
 @linux_only
 def test_priority_zero_never_asks_for_a_real_time_policy():
-    got, policy, _ = _in_thread(lambda: ControlLoop.raise_priority(0))
+    got, policy, _ = _in_thread(lambda: Driver.raise_priority(0))
     assert got in ("nice:-10", "normal") and policy == os.SCHED_OTHER
 
 
-def _loop(rate_hz: float = 100.0, transport: EmulatorTransport | None = None, **kw) -> ControlLoop:
+def _loop(rate_hz: float = 100.0, transport: EmulatorTransport | None = None, *, link_timeout_ticks: int = 3,
+          link_hold_frames: int = 2, **kw) -> Driver:
     if transport is None:
         transport = EmulatorTransport(emulator=BoardEmulator(clock="virtual", start_homed=True))
     transport.open()
-    ex = Executor(model=PAROL6, rate_hz=rate_hz, queue_size=4, watchdog_s=0.02)
-    return ControlLoop(transport=transport, executor=ex, guard=SafetyGuard(PAROL6, rate_hz), rate_hz=rate_hz,
-                       **kw)
+    core = ControllerCore(model=PAROL6, rate_hz=rate_hz, queue_size=4, watchdog_s=0.02,
+                          link_timeout_ticks=link_timeout_ticks, link_hold_frames=link_hold_frames)
+    return Driver(core, transport, **kw)
 
 
 @linux_only
@@ -70,7 +70,7 @@ def test_a_helper_thread_started_by_the_tick_thread_drops_the_real_time_policy()
     loop._helper_nice = -5
 
     def both() -> str:
-        got = ControlLoop.raise_priority(10)
+        got = Driver.raise_priority(10)
         loop._helper_priority()
         return got
 
@@ -82,7 +82,7 @@ def test_a_helper_thread_started_by_the_tick_thread_drops_the_real_time_policy()
 
 _OTHER_THREADS = """
 import os, threading, time
-from parolkit.controller.loop import ControlLoop
+from parolkit.controller.driver import Driver
 seen = {}
 go = threading.Event()
 def worker():
@@ -90,7 +90,7 @@ def worker():
     seen["nice"] = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
 t = threading.Thread(target=worker); t.start()
 time.sleep(0.05)
-n = ControlLoop.raise_other_threads(-10)
+n = Driver.raise_other_threads(-10)
 go.set(); t.join()
 print(n, seen["nice"], os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
 """

@@ -24,7 +24,7 @@ import pytest
 from parolkit import moves
 from parolkit.client import core as client_core
 from parolkit.client import robot_api
-from parolkit.controller import state as controller_state
+from parolkit.controller import snapshot as controller_state
 from parolkit.protocol import commands as protocol
 from parolkit.protocol.frames import BoardCommand
 
@@ -150,9 +150,9 @@ SAME_THING_TWICE: dict[str, tuple[frozenset[str], str]] = {
     # the standard-library client's copies (it may not import the package; checked above)
     "AckStatus": (frozenset({"parolkit.protocol.commands", "parolkit.client.core"}),
                   "the client's copy of the ack statuses"),
-    "RobotState": (frozenset({"parolkit.controller.state", "parolkit.client.core"}),
+    "RobotState": (frozenset({"parolkit.controller.snapshot", "parolkit.client.core"}),
                    "the client's copy of the controller states"),
-    "BoardInfo": (frozenset({"parolkit.controller.state", "parolkit.client.core"}),
+    "BoardInfo": (frozenset({"parolkit.controller.snapshot", "parolkit.client.core"}),
                   "the status's board object, as the controller sends it and as the client reads it"),
     "GripperState": (frozenset({"parolkit.board.gripper", "parolkit.client.core"}),
                      "the SSG-48's state, inside the emulated board and as the controller reports it"),

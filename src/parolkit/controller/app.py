@@ -1,14 +1,15 @@
-"""Wiring: one :class:`Controller` = transport + executor + guard + loop + UDP server.
+"""Wiring: one :class:`Controller` = the core, its driver (transport, supervisor, planner) and
+the UDP server.
 
-Data flows one way: the server hands parsed commands to the loop through a
-:class:`~parolkit.controller.inbox.CommandInbox`; the loop returns each tick's
-:class:`~parolkit.controller.loop.TickOutput`, which :meth:`Controller._publish` stores (the
+Data flows one way: the server hands parsed commands to the tick through a
+:class:`~parolkit.controller.inbox.CommandInbox`; the driver returns each tick's
+:class:`~parolkit.controller.core.TickOutput`, which :meth:`Controller._publish` stores (the
 snapshot) before it sends the acks.  The server reads the latest snapshot; it never waits for
-a tick and never calls into the loop.
+a tick and never calls into the core.
 
 Start-up order keeps the first PONG fast: bind the UDP socket and start answering first
-(PING works before the board link is up), then open the board link and start the loop; the
-motion/kinematics imports happen in the planner thread, off the start-up path.
+(PING works before the board link is up), then open the board link and start the tick; the
+motion/kinematics imports happen in the planner, off the start-up path.
 """
 
 from __future__ import annotations
@@ -23,14 +24,14 @@ from types import ModuleType
 from typing import Any
 
 from parolkit.config import Config
-from parolkit.controller.executor import Executor
-from parolkit.controller.guard import SafetyGuard
-from parolkit.controller.inbox import CommandInbox, Submission
-from parolkit.controller.jobs import PlanAhead
+from parolkit.controller.core import ControllerCore, TickOutput
+from parolkit.controller.driver import Driver
+from parolkit.controller.inbox import CommandInbox
 from parolkit.controller.lease import ControlLease, is_loopback
-from parolkit.controller.loop import ControlLoop, TickOutput
+from parolkit.controller.messages import Submission
+from parolkit.controller.planning import PlanRequest, needs_plan
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
-from parolkit.controller.state import SNAPSHOT_QUERIES, BoardInfo, RobotState, Snapshot
+from parolkit.controller.snapshot import SNAPSHOT_QUERIES, BoardInfo, RobotState, Snapshot
 from parolkit.controller.supervisor import StopSupervisor
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps
@@ -61,8 +62,12 @@ class Controller:
         self.started_at = time.monotonic()
         self.sock: socket.socket | None = None
         self.outbox: Outbox
-        self.executor: Executor
-        self.loop: ControlLoop | None = None
+        self.core: ControllerCore
+        self.loop: Driver | None = None
+        #: keys of the plans the server asks for ahead of the tick (negative: a job's own plan
+        #: is keyed by its number)
+        self._ahead_keys = 0
+        self._ahead_lock = threading.Lock()
         self.server: UdpServer
         self.stream: StatusStream
         self._snapshot: Snapshot | None = None
@@ -101,11 +106,12 @@ class Controller:
             self.bind()
         assert self.sock is not None
         self.outbox = Outbox(self.sock)
-        self.executor = Executor(
+        self.core = ControllerCore(
             model=self.config.robot, rate_hz=self.rate_hz, queue_size=cs.queue_size,
-            watchdog_s=cs.stream_watchdog_s, tool_provider=self.tool,
-            homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
+            watchdog_s=cs.stream_watchdog_s, link_timeout_ticks=cs.link_timeout_ticks,
+            link_hold_frames=cs.link_hold_frames, homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
             homing_speedup=self._homing_speedup(), unhomed_jog_travel_deg=cs.unhomed_jog_travel_deg,
+            pose_provider=self._pose_provider, config=self.config,
         )
         self.stream = StatusStream(self.sock)
         self.server = UdpServer(self.sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
@@ -122,17 +128,12 @@ class Controller:
         elif not transport.is_open:
             transport.open()
         self.board_description = transport.description
-        guard = SafetyGuard(self.config.robot, self.rate_hz)
-        self.loop = ControlLoop(
-            transport=transport, executor=self.executor, guard=guard, rate_hz=self.rate_hz,
-            link_timeout_ticks=cs.link_timeout_ticks, link_hold_frames=cs.link_hold_frames,
-            realtime_priority=cs.realtime_priority, inbox=self.inbox, publish=self._publish,
-            pose_provider=self._pose_provider,
+        self.loop = Driver(
+            self.core, transport, realtime_priority=cs.realtime_priority, inbox=self.inbox, publish=self._publish,
             supervisor=(StopSupervisor(cs.period_s, cs.supervisor_stall_s, priority=cs.supervisor_priority)
                         if cs.supervisor else None),
+            server_view=self.server.overload_view,
         )
-        self.loop.server_view = self.server.overload_view
-        self.executor.start()
         self.loop.start()
         threading.Thread(target=self._warm_up, name="parolkit-warmup", daemon=True).start()
         if self.home_on_start and getattr(transport, "simulated", False):
@@ -150,10 +151,10 @@ class Controller:
         self._stopped.set()
         if self.loop is not None:
             self.loop.stop()
-        self.executor.stop()
         self.server.stop()
         self.stream.stop()
-        self.outbox.send_acks(self.executor.take_acks())  # the shutdown's CANCELLED acks
+        if self.loop is not None:
+            self.outbox.send_acks(self.loop.take_acks())  # the shutdown's CANCELLED acks
         self.outbox.flush(0.5)
         self.outbox.stop()
         if self.sock is not None:
@@ -180,26 +181,40 @@ class Controller:
     def _warm_up(self) -> None:
         """Import kinematics and compute one pose off the start-up path."""
         try:
-            self._pose_provider(self.config.robot.standby_deg, self.executor.tool_name)
+            self._pose_provider(self.config.robot.standby_deg, self.snapshot.tool)
         except Exception as exc:
             log.warning("kinematics warm-up failed: %s", exc)
 
     def tool(self) -> object:
-        """The current tool object (kinematics), resolved lazily."""
-        ex = self.executor
-        obj = ex.tool_obj
-        if obj is None:
-            obj = ex.tool_obj = self.resolve_tool(ex.tool_name)
-        return obj
+        """The current tool object (kinematics), resolved by name (the snapshot's)."""
+        return self.resolve_tool(self.snapshot.tool)
 
     def resolve_tool(self, name: str) -> object:
         """The kinematics tool called ``name`` (config ``[tools.NAME]`` or built in)."""
         _, tools = self._kinematics()
         return tools.get_tool(name, self.config)
 
-    def plan_ahead(self, command: C.Command) -> PlanAhead | None:
-        """Start planning a motion command while the robot is idle (see PlanAhead)."""
-        return self.executor.plan_ahead(command)
+    def plan_ahead(self, command: C.Command) -> int | None:
+        """(server thread) Start planning a motion command that reaches an idle robot now, from
+        the latest snapshot (the measured joints, the tool), so the move can start at the tick
+        that takes the command in; the key of that plan, or None when the robot is not idle
+        (the core plans it as usual).  The core uses the plan only if the robot and the tool
+        are still where it assumed."""
+        s = self.snapshot
+        loop = self.loop
+        if (loop is None or not needs_plan(command) or s.stream_mode or s.command is not None or s.queue
+                or not all(s.homed) or not s.enabled or s.estop_latched or not s.board.connected):
+            return None
+        try:
+            tool = self.resolve_tool(s.tool)
+        except Exception:
+            return None
+        with self._ahead_lock:
+            self._ahead_keys -= 1
+            key = self._ahead_keys
+        loop.plan_ahead(PlanRequest(key, command, tuple(s.angles_deg), s.tool, tool, self.rate_hz,
+                                    self.config.robot))
+        return key
 
     def _pose_provider(self, angles: Sequence[float], tool_name: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         fk, tools = self._kinematics()
@@ -241,9 +256,9 @@ class Controller:
                 seq=0, time=0.0, state=RobotState.DISCONNECTED, enabled=True, estop_pressed=False,
                 estop_latched=False, status=StatusFrame(), board=BoardInfo(False, self.link_url.simulated,
                                                                            self.board_description),
-                error=None, command=None, queue=0, stream_mode=False, tool=self.executor.tool_name, plan_seq=0,
+                error=None, command=None, queue=0, stream_mode=False, tool="default", plan_seq=0,
                 outputs=(False, False), steps_per_deg=self._spd, pose_provider=self._pose_provider,
-                loop_view=self._loop_dict,
+                loop=self._loop_dict(),
             )
         return s
 
@@ -256,28 +271,23 @@ class Controller:
     def answer_query(self, name: str, viewer: str | None = None) -> str:
         if name in SNAPSHOT_QUERIES:
             return self.snapshot.reply(name)
+        s = self.snapshot
         if name == "GET_LOOP_STATS":
-            extra = self._loop_dict()
-            extra["guard_replaced_frames"] = self.loop.guard.replaced_frames if self.loop else 0
-            extra["guard_violations"] = self.loop.guard.violations if self.loop else 0
-            extra["planned"] = self.executor.planned_count
-            extra["plan_time_total_s"] = round(self.executor.plan_time_s, 4)
-            extra["datagrams_received"] = self.server.received
-            extra["datagrams_invalid"] = self.server.invalid
-            extra["uptime_s"] = round(time.monotonic() - self.started_at, 3)
-            return "LOOP_STATS|" + dumps(extra)
+            return s.reply_loop_stats({"datagrams_received": self.server.received,
+                                       "datagrams_invalid": self.server.invalid,
+                                       "uptime_s": round(time.monotonic() - self.started_at, 3)})
         if name == "GET_PLAN":
             try:
-                tool = self.tool()
+                tool = self.resolve_tool(s.tool)
             except Exception:
                 tool = None
-            return "PLAN|" + dumps(self.executor.plan_view(tool))
+            return "PLAN|" + dumps(s.plan.as_dict(tool))
         if name == "GET_TOOL":
             try:
-                pose = self.tool().pose  # type: ignore[attr-defined]
-                return f"TOOL|{self.executor.tool_name}|" + C.format_floats(pose)
+                pose = self.resolve_tool(s.tool).pose  # type: ignore[attr-defined]
+                return f"TOOL|{s.tool}|" + C.format_floats(pose)
             except Exception as exc:
                 return C.format_error(f"GET_TOOL: {exc}")
         if name == "GET_QUEUE":
-            return "QUEUE|" + dumps(self.executor.queue_view(viewer))
+            return s.reply_queue(viewer)
         return C.format_error(f"unknown query {name}")

@@ -17,10 +17,8 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from dataclasses import dataclass
 
-from parolkit.controller.jobs import PlanAhead
-from parolkit.protocol.commands import AckStatus, Command, format_ack
+from parolkit.controller.messages import Ack, AckRoute, Address, Submission
 
 __all__ = [
     "Address",
@@ -32,52 +30,10 @@ __all__ = [
     "MAX_TAKEN_PER_TICK",
 ]
 
-#: a UDP (host, port) pair
-Address = tuple[str, int]
-#: where a command's acks go: one or more addresses
-AckRoute = tuple[Address, ...]
-
 #: a source may have this many commands waiting for the loop; more are refused as busy
 MAX_WAITING_PER_SOURCE = 32
 #: the loop takes at most this many (non-safety) commands per tick
 MAX_TAKEN_PER_TICK = 64
-
-
-@dataclass(frozen=True, slots=True)
-class Submission:
-    """A parsed command from ``source`` whose acks go to ``route`` (None: no command ID).
-
-    ``seq`` numbers datagrams in the order the server received them: a safety command applied
-    first cancels every command received before it that the loop had not applied yet.
-    ``tool`` and ``ahead`` carry what the server prepared off the tick: the resolved tool
-    object of a SET_TOOL (kinematics work never runs in the tick), the plan of a motion
-    command started while the robot was idle."""
-
-    command: Command
-    command_id: str | None
-    route: AckRoute | None
-    source: Address
-    seq: int = 0
-    tool: object | None = None
-    #: the plan the executor started ahead for it, if any
-    ahead: PlanAhead | None = None
-    #: who sent it (``str`` of a :class:`~parolkit.controller.lease.ClientId`): GET_QUEUE shows
-    #: a command's ID to its own client only
-    client: str = ""
-
-
-@dataclass(frozen=True, slots=True)
-class Ack:
-    """``ACK|ID|STATUS|details`` to every address of ``route``."""
-
-    command_id: str
-    route: AckRoute
-    status: AckStatus
-    details: str = ""
-
-    @property
-    def text(self) -> str:
-        return format_ack(self.command_id, self.status, self.details)
 
 
 class CommandInbox:

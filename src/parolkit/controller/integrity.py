@@ -46,7 +46,8 @@ between: the parser dropped no bytes between them):
   same fallen homed byte in two frames in a row; or the homing's own constant speeds in two
   frames in a row while every frame written was idle.
 
-``on_fault(message)`` is called once per uncommanded motion (the executor disables the robot).
+Each uncommanded motion is reported once (:meth:`StatusIntegrity.take_fault`): the controller
+core disables the robot with it.
 
 :class:`BoardProbe` finds out at link-up whether the board is enabled (the status frame has no
 such bit): a JOG of +1 step/s on one joint, then a zero JOG: an enabled board reports the speed
@@ -58,7 +59,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
@@ -315,23 +316,23 @@ class BoardProbe:
 class StatusIntegrity:
     """Decides which status frames are the truth and reports motion nobody commanded.
 
-    Loop thread only.  The loop calls :meth:`sent` for every frame it writes and
-    :meth:`accept` for every status frame it reads (with the parser's dropped-byte count),
-    :meth:`reset` when a new link session starts.
+    One owner (the controller core), which calls :meth:`sent` for every frame written and
+    :meth:`accept` for every status frame read (with the parser's dropped-byte count),
+    :meth:`reset` when a new link session starts, and takes each uncommanded motion found with
+    :meth:`take_fault`.
 
     ``homing_speedup``: how much faster than real time the board homes (1 for a real board; a
     simulated one may be faster: its frames during a homing then fail the link and are not
-    shown, and the homing is still seen by its homed bits and speeds).  ``on_fault(message)``
-    is called once per uncommanded motion.
+    shown, and the homing is still seen by its homed bits and speeds).
     """
 
     def __init__(self, model: RobotModel, rate_hz: float, *, homing_speedup: float = 1.0,
-                 on_fault: Callable[[str], None] | None = None, probe: BoardProbe | None = None,
+                 probe: BoardProbe | None = None,
                  tolerances: Tolerances | None = None, candidates: int = 3) -> None:
         self.model = model
         self.period = 1.0 / rate_hz
         self.homing_speedup = homing_speedup
-        self.on_fault = on_fault
+        self._pending_fault: str | None = None
         self.probe = probe
         self.tol = tolerances or Tolerances()
         self.candidates = candidates
@@ -849,6 +850,11 @@ class StatusIntegrity:
         self._quiet_until = self._n + 3
         self.uncommanded += 1
         self.last_fault = message
+        self._pending_fault = message
         log.error("uncommanded motion: %s", message)
-        if self.on_fault is not None:
-            self.on_fault(message)
+
+    def take_fault(self) -> str | None:
+        """The uncommanded motion found since the last call (its message), once; None: none.
+        The controller disables the robot with it."""
+        msg, self._pending_fault = self._pending_fault, None
+        return msg

@@ -1,77 +1,38 @@
-"""Accepted commands (:class:`Job`) and what they do tick by tick (activities).
+"""Accepted commands (:class:`Job`) and their queue (:class:`JobQueue`): admission, order, the
+running one, and every ack after QUEUED.
 
-An activity's :meth:`Activity.step` is called once per tick by the loop thread and must be
-small and bounded: it indexes precomputed arrays or compares a few numbers.  It returns a
-:class:`Step`: the board command and values for this tick and, when the job ends with this
-frame, its terminal status.
+One owner (the controller core's update); no locking.  Acks are collected, never sent from
+here: the driver sends them after it published the snapshot of the same tick (an ack never
+reports what the status does not show yet).
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+import logging
+from collections import deque
+from dataclasses import dataclass, field
 
+from parolkit.controller.activities import WARNING_PREFIX, Activity, Samples
+from parolkit.controller.messages import Ack, AckRoute
 from parolkit.protocol.commands import AckStatus, Command
-from parolkit.protocol.frames import BoardCommand, GripperMode, StatusFrame
-from parolkit.robot import GOTO_FF_GAIN, GOTO_GAIN_PER_S, JOINT_NAMES, goto_goal
 
-__all__ = [
-    "Job", "PlanAhead", "Step", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity",
-    "HomeActivity", "DelayActivity", "OneShotActivity", "GripperCalibrateActivity", "WaitInputActivity",
-    "OutputActivity",
-]
+__all__ = ["Job", "JobQueue", "QueueEntry", "QueueView"]
 
-_ZERO6 = (0, 0, 0, 0, 0, 0)
-#: one feed-forward step/s moves a GO TO goal by this much (steps)
-_FF_STEP = GOTO_FF_GAIN / GOTO_GAIN_PER_S
-
-#: a trajectory's samples as Python lists: per-tick positions and speeds (steps, 6 joints
-#: each) and board command codes
-Samples = tuple[list[list[int]], list[list[int]], list[int]]
-
-
-class PlanAhead:
-    """A plan started when the server parsed a motion command, before the tick takes it in.
-
-    Only while the robot is idle (nothing active, queued or streaming): the plan starts from the
-    measured joints, so the job it belongs to can start at the very tick that takes it in
-    instead of waiting a tick for the planner.  If anything changed meanwhile (the robot moved,
-    another command got ahead of it, the tool changed), the plan is not used and the job is
-    planned as usual.  Fields are written under the executor lock."""
-
-    __slots__ = ("command", "start", "tool_name", "trajectory", "error", "done", "job")
-
-    def __init__(self, command: Command, start: tuple[float, ...], tool_name: str) -> None:
-        self.command = command
-        self.start = start
-        self.tool_name = tool_name
-        self.trajectory: object | None = None
-        self.error: str | None = None
-        self.done = False
-        self.job: Job | None = None
-
-
-#: a plan's notes that start so are warnings (``parolkit.motion.validate.WARNING_PREFIX``, not
-#: imported here: the controller loads the planners only when first needed)
-WARNING_PREFIX = "warning: "
+log = logging.getLogger("parolkit.controller")
 
 
 @dataclass
 class Job:
-    """One accepted command, from QUEUED to its terminal ack.
-
-    Planning fields are written by the planner thread under the executor lock.
-    """
+    """One accepted command, from QUEUED to its terminal ack."""
 
     seq: int
     command: Command
     command_id: str | None
-    #: (host, port) acks go to; None for internal jobs (start-up homing)
     #: where acks go: one or more (host, port) pairs, or None without a command ID
-    ack_addr: tuple[tuple[str, int], ...] | None
-    accepted_at: float
-    #: set by the planner: start/final joint angles (deg) the plan assumes, or None
+    ack_addr: AckRoute | None
+    #: who sent it (see Submission.client)
+    client: str = ""
+    #: the plan: start/final joint angles (deg) it assumes, or None
     start_deg: tuple[float, ...] | None = None
     final_deg: tuple[float, ...] | None = None
     planned: bool = False
@@ -80,20 +41,21 @@ class Job:
     #: trajectory samples as Python lists (positions, speeds, commands), built off the tick
     samples: Samples | None = None
     notes: tuple[str, ...] = ()
+    #: a plan was asked for (its request key), not yet answered
+    planning: int | None = None
+    #: the key of the plan the server asked for ahead of the tick, until it is answered
+    ahead: int | None = None
     #: streaming jog (replaces the previous one instead of queueing)
     streamed: bool = False
     #: streamed Cartesian jog planned from where the running streamed jog was commanded:
     #: (that jog's activity, its sample index then), to line the two up when it takes over
-    stream_anchor: tuple[object, int] | None = None
+    stream_anchor: tuple[Activity, int] | None = None
     #: streamed Cartesian jog: where the running jog's plan was when this one was planned
     #: from its commanded position (a ``parolkit.motion.cartesian.JogStart``: its path's
     #: orientation and joint speeds there), so the update continues it; None otherwise
     jog_start: object | None = None
     terminal: AckStatus | None = None
-    #: the plan made ahead for this job before it was queued, until used
-    ahead: PlanAhead | None = None
-    #: who sent it (see Submission.client)
-    client: str = ""
+
     @property
     def name(self) -> str:
         return self.command.name
@@ -125,582 +87,128 @@ class Job:
         parts += [w for w in self.warnings if w and w not in details]
         return "; ".join(parts)
 
+    def set_plan(self, start: tuple[float, ...], trajectory: object, samples: Samples,
+                 final: tuple[float, ...], notes: tuple[str, ...]) -> None:
+        self.trajectory, self.samples, self.start_deg, self.final_deg = trajectory, samples, start, final
+        self.notes = notes
+        self.plan_error = None
+        self.planned = True
 
-@dataclass(frozen=True)
-class TickContext:
-    """What an activity may look at: tick number, time (s), rate, latest status frame, and the
-    goals the safety guard allows for this tick's GO TO frame."""
+    def set_plan_error(self, start: tuple[float, ...], error: str) -> None:
+        self.start_deg, self.final_deg, self.planned, self.plan_error = start, start, True, error
 
-    tick: int
-    now: float
-    rate_hz: float
-    status: StatusFrame | None
-    homed: bool
-    stream_mode: bool
-    watchdog_s: float
-    limits_steps: tuple[tuple[int, int], ...]
-    #: per joint, the goals (steps) a GO TO frame written this tick may carry (the guard's rule
-    #: 6: a bounded commitment); None: no GO TO may be sent now (where the board is is not known)
-    box: Sequence[tuple[float, float]] | None = None
-    #: where a new motion starts from (steps): the goal of the last GO TO frame written, or the
-    #: measured positions; None: not known
-    origin: Sequence[float] | None = None
-    #: the time trajectories are scheduled on (s): ``now``, or, with a board in lockstep with
-    #: the frames (each frame runs it exactly one period: a simulated board with a frame
-    #: clock), ``tick / rate_hz``: that board's own time, which a late tick does not advance
-    clock_s: float | None = None
+
+@dataclass(frozen=True, slots=True)
+class QueueEntry:
+    """One command in the queue view: its ID (shown to its own client only), name, client."""
+
+    command_id: str | None
+    name: str
+    client: str
+
+
+@dataclass(frozen=True, slots=True)
+class QueueView:
+    """GET_QUEUE as plain data (the snapshot formats it per viewer)."""
+
+    active: QueueEntry | None = None
+    progress: float = 0.0
+    waiting: tuple[QueueEntry, ...] = field(default_factory=tuple)
+
+
+class JobQueue:
+    """The accepted commands in order, the running one (with its activity) and the acks they
+    produced since the driver last took them."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.waiting: deque[Job] = deque()
+        self.active: Job | None = None
+        self.activity: Activity | None = None
+        #: a streamed CARTJOG waiting for its plan (stream mode: it replaces the running jog)
+        self.stream_cart: Job | None = None
+        self._acks: list[Ack] = []
+        self._seq = 0
+
+    def new_job(self, command: Command, command_id: str | None, route: AckRoute | None, client: str = "") -> Job:
+        self._seq += 1
+        return Job(self._seq, command, command_id, route, client)
+
+    def ack(self, job: Job, status: AckStatus, details: str = "") -> None:
+        """``job``'s ack (nothing after its terminal one)."""
+        if job.terminal is not None:
+            return
+        details = job.ack_details(status, details)
+        if status.terminal:
+            job.terminal = status
+        if job.command_id is not None and job.ack_addr is not None:
+            self._acks.append(Ack(job.command_id, job.ack_addr, status, details))
+        elif status is AckStatus.FAILED:
+            log.warning("%s failed: %s", job.name, details)
+
+    def take_acks(self) -> list[Ack]:
+        acks, self._acks = self._acks, []
+        return acks
 
     @property
-    def schedule_s(self) -> float:
-        """:attr:`clock_s`, or ``now`` when it is not set."""
-        return self.now if self.clock_s is None else self.clock_s
+    def busy(self) -> bool:
+        """Something runs or waits."""
+        return self.active is not None or bool(self.waiting) or self.stream_cart is not None
 
-
-@dataclass(frozen=True)
-class Step:
-    """The frame content an activity asks for this tick, and whether the job ends with it."""
-
-    command: int = BoardCommand.IDLE
-    positions: tuple[int, ...] | None = None
-    speeds: tuple[int, ...] = _ZERO6
-    gripper_mode: int = GripperMode.OPERATE
-    done: AckStatus | None = None
-    details: str = ""
-
-
-class Activity:
-    """Base class: one job's per-tick behaviour."""
-
-    #: progress 0..1 for the status object
-    progress: float = 0.0
-    #: True when its frames move the robot
-    moves: bool = False
-    #: True when the step that ends it needs no frame of its own (it ends on what the board
-    #: reported): the executor lets the next queued job take that tick
-    frameless_end: bool = False
-    #: warnings for the job's acks (``warning: ...``), added when it ends
-    warnings: tuple[str, ...] = ()
-
-    def step(self, ctx: TickContext) -> Step:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def touch(self, now: float) -> None:
-        """A streaming update arrived (resets the watchdog)."""
-
-
-def _boundary(ok: Callable[[float], bool], *, good: float, bad: float, steps: int = 12) -> float:
-    """The sample coordinate nearest ``bad`` that ``ok`` still passes, between ``good`` (passes)
-    and ``bad`` (does not), by bisection to 1/2**steps of the span (1/4000 by default)."""
-    for _ in range(steps):
-        mid = 0.5 * (good + bad)
-        if ok(mid):
-            good = mid
-        else:
-            bad = mid
-    return good
-
-
-def _in_box(pos: Sequence[int], ff: Sequence[int], box: Sequence[tuple[float, float]]) -> bool:
-    for g, (lo, hi) in zip(goto_goal(pos, ff), box):
-        if not lo <= g <= hi:
+    def admit(self, job: Job) -> bool:
+        """Queue ``job`` (QUEUED ack, with its position) or refuse it when full (FAILED ack)."""
+        if len(self.waiting) >= self.size:
+            self.ack(job, AckStatus.FAILED, f"queue full ({self.size} commands): wait for acks or send STOP")
             return False
-    return True
+        self.waiting.append(job)
+        ahead = len(self.waiting) + (1 if self.active is not None else 0)
+        self.ack(job, AckStatus.QUEUED, f"Position {ahead} in queue")
+        return True
 
+    def start(self, job: Job, activity: Activity, details: str = "") -> None:
+        """``job`` runs from now on (EXECUTING)."""
+        self.active, self.activity = job, activity
+        self.ack(job, AckStatus.EXECUTING, details)
 
-def _towards(goal: Sequence[float],
-             box: Sequence[tuple[float, float]]) -> tuple[tuple[int, ...], tuple[int, ...]] | None:
-    """A GO TO frame (targets, feed-forwards) whose goal is the point of ``box`` nearest
-    ``goal``, joint by joint (the goal carries hundredths of a step in the feed-forward); None
-    when the box is empty on a joint (no GO TO is safe: hold still instead)."""
-    pos, ff = [], []
-    for g, (lo, hi) in zip(goal, box):
-        if lo > hi:
-            return None
-        x = min(max(g, lo), hi)
-        t = int(round(x))
-        v = int(round((x - t) / _FF_STEP))
-        if not lo <= t + v * _FF_STEP <= hi:  # rounded out of a very narrow box
-            v = int(math.ceil((lo - t) / _FF_STEP)) if t + v * _FF_STEP < lo else int(math.floor((hi - t) / _FF_STEP))
-        pos.append(t)
-        ff.append(v)
-    return tuple(pos), tuple(ff)
+    def end_active(self, status: AckStatus, details: str = "") -> Job | None:
+        """The running job ends with ``status`` (its activity's warnings join its acks)."""
+        job, act = self.active, self.activity
+        self.active = self.activity = None
+        if job is not None:
+            if act is not None and act.warnings:
+                job.notes = (*job.notes, *act.warnings)
+            self.ack(job, status, details)
+        return job
 
+    def cancel_all(self, reason: str) -> int:
+        """Cancel the running job, every waiting one and a streamed jog waiting for its plan
+        (CANCELLED acks).  Returns how many."""
+        n = 0
+        if self.active is not None:
+            self.end_active(AckStatus.CANCELLED, reason)
+            n += 1
+        while self.waiting:
+            self.ack(self.waiting.popleft(), AckStatus.CANCELLED, reason)
+            n += 1
+        if self.stream_cart is not None:
+            self.ack(self.stream_cart, AckStatus.CANCELLED, reason)
+            self.stream_cart = None
+            n += 1
+        return n
 
-class TrajectoryActivity(Activity):
-    """Play planned samples as GO TO (156) frames, each a bounded commitment, then settle on
-    the target.
+    def fail_waiting(self, reason: str) -> None:
+        """Every waiting job (and a streamed jog waiting for its plan) FAILED with ``reason``."""
+        while self.waiting:
+            self.ack(self.waiting.popleft(), AckStatus.FAILED, reason)
+        if self.stream_cart is not None:
+            self.ack(self.stream_cart, AckStatus.FAILED, reason)
+            self.stream_cart = None
 
-    Sample ``i`` is due ``i`` periods after the first frame (its positions are where the joints
-    should be one period later, its speeds the feed-forward).  A tick plays what is due at the
-    time it runs (interpolated between samples), so a late tick does not push the rest of the
-    move back, but never further than the guard allows: the frame's goal must lie in
-    ``ctx.box``, the goals that keep the board within its maximum speed wherever it may be
-    (:meth:`parolkit.controller.guard.SafetyGuard.goal_box`).  When the plan asks for more
-    (replies came late, so where the board is is known only roughly; or the plan is faster
-    than the board can follow) the target advances only as far as the box allows and the move
-    runs stretched: slower, on its own path, never refused.  When not even the previous target
-    fits (the box moved away from it), the frame goes to the box's nearest point and the plan
-    waits.  After the last sample the target is sent with zero feed-forward every tick until a
-    status frame shows the board exactly on it and at rest: then COMPLETED (the seed: "with
-    speed + position the robot reaches exactly the commanded position"); FAILED, naming the
-    joints that are off, if that takes more than ``settle_ticks``.  Plans for speed tracking
-    (board 123 in the samples) are played the same way: every motion frame is a GO TO.
-    """
+    def view(self) -> QueueView:
+        def entry(job: Job) -> QueueEntry:
+            return QueueEntry(job.command_id, job.name, job.client)
 
-    moves = True
-
-    def __init__(self, samples: Samples, *, settle_ticks: int, settle_tol_steps: int = 4,
-                 streamed: bool = False, started: float = 0.0, schedule_start: float | None = None) -> None:
-        self._load(samples)
-        self.settle_ticks = settle_ticks
-        self.settle_left = settle_ticks
-        self.settle_tol = settle_tol_steps
-        self.streamed = streamed
-        self.last_update = started
-        #: time of the first frame (sample 0 is due then); ``skip`` moves the schedule on
-        self.t0 = started if schedule_start is None else schedule_start
-        self._offset = 0
-        #: where in the samples the last frame's target was (fractional); None before the first
-        self._s: float | None = None
-        #: ticks waited before the first frame (no box yet)
-        self._start_waits = 0
-        self._last_target: tuple[int, ...] | None = None
-        #: ticks the box held the target back behind the plan
-        self.held_ticks = 0
-
-    def _load(self, samples: Samples) -> None:
-        positions, speeds, commands = samples
-        self.positions, self.speeds, self.commands = positions, speeds, commands
-        self.n = len(positions)
-        #: the next whole sample to play (``n``: all played, settling)
-        self.i = 0
-
-    def touch(self, now: float) -> None:
-        self.last_update = now
-
-    def commanded(self) -> tuple[int, ...] | None:
-        """Position (steps) of the last target sent to the board; None before the first."""
-        return self._last_target
-
-    def skip(self, k: int) -> None:
-        """Start ``k`` samples in (at most at the last one): a streamed jog planned from
-        another's commanded position ``k`` ticks before it took over continues where that
-        one would be now, instead of stepping back by ``k`` ticks."""
-        self.i = max(0, min(int(k), self.n - 1))
-        self._offset = self.i
-
-    def _elapsed_samples(self, t: float, rate_hz: float) -> float:
-        """The (fractional) sample due at schedule time ``t``."""
-        return (t - self.t0) * rate_hz + self._offset
-
-    def _ask(self, pos: Sequence[int], spd: Sequence[int], done: AckStatus | None = None,
-             details: str = "") -> Step:
-        target = tuple(int(p) for p in pos)
-        self._last_target = target
-        return Step(BoardCommand.GOTO, target, tuple(int(v) for v in spd), done=done, details=details)
-
-    def _at(self, s: float) -> tuple[list[int], list[int]]:
-        """Target and feed-forward at sample coordinate ``s``, linear between samples."""
-        k = int(s)
-        f = s - k
-        if f <= 1e-9 or k + 1 >= self.n:
-            return self.positions[k], self.speeds[k]
-        p0, p1, v0, v1 = self.positions[k], self.positions[k + 1], self.speeds[k], self.speeds[k + 1]
-        return ([int(round(a + f * (b - a))) for a, b in zip(p0, p1)],
-                [int(round(a + f * (b - a))) for a, b in zip(v0, v1)])
-
-    def _fits(self, s: float, box: Sequence[tuple[float, float]]) -> bool:
-        pos, ff = self._at(s)
-        return _in_box(pos, ff, box)
-
-    def _hold(self, s: float, box: Sequence[tuple[float, float]]) -> Step:
-        """Not even the target at ``s`` fits the box: the box's point nearest its goal (or IDLE
-        when no goal is safe on some joint)."""
-        pos, ff = self._at(s)
-        frame = _towards(goto_goal(pos, ff), box)
-        if frame is None:
-            return Step(BoardCommand.IDLE)
-        return self._ask(*frame)
-
-    def _play(self, ctx: TickContext) -> Step:
-        box = ctx.box
-        period = 1.0 / ctx.rate_hz
-        if box is None:
-            # where the board is is not known (no trusted reply yet, a homing): no GO TO may
-            # go out; before the first frame the schedule waits, later the board stands at
-            # the last goal (a bounded commitment) while the plan's clock runs on
-            if self._s is None:
-                self._start_waits += 1
-                self.t0 = ctx.schedule_s + period
-                self._offset = self.i
-                if self._start_waits > self.settle_ticks:
-                    return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
-                                details=f"the board's position was not known for {self.settle_ticks * period:.2f} s: "
-                                        "the move could not start")
-            self.held_ticks += 1
-            return Step(BoardCommand.IDLE)
-        last = self.n - 1.0
-        first = self._s is None
-        low = float(self.i) if first else self._s
-        assert low is not None
-        want = min(max(self._elapsed_samples(ctx.schedule_s, ctx.rate_hz), low), last)
-        if self._fits(want, box):
-            s = want
-        elif self._fits(low, box):
-            s = _boundary(lambda x: self._fits(x, box), good=low, bad=want)
-            self.held_ticks += 1
-        else:
-            self.held_ticks += 1
-            if first:  # the board is not yet where the plan starts: start a tick later
-                self.t0 = ctx.schedule_s + period
-                self._offset = self.i
-            return self._hold(low, box)
-        self._s = s
-        self.i = self.n if s >= last else int(s) + 1
-        self.progress = self.i / self.n
-        pos, ff = self._at(s)
-        return self._ask(pos, ff)
-
-    def step(self, ctx: TickContext) -> Step:
-        if self.streamed and ctx.stream_mode and ctx.now - self.last_update > ctx.watchdog_s:
-            # a bounded goal: the board stops within 20 ms of travel of where it is
-            return Step(BoardCommand.IDLE, None, done=AckStatus.COMPLETED,
-                        details="stream watchdog: no update, jog stopped")
-        if self.n == 0:
-            return Step(BoardCommand.IDLE, None, done=AckStatus.COMPLETED, details="nothing to do")
-        if self.i < self.n:
-            return self._play(ctx)
-        # settle: the final target with zero feed-forward, every tick, until the board reports
-        # it exactly and at rest (the GO TO law v = 50 x error closes the last steps in a few
-        # ticks and cannot overshoot without feed-forward); FAILED if it does not in time
-        target = self.positions[-1]
-        self.settle_left -= 1
-        st = ctx.status
-        box = ctx.box
-        if box is not None and not _in_box(target, _ZERO6, box):
-            return self._hold(self.n - 1.0, box)  # the last sample's goal is still on its way
-        if st is not None and all(a == b for a, b in zip(st.positions, target)) and not any(st.speeds):
-            self.progress = 1.0
-            self._note_stretch(ctx)
-            return self._ask(target, _ZERO6, AckStatus.COMPLETED)
-        if self.settle_left <= 0:
-            return self._ask(target, _ZERO6, AckStatus.FAILED,
-                             details=self._missed_target(st, target, ctx.rate_hz))
-        if box is None:
-            return Step(BoardCommand.IDLE)
-        return self._ask(target, _ZERO6)
-
-    def _note_stretch(self, ctx: TickContext) -> None:
-        """A move the box held back for a noticeable time says so in its COMPLETED ack."""
-        if self.held_ticks <= 2:
-            return
-        held = self.held_ticks / ctx.rate_hz
-        self.warnings = (*self.warnings, f"{WARNING_PREFIX}ran stretched: for {held:.2f} s the board could not "
-                         "be asked for more without risking its maximum speed (late replies, or a plan "
-                         "faster than the bounded frames can follow)")
-
-    def _missed_target(self, st: StatusFrame | None, target: Sequence[int], rate_hz: float) -> str:
-        """The FAILED details of a move whose board did not report its target (at rest) within
-        the settle time: which joints are how far off."""
-        waited = f"{self.settle_ticks / rate_hz:.2f} s"
-        if st is None:
-            return f"the board did not report its position within {waited} of the move's end"
-        off = [f"{JOINT_NAMES[j]} at {p} steps, {t - p:+d} from the target {t}"
-               for j, (p, t) in enumerate(zip(st.positions, target)) if p != t]
-        moving = [JOINT_NAMES[j] for j, v in enumerate(st.speeds) if v]
-        what = "; ".join(off) if off else "every joint on target but still moving (" + ", ".join(moving) + ")"
-        return f"the board did not reach the exact target within {waited} of the move's end: {what}"
-
-
-def speed_samples(origin: Sequence[float], speeds_steps_s: Sequence[int], duration_s: float,
-                  rate_hz: float) -> Samples:
-    """The samples of constant joint speeds for ``duration_s`` from ``origin`` (steps): sample
-    ``i`` is where the joints should be one period after it is due, ``origin + v (i + 1) T``,
-    with the speed as feed-forward; the last is exactly ``origin + v x duration`` (rounded to
-    steps) at rest, so the distance is speed x duration whatever the rate."""
-    period = 1.0 / rate_hz
-    n = max(1, int(math.ceil(duration_s * rate_hz - 1e-9)))
-    pos: list[list[int]] = []
-    spd: list[list[int]] = []
-    v = [int(x) for x in speeds_steps_s]
-    for i in range(n - 1):
-        t = (i + 1) * period
-        pos.append([int(round(o + vj * t)) for o, vj in zip(origin, v)])
-        spd.append(list(v))
-    pos.append([int(round(o + vj * duration_s)) for o, vj in zip(origin, v)])
-    spd.append([0] * 6)
-    return pos, spd, [int(BoardCommand.GOTO)] * n
-
-
-class SpeedActivity(TrajectoryActivity):
-    """Constant joint speeds for ``duration_s``: JOG, MULTIJOG, SPEEDJOINT, as GO TO frames.
-
-    The joints follow ``origin + speed x t`` (``t`` up to ``duration_s``; the origin is where
-    the last GO TO frame's goal left them, or where they stand) like any planned move
-    (:class:`TrajectoryActivity`): each frame a bounded commitment, the distance exactly speed x
-    duration, the end settled on the exact steps.  Homed, a joint that would pass its limit
-    stops short of it (COMPLETED, the details say so).  A streamed jog's update
-    (:meth:`replace`) continues from the target the stream has reached."""
-
-    def __init__(self, speeds_steps_s: Sequence[int], duration_s: float, *, rate_hz: float, settle_ticks: int,
-                 streamed: bool = False, started: float = 0.0, schedule_start: float | None = None) -> None:
-        super().__init__(([], [], []), settle_ticks=settle_ticks, streamed=streamed, started=started,
-                         schedule_start=schedule_start)
-        self.rate_hz = rate_hz
-        self._pending: tuple[tuple[int, ...], float] | None = None
-        self.replace(speeds_steps_s, duration_s, started, schedule_start)
-
-    def replace(self, speeds_steps_s: Sequence[int], duration_s: float, now: float,
-                schedule_s: float | None = None) -> None:
-        """New speeds and duration from ``now`` on (a streamed jog's update): the reference
-        starts again from the target the stream has reached (its samples are built at the next
-        step, where that is known)."""
-        if not duration_s > 0.0:
-            raise ValueError(f"a speed stream needs a duration > 0 s, got {duration_s!r}")
-        self.speeds_steps_s = tuple(int(v) for v in speeds_steps_s)
-        self.duration = float(duration_s)
-        self._pending = (self.speeds_steps_s, self.duration)
-        self.last_update = now
-        self.t0 = now if schedule_s is None else schedule_s
-        self._offset = 0
-        self.limit_note = ""
-
-    def _build(self, ctx: TickContext) -> Step | None:
-        assert self._pending is not None
-        speeds, duration = self._pending
-        here = self._last_target if self._last_target is not None else ctx.origin
-        if here is None:
-            return Step(BoardCommand.IDLE)  # nothing known yet: wait (the box is None too)
-        self._pending = None
-        if ctx.homed:
-            for j, v in enumerate(speeds):
-                if v == 0:
-                    continue
-                lo, hi = ctx.limits_steps[j]
-                room = (hi - here[j]) / v if v > 0 else (lo - here[j]) / v
-                if room < duration:
-                    duration = max(0.0, room)
-                    self.limit_note = f"stopped at the {'upper' if v > 0 else 'lower'} limit of {JOINT_NAMES[j]}"
-        if duration <= 0.0:
-            return self._ask([int(round(x)) for x in here], _ZERO6, AckStatus.COMPLETED, self.limit_note)
-        self._load(speed_samples(here, speeds, duration, self.rate_hz))
-        self._s = None
-        self.settle_left = self.settle_ticks
-        self.t0 = ctx.schedule_s
-        return None
-
-    def step(self, ctx: TickContext) -> Step:
-        if self._pending is not None and not (self.streamed and ctx.stream_mode
-                                              and ctx.now - self.last_update > ctx.watchdog_s):
-            early = self._build(ctx)
-            if early is not None:
-                return early
-        out = super().step(ctx)
-        if out.done is AckStatus.COMPLETED and self.limit_note and not out.details:
-            return replace(out, details=self.limit_note)
-        return out
-
-
-class HomeActivity(Activity):
-    """Send HOME (100) once, then IDLE until the board has been SEEN homing and then reports
-    every joint homed at standby, at rest.
-
-    Seen homing: a status frame after HOME shows the homed bits lower than before, a speed
-    (the controller sends only zero speeds meanwhile: any speed is the board's homing) or a
-    position that changed; or ``seen()`` says so (two raw frames in a row showed it).
-    Without that, a board that was homed at standby already looks finished at once; a
-    disabled board ignores HOME and would look the same.  FAILED when the
-    board shows no homing within ``start_timeout_ticks`` (it is disabled, or HOME was lost) or
-    does not finish within ``timeout_ticks``.
-    """
-
-    def __init__(self, standby_steps: Sequence[int], timeout_ticks: int, min_ticks: int = 5,
-                 start_timeout_ticks: int = 50, seen: Callable[[], bool] | None = None) -> None:
-        self.standby = tuple(standby_steps)
-        #: the board link's own account that the board homes since HOME was written (its
-        #: frames during a homing faster than expected are not the truth, see integrity)
-        self.seen = seen
-        self.sent = False
-        self.ticks = 0
-        self.timeout_ticks = timeout_ticks
-        self.min_ticks = min_ticks
-        self.start_timeout_ticks = start_timeout_ticks
-        #: the status when HOME was sent (None: none yet) and whether homing was seen since
-        self.before: StatusFrame | None = None
-        self.started = False
-        self.started_with: StatusFrame | None = None
-
-    def _homing_seen(self, st: StatusFrame) -> bool:
-        b = self.before
-        if any(st.speeds):
-            return True
-        if b is None:
-            return False
-        return (st.homed & b.homed) != b.homed or tuple(st.positions) != tuple(b.positions)
-
-    def step(self, ctx: TickContext) -> Step:
-        if not self.sent:
-            self.sent = True
-            self.before = ctx.status
-            return Step(BoardCommand.HOME)
-        self.ticks += 1
-        st = ctx.status
-        if st is not None:
-            if not self.started and (self._homing_seen(st) or (self.seen is not None and self.seen())):
-                self.started = True
-                # the frame that was the status then says nothing about the end: during a
-                # homing faster than expected the status may stay the one from before it
-                self.started_with = st
-            self.progress = min(0.99, sum(st.homed_joints) / 6.0) if self.started else 0.0
-            if (
-                self.started and st is not self.started_with and st.all_homed and self.ticks >= self.min_ticks
-                and not any(st.speeds) and tuple(st.positions) == self.standby
-            ):
-                self.progress = 1.0
-                return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
-        if not self.started and self.ticks >= self.start_timeout_ticks:
-            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
-                        details=f"the board did not start homing within {self.start_timeout_ticks / ctx.rate_hz:g} s: "
-                                f"is it disabled? send ENABLE, then HOME")
-        if self.ticks >= self.timeout_ticks:
-            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
-                        details=f"homing did not finish within {self.timeout_ticks / ctx.rate_hz:.0f} s")
-        return Step(BoardCommand.IDLE)
-
-
-class DelayActivity(Activity):
-    """Hold still for a number of ticks."""
-
-    def __init__(self, ticks: int) -> None:
-        self.ticks = max(0, int(ticks))
-        self.i = 0
-
-    def step(self, ctx: TickContext) -> Step:
-        self.i += 1
-        self.progress = min(1.0, self.i / max(1, self.ticks))
-        if self.i >= self.ticks:
-            return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
-        return Step(BoardCommand.IDLE)
-
-
-class OneShotActivity(Activity):
-    """One frame (optionally with a one-shot gripper mode), COMPLETED with it."""
-
-    def __init__(self, gripper_mode: int = GripperMode.OPERATE) -> None:
-        self.mode = gripper_mode
-
-    def step(self, ctx: TickContext) -> Step:
-        self.progress = 1.0
-        return Step(BoardCommand.IDLE, gripper_mode=self.mode, done=AckStatus.COMPLETED)
-
-
-class GripperCalibrateActivity(Activity):
-    """Calibrate the SSG-48: one frame with the one-shot CALIBRATE mode, then IDLE frames until
-    the gripper's status shows the calibration ran and ended: the "calibrated" bit (0x01)
-    clear, and after that set.  COMPLETED then.
-
-    The gripper ignores moves while it calibrates (a move sent then was lost for good), so the
-    queue waits here: whatever follows reaches a calibrated gripper.  A gripper that was
-    calibrated before reports the bit set until it takes the calibrate message, which is not
-    the end: the bit must be seen clear first.  Each of the two needs two new status frames in
-    a row (the link has no checksum: one corrupted status byte is not the gripper's word).
-    FAILED after ``timeout_ticks`` without that.  Its end needs no frame (``frameless_end``):
-    the next queued command takes that tick."""
-
-    frameless_end = True
-
-    def __init__(self, timeout_ticks: int) -> None:
-        self.timeout_ticks = timeout_ticks
-        self.i = 0
-        #: two status frames in a row showed the calibrated bit clear since the calibrate frame
-        self.calibrating = False
-        #: the newest status frame counted, and how many new ones in a row showed what it shows
-        self._last: StatusFrame | None = None
-        self._run = 0
-
-    def step(self, ctx: TickContext) -> Step:
-        self.i += 1
-        if self.i == 1:
-            return Step(BoardCommand.IDLE, gripper_mode=GripperMode.CALIBRATE)
-        st = ctx.status
-        if st is not None and st is not self._last:
-            same = self._last is not None and self._last.gripper.calibrated == st.gripper.calibrated
-            self._run = self._run + 1 if same else 1
-            self._last = st
-            if self._run >= 2 and not st.gripper.calibrated:
-                self.calibrating = True
-                self.progress = 0.5
-            elif self._run >= 2 and self.calibrating:
-                self.progress = 1.0
-                return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
-        if self.i > self.timeout_ticks:
-            status = "none" if st is None else f"0x{st.gripper_status:02X}"
-            why = ("bit 0x01 clear): is an SSG-48 connected?" if self.calibrating else
-                   "bit 0x01 never cleared: the gripper did not start calibrating)")
-            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
-                        details=f"the gripper did not report calibrated within {self.timeout_ticks / ctx.rate_hz:g} s "
-                                f"of the calibrate (GET_GRIPPER status {status}, {why}")
-        return Step(BoardCommand.IDLE)
-
-
-class OutputActivity(Activity):
-    """Drive OUT1/OUT2 (the frame already carries the new level) and complete when the board's
-    status reports that level, so a GET_IO after COMPLETED reads what was asked. FAILED after
-    ``timeout_ticks`` without that report (a board that does not echo its outputs, or a link
-    dropping every reply).  Its end needs no frame (``frameless_end``): the next queued command
-    takes that tick, so an Output() holds the queue for one tick, as in the original."""
-
-    frameless_end = True
-
-    def __init__(self, port: int, on: bool, timeout_ticks: int) -> None:
-        self.port = port
-        self.on = on
-        self.timeout_ticks = timeout_ticks
-        self.i = 0
-
-    def step(self, ctx: TickContext) -> Step:
-        self.i += 1
-        st = ctx.status
-        # the status read before this tick answers the frame sent in an earlier tick, which
-        # already carried the new level; the first tick has not sent it yet
-        if self.i >= 2 and st is not None and st.outputs[self.port - 1] == self.on:
-            self.progress = 1.0
-            return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
-        if self.i > self.timeout_ticks:
-            return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
-                        details=f"the board did not report OUT{self.port} = {int(self.on)} within "
-                                f"{self.timeout_ticks / ctx.rate_hz:g} s")
-        self.progress = min(0.99, self.i / max(1, self.timeout_ticks))
-        return Step(BoardCommand.IDLE)
-
-
-class WaitInputActivity(Activity):
-    """Hold still until digital input ``number`` (1|2) reads ``state``; FAILED after a timeout."""
-
-    def __init__(self, number: int, state: bool, timeout_ticks: int | None) -> None:
-        self.number = number
-        self.state = state
-        self.timeout_ticks = timeout_ticks
-        self.i = 0
-        self.matches = 0
-
-    def step(self, ctx: TickContext) -> Step:
-        self.i += 1
-        st = ctx.status
-        # two ticks in a row: one corrupted IO byte (no checksum on the link) is not an input
-        self.matches = self.matches + 1 if st is not None and st.inputs[self.number - 1] == self.state else 0
-        if self.matches >= 2:
-            self.progress = 1.0
-            return Step(BoardCommand.IDLE, done=AckStatus.COMPLETED)
-        if self.timeout_ticks is not None:
-            self.progress = min(1.0, self.i / max(1, self.timeout_ticks))
-            if self.i >= self.timeout_ticks:
-                return Step(BoardCommand.IDLE, done=AckStatus.FAILED,
-                            details=f"IN{self.number} did not become {int(self.state)} within "
-                                    f"{self.timeout_ticks / ctx.rate_hz:g} s")
-        return Step(BoardCommand.IDLE)
-
-
-def ticks_for(seconds: float, rate_hz: float) -> int:
-    """Whole ticks covering ``seconds`` (at least 1)."""
-    return max(1, int(math.ceil(seconds * rate_hz - 1e-9)))
+        a = self.active
+        return QueueView(entry(a) if a is not None else None,
+                         self.activity.progress if self.activity is not None else 0.0,
+                         tuple(entry(j) for j in self.waiting))

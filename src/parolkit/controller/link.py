@@ -37,7 +37,7 @@ from dataclasses import dataclass
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.robot import GOTO_GAIN_PER_S, goto_goal
 
-__all__ = ["LinkHistory", "Written", "Anchor"]
+__all__ = ["LinkHistory", "Sent", "Anchor"]
 
 _GOTO = int(BoardCommand.GOTO)
 _JOG = int(BoardCommand.JOG)
@@ -47,7 +47,7 @@ _SIZE = 128
 
 
 @dataclass(frozen=True, slots=True)
-class Written:
+class Sent:
     """Frame number ``n`` (from 1 in a session), written at ``t`` (s)."""
 
     n: int
@@ -69,7 +69,7 @@ class LinkHistory:
     newest trusted reply (see the module docstring).  One owner (the tick); no locking."""
 
     def __init__(self) -> None:
-        self._written: deque[Written] = deque(maxlen=_SIZE)
+        self._written: deque[Sent] = deque(maxlen=_SIZE)
         self.reset()
 
     def reset(self) -> None:
@@ -102,7 +102,7 @@ class LinkHistory:
     def sent(self, frame: CommandFrame, t: float) -> int:
         """``frame`` was written at ``t``; returns its number."""
         self._n += 1
-        self._written.append(Written(self._n, frame, t))
+        self._written.append(Sent(self._n, frame, t))
         if int(frame.command) == _HOME:
             self.homing = True
         self.unanswered += 1
@@ -134,7 +134,7 @@ class LinkHistory:
 
     # ------------------------------------------------------------------ where the board can be
 
-    def since(self, n: int) -> list[Written] | None:
+    def since(self, n: int) -> list[Sent] | None:
         """The frames written from number ``n`` on, oldest first; None if any of them is no
         longer remembered."""
         w = self._written

@@ -20,6 +20,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import socket
 import threading
 import time
@@ -29,12 +30,11 @@ from dataclasses import dataclass
 from queue import Empty, SimpleQueue
 from typing import Protocol
 
-from parolkit.controller.executor import SAFETY_COMMANDS, SET_PORT_SCHEMES
-from parolkit.controller.inbox import Ack, AckRoute, Address, CommandInbox, Submission
-from parolkit.controller.jobs import PlanAhead
+from parolkit.controller.inbox import CommandInbox
 from parolkit.controller.lease import ClientId, ControlLease, is_loopback
+from parolkit.controller.messages import SET_PORT_SCHEMES, Ack, AckRoute, Address, Submission
 from parolkit.controller.senders import CommandIds, KnownClients, ReturnCookies
-from parolkit.controller.state import Snapshot
+from parolkit.controller.snapshot import Snapshot
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
     AckStatus,
@@ -79,7 +79,9 @@ class QueryAnswerer(Protocol):
 
     def resolve_tool(self, name: str) -> object: ...
 
-    def plan_ahead(self, command: C.Command) -> PlanAhead | None: ...
+    def plan_ahead(self, command: C.Command) -> int | None:
+        """Start planning ``command`` now if the robot is idle; the key of that plan (the
+        submission carries it to the tick), or None."""
 
     def busy(self) -> bool:
         """True while the robot runs or queues a command (the control lease does not lapse)."""
@@ -420,7 +422,7 @@ class UdpServer:
             parsed = parse_datagram(data, self.model)
         except DatagramError:
             return False  # the worker answers it as invalid
-        if not isinstance(parsed.command, SAFETY_COMMANDS):
+        if not parsed.command.SAFETY:
             return False
         cid = parsed.command_id
         if cid is not None and not self._claim(cid, addr, f"{parsed.command.name} applied, but its ID",
@@ -592,6 +594,11 @@ class UdpServer:
             except TransportURLError as exc:
                 self._ack(cid, addr, AckStatus.INVALID, f"SET_PORT: {exc}")
                 return
+            if not os.path.exists(cmd.port):
+                # (a fuzzed SET_PORT|None dropped a working link for a device that is not there)
+                self._ack(cid, addr, AckStatus.FAILED,
+                          f"SET_PORT: no device at {cmd.port!r}: the board link stays as it is")
+                return
         if isinstance(cmd, C.SetTool):
             try:
                 tool = self.answerer.resolve_tool(cmd.tool)
@@ -599,7 +606,7 @@ class UdpServer:
                 self._ack(cid, addr, AckStatus.INVALID, f"SET_TOOL: {exc}")
                 return
         route = self._ack_addr(addr) if cid is not None else None
-        if isinstance(cmd, SAFETY_COMMANDS):
+        if cmd.SAFETY:
             self.inbox.put_safety(Submission(cmd, cid, route, addr, seq, client=str(who)))
         elif not self.inbox.put(Submission(cmd, cid, route, addr, seq, tool, self.answerer.plan_ahead(cmd),
                                            client=str(who))):

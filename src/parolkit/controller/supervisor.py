@@ -64,9 +64,9 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass, replace
-from enum import Enum
+from dataclasses import replace
 
+from parolkit.controller.messages import SupervisorEvent, SupervisorEventKind
 from parolkit.controller.scheduling import raise_priority
 from parolkit.protocol.frames import COMMAND_FRAME_SIZE, BoardCommand, CommandFrame, FrameError
 
@@ -270,27 +270,6 @@ def main(argv: list[str] | None = None) -> int:
     scheduling = raise_priority(args.priority)
     sock = socket.socket(fileno=args.fd)
     return _Supervisor(sock, os.getppid(), max(0.0, args.period), max(0.0, args.stall)).run(scheduling)
-
-
-class SupervisorEventKind(Enum):
-    """What the controller learnt from (or about) its stop supervisor."""
-
-    #: it is up, watching the port (``text``: its scheduling, "fifo:11", "nice:-10", "normal")
-    READY = "ready"
-    #: it stopped the board on its own: the controller wrote no frame for the stall limit
-    #: (``text``: its account)
-    STOPPED = "stopped"
-    #: it is gone: it exited, its socket broke, it answers no frames or it could not be
-    #: started (``text``: which); nothing would stop the board if the controller died now
-    LOST = "lost"
-
-
-@dataclass(frozen=True, slots=True)
-class SupervisorEvent:
-    """One event of :meth:`StopSupervisor.poll`."""
-
-    kind: SupervisorEventKind
-    text: str
 
 
 class StopSupervisor:

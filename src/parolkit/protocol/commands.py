@@ -70,6 +70,7 @@ __all__ = [
     "MAX_DURATION_S",
     "DatagramError",
     "CommandKind",
+    "Execution",
     "AckStatus",
     "Profile",
     "Tracking",
@@ -180,6 +181,28 @@ class CommandKind(Enum):
     IMMEDIATE = "immediate"
     #: queued and executed in order by the control loop (motion, gripper, delay, ...)
     QUEUED = "queued"
+
+
+class Execution(Enum):
+    """What the control loop does with a queued command: how it runs (declared on each command
+    class as ``EXECUTION``, so the controller never dispatches on the class itself)."""
+
+    #: not run by the loop (queries; immediate commands act when applied)
+    NONE = "none"
+    #: a trajectory planned whole before it runs (moves, paths, Cartesian jogs)
+    PLANNED = "planned"
+    #: constant joint speeds for a time (JOG, MULTIJOG, SPEEDJOINT)
+    SPEED = "speed"
+    #: the board's homing
+    HOME = "home"
+    #: hold still for a time
+    DELAY = "delay"
+    #: switch a digital output (pneumatic gripper)
+    OUTPUT = "output"
+    #: the electric gripper's setpoints or one-shot modes
+    GRIPPER = "gripper"
+    #: wait for a digital input
+    WAIT_INPUT = "wait_input"
 
 
 class AckStatus(str, Enum):
@@ -362,9 +385,15 @@ class Command:
 
     NAME: ClassVar[str] = ""
     KIND: ClassVar[CommandKind] = CommandKind.QUEUED
+    #: what the loop does with it when it runs
+    EXECUTION: ClassVar[Execution] = Execution.NONE
     #: accepted from any client; False: only from the holder of the control lease
     #: (docs/protocol.md, "Who may move the robot")
     OPEN: ClassVar[bool] = False
+    #: ESTOP / STOP / DISABLE: never waits behind other traffic (the safety lane)
+    SAFETY: ClassVar[bool] = False
+    #: in stream mode the newest one replaces the running one instead of queueing (jogs)
+    STREAMABLE: ClassVar[bool] = False
 
     @property
     def name(self) -> str:
@@ -400,6 +429,7 @@ class Stop(Command):
     """Cancel the active and every queued command (CANCELLED acks); hold position."""
 
     NAME: ClassVar[str] = "STOP"
+    SAFETY: ClassVar[bool] = True
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
     OPEN: ClassVar[bool] = True
 
@@ -431,6 +461,7 @@ class Disable(Command):
     """Disable the robot (board 102); cancels motion."""
 
     NAME: ClassVar[str] = "DISABLE"
+    SAFETY: ClassVar[bool] = True
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
     OPEN: ClassVar[bool] = True
 
@@ -448,6 +479,7 @@ class EStop(Command):
     """Software E-stop: cancel everything, DISABLE every tick, latched until ENABLE."""
 
     NAME: ClassVar[str] = "ESTOP"
+    SAFETY: ClassVar[bool] = True
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
     OPEN: ClassVar[bool] = True
 
@@ -532,6 +564,7 @@ class MoveJoint(_Motion):
 
     move: JointMove
     NAME: ClassVar[str] = "MOVEJOINT"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -542,6 +575,7 @@ class MoveJointPath(_Motion):
 
     move: JointPathMove
     NAME: ClassVar[str] = "MOVEJOINTPATH"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -550,6 +584,7 @@ class MovePose(_Motion):
 
     move: PoseMove
     NAME: ClassVar[str] = "MOVEPOSE"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -558,6 +593,7 @@ class MoveCart(_Motion):
 
     move: CartMove
     NAME: ClassVar[str] = "MOVECART"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -566,6 +602,7 @@ class MoveCartRelTRF(_Motion):
 
     move: CartRelTRFMove
     NAME: ClassVar[str] = "MOVECARTRELTRF"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -574,6 +611,8 @@ class Jog(_Motion):
 
     move: JointJog
     NAME: ClassVar[str] = "JOG"
+    STREAMABLE: ClassVar[bool] = True
+    EXECUTION: ClassVar[Execution] = Execution.SPEED
 
 
 @dataclass(frozen=True)
@@ -582,6 +621,8 @@ class MultiJog(_Motion):
 
     move: JointJog
     NAME: ClassVar[str] = "MULTIJOG"
+    STREAMABLE: ClassVar[bool] = True
+    EXECUTION: ClassVar[Execution] = Execution.SPEED
 
 
 @dataclass(frozen=True)
@@ -591,6 +632,8 @@ class CartJogCommand(_Motion):
 
     move: CartJog
     NAME: ClassVar[str] = "CARTJOG"
+    STREAMABLE: ClassVar[bool] = True
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -598,6 +641,7 @@ class Home(Command):
     """Board homing; completes when every homed bit is set."""
 
     NAME: ClassVar[str] = "HOME"
+    EXECUTION: ClassVar[Execution] = Execution.HOME
 
 
 @dataclass(frozen=True)
@@ -606,6 +650,7 @@ class Delay(Command):
 
     seconds: float = 0.0
     NAME: ClassVar[str] = "DELAY"
+    EXECUTION: ClassVar[Execution] = Execution.DELAY
 
 
 @dataclass(frozen=True)
@@ -615,6 +660,7 @@ class PneumaticGripper(Command):
     action: str = "open"
     port: int = 1
     NAME: ClassVar[str] = "PNEUMATICGRIPPER"
+    EXECUTION: ClassVar[Execution] = Execution.OUTPUT
 
 
 @dataclass(frozen=True)
@@ -626,6 +672,7 @@ class ElectricGripper(Command):
     speed: int = 150
     current_ma: int = 500
     NAME: ClassVar[str] = "ELECTRICGRIPPER"
+    EXECUTION: ClassVar[Execution] = Execution.GRIPPER
 
 
 @dataclass(frozen=True)
@@ -634,6 +681,7 @@ class SpeedJoint(_Motion):
 
     move: SpeedJointMove
     NAME: ClassVar[str] = "SPEEDJOINT"
+    EXECUTION: ClassVar[Execution] = Execution.SPEED
 
 
 @dataclass(frozen=True)
@@ -644,6 +692,7 @@ class WaitInput(Command):
     state: bool = True
     timeout_s: float | None = None
     NAME: ClassVar[str] = "WAIT_INPUT"
+    EXECUTION: ClassVar[Execution] = Execution.WAIT_INPUT
 
 
 @dataclass(frozen=True)
@@ -652,6 +701,7 @@ class SmoothCircle(_Motion):
 
     move: CircleMove
     NAME: ClassVar[str] = "SMOOTH_CIRCLE"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -660,6 +710,7 @@ class SmoothArcCenter(_Motion):
 
     move: ArcCenterMove
     NAME: ClassVar[str] = "SMOOTH_ARC_CENTER"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -668,6 +719,7 @@ class SmoothArcParam(_Motion):
 
     move: ArcParamMove
     NAME: ClassVar[str] = "SMOOTH_ARC_PARAM"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -676,6 +728,7 @@ class SmoothSpline(_Motion):
 
     move: SplineMove
     NAME: ClassVar[str] = "SMOOTH_SPLINE"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)
@@ -684,6 +737,7 @@ class SmoothHelix(_Motion):
 
     move: HelixMove
     NAME: ClassVar[str] = "SMOOTH_HELIX"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 #: SMOOTH_BLEND segment words and the segment each becomes (in the blend's frame).
@@ -698,6 +752,7 @@ class SmoothBlend(_Motion):
 
     move: BlendMove
     NAME: ClassVar[str] = "SMOOTH_BLEND"
+    EXECUTION: ClassVar[Execution] = Execution.PLANNED
 
 
 @dataclass(frozen=True)

@@ -1,30 +1,32 @@
 """The status snapshot: one immutable value per tick, and every reply format built from it.
 
-The loop thread builds a :class:`Snapshot` at the end of each tick (cheap: references and a
-few scalars) and publishes it by assignment.  Query threads format replies from the latest
-snapshot without waiting for the next tick.  Expensive derived values (angles in degrees,
-forward kinematics) are computed on first use and cached inside the snapshot.
+The controller core builds a :class:`Snapshot` at the end of each tick (cheap: references and
+a few scalars, plain data) and the driver publishes it by assignment.  Query threads format
+replies from the latest snapshot without waiting for the next tick: the status queries,
+GET_QUEUE (per viewer), GET_PLAN and GET_LOOP_STATS.  Expensive derived values (angles in
+degrees, forward kinematics) are computed on first use and cached inside the snapshot (two
+threads asking at once may both compute them: the same values, assigned whole).
 """
 
 from __future__ import annotations
 
-import threading
-import time as _time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+import logging
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from enum import Enum
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from parolkit.controller.integrity import IntegrityView
-from parolkit.protocol import commands as C
+from parolkit.controller.jobs import QueueView
 from parolkit.protocol.commands import dumps, format_floats
 from parolkit.protocol.frames import CommandFrame, IOBits, StatusFrame
 
-if TYPE_CHECKING:  # pragma: no cover
-    from parolkit.controller.executor import Executor
+__all__ = ["RobotState", "CommandInfo", "BoardInfo", "PlanView", "Snapshot", "PoseProvider", "SNAPSHOT_QUERIES"]
 
-__all__ = ["RobotState", "CommandInfo", "BoardInfo", "Snapshot", "PoseProvider", "build_snapshot",
-           "SNAPSHOT_QUERIES"]
+log = logging.getLogger("parolkit.controller")
+
+
+_IDENTITY = (1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 
 
 class RobotState(str, Enum):
@@ -64,6 +66,32 @@ class BoardInfo:
 PoseProvider = Callable[[Sequence[float], str], tuple[tuple[float, ...], tuple[float, ...]]]
 
 
+@dataclass(frozen=True)
+class PlanView:
+    """GET_PLAN as data: the plan counter, the running command (name, ID), its target angles
+    (deg) and its trajectory (immutable arrays; its TCP path is computed when asked)."""
+
+    seq: int = 0
+    command: str | None = None
+    command_id: str | None = None
+    target_deg: tuple[float, ...] | None = None
+    trajectory: object | None = field(default=None, repr=False)
+
+    def as_dict(self, tool: object = None) -> dict[str, Any]:
+        traj = self.trajectory
+        if traj is None:
+            return {"seq": self.seq, "command": self.command, "target_angles": None, "tcp_path": None}
+        try:
+            path = traj.tcp_path_mm(tool, max_points=400)  # type: ignore[attr-defined]
+            tcp = [[round(float(v), 3) for v in p[:3]] for p in path]
+        except Exception as exc:  # kinematics trouble must not stop a query
+            log.warning("GET_PLAN: could not compute the TCP path: %s", exc)
+            tcp = None
+        final = self.target_deg
+        return {"seq": self.seq, "command": self.command, "id": self.command_id,
+                "target_angles": [round(v, 4) for v in final] if final else None, "tcp_path": tcp}
+
+
 class Snapshot:
     """Everything a query or the status stream needs, as of one tick.
 
@@ -73,8 +101,8 @@ class Snapshot:
     __slots__ = (
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
         "error", "command", "queue", "stream_mode", "tool", "plan_seq", "outputs", "loop_view",
-        "server_view", "integrity", "state_known", "sent", "_steps_per_deg", "_pose_provider", "_lock", "_angles",
-        "_pose", "_matrix", "_replies",
+        "server_view", "integrity", "state_known", "sent", "queue_view", "plan", "_steps_per_deg",
+        "_pose_provider", "_angles", "_pose", "_matrix", "_replies",
     )
 
     def __init__(
@@ -97,11 +125,13 @@ class Snapshot:
         outputs: tuple[bool, bool],
         steps_per_deg: Sequence[float],
         pose_provider: PoseProvider | None,
-        loop_view: Callable[[], dict[str, Any]],
-        server_view: Callable[[], dict[str, Any]] | None = None,
+        loop: Mapping[str, Any] | None = None,
+        server: Mapping[str, Any] | None = None,
         integrity: IntegrityView | None = None,
         state_known: bool = True,
         sent: CommandFrame | None = None,
+        queue_view: QueueView | None = None,
+        plan: PlanView | None = None,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -118,8 +148,10 @@ class Snapshot:
         self.tool = tool
         self.plan_seq = plan_seq
         self.outputs = outputs
-        self.loop_view = loop_view
-        self.server_view = server_view
+        #: the loop statistics (driver and core counters), plain data
+        self.loop_view: Mapping[str, Any] = loop if loop is not None else {}
+        #: the UDP server's counters
+        self.server_view: Mapping[str, Any] = server if server is not None else {}
         #: status frames not taken as the truth, uncommanded motions, age of ``status``
         self.integrity = integrity if integrity is not None else IntegrityView()
         #: False while the start-up probe still asks the board whether it is enabled (a few
@@ -128,9 +160,10 @@ class Snapshot:
         #: the frame written this tick (after the guard): what the board was told, next to
         #: ``status``, its reply (recordings keep both: a replay sends the same frames)
         self.sent = sent
+        self.queue_view = queue_view if queue_view is not None else QueueView()
+        self.plan = plan if plan is not None else PlanView()
         self._steps_per_deg = steps_per_deg
         self._pose_provider = pose_provider
-        self._lock = threading.Lock()
         self._angles: tuple[float, ...] | None = None
         self._pose: tuple[float, ...] | None = None
         self._matrix: tuple[float, ...] | None = None
@@ -151,20 +184,18 @@ class Snapshot:
         return tuple(v / s for v, s in zip(self.status.speeds, self._steps_per_deg))
 
     def _fk(self) -> None:
-        with self._lock:
-            if self._pose is not None:
-                return
-            if self._pose_provider is None:
-                self._pose, self._matrix = (0.0,) * 6, (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0)
-                return
-            try:
-                self._pose, self._matrix = self._pose_provider(self.angles_deg, self.tool)
-            except Exception as exc:  # a query must always get an answer
-                import logging
-
-                logging.getLogger("parolkit.controller").warning("forward kinematics failed: %s", exc)
-                self._pose = (0.0,) * 6
-                self._matrix = (1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0)
+        if self._pose is not None:
+            return
+        if self._pose_provider is None:
+            self._matrix, self._pose = _IDENTITY, (0.0,) * 6
+            return
+        try:
+            pose, matrix = self._pose_provider(self.angles_deg, self.tool)
+        except Exception as exc:  # a query must always get an answer
+            log.warning("forward kinematics failed: %s", exc)
+            pose, matrix = (0.0,) * 6, _IDENTITY
+        self._matrix = matrix  # (the matrix first: a reader checks the pose)
+        self._pose = pose
 
     @property
     def pose(self) -> tuple[float, ...]:
@@ -248,19 +279,19 @@ class Snapshot:
             f"|ESTOP={int(self.estop_pressed or self.estop_latched)}|QUEUE={self.queue}"
             f"|CMD={cmd}|ERROR={err}|OVERLOAD={self.overload}"
             f"|IMPLAUSIBLE={self.integrity.implausible}|UNCOMMANDED={self.integrity.uncommanded}"
-            f"|SCHED={self.scheduling}|LINK_LOSSES={self.loop_view().get('link_losses', 0)}"
+            f"|SCHED={self.scheduling}|LINK_LOSSES={self.loop_view.get('link_losses', 0)}"
             f"|SERIAL={int(self.board.connected)}"
         )
 
     @property
     def scheduling(self) -> str:
         """The tick thread's scheduling policy ("fifo:10", "nice:-10", "normal")."""
-        return str(self.loop_view().get("scheduling", "unknown"))
+        return str(self.loop_view.get("scheduling", "unknown"))
 
     @property
     def overload(self) -> int:
         """Datagrams and commands the server refused for load so far (0 without a server)."""
-        v = self.server_view() if self.server_view is not None else {}
+        v = self.server_view
         return int(v.get("shed", 0)) + int(v.get("inbox_refused", 0))
 
     def as_dict(self) -> dict[str, Any]:
@@ -302,10 +333,10 @@ class Snapshot:
                 "timing_ms": round(s.timing_s * 1e3, 3), "xtr": s.xtr,
                 "state_known": self.state_known,
             },
-            "loop": self.loop_view(),
+            "loop": dict(self.loop_view),
             "integrity": self.integrity.as_dict(),
             "scheduling": self.scheduling,
-            "server": self.server_view() if self.server_view is not None else {},
+            "server": dict(self.server_view),
             "command": self.command.as_dict() if self.command else None,
             "queue": self.queue,
             "stream_mode": self.stream_mode,
@@ -318,6 +349,29 @@ class Snapshot:
     def reply_status_json(self) -> str:
         return "STATUS_JSON|" + dumps(self.as_dict())
 
+    def reply_queue(self, viewer: str | None = None) -> str:
+        """GET_QUEUE: the running and waiting commands; a command's ID only to the client that
+        sent it (``viewer``: see Submission.client), ``null`` to everyone else (an ID lets its
+        holder follow the command's acks; nobody else needs it)."""
+        q = self.queue_view
+
+        def cid(e: Any) -> str | None:
+            return e.command_id if viewer is not None and e.client == viewer else None
+
+        act = None
+        if q.active is not None:
+            act = {"id": cid(q.active), "name": q.active.name, "mine": q.active.client == viewer,
+                   "progress": round(q.progress, 4)}
+        return "QUEUE|" + dumps({"active": act, "queued": [{"id": cid(e), "name": e.name, "mine": e.client == viewer}
+                                                           for e in q.waiting]})
+
+    def reply_loop_stats(self, extra: Mapping[str, Any] | None = None) -> str:
+        """GET_LOOP_STATS: the loop statistics (and ``extra``, the server's own)."""
+        out = dict(self.loop_view)
+        if extra:
+            out.update(extra)
+        return "LOOP_STATS|" + dumps(out)
+
 
 #: status queries answered from the snapshot alone -> the method that formats the reply
 SNAPSHOT_QUERIES = {
@@ -325,59 +379,3 @@ SNAPSHOT_QUERIES = {
     "GET_GRIPPER": "reply_gripper", "GET_SPEEDS": "reply_speeds", "GET_STATUS": "reply_status",
     "GET_STATUS_JSON": "reply_status_json",
 }
-
-
-def robot_state(ex: Executor, link_up: bool) -> RobotState:
-    """The controller's state from the executor's (``link_up``: a status frame of the current
-    link session exists)."""
-    if not link_up:
-        return RobotState.DISCONNECTED
-    if ex.estop_latched or ex.estop_pressed:
-        return RobotState.ESTOP
-    if not ex.enabled:
-        return RobotState.DISABLED
-    a = ex.active
-    if a is not None:
-        if isinstance(a.command, C.Home):
-            return RobotState.HOMING
-        if a.command.is_motion:
-            return RobotState.MOVING
-    if ex.error:
-        return RobotState.ERROR
-    return RobotState.IDLE
-
-
-def build_snapshot(
-    ex: Executor,
-    *,
-    now: float | None = None,
-    seq: int,
-    time: float,
-    link_up: bool,
-    status: StatusFrame | None,
-    last_status: StatusFrame | None,
-    board: BoardInfo,
-    pose_provider: PoseProvider | None,
-    loop_view: Callable[[], dict[str, Any]],
-    server_view: Callable[[], dict[str, Any]] | None = None,
-    sent: CommandFrame | None = None,
-) -> Snapshot:
-    """The snapshot of the executor's state with the board's latest ``status`` (loop thread;
-    ``last_status`` is shown while the link is down; ``now``: monotonic s, for the age of
-    the status frame)."""
-    a = ex.active
-    act = ex.activity
-    info = CommandInfo(a.command_id, a.name, act.progress if act else 0.0) if a is not None else None
-    return Snapshot(
-        seq=seq, time=time, state=robot_state(ex, link_up and status is not None),
-        enabled=ex.enabled, estop_pressed=ex.estop_pressed, estop_latched=ex.estop_latched,
-        status=status or last_status, board=board, error=ex.error, command=info, queue=len(ex.queue),
-        stream_mode=ex.stream_mode, tool=ex.tool_name, plan_seq=ex.plan_seq,
-        outputs=(ex.outputs[0], ex.outputs[1]), steps_per_deg=ex.steps_per_deg,
-        pose_provider=pose_provider, loop_view=loop_view, server_view=server_view,
-        integrity=ex.integrity.view(now if now is not None else _time.monotonic()),
-        # known once the executor has taken the probe's answer in (it does so in the tick after
-        # the reply that answered it: until then the snapshot would show the old state as known)
-        state_known=not ex.probe.active and ex.probe.result is None,
-        sent=sent,
-    )

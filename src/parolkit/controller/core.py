@@ -1,0 +1,1163 @@
+"""The controller core: one tick as a function of its inputs.
+
+``ControllerCore.update(TickInput) -> TickOutput``, in the shape of ruckig's ``otg.update(input,
+output)``: everything the tick needs comes in as a value, everything it decides goes out as a
+value, and nothing inside does I/O, starts threads, reads a clock or calls back.  The same
+inputs give the same outputs, so the core is tested by lists of inputs, and on a virtual clock
+the driver (:mod:`parolkit.controller.driver`) can tick as fast as the emulated board answers.
+
+In: the tick (its number, its time on the link record's clock, the monotonic time for ages),
+the frame the driver wrote last tick, the status frames it read since, the commands the UDP
+server handed over (safety commands first), the plans the planner finished, what happened to
+the board link and to the stop supervisor, and the driver's and server's counters (shown in
+the status as they are).
+
+Out: the frame to write (or none), the acks of everything that happened, the snapshot that
+shows all of it (plain frozen data: every query and the status stream are answered from it),
+the plans to start, a port to switch to, and a result code.
+
+Inside, each part has one owner and one job: the safety state (:mod:`~parolkit.controller.safety`,
+pure transitions), the job queue (:mod:`~parolkit.controller.jobs`), the running activity
+(:mod:`~parolkit.controller.activities`), the output and gripper setpoints
+(:mod:`~parolkit.controller.setpoints`), and the one record of the link
+(:mod:`~parolkit.controller.link`) that the integrity check (:mod:`~parolkit.controller.integrity`)
+and the safety guard (:mod:`~parolkit.controller.guard`) judge by, in this same update.
+
+Link supervision is judged by the frames the board left unanswered, never by the controller's
+own late ticks (a stalled controller writes nothing).  After ``link_hold_frames`` unanswered
+frames in a row during motion the replies count as missing (counted and logged; new commands
+are refused; every frame being a bounded commitment, the motion holds by itself); after
+``link_timeout_ticks`` the link is lost: everything is cancelled, the error latched, the last
+frame's motion ended with one more frame, and no frame is written until the driver reports the
+link up again.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import OrderedDict
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from enum import Enum
+from typing import Any
+
+from parolkit.controller.activities import (
+    Activity,
+    DelayActivity,
+    FrameRequest,
+    GripperCalibrateActivity,
+    HomeActivity,
+    OneShotActivity,
+    OutputActivity,
+    SpeedActivity,
+    TickContext,
+    TrajectoryActivity,
+    WaitInputActivity,
+    ticks_for,
+)
+from parolkit.controller.guard import SafetyGuard
+from parolkit.controller.integrity import BoardProbe, StatusIntegrity
+from parolkit.controller.jobs import Job, JobQueue
+from parolkit.controller.link import LinkHistory
+from parolkit.controller.messages import (
+    Ack,
+    LinkEvent,
+    LinkEventKind,
+    Submission,
+    SupervisorEvent,
+    SupervisorEventKind,
+)
+from parolkit.controller.planning import PlanRequest, PlanResult, needs_plan
+from parolkit.controller.safety import SafetyState
+from parolkit.controller.setpoints import Setpoints
+from parolkit.controller.snapshot import BoardInfo, CommandInfo, PlanView, PoseProvider, RobotState, Snapshot
+from parolkit.protocol import commands as C
+from parolkit.protocol.commands import AckStatus, Execution
+from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperCommandBits, GripperMode, StatusFrame
+from parolkit.robot import JOINT_NAMES, RobotModel, goto_goal
+
+__all__ = [
+    "ControllerCore", "TickInput", "TickOutput", "TickResult", "ReplyBatch", "Written",
+    "START_TOLERANCE_DEG", "PLAN_AHEAD", "UNHOMED_JOG_TRAVEL_DEG",
+]
+
+log = logging.getLogger("parolkit.controller")
+
+#: a planned move may start this far (deg, any joint) from the measured joints
+START_TOLERANCE_DEG = 0.5
+#: a move FAILS if the board has not reported its exact target (at rest) this long after its
+#: last sample (a few ticks are normal: the GO TO law closes the last steps at 50 steps/s per
+#: step of error), s
+SETTLE_TIMEOUT_S = 1.0
+#: PNEUMATICGRIPPER FAILS if the board has not reported the new output level by then, s
+OUTPUT_REPORT_TIMEOUT_S = 0.5
+#: ELECTRICGRIPPER|calibrate FAILS if the gripper has not reported calibrated by then, s
+GRIPPER_CALIBRATE_TIMEOUT_S = 5.0
+#: how many queued jobs are planned ahead
+PLAN_AHEAD = 4
+#: a HOME whose board shows no homing within this time FAILS (a disabled board ignores it), s
+HOME_START_TIMEOUT_S = 0.5
+#: default travel of one jog press (JOG / MULTIJOG, or one held streamed jog) before homing, deg
+UNHOMED_JOG_TRAVEL_DEG = 20.0
+#: plans asked for ahead by the server whose command has not arrived yet, kept at most
+_EARLY_PLANS = 16
+
+
+@dataclass(frozen=True, slots=True)
+class ReplyBatch:
+    """Status frames the driver read in one go: at ``t`` on the link record's clock (``wall``:
+    monotonic s), ``after_write``: while waiting for the reply to the frame just written (the
+    last of them answers it), else at the start of a tick (late: the oldest unanswered frames);
+    ``dropped``: the stream parser's count of bytes dropped so far, after the last of them."""
+
+    frames: tuple[StatusFrame, ...]
+    t: float
+    wall: float
+    after_write: bool
+    dropped: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Written:
+    """The frame the driver wrote (the previous output's, or the one recomposed), at ``t`` on the
+    link record's clock (``wall``: monotonic s)."""
+
+    frame: CommandFrame
+    t: float
+    wall: float
+
+
+@dataclass(frozen=True)
+class TickInput:
+    """Everything one tick needs (see the module docstring)."""
+
+    tick: int
+    #: the tick's time on the link record's clock: monotonic s on a real link, the board's own
+    #: time (tick x period) on a simulated board in lockstep with the frames
+    time: float
+    #: monotonic s (ages, the status's uptime)
+    wall: float
+    written: Written | None = None
+    replies: tuple[ReplyBatch, ...] = ()
+    submissions: tuple[Submission, ...] = ()
+    plans: tuple[PlanResult, ...] = ()
+    links: tuple[LinkEvent, ...] = ()
+    supervisor: tuple[SupervisorEvent, ...] = ()
+    #: the driver's and the UDP server's counters, shown in the status as they are
+    loop_stats: Mapping[str, Any] = field(default_factory=dict)
+    server_stats: Mapping[str, Any] = field(default_factory=dict)
+    #: safety commands that arrived while this tick's frame was being made: apply them and
+    #: give the frame to write instead (same tick, nothing read again)
+    recompose: bool = False
+
+
+class TickResult(Enum):
+    """What the driver does with this tick's output."""
+
+    #: write :attr:`TickOutput.frame`
+    FRAME = "frame"
+    #: the link is down: nothing to write (the driver reconnects)
+    NO_LINK = "no_link"
+    #: the link was lost in this tick: write :attr:`TickOutput.frame` if there is one (it ends
+    #: the last frame's motion), then close and reconnect
+    LINK_LOST = "link_lost"
+
+
+@dataclass(frozen=True)
+class TickOutput:
+    """What one tick decided (see the module docstring)."""
+
+    frame: CommandFrame | None
+    acks: tuple[Ack, ...]
+    snapshot: Snapshot
+    plan_requests: tuple[PlanRequest, ...] = ()
+    port_request: str | None = None
+    result: TickResult = TickResult.FRAME
+
+
+@dataclass
+class LinkCounters:
+    """The core's part of the loop statistics."""
+
+    frames_received: int = 0
+    implausible_frames: int = 0
+    bytes_dropped: int = 0
+    link_losses: int = 0
+    link_holds: int = 0
+    unanswered_max: int = 0
+    planned: int = 0
+    plan_time_s: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"frames_received": self.frames_received, "implausible_frames": self.implausible_frames,
+                "bytes_dropped": self.bytes_dropped, "link_losses": self.link_losses,
+                "link_holds": self.link_holds, "unanswered_max": self.unanswered_max, "planned": self.planned,
+                "plan_time_total_s": round(self.plan_time_s, 4)}
+
+
+class ControllerCore:
+    """The tick as a function (see the module docstring).  One owner: the driver's thread."""
+
+    def __init__(
+        self,
+        *,
+        model: RobotModel,
+        rate_hz: float,
+        queue_size: int = 256,
+        watchdog_s: float = 0.02,
+        link_timeout_ticks: int = 50,
+        link_hold_frames: int = 2,
+        homing_timeout_s: float = 180.0,
+        homing_speedup: float = 1.0,
+        unhomed_jog_travel_deg: float = UNHOMED_JOG_TRAVEL_DEG,
+        lockstep: bool = False,
+        pose_provider: PoseProvider | None = None,
+        board: BoardInfo | None = None,
+        tool_name: str = "default",
+        config: object | None = None,
+    ) -> None:
+        if not unhomed_jog_travel_deg > 0.0:
+            raise ValueError(f"unhomed_jog_travel_deg must be > 0 deg, got {unhomed_jog_travel_deg!r}")
+        if not 1 <= link_hold_frames <= link_timeout_ticks:
+            raise ValueError(f"link_hold_frames must be 1..link_timeout_ticks ({link_timeout_ticks}), "
+                             f"got {link_hold_frames}")
+        self.model = model
+        self.rate_hz = float(rate_hz)
+        self.period = 1.0 / self.rate_hz
+        self.watchdog_s = watchdog_s
+        self.link_timeout_ticks = link_timeout_ticks
+        self.link_hold_frames = link_hold_frames
+        self.homing_timeout_s = homing_timeout_s
+        self.homing_speedup = homing_speedup
+        self.unhomed_jog_travel_deg = float(unhomed_jog_travel_deg)
+        #: the board runs exactly one period per frame (a simulated board in lockstep with the
+        #: frames): times are its own, tick x period
+        self.lockstep = lockstep
+        self.pose_provider = pose_provider
+        self.board = board if board is not None else BoardInfo(False, True, "emulated board")
+        self._spd = tuple(float(v) for v in model.steps_per_deg)
+        self._limits = tuple((int(lo), int(hi)) for lo, hi in model.limits_steps)
+        #: the joint ranges planned moves keep to, deg (SPEEDJOINT is refused beyond them)
+        self._safe_deg = tuple((float(lo), float(hi)) for lo, hi in model.safe_limits_deg)
+        self.safety = SafetyState()
+        self.jobs = JobQueue(queue_size)
+        self.setpoints = Setpoints()
+        self.link = LinkHistory()
+        self.guard = SafetyGuard(model, rate_hz)
+        #: the board's state is not in its status frame: the probe asks whether it is enabled
+        #: at the start of every link session
+        self.probe = BoardProbe()
+        #: which status frames are the truth, and motion nobody commanded
+        self.integrity = StatusIntegrity(model, rate_hz, homing_speedup=homing_speedup, probe=self.probe)
+        self.counters = LinkCounters()
+        self.tool_name = tool_name
+        #: the tool object of a SET_TOOL (None: the tool is resolved by name when planning, from
+        #: ``config``'s [tools.NAME] or the built-in ones)
+        self.tool_obj: object | None = None
+        self.config = config
+        self.stream_mode = False
+        self.plan_seq = 0
+        #: the link: up (a session), and whether the replies count as missing now
+        self.link_up = False
+        self.holding = False
+        self._virtual = False
+        #: newest true status frame of this link session; newest ever (shown while down)
+        self.status: StatusFrame | None = None
+        self.last_status: StatusFrame | None = None
+        self.homed = False
+        self.measured_deg: tuple[float, ...] | None = None
+        self.last_frame: CommandFrame | None = None
+        self.port_request: str | None = None
+        self._plan_requests: list[PlanRequest] = []
+        #: plans asked for ahead that arrived before their command (key -> result)
+        self._early: OrderedDict[int, PlanResult] = OrderedDict()
+        #: receive number of the newest safety command applied (see :meth:`_apply`)
+        self._safety_seq = 0
+        self._safety_name = ""
+        #: travel of the current unhomed jog press so far, deg per joint, and its latest
+        #: segment: (speeds steps/s, start, planned end)
+        self._press_used = [0.0] * 6
+        self._press_speeds: tuple[tuple[int, ...], float, float] | None = None
+        self._now = 0.0
+        self._tick = 0
+        self._start_wall: float | None = None
+
+    # ================================================================== the update
+
+    def update(self, inp: TickInput) -> TickOutput:
+        """One tick (see the module docstring)."""
+        self._now = inp.time
+        self._tick = inp.tick
+        if self._start_wall is None:
+            self._start_wall = inp.wall
+        if inp.recompose:
+            return self._recompose(inp)
+        if inp.written is not None and self.link_up:
+            self._written(inp.written)
+        for ev in inp.links:
+            self._link_event(ev)
+        for sev in inp.supervisor:
+            self._supervisor_event(sev)
+        result = TickResult.FRAME
+        lost_frame: CommandFrame | None = None
+        if self.link_up:
+            for batch in inp.replies:
+                self._read(batch)
+            lost = self._judge_link()
+            if lost is not None:
+                lost_frame = self._lose_link(lost, inp, may_write=True)
+                result = TickResult.LINK_LOST
+        self._take_plans(inp.plans)
+        self._take_probe_answer()
+        for sub in inp.submissions:
+            self._apply_safe(sub)
+        if result is TickResult.LINK_LOST:
+            frame = lost_frame
+        elif self.link_up:
+            frame = self._frame(inp)
+        else:
+            frame, result = None, TickResult.NO_LINK
+        self._request_plans()
+        port, self.port_request = self.port_request, None
+        if port is not None and self.link_up and result is TickResult.FRAME:
+            # SET_PORT: this link ends here (its motion was refused: the robot is idle)
+            self._lose(f"switching to port {port}")
+            result = TickResult.LINK_LOST
+        requests, self._plan_requests = tuple(self._plan_requests), []
+        return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame), requests, port, result)
+
+    def _recompose(self, inp: TickInput) -> TickOutput:
+        """Safety commands that came while this tick's frame was made: applied, and this tick's
+        frame made again (the first was never written)."""
+        for sub in inp.submissions:
+            self._apply_safe(sub)
+        frame = self._frame(inp) if self.link_up else None
+        result = TickResult.FRAME if frame is not None else TickResult.NO_LINK
+        requests, self._plan_requests = tuple(self._plan_requests), []
+        return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame), requests, None, result)
+
+    # ================================================================== the link
+
+    def _link_event(self, ev: LinkEvent) -> None:
+        if ev.kind is LinkEventKind.UP:
+            # a new session: nothing is known of the board (it may have been power cycled,
+            # or another controller may have used it)
+            self.link.reset()
+            self.integrity.reset()
+            self.status = None
+            self.holding = False
+            self._virtual = ev.virtual_clock
+            self.board = BoardInfo(False, ev.simulated, ev.description)
+            self.link_up = True
+            s = self.safety
+            if s.enabled and not s.estop_latched:
+                self.probe.start()
+        elif self.link_up:
+            self._lose(ev.reason or "link lost")
+
+    def _written(self, w: Written) -> None:
+        """The driver wrote ``w.frame``: the link record, the integrity check and the probe
+        count it."""
+        n = self.link.sent(w.frame, w.t)
+        self.integrity.sent(w.frame, w.wall, n)
+        self.last_frame = w.frame
+
+    def _read(self, batch: ReplyBatch) -> None:
+        """Judge every status frame of ``batch`` (see :meth:`LinkHistory.answered`)."""
+        count = len(batch.frames)
+        for i, f in enumerate(batch.frames):
+            self.counters.frames_received += 1
+            answers = self.link.answered(count, i, after_write=batch.after_write)
+            self.holding = False
+            if self.integrity.accept(f, batch.wall, batch.dropped, answers):
+                self.status = f
+                self.last_status = f
+                self.link.trust(answers, f, batch.t)
+                self._took_status(f)
+            else:
+                self.counters.implausible_frames += 1
+            self.link.homing = self.integrity.homing
+            fault = self.integrity.take_fault()
+            if fault is not None:
+                self._fault(fault)
+            self._take_probe_answer()
+        self.counters.bytes_dropped = batch.dropped
+
+    def _took_status(self, status: StatusFrame) -> None:
+        """A new true status frame: homed, the measured joints, the hardware E-stop."""
+        self.homed = status.all_homed
+        self.measured_deg = tuple(p / s for p, s in zip(status.positions, self._spd))
+        s, pressed = self.safety.hardware_estop(status, self.setpoints.io & 0x30)
+        self.safety = s
+        if pressed:
+            self._estop("hardware E-stop pressed")
+
+    def _judge_link(self) -> str | None:
+        """By the frames the board left unanswered: the reason the link is lost, or None."""
+        u = self.link.unanswered
+        if u > self.counters.unanswered_max:
+            self.counters.unanswered_max = u
+        if u >= self.link_timeout_ticks:
+            return f"the board left {u} frames in a row unanswered"
+        if u >= self.link_hold_frames and not self.holding:
+            act = self.jobs.activity
+            if act is not None and act.moves:
+                self.holding = True
+                self.counters.link_holds += 1
+                log.warning("the board left %d frames in a row unanswered: motion holds at its last goal "
+                            "(the link counts as lost after %d)", u, self.link_timeout_ticks)
+        return None
+
+    def _lose_link(self, reason: str, inp: TickInput, *, may_write: bool) -> CommandFrame | None:
+        """The link is lost: the frame that ends the last frame's motion (guarded), if it needs
+        one; then everything is cancelled and the error latched."""
+        frame = None
+        stop = self.stop_request(self.last_frame) if may_write else None
+        if stop is not None:
+            frame = self._guarded(stop, inp.time)
+        self._lose(reason)
+        return frame
+
+    def _lose(self, reason: str) -> None:
+        self.link_up = False
+        self.holding = False
+        self.counters.link_losses += 1
+        log.error("board link lost: %s", reason)
+        self.safety = self.safety.link_lost(reason)
+        self._cancel_all(f"board link lost: {reason}")
+
+    @staticmethod
+    def stop_request(last: CommandFrame | None) -> FrameRequest | None:
+        """The frame that ends what ``last`` commanded, or None when nothing needs ending: 123
+        with a speed (the start-up probe's) -> the same with zero speeds; 156 with a
+        feed-forward -> its goal rounded to whole steps, with none.  (A GO TO stops at its goal
+        by itself, a bounded commitment; but a goal between two steps keeps the joint stepping
+        to and fro across it, one step each way, until the next frame.)"""
+        if last is None or not any(last.speeds):
+            return None
+        if last.command == BoardCommand.JOG:
+            return FrameRequest(BoardCommand.JOG, last.positions, (0,) * 6)
+        if last.command == BoardCommand.GOTO:
+            return FrameRequest(BoardCommand.GOTO, tuple(int(round(g)) for g in goto_goal(last.positions, last.speeds)),
+                                (0,) * 6)
+        return None
+
+    # ================================================================== the stop supervisor
+
+    def _supervisor_event(self, ev: SupervisorEvent) -> None:
+        if ev.kind is SupervisorEventKind.STOPPED:
+            log.error("%s", ev.text)
+            self.safety = self.safety.supervisor_stopped(ev.text)
+            self.probe.cancel()
+            self._cancel_all("robot disabled by DISABLE")
+            # the board ran on while this process stood still, then the supervisor stopped
+            # it: what the next replies show was done behind the integrity check's back, not
+            # against the frames it saw written; the truth starts afresh, as after a new link
+            self.integrity.reset()
+            self.link.anchor = None
+        elif ev.kind is SupervisorEventKind.LOST:
+            self.safety = self.safety.supervisor_lost(ev.text)
+            self._cancel_all(f"stopped: {ev.text}")
+        elif ev.kind is SupervisorEventKind.READY:
+            if self.safety.supervisor_missing is not None:
+                log.warning("a new stop supervisor is ready (%s): motion is accepted again", ev.text)
+            self.safety = self.safety.supervisor_ready()
+
+    # ================================================================== safety events
+
+    def _cancel_all(self, reason: str) -> int:
+        act = self.jobs.activity
+        if (isinstance(act, HomeActivity) and act.sent and self.safety.enabled
+                and not self.safety.estop_latched):
+            # the firmware runs a homing to its end whatever else it gets, except 101 / 102 /
+            # 103: a STOP sends ENABLE (the board stays enabled, every motor stops where it
+            # is, unhomed) -- with IDLE frames it homed on, and the ENABLE that followed made
+            # the rest of its homing "uncommanded motion"
+            self.safety = replace(self.safety, pending_code=int(BoardCommand.ENABLE))
+        return self.jobs.cancel_all(reason)
+
+    def _estop(self, reason: str) -> None:
+        if not self.safety.estop_latched:
+            log.warning("E-stop: %s", reason)
+        self.safety = self.safety.estop()
+        self.probe.cancel()  # DISABLE every tick from now on, ENABLE needed: the answer is moot
+        self._cancel_all(f"E-stop: {reason}")
+
+    def _disable(self) -> None:
+        self.safety = self.safety.disable()
+        self.probe.cancel()
+        self._cancel_all("robot disabled by DISABLE")
+
+    def _enable(self) -> None:
+        self.safety = self.safety.enable()
+        self.probe.cancel()  # the board gets 101: it will be enabled
+
+    def _fault(self, message: str) -> None:
+        """The board moved (or homed) in a way nobody commanded: disabled, everything cancelled,
+        ``message`` (it names the joints) reported."""
+        error = f"uncommanded motion: {message}"
+        self.safety = self.safety.fault(error, f"robot disabled after {error}: send ENABLE")
+        self.probe.cancel()
+        self._cancel_all(error)
+
+    def _take_probe_answer(self) -> None:
+        probe = self.probe
+        if probe.result is None:
+            return
+        enabled, probe.result = probe.result, None
+        if enabled:
+            return
+        reason = probe.reason
+        log.warning("%s", reason)
+        self.safety = self.safety.board_found_disabled(reason)
+        self.jobs.fail_waiting(reason)
+
+    # ================================================================== commands
+
+    def _apply_safe(self, sub: Submission) -> None:
+        try:
+            self._apply(sub)
+        except Exception as exc:  # a command must never stop the tick
+            log.exception("applying %s failed", sub.command.name)
+            if sub.command_id is not None and sub.route is not None:
+                self.jobs._acks.append(Ack(sub.command_id, sub.route, AckStatus.FAILED, f"internal error: {exc}"))
+
+    def _apply(self, sub: Submission) -> None:
+        """Apply one command from the server: an immediate command at once (its ack COMPLETED,
+        FAILED or INVALID), any other queued (or refused) as :meth:`_submit`."""
+        cmd = sub.command
+        job = self.jobs.new_job(cmd, sub.command_id, sub.route, sub.client)
+        job.ahead = sub.ahead
+        if cmd.SAFETY:
+            if sub.seq > self._safety_seq:
+                self._safety_seq, self._safety_name = sub.seq, cmd.name
+        elif sub.seq and sub.seq < self._safety_seq and (
+            cmd.KIND is not C.CommandKind.IMMEDIATE or isinstance(cmd, (C.Enable, C.ClearError))
+        ):
+            # received before a STOP / ESTOP / DISABLE that overtook it in the safety lane:
+            # that command cancels it, as if it had been applied in arrival order
+            self.jobs.ack(job, AckStatus.CANCELLED, f"{self._safety_name} received after it")
+            return
+        if cmd.KIND is not C.CommandKind.IMMEDIATE:
+            self._submit(job)
+            return
+        status, details = self._immediate(cmd, sub)
+        self.jobs.ack(job, status, details)
+
+    def _immediate(self, cmd: C.Command, sub: Submission) -> tuple[AckStatus, str]:
+        if isinstance(cmd, C.Stop):
+            self._cancel_all(cmd.reason or "stopped by STOP")
+            return AckStatus.COMPLETED, "stopped"
+        if isinstance(cmd, C.EStop):
+            self._estop("software E-stop (ESTOP command)")
+            return AckStatus.COMPLETED, "E-stop latched: send ENABLE to release"
+        if isinstance(cmd, C.Disable):
+            self._disable()
+            return AckStatus.COMPLETED, "disabled"
+        if isinstance(cmd, C.Enable):
+            if self.safety.estop_pressed:
+                return AckStatus.FAILED, "hardware E-stop is still pressed: release it first"
+            self._enable()
+            return AckStatus.COMPLETED, "enabled"
+        if isinstance(cmd, C.ClearError):
+            self.safety = self.safety.clear_error()
+            return AckStatus.COMPLETED, "error cleared"
+        if isinstance(cmd, C.StreamMode):
+            self._set_stream_mode(cmd.on)
+            return AckStatus.COMPLETED, f"stream mode {'on' if cmd.on else 'off'}"
+        if isinstance(cmd, C.SetPort):
+            if self.jobs.active is not None or self.jobs.waiting:
+                return AckStatus.FAILED, "robot is busy: STOP before switching the port"
+            self.port_request = cmd.port
+            return AckStatus.COMPLETED, f"switching to {cmd.port}"
+        if isinstance(cmd, C.SetTool):
+            if sub.tool is None:
+                return AckStatus.INVALID, f"SET_TOOL: tool {cmd.tool!r} was not resolved"
+            if self.jobs.active is not None or self.jobs.waiting:
+                return AckStatus.FAILED, "robot is busy: the tool can change only when idle"
+            self.tool_name, self.tool_obj = cmd.tool, sub.tool
+            return AckStatus.COMPLETED, f"tool {cmd.tool}"
+        return AckStatus.INVALID, f"{cmd.name} is not a command the loop applies"
+
+    def _set_stream_mode(self, on: bool) -> None:
+        self.stream_mode = on
+        a = self.jobs.active
+        if not on and a is not None and a.streamed:
+            self.jobs.end_active(AckStatus.COMPLETED, "stream mode switched off")
+
+    def _refusal(self, cmd: C.Command) -> str | None:
+        """Why ``cmd`` cannot be accepted now, or None."""
+        s = self.safety
+        why = s.refusal(motion=False)
+        if why is not None:
+            return why
+        if not self.link_up:
+            return f"board link is down ({s.error or 'reconnecting'})"
+        if self.holding:
+            return (f"the board's replies are missing ({self.link.unanswered} frames unanswered): nothing is "
+                    "accepted until they return")
+        if cmd.is_motion or cmd.EXECUTION is Execution.HOME:
+            return s.refusal(motion=True)
+        return None
+
+    def _submit(self, job: Job) -> None:
+        """Queue ``job`` (QUEUED ack) or refuse it (FAILED ack).  Streaming jogs replace."""
+        cmd = job.command
+        jobs = self.jobs
+        why = self._refusal(cmd)
+        if why is not None:
+            jobs.ack(job, AckStatus.FAILED, why)
+            return
+        if self.stream_mode and cmd.STREAMABLE and not jobs.waiting and (jobs.active is None or jobs.active.streamed):
+            job.streamed = True
+            if jobs.active is not None and jobs.active.streamed and jobs.activity is not None:
+                # an update arrived: the client still holds the jog (the watchdog counts from
+                # here, not from when a CARTJOG's plan is ready)
+                jobs.activity.touch(self._now)
+            if cmd.EXECUTION is Execution.PLANNED:
+                if not self.homed or self.measured_deg is None:
+                    jobs.ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
+                    return
+                old = jobs.stream_cart
+                if old is not None and old.command == cmd:
+                    # the same jog already waits for its plan: superseding it would restart
+                    # planning with every update and, with updates faster than planning, no
+                    # plan would ever take over
+                    jobs.ack(job, AckStatus.COMPLETED, "merged into the same jog waiting for its plan")
+                    return
+                jobs.stream_cart = job
+                if old is not None:
+                    jobs.ack(old, AckStatus.COMPLETED, "superseded by a newer jog before it started")
+            else:
+                self._stream_replace(job)
+            return
+        if jobs.admit(job) and job.ahead is not None:
+            early = self._early.pop(job.ahead, None)
+            if early is not None:
+                self._take_plan(early)
+
+    # ================================================================== planning
+
+    def _chain_start(self) -> tuple[float, ...] | None:
+        a = self.jobs.active
+        if a is not None:
+            return a.final_deg
+        return self.measured_deg if self.homed else None
+
+    def _request(self, job: Job, start: tuple[float, ...], jog_start: object = None) -> None:
+        if job.planning is not None:
+            return
+        job.planning = job.seq
+        self._plan_requests.append(PlanRequest(job.seq, job.command, start, self.tool_name, self.tool_obj,
+                                               self.rate_hz, self.model, jog_start, self.config))
+
+    def _request_plans(self) -> None:
+        """Ask for the plans the next jobs need: a streamed Cartesian jog first, then the first
+        :data:`PLAN_AHEAD` queued ones in order, each from the final joints of the one before
+        (or the measured joints when nothing runs)."""
+        jobs = self.jobs
+        sc = jobs.stream_cart
+        if sc is not None:
+            if sc.planning is None and self.measured_deg is not None and self.homed:
+                start, jog_start = self._stream_start(sc)
+                self._request(sc, start, jog_start)
+            return
+        prev = self._chain_start()
+        for job in list(jobs.waiting)[:PLAN_AHEAD]:
+            ex = job.command.EXECUTION
+            if ex is Execution.HOME:
+                job.planned = True
+                prev = tuple(float(v) for v in self.model.standby_deg)
+                job.final_deg = prev
+                continue
+            if ex is Execution.SPEED:
+                job.planned, job.final_deg = True, None
+                prev = None
+                continue
+            if ex is not Execution.PLANNED:
+                job.planned, job.final_deg = True, prev
+                continue
+            if job.ahead is not None or job.planning is not None:
+                return  # its plan is on its way
+            if job.planned and job.start_deg == prev:
+                prev = job.final_deg if job.plan_error is None else prev
+                continue
+            if prev is None:
+                return
+            self._request(job, prev)
+            return
+
+    def _stream_start(self, job: Job) -> tuple[tuple[float, ...], object]:
+        """Where a streamed Cartesian jog starts (deg), and the running jog's ``JogStart``:
+        where the running streamed jog last commanded the board, so a held jog continues
+        smoothly; the measured joints only when none runs.  (The measured position lags the
+        commanded one: planning every update from it stepped back each time, and a held jog
+        covered a fraction of its distance.)"""
+        act = self.jobs.activity
+        a = self.jobs.active
+        if a is not None and a.streamed and isinstance(act, TrajectoryActivity):
+            steps = act.commanded()
+            if steps is not None:
+                job.stream_anchor = (act, act.i)
+                jog_start = getattr(a.trajectory, "jog_start", None)
+                js = jog_start(act.i - 1) if callable(jog_start) else None
+                return tuple(p / s for p, s in zip(steps, self._spd)), js
+        job.stream_anchor = None
+        assert self.measured_deg is not None
+        return self.measured_deg, None
+
+    def _take_plans(self, results: Sequence[PlanResult]) -> None:
+        for r in results:
+            self.counters.planned += 1
+            self.counters.plan_time_s += r.seconds
+            if not self._take_plan(r) and r.key < 0:
+                # a plan the server asked for ahead (its keys are negative), before its command
+                # arrived; a job's own plan (its number) whose job has gone is dropped
+                self._early[r.key] = r
+                while len(self._early) > _EARLY_PLANS:
+                    self._early.popitem(last=False)
+
+    def _take_plan(self, r: PlanResult) -> bool:
+        """Attach ``r`` to the job that asked for it (False: no such job, yet)."""
+        jobs = self.jobs
+        sc = jobs.stream_cart
+        if sc is not None and sc.planning == r.key:
+            sc.planning = None
+            jobs.stream_cart = None
+            if r.error is not None:
+                jobs.ack(sc, AckStatus.FAILED, r.error)
+                return True
+            assert r.samples is not None and r.final_deg is not None
+            sc.set_plan(r.start_deg, r.trajectory, r.samples, r.final_deg, r.notes)
+            self._stream_replace(sc)
+            return True
+        for i, job in enumerate(jobs.waiting):
+            if job.planning == r.key:
+                job.planning = None
+            elif job.ahead == r.key:
+                job.ahead = None
+                if r.tool_name != self.tool_name or i != 0 or jobs.active is not None or r.command is not job.command:
+                    return True  # the plan assumed another start or tool: planned as usual
+            else:
+                continue
+            if r.error is not None:
+                job.set_plan_error(r.start_deg, r.error)
+            else:
+                assert r.samples is not None and r.final_deg is not None
+                job.set_plan(r.start_deg, r.trajectory, r.samples, r.final_deg, r.notes)
+            return True
+        return False
+
+    # ================================================================== running jobs
+
+    def _speed_plan(self, cmd: C.Command) -> tuple[tuple[int, ...], float, str | None]:
+        """Steps/s per joint and duration (s, exact: a JOG's distance is speed x duration)
+        of JOG / MULTIJOG / SPEEDJOINT."""
+        m = self.model
+        speeds = [0] * 6
+        if isinstance(cmd, C.Jog):
+            jog = cmd.move
+            joint, direction = jog.joints[0], jog.directions[0]
+            v = float(m.jog_speed_from_percent(jog.speed_pct[0])[joint])
+            speeds[joint] = int(round(v)) * direction
+            secs = []
+            if jog.duration_s is not None:
+                secs.append(jog.duration_s)
+            if jog.distance_deg is not None:
+                secs.append(jog.distance_deg * self._spd[joint] / max(v, 1e-9))
+            return tuple(speeds), min(secs), None
+        if isinstance(cmd, C.MultiJog):
+            jog = cmd.move
+            table = m.jog_speed_from_percent(100.0)
+            for j, d, pct in zip(jog.joints, jog.directions, jog.speed_pct):
+                speeds[j] = int(round(float(table[j]) * pct / 100.0)) * d
+            if jog.duration_s is None:
+                return (), 0, "MULTIJOG needs a duration"
+            return tuple(speeds), jog.duration_s, None
+        if isinstance(cmd, C.SpeedJoint):
+            for j, v in enumerate(cmd.move.speeds_deg_s):
+                speeds[j] = int(round(v * self._spd[j]))
+                if abs(speeds[j]) > m.max_speed_steps_s[j]:
+                    return (), 0, f"J{j + 1} speed {v:g} deg/s exceeds the maximum"
+            err = self._speed_joint_range(cmd.move.speeds_deg_s, cmd.move.duration_s)
+            return tuple(speeds), cmd.move.duration_s, err
+        return (), 0, f"{cmd.name} is not a speed command"
+
+    def _speed_joint_range(self, speeds_deg_s: Sequence[float], secs: float) -> str | None:
+        """SPEEDJOINT from the measured joints: the refusal when a joint would leave its range
+        within ``secs`` (s) at ``speeds_deg_s`` (deg/s), in the words of the planner's (the
+        script's) refusal of the same SpeedJoint; None when it stays inside."""
+        start = self.measured_deg
+        if start is None:
+            return None  # no status yet: the activity's own limit stop applies
+        worst: tuple[float, int, float] | None = None
+        for j, (q0, v, (lo, hi)) in enumerate(zip(start, speeds_deg_s, self._safe_deg)):
+            end = q0 + v * secs
+            if lo <= end <= hi:
+                continue
+            bound = hi if v > 0 else lo
+            t_hit = max(0.0, (bound - q0) / v) if v != 0 else 0.0
+            if worst is None or t_hit < worst[0]:
+                worst = (t_hit, j, end)
+        if worst is None:
+            return None
+        th, j, end = worst
+        lo, hi = self._safe_deg[j]
+        longest = math.floor(th * self.rate_hz) / self.rate_hz
+        return (f"SpeedJoint refused at t={th:.3f} s: {JOINT_NAMES[j]} would reach {end:.3f} deg, beyond its "
+                f"range {lo:.3f} .. {hi:.3f} deg (it gets there after {th:.3f} s; the longest allowed "
+                f"duration is {longest:.2f} s).")
+
+    def _cap_unhomed_travel(self, speeds: Sequence[int], secs: float, now: float, *,
+                            continuing: bool) -> tuple[float, str, str | None]:
+        """Before homing the joint limits are unknown: one jog press (a JOG / MULTIJOG, or a
+        held streamed jog and its updates) may move each joint at most
+        :attr:`unhomed_jog_travel_deg`.  Returns (duration s, note for the ack, error): the
+        duration cut so the press stops at the limit (the note says so), or an error when less
+        than a tick of travel is left.  A homed robot is not limited (the joint limits are)."""
+        if self.homed:
+            self._press_speeds = None
+            return secs, "", None
+        prev = self._press_speeds
+        if not continuing or prev is None:
+            self._press_used = [0.0] * 6
+        else:  # the same press goes on: count what it moved so far
+            v0, t0, t1 = prev
+            for j in range(6):
+                self._press_used[j] += abs(v0[j]) / self._spd[j] * max(0.0, min(now, t1) - t0)
+        used = self._press_used
+        cap = self.unhomed_jog_travel_deg
+        room = {j: max(0.0, cap - used[j]) * self._spd[j] / abs(v) for j, v in enumerate(speeds) if v != 0}
+        allowed = min([secs, *room.values()])
+        stops = [JOINT_NAMES[j] for j, t in room.items() if t == allowed]
+        if allowed < self.period:
+            self._press_speeds = ((0,) * 6, now, now)  # still held: the next update is refused too
+            return 0, "", (f"robot not homed: this jog press has used its {cap:g} deg of travel "
+                           f"({', '.join(stops)}): release and press again, or send HOME to lift the limit")
+        self._press_speeds = (tuple(int(v) for v in speeds), now, now + allowed)
+        if allowed < secs:
+            return allowed, (f"robot not homed: jog travel limited to {cap:g} deg per press "
+                             f"({', '.join(stops)} stops there); send HOME to lift the limit"), None
+        return secs, "", None
+
+    def _stream_replace(self, job: Job) -> None:
+        """Make a streamed jog the running job, superseding the previous one."""
+        now = self._now
+        jobs = self.jobs
+        if job.terminal is not None:
+            return
+        s = self.safety
+        if s.estop_latched or not s.enabled:
+            jobs.ack(job, AckStatus.FAILED, "robot is disabled or E-stopped")
+            return
+        if jobs.waiting or (jobs.active is not None and not jobs.active.streamed):
+            # something non-streamed is running: queue it like any other command
+            job.streamed = False
+            jobs.waiting.append(job)
+            jobs.ack(job, AckStatus.QUEUED, f"Position {len(jobs.waiting) + 1} in queue")
+            return
+        cmd = job.command
+        if cmd.EXECUTION is Execution.PLANNED and not self.homed:
+            jobs.ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
+            return
+        old, old_act = jobs.active, jobs.activity
+        if old is not None and isinstance(old_act, SpeedActivity) and cmd.EXECUTION is Execution.SPEED:
+            speeds, secs, err = self._speed_plan(cmd)
+            note = ""
+            if err is None:
+                secs, note, err = self._cap_unhomed_travel(speeds, secs, now, continuing=True)
+            if err is not None:
+                jobs.ack(job, AckStatus.FAILED, err)
+                return
+            old_act.replace(speeds, secs, now, now)
+            jobs.ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
+            jobs.active = job
+            jobs.ack(job, AckStatus.EXECUTING, note)
+            return
+        if old is not None:
+            jobs.ack(old, AckStatus.COMPLETED, "superseded by a newer jog")
+            jobs.active = jobs.activity = None
+        self._activate(job)
+        anchor = job.stream_anchor
+        act = jobs.activity
+        if anchor is not None and anchor[0] is old_act and isinstance(act, TrajectoryActivity) \
+                and isinstance(old_act, TrajectoryActivity):
+            # planned from old_act's sample anchor[1] - 1; old_act would send old_act.i next
+            act.skip(old_act.i - anchor[1])
+
+    def _activate(self, job: Job) -> None:
+        """``job`` runs from this tick: its activity (or FAILED when it cannot run)."""
+        cmd = job.command
+        now = self._now
+        settle = max(3, int(SETTLE_TIMEOUT_S * self.rate_hz))
+        ex = cmd.EXECUTION
+        act: Activity
+        if ex is Execution.HOME:
+            act = HomeActivity(self.model.standby_steps, ticks_for(self.homing_timeout_s, self.rate_hz),
+                               start_timeout_ticks=ticks_for(HOME_START_TIMEOUT_S, self.rate_hz))
+        elif ex is Execution.SPEED:
+            speeds, secs, err = self._speed_plan(cmd)
+            if err is None:
+                # a held streamed jog that ran into the limit and sends its next update is
+                # still the same press; anything else starts a new one
+                held = (job.streamed and self._press_speeds is not None
+                        and now <= self._press_speeds[2] + self.watchdog_s + 2.0 * self.period)
+                secs, note, err = self._cap_unhomed_travel(speeds, secs, now, continuing=held)
+                if note:
+                    job.notes = (*job.notes, note)
+            if err is not None:
+                self.jobs.ack(job, AckStatus.FAILED, err)
+                return
+            act = SpeedActivity(speeds, secs, rate_hz=self.rate_hz, settle_ticks=settle, streamed=job.streamed,
+                                started=now, schedule_start=now)
+        elif ex is Execution.PLANNED:
+            for note in job.warnings:
+                log.warning("%s (%s): %s", job.name, job.command_id or "no id", note)
+            assert job.samples is not None
+            act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now,
+                                     schedule_start=now)
+            self.plan_seq += 1
+        elif isinstance(cmd, C.Delay):
+            act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
+        elif isinstance(cmd, C.PneumaticGripper):
+            on = cmd.action == "open"  # as the original: open = output on
+            self.setpoints = self.setpoints.with_output(cmd.port, on)
+            act = OutputActivity(cmd.port, on, ticks_for(OUTPUT_REPORT_TIMEOUT_S, self.rate_hz))
+        elif isinstance(cmd, C.ElectricGripper):
+            act = self._gripper(cmd)
+        elif isinstance(cmd, C.WaitInput):
+            to = ticks_for(cmd.timeout_s, self.rate_hz) if cmd.timeout_s is not None else None
+            act = WaitInputActivity(cmd.input_no, cmd.state, to)
+        else:
+            self.jobs.ack(job, AckStatus.FAILED, f"{cmd.name} cannot be executed")
+            return
+        self.jobs.start(job, act, "; ".join(job.notes) if job.notes else "")
+
+    def _gripper(self, cmd: C.ElectricGripper) -> Activity:
+        sp = self.setpoints
+        if cmd.action == "move":
+            self.setpoints = sp.with_gripper(
+                position=cmd.position, speed=cmd.speed, current=cmd.current_ma,
+                command=GripperCommandBits.ACTIVATE | GripperCommandBits.MOVE | GripperCommandBits.RELEASE_DIR)
+            return OneShotActivity()
+        if cmd.action == "calibrate":
+            # the whole queue waits for the calibration, as in the original controller: the
+            # gripper ignores moves meanwhile, and COMPLETED means calibrated
+            self.setpoints = sp.with_gripper(command=GripperCommandBits.ACTIVATE | GripperCommandBits.RELEASE_DIR)
+            return GripperCalibrateActivity(ticks_for(GRIPPER_CALIBRATE_TIMEOUT_S, self.rate_hz))
+        return OneShotActivity(GripperMode.CLEAR_ERROR)
+
+    def _try_activate(self) -> None:
+        """Start the next waiting job if it can run (planned, from where the robot is)."""
+        jobs = self.jobs
+        while jobs.waiting:
+            job = jobs.waiting[0]
+            cmd = job.command
+            if cmd.is_motion and not self.homed and not (cmd.EXECUTION is Execution.SPEED and cmd.STREAMABLE):
+                # before homing only jogs (JOG, MULTIJOG) move the robot
+                jobs.waiting.popleft()
+                jobs.ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
+                continue
+            if not job.planned:
+                return
+            if job.plan_error is not None:
+                jobs.waiting.popleft()
+                jobs.ack(job, AckStatus.FAILED, job.plan_error)
+                continue
+            if needs_plan(cmd):
+                meas = self.measured_deg
+                if meas is None or job.start_deg is None or any(
+                    abs(a - b) > START_TOLERANCE_DEG for a, b in zip(meas, job.start_deg)
+                ):
+                    job.planned = False  # plan again from where the robot is
+                    return
+            jobs.waiting.popleft()
+            self._activate(job)
+            if jobs.active is not None:
+                return
+
+    # ================================================================== this tick's frame
+
+    def _frame(self, inp: TickInput) -> CommandFrame:
+        """This tick's frame: what the safety state asks, or the probe's, or the running
+        activity's, through the guard."""
+        return self._guarded(self._request_frame(inp), inp.time)
+
+    def _request_frame(self, inp: TickInput) -> FrameRequest:
+        jobs = self.jobs
+        tick = inp.tick
+        s, code = self.safety.frame_code(tick, idle=jobs.activity is None)
+        self.safety = s
+        if code is not None:
+            return FrameRequest(code)
+        if self.probe.active:
+            # is the board enabled?  Nothing else runs until it answers (a few ticks)
+            code, speeds = self.probe.frame(self.status, self._limits)
+            return FrameRequest(code, speeds=speeds)
+        if jobs.active is None and jobs.waiting:
+            self._try_activate()
+        act = jobs.activity
+        if act is None:
+            return FrameRequest(BoardCommand.IDLE)
+        ctx = self._context(inp)
+        req = self._run_activity(act, ctx)
+        if req.done is not None and act.frameless_end and jobs.waiting:
+            # its end needs no frame of its own (it only saw the board's report): the next
+            # queued command takes this tick (an Output() lasts one tick, as in the original)
+            self._try_activate()
+            nxt = jobs.activity
+            if nxt is not None:
+                req = self._run_activity(nxt, self._context(inp))
+        return req
+
+    def _context(self, inp: TickInput) -> TickContext:
+        box = self.guard.goal_box(self.link, inp.time)
+        last = self.link.last
+        if last is not None and last.command == BoardCommand.GOTO:
+            origin: list[float] | None = goto_goal(last.positions, last.speeds)
+        else:
+            st = self.status
+            origin = [float(p) for p in st.positions] if st is not None else None
+        return TickContext(inp.tick, inp.time, self.rate_hz, self.status, self.homed, self.stream_mode,
+                           self.watchdog_s, self._limits, box, origin, self.integrity.homing_seen)
+
+    def _run_activity(self, act: Activity, ctx: TickContext) -> FrameRequest:
+        """This tick's request of the running job's activity; ends the job (its terminal ack)
+        when the request says so."""
+        try:
+            req = act.step(ctx)
+        except Exception as exc:
+            log.exception("activity of %s failed", self.jobs.active.name if self.jobs.active else "?")
+            req = FrameRequest(BoardCommand.IDLE, done=AckStatus.FAILED, details=f"internal error: {exc}")
+        if req.done is not None:
+            self.jobs.end_active(req.done, req.details)
+        return req
+
+    def _compose(self, req: FrameRequest) -> CommandFrame:
+        st = self.status
+        pos = req.positions if req.positions is not None else (st.positions if st is not None else (0,) * 6)
+        return self.setpoints.frame(pos, req.speeds, req.command, req.gripper_mode)
+
+    def _guarded(self, req: FrameRequest, t_write: float) -> CommandFrame:
+        """``req`` as a frame, through the guard (a refused frame FAILs the running job)."""
+        frame = self._compose(req)
+        s = self.safety
+        res = self.guard.check(frame, self.link, self.status, estop=s.blocked, homed=self.homed, t_write=t_write)
+        if res.violation is not None:
+            log.error("safety guard replaced a %s frame: %s", frame.command, res.violation)
+            if self.jobs.active is not None:
+                self.jobs.end_active(AckStatus.FAILED, f"safety guard: {res.violation}")
+        return res.frame
+
+    def final_frames(self, t_write: float, written: Written | None = None) -> list[CommandFrame]:
+        """The frames a clean shutdown writes, through the guard (``written``: the last frame
+        written, if no tick has taken it in yet): the end of the last frame's motion if it needs
+        one, then DISABLE (outputs and gripper setpoints kept: a part held is not dropped, as
+        the stop supervisor leaves them)."""
+        if written is not None and self.link_up:
+            self._written(written)
+        self._cancel_all("controller shutting down")
+        out = []
+        stop = self.stop_request(self.last_frame)
+        if stop is not None:
+            out.append(self._guarded(stop, t_write))
+        out.append(self._guarded(FrameRequest(BoardCommand.DISABLE), t_write))
+        return out
+
+    # ================================================================== the snapshot
+
+    def state(self) -> RobotState:
+        if not (self.link_up and self.status is not None):
+            return RobotState.DISCONNECTED
+        s = self.safety
+        if s.estop_latched or s.estop_pressed:
+            return RobotState.ESTOP
+        if not s.enabled:
+            return RobotState.DISABLED
+        a = self.jobs.active
+        if a is not None:
+            if a.command.EXECUTION is Execution.HOME:
+                return RobotState.HOMING
+            if a.command.is_motion:
+                return RobotState.MOVING
+        if s.error:
+            return RobotState.ERROR
+        return RobotState.IDLE
+
+    def _plan_view(self) -> PlanView:
+        a = self.jobs.active
+        if a is None or a.trajectory is None:
+            return PlanView(self.plan_seq, a.name if a else None)
+        return PlanView(self.plan_seq, a.name, a.command_id, a.final_deg, a.trajectory)
+
+    def _snapshot(self, inp: TickInput, frame: CommandFrame | None) -> Snapshot:
+        jobs = self.jobs
+        a, act = jobs.active, jobs.activity
+        info = CommandInfo(a.command_id, a.name, act.progress if act else 0.0) if a is not None else None
+        s = self.safety
+        loop = dict(inp.loop_stats)
+        loop.update(self.counters.as_dict())
+        loop["guard_replaced_frames"] = self.guard.replaced_frames
+        loop["guard_violations"] = self.guard.violations
+        board = BoardInfo(self.link_up and self.status is not None, self.board.simulated, self.board.port)
+        return Snapshot(
+            seq=inp.tick + 1, time=inp.wall - (self._start_wall or inp.wall), state=self.state(),
+            enabled=s.enabled, estop_pressed=s.estop_pressed, estop_latched=s.estop_latched,
+            status=self.status or self.last_status, board=board, error=s.error, command=info,
+            queue=len(jobs.waiting), stream_mode=self.stream_mode, tool=self.tool_name, plan_seq=self.plan_seq,
+            outputs=self.setpoints.outputs, steps_per_deg=self._spd, pose_provider=self.pose_provider,
+            loop=loop, server=dict(inp.server_stats), integrity=self.integrity.view(inp.wall),
+            # known once the core has taken the probe's answer in (it does so in the tick after
+            # the reply that answered it: until then the snapshot would show the old state)
+            state_known=not self.probe.active and self.probe.result is None,
+            sent=frame if self.link_up else None, queue_view=jobs.view(), plan=self._plan_view(),
+        )
+
+    # ================================================================== views for tests and tools
+
+    def apply(self, sub: Submission) -> list[Ack]:
+        """Apply one command between ticks, as an update would (tools and tests); returns the
+        acks it produced."""
+        self._apply_safe(sub)
+        return self.jobs.take_acks()
+
+    @property
+    def busy(self) -> bool:
+        return self.jobs.busy
+
+    @property
+    def steps_per_deg(self) -> tuple[float, ...]:
+        return self._spd
+
+    @property
+    def active(self) -> Job | None:
+        return self.jobs.active
+
+    @property
+    def activity(self) -> Activity | None:
+        return self.jobs.activity
+
+    @property
+    def queue(self) -> Sequence[Job]:
+        return self.jobs.waiting
+
+    @property
+    def estop_latched(self) -> bool:
+        return self.safety.estop_latched
+
+    @property
+    def estop_pressed(self) -> bool:
+        return self.safety.estop_pressed
+
+    @property
+    def enabled(self) -> bool:
+        return self.safety.enabled
+
+    @property
+    def error(self) -> str | None:
+        return self.safety.error
+
+
+#: ``(request) -> result``: how the driver runs a plan (inline, or in a worker)
+Planner = Callable[[PlanRequest], PlanResult]
