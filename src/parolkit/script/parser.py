@@ -22,15 +22,17 @@ program or the list of errors.
 from __future__ import annotations
 
 import difflib
-import math
 import re
 import threading
+import unicodedata
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+from parolkit.errors import ParolkitValueError
 from parolkit.moves import CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
+from parolkit.number_syntax import parse_number
 from parolkit.script.program import (
     Begin,
     Command,
@@ -216,8 +218,10 @@ def _syntax_error(exc: LarkError, text: str) -> tuple[int, str]:
         elif ch == ";":
             msg = "unexpected ';': RBTscript has one command per line and no ';'"
         else:
-            shown = repr(ch) if ch.isprintable() and ch not in "'\"" else repr(ch)
-            msg = f"unexpected character {shown}"
+            msg = f"unexpected character {ch!r}"
+            if not (ch.isascii() and ch.isprintable()):  # a control character, a look-alike, a no-break space
+                name = unicodedata.name(ch, "")
+                msg += f" (U+{ord(ch):04X} {name})" if name else f" (U+{ord(ch):04X})"
             if allowed:
                 msg += f": expected {_expected_text(allowed)}"
         return col, msg
@@ -320,10 +324,10 @@ class _Line:
             self.fail(arg.col, f"{what} must be a plain number here, not {arg.key}=...")
         if arg.kind != "number":
             self.fail(arg.col, f"{what} must be a number, got {arg.raw!r}")
-        value = float(arg.raw)
-        if not math.isfinite(value):
-            self.fail(arg.col, f"{what} = {arg.raw} is too large to be a number")
-        return value
+        try:
+            return parse_number(arg.raw, what)
+        except ParolkitValueError as exc:
+            self.fail(arg.col, str(exc))
 
     def ranged(self, arg: _Arg, what: str, lo: float, hi: float, unit: str = "", *, lo_open: bool = False) -> float:
         value = self.number(arg, what)
