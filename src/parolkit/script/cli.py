@@ -198,15 +198,15 @@ def check_main(args: argparse.Namespace) -> int:
 
 def fmt_main(args: argparse.Namespace) -> int:
     from parolkit.script.formatter import format_program
-    from parolkit.script.program import ProgramError
+    from parolkit.script.parser import read_source
+    from parolkit.script.program import ProgramError, ScriptError
 
     status = 0
     for name in args.programs:
         path = Path(name)
-        try:
-            original = path.read_bytes().decode("utf-8-sig")
-        except (OSError, UnicodeDecodeError) as exc:
-            print(f"{name}: cannot read: {exc}", file=sys.stderr)
+        original = read_source(path)
+        if isinstance(original, ScriptError):
+            _print_diagnostics([original])
             status = 1
             continue
         try:

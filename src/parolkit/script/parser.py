@@ -63,7 +63,7 @@ if TYPE_CHECKING:  # lark is imported when the first program is parsed
 
     from parolkit.robot import RobotModel
 
-__all__ = ["parse", "parse_file", "load", "Limits", "COMMAND_NAMES", "line_comment"]
+__all__ = ["parse", "parse_file", "read_source", "load", "Limits", "COMMAND_NAMES", "line_comment"]
 
 GRAMMAR_PATH = Path(__file__).with_name("rbtscript.lark")
 
@@ -766,19 +766,28 @@ def parse(text: str, source_name: str = "<script>", *, limits: Limits | None = N
     return ParseResult(Program(tuple(commands), source_name, tuple(warnings)), (), tuple(warnings))
 
 
-def parse_file(path: str | Path, *, limits: Limits | None = None) -> ParseResult:
-    """Parse a program file (UTF-8; a byte-order mark is allowed).  The source name is the path
-    as given.  A file that cannot be read or decoded is reported as an error at 1:1."""
+def read_source(path: str | Path) -> str | ScriptError:
+    """The text of a program file (UTF-8; a byte-order mark is allowed), or the error that says
+    why it cannot be read or decoded (at the line of the first bad byte; the source name is the
+    path as given)."""
     p = Path(path)
     try:
-        text = p.read_bytes().decode("utf-8-sig")
+        data = p.read_bytes()
+        return data.decode("utf-8-sig")
     except OSError as exc:
-        return ParseResult(None, (ScriptError(1, 1, f"cannot read the file: {exc.strerror or exc}",
-                                              "", Severity.ERROR, str(path)),))
+        return ScriptError(1, 1, f"cannot read the file: {exc.strerror or exc}", "", Severity.ERROR, str(path))
     except UnicodeDecodeError as exc:
-        line = p.read_bytes()[: exc.start].count(b"\n") + 1
-        return ParseResult(None, (ScriptError(line, 1, f"the file is not UTF-8 text ({exc.reason} at byte {exc.start})",
-                                              "", Severity.ERROR, str(path)),))
+        line = data[: exc.start].count(b"\n") + 1
+        return ScriptError(line, 1, f"the file is not UTF-8 text ({exc.reason} at byte {exc.start})", "",
+                           Severity.ERROR, str(path))
+
+
+def parse_file(path: str | Path, *, limits: Limits | None = None) -> ParseResult:
+    """Parse a program file (see :func:`read_source`); a file that cannot be read or decoded
+    is reported as an error."""
+    text = read_source(path)
+    if isinstance(text, ScriptError):
+        return ParseResult(None, (text,))
     return parse(text, str(path), limits=limits)
 
 
