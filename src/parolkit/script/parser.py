@@ -704,11 +704,6 @@ def _structure(commands: list[Command], source_name: str, errors: list[ScriptErr
             nxt = commands[i + 1]
             errors.append(diag(cmd, f"{cmd.keyword}() must be the last command, but line {nxt.line} "
                                     f"({nxt.keyword}) follows it", Severity.ERROR))
-        if isinstance(cmd, GripperCalibrate):
-            following = commands[i + 1] if i + 1 < len(commands) else None
-            if not isinstance(following, Delay):
-                warnings.append(diag(cmd, "add a Delay() after Gripper_cal() so the calibration can finish",
-                                     Severity.WARNING))
     last = commands[-1]
     if not isinstance(last, (End, Loop)):
         warnings.append(diag(last, f"the program has no End() or Loop(): it ends after line {last.line}",
