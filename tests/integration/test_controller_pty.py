@@ -324,7 +324,10 @@ def test_one_percent_corruption_of_the_telemetry_is_filtered_and_moves_complete(
     for attempt in range(2):
         bench.emu.set_faults(corrupt_rate=0.01, direction="from_board")
         ids = [bench.send(f"MOVEJOINT|{90 - 5 * (i % 2)}|-90|180|0|0|180|0.8|None") for i in range(4)]
-        results = [bench.acks.terminal(cid, 40) for cid in ids]
+        # a move whose replies were corrupted may run stretched (its window anchored on older
+        # trusted replies), and says so after the usual text
+        results = [(s, d if not d.startswith(done[1] + "; warning: ran stretched") else done[1])
+                   for s, d in (bench.acks.terminal(cid, 40) for cid in ids)]
         if all(r == done for r in results):
             break
         assert attempt == 0 and ("CANCELLED", "E-stop: hardware E-stop pressed") in results, results

@@ -198,7 +198,8 @@ def test_enable_turned_into_home_on_the_wire_disables_within_three_frames_naming
     assert ctl.run("ENABLE")[0] == "COMPLETED"
     home = ctl.run("HOME", 30)
     assert home[0] == "COMPLETED", (home, ctl.status()["errors"])
-    assert ctl.run("MOVEJOINT|80|-90|170|0|0|180|1|None")[0] == "COMPLETED"
+    mv = ctl.run("MOVEJOINT|80|-90|170|0|0|180|1|None")
+    assert mv[0] == "COMPLETED", mv
 
 
 # ------------------------------------------------------------------------------ HOME, start-up state

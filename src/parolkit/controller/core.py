@@ -299,6 +299,13 @@ class ControllerCore:
             self._link_event(ev)
         for sev in inp.supervisor:
             self._supervisor_event(sev)
+        self._take_plans(inp.plans)
+        self._take_probe_answer()
+        # the commands first: their senders saw the status of the previous tick; what the
+        # replies read now show is newer (a fault they reveal is shown even when an ENABLE
+        # came in the same tick: it voids that ENABLE)
+        for sub in inp.submissions:
+            self._apply_safe(sub)
         result = TickResult.FRAME
         lost_frame: CommandFrame | None = None
         if self.link_up:
@@ -308,10 +315,6 @@ class ControllerCore:
             if lost is not None:
                 lost_frame = self._lose_link(lost, inp, may_write=True)
                 result = TickResult.LINK_LOST
-        self._take_plans(inp.plans)
-        self._take_probe_answer()
-        for sub in inp.submissions:
-            self._apply_safe(sub)
         if result is TickResult.LINK_LOST:
             frame = lost_frame
         elif self.link_up:

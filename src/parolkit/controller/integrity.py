@@ -415,6 +415,7 @@ class StatusIntegrity:
         if code == _HOME:
             self._home_t, self._home_seen = self._n, False
             self._abort_n = None  # a new homing: an earlier abort's wait is over
+            self._unasked = False  # (and one nobody asked for is now this one)
             self._home_homed = self._ref.f.homed if self._ref is not None else 0xFF
         elif code in _ABORT:
             if self._home_t is not None or self._unasked:
