@@ -68,6 +68,8 @@ __all__ = [
     "goto_tracking_factor",
     "goto_goal",
     "goto_reach_steps",
+    "FIRMWARE_PASS_MAX_S",
+    "GOTO_MARGIN_STEPS",
 ]
 
 NUM_JOINTS = 6
@@ -121,6 +123,15 @@ GOTO_FF_GAIN = 0.5
 GOTO_ARRIVAL_JITTER_S = 0.001
 
 
+
+#: Steps of GO TO goal the planners keep below the guard's bound (a whole-step target rounds by
+#: half a step; the controller counts on a joint having moved one step less than the law says).
+GOTO_MARGIN_STEPS = 2.0
+#: The longest the board's main loop may take for one pass, s (the firmware's is "many kHz";
+#: the emulator's slowest is 1 kHz).  A GO TO frame takes effect on the pass after it arrives,
+#: and each pass steps a joint at most once: what the controller counts on about how far a
+#: joint has moved towards a goal allows this much less time and one step less.
+FIRMWARE_PASS_MAX_S = 0.001
 
 
 def goto_goal(targets: Sequence[float], feed_forwards: Sequence[float]) -> list[float]:
@@ -421,11 +432,14 @@ class RobotModel:
 
     def max_tracked_speed_steps_s(self, rate_hz: float) -> NDArray[np.float64]:
         """Fastest joint speeds (steps/s) a position-tracked (GO TO, 156) stream may ask for
-        at control rate ``rate_hz``: :attr:`max_speed_steps_s` x :func:`goto_tracking_factor`
-        (0.763 at 100 Hz: [4960, 13737, 15264, 16790, 16790, 16790]), rounded down to whole
-        steps/s so that a speed rounded to whole steps/s cannot cross it.  Speed-only streams
-        (123) may use the full maximum."""
-        return np.floor(np.asarray(self.max_speed_steps_s, dtype=np.float64) * goto_tracking_factor(rate_hz))
+        at control rate ``rate_hz``: :attr:`max_speed_steps_s` less :data:`GOTO_MARGIN_STEPS` of
+        goal (targets are whole steps; the controller counts on a joint having moved one step
+        less than the law says), x :func:`goto_tracking_factor` (0.763 at 100 Hz: [4884, 13661,
+        15187, 16714, 16714, 16714]), rounded down to whole steps/s so that a speed rounded to
+        whole steps/s cannot cross it.  A plan within it is followed on time by frames that are
+        bounded commitments when the replies come in time."""
+        vmax = np.asarray(self.max_speed_steps_s, dtype=np.float64)
+        return np.floor((vmax - GOTO_MARGIN_STEPS * GOTO_GAIN_PER_S) * goto_tracking_factor(rate_hz))
 
     def cart_angular_speed_from_percent(self, percent: float) -> float:
         """Cartesian angular speed in deg/s: 0..100 % -> 0.7..25 deg/s."""

@@ -73,7 +73,7 @@ class GuardedBoard:
             t, n, st = self._pending.pop(0)
             self.status = st
             self.integrity.accept(st, t, 0, n)
-            self.link.trust(n, st, t)
+            self.link.trust(self.link.earliest(st), st, t)
             self.link.homing = self.integrity.homing
 
     @property

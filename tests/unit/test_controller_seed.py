@@ -172,8 +172,8 @@ def test_move_over_a_speed_limit_is_refused_with_the_minimum_t(rig):
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.FAILED
     msg = _details(rig, "aaaa0001", AckStatus.FAILED)
-    assert "J5 would need a speed of" in msg and msg.endswith("give t >= 0.47 s.")
-    rig.submit("aaaa0002|MOVEJOINT|90|-90|180|0|59|180|0.47|None")
+    assert "J5 would need a speed of" in msg and msg.endswith("give t >= 0.48 s.")
+    rig.submit("aaaa0002|MOVEJOINT|90|-90|180|0|59|180|0.48|None")
     rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
     assert rig.terminal("aaaa0002") is AckStatus.COMPLETED
 

@@ -16,7 +16,14 @@ from parolkit.board import BoardEmulator
 from parolkit.controller.guard import PROBE_SPEED_STEPS_S, ROUNDING_STEPS, SafetyGuard
 from parolkit.controller.link import LinkHistory
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
-from parolkit.robot import GOTO_GAIN_PER_S, PAROL6, goto_goal, goto_reach_steps, goto_tracking_factor
+from parolkit.robot import (
+    FIRMWARE_PASS_MAX_S,
+    GOTO_GAIN_PER_S,
+    PAROL6,
+    goto_goal,
+    goto_reach_steps,
+    goto_tracking_factor,
+)
 
 STANDBY = tuple(int(v) for v in PAROL6.standby_steps)
 REACH = goto_reach_steps(VMAX)
@@ -172,7 +179,8 @@ def test_rule6_the_window_spans_the_trusted_reply_and_every_goal_written_since()
 
 def test_rule6_time_since_the_reply_moves_the_near_end_of_the_window_towards_the_goals():
     """The reply answered frame k (sent as k arrived); frame n is written dt later, so the board
-    has run towards frame k's goal for at least dt: the near end is raised by (1 - e^-50 dt)."""
+    has run towards frame k's goal for at least dt less one pass of its loop, a step at a time:
+    the near end is raised by (1 - e^-50 (dt - pass)), less one step."""
     g, link, st = _rig()
     a = list(STANDBY)
     a[0] += int(REACH[0])
@@ -183,7 +191,9 @@ def test_rule6_time_since_the_reply_moves_the_near_end_of_the_window_towards_the
     for dt in (0.0, 0.005, 0.009, 0.05):
         lo, hi = link.window(0.001 + dt)[0]
         assert hi == a[0]
-        assert lo == pytest.approx(STANDBY[0] + (a[0] - STANDBY[0]) * (1 - math.exp(-50 * dt)))
+        moved = dt - FIRMWARE_PASS_MAX_S
+        rise = 1 - math.exp(-50 * moved) if moved > 0 else 0.0
+        assert lo == pytest.approx(max(STANDBY[0], STANDBY[0] + (a[0] - STANDBY[0]) * rise - 1.0))
     # a frame that stood still in between (IDLE): the board may have stopped anywhere
     link.sent(CommandFrame(positions=STANDBY, command=BoardCommand.IDLE), 0.01)
     assert link.window(0.02)[0] == (STANDBY[0], a[0])
@@ -226,9 +236,9 @@ def test_a_stream_at_the_tracking_factor_passes_and_the_board_stays_within_its_m
     b = GuardedBoard()
     x = [float(p) for p in b.positions]
     for k in range(60):
-        f = goto_tracking_factor(RATE) * min(1.0, (k + 1) / 5)  # from rest in 5 ticks, as plans ramp
-        x[0] += f * VMAX[0] * PERIOD
-        ff = (int(f * VMAX[0]), 0, 0, 0, 0, 0)
+        v = PAROL6.max_tracked_speed_steps_s(RATE)[0] * min(1.0, (k + 1) / 5)  # from rest in 5 ticks, as plans ramp
+        x[0] += v * PERIOD
+        ff = (int(v), 0, 0, 0, 0, 0)
         assert b.goto(x, ff).violation is None, k
     assert not b.over_max()
     assert max(s.peak_speeds[0] for s in b.log) > 0.95 * VMAX[0]  # and it does run near it

@@ -92,14 +92,20 @@ def test_bad_replies_mid_jog_leave_the_board_within_bounded_travel_and_the_loss_
     assert rig.emu.positions == still
 
 
-def test_new_motion_is_refused_while_replies_are_missing(rig):
-    rig.submit("aaaa0001|JOG|0|60|5|None")
+def test_new_motion_is_queued_while_replies_are_missing_and_runs_when_they_return(rig):
+    """Late replies (a loaded PC) do not refuse commands: the running motion holds by itself
+    (its goals cannot run ahead of the last trusted reply) and what comes queues behind it."""
+    rig = _loop(rig, 10)
+    rig.submit("aaaa0001|JOG|0|60|0.3|None")
     rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("aaaa0001"))
     rig.emu.set_faults(drop_rate=1.0, direction="from_board")
-    rig.tick(3)  # paused now; the loss comes with the next tick
+    rig.tick(3)
     assert rig.core.holding and rig.core.link_up
-    rig.submit("aaaa0002|JOG|1|60|1|None")
-    assert rig.terminal("aaaa0002") is AckStatus.FAILED
+    rig.submit("aaaa0002|JOG|1|60|0.2|None")
+    assert rig.statuses("aaaa0002") == [AckStatus.QUEUED]
+    rig.emu.clear_faults()
+    rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
+    assert rig.terminal("aaaa0001") is AckStatus.COMPLETED and rig.terminal("aaaa0002") is AckStatus.COMPLETED
 
 
 def _loop(r: Rig, timeout: int, hold: int = 2) -> Rig:

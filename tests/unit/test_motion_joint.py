@@ -103,7 +103,7 @@ def test_other_joint_that_cannot_follow_slows_the_leader_and_says_so():
     tr = plan(JointMove(target, speed_pct=100, accel_pct=100), STANDBY)
     assert np.abs(tr.speeds[:, 0]).max() <= VTRACK[0]
     assert np.abs(tr.speeds[:, 0]).max() == pytest.approx(VTRACK[0], abs=1)
-    assert any("J1 position-tracking speed limit 4960 steps/s" in n for n in tr.notes)
+    assert any("J1 position-tracking speed limit 4884 steps/s" in n for n in tr.notes)
     # speed only (123): the maximum speed itself
     tr = plan(JointMove(target, speed_pct=100, accel_pct=100, tracking="speed"), STANDBY)
     assert np.abs(tr.speeds[:, 0]).max() == pytest.approx(VMAX[0], abs=1)
@@ -133,9 +133,9 @@ def test_too_fast_for_duration_is_refused_naming_joint_time_value_and_minimum():
     assert e.move == "MoveJoint" and e.joint == 0 and e.joint_name == "J1"
     assert e.value == pytest.approx(1.5 * 90 * SPD[0] / 2.0)
     assert e.time_s == pytest.approx(2 / 3)
-    assert ("J1 would need a speed of 7680 steps/s, above its position-tracking maximum 4960 steps/s "
-            "(76 % of its maximum speed 6500 steps/s") in str(e)
-    assert "give t >= 3.10 s" in str(e)  # 1.5 x 10240 steps / 4960 steps/s
+    assert ("J1 would need a speed of 7680 steps/s, above its position-tracking maximum 4884 steps/s "
+            "(75 % of its maximum speed 6500 steps/s") in str(e)
+    assert "give t >= 3.15 s" in str(e)  # 1.5 x 10240 steps / 4884 steps/s
     # speed only (123): the maximum speed itself is the limit
     with pytest.raises(PlanningError) as ei:
         plan(JointMove([0, -90, 180, 0, 0, 180], duration_s=2.0, profile="trap", tracking="speed"), STANDBY)

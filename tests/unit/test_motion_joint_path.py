@@ -105,9 +105,9 @@ def test_too_fast_is_refused_naming_the_joint_the_segment_the_value_the_limit_an
     text = str(err)
     assert text.startswith("MoveJointPath refused at t=")
     assert "too fast between the start and point 0 (t=1.000 s): J1 speed" in text
-    assert "exceeds the position-tracking maximum 4960 steps/s" in text
+    assert "exceeds the position-tracking maximum 4884 steps/s" in text
     assert "multiply the times by at least" in text
-    assert (err.joint, err.point) == (0, 0) and abs(err.value or 0) > 4960
+    assert (err.joint, err.point) == (0, 0) and abs(err.value or 0) > 4884
 
 
 def test_a_given_velocity_over_the_limit_is_refused_at_its_point() -> None:

@@ -25,8 +25,8 @@ and the safety guard (:mod:`~parolkit.controller.guard`) judge by, in this same 
 
 Link supervision is judged by the frames the board left unanswered, never by the controller's
 own late ticks (a stalled controller writes nothing).  After ``link_hold_frames`` unanswered
-frames in a row during motion the replies count as missing (counted and logged; new commands
-are refused; every frame being a bounded commitment, the motion holds by itself); after
+frames in a row during motion the replies count as missing (counted and logged; every frame
+being a bounded commitment, the motion holds by itself: new commands queue behind it); after
 ``link_timeout_ticks`` the link is lost: everything is cancelled, the error latched, the last
 frame's motion ended with one more frame, and no frame is written until the driver reports the
 link up again.
@@ -372,11 +372,12 @@ class ControllerCore:
         for i, f in enumerate(batch.frames):
             self.counters.frames_received += 1
             answers = self.link.answered(count, i, after_write=batch.after_write)
+            earliest = self.link.earliest(f)
             self.holding = False
             if self.integrity.accept(f, batch.wall, batch.dropped, answers):
                 self.status = f
                 self.last_status = f
-                self.link.trust(answers, f, batch.t)
+                self.link.trust(earliest, f, batch.t)
                 self._took_status(f)
             else:
                 self.counters.implausible_frames += 1
@@ -597,9 +598,6 @@ class ControllerCore:
             return why
         if not self.link_up:
             return f"board link is down ({s.error or 'reconnecting'})"
-        if self.holding:
-            return (f"the board's replies are missing ({self.link.unanswered} frames unanswered): nothing is "
-                    "accepted until they return")
         if cmd.is_motion or cmd.EXECUTION is Execution.HOME:
             return s.refusal(motion=True)
         return None

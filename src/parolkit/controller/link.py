@@ -35,7 +35,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
-from parolkit.robot import GOTO_GAIN_PER_S, goto_goal
+from parolkit.robot import FIRMWARE_PASS_MAX_S, GOTO_GAIN_PER_S, goto_goal
 
 __all__ = ["LinkHistory", "Sent", "Anchor"]
 
@@ -48,11 +48,13 @@ _SIZE = 128
 
 @dataclass(frozen=True, slots=True)
 class Sent:
-    """Frame number ``n`` (from 1 in a session), written at ``t`` (s)."""
+    """Frame number ``n`` (from 1 in a session), written at ``t`` (s); ``window``: where each
+    joint could be as it arrived, as known when it was written (None: not known)."""
 
     n: int
     frame: CommandFrame
     t: float
+    window: tuple[tuple[float, float], ...] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,6 +83,9 @@ class LinkHistory:
         #: frames written whose replies have not arrived yet, oldest first (which frame a late
         #: reply answers: the board answers in order)
         self._backlog = 0
+        #: the oldest frame a reply read from now on can answer (replies come in order, one
+        #: per frame the board accepted; some may be lost)
+        self._pending_min = 1
         self.anchor: Anchor | None = None
         #: a homing may be running (the board moves on its own): set when HOME is written,
         #: cleared by the owner when the integrity check has seen it end (it judges the homing
@@ -101,8 +106,9 @@ class LinkHistory:
 
     def sent(self, frame: CommandFrame, t: float) -> int:
         """``frame`` was written at ``t``; returns its number."""
+        win = self.window(t)
         self._n += 1
-        self._written.append(Sent(self._n, frame, t))
+        self._written.append(Sent(self._n, frame, t, None if win is None else tuple(win)))
         if int(frame.command) == _HOME:
             self.homing = True
         self.unanswered += 1
@@ -125,9 +131,26 @@ class LinkHistory:
             self._backlog = 0  # the rest were lost
         return max(0, min(self._n, n))
 
+    def earliest(self, status: StatusFrame) -> int:
+        """The oldest frame that the reply ``status`` (the next one read) can answer, by the
+        order of replies and by where the board was: a reply carries the board's position as
+        the frame it answers arrived, which lay in that frame's window.  Which frame a reply
+        answers is not known for sure (a reply the operating system held back reads like a
+        prompt one; lost replies shift the count): the window of the board from a reply counts
+        every goal from the oldest frame it can answer on, so a delayed reply taken for a newer
+        frame's can never let a goal run ahead of the board.  Call once per reply read, in order."""
+        lo = max(1, min(self._pending_min, self._n))
+        for w in self.since(lo) or ():
+            win = w.window
+            if win is None or all(a - 1.0 <= p <= b + 1.0 for p, (a, b) in zip(status.positions, win)):
+                self._pending_min = w.n + 1
+                return w.n
+        self._pending_min = lo + 1
+        return lo
+
     def trust(self, n: int, status: StatusFrame, t: float) -> None:
-        """The integrity check took ``status`` (answering frame ``n``, read at ``t``) as the
-        truth: where the board's position is known from."""
+        """The integrity check took ``status`` (answering frame ``n`` at the earliest, read at
+        ``t``) as the truth: where the board's position is known from."""
         a = self.anchor
         if a is None or n >= a.n:
             self.anchor = Anchor(n, status, t)
@@ -164,7 +187,10 @@ class LinkHistory:
                 return None
             else:
                 all_goto = False  # stood still from that frame on
-        rise = 1.0 - math.exp(-GOTO_GAIN_PER_S * max(0.0, t_write - a.t)) if all_goto else 0.0
+        # the time it moved for at least: since the reply was read, less the pass that the
+        # newest frame may have waited for (the law runs once a pass, a step at a time)
+        moved_s = t_write - a.t - FIRMWARE_PASS_MAX_S
+        rise = 1.0 - math.exp(-GOTO_GAIN_PER_S * moved_s) if all_goto and moved_s > 0.0 else 0.0
         out = []
         for j in range(6):
             p = float(a.status.positions[j])
@@ -179,9 +205,9 @@ class LinkHistory:
                 # follows: a disabled one ignores GO TO and reports no speed): it moved towards
                 # them for at least the time since
                 if lo == p and min(gs) > p and v > 0:
-                    lo = p + (min(gs) - p) * rise
+                    lo = max(p, p + (min(gs) - p) * rise - 1.0)  # (one step: a joint steps whole)
                 elif hi == p and max(gs) < p and v < 0:
-                    hi = p + (max(gs) - p) * rise
+                    hi = min(p, p + (max(gs) - p) * rise + 1.0)
             out.append((lo, hi))
         return out
 

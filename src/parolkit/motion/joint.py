@@ -9,7 +9,7 @@ module imports neither of them, so the three form no import cycle.
 Timing rules (the seed's, see docs/motion.md):
 
 * Speed limits: a position-tracked move (board command 156) keeps every joint within
-  :meth:`RobotModel.max_tracked_speed_steps_s` (76 % of the maximum at 100 Hz: the board's
+  :meth:`RobotModel.max_tracked_speed_steps_s` (75-76 % of the maximum at 100 Hz: the board's
   GO TO loop starts every tick 1.27x faster than the stream moves, see
   :func:`parolkit.robot.goto_tracking_factor`), a speed-tracked one (123) within the maximum.
 

@@ -105,7 +105,7 @@ class SpeedLimits:
 
     def describe(self, j: int) -> str:
         """How a message names joint ``j``'s limit: ``"maximum speed 6500 steps/s"`` or, for a
-        position-tracked trajectory, ``"position-tracking maximum 4961 steps/s (76 % of its
+        position-tracked trajectory, ``"position-tracking maximum 4884 steps/s (75 % of its
         maximum speed 6500 steps/s: the board's GO TO loop starts each tick up to 1.31x faster
         than the stream moves)"``."""
         v = self.list[j]
