@@ -31,7 +31,7 @@ MOVE_TOLERANCE = 0.01  # of the move's duration
 END_TOLERANCE_DEG = 0.1
 
 
-@pytest.mark.slow
+@pytest.mark.soak
 @pytest.mark.timeout(SECONDS + 600)
 def test_two_cpu_hogs_cause_no_link_loss_and_moves_keep_their_time_and_their_end(tmp_path):
     with load.BusyProcesses(2) as busy:
