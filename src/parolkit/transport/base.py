@@ -36,6 +36,10 @@ class Transport(abc.ABC):
 
     #: True for links to an emulated board
     simulated: bool = False
+    #: simulated seconds each frame written runs the board (a simulated board in lockstep with
+    #: the frames, ``sim://?clock=virtual&step=...``; the controller then schedules trajectories
+    #: on its ticks); None for a board on its own clock.  Wrappers pass on their inner link's.
+    step_s: float | None = None
 
     @property
     @abc.abstractmethod

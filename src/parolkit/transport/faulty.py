@@ -25,6 +25,7 @@ class FaultyTransport(Transport):
             raise ParolkitValueError(f"inner must be a Transport, got {type(inner).__name__}")
         self.inner = inner
         self.simulated = inner.simulated
+        self.step_s = inner.step_s
         lf = faults_from_options(faults)
         self._tx = ByteFaultInjector(lf, seed=seed)
         self._rx = ByteFaultInjector(lf, seed=None if seed is None else seed + 1)

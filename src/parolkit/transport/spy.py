@@ -51,6 +51,7 @@ class SpyTransport(Transport):
             raise ParolkitValueError(f"raw must be a bool, got {raw!r}")
         self.inner = inner
         self.simulated = inner.simulated
+        self.step_s = inner.step_s
         self.log_target: str | TextIO = log
         self.raw = raw
         self._lock = threading.Lock()
