@@ -6,6 +6,7 @@ frames (``start_controller(lockstep=True)``) the board's position at a tick is e
 
 from __future__ import annotations
 
+import socket
 import threading
 from dataclasses import dataclass
 
@@ -17,10 +18,15 @@ class StatusLog:
     """Every status of the controller (one per tick, ``Robot.subscribe(1)``) since the last
     :meth:`clear`; :meth:`close` ends the subscription."""
 
+    #: the subscription socket's receive buffer: ~2,000 statuses (20 s at 100 Hz), so a test
+    #: process starved by a loaded machine loses none (the default holds about one second's)
+    RCVBUF = 4 << 20
+
     def __init__(self, robot: Robot) -> None:
         self.items: list[RobotStatus] = []
         self._lock = threading.Lock()
         self.sub = robot.subscribe(1, callback=self._add)
+        self.sub._sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, self.RCVBUF)
 
     def _add(self, st: RobotStatus) -> None:
         with self._lock:
