@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from parolkit.client.core import QUERIES, GripperState, PlanInfo, RobotState, RobotStatus, parse_query_reply
+from parolkit.client.core import GripperState, PlanInfo, Queries, RobotState, RobotStatus, parse_query_reply
 from parolkit.client.errors import ReplyError
 from parolkit.errors import ParolkitValueError
 from parolkit.gui import geometry
@@ -60,7 +60,7 @@ STATUS = {
 # ---- the status the page reads (the client's RobotStatus) ----
 
 def test_the_page_reads_the_clients_typed_status():
-    st = parse_query_reply(QUERIES["status"], "STATUS_JSON|" + json.dumps(STATUS))
+    st = parse_query_reply(Queries.status, "STATUS_JSON|" + json.dumps(STATUS))
     assert st.seq == 1234 and st.state is RobotState.IDLE and st.all_homed and st.can_move
     assert st.angles == (90.0, -90.0, 180.0, 0.0, 0.0, 180.0)
     assert st.io.out1 and st.io.in2 and not st.io.estop_pressed
@@ -125,7 +125,7 @@ def test_a_malformed_status_is_a_reply_error_naming_the_field():
     with pytest.raises(ReplyError, match="angles must be a list of 6"):
         RobotStatus.from_json(dict(STATUS, angles=[1, 2, 3]))
     with pytest.raises(ReplyError, match="expected a STATUS_JSON"):
-        parse_query_reply(QUERIES["status"], "PONG|SERIAL=1")
+        parse_query_reply(Queries.status, "PONG|SERIAL=1")
 
 
 def test_readout_formatting_units():
@@ -306,11 +306,11 @@ def test_event_log_is_bounded_and_timestamped():
 
 
 def test_the_plan_the_scene_draws_comes_from_the_clients_plan_query():
-    plan = parse_query_reply(QUERIES["plan_info"], 'PLAN|{"seq": 3, "command": "MOVEJOINT", '
+    plan = parse_query_reply(Queries.plan_info, 'PLAN|{"seq": 3, "command": "MOVEJOINT", '
                              '"target_angles": [1,2,3,4,5,6], "tcp_path": [[1,2,3],[4,5,6]]}')
     assert isinstance(plan, PlanInfo)
     assert plan.target_angles == (1, 2, 3, 4, 5, 6) and len(plan.tcp_path) == 2
-    idle = parse_query_reply(QUERIES["plan_info"],
+    idle = parse_query_reply(Queries.plan_info,
                              'PLAN|{"seq": 0, "command": null, "target_angles": null, "tcp_path": null}')
     assert idle.target_angles is None and idle.tcp_path == ()
 

@@ -58,7 +58,7 @@ import threading
 import time
 from collections import OrderedDict
 from datetime import datetime
-from typing import Any, Dict, FrozenSet, List, Literal, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Dict, FrozenSet, List, Literal, Optional, Sequence, Tuple, TypedDict, Union, overload
 
 __all__ = [
     # configuration
@@ -85,7 +85,7 @@ __all__ = [
     "check_command_status", "is_tracking_active", "get_tracking_stats",
     # shared building blocks (used by parolkit.Robot / AsyncRobot)
     "new_command_id", "format_value", "matrix_to_pose", "parse_reply", "parse_ack",
-    "parse_numbers", "parse_status_fields", "parse_cookie",
+    "parse_numbers", "parse_status_fields", "parse_cookie", "parse_control", "ControlInfo",
     "build_move_joint", "build_move_pose", "build_move_cart", "build_move_cart_rel_trf",
     "build_jog", "build_multijog", "build_cartjog", "build_pneumatic_gripper",
     "build_electric_gripper", "build_delay", "build_home", "build_speed_joint", "build_move_joint_path",
@@ -768,6 +768,51 @@ def parse_status_fields(payload: str) -> Dict[str, str]:
     return out
 
 
+class ControlInfo(TypedDict):
+    """**(ext)** The ``GET_CONTROL`` answer: ``holder`` ("address:port", None when nobody holds
+    the lease), ``held_s`` / ``idle_s`` (None when free), ``timeout_s``, ``secret_required``,
+    ``refused`` (commands refused to non-holders), ``taken_over`` (forced take-overs)."""
+
+    holder: Optional[str]
+    held_s: Optional[float]
+    idle_s: Optional[float]
+    timeout_s: float
+    secret_required: bool
+    refused: int
+    taken_over: int
+
+
+def parse_control(payload: str) -> ControlInfo:
+    """The JSON object of a ``CONTROL|{...}`` reply as a :class:`ControlInfo`; ``ValueError``
+    naming a missing or mistyped field."""
+    try:
+        obj = json.loads(payload)
+    except ValueError:
+        raise ValueError(f"CONTROL: not a JSON object: {payload[:80]!r}") from None
+    if not isinstance(obj, dict):
+        raise ValueError(f"CONTROL: not a JSON object: {payload[:80]!r}")
+
+    def field(key: str, kinds: Tuple[type, ...], optional: bool = False) -> Any:
+        if key not in obj:
+            raise ValueError(f"CONTROL: field {key!r} is missing")
+        value = obj[key]
+        if (value is None and optional) or (isinstance(value, kinds) and not (
+                isinstance(value, bool) and bool not in kinds)):
+            return value
+        raise ValueError(f"CONTROL: {key} must be {' or '.join(k.__name__ for k in kinds)}"
+                         f"{' or null' if optional else ''}, got {value!r}")
+
+    def seconds(key: str, optional: bool = False) -> Optional[float]:
+        value = field(key, (int, float), optional)
+        return None if value is None else float(value)
+
+    return ControlInfo(holder=field("holder", (str,), optional=True),
+                       held_s=seconds("held_s", optional=True), idle_s=seconds("idle_s", optional=True),
+                       timeout_s=float(field("timeout_s", (int, float))),
+                       secret_required=field("secret_required", (bool,)),
+                       refused=field("refused", (int,)), taken_over=field("taken_over", (int,)))
+
+
 def matrix_to_pose(matrix: Sequence[Any]) -> List[float]:
     """4x4 tool pose (16 row-major numbers or 4 rows, translation in METRES) -> [x, y, z, A, B, C].
 
@@ -1231,18 +1276,18 @@ def release_control(timeout: float = 2.0) -> Dict[str, Any]:
     return send_and_wait(build_control("RELEASE"), timeout)  # type: ignore[return-value]
 
 
-def get_control() -> Optional[Dict[str, Any]]:
+def get_control() -> Optional[ControlInfo]:
     """**(ext)** Who holds the control lease: ``{'holder', 'held_s', 'idle_s', 'timeout_s',
-    'secret_required', 'refused', 'taken_over'}`` (holder None when free), or None."""
+    'secret_required', 'refused', 'taken_over'}`` (holder None when free), or None (message on
+    stderr) without a reply or for a malformed one."""
     payload = _query("GET_CONTROL", "CONTROL")
     if payload is None:
         return None
     try:
-        value = json.loads(payload)
-    except ValueError:
-        print(f"robot_api: GET_CONTROL: malformed reply {payload[:80]!r}", file=sys.stderr)
+        return parse_control(payload)
+    except ValueError as exc:
+        print(f"robot_api: GET_CONTROL: {exc}", file=sys.stderr)
         return None
-    return value if isinstance(value, dict) else None
 
 
 def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,
