@@ -196,6 +196,35 @@ async def drive_async(robot: AsyncRobot, really: bool) -> None:
     await robot.close()
 
 
+def legacy() -> None:
+    """An existing PAROL6 script (robot_api): the original dicts and lists, typed."""
+    from robot_api import (
+        CommandRecord, RobotStatusDict, TrackingStats, check_command_status, get_control,
+        get_robot_io, get_robot_joint_angles, get_robot_pose, get_robot_status,
+        get_tracking_stats, home_robot, move_robot_joints, ping_robot, send_and_wait,
+    )
+
+    assert_type(move_robot_joints(STANDBY, duration=2.0), CommandRecord | str | None)
+    record = send_and_wait("HOME", timeout=30.0)
+    assert_type(record, CommandRecord)
+    assert_type(record["status"], str)
+    assert_type(record["completed"], bool)
+    assert_type(send_and_wait("HOME", non_blocking=True), str | None)
+    assert_type(home_robot(wait_for_ack=True, timeout=30.0), CommandRecord | str | None)
+    assert_type(check_command_status("abcd1234"), CommandRecord | None)
+    assert_type(get_robot_joint_angles(), list[float] | None)
+    assert_type(get_robot_pose(), list[float] | None)
+    assert_type(get_robot_io(), list[int] | None)
+    status = get_robot_status()
+    assert_type(status, RobotStatusDict)
+    assert_type(status["angles"], list[float] | None)
+    assert_type(status["serial"], bool | None)
+    assert_type(status["estop"], bool)
+    assert_type(get_control(), ControlInfo | None)
+    assert_type(get_tracking_stats(), TrackingStats)
+    assert_type(ping_robot(), bool | None)
+
+
 def main() -> None:
     with Robot("127.0.0.1", 5001, timeout=2.0) as robot:
         assert_type(robot, Robot)
@@ -222,10 +251,14 @@ REFUSED = [
     ("robot.control()['owner']", 'TypedDict "ControlInfo" has no key "owner"'),
     ("robot.set_output(1, 2)", 'No overload variant of "set_output" of "RobotCommands" matches argument types'),
     ("x: float = arobot.pose().x", '"Coroutine[object, None, Pose]" has no attribute "x"'),
+    ("robot_api.get_robot_status()['speed']", 'TypedDict "RobotStatusDict" has no key "speed"'),
+    ("robot_api.move_robot_joints(STANDBY)['status']",
+     'Value of type "CommandRecord | str | None" is not indexable'),
     ("done: CommandResult = arobot.home()",
      'expression has type "Coroutine[object, None, CommandResult]", variable has type "CommandResult"'),
 ]
 _REFUSED_HEADER = """\
+import robot_api
 from parolkit.client import AsyncRobot, CommandHandle, CommandResult, Robot
 
 STANDBY = [90.0, -90.0, 180.0, 0.0, 0.0, 180.0]
