@@ -235,7 +235,6 @@ class GripperState:
         return "idle"
 
 
-
 # =============================================================================================
 # from the decoded JSON of a reply to typed values (once, here; ReplyError names a bad field)
 # =============================================================================================
@@ -1465,8 +1464,8 @@ class RobotCommands(Generic[_Result, _Handle]):
 
 
 #: the ``self`` of the queries' overloads: Robot answers with values, AsyncRobot with coroutines
-_Sync: TypeAlias = "RobotCommands[CommandResult, object]"
-_Async: TypeAlias = "RobotCommands[AsyncResult[CommandResult], object]"
+_Sync: TypeAlias = RobotCommands[CommandResult, object]
+_Async: TypeAlias = RobotCommands[AsyncResult[CommandResult], object]
 
 
 def _jog_index(joint: object) -> int:

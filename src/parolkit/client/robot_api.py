@@ -797,7 +797,7 @@ def parse_control(payload: str) -> ControlInfo:
     try:
         obj = json.loads(payload)
     except ValueError:
-        raise ValueError(f"CONTROL: not a JSON object: {payload[:80]!r}") from None
+        raise ValueError(f"CONTROL: not JSON: {payload[:80]!r}") from None
     if not isinstance(obj, dict):
         raise ValueError(f"CONTROL: not a JSON object: {payload[:80]!r}")
 
@@ -905,6 +905,7 @@ def _controller_addresses(host: str, port: int) -> FrozenSet[Tuple[str, int]]:
 
 
 _resolved: Dict[Tuple[str, int], FrozenSet[Tuple[str, int]]] = {}
+
 
 class CommandRecord(TypedDict, total=False):
     """The original's record of a tracked command (what ``wait_for_ack=True`` returns): every
