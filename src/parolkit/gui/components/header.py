@@ -78,11 +78,8 @@ class Header:
                             ui.button(icon="logout", on_click=lambda: ui.navigate.to("/logout")) \
                                 .props('flat round color=grey-4 aria-label="Log out" data-testid=btn-logout') \
                                 .tooltip("log out")
-                with ui.element("div").classes("pk-estop-slot"):
-                    self.estop_btn = ui.button("E-STOP", icon="dangerous", on_click=c.estop) \
-                        .props('color=red-8 size=lg aria-label="E-STOP" data-testid=btn-estop') \
-                        .classes("pk-estop")
-                    self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
+                # E-STOP's place in the row; the button itself is in a layer of its own (below)
+                ui.element("div").classes("pk-estop-slot").props("aria-hidden=true")
             # shown while there is no link to the controller: says so and offers a restart of
             # the controller this GUI started
             with ui.element("div").classes("pk-link-banner").props('role=alert data-testid=link-banner') \
@@ -93,6 +90,17 @@ class Header:
                     .props('unelevated dense no-caps color=primary data-testid=link-restart')
                 self.restart_btn.set_visibility(c.own_controller is not None)
             self.banner.set_visibility(False)
+        # E-STOP sits in a layer of its own above every overlay (dialogs and their dimming
+        # backdrop, menus, tooltips, notifications), over its slot in the header row: what the
+        # user sees on top is what a click or a tap hits.  It acts on the press (commander.js
+        # sends "pk_estop" on pointerdown, and on a click without a pointer: Enter, assistive
+        # technology), before an open menu takes that press for closing itself.
+        with ui.element("div").classes("pk-estop-layer"):
+            self.estop_btn = ui.button("E-STOP", icon="dangerous") \
+                .props('color=red-8 size=lg aria-label="E-STOP" data-testid=btn-estop') \
+                .classes("pk-estop")
+            self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
+        ui.on("pk_estop", lambda _: c.estop())
         self._banner_key: tuple[bool, str] | None = None
 
     def _update_banner(self, link_up: bool) -> None:
