@@ -253,7 +253,6 @@ def test_pause_says_pause_after_this_move_until_the_move_ends(tpage):
     page = tpage
     wait_ready(page)
     pause = page.get_by_test_id("prog-pause")
-    assert pause.get_attribute("aria-label") == "Pause after this move"
     _run(page, PAUSE_PROGRAM)
     wait_until(lambda: "line 2" in text(page, "prog-status") and number(page, "angle-1") < 88.0, 20,
                what="the 5 s move of line 2 under way", page=page)
@@ -261,6 +260,7 @@ def test_pause_says_pause_after_this_move_until_the_move_ends(tpage):
     pause.click()
     wait_until(lambda: "pause after this move" in text(page, "prog-status"), 5, what="the pause announced",
                page=page)
+    assert pause.get_attribute("aria-label") == "Pause after this move"
     # the move goes on: J1 keeps turning while the page says it pauses after it
     seen_moving = False
     while number(page, "angle-1") > 60.5:

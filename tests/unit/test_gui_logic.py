@@ -172,6 +172,22 @@ def test_state_badge_priorities():
     assert state_badge(disabled, True)[0] == "DISABLED"
 
 
+def test_state_badge_says_program_running_or_paused_whatever_the_robot_does_between_lines():
+    """Issue 22 item 8: the header follows the program runner, not the robot's MOVING flag
+    (READY during a Delay / Output line, READY / MOVING flicker between moves before)."""
+    idle, moving = RobotStatus.from_json(STATUS), RobotStatus.from_json(dict(STATUS, state="MOVING"))
+    for st in (idle, moving):
+        assert state_badge(st, True, "running") == ("PROGRAM RUNNING", "info")
+        assert state_badge(st, True, "pausing") == ("PROGRAM RUNNING", "info")  # its move still runs
+        assert state_badge(st, True, "paused") == ("PROGRAM PAUSED", "warning")
+    # a fault, a latched E-stop, no link or a disabled robot say so first
+    latched = RobotStatus.from_json(dict(STATUS, estop_latched=True, state="ESTOP"))
+    assert state_badge(latched, True, "running")[0] == "E-STOP"
+    assert state_badge(idle, False, "running")[0] == "NO LINK"
+    assert state_badge(RobotStatus.from_json(dict(STATUS, enabled=False, state="DISABLED")), True, "paused")[0] \
+        == "DISABLED"
+
+
 # ---- jog logic ----
 
 def test_joint_jog_wire_index_and_command():

@@ -120,9 +120,11 @@ def format_gripper(g: GripperState) -> str:
     return text
 
 
-def state_badge(status: RobotStatus | None, link_up: bool) -> tuple[str, str]:
+def state_badge(status: RobotStatus | None, link_up: bool, program: str | None = None) -> tuple[str, str]:
     """(text, colour) for the state badge; colour is a Quasar colour: 'positive', 'warning',
-    'negative', 'info' or 'grey-8'."""
+    'negative', 'info' or 'grey-8'.  ``program``: the program runner's state while a program
+    runs ("running", "pausing", "paused"), else None: PROGRAM RUNNING / PROGRAM PAUSED then,
+    through its moves, Delay and Output lines alike (only a fault or DISABLED says more)."""
     if not link_up or status is None:
         return "NO LINK", "grey-8"
     if status.estop_latched or status.estop_pressed or status.state is RobotState.ESTOP:
@@ -133,6 +135,10 @@ def state_badge(status: RobotStatus | None, link_up: bool) -> tuple[str, str]:
         return "BOARD LOST", "negative"
     if not status.enabled or status.state is RobotState.DISABLED:
         return "DISABLED", "warning"
+    if program == "paused":
+        return "PROGRAM PAUSED", "warning"
+    if program is not None:
+        return "PROGRAM RUNNING", "info"
     if status.state is RobotState.HOMING:
         return "HOMING", "warning"
     if not status.all_homed:

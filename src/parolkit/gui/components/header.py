@@ -137,12 +137,14 @@ class Header:
             self._rec_shown = text
 
     def update(self, st: RobotStatus | None, link_up: bool) -> None:
-        """Show the link, the robot state, the E-STOP latch and the gripper (every 0.1 s;
-        an element is sent to the page only when what it shows changed)."""
+        """Show the link, the robot state (PROGRAM RUNNING / PAUSED from the program runner
+        while a program runs), the E-STOP latch and the gripper (every 0.1 s; an element is
+        sent to the page only when what it shows changed)."""
         self.control_badge.update()
         self._update_recording()
         self._update_banner(link_up)
-        text, colour = state_badge(st, link_up)
+        runner = self.c.program
+        text, colour = state_badge(st, link_up, runner.state if runner.active else None)
         latched = st is not None and (st.estop_latched or st.estop_pressed)
         key = (link_up, text, colour, latched)
         if key != self._shown:
