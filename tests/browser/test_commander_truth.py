@@ -347,8 +347,9 @@ def _hold(page, testid: str, ms: int) -> None:
 
 
 def test_each_rotation_jog_turns_the_readout_of_its_name(tpage):
-    """WRF RX / RY / RZ jogs, the tool pointing down: the readout of the same name changes most.
-    Failed before: RX changed "RZ", RY changed "RY" only by luck of the sign, RZ changed "RX"."""
+    """WRF RX / RY / RZ jogs, the tool pointing down: the readout of the same name changes most
+    (docs/gui.md says where else this holds: RX = C, RY = B, RZ = A of R = Rx(C)·Ry(B)·Rz(A)).
+    Failed before: the readout named RX showed A, so jogging RX changed "RZ" and RZ changed "RX"."""
     page = tpage
     wait_ready(page)
     _run(page, f"Begin()\nMoveJoint({','.join(str(v) for v in TOOL_DOWN)},t=2)\nEnd()\n")

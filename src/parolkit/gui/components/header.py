@@ -1,6 +1,7 @@
 """The header (NiceGUI): always visible (a fixed Quasar header), it holds what must never
 scroll away: link and robot state, who controls the robot, the compact gripper readout, REC
-while a recording runs, Home / Enable / Disable / Clear error / Stop, help and the E-STOP button.
+while a recording runs, Home / Enable / Disable / Clear error / Stop, help and the E-STOP button
+(in a layer of its own above every dialog, menu and tooltip, over its slot in the header row).
 
 On a narrow screen (phones, <= 760 px) the stylesheet moves E-STOP onto the first row and
 shows the buttons as icons; every button keeps its accessible name (``aria-label``).
