@@ -22,7 +22,6 @@ The tests run in file order; each leaves the robot enabled, homed and idle.
 from __future__ import annotations
 
 import pytest
-from tests.browser.conftest import gui_on_controller
 from tests.browser.helpers import (
     count_log,
     log_text,
@@ -41,26 +40,6 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 #: how long one click on E-STOP may take to reach the controller's latch, s (a bound on
 #: waiting for the condition only: a click that does not latch never gets there)
 LATCH_WAIT_S = 8.0
-
-
-@pytest.fixture(scope="module")
-def setup(tmp_path_factory):
-    pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
-    root = tmp_path_factory.mktemp("truth")
-    # the watchdog of a controller the GUI would start itself (docs/gui.md, Jogging)
-    with gui_on_controller(root, ["--stream-watchdog", "0.15"], ["--programs-dir", str(root / "programs")]) as (
-            controller, url, _):
-        yield {"url": url, "controller": controller}
-
-
-@pytest.fixture(scope="module")
-def tpage(browser, setup):
-    pg = browser.new_page(viewport={"width": 1500, "height": 1000})
-    pg.goto(setup["url"])
-    wait_linked(pg)
-    wait_ready(pg, 60)
-    yield pg
-    pg.close()
 
 
 def _latched(controller) -> bool:
@@ -130,19 +109,19 @@ def _one_press_latches(page, controller, open_overlay, press) -> None:
 
 
 @pytest.mark.parametrize("overlay", list(OVERLAYS))
-def test_one_click_on_estop_latches_it_whatever_is_open(tpage, setup, overlay):
-    """A real mouse click at E-STOP's place.  Failed before with the dialogs and the menu
-    open: the click only closed them (the tooltip case passed before too)."""
-    page = tpage
-    _one_press_latches(page, setup["controller"], OVERLAYS[overlay], lambda x, y: page.mouse.click(x, y))
+def test_one_click_on_estop_latches_it_whatever_is_open(controller_page, controller_gui, overlay):
+    """A real mouse click at E-STOP's place.  Failed before with a dialog open: the click only
+    closed it (with the menu or a tooltip open a mouse click got through before too)."""
+    page = controller_page
+    _one_press_latches(page, controller_gui["controller"], OVERLAYS[overlay], lambda x, y: page.mouse.click(x, y))
 
 
 @pytest.fixture(scope="module")
-def phone(browser, setup):
+def phone(browser, controller_gui):
     """A phone: 390 x 844, touch screen."""
     context = browser.new_context(viewport={"width": 390, "height": 844}, has_touch=True, is_mobile=True)
     pg = context.new_page()
-    pg.goto(setup["url"])
+    pg.goto(controller_gui["url"])
     wait_linked(pg)
     wait_ready(pg, 60)
     yield pg
@@ -150,15 +129,15 @@ def phone(browser, setup):
 
 
 @pytest.mark.parametrize("overlay", ["help dialog", "examples menu"])
-def test_one_tap_on_estop_latches_it_whatever_is_open(phone, setup, overlay):
+def test_one_tap_on_estop_latches_it_whatever_is_open(phone, controller_gui, overlay):
     """A tap on a phone.  Failed before: the tap only closed the dialog or the menu."""
-    _one_press_latches(phone, setup["controller"], OVERLAYS[overlay], lambda x, y: phone.touchscreen.tap(x, y))
+    _one_press_latches(phone, controller_gui["controller"], OVERLAYS[overlay], lambda x, y: phone.touchscreen.tap(x, y))
 
 
-def test_a_click_sends_one_estop_and_enter_on_the_focused_button_latches_it(tpage, setup):
+def test_a_click_sends_one_estop_and_enter_on_the_focused_button_latches_it(controller_page, controller_gui):
     """E-STOP acts on the press now: a click (press and release) still sends it once, and the
     keyboard (Enter on the focused button: a click without a pointer) latches it too."""
-    page, controller = tpage, setup["controller"]
+    page, controller = controller_page, controller_gui["controller"]
     wait_ready(page)
     sent = count_log(page, "software E-STOP sent")
     x, y = _estop_centre(page)
@@ -175,10 +154,10 @@ def test_a_click_sends_one_estop_and_enter_on_the_focused_button_latches_it(tpag
     recover(page)
 
 
-def test_estop_is_drawn_above_every_overlay(tpage):
+def test_estop_is_drawn_above_every_overlay(controller_page):
     """What the user sees is what the click hits: with a dialog open, the topmost element at
     E-STOP's place is E-STOP itself (not the dialog's dimming backdrop)."""
-    page = tpage
+    page = controller_page
     wait_ready(page)
     page.get_by_test_id("help-button").click()
     page.locator(".q-dialog").first.wait_for(state="visible", timeout=15000)
@@ -224,11 +203,11 @@ DELAYS_AND_OUTPUTS = ("Begin()\nDelay(0.8)\nOutput(1,HIGH)\nMoveJoint(80,-90,180
                       "Output(1,LOW)\nDelay(0.5)\nMoveJoint(90,-90,180,0,0,180,t=1.5)\nDelay(0.5)\nEnd()\n")
 
 
-def test_the_header_says_program_running_for_the_whole_run(tpage):
+def test_the_header_says_program_running_for_the_whole_run(controller_page):
     """Every state the header showed from Run to the end: PROGRAM RUNNING, then READY once
     the program finished.  Failed before: READY during the Delay and Output lines and
     READY / MOVING / READY ... over the moves."""
-    page = tpage
+    page = controller_page
     wait_ready(page)
     _type_program(page, DELAYS_AND_OUTPUTS)
     page.evaluate(CHIP_LOG)
@@ -245,12 +224,12 @@ def test_the_header_says_program_running_for_the_whole_run(tpage):
 PAUSE_PROGRAM = "Begin()\nMoveJoint(60,-90,180,0,0,180,t=5)\nMoveJoint(90,-90,180,0,0,180,t=2)\nEnd()\n"
 
 
-def test_pause_says_pause_after_this_move_until_the_move_ends(tpage):
+def test_pause_says_pause_after_this_move_until_the_move_ends(controller_page):
     """Pause in the middle of a 5 s move: the move goes on, the button and the message say
     "pause after this move", the header PROGRAM RUNNING; once the move ended: "paused",
     PROGRAM PAUSED, and the next line does not run until Run.  Failed before: "paused" at
     once while J1 went on turning (and the header said MOVING)."""
-    page = tpage
+    page = controller_page
     wait_ready(page)
     pause = page.get_by_test_id("prog-pause")
     _run(page, PAUSE_PROGRAM)
@@ -286,10 +265,10 @@ def test_pause_says_pause_after_this_move_until_the_move_ends(tpage):
 
 # ---- Save as keeps its dialog open when the name is refused ----
 
-def test_save_as_with_a_refused_name_stays_open_and_esc_only_closes_it(tpage, setup):
+def test_save_as_with_a_refused_name_stays_open_and_esc_only_closes_it(controller_page, controller_gui):
     """Failed before: the dialog closed at once (the reason only in a notification) and the
     Esc a user pressed to dismiss the message latched the E-stop."""
-    page = tpage
+    page = controller_page
     wait_ready(page)
     estops = count_log(page, "software E-STOP sent")
     page.get_by_test_id("tab-program").click()
@@ -307,7 +286,7 @@ def test_save_as_with_a_refused_name_stays_open_and_esc_only_closes_it(tpage, se
     page.keyboard.press("Escape")
     page.locator(".q-dialog").first.wait_for(state="hidden", timeout=15000)
     page.wait_for_timeout(800)  # an E-STOP would be latched by now
-    assert not _latched(setup["controller"]), "Esc after a refused name latched the E-stop"
+    assert not _latched(controller_gui["controller"]), "Esc after a refused name latched the E-stop"
     assert count_log(page, "software E-STOP sent") == estops
     # a good name in the same dialog saves and closes it
     page.get_by_test_id("prog-save-as").click()
@@ -346,11 +325,11 @@ def _hold(page, testid: str, ms: int) -> None:
         page.mouse.up()
 
 
-def test_each_rotation_jog_turns_the_readout_of_its_name(tpage):
+def test_each_rotation_jog_turns_the_readout_of_its_name(controller_page):
     """WRF RX / RY / RZ jogs, the tool pointing down: the readout of the same name changes most
     (docs/gui.md says where else this holds: RX = C, RY = B, RZ = A of R = Rx(C)·Ry(B)·Rz(A)).
     Failed before: the readout named RX showed A, so jogging RX changed "RZ" and RZ changed "RX"."""
-    page = tpage
+    page = controller_page
     wait_ready(page)
     _run(page, f"Begin()\nMoveJoint({','.join(str(v) for v in TOOL_DOWN)},t=2)\nEnd()\n")
     wait_until(lambda: "finished" in text(page, "prog-status"), 30, what="at the tool-down pose", page=page)
