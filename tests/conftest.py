@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+import parolkit
 from parolkit.client.launch import die_with_parent
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -84,6 +85,32 @@ def udp_query(port: int, text: str, timeout: float = 1.0, host: str = "127.0.0.1
         except TimeoutError:
             return None
         return data.decode(errors="replace")
+
+
+def run_mypy(directory: Path, files: dict[str, str], *options: str) -> dict[str, dict[int, list[str]]]:
+    """mypy ``--strict`` over user code (``files``: file name -> source) written to
+    ``directory``, against THIS checkout's ``parolkit`` (site-packages switched off, so an
+    installed copy cannot answer instead; errors inside parolkit itself are not reported).
+    ``options``: more lines of the ``[mypy]`` section (``disallow_any_expr = True``).
+    Returns file name -> line -> the error messages of that line."""
+    api = pytest.importorskip("mypy.api")
+    for name, source in files.items():
+        (directory / name).write_text(source, encoding="utf-8")
+    src = Path(parolkit.__file__).resolve().parents[1]
+    (directory / "mypy.ini").write_text(
+        f"[mypy]\nmypy_path = {src}\nstrict = True\nno_site_packages = True\nfollow_imports = silent\n"
+        f"cache_dir = {directory / 'cache'}\n" + "".join(f"{o}\n" for o in options), encoding="utf-8")
+    stdout, stderr, _status = api.run(["--config-file", str(directory / "mypy.ini"),
+                                       *(str(directory / name) for name in files)])
+    assert not stderr, stderr
+    errors: dict[str, dict[int, list[str]]] = {name: {} for name in files}
+    for line in stdout.splitlines():
+        path, _, rest = line.partition(":")
+        number, _, message = rest.partition(": error: ")
+        name = Path(path).name
+        if message and name in errors and number.isdigit():
+            errors[name].setdefault(int(number), []).append(message)
+    return errors
 
 
 @dataclass

@@ -1,6 +1,9 @@
 """The ``parolkit`` command.
 
-Each sub-command lives in the module that owns it; this file only dispatches.  A module in
+Each sub-command lives in the module that owns it; this file only dispatches.  A parolkit
+error or an OSError that a sub-command does not handle itself (a bad value, a file that is
+missing, damaged, of the wrong kind or cannot be written) ends it with one line on stderr,
+``parolkit COMMAND: message``, and exit code 2 (a bad value) or 1, never a traceback.  A module in
 :data:`SUBCOMMANDS` provides ``register(subparsers) -> argparse.ArgumentParser`` and the
 parser it returns has ``func(args) -> int`` set as a default.  Modules are imported only when
 needed, so ``parolkit serve`` does not pay for the GUI's imports.
@@ -13,6 +16,7 @@ import importlib
 import sys
 
 from parolkit import __version__
+from parolkit.errors import ParolkitError, ParolkitValueError
 
 #: sub-command name -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -81,6 +85,20 @@ def main(argv: list[str] | None = None) -> int:
         return int(func(args) or 0)
     except KeyboardInterrupt:
         return 130
+    except (ParolkitError, OSError) as exc:
+        # bad input (a value, a file that is missing, damaged or of the wrong kind) or a file that
+        # cannot be written: one line naming it, never a traceback
+        print(f"parolkit {command}: {_one_line(exc)}", file=sys.stderr)
+        return 2 if isinstance(exc, ParolkitValueError) else 1
+
+
+def _one_line(exc: BaseException) -> str:
+    """The message of ``exc`` on one line; an OSError as ``FILE: what went wrong``."""
+    if isinstance(exc, OSError) and exc.strerror:
+        text = f"{exc.filename}: {exc.strerror}" if exc.filename is not None else exc.strerror
+    else:
+        text = str(exc) or type(exc).__name__
+    return " ".join(text.split())
 
 
 def serve_main() -> int:

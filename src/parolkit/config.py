@@ -27,7 +27,8 @@ Example ``parolkit.toml``::
     [tools.pen]           # a user tool: pose of the TCP in the flange frame, mm / deg
     pose = [0, 0, 120, 0, 0, 0]
 
-Unknown sections or keys are an error that names them (a typo never silently does nothing).
+Unknown sections or keys are an error that names them (a typo never silently does nothing);
+so is a value outside its range (every key, its default and its range: docs/config.md).
 
 Importing this module is cheap (standard library only): the robot model, and with it numpy,
 is loaded when a :class:`Config` is first built, so a program can find and read its config
@@ -323,9 +324,17 @@ class ToolSettings:
 
     def __post_init__(self) -> None:
         if len(self.pose) != 6 or not all(
-            isinstance(v, (int, float)) and math.isfinite(v) for v in self.pose
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in self.pose
         ):
             raise ParolkitValueError(f"tools.{self.name}.pose must be 6 finite numbers (mm, deg)")
+        from parolkit.robot import MAX_TOOL_OFFSET_MM
+
+        for i, v in enumerate(self.pose):
+            hi, unit = (MAX_TOOL_OFFSET_MM, "mm") if i < 3 else (360.0, "deg")
+            axis = ("x", "y", "z", "A", "B", "C")[i]
+            if not -hi <= v <= hi:
+                raise ParolkitValueError(f"tools.{self.name}.pose: {axis} = {v:g} {unit} is out of range "
+                                         f"[{-hi:g}, {hi:g}] {unit}")
         object.__setattr__(self, "pose", tuple(float(v) for v in self.pose))
 
 
@@ -340,6 +349,8 @@ def find_config_file(path: str | Path | None = None) -> Path | None:
     :data:`DEFAULT_CONFIG_PATHS` that exists, or None."""
     if path is not None:
         file = Path(path)
+        if file.is_dir():
+            raise ParolkitValueError(f"config file {file} is a folder, not a TOML file")
         if not file.is_file():
             raise ParolkitValueError(f"config file {file} does not exist")
         return file
@@ -416,7 +427,13 @@ def _apply(cfg: Config, data: Mapping[str, Any], origin: str) -> Config:
             for name, spec in values.items():
                 if not isinstance(spec, Mapping) or set(spec) != {"pose"}:
                     raise ParolkitValueError(f"{origin}: tools.{name} needs exactly one key: pose")
-                tools[name] = ToolSettings(name=name, pose=tuple(spec["pose"]))
+                if not isinstance(spec["pose"], (list, tuple)):
+                    raise ParolkitValueError(f"{origin}: tools.{name}.pose must be 6 finite numbers (mm, deg), "
+                                             f"got {spec['pose']!r}")
+                try:
+                    tools[name] = ToolSettings(name=name, pose=tuple(spec["pose"]))
+                except ParolkitValueError as exc:
+                    raise ParolkitValueError(f"{origin}: {exc}") from None
             changes["tools"] = tuple(tools.values())
             continue
         if section == "robot":
@@ -460,7 +477,12 @@ def load_config(
     file = find_config_file(path) if (path is not None or search_default_paths) else None
     if file is not None:
         try:
-            data = tomllib.loads(file.read_text(encoding="utf-8"))
+            data = tomllib.loads(file.read_bytes().decode("utf-8"))
+        except OSError as exc:
+            raise ParolkitValueError(f"config file {file} cannot be read: {exc.strerror}") from None
+        except UnicodeDecodeError as exc:
+            raise ParolkitValueError(f"{file}: not a TOML file: byte 0x{exc.object[exc.start]:02X} at "
+                                     f"position {exc.start} is not UTF-8 text") from None
         except tomllib.TOMLDecodeError as exc:
             raise ParolkitValueError(f"{file}: not valid TOML: {exc}") from None
         cfg = dataclasses.replace(_apply(cfg, data, origin=str(file)), source=str(file))

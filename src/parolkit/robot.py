@@ -39,6 +39,11 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = [
     "NUM_JOINTS",
     "JOINT_NAMES",
+    "FIRMWARE_SPEED_CLAMP_STEPS_S",
+    "ACCEL_CEILING_STEPS_S2",
+    "MAX_ACCEL_FACTOR_PER_S",
+    "PUBLISHED_LIMITS_DEG",
+    "PUBLISHED_LIMITS_STEPS",
     "FULL_STEPS_PER_REV",
     "MICROSTEPS",
     "MOTOR_DEG_PER_STEP",
@@ -73,6 +78,33 @@ MICROSTEPS = 32
 #: Motor-shaft degrees per microstep: 360 / (200 * 32) = 0.05625.
 MOTOR_DEG_PER_STEP = 360.0 / (FULL_STEPS_PER_REV * MICROSTEPS)
 
+#: The firmware clamps every joint speed to this, steps/s (board-firmware.md: "speeds are
+#: clamped to +-50,000 steps/s"): the physical speed ceiling of every joint, and the most a
+#: configured speed (:attr:`RobotModel.max_speed_steps_s`, ``max_jog_speed_steps_s``) may be.
+FIRMWARE_SPEED_CLAMP_STEPS_S = 50_000
+#: The shortest ramp to full speed a configuration may ask for is 0.1 s (ten frames at
+#: 100 Hz): ``accel_factor`` (the acceleration limit as a multiple of each joint's maximum
+#: speed, 1/s) is at most this.
+MAX_ACCEL_FACTOR_PER_S = 10.0
+#: The most a configured joint acceleration limit (``max_accel_steps_s2``, the top of the
+#: percentage mapping) may be, steps/s^2: the firmware's speed ceiling reached in 0.1 s,
+#: 500,000; five times the highest acceleration any PAROL6 source uses (the maintained
+#: upstream API's 96,000 steps/s^2 for J3 with its high-speed table; the original demo
+#: programs peak near 80,000).  The firmware applies no acceleration limit of its own (JOG and
+#: GO TO change speed at once), so this is the PC's ceiling: a value above it is a typo.
+ACCEL_CEILING_STEPS_S2 = int(MAX_ACCEL_FACTOR_PER_S * FIRMWARE_SPEED_CLAMP_STEPS_S)
+#: Largest gear ratio a configuration may give (joint : motor; the stock ones are 4..20).
+MAX_GEAR_RATIO = 100.0
+#: Ceiling of the Cartesian jog speed mapping (``cart_linear_speed_range_mm_s``), mm/s: the
+#: TCP of the stock arm at every joint's maximum speed moves well under it.
+MAX_CART_LINEAR_SPEED_MM_S = 1000.0
+#: Ceiling of the Cartesian jog angular speed mapping (``cart_angular_speed_range_deg_s``), deg/s.
+MAX_CART_ANGULAR_SPEED_DEG_S = 360.0
+
+#: Largest offset of a user tool's TCP from the flange along each axis, mm (``[tools.NAME]
+#: pose``; the arm itself reaches about 440 mm).
+MAX_TOOL_OFFSET_MM = 1000.0
+
 #: GO TO (board command 156) is a P loop the firmware re-evaluates on every pass of its main
 #: loop (docs/board-emulator.md, "Commands"): ``v = int(((target - current) / 0.01 + v_ff) / 2)``,
 #: i.e. ``v = GOTO_FF_GAIN * v_ff + GOTO_GAIN_PER_S * (target - current)`` [steps/s]: the
@@ -96,11 +128,60 @@ class DHRow:
     alpha: float
 
 
+#: Joint position limits in degrees (lower, upper) for J1..J6, as published: the arm's
+#: mechanical range (a configuration may narrow them, never widen them).
+PUBLISHED_LIMITS_DEG: tuple[tuple[float, float], ...] = (
+    (-123.046875, 123.046875),
+    (-145.0088, -3.375),
+    (107.866, 287.8675),
+    (-105.46975, 105.46975),
+    (-90.0, 90.0),
+    (0.0, 360.0),
+)
+#: Joint position limits in microsteps (lower, upper), as published (the degree limits
+#: converted with truncation toward zero by the original software).
+PUBLISHED_LIMITS_STEPS: tuple[tuple[int, int], ...] = (
+    (-14000, 14000),
+    (-51558, -1200),
+    (34699, 92604),
+    (-7500, 7500),
+    (-6400, 6400),
+    (0, 64000),
+)
+
+
+def _is_number(v: object) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
 def _tuple6(values: Sequence[float], name: str) -> tuple[float, ...]:
-    out = tuple(float(v) for v in values)
-    if len(out) != NUM_JOINTS:
-        raise ParolkitValueError(f"{name} must have {NUM_JOINTS} values, got {len(out)}")
-    return out
+    """Six finite numbers (J1..J6), else ParolkitValueError naming ``name`` and the joint."""
+    if isinstance(values, (str, bytes)) or not isinstance(values, Sequence):
+        raise ParolkitValueError(f"{name} must be a list of {NUM_JOINTS} numbers (J1..J6), got {values!r}")
+    if len(values) != NUM_JOINTS:
+        raise ParolkitValueError(f"{name} must have {NUM_JOINTS} values, got {len(values)}")
+    for i, v in enumerate(values):
+        if not _is_number(v):
+            raise ParolkitValueError(f"{name}: {JOINT_NAMES[i]} must be a finite number, got {v!r}")
+    return tuple(float(v) for v in values)
+
+
+def _within(values: Sequence[float], name: str, lo: float, hi: float, unit: str, why: str = "") -> None:
+    """Each of the six ``values`` in (lo, hi] (already checked to be numbers)."""
+    for i, v in enumerate(values):
+        if not lo < v <= hi:
+            raise ParolkitValueError(f"{name}: {JOINT_NAMES[i]} = {v:g} {unit} is out of range "
+                                     f"({lo:g}, {hi:g}] {unit}{why}")
+
+
+def _pair(value: Sequence[float], name: str, hi: float, unit: str) -> None:
+    """A (low, high) mapping range with 0 < low <= high <= hi."""
+    if (isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != 2
+            or not all(_is_number(v) for v in value)):
+        raise ParolkitValueError(f"{name} must be two numbers [low, high] in {unit}, got {value!r}")
+    lo, top = value
+    if not 0 < lo <= top <= hi:
+        raise ParolkitValueError(f"{name} must satisfy 0 < low <= high <= {hi:g} {unit}, got [{lo:g}, {top:g}]")
 
 
 @dataclass(frozen=True)
@@ -114,25 +195,11 @@ class RobotModel:
 
     #: Gear ratio joint : motor for J1..J6.
     gear_ratios: tuple[float, ...] = (6.4, 20.0, 20.0 * 38.0 / 42.0, 4.0, 4.0, 10.0)
-    #: Joint position limits in degrees (lower, upper) for J1..J6, as published.
-    limits_deg: tuple[tuple[float, float], ...] = (
-        (-123.046875, 123.046875),
-        (-145.0088, -3.375),
-        (107.866, 287.8675),
-        (-105.46975, 105.46975),
-        (-90.0, 90.0),
-        (0.0, 360.0),
-    )
-    #: Joint position limits in microsteps (lower, upper), as published (the degree limits
-    #: converted with truncation toward zero by the original software).
-    limits_steps: tuple[tuple[int, int], ...] = (
-        (-14000, 14000),
-        (-51558, -1200),
-        (34699, 92604),
-        (-7500, 7500),
-        (-6400, 6400),
-        (0, 64000),
-    )
+    #: Joint position limits in degrees (lower, upper) for J1..J6: the published ones, or
+    #: narrower ones inside them.
+    limits_deg: tuple[tuple[float, float], ...] = PUBLISHED_LIMITS_DEG
+    #: Joint position limits in microsteps (lower, upper): the published ones, or narrower.
+    limits_steps: tuple[tuple[int, int], ...] = PUBLISHED_LIMITS_STEPS
     #: Maximum joint speed, steps/s (stock values).
     max_speed_steps_s: tuple[float, ...] = (6500, 18000, 20000, 22000, 22000, 22000)
     #: Maximum jog speed, steps/s.
@@ -167,49 +234,73 @@ class RobotModel:
         DHRow(0.0, 0.0, math.pi / 2),
         DHRow(-0.06280, -0.04525, math.pi),
     )
-    #: Hardware speed ceiling of the stepper loop (the firmware clamps to this), steps/s.
-    firmware_speed_clamp_steps_s: int = 50000
 
     def __post_init__(self) -> None:
-        _tuple6(self.gear_ratios, "gear_ratios")
-        _tuple6(self.max_speed_steps_s, "max_speed_steps_s")
-        _tuple6(self.max_jog_speed_steps_s, "max_jog_speed_steps_s")
-        _tuple6(self.min_speed_steps_s, "min_speed_steps_s")
-        _tuple6(self.standby_deg, "standby_deg")
-        _tuple6(self.standby_steps, "standby_steps")
-        if len(self.limits_deg) != NUM_JOINTS or len(self.limits_steps) != NUM_JOINTS:
-            raise ParolkitValueError("limits_deg and limits_steps need one (low, high) pair per joint")
-        for i, ((lo, hi), (slo, shi)) in enumerate(zip(self.limits_deg, self.limits_steps)):
-            if not lo < hi or not slo < shi:
-                raise ParolkitValueError(f"{JOINT_NAMES[i]} limits must be (low, high) with low < high")
-        for i, (mn, mx, jog) in enumerate(
-            zip(self.min_speed_steps_s, self.max_speed_steps_s, self.max_jog_speed_steps_s)
-        ):
-            if not 0 < mn <= mx or not 0 < jog <= self.firmware_speed_clamp_steps_s:
+        """Every field is checked against its documented range (docs/config.md); an error
+        names the field, the joint and the range."""
+        _within(_tuple6(self.gear_ratios, "gear_ratios"), "gear_ratios", 0.0, MAX_GEAR_RATIO, "(joint : motor)")
+        self._check_limits()
+        vmax = _tuple6(self.max_speed_steps_s, "max_speed_steps_s")
+        ceiling = f" (the firmware clamps every joint at {FIRMWARE_SPEED_CLAMP_STEPS_S} steps/s)"
+        _within(vmax, "max_speed_steps_s", 0.0, FIRMWARE_SPEED_CLAMP_STEPS_S, "steps/s", ceiling)
+        jog = _tuple6(self.max_jog_speed_steps_s, "max_jog_speed_steps_s")
+        _within(jog, "max_jog_speed_steps_s", 0.0, FIRMWARE_SPEED_CLAMP_STEPS_S, "steps/s", ceiling)
+        vmin = _tuple6(self.min_speed_steps_s, "min_speed_steps_s")
+        for i in range(NUM_JOINTS):
+            if not 0 < vmin[i] <= vmax[i] or jog[i] > vmax[i]:
                 raise ParolkitValueError(
-                    f"{JOINT_NAMES[i]} speeds must satisfy 0 < min <= max and 0 < jog <= "
-                    f"{self.firmware_speed_clamp_steps_s} steps/s"
-                )
-        lo, hi = self.accel_range_steps_s2
-        if not 0 < lo <= hi:
-            raise ParolkitValueError("accel_range_steps_s2 must satisfy 0 < low <= high")
+                    f"{JOINT_NAMES[i]} speeds must satisfy 0 < min_speed_steps_s ({vmin[i]:g}) <= "
+                    f"max_speed_steps_s ({vmax[i]:g}) and max_jog_speed_steps_s ({jog[i]:g}) <= "
+                    f"max_speed_steps_s, steps/s")
+        _pair(self.accel_range_steps_s2, "accel_range_steps_s2", ACCEL_CEILING_STEPS_S2, "steps/s^2")
         f = self.accel_factor
-        if isinstance(f, bool) or not isinstance(f, (int, float)) or not (math.isfinite(f) and f > 0):
+        if not _is_number(f) or not 0 < f <= MAX_ACCEL_FACTOR_PER_S:
             raise ParolkitValueError(
-                f"accel_factor must be a positive number (1/s: the acceleration limit is this times "
-                f"the joint's maximum speed), got {f!r}")
+                f"accel_factor must be a number in (0, {MAX_ACCEL_FACTOR_PER_S:g}] 1/s (the acceleration limit is "
+                f"this times the joint's maximum speed: {MAX_ACCEL_FACTOR_PER_S:g} reaches full speed in "
+                f"{1 / MAX_ACCEL_FACTOR_PER_S:g} s), got {f!r}")
         if self.max_accel_steps_s2 is not None:
             if f != 3.0:
                 raise ParolkitValueError(
                     "give either accel_factor or max_accel_steps_s2 (the per-joint acceleration "
                     "limits), not both")
-            for i, a in enumerate(_tuple6(self.max_accel_steps_s2, "max_accel_steps_s2")):
-                if not (math.isfinite(a) and a > 0):
-                    raise ParolkitValueError(
-                        f"max_accel_steps_s2: {JOINT_NAMES[i]} must be a positive number of "
-                        f"steps/s^2, got {a!r}")
+            amax = _tuple6(self.max_accel_steps_s2, "max_accel_steps_s2")
+            _within(amax, "max_accel_steps_s2", 0.0, ACCEL_CEILING_STEPS_S2, "steps/s^2")
+        _pair(self.cart_linear_speed_range_mm_s, "cart_linear_speed_range_mm_s", MAX_CART_LINEAR_SPEED_MM_S,
+              "mm/s")
+        _pair(self.cart_angular_speed_range_deg_s, "cart_angular_speed_range_deg_s",
+              MAX_CART_ANGULAR_SPEED_DEG_S, "deg/s")
         if len(self.dh) != NUM_JOINTS:
             raise ParolkitValueError("dh needs one row per joint")
+
+    def _check_limits(self) -> None:
+        """The position limits lie inside the published ones (the arm's mechanical range: they
+        can be narrowed, never widened) and the standby pose inside them."""
+        for name, table, stock, integer in (("limits_deg", self.limits_deg, PUBLISHED_LIMITS_DEG, False),
+                                            ("limits_steps", self.limits_steps, PUBLISHED_LIMITS_STEPS, True)):
+            if isinstance(table, (str, bytes)) or not isinstance(table, Sequence) or len(table) != NUM_JOINTS:
+                raise ParolkitValueError(f"{name} needs one (low, high) pair per joint, J1..J6")
+            for i, (pair, (slo, shi)) in enumerate(zip(table, stock)):
+                if (isinstance(pair, (str, bytes)) or not isinstance(pair, Sequence) or len(pair) != 2
+                        or not all(_is_number(v) and (not integer or isinstance(v, int)) for v in pair)):
+                    kind = "whole numbers" if integer else "numbers"
+                    raise ParolkitValueError(f"{name}: {JOINT_NAMES[i]} must be two {kind} (low, high), got {pair!r}")
+                lo, hi = pair
+                if not lo < hi:
+                    raise ParolkitValueError(f"{JOINT_NAMES[i]} limits must be (low, high) with low < high")
+                if not slo <= lo < hi <= shi:
+                    raise ParolkitValueError(
+                        f"{name}: {JOINT_NAMES[i]} ({lo:g}, {hi:g}) must lie inside the published range "
+                        f"[{slo:g}, {shi:g}] (the arm's mechanical range: limits can be narrowed, not widened)")
+        for name, pose, table in (("standby_deg", self.standby_deg, self.limits_deg),
+                                  ("standby_steps", self.standby_steps, self.limits_steps)):
+            for i, (v, (lo, hi)) in enumerate(zip(_tuple6(pose, name), table)):
+                if name == "standby_steps" and not isinstance(pose[i], int):
+                    raise ParolkitValueError(f"standby_steps: {JOINT_NAMES[i]} must be a whole number of steps, "
+                                             f"got {pose[i]!r}")
+                if not lo <= v <= hi:
+                    raise ParolkitValueError(f"{name}: {JOINT_NAMES[i]} = {v:g} is outside the joint's limits "
+                                             f"[{lo:g}, {hi:g}]")
 
     def with_changes(self, **changes: Any) -> RobotModel:
         """A copy with some fields replaced (validated like the original)."""

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+import re
+from pathlib import Path
 
 import pytest
 
@@ -56,6 +58,16 @@ pose = [0, 0, 120, 0, 0, 0]
         ("[tools.x]\npose = [1, 2]", "tools.x.pose must be 6 finite numbers"),
         ("[tools.x]\nposition = [1, 2, 3, 4, 5, 6]", "tools.x needs exactly one key: pose"),
         ("this is = not toml [", "not valid TOML"),
+        # limits tables can be narrowed, never widened or malformed
+        ("[robot]\nlimits_deg = [[-200, 200], [-145, -4], [108, 287], [-105, 105], [-90, 90], [0, 360]]",
+         r"limits_deg: J1 \(-200, 200\) must lie inside the published range"),
+        ("[robot]\nlimits_steps = [[-14000, 14000], [-51558, -1200], [34699, 92604], [-7500, 7500], [-6400, 6400], "
+         "[0, 64000.5]]", "limits_steps: J6 must be two whole numbers"),
+        ("[robot]\nstandby_deg = [90, -90, 180, 0, 0, 400]", r"standby_deg: J6 = 400 is outside the joint's limits"),
+        ("[robot]\nmax_jog_speed_steps_s = [7000, 3000, 3600, 7000, 7000, 18000]",
+         r"J1 speeds must satisfy .* max_jog_speed_steps_s \(7000\) <= max_speed_steps_s"),
+        ("[robot]\ngear_ratios = [6.4, true, 18, 4, 4, 10]", "gear_ratios: J2 must be a finite number, got True"),
+        ("[tools.pen]\npose = 5", "tools.pen.pose must be 6 finite numbers"),
     ],
 )
 def test_bad_config_files_name_the_problem(tmp_path, text, fragment):
@@ -88,3 +100,113 @@ def test_a_lockstep_simulated_board_must_step_the_control_period(port, rate, fra
     ok = Config().with_overrides({"serial": {"port": "sim://?clock=virtual&step=0.004"},
                                   "controller": {"rate_hz": 250}})
     assert ok.serial.simulated
+
+
+# ------------------------------------------------------------- every key has a documented range
+
+CONFIG_DOC = Path(__file__).resolve().parents[2] / "docs" / "config.md"
+_ROW = re.compile(r"^\| `([A-Za-z0-9_.]+)` \| (.*?) \| (.*) \|$")
+
+
+def _documented() -> dict[str, str]:
+    """``section.key`` -> its "allowed" column, from the tables of docs/config.md."""
+    rows = {}
+    for line in CONFIG_DOC.read_text(encoding="utf-8").splitlines():
+        m = _ROW.match(line)
+        if m:
+            rows[m.group(1)] = m.group(3)
+    return rows
+
+
+def test_every_config_key_is_documented_with_its_range():
+    from parolkit.config import _SECTIONS, _robot_fields
+
+    keys = {f"robot.{k}" for k in _robot_fields()} | {"tools.NAME.pose"}
+    for section, cls in _SECTIONS.items():
+        keys |= {f"{section}.{f.name}" for f in dataclasses.fields(cls)}
+    documented = _documented()
+    assert sorted(keys - set(documented)) == [], "keys missing from docs/config.md"
+    assert sorted(set(documented) - keys) == [], "docs/config.md documents keys that do not exist"
+
+
+def _outside(allowed: str) -> list[float] | None:
+    """Two values just outside the first range written in ``allowed`` (None: no numeric range)."""
+    if m := re.match(r"(-?\d+)\.\.(\d+)", allowed):
+        return [int(m.group(2)) + 1, int(m.group(1)) - 1]
+    if m := re.search(r"([(\[])(-?[\d.]+), (-?[\d.]+)\]", allowed):
+        lo, hi = float(m.group(2)), float(m.group(3))
+        return [hi + 1, lo if m.group(1) == "(" else lo - 1]
+    return None
+
+
+def _bad_values(key: str, allowed: str) -> list[object]:
+    cfg = Config()
+    section, _, name = key.partition(".")
+    if key == "tools.NAME.pose":
+        return [[v, 0, 0, 0, 0, 0] for v in _outside(allowed) or []]
+    if m := re.match(r"\[low, high\], 0 < low <= high <= (\d+)", allowed):
+        return [[1, int(m.group(1)) + 1], [0, 1]]
+    default = getattr(cfg.robot if section == "robot" else getattr(cfg, section), name)
+    outside = _outside(allowed)
+    if outside is None:
+        return []
+    if " each" in allowed:  # a per-joint list: J1 out of range
+        base = list(default) if default is not None else [1000] * 6
+        return [[v, *base[1:]] for v in outside]
+    if isinstance(default, bool) or not isinstance(default, (int, float)):
+        return []  # a range of characters (secret, password), not of values
+    return outside
+
+
+def _toml(value: object) -> str:
+    return repr(value).replace("(", "[").replace(")", "]")
+
+
+@pytest.mark.parametrize("key", sorted(_documented()))
+def test_values_beyond_each_documented_range_are_refused_naming_the_key(tmp_path, key):
+    allowed = _documented()[key]
+    bad = _bad_values(key, allowed)
+    if not bad:
+        assert not re.search(r"\d\.\.\d|[(\[]-?\d", allowed) or "characters" in allowed, (key, allowed)
+        return
+    section, _, name = key.partition(".")
+    f = tmp_path / "parolkit.toml"
+    for value in bad:
+        if section == "tools":
+            f.write_text(f"[tools.pen]\npose = {_toml(value)}\n")
+        else:
+            f.write_text(f"[{section}]\n{name} = {_toml(value)}\n")
+        with pytest.raises(ParolkitValueError) as info:
+            load_config(f)
+        assert key.rpartition(".")[2] in str(info.value) and str(f) in str(info.value), (value, str(info.value))
+
+
+def test_a_speed_above_the_firmwares_ceiling_is_refused_at_load_time(tmp_path):
+    # once accepted: a move then ran J1 at 50,000 steps/s, 7.7x its maximum
+    f = tmp_path / "parolkit.toml"
+    f.write_text("[robot]\nmax_speed_steps_s = [1e12, 18000, 20000, 22000, 22000, 22000]\n")
+    with pytest.raises(ParolkitValueError, match=r"max_speed_steps_s: J1 = 1e\+12 steps/s is out of range "
+                                                 r"\(0, 50000\] steps/s \(the firmware clamps every joint"):
+        load_config(f)
+    f.write_text("[robot]\nmax_accel_steps_s2 = [19500, 54000, 60000, 66000, 66000, 1e9]\n")
+    with pytest.raises(ParolkitValueError, match=r"max_accel_steps_s2: J6 = 1e\+09 steps/s\^2 is out of range"):
+        load_config(f)
+    f.write_text("[robot]\nmax_speed_steps_s = [inf, 18000, 20000, 22000, 22000, 22000]\n")
+    with pytest.raises(ParolkitValueError, match="max_speed_steps_s: J1 must be a finite number"):
+        load_config(f)
+    f.write_text('[robot]\nmax_speed_steps_s = ["٨٠", 18000, 20000, 22000, 22000, 22000]\n')
+    with pytest.raises(ParolkitValueError, match="max_speed_steps_s: J1 must be a finite number, got '٨٠'"):
+        load_config(f)
+    # the community's faster table is inside the ceiling
+    f.write_text("[robot]\nmax_speed_steps_s = [15000, 25000, 32000, 10000, 10000, 27000]\n")
+    assert load_config(f).robot.max_speed_steps_s[2] == 32000
+
+
+def test_a_config_file_that_is_not_utf8_text_or_is_a_folder_is_refused_naming_it(tmp_path):
+    f = tmp_path / "parolkit.toml"
+    f.write_bytes(b"\xff\xfe[robot]\n")
+    with pytest.raises(ParolkitValueError, match=r"parolkit.toml: not a TOML file: byte 0xFF at position 0 "
+                                                 r"is not UTF-8 text"):
+        load_config(f)
+    with pytest.raises(ParolkitValueError, match="is a folder, not a TOML file"):
+        load_config(tmp_path)

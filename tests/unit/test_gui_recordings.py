@@ -124,6 +124,28 @@ def test_teach_refuses_an_unlisted_name_and_a_recording_without_status(tmp_path)
     assert programs.names() == []
 
 
+def test_a_program_taught_from_a_recording_that_ends_early_says_so_in_its_header(tmp_path):
+    from mcap.reader import make_reader
+    from tests.unit.test_record import _planned_recording, _write
+
+    from parolkit.moves import JointMove
+
+    recordings, programs = RecordingsFolder(tmp_path / "r"), ProgramsFolder(tmp_path / "p")
+    recordings.create()
+    planned, statuses = _planned_recording(tmp_path, [JointMove((80, -80, 170, 0, 10, 170), 1.5)])
+    whole = recordings.root / "whole.mcap"
+    _write(whole, statuses, flush_every=20)
+    with open(whole, "rb") as f:
+        last = make_reader(f).get_summary().chunk_indexes[-1]
+    (recordings.root / "cut.mcap").write_bytes(whole.read_bytes()[:last.chunk_start_offset + 10])
+    taught = teach_recording(recordings, programs, "cut.mcap")
+    header = taught.text.splitlines()[1]
+    assert header.startswith("# warning: cut.mcap: the recording ends early or is damaged at byte ")
+    assert header.endswith(f"only the {len(statuses) - len(statuses) % 20} ticks before it are used")
+    assert "MoveJoint(79.9980,-79.9988,170.0005,0.0000,9.9984,169.9988,t=1.50)" in taught.text
+    assert "# warning" not in teach_recording(recordings, programs, "whole.mcap").text
+
+
 def test_size_text():
     assert [size_text(n) for n in (812, 12_345, 4_560_000)] == ["812 B", "12.3 kB", "4.56 MB"]
 

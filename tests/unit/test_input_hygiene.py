@@ -28,9 +28,72 @@ def test_look_alike_characters_are_refused_naming_the_character(text, char):
     assert "not ASCII" in str(info.value)
 
 
+@pytest.mark.parametrize("text, field, char", [
+    ("MOVEJOINT|٨٠|-90|180|0|0|180|2|None", "J1 angle (deg)", "U+0668 ARABIC-INDIC DIGIT EIGHT"),
+    ("MOVEJOINT|８０|-90|180|0|0|180|2|None", "J1 angle (deg)", "U+FF18 FULLWIDTH DIGIT EIGHT"),
+    ("MOVEJOINT|80|-90|180|0|0|𝟏𝟖𝟎|2|None", "J6 angle (deg)", "U+1D7CF MATHEMATICAL BOLD DIGIT ONE"),
+    ("abcd1234|SUBSCRIBE|5٠٠٠", "port", "U+0660 ARABIC-INDIC DIGIT ZERO"),
+])
+def test_look_alike_digits_are_refused_naming_the_field(text, field, char):
+    with pytest.raises(DatagramError) as info:
+        parse_datagram(text.encode("utf-8"))
+    assert f"{field} must be a" in str(info.value) and f"({char}) is not ASCII" in str(info.value)
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("SET_PORT|/dev/ttyACM٣", "U+0663 ARABIC-INDIC DIGIT THREE) at position 20 is not ASCII"),
+    ("abcd1234|SET_TOOL|pen٣", "tool name must be 1..64 characters of [A-Za-z0-9_.-], got 'pen٣'"),
+    ("HOME٣", "unknown command 'HOME٣'"),
+])
+def test_look_alike_digits_outside_number_fields_are_refused_all_the_same(text, fragment):
+    with pytest.raises(DatagramError) as info:
+        parse_datagram(text.encode("utf-8"))
+    assert fragment in str(info.value)
+
+
 def test_control_characters_are_refused():
     with pytest.raises(DatagramError, match="control character U\\+001B"):
         parse_datagram(b"HOME|\x1b[2J")
+
+
+@pytest.mark.parametrize("data, position", [
+    (b"\x00JOG|0|20|0.2|None", 0),                  # moved the arm: the NUL was stripped
+    (b"JOG|0|20|0.2|None\x00", 17),
+    (b"JOG|0|20|0.2\x00|None", 12),
+    (b"JOG|0|20|0.2|None\n", 17),
+    (b"JOG|0|20|0.2|None\r\n", 17),
+    (b"\tJOG|0|20|0.2|None", 0),
+    (b"JOG|\t0|20|0.2|None", 4),
+    (b"abcd1234|\x00JOG|0|20|0.2|None", 9),
+])
+def test_nul_tab_and_line_ends_are_refused_even_at_the_ends(data, position):
+    with pytest.raises(DatagramError, match=f"control character U\\+00[0-9A-F]{{2}} at position {position}:") as info:
+        parse_datagram(data)
+    if data.startswith(b"abcd1234|"):
+        assert info.value.command_id == "abcd1234"
+
+
+def test_spaces_around_fields_are_ignored():
+    assert parse_datagram(b" JOG | 0 |20|0.2|None ").command == parse_datagram(b"JOG|0|20|0.2|None").command
+
+
+#: (text, accepted): what a number is, for both parsers (parolkit.number_syntax)
+NUMBER_TEXTS = [("1", True), ("+1", True), ("1.", True), (".5", True), ("0.5e1", True), ("5E-1", True),
+                ("٣", False), ("８", False), ("𝟖", False), ("1_0", False), ("0x1", False), ("nan", False),
+                ("inf", False), ("Infinity", False), ("1e999", False), ("1" * 41, False)]
+
+
+@pytest.mark.parametrize("text, accepted", NUMBER_TEXTS)
+def test_one_number_grammar_for_datagrams_and_programs(text, accepted):
+    from parolkit.script.parser import parse
+
+    try:
+        parse_datagram(f"DELAY|{text}".encode())
+        datagram_ok = True
+    except DatagramError:
+        datagram_ok = False
+    assert datagram_ok is accepted
+    assert parse(f"Delay({text})").ok is accepted
 
 
 def test_a_datagram_that_is_not_text_still_gets_its_id_back():

@@ -227,13 +227,42 @@ def test_structure_warnings_do_not_stop_a_program():
     assert result.ok
     msgs = [w.message for w in result.warnings]
     assert any("does not start with Begin()" in m for m in msgs)
-    assert any("add a Delay() after Gripper_cal()" in m for m in msgs)
+    # Gripper_cal() completes when the gripper reports calibrated: no Delay needed after it
+    assert not any("Gripper_cal" in m for m in msgs)
     assert any("no End() or Loop()" in m for m in msgs)
 
 
 def test_huge_numbers_are_an_error_not_infinity():
     (e,) = errors_of("Delay(1e999)")
     assert "too large" in e[2]
+
+
+@pytest.mark.parametrize("line, col, what, char", [
+    ("MoveJoint(٨٠, -90, 180, 0, 0, 180)", 11, "J1", "U+0668 ARABIC-INDIC DIGIT EIGHT"),
+    ("MoveJoint(８０, -90, 180, 0, 0, 180)", 11, "J1", "U+FF18 FULLWIDTH DIGIT EIGHT"),
+    ("MoveJoint(𝟖𝟎, -90, 180, 0, 0, 180)", 11, "J1", "U+1D7D6 MATHEMATICAL BOLD DIGIT EIGHT"),
+    ("MoveJoint(80, -90, 180, 0, 0, 180, v=٥٠)", 38, "v", "U+0665 ARABIC-INDIC DIGIT FIVE"),
+    ("Output(١, HIGH)", 8, "output number", "U+0661 ARABIC-INDIC DIGIT ONE"),
+    ("Gripper(200, 100, ４００)", 19, "gripper current", "U+FF14 FULLWIDTH DIGIT FOUR"),
+])
+def test_look_alike_digits_are_refused_naming_the_argument_and_the_character(line, col, what, char):
+    # float() reads all of these as plain numbers (float("٨٠") == 80.0): the program moved the arm
+    (err,) = errors_of(line)
+    assert err[:2] == (1, col)
+    assert err[2].startswith(f"{what} must be a decimal number, got ")
+    assert f"({char}) is not ASCII" in err[2]
+
+
+@pytest.mark.parametrize("line, col, char", [
+    ("Delay(\x001)", 7, "U+0000"),
+    ("MoveJoint(80\x00, -90, 180, 0, 0, 180)", 13, "U+0000"),
+    ("Delay(\u00a01)", 7, "U+00A0 NO-BREAK SPACE"),
+    ("Delay(1)\x0b", 9, "U+000B"),
+])
+def test_control_characters_and_foreign_spaces_are_refused_naming_the_character(line, col, char):
+    (err,) = errors_of(line)
+    assert err[:2] == (1, col)
+    assert f"({char})" in err[2]
 
 
 def test_unwrap_raises_program_error_with_every_error():

@@ -104,6 +104,41 @@ def test_dry_run_of_a_loop_program_plans_two_passes_by_default_or_n():
     assert one_pass > 0
 
 
+def test_a_billion_passes_of_a_program_that_repeats_itself_are_checked_in_two_planned_passes():
+    # `parolkit check --loops 1000000000` once planned every pass: minutes with no output
+    program = load(REPO / "examples" / "simple_joint_move.rbt")
+    two, one = dry_run(program), dry_run(program, loops=1)
+    huge = dry_run(program, loops=1_000_000_000)
+    assert huge.planned_iterations == 2 and huge.repeats == (3, 2)
+    assert [r.iteration for r in huge.rows] == [r.iteration for r in two.rows]
+    assert huge.iterations == huge.counted_iterations == 1_000_000_000
+    pass_s = two.total_s - one.total_s  # passes after the first start where the previous ended
+    assert huge.total_s == pytest.approx(one.total_s + (1_000_000_000 - 1) * pass_s, rel=1e-12)
+    assert huge.final_deg == two.final_deg
+    assert "passes 3..1000000000 repeat pass 2" in huge.table()
+
+
+def test_passes_that_go_round_a_cycle_of_earlier_passes_are_counted_with_their_own_times():
+    from parolkit.script.dryrun import repeated_passes
+
+    # passes of 1, 2 and 3 s; pass 4 starts where pass 2 started: 2, 3, 2, 3, ... follow
+    starts = [0.0, 1.0, 3.0, 6.0]
+    assert [repeated_passes(n, (4, 2), starts) for n in (4, 5, 6, 7)] == [(8, 2), (11, 3), (13, 2), (16, 3)]
+
+
+def test_a_program_that_drifts_is_planned_for_at_most_100_passes_and_says_so():
+    from parolkit.script.dryrun import MAX_DRY_RUN_PASSES
+
+    program = parse("Begin()\nMoveCartRelTRF(0, 0, 0.1, 0, 0, 0, t=0.5)\nLoop()").unwrap()
+    report = dry_run(program, [90, -100, 160, 0, 30, 180], loops=1_000_000_000)
+    assert report.ok and report.repeats is None
+    assert report.planned_iterations == report.counted_iterations == MAX_DRY_RUN_PASSES == 100
+    assert report.total_s == pytest.approx(100 * 0.5)
+    (w,) = [w for w in report.warnings if "were not" in w.message]
+    assert w.line == 3 and "passes 1..100 were planned, passes 101..1000000000 were not" in w.message
+    assert "for the first 100 of 1000000000 loop iterations" in report.table()
+
+
 def test_dry_run_starts_from_the_given_joints_and_home_returns_to_standby():
     program = parse("Begin()\nMoveJoint(80, -95, 175, 5, 5, 170, t=2)\nHome()\nEnd()").unwrap()
     report = dry_run(program, [70, -100, 170, 10, 10, 160])
@@ -181,6 +216,13 @@ def test_run_dry_run_prints_the_table_and_exits_zero(capsys, tmp_path):
     assert "MoveCartRelTRF(-80, 0, 0, 0, 0, 0)" in out
     assert "final joints:" in out
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+
+
+def test_check_of_a_billion_passes_answers_with_the_total_and_the_passes_that_repeat(capsys):
+    rc = main(["check", "--loops", "1000000000", str(REPO / "examples" / "simple_joint_move.rbt")])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "OK, 7 commands, planned 7610000000.00 s for 1000000000 passes; passes 3..1000000000 repeat pass 2" in out
 
 
 def test_run_dry_run_exits_non_zero_on_a_planning_error(capsys, tmp_path):

@@ -18,10 +18,9 @@ Two positions exist:
 
 from __future__ import annotations
 
-__all__ = ["Stepper", "SPEED_CLAMP_STEPS_S"]
+from parolkit.robot import FIRMWARE_SPEED_CLAMP_STEPS_S as SPEED_CLAMP_STEPS_S
 
-#: The firmware clamps every commanded speed to +-50,000 steps/s.
-SPEED_CLAMP_STEPS_S = 50_000
+__all__ = ["Stepper", "SPEED_CLAMP_STEPS_S"]
 
 
 def clamp_speed(v: float) -> int:

@@ -64,6 +64,7 @@ from enum import Enum
 from typing import Any
 
 from parolkit.protocol.frames import TIMER_HZ, BoardCommand, CommandFrame, StatusFrame
+from parolkit.robot import FIRMWARE_SPEED_CLAMP_STEPS_S as BOARD_SPEED_CLAMP
 from parolkit.robot import JOINT_NAMES, RobotModel
 
 __all__ = ["StatusIntegrity", "BoardProbe", "Tolerances", "IntegrityView", "LinkMode",
@@ -71,8 +72,6 @@ __all__ = ["StatusIntegrity", "BoardProbe", "Tolerances", "IntegrityView", "Link
 
 log = logging.getLogger("parolkit.controller")
 
-#: the firmware's speed clamp, steps/s
-BOARD_SPEED_CLAMP = 50_000
 #: codes that stop a running homing (any other code lets it continue)
 _ABORT = frozenset({int(BoardCommand.ENABLE), int(BoardCommand.DISABLE), int(BoardCommand.CLEAR_ERROR),
                     int(BoardCommand.JOG), int(BoardCommand.GOTO)})

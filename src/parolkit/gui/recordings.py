@@ -326,9 +326,12 @@ def teach_recording(recordings: RecordingsFolder, programs: ProgramsFolder, name
     from parolkit.record.teach import teach
 
     path = recordings.listed(name)
-    result = teach(load_recording(path), tol_mm=tol_mm, tol_deg=tol_deg)
-    # the fit stays with the program: the editor shows where it came from and how close it is
-    text = f"# taught from {path.name}: {fit_text(result, tol_mm, tol_deg)}\n{result.text}"
+    rec = load_recording(path)
+    result = teach(rec, tol_mm=tol_mm, tol_deg=tol_deg)
+    # the fit stays with the program: the editor shows where it came from and how close it is,
+    # and that only part of the recording was read when it ends early or is damaged
+    damage = f"# warning: {rec.damage.replace(str(path), path.name)}\n" if rec.damage else ""
+    text = f"# taught from {path.name}: {fit_text(result, tol_mm, tol_deg)}\n{damage}{result.text}"
     program = free_program_name(programs, path.name[:-len(EXTENSION)])
     saved = programs.write(program, text)
     return TaughtProgram(saved, text, result, tol_mm, tol_deg)

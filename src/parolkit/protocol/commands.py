@@ -27,7 +27,6 @@ Nothing here clamps, wraps or guesses: a value outside its range is an error.
 from __future__ import annotations
 
 import json
-import math
 import re
 import unicodedata
 from collections.abc import Callable, Sequence
@@ -63,6 +62,8 @@ from parolkit.moves import (
     Timing,
     Tracking,
 )
+from parolkit.number_syntax import parse_integer, parse_number
+from parolkit.number_syntax import shown as _show
 from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
 
 __all__ = [
@@ -132,25 +133,11 @@ MAX_WAYPOINTS = 500
 #: gripper usually does not move, above 700 mA at high speed it may damage itself or the object)
 GRIPPER_CURRENT_RANGE_MA = (0, 1300)
 
-#: Longest numeric field, characters (checked before any conversion: Python refuses to convert
-#: integers of more than 4,300 digits, and no PAROL6 value needs more than a few dozen)
-MAX_NUMBER_CHARS = 40
-#: Longest value quoted back in an error message, characters (a 60 KB field is not echoed)
-MAX_SHOWN_CHARS = 40
 #: Longest error message (details of an INVALID ack or an ERROR reply), characters
 MAX_MESSAGE_CHARS = 400
 
 _ID_RE = re.compile(r"^[A-Za-z0-9-]{8}$", re.ASCII)
 _RAW_ID_RE = re.compile(rb"^[ \t]*([A-Za-z0-9-]{8})[ \t]*\|")
-_NUM_RE = re.compile(r"^[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?$", re.ASCII)
-_INT_RE = re.compile(r"^[+-]?\d+$", re.ASCII)
-
-
-def _show(text: str) -> str:
-    """``text`` quoted for an error message, cut to MAX_SHOWN_CHARS characters."""
-    if len(text) <= MAX_SHOWN_CHARS:
-        return repr(text)
-    return f"{text[:MAX_SHOWN_CHARS]!r}... ({len(text)} characters)"
 
 
 _E = TypeVar("_E", bound=Enum)
@@ -208,16 +195,11 @@ def _given(text: str) -> bool:
 
 
 def _number(text: str, fname: str) -> float:
-    s = text.strip()
-    if len(s) > MAX_NUMBER_CHARS:
-        raise DatagramError(f"{fname} must be a decimal number of at most {MAX_NUMBER_CHARS} characters, "
-                            f"got {len(s)} characters")
-    if not _NUM_RE.match(s):
-        raise DatagramError(f"{fname} must be a decimal number, got {_show(text)}")
-    v = float(s)
-    if not math.isfinite(v):
-        raise DatagramError(f"{fname} must be a finite number, got {_show(text)}")
-    return v
+    """A number field (spaces around it are ignored; what a number is: :mod:`parolkit.number_syntax`)."""
+    try:
+        return parse_number(text.strip(" "), fname)
+    except ParolkitValueError as exc:
+        raise DatagramError(str(exc)) from None
 
 
 def _ranged(text: str, fname: str, lo: float, hi: float, *, lo_open: bool = False, unit: str = "") -> float:
@@ -236,15 +218,10 @@ def _opt_ranged(text: str, fname: str, lo: float, hi: float, *, lo_open: bool = 
 
 
 def _integer(text: str, fname: str, lo: int, hi: int) -> int:
-    s = text.strip()
-    if len(s) > MAX_NUMBER_CHARS:
-        raise DatagramError(f"{fname} must be an integer in {lo}..{hi}, got {len(s)} characters")
-    if not _INT_RE.match(s):
-        raise DatagramError(f"{fname} must be an integer in {lo}..{hi}, got {_show(text)}")
-    v = int(s)
-    if not lo <= v <= hi:
-        raise DatagramError(f"{fname} = {v} is out of range {lo}..{hi}")
-    return v
+    try:
+        return parse_integer(text.strip(" "), fname, lo, hi)
+    except ParolkitValueError as exc:
+        raise DatagramError(str(exc)) from None
 
 
 def _choice(text: str, fname: str, enum: type[_E], *, upper: bool = True) -> _E:
@@ -742,10 +719,11 @@ def _joint_speeds(args: Sequence[str], model: RobotModel, where: str = "", what:
 def _zero_is_none(text: str) -> str:
     """A move's duration / speed% / accel% field: an explicit 0 means "not given", as in the
     seed's signature ``MoveJoint(j1, ..., v=0, a=0, t=0)`` (``"None"`` for a numeric zero)."""
-    s = text.strip()
-    if _given(s) and _NUM_RE.match(s) and len(s) <= MAX_NUMBER_CHARS and float(s) == 0.0:
-        return "None"
-    return text
+    try:
+        zero = _given(text) and _number(text, "") == 0.0
+    except DatagramError:  # not a number: the field's own check names it
+        return text
+    return "None" if zero else text
 
 
 def _move_tail(
@@ -1188,19 +1166,26 @@ def is_command_id(text: str) -> bool:
 
 
 def _non_ascii(text: str) -> str | None:
-    """Why ``text`` is not plain protocol text (printable ASCII, tabs, line ends), or None."""
+    """Why ``text`` is not protocol text (printable ASCII, 0x20-0x7E: no tab, line end or NUL
+    either), naming the first character that is not; None when it is."""
     if text.isascii() and text.isprintable():
         return None
     for i, ch in enumerate(text):
-        if ch in "\t\r\n":
-            continue
         if not ch.isascii():
             name = unicodedata.name(ch, "unnamed character")
             return (f"character {ch!r} (U+{ord(ch):04X} {name}) at position {i} is not ASCII: the protocol "
                     f"is plain ASCII, so look-alike letters and digits are refused")
         if not ch.isprintable():
-            return f"control character U+{ord(ch):04X} at position {i}: the protocol is printable ASCII"
+            return (f"control character U+{ord(ch):04X} at position {i}: the protocol is printable ASCII "
+                    "(no NUL, tab or line end, not even at the ends)")
     return None
+
+
+def _only_look_alike_digits(text: str) -> bool:
+    """True when every character of ``text`` outside printable ASCII is a decimal digit of
+    another script (``٣``, ``９``, ``𝟖``): the datagram is then parsed field by field so that the
+    number field holding one refuses it naming itself (and refused anyway if none does)."""
+    return all((ch.isascii() and ch.isprintable()) or unicodedata.category(ch) == "Nd" for ch in text)
 
 
 def _raw_command_id(data: bytes) -> str | None:
@@ -1251,10 +1236,17 @@ def _parse(data: bytes | str, m: RobotModel) -> Parsed:
     else:
         text = data
         raw_id = _raw_command_id(text[:16].encode("utf-8", "replace"))
-    text = text.strip("\r\n\x00 ")
+    text = text.strip(" ")
     why = _non_ascii(text)
-    if why is not None:
+    if why is None:
+        return _parse_text(text, m)
+    if not _only_look_alike_digits(text):
         raise DatagramError(why, command_id=raw_id)
+    parsed = _parse_text(text, m)  # a number field names itself when it refuses the digit
+    raise DatagramError(why, command_id=parsed.command_id)  # in a name or word: refused all the same
+
+
+def _parse_text(text: str, m: RobotModel) -> Parsed:
     if not text:
         raise DatagramError("empty datagram: expected [ID|]NAME|args")
     parts = text.split("|")

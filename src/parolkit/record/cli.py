@@ -130,11 +130,13 @@ def replay_main(args: argparse.Namespace) -> int:
 
 
 def plot_main(args: argparse.Namespace) -> int:
-    from parolkit.record.plot import plot_recording
-    from parolkit.record.reader import load_recording
+    from parolkit.record.plot import check_plot_file, plot_recording
+    from parolkit.record.reader import load_recording, warn_if_damaged
 
-    rec = load_recording(args.recording)
     out = Path(args.output) if args.output else Path(args.recording).with_suffix(".png")
+    check_plot_file(out)
+    rec = load_recording(args.recording)
+    warn_if_damaged(rec, "plot")
     plot_recording(rec, out)
     print(f"wrote {out}")
     return 0
@@ -142,9 +144,10 @@ def plot_main(args: argparse.Namespace) -> int:
 
 def export_main(args: argparse.Namespace) -> int:
     from parolkit.record.export import write_csv
-    from parolkit.record.reader import load_recording
+    from parolkit.record.reader import load_recording, warn_if_damaged
 
     rec = load_recording(args.recording)
+    warn_if_damaged(rec, "export")
     out = Path(args.output) if args.output else Path(args.recording).with_suffix(".csv")
     rows = write_csv(rec, out)
     print(f"wrote {out} ({rows} rows)")

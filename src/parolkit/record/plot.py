@@ -10,9 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from parolkit.errors import ParolkitValueError
 from parolkit.record.reader import Recording
 
-__all__ = ["plot_recording"]
+__all__ = ["plot_recording", "check_plot_file"]
 
 
 def _figure(rec: Recording) -> Any:
@@ -52,14 +53,30 @@ def _figure(rec: Recording) -> Any:
     return fig
 
 
+_HTML = (".html", ".htm")
+
+
+def check_plot_file(out: str | Path) -> None:
+    """ParolkitValueError unless ``out`` names a format :func:`plot_recording` writes (checked
+    before the recording is read)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    suffix = Path(out).suffix.lower()
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if suffix and suffix not in _HTML and suffix[1:] not in formats:
+        raise ParolkitValueError(f"{out}: cannot write a plot as {suffix!r}: use .html or one of "
+                                 + ", ".join(f".{k}" for k in sorted(formats)))
+
+
 def plot_recording(rec: Recording, out: str | Path) -> Path:
     """Write the figure to ``out`` (``.html``: an HTML page with the SVG inline)."""
     import matplotlib.pyplot as plt
 
+    check_plot_file(out)
     out = Path(out)
     fig = _figure(rec)
     try:
-        if out.suffix.lower() in (".html", ".htm"):
+        if out.suffix.lower() in _HTML:
             buf = io.StringIO()
             fig.savefig(buf, format="svg")
             out.write_text(f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{rec.path.name}</title>"

@@ -8,18 +8,21 @@ ROS 2 messages are decoded with mcap-ros2-support, JSON channels with :mod:`json
 from __future__ import annotations
 
 import json
+import os
 import struct
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
-from mcap.exceptions import McapError
+from mcap.exceptions import InvalidMagic, McapError
 from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 from numpy.typing import NDArray
+from zstandard import ZstdError
 
 from parolkit.errors import ParolkitValueError
 from parolkit.record.schemas import (
@@ -31,7 +34,7 @@ from parolkit.record.schemas import (
     TOPIC_STATUS,
 )
 
-__all__ = ["RecordedMessage", "Recording", "iter_messages", "load_recording"]
+__all__ = ["RecordedMessage", "Recording", "iter_messages", "load_recording", "warn_if_damaged"]
 
 
 @dataclass(frozen=True)
@@ -44,13 +47,42 @@ class RecordedMessage:
     value: Any
 
 
+#: What the MCAP reader and its decompressors raise on a damaged file (a torn end, a corrupted
+#: chunk, a file that is not MCAP at all): the read stops there and keeps everything before.
+#: lz4 reports a corrupted frame as a RuntimeError; a corrupted length or size field asks for
+#: more memory than exists (OverflowError, MemoryError) although reads are capped at the file.
+_DAMAGED = (McapError, EOFError, ValueError, KeyError, struct.error, ZstdError, RuntimeError, OverflowError,
+            MemoryError)
+
+
+#: length of the magic bytes every MCAP file starts with
+_MAGIC_BYTES = 8
+
+
+class _BoundedFile:
+    """A binary file whose reads never ask for more than is left in it: a corrupted length
+    field (up to 2**64) would otherwise make the MCAP reader allocate that much."""
+
+    def __init__(self, f: BinaryIO, size: int) -> None:
+        self._f = f
+        self._size = size
+
+    def read(self, n: int = -1) -> bytes:
+        left = self._size - self._f.tell()
+        return self._f.read(left if n < 0 or n > left else n)
+
+
 class _Scan:
-    """Streaming pass over a file; remembers whether it reached the footer."""
+    """Streaming pass over a file; remembers whether it reached the footer, and where and why
+    the read stopped early (``error``, ``stopped_at``: bytes read before the damage)."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
         self.complete = False
         self.error: str | None = None
+        self.stopped_at = 0
+        self.size = 0
+        self.not_mcap = False
         self.metadata: dict[str, dict[str, str]] = {}
 
     def messages(self) -> Iterator[RecordedMessage]:
@@ -59,7 +91,9 @@ class _Scan:
         factory = DecoderFactory()
         decoders: dict[int, Any] = {}
         with open(self.path, "rb") as f:
-            reader = StreamReader(f, validate_crcs=True)
+            self.size = os.fstat(f.fileno()).st_size
+            reader = StreamReader(_BoundedFile(f, self.size), validate_crcs=True,  # type: ignore[arg-type]
+                                  record_size_limit=self.size)
             try:
                 for rec in reader.records:
                     if isinstance(rec, Schema):
@@ -84,9 +118,11 @@ class _Scan:
                         self.metadata[rec.name] = dict(rec.metadata)
                     elif isinstance(rec, (DataEnd, Footer)):
                         self.complete = True
-            except (McapError, EOFError, ValueError, KeyError, struct.error) as exc:
-                # a file cut short (killed writer): everything before the cut is kept
-                self.error = f"{type(exc).__name__}: {exc}"
+            except _DAMAGED as exc:
+                # a file cut short (killed writer) or damaged: everything before is kept
+                self.error = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+                self.stopped_at = f.tell()
+                self.not_mcap = isinstance(exc, InvalidMagic) or self.size < _MAGIC_BYTES
 
 
 def iter_messages(path: str | Path) -> Iterator[RecordedMessage]:
@@ -118,6 +154,19 @@ class Recording:
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     complete: bool = True
     read_error: str | None = None
+    #: bytes read before the damage that stopped the read, and the file's size
+    read_stopped_at: int = 0
+    size_bytes: int = 0
+
+    @property
+    def damage(self) -> str | None:
+        """One line saying that the file ended early or is damaged, where, and what was kept
+        (None when the read reached the end of the recording).  The tools print it: a
+        recording is never used in part without saying so."""
+        if self.complete or self.read_error is None:
+            return None
+        return (f"{self.path}: the recording ends early or is damaged at byte {self.read_stopped_at} of "
+                f"{self.size_bytes} ({self.read_error}): only the {len(self)} ticks before it are used")
 
     @property
     def rate_hz(self) -> float:
@@ -142,6 +191,8 @@ class Recording:
 def load_recording(path: str | Path) -> Recording:
     """Read ``path`` (see the module docstring); ParolkitValueError if it holds no status."""
     p = Path(path)
+    if p.is_dir():
+        raise ParolkitValueError(f"{p}: is a folder, not a recording (an .mcap file)")
     if not p.is_file():
         raise ParolkitValueError(f"{p}: no such recording")
     scan = _Scan(p)
@@ -162,8 +213,12 @@ def load_recording(path: str | Path) -> Recording:
         elif m.topic == TOPIC_PLANS:
             plans.append(m.value)
     if not statuses:
+        if scan.size == 0:
+            raise ParolkitValueError(f"{p}: the file is empty, not a recording")
+        if scan.not_mcap:
+            raise ParolkitValueError(f"{p}: not an MCAP recording (it does not start with the MCAP magic bytes)")
         raise ParolkitValueError(f"{p}: no {TOPIC_STATUS} messages"
-                                 + (f" (the file ends early: {scan.error})" if scan.error else ""))
+                                 + (f" (the file ends early or is damaged: {scan.error})" if scan.error else ""))
     n = min(len(statuses), len(joints)) if joints else len(statuses)
     statuses = statuses[:n]
     return Recording(
@@ -177,7 +232,15 @@ def load_recording(path: str | Path) -> Recording:
         joint_positions_rad=np.array(joints[:n], dtype=float).reshape(-1, 6),
         statuses=statuses, commands=commands, acks=acks, plans=plans,
         metadata=scan.metadata, complete=scan.complete, read_error=scan.error,
+        read_stopped_at=scan.stopped_at, size_bytes=scan.size,
     )
+
+
+def warn_if_damaged(rec: Recording, command: str) -> None:
+    """Print :attr:`Recording.damage` as a warning of ``parolkit COMMAND`` on stderr (the tools
+    that read recordings use it: a damaged file is used up to the damage, and says so)."""
+    if rec.damage is not None:
+        print(f"parolkit {command}: warning: {rec.damage}", file=sys.stderr)
 
 
 def summary_of(rec: Recording) -> dict[str, Any]:

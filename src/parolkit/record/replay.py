@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from parolkit.client.launch import SimController
-from parolkit.record.reader import Recording, load_recording
+from parolkit.record.reader import Recording, load_recording, warn_if_damaged
 from parolkit.record.segments import FittedMove, command_segments, fit_joint_move, steps_to_deg
 
 __all__ = ["ReplayStep", "build_replay", "replay_command", "lockstep_board", "DELAY_OVERHEAD_TICKS"]
@@ -139,6 +139,7 @@ def replay_command(args: argparse.Namespace) -> int:
 
     try:
         rec = load_recording(args.recording)
+        warn_if_damaged(rec, "replay")
         start, steps = build_replay(rec)
     except (ParolkitValueError, ValueError) as exc:
         print(f"parolkit replay: {exc}", file=sys.stderr)

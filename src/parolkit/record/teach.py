@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from parolkit.record.reader import Recording, load_recording
+from parolkit.record.reader import Recording, load_recording, warn_if_damaged
 from parolkit.record.segments import MotionSpan, fit_joint_move, rest_segments, steps_to_deg
 
 __all__ = ["TeachResult", "teach", "path_deviation", "planned_path_deg", "planned_moves_deg", "teach_command",
@@ -256,6 +256,7 @@ def teach_command(args: argparse.Namespace) -> int:
 
     try:
         rec = load_recording(args.recording)
+        warn_if_damaged(rec, "teach")
         result = teach(rec, tol_mm=args.tolerance_mm, tol_deg=args.tolerance_deg)
     except (ParolkitValueError, ValueError) as exc:
         print(f"parolkit teach: {exc}", file=sys.stderr)

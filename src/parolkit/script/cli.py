@@ -95,8 +95,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
 
 
 def _common(p: argparse.ArgumentParser) -> None:
+    from parolkit.script.dryrun import MAX_DRY_RUN_PASSES
+
     p.add_argument("--loops", type=_positive_int, default=None, metavar="N",
-                   help="passes of a Loop() program (run: default forever; check: default 2)")
+                   help="passes of a Loop() program (run: default forever; check: default 2). Any "
+                        "number is checked in a few passes when the program comes back to where a pass "
+                        f"started; one that drifts is planned for at most {MAX_DRY_RUN_PASSES} passes, "
+                        "with a warning")
     p.add_argument("--from", dest="start", nargs=6, type=float, metavar="J", default=None,
                    help="start joint angles (deg) for a dry run; default the standby pose "
                         "90 -90 180 0 0 180")
@@ -176,8 +181,12 @@ def check_main(args: argparse.Namespace) -> int:
             print(f"{name}: {len(errors)} error(s), {len(warnings)} warning(s)")
         else:
             planned = f", planned {report.total_s:.2f} s" if report is not None else ""
-            if report is not None and report.iterations > 1:
+            if report is not None and report.counted_iterations < report.iterations:
+                planned += f" for the first {report.counted_iterations} of {report.iterations} passes"
+            elif report is not None and report.iterations > 1:
                 planned += f" for {report.iterations} passes"
+            if report is not None and report.repeat_note:
+                planned += f"; {report.repeat_note}"
             print(f"{name}: OK, {len(program)} commands{planned}")
     return 1 if failed else 0
 
@@ -189,15 +198,15 @@ def check_main(args: argparse.Namespace) -> int:
 
 def fmt_main(args: argparse.Namespace) -> int:
     from parolkit.script.formatter import format_program
-    from parolkit.script.program import ProgramError
+    from parolkit.script.parser import read_source
+    from parolkit.script.program import ProgramError, ScriptError
 
     status = 0
     for name in args.programs:
         path = Path(name)
-        try:
-            original = path.read_bytes().decode("utf-8-sig")
-        except (OSError, UnicodeDecodeError) as exc:
-            print(f"{name}: cannot read: {exc}", file=sys.stderr)
+        original = read_source(path)
+        if isinstance(original, ScriptError):
+            _print_diagnostics([original])
             status = 1
             continue
         try:

@@ -7,7 +7,12 @@ path that leaves the joint limits, passes a singularity or needs more than a joi
 speed is reported as an error at the program line, before anything moves.
 
 For ``Loop()`` programs the default is two iterations, so that the path from the end of the
-program back to its first move is checked too; pass ``loops`` to plan a given number.
+program back to its first move is checked too; pass ``loops`` to plan a given number.  Any
+number costs at most a few passes: planning depends only on the joints a pass starts from, so
+once a pass starts from the joints an earlier pass started from, every pass after it repeats
+the passes in between; they are counted (time, final joints) but not planned again.  A program
+that never comes back to where a pass started (relative moves that drift) is planned for at
+most :data:`MAX_DRY_RUN_PASSES` passes, and the report's warning says how many were not.
 
 The result, :class:`DryRunReport`, holds one row per executed command (start/end time,
 duration, joints at the end), the errors and warnings, and the planned trajectories (for
@@ -53,7 +58,13 @@ if TYPE_CHECKING:  # parolkit.motion and the kinematics are imported when the fi
     from parolkit.motion import Trajectory
 
 __all__ = ["DryRunRow", "DryRunReport", "dry_run", "motion_move", "default_loops", "MoveTiming",
-           "effective_timing"]
+           "effective_timing", "MAX_DRY_RUN_PASSES", "repeated_passes"]
+
+#: Most passes of a Loop() program a dry run plans when the program does not repeat itself (no
+#: pass starts from the joints an earlier one started from); one pass of a few Cartesian moves
+#: takes ~0.1 s to plan, so this bounds a check to seconds.  A repeating program (the usual
+#: case: absolute moves) is checked in full for any number of passes.
+MAX_DRY_RUN_PASSES = 100
 
 
 @dataclass(frozen=True)
@@ -87,6 +98,10 @@ class DryRunReport:
 
     ``ok`` is True when there is no error.  ``segments`` are ``(start_s, trajectory)`` pairs of
     every planned motion, in order (for plots); ``final_deg`` is the predicted end state.
+    ``iterations`` passes were asked for; ``rows`` and ``segments`` cover the first
+    ``planned_iterations`` of them; ``repeats`` is ``(k, p)`` when pass k started from the joints
+    pass p started from (so passes k..iterations repeat passes p..k-1 and were not planned
+    again), else None.  ``total_s`` counts every pass.
     """
 
     program: Program
@@ -97,15 +112,43 @@ class DryRunReport:
     final_deg: tuple[float, ...]
     iterations: int
     segments: tuple[tuple[float, Trajectory], ...] = field(default=(), repr=False)
+    #: duration of every pass (s), when it differs from the end of the last row (passes repeated)
+    total_time_s: float | None = None
+    planned_iterations: int | None = None
+    repeats: tuple[int, int] | None = None
 
     @property
     def ok(self) -> bool:
         return not self.errors
 
     @property
-    def total_s(self) -> float:
-        """Planned duration of the whole run (s), waits of Home/Input not included."""
+    def planned_s(self) -> float:
+        """End of the planned rows (s): :attr:`total_s` unless passes were repeated."""
         return self.rows[-1].end_s if self.rows else 0.0
+
+    @property
+    def total_s(self) -> float:
+        """Planned duration of the whole run (s), every pass, waits of Home/Input not included."""
+        return self.planned_s if self.total_time_s is None else self.total_time_s
+
+    @property
+    def counted_iterations(self) -> int:
+        """Passes :attr:`total_s` covers: all of them, unless a program that does not repeat
+        itself was cut at :data:`MAX_DRY_RUN_PASSES` (a warning says so)."""
+        if self.repeats is not None or self.planned_iterations is None:
+            return self.iterations
+        return self.planned_iterations
+
+    @property
+    def repeat_note(self) -> str:
+        """``passes 3..1000000000 repeat pass 2 (...)``, or "" when every pass was planned."""
+        if self.repeats is None:
+            return ""
+        k, p = self.repeats
+        earlier = f"pass {p}" if k - p == 1 else f"passes {p}..{k - 1}"
+        later = f"pass {k}" if k == self.iterations else f"passes {k}..{self.iterations}"
+        return (f"{later} repeat {earlier} (pass {k} starts from the joints pass {p} started from): "
+                "planned once, counted in the total")
 
     @property
     def has_waits(self) -> bool:
@@ -133,11 +176,15 @@ class DryRunReport:
                 f"{r.line:>4}{mark}{r.iteration:>2} {r.start_s:8.2f} {r.end_s:8.2f} {dur} {joints:<53} {cmd}"
             )
         total = f"total {self.total_s:.2f} s"
-        if self.iterations > 1:
+        if self.counted_iterations < self.iterations:
+            total += f" for the first {self.counted_iterations} of {self.iterations} loop iterations (see the warning)"
+        elif self.iterations > 1:
             total += f" for {self.iterations} loop iterations"
         if self.has_waits:
             total += " + waits (Home/Input, marked '+')"
         out.append(total)
+        if self.repeat_note:
+            out.append(self.repeat_note)
         return "\n".join(out)
 
     def series(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -159,7 +206,7 @@ class DryRunReport:
             vs.append(np.asarray(traj.speeds_deg_s(), dtype=float))
             state = np.asarray(traj.final_deg, dtype=float)
             t_now = start_s + traj.duration
-        end = max(self.total_s, t_now)
+        end = max(self.planned_s, t_now)
         ts.append(np.array([t_now, end]))
         qs.append(np.vstack([state, state]))
         vs.append(np.zeros((2, NUM_JOINTS)))
@@ -270,6 +317,19 @@ def _planning_message(cmd: Command, state: np.ndarray, exc: Exception) -> str:
     return f"{head}: {str(exc).rstrip('.')}"
 
 
+def repeated_passes(iterations: int, repeats: tuple[int, int], pass_times: Sequence[float]) -> tuple[float, int]:
+    """Pass ``k`` of ``iterations`` starts from the joints pass ``p`` started from
+    (``repeats = (k, p)``), so passes k, k+1, ... go round passes p..k-1 again and again.
+    ``pass_times[i]`` is the start time of pass i+1 (s) for the planned passes 1..k-1, then the
+    time pass k starts.  Returns the end time of pass ``iterations`` and the planned pass it
+    repeats (its end joints are the run's)."""
+    k, p = repeats
+    full, part = divmod(iterations - k + 1, k - p)
+    t_p, t_k = pass_times[p - 1], pass_times[k - 1]
+    total = t_k + full * (t_k - t_p) + (pass_times[p - 1 + part] - t_p)
+    return total, (p + part - 1 if part else k - 1)
+
+
 def dry_run(
     program: Program,
     start_deg: Sequence[float] | None = None,
@@ -313,7 +373,27 @@ def dry_run(
             message += f" (loop iteration {iteration})"
         errors.append(ScriptError(cmd.line, cmd.col, message, cmd.text, Severity.ERROR, program.source_name))
 
+    pass_starts: dict[tuple[float, ...], int] = {}  # joints a pass started from -> that pass
+    pass_times: list[float] = []  # start time of each planned pass, then the end of the last
+    pass_ends: list[np.ndarray] = []  # joints at the end of each planned pass
+    repeats: tuple[int, int] | None = None
+    planned = 0
     for iteration in range(1, iterations + 1):
+        key = tuple(float(v) for v in state)
+        if key in pass_starts:  # this pass and every later one repeat passes already planned
+            repeats = (iteration, pass_starts[key])
+            break
+        if iteration > MAX_DRY_RUN_PASSES:
+            warnings.append(ScriptError(
+                program.commands[-1].line, program.commands[-1].col,
+                f"passes 1..{MAX_DRY_RUN_PASSES} were planned, passes {iteration}..{iterations} were not: "
+                "the program does not come back to the joints a pass started from (its moves drift), and a "
+                f"dry run plans at most {MAX_DRY_RUN_PASSES} passes of such a program",
+                program.commands[-1].text, Severity.WARNING, program.source_name))
+            break
+        pass_starts[key] = iteration
+        pass_times.append(t)
+        planned = iteration
         for cmd in program.commands:
             text = cmd.to_source()
             if isinstance(cmd, (Begin, End, Loop)):
@@ -366,7 +446,12 @@ def dry_run(
             rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, traj.duration,
                                   target_deg=tuple(float(v) for v in state), note=note))
             t += traj.duration
+        pass_ends.append(state)
 
+    total_time_s = None
+    if repeats is not None:
+        total_time_s, last = repeated_passes(iterations, repeats, [*pass_times, t])
+        state = pass_ends[last - 1]
     return DryRunReport(
         program=program,
         rows=tuple(rows),
@@ -376,4 +461,7 @@ def dry_run(
         final_deg=tuple(float(v) for v in state),
         iterations=iterations,
         segments=tuple(segments),
+        total_time_s=total_time_s,
+        planned_iterations=planned,
+        repeats=repeats,
     )

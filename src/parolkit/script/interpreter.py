@@ -408,7 +408,7 @@ class Interpreter:
                 if not report.ok:
                     return self._finish(InterpreterState.FAILED, 0, report.errors, warnings, report)
                 if report.iterations:
-                    planned_pass = report.total_s / report.iterations
+                    planned_pass = report.total_s / report.counted_iterations
                 if not self.program.loops:
                     planned_total = report.total_s
                 elif self.loops is not None:

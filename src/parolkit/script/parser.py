@@ -22,15 +22,17 @@ program or the list of errors.
 from __future__ import annotations
 
 import difflib
-import math
 import re
 import threading
+import unicodedata
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+from parolkit.errors import ParolkitValueError
 from parolkit.moves import CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
+from parolkit.number_syntax import parse_number
 from parolkit.script.program import (
     Begin,
     Command,
@@ -61,7 +63,7 @@ if TYPE_CHECKING:  # lark is imported when the first program is parsed
 
     from parolkit.robot import RobotModel
 
-__all__ = ["parse", "parse_file", "load", "Limits", "COMMAND_NAMES", "line_comment"]
+__all__ = ["parse", "parse_file", "read_source", "load", "Limits", "COMMAND_NAMES", "line_comment"]
 
 GRAMMAR_PATH = Path(__file__).with_name("rbtscript.lark")
 
@@ -216,8 +218,10 @@ def _syntax_error(exc: LarkError, text: str) -> tuple[int, str]:
         elif ch == ";":
             msg = "unexpected ';': RBTscript has one command per line and no ';'"
         else:
-            shown = repr(ch) if ch.isprintable() and ch not in "'\"" else repr(ch)
-            msg = f"unexpected character {shown}"
+            msg = f"unexpected character {ch!r}"
+            if not (ch.isascii() and ch.isprintable()):  # a control character, a look-alike, a no-break space
+                name = unicodedata.name(ch, "")
+                msg += f" (U+{ord(ch):04X} {name})" if name else f" (U+{ord(ch):04X})"
             if allowed:
                 msg += f": expected {_expected_text(allowed)}"
         return col, msg
@@ -320,10 +324,10 @@ class _Line:
             self.fail(arg.col, f"{what} must be a plain number here, not {arg.key}=...")
         if arg.kind != "number":
             self.fail(arg.col, f"{what} must be a number, got {arg.raw!r}")
-        value = float(arg.raw)
-        if not math.isfinite(value):
-            self.fail(arg.col, f"{what} = {arg.raw} is too large to be a number")
-        return value
+        try:
+            return parse_number(arg.raw, what)
+        except ParolkitValueError as exc:
+            self.fail(arg.col, str(exc))
 
     def ranged(self, arg: _Arg, what: str, lo: float, hi: float, unit: str = "", *, lo_open: bool = False) -> float:
         value = self.number(arg, what)
@@ -700,11 +704,6 @@ def _structure(commands: list[Command], source_name: str, errors: list[ScriptErr
             nxt = commands[i + 1]
             errors.append(diag(cmd, f"{cmd.keyword}() must be the last command, but line {nxt.line} "
                                     f"({nxt.keyword}) follows it", Severity.ERROR))
-        if isinstance(cmd, GripperCalibrate):
-            following = commands[i + 1] if i + 1 < len(commands) else None
-            if not isinstance(following, Delay):
-                warnings.append(diag(cmd, "add a Delay() after Gripper_cal() so the calibration can finish",
-                                     Severity.WARNING))
     last = commands[-1]
     if not isinstance(last, (End, Loop)):
         warnings.append(diag(last, f"the program has no End() or Loop(): it ends after line {last.line}",
@@ -762,19 +761,28 @@ def parse(text: str, source_name: str = "<script>", *, limits: Limits | None = N
     return ParseResult(Program(tuple(commands), source_name, tuple(warnings)), (), tuple(warnings))
 
 
-def parse_file(path: str | Path, *, limits: Limits | None = None) -> ParseResult:
-    """Parse a program file (UTF-8; a byte-order mark is allowed).  The source name is the path
-    as given.  A file that cannot be read or decoded is reported as an error at 1:1."""
+def read_source(path: str | Path) -> str | ScriptError:
+    """The text of a program file (UTF-8; a byte-order mark is allowed), or the error that says
+    why it cannot be read or decoded (at the line of the first bad byte; the source name is the
+    path as given)."""
     p = Path(path)
     try:
-        text = p.read_bytes().decode("utf-8-sig")
+        data = p.read_bytes()
+        return data.decode("utf-8-sig")
     except OSError as exc:
-        return ParseResult(None, (ScriptError(1, 1, f"cannot read the file: {exc.strerror or exc}",
-                                              "", Severity.ERROR, str(path)),))
+        return ScriptError(1, 1, f"cannot read the file: {exc.strerror or exc}", "", Severity.ERROR, str(path))
     except UnicodeDecodeError as exc:
-        line = p.read_bytes()[: exc.start].count(b"\n") + 1
-        return ParseResult(None, (ScriptError(line, 1, f"the file is not UTF-8 text ({exc.reason} at byte {exc.start})",
-                                              "", Severity.ERROR, str(path)),))
+        line = data[: exc.start].count(b"\n") + 1
+        return ScriptError(line, 1, f"the file is not UTF-8 text ({exc.reason} at byte {exc.start})", "",
+                           Severity.ERROR, str(path))
+
+
+def parse_file(path: str | Path, *, limits: Limits | None = None) -> ParseResult:
+    """Parse a program file (see :func:`read_source`); a file that cannot be read or decoded
+    is reported as an error."""
+    text = read_source(path)
+    if isinstance(text, ScriptError):
+        return ParseResult(None, (text,))
     return parse(text, str(path), limits=limits)
 
 
