@@ -7,7 +7,7 @@ STAMP_RUN  := $(VENV)/.stamp-run
 STAMP_DEV  := $(VENV)/.stamp-dev
 INSTALL_DEPS := pyproject.toml setup.py $(wildcard src/parolkit/*/*.c)
 
-.PHONY: run test test-fast lint bench screenshot clean venv ros-venv
+.PHONY: run test test-fast soak lint bench screenshot clean venv ros-venv
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -53,6 +53,11 @@ test: lint ros-venv
 lint: $(STAMP_DEV)
 	$(VENV)/bin/ruff check src tests bench
 	$(VENV)/bin/mypy
+
+## make soak: the 10-minute timing run under two CPU hogs (tests/integration/test_timing_under_load.py,
+## marked soak: make test leaves it out); PAROLKIT_LOAD_TEST_S=120 shortens it
+soak: $(STAMP_DEV)
+	$(PY) -m pytest -q -m soak
 
 ## make test-fast: unit tests only
 test-fast: $(STAMP_DEV)

@@ -10,4 +10,9 @@ import sys
 
 from parolkit.client import robot_api as _implementation
 
+#: (not ``typing.TYPE_CHECKING``: this shim imports nothing it does not need)
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # what type checkers see here: the implementation's names and annotations
+    from parolkit.client.robot_api import *  # noqa: F403
+
 sys.modules[__name__] = _implementation

@@ -1,7 +1,8 @@
 """Shared test fixtures: free ports, test data paths, and a real controller process.
 
 The controller fixture starts ``python -m parolkit serve`` as a real subprocess (never an
-in-process stand-in) on free UDP ports and waits for its first PONG.
+in-process stand-in) on free UDP ports, on a pre-homed simulated board unless a test asks for
+homing (``homed=False``), and waits until its board link is up.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+import parolkit
 from parolkit.client.launch import die_with_parent
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -85,6 +87,32 @@ def udp_query(port: int, text: str, timeout: float = 1.0, host: str = "127.0.0.1
         return data.decode(errors="replace")
 
 
+def run_mypy(directory: Path, files: dict[str, str], *options: str) -> dict[str, dict[int, list[str]]]:
+    """mypy ``--strict`` over user code (``files``: file name -> source) written to
+    ``directory``, against THIS checkout's ``parolkit`` (site-packages switched off, so an
+    installed copy cannot answer instead; errors inside parolkit itself are not reported).
+    ``options``: more lines of the ``[mypy]`` section (``disallow_any_expr = True``).
+    Returns file name -> line -> the error messages of that line."""
+    api = pytest.importorskip("mypy.api")
+    for name, source in files.items():
+        (directory / name).write_text(source, encoding="utf-8")
+    src = Path(parolkit.__file__).resolve().parents[1]
+    (directory / "mypy.ini").write_text(
+        f"[mypy]\nmypy_path = {src}\nstrict = True\nno_site_packages = True\nfollow_imports = silent\n"
+        f"cache_dir = {directory / 'cache'}\n" + "".join(f"{o}\n" for o in options), encoding="utf-8")
+    stdout, stderr, _status = api.run(["--config-file", str(directory / "mypy.ini"),
+                                       *(str(directory / name) for name in files)])
+    assert not stderr, stderr
+    errors: dict[str, dict[int, list[str]]] = {name: {} for name in files}
+    for line in stdout.splitlines():
+        path, _, rest = line.partition(":")
+        number, _, message = rest.partition(": error: ")
+        name = Path(path).name
+        if message and name in errors and number.isdigit():
+            errors[name].setdefault(int(number), []).append(message)
+    return errors
+
+
 @dataclass
 class ControllerProcess:
     """A running ``parolkit serve`` subprocess."""
@@ -110,20 +138,54 @@ class ControllerProcess:
         return code
 
 
+#: the simulated board of a controller the fixtures start: powered up as if homing had just
+#: finished (no 2 s of homing before every test that is not about homing)
+PRE_HOMED_BOARD = "sim://?homed=1"
+
+
+def _board_args(extra: list[str], homed: bool, lockstep: bool) -> list[str]:
+    """The board flags ``start_controller`` adds to ``extra``: none when ``extra`` names a link
+    (``--port``/``--sim``); else a pre-homed simulated board (``homed``, with ``--no-home``:
+    nothing to home) or one that powers up unhomed (the controller homes it at start unless
+    ``extra`` says ``--no-home``), in lockstep with the frames when ``lockstep``."""
+    if "--port" in extra or "--sim" in extra:
+        if lockstep:
+            raise ValueError("lockstep=True picks the board: do not also pass --port/--sim")
+        return []
+    pre_homed = homed and "--no-home" not in extra and "--sim-speedup" not in extra
+    if lockstep:
+        from parolkit.record.replay import lockstep_board  # numpy & co.: only when needed
+
+        rate = float(extra[extra.index("--rate") + 1]) if "--rate" in extra else 100.0
+        board = ["--port", lockstep_board(rate) + ("&homed=1" if pre_homed else "")]
+    else:
+        board = ["--port", PRE_HOMED_BOARD] if pre_homed else ["--sim"]
+    return board + (["--no-home"] if pre_homed else [])
+
+
 def start_controller(
     extra_args: list[str] | None = None,
     *,
     log_dir: Path | None = None,
     ready_timeout: float = 20.0,
     wait_homed: bool = True,
+    homed: bool = True,
+    lockstep: bool = False,
 ) -> ControllerProcess:
-    """Start ``parolkit serve`` (``--sim`` unless ``--port`` is given) on free ports and wait
-    until it answers PING (and, with ``wait_homed``, until the simulated board is homed)."""
+    """Start ``parolkit serve`` on free ports and wait until it answers PING and (with
+    ``wait_homed``) its board link is up and homed.
+
+    Without ``--port``/``--sim`` in ``extra_args`` the board is simulated: pre-homed unless
+    ``homed=False`` (a test about homing: the board powers up unhomed and the controller homes
+    it, as ``parolkit serve --sim`` does) or ``--no-home`` is given (an unhomed board);
+    ``lockstep=True``: a board in lockstep with the frames (``sim://?clock=virtual&step=...``:
+    each frame written runs it exactly one period, and the controller schedules trajectories on
+    its ticks), for tests that judge how long something took or how far something moved: in
+    ticks, whatever the machine's load did to the wall clock."""
     port, ack_port = free_udp_port(), free_udp_port()
     args = [sys.executable, "-m", "parolkit", "serve", "--udp-port", str(port), "--ack-port", str(ack_port)]
     extra = list(extra_args or [])
-    if "--port" not in extra and "--sim" not in extra:
-        extra.append("--sim")
+    extra += _board_args(extra, homed, lockstep)
     args += extra
     log_dir = log_dir or ARTIFACTS_DIR
     log_dir.mkdir(parents=True, exist_ok=True)
@@ -145,16 +207,17 @@ def start_controller(
     else:
         cp.stop()
         raise RuntimeError(f"controller did not answer PING within {ready_timeout} s:\n{cp.log()}")
-    if wait_homed and "--no-home" not in extra:
-        while time.monotonic() < deadline:
-            reply = cp.query("GET_STATUS", 0.5) or ""
-            if "HOMED=1,1,1,1,1,1" in reply and "STATE=HOMING" not in reply:
-                break
-            time.sleep(0.05)
-        else:
-            cp.stop()
-            raise RuntimeError(f"simulated robot did not home within {ready_timeout} s:\n{cp.log()}")
-    return cp
+    if not wait_homed or "--no-home" in (extra_args or []):
+        return cp
+    while time.monotonic() < deadline:  # homing done (or a pre-homed board's first frames read)
+        if proc.poll() is not None:
+            raise RuntimeError(f"controller exited with {proc.returncode}:\n{cp.log()}")
+        reply = cp.query("GET_STATUS", 0.5) or ""
+        if "HOMED=1,1,1,1,1,1" in reply and "STATE=IDLE" in reply and reply.endswith("|SERIAL=1"):
+            return cp
+        time.sleep(0.02)
+    cp.stop()
+    raise RuntimeError(f"the board link was not up and homed within {ready_timeout} s:\n{cp.log()}")
 
 
 @pytest.fixture
@@ -174,5 +237,5 @@ def controller_factory(tmp_path):
 
 @pytest.fixture
 def controller(controller_factory) -> ControllerProcess:
-    """A homed simulated controller on free ports."""
+    """A controller on a pre-homed simulated board, on free ports."""
     return controller_factory()

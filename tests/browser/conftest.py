@@ -83,6 +83,32 @@ def gui_on_controller(root: Path, controller_args: list[str], gui_args: list[str
 
 
 @pytest.fixture(scope="module")
+def controller_gui(tmp_path_factory):
+    """A controller process (``parolkit serve --sim`` with the stream watchdog of a controller
+    the GUI starts itself, docs/gui.md "Jogging") and ``parolkit gui --connect`` to it, its
+    programs folder a temporary one; yields {"url", "controller"}: a test can ask the
+    controller itself (``controller.query("GET_STATUS")``, a client of its own)."""
+    pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
+    root = tmp_path_factory.mktemp("controller-gui")
+    with gui_on_controller(root, ["--stream-watchdog", "0.15"], ["--programs-dir", str(root / "programs")]) as (
+            controller, url, _):
+        yield {"url": url, "controller": controller}
+
+
+@pytest.fixture(scope="module")
+def controller_page(browser, controller_gui):
+    """One 1500 x 1000 page on :func:`controller_gui`, linked, the robot homed and idle."""
+    from tests.browser.helpers import wait_linked, wait_ready
+
+    pg = browser.new_page(viewport={"width": 1500, "height": 1000})
+    pg.goto(controller_gui["url"])
+    wait_linked(pg)
+    wait_ready(pg, 60)
+    yield pg
+    pg.close()
+
+
+@pytest.fixture(scope="module")
 def gui_url(tmp_path_factory):
     """Start ``parolkit gui --sim --no-browser`` on a free HTTP port (its programs and
     recordings folders temporary ones); yield its URL."""

@@ -98,7 +98,8 @@ def test_pose_is_labelled_like_the_jog_axes_and_the_gripper_reads_in_words(apage
     page = apage
     labels = page.evaluate("""() => [...document.querySelectorAll('.pk-grid-pose > :nth-child(odd)')]
         .map(e => e.innerText.trim())""")
-    assert labels == ["X", "Y", "Z", "RX", "RY", "RZ"], labels
+    # each angle named after the axis it turns about, with the pose's own name (issue 22 item 8)
+    assert labels == ["X", "Y", "Z", "RX (C)", "RY (B)", "RZ (A)"], labels
     for key in ("rx", "ry", "rz"):
         assert re.search(r"[-+]\d+\.\d{3}°", text(page, f"pose-{key}")), text(page, f"pose-{key}")
     page.get_by_test_id("tab-gripper").click()

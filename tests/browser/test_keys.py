@@ -24,6 +24,11 @@ from tests.browser.helpers import (
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
+#: the J1 steps that Space must stop: from standby (90°) this far in the negative direction
+#: stays inside J1's range and takes seconds at the jog speed, so the step still runs after
+#: the clicks between its start and the Space on a loaded machine
+STEP_DEG = 150
+
 
 @pytest.fixture(scope="module")
 def kpage(page):
@@ -52,11 +57,11 @@ def test_space_after_clicking_home_sends_stop_not_home_again(kpage):
 
 def test_space_stops_a_step_jog_right_after_its_button_was_clicked(kpage):
     """Item 1, Step mode.  Failed on the old page: the clicked J1 − button kept the focus, took
-    Space for itself, and the 40° step ran to completion (no STOP was sent)."""
+    Space for itself, and the J1 step ran to completion (no STOP was sent)."""
     page = kpage
     page.get_by_test_id("jog-mode").get_by_text("Step").click()
     step_input = page.locator("label.q-field", has_text="step °").locator("input")
-    step_input.fill("40")
+    step_input.fill(str(STEP_DEG))
     step_input.press("Tab")
     page.wait_for_timeout(300)
     try:
@@ -67,7 +72,8 @@ def test_space_stops_a_step_jog_right_after_its_button_was_clicked(kpage):
         page.keyboard.press("Space")
         wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
         end = settled(page, "angle-1", 15)
-        assert end > start - 39.0, f"the 40° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
+        assert end > start - (STEP_DEG - 1), \
+            f"the {STEP_DEG}° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
     finally:
         step_input.fill("5")
         step_input.press("Tab")
@@ -147,13 +153,15 @@ def _moving_attr(page) -> str | None:
 
 def test_space_in_a_text_input_while_a_step_move_runs_stops_the_robot(kpage):
     """Failed on the old page: Space in a text field always typed a space there, so with the
-    program name field focused the 40° J1 step ran to completion and no STOP was sent."""
+    program name field focused the J1 step ran to completion and no STOP was sent.  The step
+    is 150° (several seconds at the jog speed): long enough to still run after the tab switch
+    and the click on a loaded machine."""
     page = kpage
     wait_ready(page)
     page.get_by_test_id("tab-jog").click()
     page.get_by_test_id("jog-mode").get_by_text("Step").click()
     step_input = page.locator("label.q-field", has_text="step °").locator("input")
-    step_input.fill("40")
+    step_input.fill(str(STEP_DEG))
     step_input.press("Tab")
     page.wait_for_timeout(300)
     name = page.get_by_test_id("prog-name")
@@ -169,7 +177,8 @@ def test_space_in_a_text_input_while_a_step_move_runs_stops_the_robot(kpage):
         page.keyboard.press("Space")
         wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
         end = settled(page, "angle-1", 15)
-        assert end > start - 39.0, f"the 40° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
+        assert end > start - (STEP_DEG - 1), \
+            f"the {STEP_DEG}° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
         assert name.input_value() == before, "Space typed into the name field while the robot moved"
     finally:
         page.get_by_test_id("tab-jog").click()

@@ -278,16 +278,14 @@ def test_a_long_teach_leaves_the_page_live(rpage, setup):
         return "taught long demo.rbt" in status
 
     wait_until(taught, 180, interval=0.1, what="the long recording taught", page=page)
-    # the longest time the shown ticks stood still during the fit (a fit on the event loop
-    # freezes them for all of it: seconds here; the page's timers run every 0.1 s)
-    frozen, since = 0.0, polls[0] if polls else (0.0, 0)
-    for t, ticks in polls:
-        if ticks != since[1]:
-            since = (t, ticks)
-        frozen = max(frozen, t - since[0])
+    # a fit on the event loop freezes the shown ticks for all of it (seconds here); off the
+    # loop the page's timers keep showing them go up.  Judged by the updates the page showed
+    # during the fit, not by how long it stood still between them (a loaded machine stalls a
+    # browser for a while whatever the commander does)
     span = polls[-1][0] - polls[0][0] if polls else 0.0
     assert span >= 1.0, f"the fit took {span:.1f} s: too short to show anything"
-    assert frozen < 2.5, f"the page stood still for {frozen:.1f} s of the {span:.1f} s fit: {polls}"
+    updates = sum(1 for (_, a), (_, b) in zip(polls, polls[1:]) if b > a)
+    assert updates >= 5, f"the page showed {updates} tick updates during the {span:.1f} s fit: {polls}"
     assert re.search(r"taught long demo.rbt: 75 moves, 74 delays", text(page, "teach-status")), \
         text(page, "teach-status")
     page.get_by_test_id("tab-record").click()

@@ -11,8 +11,7 @@ three.js scene (NiceGUI's scene objects by id; the view names the gizmo's id in 
 from __future__ import annotations
 
 import pytest
-from tests.browser.conftest import gui_on_controller
-from tests.browser.helpers import settled, state, wait_linked, wait_ready, wait_until
+from tests.browser.helpers import settled, state, wait_ready, wait_until
 
 from parolkit.client import Robot
 from parolkit.gui.geometry import SCENE_SCALE
@@ -38,26 +37,6 @@ GIZMO = """() => {
 }"""
 
 
-@pytest.fixture(scope="module")
-def setup(tmp_path_factory):
-    pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
-    root = tmp_path_factory.mktemp("view3d")
-    # the watchdog of a controller the GUI would start itself (docs/gui.md, Jogging)
-    with gui_on_controller(root, ["--stream-watchdog", "0.15"], ["--programs-dir", str(root / "programs")]) as (
-            controller, url, _):
-        yield {"url": url, "controller": controller}
-
-
-@pytest.fixture(scope="module")
-def vpage(browser, setup):
-    pg = browser.new_page(viewport={"width": 1500, "height": 1000})
-    pg.goto(setup["url"])
-    wait_linked(pg)
-    wait_ready(pg, 60)
-    yield pg
-    pg.close()
-
-
 def _gizmo(page) -> tuple[list[float], list[list[float]]]:
     """The gizmo's world position (scene units) and rotation (rows) in the page's scene."""
     wait_until(lambda: page.evaluate(GIZMO) is not None, 20, what="the TCP axes gizmo in the scene", page=page)
@@ -67,27 +46,27 @@ def _gizmo(page) -> tuple[list[float], list[list[float]]]:
     return [m[12], m[13], m[14]], [[m[4 * j + i] for j in range(3)] for i in range(3)]
 
 
-def _controller_tcp(setup) -> tuple[list[float], list[list[float]]]:
+def _controller_tcp(controller_gui) -> tuple[list[float], list[list[float]]]:
     """The controller's TCP (GET_POSE) in scene units and its rotation (rows)."""
-    with Robot("127.0.0.1", setup["controller"].port, ack_port=0, timeout=2.0) as robot:
+    with Robot("127.0.0.1", controller_gui["controller"].port, ack_port=0, timeout=2.0) as robot:
         rows = robot.pose_matrix()
     return [rows[i][3] * SCENE_SCALE for i in range(3)], [list(rows[i][:3]) for i in range(3)]
 
 
-def _mismatch(page, setup) -> tuple[float, float]:
+def _mismatch(page, controller_gui) -> tuple[float, float]:
     """(position error in mm, largest rotation-matrix entry error) of the gizmo."""
     gp, gr = _gizmo(page)
-    cp, cr = _controller_tcp(setup)
+    cp, cr = _controller_tcp(controller_gui)
     pos_mm = max(abs(a - b) for a, b in zip(gp, cp)) / SCENE_SCALE * 1000.0
     rot = max(abs(gr[i][j] - cr[i][j]) for i in range(3) for j in range(3))
     return pos_mm, rot
 
 
-def _follows(page, setup, what: str) -> None:
+def _follows(page, controller_gui, what: str) -> None:
     last: list[tuple[float, float]] = []
 
     def close() -> bool:
-        last[:] = [_mismatch(page, setup)]
+        last[:] = [_mismatch(page, controller_gui)]
         return last[0][0] < POS_TOL_MM and last[0][1] < ROT_TOL
 
     try:
@@ -96,12 +75,12 @@ def _follows(page, setup, what: str) -> None:
         raise AssertionError(f"{exc}\nlast mismatch (mm, largest rotation entry): {last}") from None
 
 
-def test_the_tcp_axes_gizmo_is_on_the_controllers_tcp_at_standby(vpage, setup):
-    _follows(vpage, setup, "at standby")
+def test_the_tcp_axes_gizmo_is_on_the_controllers_tcp_at_standby(controller_page, controller_gui):
+    _follows(controller_page, controller_gui, "at standby")
 
 
-def test_the_gizmo_follows_a_jog_and_a_move(vpage, setup):
-    page = vpage
+def test_the_gizmo_follows_a_jog_and_a_move(controller_page, controller_gui):
+    page = controller_page
     start, _ = _gizmo(page)
     page.mouse.click(5, 5)  # the page has the focus, not an input
     for key in ("t", "q"):  # J5 +, J1 + (held)
@@ -111,15 +90,15 @@ def test_the_gizmo_follows_a_jog_and_a_move(vpage, setup):
     settled(page, "angle-1", 15)
     settled(page, "angle-5", 15)
     wait_ready(page, 20)
-    _follows(page, setup, "after a jog")
+    _follows(page, controller_gui, "after a jog")
     jogged, _ = _gizmo(page)
     assert max(abs(a - b) for a, b in zip(jogged, start)) > 0.05, f"the jog did not move the TCP: {start} {jogged}"
     # a move by another client: the view follows the controller, not the page's own commands
-    with Robot("127.0.0.1", setup["controller"].port, ack_port=0, timeout=5.0) as robot:
+    with Robot("127.0.0.1", controller_gui["controller"].port, ack_port=0, timeout=5.0) as robot:
         robot.take_control(force=True)  # the commander's lease from the jog lapses only after 10 s
         try:
             robot.move_joints([40, -80, 170, 30, 45, 120], duration=4.0, timeout=30)
         finally:
             robot.release_control()
     wait_until(lambda: state(page) == "READY", 20, what="READY after the move", page=page)
-    _follows(page, setup, "after a move")
+    _follows(page, controller_gui, "after a move")

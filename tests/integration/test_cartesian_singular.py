@@ -1,19 +1,19 @@
 """Cartesian motion from the homed standby pose (J5 = 0, the wrist singularity), measured at
-the board: the real controller process on a pty, the emulator in this process; every frame
-exchange is recorded (the board's positions after it), and the TCP is the forward kinematics
-of those positions.  Frames, not wall-clock sleeps, are the unit of time."""
+the board: the real controller process on a simulated board in lockstep with its frames; the
+controller's status stream gives, for every tick, the frame written and the board's counters,
+and the TCP is the forward kinematics of those counters.  Frames, not wall-clock sleeps, are
+the unit of time (the same on a loaded machine as on an idle one)."""
 
 from __future__ import annotations
-
-import threading
-import time
 
 import numpy as np
 import pytest
 from tests.conftest import wait_until
-from tests.integration.test_controller_pty import Bench
+from tests.integration.status_log import StatusLog
+from tests.integration.test_controller_sim import Client
 
 from parolkit import kinematics as kin
+from parolkit.client.robot import Robot
 from parolkit.protocol.frames import BoardCommand
 from parolkit.robot import PAROL6
 
@@ -22,25 +22,35 @@ RATE = 100.0
 AXES = ["X+", "X-", "Y+", "Y-", "Z+", "Z-", "RX+", "RX-", "RY+", "RY-", "RZ+", "RZ-"]
 
 
-class FrameRecorder:
-    """Every frame exchange with the board: (monotonic time, command, positions after it)."""
+class Bench:
+    """The controller (lockstep board), a command client and the status log."""
 
-    def __init__(self, emu) -> None:
-        self.emu = emu
-        self._lock = threading.Lock()
-        self.rows: list[tuple[float, int, tuple[int, ...]]] = []
-        emu.add_exchange_listener(self._on)
+    def __init__(self, ctl) -> None:
+        self.client = Client(ctl)
+        self.robot = Robot(ctl.host, ctl.port, ack_port=0, timeout=2.0)
+        self.log = StatusLog(self.robot)
 
-    def _on(self, cmd, status) -> None:
-        with self._lock:
-            self.rows.append((time.monotonic(), int(cmd.command), tuple(status.positions)))
+    def run(self, text: str, timeout: float = 30.0) -> tuple[str, str, str]:
+        """Send ``text``; its ID and terminal ack."""
+        cid = self.client.send(text)
+        return (cid, *self.client.acks.terminal(cid, timeout))
 
-    def since(self, t0: float) -> list[tuple[float, int, tuple[int, ...]]]:
-        with self._lock:
-            return [r for r in self.rows if r[0] >= t0]
+    def steps(self) -> tuple[int, ...]:
+        """The board's counters now."""
+        return tuple(self.client.json("GET_STATUS_JSON")["steps"])
+
+    def rows(self, cid: str) -> list[tuple[int, int, tuple[int, ...]]]:
+        """(tick, command of the frame written, board counters) of every tick command ``cid``
+        ran, once the status after its last tick has arrived."""
+        wait_until(lambda: (lambda log: log and log[-1].command is None)(self.log.snapshot()),
+                   what="the status after the command")
+        return [(st.seq, st.raw["sent"]["command"] if st.raw["sent"] else -1, tuple(st.raw["steps"]))
+                for st in self.log.snapshot() if st.command is not None and st.command.id == cid]
 
     def close(self) -> None:
-        self.emu.remove_exchange_listener(self._on)
+        self.log.close()
+        self.robot.close()
+        self.client.close()
 
 
 def _tcp(positions) -> np.ndarray:
@@ -55,19 +65,17 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 @pytest.fixture
-def singular_bench(tmp_path):
-    b = Bench(tmp_path)
-    rec = FrameRecorder(b.emu)
-    yield b, rec
-    rec.close()
+def bench(controller_factory):
+    b = Bench(controller_factory(lockstep=True))
+    yield b
     b.close()
 
 
 def _to_standby(bench: Bench) -> None:
-    status, details = bench.run("MOVEJOINT|90|-90|180|0|0|180|None|100", timeout=30)  # fastest way back
+    _, status, details = bench.run("MOVEJOINT|90|-90|180|0|0|180|None|100")  # fastest way back
     assert status == "COMPLETED", details
     # (a position-tracked move may still end a step or two short: issue 14's limits part)
-    wait_until(lambda: max(abs(a - b) for a, b in zip(bench.emu.positions, PAROL6.standby_steps)) <= 3,
+    wait_until(lambda: max(abs(a - b) for a, b in zip(bench.steps(), PAROL6.standby_steps)) <= 3,
                timeout=10, what="standby")
 
 
@@ -85,21 +93,17 @@ def _first_motion_frame(rows, m0: np.ndarray, rotation: bool) -> int | None:
 
 
 @pytest.mark.slow
-def test_every_cartesian_jog_axis_in_both_frames_moves_within_100_ms_from_standby(singular_bench):
-    bench, rec = singular_bench
+def test_every_cartesian_jog_axis_in_both_frames_moves_within_100_ms_from_standby(bench):
     # one jog first: the controller process's first Cartesian plan pays one-off start-up costs
-    assert bench.run("CARTJOG|WRF|Z-|50|0.1")[0] == "COMPLETED"
+    assert bench.run("CARTJOG|WRF|Z-|50|0.1")[1] == "COMPLETED"
     report = []
     for frame in ("WRF", "TRF"):
         for axis in AXES:
             _to_standby(bench)
-            m0 = _tcp(bench.emu.positions)[0]
-            t_send = time.monotonic()
-            cid = bench.send(f"CARTJOG|{frame}|{axis}|50|0.3")
-            status, details = bench.acks.terminal(cid, 20)
+            m0 = _tcp(bench.steps())[0]
+            cid, status, details = bench.run(f"CARTJOG|{frame}|{axis}|50|0.3")
             assert status == "COMPLETED", (frame, axis, details)
-            rows = rec.since(t_send)
-            k = _first_motion_frame(rows, m0, axis.startswith("R"))
+            k = _first_motion_frame(bench.rows(cid), m0, axis.startswith("R"))
             report.append((frame, axis, k))
     slow = [r for r in report if r[2] is None or r[2] > RATE * 0.1]
     print("frames until the TCP moved:", report)
@@ -107,14 +111,12 @@ def test_every_cartesian_jog_axis_in_both_frames_moves_within_100_ms_from_standb
 
 
 @pytest.mark.slow
-def test_x_jog_from_standby_covers_20_mm_along_x_and_movecarts_keep_their_time(singular_bench):
-    bench, rec = singular_bench
+def test_x_jog_from_standby_covers_20_mm_along_x_and_movecarts_keep_their_time(bench):
     _to_standby(bench)
-    m0 = _tcp(bench.emu.positions)[0]
-    t_send = time.monotonic()
-    status, details = bench.run("CARTJOG|WRF|X+|50|1.0")
+    m0 = _tcp(bench.steps())[0]
+    cid, status, details = bench.run("CARTJOG|WRF|X+|50|1.0")
     assert status == "COMPLETED", details
-    m = _tcp([r[2] for r in rec.since(t_send)])
+    m = _tcp([r[2] for r in bench.rows(cid)] + [bench.steps()])
     d = (m[:, :3, 3] - m0[:3, 3]) * 1e3
     assert d[-1, 0] >= 20.0, f"X+ moved {d[-1, 0]:.2f} mm"
     assert np.abs(d[:, 1:]).max() < 0.5, f"off-axis {np.abs(d[:, 1:]).max():.3f} mm"
@@ -122,12 +124,10 @@ def test_x_jog_from_standby_covers_20_mm_along_x_and_movecarts_keep_their_time(s
     for text in ("MOVECART|0.0|263.23|161.241|-90.0|0.0|-89.499|2.0|None",
                  "MOVECARTRELTRF|-80|0|0|0|0|0|2.0|None"):
         _to_standby(bench)
-        m0 = _tcp(bench.emu.positions)[0]
-        t_send = time.monotonic()
-        cid = bench.send(text)
-        status, details = bench.acks.terminal(cid, 30)
+        m0 = _tcp(bench.steps())[0]
+        cid, status, details = bench.run(text)
         assert status == "COMPLETED", details
-        rows = rec.since(t_send)
+        rows = bench.rows(cid)
         moving = [i for i, r in enumerate(rows) if r[1] == BoardCommand.GOTO]
         pos = _tcp([r[2] for r in rows])[:, :3, 3] * 1e3
         p_end = pos[-1]
@@ -141,4 +141,3 @@ def test_x_jog_from_standby_covers_20_mm_along_x_and_movecarts_keep_their_time(s
         rel = pos - a
         off = np.linalg.norm(rel - np.outer(rel @ u, u), axis=1).max()
         assert off <= 0.05, f"{text}: {off:.4f} mm off the line"
-        assert moving

@@ -1,6 +1,6 @@
 """Robot and AsyncRobot round trips against the REAL controller (``parolkit serve --sim``).
 
-One controller subprocess serves the whole module (start-up and homing cost ~2 s).  The
+One controller subprocess serves the whole module, on a board in lockstep with its frames.  The
 tests leave the robot idle and enabled for the next one.
 """
 
@@ -12,7 +12,7 @@ import socket
 import time
 
 import pytest
-from tests.conftest import start_controller
+from tests.conftest import start_controller, wait_until
 
 from parolkit.client.async_robot import AsyncRobot
 from parolkit.client.core import AckStatus
@@ -24,15 +24,9 @@ STANDBY = [90, -90, 180, 0, 0, 180]
 WORK = [90, -100, 160, 0, 30, 180]
 
 
-def after_stop() -> None:
-    """Give a STOP two control ticks to take effect: the controller applies it at the next
-    tick, so a command sent at once after STOP's ack may still be cancelled by it."""
-    time.sleep(0.03)
-
-
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    cp = start_controller(log_dir=tmp_path_factory.mktemp("ctl"))
+    cp = start_controller(log_dir=tmp_path_factory.mktemp("ctl"), lockstep=True)
     yield cp
     cp.stop()
 
@@ -46,20 +40,18 @@ def robot(served):
         st = r.status()
         if st.command is not None or st.queue:
             r.stop()
-            after_stop()
         if st.state != "IDLE":
             r.enable()
-            after_stop()
     finally:
         r.close()
 
 
 def test_move_joints_waits_until_the_robot_is_at_the_target(robot):
     target = [80, -95, 170, 5, 5, 170]
-    t0 = time.monotonic()
+    seq0 = robot.status().seq
     res = robot.move_joints(target, duration=0.8)
     assert res.status is AckStatus.COMPLETED and res.command == "MOVEJOINT"
-    assert time.monotonic() - t0 >= 0.75
+    assert robot.status().seq - seq0 >= 80  # the move's 80 ticks have run
     assert robot.angles() == pytest.approx(target, abs=0.02)
     robot.move_joints(STANDBY, speed=80)
     assert robot.status().angles == pytest.approx(STANDBY, abs=0.02)
@@ -97,12 +89,11 @@ def test_refused_command_is_invalid_and_names_the_field_and_range(robot):
 def test_stop_cancels_a_running_move_and_its_handle_reports_it(robot):
     handle = robot.move_joints([60, -100, 160, 10, 10, 160], duration=3, wait=False)
     assert handle.status() in (AckStatus.QUEUED, AckStatus.EXECUTING)
-    time.sleep(0.3)
+    wait_until(lambda: handle.status() is AckStatus.EXECUTING, what="the move running")
     assert robot.stop().ok
     with pytest.raises(CommandCancelled) as info:
         handle.result(timeout=3)
     assert "STOP" in info.value.reason
-    after_stop()
     robot.move_joints(STANDBY, speed=80)
 
 
@@ -202,7 +193,6 @@ def test_software_estop_cancels_motion_until_enable(robot):
     with pytest.raises((CommandCancelled, CommandFailed), match="E-stop"):  # refused while latched
         robot.move_joints([85, -90, 180, 0, 0, 180], duration=1)
     assert robot.enable().ok
-    after_stop()
     deadline = time.monotonic() + 5
     while robot.status().state != "IDLE":
         assert time.monotonic() < deadline

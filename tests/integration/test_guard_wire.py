@@ -1,6 +1,9 @@
-"""Issue 12, item 4, on the wire: the real controller process drives ``parolkit board-sim`` (its
-own process) over a real pty; a ``spy+`` link logs every frame both ways, and every frame is
-checked.
+"""Issue 12, item 4, on the wire: the real controller process drives a simulated board in
+lockstep with its frames (``sim://?clock=virtual&step=0.01``: every frame runs it exactly one
+period, so what is judged is what the planners and the guard send, the same on a loaded
+machine as on an idle one); a ``spy+`` link logs every frame both ways, and every frame is
+checked.  (Frames delivered late or early by a real link: ``test_link_faults_pty.py``, the
+pty tests, and the core's jittery-tick tests in tests/unit.)
 
 The board's reply to a frame carries its step counters as that frame arrived (the firmware
 copies them on the pass before it answers), so each GO TO frame and its reply give exactly the
@@ -20,11 +23,11 @@ from pathlib import Path
 
 import pytest
 from tests.conftest import start_controller, wait_until
-from tests.integration.boardsim import BoardSim
 from tests.integration.test_controller_pty import AckListener
 
 from parolkit import kinematics as kin
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
+from parolkit.record.replay import lockstep_board
 from parolkit.robot import PAROL6
 
 VMAX = [float(v) for v in PAROL6.max_speed_steps_s]
@@ -33,35 +36,23 @@ PERIOD = 1.0 / RATE
 
 
 class WireBench:
-    """board-sim on a pty (its own process: an emulator sharing the test's process stalls for
-    tens of ms and then takes frames in bursts, which no real board does); the controller
-    opens it through ``spy+...?raw=1`` (every frame with its bytes and monotonic time); acks on
-    a real UDP socket."""
+    """The controller on a simulated board in lockstep with its frames (each frame runs it one
+    period: the frames and their replies are what the planners and the guard produce, not what
+    a loaded machine's late ticks did to them), opened through ``spy+...?raw=1`` (every frame
+    with its bytes); acks on a real UDP socket."""
 
     def __init__(self, tmp_path: Path) -> None:
-        self.link = tmp_path / "p6"
-        self.sim = BoardSim(tmp_path, frame_log=None)
-        self.board = self.sim.proc
         self.log_path = tmp_path / "frames.log"
-        cfg = tmp_path / "controller.toml"
-        # (2 busy cores: allow silent ticks; link supervision is not what this test is about)
-        cfg.write_text("[controller]\nlink_timeout_ticks = 50\n")
-        port = f"spy+{self.link}?log={self.log_path}&raw=1"
-        self.ctl = start_controller(["--port", port, "--config", str(cfg), "--no-home"], log_dir=tmp_path,
-                                    wait_homed=False)
+        port = f"spy+{lockstep_board(RATE)}&homed=1&log={self.log_path}&raw=1"
+        self.ctl = start_controller(["--port", port, "--no-home"], log_dir=tmp_path, wait_homed=False)
         self.acks = AckListener(self.ctl.ack_port)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.settimeout(1.0)
         self._n = 0
         wait_until(lambda: (self.query("GET_STATUS") or "").endswith("|SERIAL=1"), 20, what="board link up")
         wait_until(lambda: "HOMED=1,1,1,1,1,1" in (self.query("GET_STATUS") or ""), 20, what="homed status")
-        # the start-up probe asks whether the board is enabled; an emulator process that reads
-        # its first frames in one burst can answer it ambiguously (then the controller takes
-        # the board as disabled): this test is about motion, so it enables the robot then
-        wait_until(lambda: self.status()["board"]["state_known"], 10, what="the board's state")
-        if not self.status()["enabled"]:
-            assert self.acks.terminal(self.send("ENABLE"), 10)[0] == "COMPLETED"
-            wait_until(lambda: self.status()["enabled"], 10, what="enabled")
+        wait_until(lambda: self.status()["board"]["state_known"] and self.status()["enabled"], 10,
+                   what="the board's state known (enabled)")
 
     def send(self, text: str) -> str:
         self._n += 1
@@ -91,7 +82,6 @@ class WireBench:
         self.ctl.stop()
         self.acks.close()
         self.sock.close()
-        self.sim.close()
 
 
 @pytest.fixture

@@ -14,6 +14,7 @@ from __future__ import annotations
 import ast
 import functools
 import inspect
+import json
 import re
 import socket
 import time
@@ -176,6 +177,12 @@ def at_pose(api, want, tol: float = 0.5) -> bool:
     return near(api.get_robot_pose()[:3], want[:3], tol)
 
 
+def _status_json(served) -> dict:
+    """The controller's status (GET_STATUS_JSON) as a dict, {} when no reply came."""
+    reply = served.query("GET_STATUS_JSON", 2.0) or ""
+    return json.loads(reply.split("|", 1)[1]) if reply.startswith("STATUS_JSON|") else {}
+
+
 def settle(api) -> None:
     assert api.wait_for_robot_stopped(timeout=15, poll_rate=0.05)
 
@@ -307,15 +314,14 @@ def test_every_original_function_runs_against_the_controller_and_the_robot_does_
     before = api.get_robot_joint_angles()
     far = [60, -100, 160, 0, 30, 180]
     cid = api.move_robot_joints(far, duration=4.0, wait_for_ack=True, non_blocking=True)
-    wait_until(lambda: (api.check_command_status(cid) or {}).get("status") == "EXECUTING", 5)
-    time.sleep(1.0)
+    # STOP once a quarter of the move has run (its progress on the controller, not a sleep)
+    wait_until(lambda: (_status_json(served).get("command") or {}).get("progress", 0) >= 0.25, 10)
     stop = api.stop_robot_movement(wait_for_ack=True)
     assert stop["status"] == "COMPLETED" and stop["details"] == "stopped"
     wait_until(lambda: (api.check_command_status(cid) or {}).get("status") == "CANCELLED", 5)
     settle(api)
     j = api.get_robot_joint_angles()
     assert before[0] - 1.0 > j[0] > far[0] + 5  # stopped on the way
-    time.sleep(0.03)  # STOP takes effect at the next tick
     completed(api.safe_move_with_retry(api.move_robot_joints, WORK, duration=2.0, max_retries=2,
                                        retry_delay=0.1, timeout=15), "MoveJoint")
     assert near(api.get_robot_joint_angles(), WORK, 0.02)

@@ -1,5 +1,5 @@
 """`parolkit ros2` against a REAL ROS 2 Jazzy rclpy node (PyPI wheels, Fast DDS) and a real
-simulated controller (``parolkit serve --sim``).
+simulated controller (``parolkit serve`` on a simulated board in lockstep with its frames).
 
 Three processes besides pytest: the controller, ``parolkit ros2`` (cyclonedds) and
 tests/integration/ros2_node.py run by the ROS test venv's python (``make ros-venv`` creates
@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 from tests.conftest import REPO_ROOT, start_controller, wait_until
+from tests.integration.status_log import StatusLog
 
 from parolkit.client.core import RobotStatus
 from parolkit.client.robot import Robot
@@ -74,36 +75,18 @@ class RosNode:
             self.proc.wait(5)
 
 
-class StatusLog:
-    """Every status of the controller (one per tick) as the test sees it."""
-
-    def __init__(self, robot: Robot) -> None:
-        self.items: list[RobotStatus] = []
-        self._lock = threading.Lock()
-        self.sub = robot.subscribe(1, callback=self._add)
-
-    def _add(self, st: RobotStatus) -> None:
-        with self._lock:
-            self.items.append(st)
-
-    def snapshot(self) -> list[RobotStatus]:
-        with self._lock:
-            return list(self.items)
-
-    def clear(self) -> None:
-        with self._lock:
-            self.items.clear()
-
-
 @pytest.fixture(scope="module")
 def setup(tmp_path_factory):  # type: ignore[no-untyped-def]
     if not ROS_PYTHON.exists():
         pytest.fail(f"the ROS 2 test environment {ROS_PYTHON} is missing: run `make ros-venv` "
                     "(or set PAROLKIT_ROS_PYTHON to a python with ros-jazzy-rclpy)")
     log_dir = tmp_path_factory.mktemp("ros2")
-    ctl = start_controller(log_dir=log_dir)
+    # the board in lockstep with the frames: where it is at a tick does not depend on the load
+    ctl = start_controller(log_dir=log_dir, lockstep=True)
     domain = 100 + os.getpid() % 100
-    ns = "parol6"
+    # a namespace of this process's own: another test process (pytest -n, another checkout)
+    # on the same DDS domain never mixes its topics with these
+    ns = f"parol6_{os.getpid()}"
     env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO_ROOT / "src"))
     bridge_log = open(log_dir / "bridge.log", "w")
     bridge = subprocess.Popen(
@@ -115,7 +98,7 @@ def setup(tmp_path_factory):  # type: ignore[no-untyped-def]
     log = StatusLog(robot)
     yield {"ctl": ctl, "node": node, "robot": robot, "log": log, "bridge": bridge,
            "bridge_log": log_dir / "bridge.log"}
-    log.sub.close()
+    log.close()
     robot.close()
     node.close()
     bridge.terminate()

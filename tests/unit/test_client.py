@@ -21,7 +21,7 @@ from tests.conftest import free_udp_port
 
 from parolkit.client import robot_api
 from parolkit.client.async_robot import AsyncRobot
-from parolkit.client.core import AckStatus, Pose, RobotStatus, result_or_raise
+from parolkit.client.core import AckStatus, CommandResult, Pose, RobotStatus, result_or_raise
 from parolkit.client.errors import (
     CommandCancelled,
     CommandFailed,
@@ -79,6 +79,8 @@ class FakeController:
         self.speeds = [0, 0, 0, 0, 0, 0]
         self.silent = False
         self.query_error: str | None = None
+        #: request name -> the reply sent instead of the usual one (e.g. a malformed one)
+        self.replies: dict[str, str] = {}
         self.ack_here: set = set()
         self.honour_ack_here = True  # False: a controller that acks only its ack port
         self._stop = False
@@ -123,7 +125,10 @@ class FakeController:
             "GET_PLAN": 'PLAN|{"seq": 3, "command": "MOVECART", "target_angles": [1, 2, 3, 4, 5, 6],'
                         ' "tcp_path": [[0, 250, 200], [1, 250, 200]]}',
             "GET_TOOL": "TOOL|default|-45.25,0,62.8,0,0,0",
+            "GET_CONTROL": 'CONTROL|{"holder": "127.0.0.1:40112", "held_s": 12.5, "idle_s": 0.3, '
+                           '"timeout_s": 10, "secret_required": false, "refused": 2, "taken_over": 0}',
         }
+        replies.update(self.replies)
         if name in replies:
             reply = f"ERROR|{self.query_error}" if self.query_error else replies[name]
             self.sock.sendto(reply.encode(), addr)
@@ -612,6 +617,60 @@ def test_robot_queries_are_typed(robot, fake):
     assert robot.tool().name == "default" and robot.ping() is True and robot.link_up() is True
 
 
+def test_a_handle_returns_the_failure_instead_of_raising_it_when_asked(robot, fake):
+    fake.acks["MOVEPOSE"] = [("QUEUED", "")]  # the rest comes by hand
+    h = robot.move_pose([600, 0, 0, 0, 0, 0], duration=1, wait=False)
+    fake.ack(h.id, "FAILED", "IK failed: out of reach by 12 mm")
+    failed = h.result(timeout=2, raise_on_error=False)
+    assert isinstance(failed, CommandFailed) and failed.reason == "IK failed: out of reach by 12 mm"
+    assert failed.command_id == h.id and failed.status == "FAILED"
+    with pytest.raises(CommandFailed, match="out of reach"):  # the default still raises
+        h.result(timeout=2)
+    fake.acks["DELAY"] = [("QUEUED", ""), ("EXECUTING", "")]
+    late = robot.delay(10, wait=False).result(timeout=0.2, raise_on_error=False)
+    assert isinstance(late, CommandTimeout) and "last status: EXECUTING" in late.reason
+    done = robot.home(wait=False).result(timeout=2, raise_on_error=False)
+    assert isinstance(done, CommandResult) and done.ok
+
+
+def test_control_is_the_typed_lease_dict(robot, fake, api):
+    expected = {"holder": "127.0.0.1:40112", "held_s": 12.5, "idle_s": 0.3, "timeout_s": 10.0,
+                "secret_required": False, "refused": 2, "taken_over": 0}
+    lease = robot.control()
+    assert lease == expected and type(lease["timeout_s"]) is float
+    assert api.get_control() == expected
+    fake.replies["GET_CONTROL"] = 'CONTROL|{"holder": null, "held_s": null, "idle_s": null, ' \
+                                  '"timeout_s": 10.0, "secret_required": true, "refused": 0, "taken_over": 1}'
+    assert robot.control()["holder"] is None and robot.control()["secret_required"] is True
+
+
+@pytest.mark.parametrize(("request_name", "reply", "query", "needle"), [
+    ("GET_CONTROL", 'CONTROL|{"holder": 7, "held_s": null, "idle_s": null, "timeout_s": 10, '
+                    '"secret_required": false, "refused": 0, "taken_over": 0}', "control",
+     "CONTROL: holder must be str or null, got 7"),
+    ("GET_CONTROL", 'CONTROL|{"holder": null}', "control", "CONTROL: field 'held_s' is missing"),
+    ("GET_CONTROL", "CONTROL|[1, 2]", "control", "CONTROL: not a JSON object"),
+    ("GET_LOOP_STATS", 'LOOP_STATS|{"rate_hz": "fast"}', "loop_stats", "rate_hz must be a number, got 'fast'"),
+    ("GET_LOOP_STATS", "LOOP_STATS|[100]", "loop_stats", "LOOP_STATS must be a JSON object, got [100]"),
+    ("GET_PLAN", 'PLAN|{"seq": 1, "target_angles": 5}', "plan_info", "target_angles must be a list, got 5"),
+    ("GET_PLAN", 'PLAN|{"seq": 1, "tcp_path": [[0, "x", 0]]}', "plan_info", "tcp_path must be a number, got 'x'"),
+    ("GET_QUEUE", 'QUEUE|{"queued": ["MOVEJOINT"]}', "queue", "queued must be a JSON object, got 'MOVEJOINT'"),
+    ("GET_QUEUE", 'QUEUE|{"active": {"progress": "half"}}', "queue", "progress must be a number, got 'half'"),
+])
+def test_a_malformed_json_reply_is_a_reply_error_naming_the_field(robot, fake, request_name, reply, query, needle):
+    fake.replies[request_name] = reply
+    with pytest.raises(ReplyError) as info:
+        getattr(robot, query)()
+    assert needle in str(info.value)
+
+
+def test_robot_api_reports_a_malformed_control_reply_and_returns_none(api, fake, capsys):
+    fake.replies["GET_CONTROL"] = 'CONTROL|{"holder": null, "held_s": null, "idle_s": null, "timeout_s": "10", ' \
+                                  '"secret_required": false, "refused": 0, "taken_over": 0}'
+    assert api.get_control() is None
+    assert "GET_CONTROL: CONTROL: timeout_s must be int or float, got '10'" in capsys.readouterr().err
+
+
 def test_robot_query_errors(robot, fake):
     fake.query_error = "GET_ANGLES: board not connected"
     with pytest.raises(ReplyError, match="board not connected"):
@@ -696,6 +755,11 @@ def test_async_robot_shares_the_methods_and_errors(fake):
             assert h.status() is AckStatus.QUEUED and not h.done()
             fake.ack(h.id, "COMPLETED")
             assert (await h.result(timeout=2)).ok
+            h = await r.delay(1, wait=False)
+            fake.ack(h.id, "CANCELLED", "stopped by STOP")
+            cancelled = await h.result(timeout=2, raise_on_error=False)
+            assert isinstance(cancelled, CommandCancelled) and cancelled.reason == "stopped by STOP"
+            assert (await r.control())["refused"] == 2
             with pytest.raises(ParolkitValueError):
                 r.move_joints([0] * 5, duration=1)
             async with r.subscribe(every_n=2) as sub:

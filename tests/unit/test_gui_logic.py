@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from parolkit.client.core import QUERIES, GripperState, PlanInfo, RobotState, RobotStatus, parse_query_reply
+from parolkit.client.core import GripperState, PlanInfo, Queries, RobotState, RobotStatus, parse_query_reply
 from parolkit.client.errors import ReplyError
 from parolkit.errors import ParolkitValueError
 from parolkit.gui import geometry
@@ -60,7 +60,7 @@ STATUS = {
 # ---- the status the page reads (the client's RobotStatus) ----
 
 def test_the_page_reads_the_clients_typed_status():
-    st = parse_query_reply(QUERIES["status"], "STATUS_JSON|" + json.dumps(STATUS))
+    st = parse_query_reply(Queries.status, "STATUS_JSON|" + json.dumps(STATUS))
     assert st.seq == 1234 and st.state is RobotState.IDLE and st.all_homed and st.can_move
     assert st.angles == (90.0, -90.0, 180.0, 0.0, 0.0, 180.0)
     assert st.io.out1 and st.io.in2 and not st.io.estop_pressed
@@ -125,13 +125,13 @@ def test_a_malformed_status_is_a_reply_error_naming_the_field():
     with pytest.raises(ReplyError, match="angles must be a list of 6"):
         RobotStatus.from_json(dict(STATUS, angles=[1, 2, 3]))
     with pytest.raises(ReplyError, match="expected a STATUS_JSON"):
-        parse_query_reply(QUERIES["status"], "PONG|SERIAL=1")
+        parse_query_reply(Queries.status, "PONG|SERIAL=1")
 
 
 def test_readout_formatting_units():
     assert format_angles([90, -90.1234])[:2] == ["+90.000°", "-90.123°"]
-    pose = format_pose([0, 262.574, 288.75, -90, 0, -90])
-    assert pose[1] == "+262.57 mm" and pose[3] == "-90.000°"
+    pose = format_pose([0, 262.574, 288.75, -90, 0, -80])
+    assert pose[1] == "+262.57 mm" and pose[3] == "-80.000°" and pose[5] == "-90.000°"  # RX = C, RZ = A
     assert format_loop(RobotStatus.from_json(STATUS).loop).startswith("100 Hz · p50 10.00 ms")
     # fields the controller did not send are left out, not shown as zeros
     assert format_loop(RobotStatus.from_json(dict(STATUS, loop={"rate_hz": 99.5})).loop) == "100 Hz"
@@ -139,9 +139,39 @@ def test_readout_formatting_units():
 
 
 def test_pose_is_labelled_with_the_jog_axes_names():
-    # the readout names the orientation as the Cartesian jog does (RX RY RZ), not A B C
+    # the readout names the orientation as the Cartesian jog does (RX RY RZ)
     assert POSE_LABELS == ("X", "Y", "Z", "RX", "RY", "RZ")
     assert [a.value.rstrip("+-") for a in CartAxis][::2] == list(POSE_LABELS)
+
+
+def _readout_changes(before, after) -> dict[str, float]:
+    """|change| of each rotation readout (deg, across +-180)."""
+    b, a = format_pose(before)[3:], format_pose(after)[3:]
+    return {name: abs((float(y.rstrip("°")) - float(x.rstrip("°")) + 180) % 360 - 180)
+            for name, x, y in zip(POSE_LABELS[3:], b, a)}
+
+
+@pytest.mark.parametrize("joints", [PAROL6.standby_deg, (90, -80, 150, 0, -70, 180), (30, -60, 140, 40, -30, 100)])
+def test_rotation_readouts_follow_the_jog_of_their_name_where_the_convention_says(joints):
+    """Issue 22 item 8.  R = Rx(C)·Ry(B)·Rz(A): a WRF RX jog changes RX (= C) alone and a TRF RZ
+    jog RZ (= A) alone, at any pose; with the tool pointing down (RX near +-180, RY near 0)
+    WRF RY and RZ jogs change RY and RZ most.  Before, RX showed A: a WRF RX jog changed "RZ"."""
+    from parolkit.kinematics import fk
+
+    pose = fk(joints)
+    rx = _readout_changes(pose, jog_target_pose(pose, Frame.WRF, CartAxis("RX+"), 2.0))
+    assert rx["RX"] == pytest.approx(2.0, abs=1e-6) and rx["RY"] < 1e-6 and rx["RZ"] < 1e-6, rx
+    rz = _readout_changes(pose, jog_target_pose(pose, Frame.TRF, CartAxis("RZ+"), 2.0))
+    assert rz["RZ"] == pytest.approx(2.0, abs=1e-6) and rz["RX"] < 1e-6 and rz["RY"] < 1e-6, rz
+
+
+def test_with_the_tool_down_every_world_rotation_jog_changes_its_own_readout_most():
+    from parolkit.kinematics import fk
+
+    pose = fk((90, -80, 150, 0, -70, 180))  # the tool down, tilted 20 deg: RX 160, RY 0, RZ -90
+    for name in ("RX", "RY", "RZ"):
+        change = _readout_changes(pose, jog_target_pose(pose, Frame.WRF, CartAxis(name + "+"), 2.0))
+        assert max(change, key=lambda k: change[k]) == name, (name, change)
 
 
 @pytest.mark.parametrize(("status_byte", "summary", "words"), [
@@ -170,6 +200,22 @@ def test_state_badge_priorities():
     assert not latched.can_move
     disabled = RobotStatus.from_json(dict(STATUS, enabled=False, state="DISABLED"))
     assert state_badge(disabled, True)[0] == "DISABLED"
+
+
+def test_state_badge_says_program_running_or_paused_whatever_the_robot_does_between_lines():
+    """Issue 22 item 8: the header follows the program runner, not the robot's MOVING flag
+    (READY during a Delay / Output line, READY / MOVING flicker between moves before)."""
+    idle, moving = RobotStatus.from_json(STATUS), RobotStatus.from_json(dict(STATUS, state="MOVING"))
+    for st in (idle, moving):
+        assert state_badge(st, True, "running") == ("PROGRAM RUNNING", "info")
+        assert state_badge(st, True, "pausing") == ("PROGRAM RUNNING", "info")  # its move still runs
+        assert state_badge(st, True, "paused") == ("PROGRAM PAUSED", "warning")
+    # a fault, a latched E-stop, no link or a disabled robot say so first
+    latched = RobotStatus.from_json(dict(STATUS, estop_latched=True, state="ESTOP"))
+    assert state_badge(latched, True, "running")[0] == "E-STOP"
+    assert state_badge(idle, False, "running")[0] == "NO LINK"
+    assert state_badge(RobotStatus.from_json(dict(STATUS, enabled=False, state="DISABLED")), True, "paused")[0] \
+        == "DISABLED"
 
 
 # ---- jog logic ----
@@ -306,11 +352,11 @@ def test_event_log_is_bounded_and_timestamped():
 
 
 def test_the_plan_the_scene_draws_comes_from_the_clients_plan_query():
-    plan = parse_query_reply(QUERIES["plan_info"], 'PLAN|{"seq": 3, "command": "MOVEJOINT", '
+    plan = parse_query_reply(Queries.plan_info, 'PLAN|{"seq": 3, "command": "MOVEJOINT", '
                              '"target_angles": [1,2,3,4,5,6], "tcp_path": [[1,2,3],[4,5,6]]}')
     assert isinstance(plan, PlanInfo)
     assert plan.target_angles == (1, 2, 3, 4, 5, 6) and len(plan.tcp_path) == 2
-    idle = parse_query_reply(QUERIES["plan_info"],
+    idle = parse_query_reply(Queries.plan_info,
                              'PLAN|{"seq": 0, "command": null, "target_angles": null, "tcp_path": null}')
     assert idle.target_angles is None and idle.tcp_path == ()
 

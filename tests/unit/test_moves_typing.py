@@ -16,14 +16,13 @@ import pickle
 import re
 import textwrap
 from enum import Enum
-from pathlib import Path
 
 import pytest
+from tests.conftest import run_mypy
 
 import parolkit.moves as moves
 from parolkit.errors import ParolkitValueError
 
-SRC = Path(moves.__file__).resolve().parents[1]
 _ENUMS = {name for name, obj in vars(moves).items() if isinstance(obj, type) and issubclass(obj, Enum)}
 _MOVE_CLASSES = [obj for obj in vars(moves).values() if dataclasses.is_dataclass(obj) and isinstance(obj, type)]
 
@@ -94,22 +93,9 @@ q = [0.0, -90.0, 180.0, 0.0, 0.0, 180.0]
 @pytest.fixture(scope="module")
 def mypy_errors(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[int, list[str]]]:
     """mypy --strict over the accepted and the refused user code: file -> line -> errors."""
-    api = pytest.importorskip("mypy.api")
-    d = tmp_path_factory.mktemp("moves_typing")
-    (d / "accepted.py").write_text(textwrap.dedent(ACCEPTED).lstrip(), encoding="utf-8")
-    (d / "refused.py").write_text(_REFUSED_HEADER + "".join(f"{code}\n" for code, _ in REFUSED), encoding="utf-8")
-    (d / "mypy.ini").write_text(
-        f"[mypy]\nmypy_path = {SRC}\nstrict = True\nno_site_packages = True\nfollow_imports = silent\n"
-        f"cache_dir = {d / 'cache'}\n", encoding="utf-8")
-    stdout, stderr, _status = api.run(
-        ["--config-file", str(d / "mypy.ini"), str(d / "accepted.py"), str(d / "refused.py")])
-    assert not stderr, stderr
-    errors: dict[str, dict[int, list[str]]] = {"accepted.py": {}, "refused.py": {}}
-    for line in stdout.splitlines():
-        m = re.match(r"(?:.*[/\\])?(accepted\.py|refused\.py):(\d+): error: (.*)", line)
-        if m:
-            errors[m.group(1)].setdefault(int(m.group(2)), []).append(m.group(3))
-    return errors
+    return run_mypy(tmp_path_factory.mktemp("moves_typing"), {
+        "accepted.py": textwrap.dedent(ACCEPTED).lstrip(),
+        "refused.py": _REFUSED_HEADER + "".join(f"{code}\n" for code, _ in REFUSED)})
 
 
 def test_the_constructors_take_the_words_and_the_fields_read_as_the_enums(mypy_errors):

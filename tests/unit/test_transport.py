@@ -192,6 +192,23 @@ def test_a_lockstep_board_runs_exactly_one_step_per_frame_whatever_the_wall_cloc
     assert runs[0] == runs[1] and runs[0][-1] - runs[0][0] == 40  # 4 steps of 10 ms at 1000 steps/s
 
 
+@pytest.mark.parametrize("wrapped", ["spy+sim://?log={log}", "faulty+sim://?drop=0", "spy+faulty+sim://?log={log}"])
+def test_a_lockstep_board_stays_in_lockstep_inside_spy_and_faulty_wrappers(wrapped, tmp_path):
+    """The controller schedules trajectories on its ticks when the link says its board runs one
+    step per frame (``step_s``): a wrapper passes its inner board's on, or a spied lockstep
+    board would be driven as if it ran on the wall clock."""
+    url = wrapped.format(log=tmp_path / "frames.log")
+    assert open_transport(url).step_s is None  # a board on its own clock
+    t = open_transport(url + "&clock=virtual&step=0.01&homed=1")
+    assert t.step_s == 0.01
+    jog = CommandFrame(command=BoardCommand.JOG, speeds=(1000, 0, 0, 0, 0, 0)).encode()
+    try:
+        replies = [f for _ in range(5) for f in roundtrip(t, jog, wait_s=0.02)]
+    finally:
+        t.close()
+    assert replies[-1].positions[0] - replies[0].positions[0] == 40  # 4 frames after the first, 10 ms each
+
+
 @pytest.mark.parametrize("url, fragment", [
     ("sim://?step=0.01", "step .* needs clock=virtual"),
     ("sim://?clock=virtual&step=0", r"step='0' is not allowed: expected 0.0001..1 s"),

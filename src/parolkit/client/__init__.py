@@ -15,8 +15,25 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ loads them lazily
-    from parolkit.client.async_robot import AsyncRobot
-    from parolkit.client.core import AckStatus, CommandResult, PlanInfo, RobotState, RobotStatus
+    from parolkit.client.async_robot import AsyncCommandHandle, AsyncRobot, AsyncStatusSubscription
+    from parolkit.client.core import (
+        AckStatus,
+        ActiveCommand,
+        AsyncResult,
+        BoardInfo,
+        CommandResult,
+        ControlInfo,
+        ErrorInfo,
+        GripperState,
+        IOState,
+        LoopStats,
+        PlanInfo,
+        Pose,
+        QueueInfo,
+        RobotState,
+        RobotStatus,
+        ToolInfo,
+    )
     from parolkit.client.errors import (
         CommandCancelled,
         CommandFailed,
@@ -24,17 +41,27 @@ if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ l
         CommandNotCompleted,
         CommandTimeout,
         ControllerUnreachable,
+        ReplyError,
         RobotError,
     )
-    from parolkit.client.robot import Robot
+    from parolkit.client.robot import CommandHandle, Robot, StatusSubscription
 
-__all__ = ["Robot", "AsyncRobot", "RobotError", "CommandNotCompleted", "CommandFailed", "CommandInvalid",
-           "CommandCancelled", "CommandTimeout", "ControllerUnreachable", "CommandResult",
-           "AckStatus", "RobotStatus", "RobotState", "PlanInfo"]
+__all__ = [
+    "Robot", "CommandHandle", "StatusSubscription", "AsyncRobot", "AsyncCommandHandle",
+    "AsyncStatusSubscription", "RobotError", "CommandNotCompleted", "CommandFailed",
+    "CommandInvalid", "CommandCancelled", "CommandTimeout", "ControllerUnreachable", "ReplyError",
+    "CommandResult", "AckStatus", "AsyncResult", "RobotStatus", "RobotState", "Pose", "IOState",
+    "GripperState", "ErrorInfo", "BoardInfo", "LoopStats", "ActiveCommand", "PlanInfo", "QueueInfo",
+    "ToolInfo", "ControlInfo",
+]
 
 _WHERE = {
     "Robot": "parolkit.client.robot",
+    "CommandHandle": "parolkit.client.robot",
+    "StatusSubscription": "parolkit.client.robot",
     "AsyncRobot": "parolkit.client.async_robot",
+    "AsyncCommandHandle": "parolkit.client.async_robot",
+    "AsyncStatusSubscription": "parolkit.client.async_robot",
     "RobotError": "parolkit.client.errors",
     "CommandNotCompleted": "parolkit.client.errors",
     "CommandFailed": "parolkit.client.errors",
@@ -42,11 +69,23 @@ _WHERE = {
     "CommandCancelled": "parolkit.client.errors",
     "CommandTimeout": "parolkit.client.errors",
     "ControllerUnreachable": "parolkit.client.errors",
+    "ReplyError": "parolkit.client.errors",
     "CommandResult": "parolkit.client.core",
     "AckStatus": "parolkit.client.core",
+    "AsyncResult": "parolkit.client.core",
     "RobotStatus": "parolkit.client.core",
     "RobotState": "parolkit.client.core",
+    "Pose": "parolkit.client.core",
+    "IOState": "parolkit.client.core",
+    "GripperState": "parolkit.client.core",
+    "ErrorInfo": "parolkit.client.core",
+    "BoardInfo": "parolkit.client.core",
+    "LoopStats": "parolkit.client.core",
+    "ActiveCommand": "parolkit.client.core",
     "PlanInfo": "parolkit.client.core",
+    "QueueInfo": "parolkit.client.core",
+    "ToolInfo": "parolkit.client.core",
+    "ControlInfo": "parolkit.client.core",
 }
 
 

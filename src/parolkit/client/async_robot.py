@@ -1,7 +1,8 @@
 """``parolkit.AsyncRobot``: the asyncio twin of :class:`parolkit.Robot`.
 
 Same method names and arguments (see :class:`parolkit.client.core.RobotCommands`); every
-command and query is awaited::
+command and query returns a coroutine (:data:`~parolkit.client.core.AsyncResult`) of what
+:class:`parolkit.Robot` returns (an :class:`AsyncCommandHandle` for ``wait=False``)::
 
     import asyncio
     from parolkit import AsyncRobot
@@ -39,36 +40,40 @@ import logging
 import socket
 import time
 from collections.abc import AsyncIterator, Callable
-from typing import Any
+from typing import Literal, TypeVar, overload
 
 from parolkit.client import robot_api as wire
 from parolkit.client.core import (
     DEFAULT_TIMEOUT_S,
-    QUERIES,
     SUBSCRIBE_RENEW_S,
     AckBook,
     AckRecord,
     AckStatus,
+    AsyncResult,
     CommandResult,
+    Queries,
+    QuerySpec,
     RobotCommands,
     RobotStatus,
     bind_address,
     check_port,
     parse_query_reply,
 )
-from parolkit.client.errors import CommandTimeout, ControllerUnreachable, RobotError
+from parolkit.client.errors import CommandNotCompleted, CommandTimeout, ControllerUnreachable, RobotError
 from parolkit.errors import ParolkitValueError
 
 __all__ = ["AsyncRobot", "AsyncCommandHandle", "AsyncStatusSubscription"]
 
 log = logging.getLogger(__name__)
 
+_T = TypeVar("_T")
+
 
 class _Protocol(asyncio.DatagramProtocol):
     def __init__(self, owner: AsyncRobot) -> None:
         self.owner = owner
 
-    def datagram_received(self, data: bytes, addr: Any) -> None:
+    def datagram_received(self, data: bytes, addr: object) -> None:
         try:
             self.owner._on_datagram(data.decode("utf-8", "replace"))
         except Exception:  # one bad datagram (or listener) must never stop the endpoint
@@ -100,8 +105,24 @@ class AsyncCommandHandle:
     def done(self) -> bool:
         return self._record.terminal is not None
 
-    async def result(self, timeout: float | None = None) -> CommandResult:
-        return await self._robot._wait_terminal(self._record, timeout)
+    @overload
+    async def result(self, timeout: float | None = None, *,
+                     raise_on_error: Literal[True] = True) -> CommandResult: ...
+    @overload
+    async def result(self, timeout: float | None = None, *,
+                     raise_on_error: bool) -> CommandResult | CommandNotCompleted: ...
+
+    async def result(self, timeout: float | None = None, *,
+                     raise_on_error: bool = True) -> CommandResult | CommandNotCompleted:
+        """Wait for the terminal ack and return the COMPLETED :class:`CommandResult`; a failure
+        raises like a waiting call (:class:`~parolkit.client.errors.CommandNotCompleted`), or
+        is returned with ``raise_on_error=False``."""
+        try:
+            return await self._robot._wait_terminal(self._record, timeout)
+        except CommandNotCompleted as exc:
+            if raise_on_error:
+                raise
+            return exc
 
     def __repr__(self) -> str:
         return f"<AsyncCommandHandle {self.command} id={self.id} status={self.status()}>"
@@ -112,7 +133,7 @@ class _StreamProtocol(asyncio.DatagramProtocol):
         self.queue = queue
         self.on_cookie = on_cookie
 
-    def datagram_received(self, data: bytes, addr: Any) -> None:
+    def datagram_received(self, data: bytes, addr: object) -> None:
         text = data.decode("utf-8", "replace")
         if text.startswith("STATUS_JSON|"):
             if self.queue.full():  # a slow consumer sees the newest statuses, never a backlog
@@ -205,8 +226,7 @@ class AsyncStatusSubscription:
         if text is None:  # close() was called while we waited
             raise StopAsyncIteration
         self.received += 1
-        status: RobotStatus = parse_query_reply(QUERIES["status"], text)
-        return status
+        return parse_query_reply(Queries.status, text)
 
     def __aiter__(self) -> AsyncIterator[RobotStatus]:
         return self
@@ -244,7 +264,7 @@ class AsyncStatusSubscription:
         await self.close()
 
 
-class AsyncRobot(RobotCommands):
+class AsyncRobot(RobotCommands[AsyncResult[CommandResult], AsyncResult[AsyncCommandHandle]]):
     """asyncio client of the parolkit controller (same API as :class:`parolkit.Robot`).
 
     The endpoint opens on first use (or ``await robot.open()`` / ``async with``) in the
@@ -392,15 +412,26 @@ class AsyncRobot(RobotCommands):
             finally:
                 self._pending_reply = None
 
-    async def _query(self, name: str) -> Any:
-        q = QUERIES[name]
-        return parse_query_reply(q, await self._request(q.request, q.tag, self.timeout))
+    async def _query(self, query: QuerySpec[_T]) -> _T:
+        return parse_query_reply(query, await self._request(query.request, query.tag, self.timeout))
 
-    def _command(self, body: str, wait: bool, timeout: float | None) -> Any:
-        # the datagram body is already built (and validated) by the caller: only I/O is async
-        return self._command_async(body, wait, timeout)
+    # the datagram body is already built (and validated) by the caller: only I/O is async
+    async def _run(self, body: str, timeout: float | None) -> CommandResult:
+        record = await self._accepted(body, timeout)
+        if record.terminal is not None:
+            self._final.pop(record.id, None)
+            return record.result()
+        return await self._wait_terminal(record, timeout)
 
-    async def _command_async(self, body: str, wait: bool, timeout: float | None) -> Any:
+    async def _start(self, body: str, timeout: float | None) -> AsyncCommandHandle:
+        record = await self._accepted(body, timeout)
+        if record.terminal is not None:
+            record.result()  # refused or failed at once: raise now
+        return AsyncCommandHandle(self, record)
+
+    async def _accepted(self, body: str, timeout: float | None) -> AckRecord:
+        """Send ``body`` with a fresh ID and wait for its first ack (``CommandTimeout`` without
+        one within the robot's timeout)."""
         await self._ensure_open()
         loop = asyncio.get_running_loop()
         record, text = self._acks.new(body)
@@ -419,14 +450,7 @@ class AsyncRobot(RobotCommands):
                 f"{self.host}:{self.port}, and does it send acks to this client's port "
                 f"{self.ack_port}? (a controller that acks only its --ack-port needs "
                 "AsyncRobot(ack_port=<that port>))") from None
-        if not wait:
-            if record.terminal is not None:
-                record.result()  # refused or failed at once: raise now
-            return AsyncCommandHandle(self, record)
-        if record.terminal is not None:
-            self._final.pop(record.id, None)
-            return record.result()
-        return await self._wait_terminal(record, timeout)
+        return record
 
     async def _wait_terminal(self, record: AckRecord, timeout: float | None) -> CommandResult:
         if record.terminal is not None:
@@ -451,7 +475,7 @@ class AsyncRobot(RobotCommands):
             except TimeoutError:
                 if time.monotonic() - self._last_heard > self.timeout:
                     try:
-                        await self._query("ping")
+                        await self._query(Queries.ping)
                     except ControllerUnreachable as exc:
                         raise CommandTimeout(record.id, record.command, "TIMEOUT",
                                              f"controller stopped answering: {exc}") from None
@@ -473,7 +497,7 @@ class AsyncRobot(RobotCommands):
         """Poll the status until no command is active or queued; returns that status."""
         deadline = time.monotonic() + timeout
         while True:
-            st: RobotStatus = await self.status()
+            st = await self.status()
             if st.command is None and st.queue == 0 and st.state not in ("MOVING", "HOMING"):
                 return st
             if time.monotonic() >= deadline:

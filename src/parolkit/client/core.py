@@ -7,10 +7,12 @@ results, errors) lives here once; the two clients only move datagrams and wait.
 * Datagrams are built by the ``build_*`` functions of :mod:`parolkit.client.robot_api` (one
   formatting implementation for both APIs).
 * :class:`AckBook` matches ``ACK|ID|STATUS|details`` datagrams to the commands we sent.
-* :data:`QUERIES` maps each query to its request, reply tag and parser.
+* :class:`Queries` holds each query (:class:`QuerySpec`): its request, reply tag and the parser
+  of the payload into a typed value (loosely typed JSON becomes frozen dataclasses here, once).
 * :class:`RobotCommands` defines every public command/query method once.  Each method builds
-  its datagram and hands it to ``self._command(...)`` / ``self._query(...)``: the sync
-  client returns results, the async client returns awaitables of the same results.
+  its datagram and hands it to ``self._run`` / ``self._start`` / ``self._query``: the sync
+  client returns results, the async client coroutines of the same results.  It is generic in
+  what those are, so every method has a precise type on both clients (see its docstring).
 
 Units: deg, mm, %, s at this API (as on the wire); joint speeds from the board in steps/s.
 """
@@ -21,10 +23,10 @@ import json
 import math
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Coroutine, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any, NamedTuple
+from typing import Final, Generic, Literal, NamedTuple, TypeAlias, TypeVar, final, overload
 
 from parolkit.client import robot_api as wire
 from parolkit.client.errors import (
@@ -33,6 +35,7 @@ from parolkit.client.errors import (
     CommandInvalid,
     ReplyError,
 )
+from parolkit.client.robot_api import ControlInfo
 from parolkit.errors import ParolkitValueError
 
 __all__ = [
@@ -50,10 +53,14 @@ __all__ = [
     "PlanInfo",
     "QueueInfo",
     "ToolInfo",
+    "ControlInfo",
     "AckRecord",
     "AckBook",
-    "QUERIES",
+    "QuerySpec",
+    "Queries",
     "RobotCommands",
+    "AsyncResult",
+    "OnOff",
     "command_name",
     "result_or_raise",
     "parse_query_reply",
@@ -66,6 +73,16 @@ DEFAULT_TIMEOUT_S = 2.0
 #: The controller drops a subscription after 10 s; clients renew it this often (s).
 SUBSCRIBE_RENEW_S = 3.0
 
+_T = TypeVar("_T")
+#: what a waited command gives (CommandResult, or a coroutine of it) and what ``wait=False``
+#: gives (a handle, or a coroutine of one): see :class:`RobotCommands`
+_Result = TypeVar("_Result", covariant=True)
+_Handle = TypeVar("_Handle", covariant=True)
+
+#: What every command and query of :class:`~parolkit.client.async_robot.AsyncRobot` returns: a
+#: coroutine (``await`` it, or hand it to ``asyncio.create_task``/``gather``) giving a ``_T``.
+AsyncResult: TypeAlias = Coroutine[object, None, _T]
+
 
 def bind_address(host: str) -> str:
     """Local address for a client socket talking to ``host``: loopback for a local
@@ -73,7 +90,7 @@ def bind_address(host: str) -> str:
     return "127.0.0.1" if host in ("127.0.0.1", "localhost") else "0.0.0.0"
 
 
-def check_port(port: Any, name: str, low: int) -> int:
+def check_port(port: object, name: str, low: int) -> int:
     """``port`` if it is an int in ``low``..65535, else ParolkitValueError naming ``name``."""
     if isinstance(port, bool) or not isinstance(port, int) or not low <= port <= 65535:
         raise ParolkitValueError(f"{name} must be an integer in {low}..65535, got {port!r}")
@@ -97,6 +114,7 @@ class AckStatus(str, Enum):
                         AckStatus.INVALID)
 
 
+@final
 @dataclass(frozen=True)
 class CommandResult:
     """What the controller said about one command: ``id``, ``command`` (name),
@@ -217,14 +235,50 @@ class GripperState:
         return "idle"
 
 
-def _f(d: dict[str, Any], key: str, default: float = 0.0) -> float:
-    v = d.get(key, default)
-    return float(v) if v is not None else default
+# =============================================================================================
+# from the decoded JSON of a reply to typed values (once, here; ReplyError names a bad field)
+# =============================================================================================
 
 
-def _i(d: dict[str, Any], key: str, default: int = 0) -> int:
-    v = d.get(key, default)
-    return int(v) if v is not None else default
+def _number(value: object, name: str) -> float:
+    # bool is an int: True/False read as 1/0, as float() always did here
+    if isinstance(value, (int, float)):
+        return float(value)
+    raise ReplyError(f"{name} must be a number, got {value!r}")
+
+
+def _f(d: Mapping[str, object], key: str, default: float = 0.0) -> float:
+    v = d.get(key)
+    return default if v is None else _number(v, key)
+
+
+def _i(d: Mapping[str, object], key: str, default: int = 0) -> int:
+    v = d.get(key)
+    return default if v is None else int(_number(v, key))
+
+
+def _opt_str(d: Mapping[str, object], key: str) -> str | None:
+    """``d[key]`` as text; None when it is absent, null or empty."""
+    v = d.get(key)
+    return str(v) if v not in (None, "") else None
+
+
+def _object(value: object, name: str) -> dict[str, object]:
+    if not isinstance(value, dict):
+        raise ReplyError(f"{name} must be a JSON object, got {value!r}")
+    return value
+
+
+def _sub(d: Mapping[str, object], key: str) -> dict[str, object]:
+    """The JSON object ``d[key]`` ({} when absent or null)."""
+    v = d.get(key)
+    return {} if not v else _object(v, key)
+
+
+def _list(value: object, name: str) -> list[object] | tuple[object, ...]:
+    if not isinstance(value, (list, tuple)):
+        raise ReplyError(f"{name} must be a list, got {value!r}")
+    return value
 
 
 @dataclass(frozen=True)
@@ -242,10 +296,11 @@ class LoopStats:
     frames_sent: int = 0
     frames_received: int = 0
     bytes_dropped: int = 0
-    raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    #: the decoded JSON object (fields the controller did not report are absent)
+    raw: dict[str, object] = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> LoopStats:
+    def from_dict(cls, d: Mapping[str, object]) -> LoopStats:
         return cls(rate_hz=_f(d, "rate_hz"), ticks=_i(d, "ticks"),
                    period_p50_ms=_f(d, "period_p50_ms"), period_p99_ms=_f(d, "period_p99_ms"),
                    period_max_ms=_f(d, "period_max_ms"), overruns=_i(d, "overruns"),
@@ -266,7 +321,7 @@ class BoardInfo:
     xtr: int = 0
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> BoardInfo:
+    def from_dict(cls, d: Mapping[str, object]) -> BoardInfo:
         return cls(connected=bool(d.get("connected", False)), simulated=bool(d.get("simulated", False)),
                    port=str(d.get("port") or ""), timing_ticks=_i(d, "timing_ticks"),
                    timing_ms=_f(d, "timing_ms"), xtr=_i(d, "xtr"))
@@ -282,10 +337,10 @@ class ErrorInfo:
     message: str | None = None
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> ErrorInfo:
-        return cls(temperature=tuple(bool(x) for x in d.get("temperature", (False,) * 6)),
-                   position=tuple(bool(x) for x in d.get("position", (False,) * 6)),
-                   timeout_error=_i(d, "timeout_error"), message=d.get("message") or None)
+    def from_dict(cls, d: Mapping[str, object]) -> ErrorInfo:
+        return cls(temperature=tuple(bool(x) for x in _list(d.get("temperature", (False,) * 6), "temperature")),
+                   position=tuple(bool(x) for x in _list(d.get("position", (False,) * 6), "position")),
+                   timeout_error=_i(d, "timeout_error"), message=_opt_str(d, "message"))
 
     @property
     def any(self) -> bool:
@@ -302,21 +357,23 @@ class ActiveCommand:
     progress: float | None = None
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any] | None) -> ActiveCommand | None:
+    def from_dict(cls, d: object) -> ActiveCommand | None:
+        """None for null (no command); else the command object of a status or GET_QUEUE reply."""
         if not d:
             return None
-        p = d.get("progress")
-        return cls(id=d.get("id"), name=str(d.get("name", "")),
-                   progress=None if p is None else float(p))
+        obj = _object(d, "command")
+        p = obj.get("progress")
+        return cls(id=_opt_str(obj, "id"), name=str(obj.get("name", "")),
+                   progress=None if p is None else _number(p, "progress"))
 
 
-def _gripper_from_dict(d: dict[str, Any]) -> GripperState:
+def _gripper_from_dict(d: Mapping[str, object]) -> GripperState:
     return GripperState(id=_i(d, "id"), position=_i(d, "position"), speed=_i(d, "speed"),
                         current=_i(d, "current"), status_byte=_i(d, "status"),
                         object_detection=_i(d, "object_detection"))
 
 
-def _io_from_dict(d: dict[str, Any]) -> IOState:
+def _io_from_dict(d: Mapping[str, object]) -> IOState:
     return IOState(bool(d.get("in1", 0)), bool(d.get("in2", 0)), bool(d.get("out1", 0)),
                    bool(d.get("out2", 0)), not bool(d.get("estop", 1)))
 
@@ -351,7 +408,7 @@ class RobotStatus:
     stream_mode: bool
     tool: str
     plan_seq: int
-    raw: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    raw: dict[str, object] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def moving(self) -> bool:
@@ -367,7 +424,7 @@ class RobotStatus:
                 and self.state not in (RobotState.ERROR, RobotState.DISCONNECTED, RobotState.ESTOP))
 
     @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> RobotStatus:
+    def from_json(cls, obj: object) -> RobotStatus:
         """Build from the decoded status object; ``ReplyError`` names a missing or bad field
         (e.g. ``status: angles must be a list of 6 finite numbers, got [1, 2]``)."""
         if not isinstance(obj, dict):
@@ -378,7 +435,7 @@ class RobotStatus:
                 state = RobotState(str(raw_state).upper())
             except ValueError:
                 allowed = ", ".join(s.value for s in RobotState)
-                raise ReplyError(f"status: state must be one of {allowed}, got {raw_state!r}") from None
+                raise ReplyError(f"state must be one of {allowed}, got {raw_state!r}") from None
             homed = _flags(obj.get("homed", (False,) * 6), "homed")
             return cls(
                 seq=_i(obj, "seq"), time=_f(obj, "time"), state=state,
@@ -390,33 +447,34 @@ class RobotStatus:
                 pose=Pose(*_vector(obj.get("pose") or [0.0] * 6, "pose")),
                 speeds=_vector(obj.get("speeds", (0.0,) * 6), "speeds"),
                 speeds_deg_s=_vector(obj.get("speeds_deg_s", (0.0,) * 6), "speeds_deg_s"),
-                io=_io_from_dict(obj.get("io") or {}),
-                gripper=_gripper_from_dict(obj.get("gripper") or {}),
-                errors=ErrorInfo.from_dict(obj.get("errors") or {}),
-                board=BoardInfo.from_dict(obj.get("board") or {}),
-                loop=LoopStats.from_dict(obj.get("loop") or {}),
+                io=_io_from_dict(_sub(obj, "io")),
+                gripper=_gripper_from_dict(_sub(obj, "gripper")),
+                errors=ErrorInfo.from_dict(_sub(obj, "errors")),
+                board=BoardInfo.from_dict(_sub(obj, "board")),
+                loop=LoopStats.from_dict(_sub(obj, "loop")),
                 command=ActiveCommand.from_dict(obj.get("command")),
                 queue=_i(obj, "queue"), stream_mode=bool(obj.get("stream_mode", False)),
                 tool=str(obj.get("tool", "")), plan_seq=_i(obj, "plan_seq"), raw=obj,
             )
         except KeyError as exc:
             raise ReplyError(f"status: field {exc.args[0]!r} is missing") from None
+        except ReplyError as exc:
+            raise ReplyError(f"status: {exc}") from None
         except (TypeError, ValueError, AttributeError) as exc:
             raise ReplyError(f"status: malformed field ({exc})") from None
 
 
-def _vector(value: Any, name: str, n: int = 6) -> tuple[float, ...]:
+def _vector(value: object, name: str, n: int = 6) -> tuple[float, ...]:
     """``value`` as a tuple of ``n`` finite floats, else ReplyError naming ``name``."""
-    ok = isinstance(value, (list, tuple)) and len(value) == n and all(
-        not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) for v in value)
-    if not ok:
-        raise ReplyError(f"status: {name} must be a list of {n} finite numbers, got {value!r}")
+    if not (isinstance(value, (list, tuple)) and len(value) == n and all(
+            not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) for v in value)):
+        raise ReplyError(f"{name} must be a list of {n} finite numbers, got {value!r}")
     return tuple(float(v) for v in value)
 
 
-def _flags(value: Any, name: str, n: int = 6) -> tuple[bool, ...]:
+def _flags(value: object, name: str, n: int = 6) -> tuple[bool, ...]:
     if not isinstance(value, (list, tuple)) or len(value) != n:
-        raise ReplyError(f"status: {name} must be a list of {n} booleans, got {value!r}")
+        raise ReplyError(f"{name} must be a list of {n} booleans, got {value!r}")
     return tuple(bool(v) for v in value)
 
 
@@ -430,11 +488,14 @@ class PlanInfo:
     tcp_path: tuple[tuple[float, ...], ...]  # points [x, y, z] mm
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> PlanInfo:
+    def from_dict(cls, d: Mapping[str, object]) -> PlanInfo:
         ta = d.get("target_angles")
-        return cls(seq=_i(d, "seq"), command=d.get("command"),
-                   target_angles=None if ta is None else tuple(float(a) for a in ta),
-                   tcp_path=tuple(tuple(float(v) for v in p) for p in (d.get("tcp_path") or ())))
+        path = _list(d.get("tcp_path") or (), "tcp_path")
+        return cls(seq=_i(d, "seq"), command=_opt_str(d, "command"),
+                   target_angles=None if ta is None else tuple(
+                       _number(a, "target_angles") for a in _list(ta, "target_angles")),
+                   tcp_path=tuple(tuple(_number(v, "tcp_path") for v in _list(p, "tcp_path"))
+                                  for p in path))
 
 
 @dataclass(frozen=True)
@@ -445,9 +506,10 @@ class QueueInfo:
     queued: tuple[tuple[str | None, str], ...]
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> QueueInfo:
+    def from_dict(cls, d: Mapping[str, object]) -> QueueInfo:
+        queued = [_object(q, "queued") for q in _list(d.get("queued") or (), "queued")]
         return cls(active=ActiveCommand.from_dict(d.get("active")),
-                   queued=tuple((q.get("id"), str(q.get("name", ""))) for q in d.get("queued") or ()))
+                   queued=tuple((_opt_str(q, "id"), str(q.get("name", ""))) for q in queued))
 
 
 @dataclass(frozen=True)
@@ -459,7 +521,7 @@ class ToolInfo:
 
 
 # =============================================================================================
-# query table
+# queries: request, reply tag and the parser of the reply's payload
 # =============================================================================================
 
 
@@ -470,11 +532,20 @@ def _numbers(payload: str, count: int, what: str) -> tuple[float, ...]:
         raise ReplyError(str(exc)) from None
 
 
-def _json(payload: str, what: str) -> Any:
+def _json(payload: str, what: str) -> object:
     try:
-        return json.loads(payload)
+        value: object = json.loads(payload)
     except ValueError as exc:
         raise ReplyError(f"{what}: invalid JSON ({exc})") from None
+    return value
+
+
+def _parse_angles(payload: str) -> tuple[float, ...]:
+    return _numbers(payload, 6, "ANGLES")
+
+
+def _parse_speeds(payload: str) -> tuple[float, ...]:
+    return _numbers(payload, 6, "SPEEDS")
 
 
 def _parse_pose_matrix(payload: str) -> tuple[tuple[float, ...], ...]:
@@ -500,9 +571,23 @@ def _parse_status(payload: str) -> RobotStatus:
     return RobotStatus.from_json(_json(payload, "STATUS_JSON"))
 
 
-def _parse_link(payload: str) -> bool:
-    """``SERIAL=`` of a GET_STATUS reply: True when the board link is up."""
-    return wire.parse_status_fields(payload).get("SERIAL", "0").strip() == "1"
+def _parse_loop_stats(payload: str) -> LoopStats:
+    return LoopStats.from_dict(_object(_json(payload, "LOOP_STATS"), "LOOP_STATS"))
+
+
+def _parse_plan(payload: str) -> PlanInfo:
+    return PlanInfo.from_dict(_object(_json(payload, "PLAN"), "PLAN"))
+
+
+def _parse_queue(payload: str) -> QueueInfo:
+    return QueueInfo.from_dict(_object(_json(payload, "QUEUE"), "QUEUE"))
+
+
+def _parse_control(payload: str) -> ControlInfo:
+    try:
+        return wire.parse_control(payload)
+    except ValueError as exc:
+        raise ReplyError(str(exc)) from None
 
 
 def _parse_tool(payload: str) -> ToolInfo:
@@ -510,35 +595,46 @@ def _parse_tool(payload: str) -> ToolInfo:
     return ToolInfo(name=name, pose=_numbers(pose, 6, "TOOL") if pose else (0.0,) * 6)
 
 
-class _Query(NamedTuple):
+def _parse_pong(payload: str) -> bool:
+    return True
+
+
+def _parse_link(payload: str) -> bool:
+    """``SERIAL=`` of a GET_STATUS reply: True when the board link is up."""
+    return wire.parse_status_fields(payload).get("SERIAL", "0").strip() == "1"
+
+
+@dataclass(frozen=True)
+class QuerySpec(Generic[_T]):
+    """One query: its ``request`` datagram, the ``tag`` of its reply and the ``parse``r of the
+    reply's payload into a ``_T``."""
+
     request: str
     tag: str
-    parse: Callable[[str], Any]
+    parse: Callable[[str], _T]
 
 
-#: name -> (request datagram, reply tag, parser of the payload)
-QUERIES: dict[str, _Query] = {
-    "angles": _Query("GET_ANGLES", "ANGLES", lambda p: _numbers(p, 6, "ANGLES")),
-    "pose": _Query("GET_POSE", "POSE", _parse_pose),
-    "pose_matrix": _Query("GET_POSE", "POSE", _parse_pose_matrix),
-    "io": _Query("GET_IO", "IO", _parse_io),
-    "gripper": _Query("GET_GRIPPER", "GRIPPER", _parse_gripper),
-    "speeds": _Query("GET_SPEEDS", "SPEEDS", lambda p: _numbers(p, 6, "SPEEDS")),
-    "status": _Query("GET_STATUS_JSON", "STATUS_JSON", _parse_status),
-    "status_text": _Query("GET_STATUS", "STATUS", wire.parse_status_fields),
-    "loop_stats": _Query("GET_LOOP_STATS", "LOOP_STATS",
-                         lambda p: LoopStats.from_dict(_json(p, "LOOP_STATS"))),
-    "plan_info": _Query("GET_PLAN", "PLAN", lambda p: PlanInfo.from_dict(_json(p, "PLAN"))),
-    "queue": _Query("GET_QUEUE", "QUEUE", lambda p: QueueInfo.from_dict(_json(p, "QUEUE"))),
-    "control": _Query("GET_CONTROL", "CONTROL", lambda p: _json(p, "CONTROL")),
-    "tool": _Query("GET_TOOL", "TOOL", _parse_tool),
+class Queries:
+    """Every query of the object API (``parse_query_reply(Queries.pose, text)`` is a Pose)."""
+
+    angles: Final = QuerySpec("GET_ANGLES", "ANGLES", _parse_angles)
+    pose: Final = QuerySpec("GET_POSE", "POSE", _parse_pose)
+    pose_matrix: Final = QuerySpec("GET_POSE", "POSE", _parse_pose_matrix)
+    io: Final = QuerySpec("GET_IO", "IO", _parse_io)
+    gripper: Final = QuerySpec("GET_GRIPPER", "GRIPPER", _parse_gripper)
+    speeds: Final = QuerySpec("GET_SPEEDS", "SPEEDS", _parse_speeds)
+    status: Final = QuerySpec("GET_STATUS_JSON", "STATUS_JSON", _parse_status)
+    loop_stats: Final = QuerySpec("GET_LOOP_STATS", "LOOP_STATS", _parse_loop_stats)
+    plan_info: Final = QuerySpec("GET_PLAN", "PLAN", _parse_plan)
+    queue: Final = QuerySpec("GET_QUEUE", "QUEUE", _parse_queue)
+    control: Final = QuerySpec("GET_CONTROL", "CONTROL", _parse_control)
+    tool: Final = QuerySpec("GET_TOOL", "TOOL", _parse_tool)
     # PING is answered with the bare word PONG (as the original controller did)
-    "ping": _Query("PING", "PONG", lambda p: True),
-    "link": _Query("GET_STATUS", "STATUS", _parse_link),
-}
+    ping: Final = QuerySpec("PING", "PONG", _parse_pong)
+    link: Final = QuerySpec("GET_STATUS", "STATUS", _parse_link)
 
 
-def parse_query_reply(query: _Query, text: str) -> Any:
+def parse_query_reply(query: QuerySpec[_T], text: str) -> _T:
     """Parse the reply to ``query``; ``ReplyError`` for ``ERROR|...`` or a malformed reply."""
     head, _, payload = text.partition("|")
     if head == "ERROR":
@@ -546,7 +642,6 @@ def parse_query_reply(query: _Query, text: str) -> Any:
     if head != query.tag:
         raise ReplyError(f"{query.request}: expected a {query.tag}|... reply, got {text[:80]!r}")
     return query.parse(payload)
-
 
 # =============================================================================================
 # acknowledgements
@@ -647,10 +742,10 @@ class AckBook:
 # =============================================================================================
 
 
-def _check(build: Callable[..., str], *args: Any, **kwargs: Any) -> str:
+def _check(build: Callable[..., str], *args: object) -> str:
     """Run a datagram builder, turning its ValueError into ParolkitValueError."""
     try:
-        return build(*args, **kwargs)
+        return build(*args)
     except ParolkitValueError:
         raise
     except ValueError as exc:
@@ -666,7 +761,11 @@ def _opt_timeout(timeout: float | None) -> float | None:
     return float(timeout)
 
 
-def _flag(value: Any, name: str) -> bool:
+#: an on/off argument: True/False, 0/1, or the words on/off, high/low (any case)
+OnOff: TypeAlias = bool | Literal[0, 1] | str
+
+
+def _flag(value: object, name: str) -> bool:
     if isinstance(value, bool):
         return value
     if value in (0, 1):
@@ -676,310 +775,707 @@ def _flag(value: Any, name: str) -> bool:
     raise ParolkitValueError(f"{name} must be True/False, 0/1, 'on'/'off' or 'high'/'low', got {value!r}")
 
 
-class RobotCommands:
+class RobotCommands(Generic[_Result, _Handle]):
     """Every command and query of the object API, written once.
 
-    Subclasses implement ``_command(body, wait, timeout)`` and ``_query(name)``; in
-    :class:`~parolkit.client.async_robot.AsyncRobot` they return awaitables, so every
-    method below is awaited there.
+    ``_Result`` is what a waited command gives and ``_Handle`` what ``wait=False`` gives:
+    :class:`~parolkit.client.robot.Robot` is ``RobotCommands[CommandResult, CommandHandle]``,
+    :class:`~parolkit.client.async_robot.AsyncRobot` is
+    ``RobotCommands[AsyncResult[CommandResult], AsyncResult[AsyncCommandHandle]]`` (each
+    method is awaited there).  Subclasses implement ``_run`` (send, wait for the terminal ack),
+    ``_start`` (send, wait for the first ack, return a handle) and ``_query``.
 
     ``wait=True`` (default for motion): return the :class:`CommandResult` once the command
     COMPLETED; raise :class:`~parolkit.client.errors.CommandFailed` / ``CommandInvalid`` /
     ``CommandCancelled`` with the controller's reason, or ``CommandTimeout`` after
     ``timeout`` s (``None``: no limit while the controller keeps answering).
     ``wait=False``: return a handle as soon as the controller accepted the command (its
-    first ack); ``CommandInvalid`` is still raised at once for a refused command.
+    first ack); ``CommandInvalid`` is still raised at once for a refused command.  A literal
+    ``wait=True``/``wait=False`` selects the return type for type checkers; a ``bool``
+    variable gives the union.
     """
 
-    def _command(self, body: str, wait: bool, timeout: float | None) -> Any:  # pragma: no cover
+    def _run(self, body: str, timeout: float | None) -> _Result:  # pragma: no cover
         raise NotImplementedError
 
-    def _query(self, name: str) -> Any:  # pragma: no cover
+    def _start(self, body: str, timeout: float | None) -> _Handle:  # pragma: no cover
         raise NotImplementedError
+
+    def _query(self, query: QuerySpec[_T]) -> _T | AsyncResult[_T]:  # pragma: no cover
+        raise NotImplementedError
+
+    def _command(self, body: str, wait: bool, timeout: float | None) -> _Result | _Handle:
+        t = _opt_timeout(timeout)
+        return self._run(body, t) if wait else self._start(body, t)
 
     # ---- motion ----
+    @overload
     def move_joints(self, angles: Sequence[float], duration: float | None = None,
                     speed: float | None = None, accel: float | None = None,
                     profile: str | None = None, tracking: str | None = None,
-                    wait: bool = True, timeout: float | None = None) -> Any:
+                    wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def move_joints(self, angles: Sequence[float], duration: float | None = None,
+                    speed: float | None = None, accel: float | None = None,
+                    profile: str | None = None, tracking: str | None = None, *,
+                    wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def move_joints(self, angles: Sequence[float], duration: float | None = None,
+                    speed: float | None = None, accel: float | None = None,
+                    profile: str | None = None, tracking: str | None = None, wait: bool = True,
+                    timeout: float | None = None) -> _Result | _Handle: ...
+
+    def move_joints(self, angles: Sequence[float], duration: float | None = None,
+                    speed: float | None = None, accel: float | None = None,
+                    profile: str | None = None, tracking: str | None = None, wait: bool = True,
+                    timeout: float | None = None) -> _Result | _Handle:
         """Joint-space move to ``angles`` (deg) in ``duration`` s or at ``speed`` % (one of the
         two); ``accel`` %, ``profile`` poly|trap|ruckig|toppra, ``tracking`` position|speed."""
-        return self._command(_check(wire.build_move_joint, angles, duration, speed, accel, profile,
-                                    tracking), wait, _opt_timeout(timeout))
+        body = _check(wire.build_move_joint, angles, duration, speed, accel, profile, tracking)
+        return self._command(body, wait, timeout)
 
+    @overload
     def move_pose(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, accel: float | None = None,
                   profile: str | None = None, tracking: str | None = None,
-                  wait: bool = True, timeout: float | None = None) -> Any:
+                  wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def move_pose(self, pose: Sequence[float], duration: float | None = None,
+                  speed: float | None = None, accel: float | None = None,
+                  profile: str | None = None, tracking: str | None = None, *, wait: Literal[False],
+                  timeout: float | None = None) -> _Handle: ...
+    @overload
+    def move_pose(self, pose: Sequence[float], duration: float | None = None,
+                  speed: float | None = None, accel: float | None = None,
+                  profile: str | None = None, tracking: str | None = None, wait: bool = True,
+                  timeout: float | None = None) -> _Result | _Handle: ...
+
+    def move_pose(self, pose: Sequence[float], duration: float | None = None,
+                  speed: float | None = None, accel: float | None = None,
+                  profile: str | None = None, tracking: str | None = None, wait: bool = True,
+                  timeout: float | None = None) -> _Result | _Handle:
         """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK along a joint-space path."""
-        return self._command(_check(wire.build_move_pose, pose, duration, speed, accel, profile,
-                                    tracking), wait, _opt_timeout(timeout))
+        body = _check(wire.build_move_pose, pose, duration, speed, accel, profile, tracking)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def move_cart(self, pose: Sequence[float], duration: float | None = None,
+                  speed: float | None = None, profile: str | None = None,
+                  tracking: str | None = None, wait: Literal[True] = True,
+                  timeout: float | None = None) -> _Result: ...
+    @overload
+    def move_cart(self, pose: Sequence[float], duration: float | None = None,
+                  speed: float | None = None, profile: str | None = None,
+                  tracking: str | None = None, *, wait: Literal[False],
+                  timeout: float | None = None) -> _Handle: ...
+    @overload
+    def move_cart(self, pose: Sequence[float], duration: float | None = None,
+                  speed: float | None = None, profile: str | None = None,
+                  tracking: str | None = None, wait: bool = True,
+                  timeout: float | None = None) -> _Result | _Handle: ...
 
     def move_cart(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, profile: str | None = None,
                   tracking: str | None = None, wait: bool = True,
-                  timeout: float | None = None) -> Any:
+                  timeout: float | None = None) -> _Result | _Handle:
         """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg)."""
-        return self._command(_check(wire.build_move_cart, pose, duration, speed, profile, tracking),
-                             wait, _opt_timeout(timeout))
+        body = _check(wire.build_move_cart, pose, duration, speed, profile, tracking)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def move_cart_rel_trf(self, delta: Sequence[float], duration: float | None = None,
+                          speed: float | None = None, profile: str | None = None,
+                          tracking: str | None = None, wait: Literal[True] = True,
+                          timeout: float | None = None) -> _Result: ...
+    @overload
+    def move_cart_rel_trf(self, delta: Sequence[float], duration: float | None = None,
+                          speed: float | None = None, profile: str | None = None,
+                          tracking: str | None = None, *, wait: Literal[False],
+                          timeout: float | None = None) -> _Handle: ...
+    @overload
+    def move_cart_rel_trf(self, delta: Sequence[float], duration: float | None = None,
+                          speed: float | None = None, profile: str | None = None,
+                          tracking: str | None = None, wait: bool = True,
+                          timeout: float | None = None) -> _Result | _Handle: ...
 
     def move_cart_rel_trf(self, delta: Sequence[float], duration: float | None = None,
                           speed: float | None = None, profile: str | None = None,
                           tracking: str | None = None, wait: bool = True,
-                          timeout: float | None = None) -> Any:
+                          timeout: float | None = None) -> _Result | _Handle:
         """Relative straight-line move in the tool frame [dx, dy, dz, dA, dB, dC] (mm, deg)."""
-        return self._command(_check(wire.build_move_cart_rel_trf, delta, duration, speed, profile,
-                                    tracking), wait, _opt_timeout(timeout))
+        body = _check(wire.build_move_cart_rel_trf, delta, duration, speed, profile, tracking)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def jog_joint(self, joint: int, speed: float, duration: float | None = None,
+                  distance: float | None = None, wait: Literal[False] = False,
+                  timeout: float | None = None) -> _Handle: ...
+    @overload
+    def jog_joint(self, joint: int, speed: float, duration: float | None = None,
+                  distance: float | None = None, *, wait: Literal[True],
+                  timeout: float | None = None) -> _Result: ...
+    @overload
+    def jog_joint(self, joint: int, speed: float, duration: float | None = None,
+                  distance: float | None = None, wait: bool = False,
+                  timeout: float | None = None) -> _Result | _Handle: ...
 
     def jog_joint(self, joint: int, speed: float, duration: float | None = None,
                   distance: float | None = None, wait: bool = False,
-                  timeout: float | None = None) -> Any:
+                  timeout: float | None = None) -> _Result | _Handle:
         """Jog joint ``joint`` (1..6; negative -1..-6 for the negative direction) at ``speed``
         % of its jog speed for ``duration`` s and/or ``distance`` deg."""
-        index = _jog_index(joint)
-        return self._command(_check(wire.build_jog, index, speed, duration, distance), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_jog, _jog_index(joint), speed, duration, distance)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def jog_multiple(self, joints: Sequence[int], speeds: Sequence[float], duration: float,
+                     wait: Literal[False] = False, timeout: float | None = None) -> _Handle: ...
+    @overload
+    def jog_multiple(self, joints: Sequence[int], speeds: Sequence[float], duration: float,
+                     wait: Literal[True], timeout: float | None = None) -> _Result: ...
+    @overload
+    def jog_multiple(self, joints: Sequence[int], speeds: Sequence[float], duration: float,
+                     wait: bool = False, timeout: float | None = None) -> _Result | _Handle: ...
 
     def jog_multiple(self, joints: Sequence[int], speeds: Sequence[float], duration: float,
-                     wait: bool = False, timeout: float | None = None) -> Any:
+                     wait: bool = False, timeout: float | None = None) -> _Result | _Handle:
         """Jog several joints (1..6 positive, -1..-6 negative) at ``speeds`` % for ``duration`` s."""
-        idx = [_jog_index(j) for j in joints] if not isinstance(joints, (str, bytes)) else joints
-        return self._command(_check(wire.build_multijog, idx, speeds, duration), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_multijog, _jog_indices(joints), speeds, duration)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def jog_cartesian(self, frame: str, axis: str, speed: float, duration: float,
+                      wait: Literal[False] = False, timeout: float | None = None) -> _Handle: ...
+    @overload
+    def jog_cartesian(self, frame: str, axis: str, speed: float, duration: float,
+                      wait: Literal[True], timeout: float | None = None) -> _Result: ...
+    @overload
+    def jog_cartesian(self, frame: str, axis: str, speed: float, duration: float,
+                      wait: bool = False, timeout: float | None = None) -> _Result | _Handle: ...
 
     def jog_cartesian(self, frame: str, axis: str, speed: float, duration: float,
-                      wait: bool = False, timeout: float | None = None) -> Any:
+                      wait: bool = False, timeout: float | None = None) -> _Result | _Handle:
         """Cartesian jog in ``frame`` WRF|TRF along/about ``axis`` X+ ... RZ- at ``speed`` %."""
-        return self._command(_check(wire.build_cartjog, frame, axis, speed, duration), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_cartjog, frame, axis, speed, duration)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def speed_joint(self, speeds_deg_s: Sequence[float], duration: float,
+                    wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def speed_joint(self, speeds_deg_s: Sequence[float], duration: float, wait: Literal[False],
+                    timeout: float | None = None) -> _Handle: ...
+    @overload
+    def speed_joint(self, speeds_deg_s: Sequence[float], duration: float, wait: bool = True,
+                    timeout: float | None = None) -> _Result | _Handle: ...
 
     def speed_joint(self, speeds_deg_s: Sequence[float], duration: float, wait: bool = True,
-                    timeout: float | None = None) -> Any:
+                    timeout: float | None = None) -> _Result | _Handle:
         """Run the joints at constant ``speeds_deg_s`` (deg/s) for ``duration`` s."""
-        return self._command(_check(wire.build_speed_joint, speeds_deg_s, duration), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_speed_joint, speeds_deg_s, duration)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def move_joint_path(self, points: Sequence[Sequence[float]], times: Sequence[float],
+                        velocities: Sequence[Sequence[float]] | None = None,
+                        wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def move_joint_path(self, points: Sequence[Sequence[float]], times: Sequence[float],
+                        velocities: Sequence[Sequence[float]] | None = None, *,
+                        wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def move_joint_path(self, points: Sequence[Sequence[float]], times: Sequence[float],
+                        velocities: Sequence[Sequence[float]] | None = None, wait: bool = True,
+                        timeout: float | None = None) -> _Result | _Handle: ...
 
     def move_joint_path(self, points: Sequence[Sequence[float]], times: Sequence[float],
                         velocities: Sequence[Sequence[float]] | None = None, wait: bool = True,
-                        timeout: float | None = None) -> Any:
+                        timeout: float | None = None) -> _Result | _Handle:
         """Pass through ``points`` (each J1..J6 in deg) at ``times`` (s from the start, > 0 and
         increasing) as ONE trajectory from where the previous command ends, at rest at both
         ends; ``velocities`` (deg/s per point, the last zeros) or None for the controller's C2
         spline.  Each point is commanded on tick ``round(time * rate)`` (``MOVEJOINTPATH``)."""
-        return self._command(_check(wire.build_move_joint_path, points, times, velocities), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_move_joint_path, points, times, velocities)
+        return self._command(body, wait, timeout)
 
-    def home(self, wait: bool = True, timeout: float | None = None) -> Any:
+    @overload
+    def home(self, wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def home(self, wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def home(self, wait: bool = True, timeout: float | None = None) -> _Result | _Handle: ...
+
+    def home(self, wait: bool = True, timeout: float | None = None) -> _Result | _Handle:
         """Run the board's homing sequence (completes when every joint is homed)."""
-        return self._command(wire.build_home(), wait, _opt_timeout(timeout))
+        return self._command(wire.build_home(), wait, timeout)
 
-    def delay(self, seconds: float, wait: bool = True, timeout: float | None = None) -> Any:
+    @overload
+    def delay(self, seconds: float, wait: Literal[True] = True,
+              timeout: float | None = None) -> _Result: ...
+    @overload
+    def delay(self, seconds: float, wait: Literal[False],
+              timeout: float | None = None) -> _Handle: ...
+    @overload
+    def delay(self, seconds: float, wait: bool = True,
+              timeout: float | None = None) -> _Result | _Handle: ...
+
+    def delay(self, seconds: float, wait: bool = True,
+              timeout: float | None = None) -> _Result | _Handle:
         """Queue a pause of ``seconds``."""
-        return self._command(_check(wire.build_delay, seconds), wait, _opt_timeout(timeout))
+        body = _check(wire.build_delay, seconds)
+        return self._command(body, wait, timeout)
 
-    def wait_input(self, input_number: int, state: Any, input_timeout: float | None = None,
-                   wait: bool = True, timeout: float | None = None) -> Any:
+    @overload
+    def wait_input(self, input_number: int, state: OnOff, input_timeout: float | None = None,
+                   wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def wait_input(self, input_number: int, state: OnOff, input_timeout: float | None = None, *,
+                   wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def wait_input(self, input_number: int, state: OnOff, input_timeout: float | None = None,
+                   wait: bool = True, timeout: float | None = None) -> _Result | _Handle: ...
+
+    def wait_input(self, input_number: int, state: OnOff, input_timeout: float | None = None,
+                   wait: bool = True, timeout: float | None = None) -> _Result | _Handle:
         """Queue a wait until IN``input_number`` (1|2) equals ``state``; the command FAILS
         (``CommandFailed``) when ``input_timeout`` s pass first."""
-        st = 1 if _flag(state, "state") else 0
-        return self._command(_check(wire.build_wait_input, input_number, st, input_timeout), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_wait_input, input_number, 1 if _flag(state, "state") else 0,
+                      input_timeout)
+        return self._command(body, wait, timeout)
 
-    # ---- IO and grippers ----
-    def set_output(self, output: int, state: Any, wait: bool = True,
-                   timeout: float | None = None) -> Any:
+    @overload
+    def set_output(self, output: int, state: OnOff, wait: Literal[True] = True,
+                   timeout: float | None = None) -> _Result: ...
+    @overload
+    def set_output(self, output: int, state: OnOff, wait: Literal[False],
+                   timeout: float | None = None) -> _Handle: ...
+    @overload
+    def set_output(self, output: int, state: OnOff, wait: bool = True,
+                   timeout: float | None = None) -> _Result | _Handle: ...
+
+    def set_output(self, output: int, state: OnOff, wait: bool = True,
+                   timeout: float | None = None) -> _Result | _Handle:
         """Set OUT1/OUT2 (``output`` 1|2) high (True) or low (False); queued like a move."""
-        action = "open" if _flag(state, "state") else "close"
-        return self._command(_check(wire.build_pneumatic_gripper, action, output), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_pneumatic_gripper, "open" if _flag(state, "state") else "close",
+                      output)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def pneumatic(self, action: str, port: int, wait: Literal[True] = True,
+                  timeout: float | None = None) -> _Result: ...
+    @overload
+    def pneumatic(self, action: str, port: int, wait: Literal[False],
+                  timeout: float | None = None) -> _Handle: ...
+    @overload
+    def pneumatic(self, action: str, port: int, wait: bool = True,
+                  timeout: float | None = None) -> _Result | _Handle: ...
 
     def pneumatic(self, action: str, port: int, wait: bool = True,
-                  timeout: float | None = None) -> Any:
+                  timeout: float | None = None) -> _Result | _Handle:
         """Pneumatic gripper ``action`` open|close on output ``port`` 1|2."""
-        return self._command(_check(wire.build_pneumatic_gripper, action, port), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_pneumatic_gripper, action, port)
+        return self._command(body, wait, timeout)
 
+    @overload
     def gripper_move(self, position: int, speed: int = 150, current: int = 500,
-                     wait: bool = True, timeout: float | None = None) -> Any:
+                     wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def gripper_move(self, position: int, speed: int = 150, current: int = 500, *,
+                     wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def gripper_move(self, position: int, speed: int = 150, current: int = 500, wait: bool = True,
+                     timeout: float | None = None) -> _Result | _Handle: ...
+
+    def gripper_move(self, position: int, speed: int = 150, current: int = 500, wait: bool = True,
+                     timeout: float | None = None) -> _Result | _Handle:
         """SSG-48: move to ``position`` 0..255 at ``speed`` 0..255 with ``current`` 0..1300 mA."""
-        return self._command(_check(wire.build_electric_gripper, "move", position, speed, current),
-                             wait, _opt_timeout(timeout))
+        body = _check(wire.build_electric_gripper, "move", position, speed, current)
+        return self._command(body, wait, timeout)
 
-    def gripper_calibrate(self, wait: bool = True, timeout: float | None = None) -> Any:
+    @overload
+    def gripper_calibrate(self, wait: Literal[True] = True,
+                          timeout: float | None = None) -> _Result: ...
+    @overload
+    def gripper_calibrate(self, wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def gripper_calibrate(self, wait: bool = True,
+                          timeout: float | None = None) -> _Result | _Handle: ...
+
+    def gripper_calibrate(self, wait: bool = True,
+                          timeout: float | None = None) -> _Result | _Handle:
         """SSG-48: calibrate and activate."""
-        return self._command(_check(wire.build_electric_gripper, "calibrate"), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_electric_gripper, "calibrate")
+        return self._command(body, wait, timeout)
 
-    def gripper_clear_error(self, wait: bool = True, timeout: float | None = None) -> Any:
+    @overload
+    def gripper_clear_error(self, wait: Literal[True] = True,
+                            timeout: float | None = None) -> _Result: ...
+    @overload
+    def gripper_clear_error(self, wait: Literal[False],
+                            timeout: float | None = None) -> _Handle: ...
+    @overload
+    def gripper_clear_error(self, wait: bool = True,
+                            timeout: float | None = None) -> _Result | _Handle: ...
+
+    def gripper_clear_error(self, wait: bool = True,
+                            timeout: float | None = None) -> _Result | _Handle:
         """SSG-48: clear a gripper error."""
-        return self._command(_check(wire.build_electric_gripper, "clear_error"), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_electric_gripper, "clear_error")
+        return self._command(body, wait, timeout)
 
-    # ---- smooth paths (mm, deg; exactly one of duration s / speed %) ----
+    @overload
+    def smooth_circle(self, center: Sequence[float], radius: float, plane: str = "XY",
+                      frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                      duration: float | None = None, speed: float | None = None,
+                      clockwise: bool = False, wait: Literal[True] = True,
+                      timeout: float | None = None) -> _Result: ...
+    @overload
+    def smooth_circle(self, center: Sequence[float], radius: float, plane: str = "XY",
+                      frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                      duration: float | None = None, speed: float | None = None,
+                      clockwise: bool = False, *, wait: Literal[False],
+                      timeout: float | None = None) -> _Handle: ...
+    @overload
     def smooth_circle(self, center: Sequence[float], radius: float, plane: str = "XY",
                       frame: str = "WRF", start_pose: Sequence[float] | None = None,
                       duration: float | None = None, speed: float | None = None,
                       clockwise: bool = False, wait: bool = True,
-                      timeout: float | None = None) -> Any:
+                      timeout: float | None = None) -> _Result | _Handle: ...
+
+    def smooth_circle(self, center: Sequence[float], radius: float, plane: str = "XY",
+                      frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                      duration: float | None = None, speed: float | None = None,
+                      clockwise: bool = False, wait: bool = True,
+                      timeout: float | None = None) -> _Result | _Handle:
         """Full circle of ``radius`` mm about ``center`` [x, y, z] mm in ``plane``."""
-        return self._command(_check(wire.build_smooth_circle, center, radius, plane, frame,
-                                    start_pose, duration, speed, clockwise), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_smooth_circle, center, radius, plane, frame, start_pose, duration,
+                      speed, clockwise)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def smooth_arc_center(self, end_pose: Sequence[float], center: Sequence[float],
+                          frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                          duration: float | None = None, speed: float | None = None,
+                          clockwise: bool = False, wait: Literal[True] = True,
+                          timeout: float | None = None) -> _Result: ...
+    @overload
+    def smooth_arc_center(self, end_pose: Sequence[float], center: Sequence[float],
+                          frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                          duration: float | None = None, speed: float | None = None,
+                          clockwise: bool = False, *, wait: Literal[False],
+                          timeout: float | None = None) -> _Handle: ...
+    @overload
+    def smooth_arc_center(self, end_pose: Sequence[float], center: Sequence[float],
+                          frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                          duration: float | None = None, speed: float | None = None,
+                          clockwise: bool = False, wait: bool = True,
+                          timeout: float | None = None) -> _Result | _Handle: ...
 
     def smooth_arc_center(self, end_pose: Sequence[float], center: Sequence[float],
                           frame: str = "WRF", start_pose: Sequence[float] | None = None,
                           duration: float | None = None, speed: float | None = None,
                           clockwise: bool = False, wait: bool = True,
-                          timeout: float | None = None) -> Any:
+                          timeout: float | None = None) -> _Result | _Handle:
         """Arc to ``end_pose`` about ``center``."""
-        return self._command(_check(wire.build_smooth_arc_center, end_pose, center, frame,
-                                    start_pose, duration, speed, clockwise), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_smooth_arc_center, end_pose, center, frame, start_pose, duration,
+                      speed, clockwise)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def smooth_arc_param(self, end_pose: Sequence[float], radius: float, arc_angle: float,
+                         frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                         duration: float | None = None, speed: float | None = None,
+                         clockwise: bool = False, wait: Literal[True] = True,
+                         timeout: float | None = None) -> _Result: ...
+    @overload
+    def smooth_arc_param(self, end_pose: Sequence[float], radius: float, arc_angle: float,
+                         frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                         duration: float | None = None, speed: float | None = None,
+                         clockwise: bool = False, *, wait: Literal[False],
+                         timeout: float | None = None) -> _Handle: ...
+    @overload
+    def smooth_arc_param(self, end_pose: Sequence[float], radius: float, arc_angle: float,
+                         frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                         duration: float | None = None, speed: float | None = None,
+                         clockwise: bool = False, wait: bool = True,
+                         timeout: float | None = None) -> _Result | _Handle: ...
 
     def smooth_arc_param(self, end_pose: Sequence[float], radius: float, arc_angle: float,
                          frame: str = "WRF", start_pose: Sequence[float] | None = None,
                          duration: float | None = None, speed: float | None = None,
                          clockwise: bool = False, wait: bool = True,
-                         timeout: float | None = None) -> Any:
+                         timeout: float | None = None) -> _Result | _Handle:
         """Arc to ``end_pose`` with ``radius`` mm over ``arc_angle`` deg."""
-        return self._command(_check(wire.build_smooth_arc_param, end_pose, radius, arc_angle,
-                                    frame, start_pose, duration, speed, clockwise), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_smooth_arc_param, end_pose, radius, arc_angle, frame, start_pose,
+                      duration, speed, clockwise)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def smooth_spline(self, waypoints: Sequence[Sequence[float]], frame: str = "WRF",
+                      start_pose: Sequence[float] | None = None, duration: float | None = None,
+                      speed: float | None = None, wait: Literal[True] = True,
+                      timeout: float | None = None) -> _Result: ...
+    @overload
+    def smooth_spline(self, waypoints: Sequence[Sequence[float]], frame: str = "WRF",
+                      start_pose: Sequence[float] | None = None, duration: float | None = None,
+                      speed: float | None = None, *, wait: Literal[False],
+                      timeout: float | None = None) -> _Handle: ...
+    @overload
+    def smooth_spline(self, waypoints: Sequence[Sequence[float]], frame: str = "WRF",
+                      start_pose: Sequence[float] | None = None, duration: float | None = None,
+                      speed: float | None = None, wait: bool = True,
+                      timeout: float | None = None) -> _Result | _Handle: ...
 
     def smooth_spline(self, waypoints: Sequence[Sequence[float]], frame: str = "WRF",
-                      start_pose: Sequence[float] | None = None,
-                      duration: float | None = None, speed: float | None = None,
-                      wait: bool = True, timeout: float | None = None) -> Any:
+                      start_pose: Sequence[float] | None = None, duration: float | None = None,
+                      speed: float | None = None, wait: bool = True,
+                      timeout: float | None = None) -> _Result | _Handle:
         """Cubic spline through ``waypoints`` (poses)."""
-        return self._command(_check(wire.build_smooth_spline, waypoints, frame, start_pose,
-                                    duration, speed), wait, _opt_timeout(timeout))
+        body = _check(wire.build_smooth_spline, waypoints, frame, start_pose, duration, speed)
+        return self._command(body, wait, timeout)
+
+    @overload
+    def smooth_helix(self, center: Sequence[float], radius: float, pitch: float, height: float,
+                     frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                     duration: float | None = None, speed: float | None = None,
+                     clockwise: bool = False, wait: Literal[True] = True,
+                     timeout: float | None = None) -> _Result: ...
+    @overload
+    def smooth_helix(self, center: Sequence[float], radius: float, pitch: float, height: float,
+                     frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                     duration: float | None = None, speed: float | None = None,
+                     clockwise: bool = False, *, wait: Literal[False],
+                     timeout: float | None = None) -> _Handle: ...
+    @overload
+    def smooth_helix(self, center: Sequence[float], radius: float, pitch: float, height: float,
+                     frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                     duration: float | None = None, speed: float | None = None,
+                     clockwise: bool = False, wait: bool = True,
+                     timeout: float | None = None) -> _Result | _Handle: ...
 
     def smooth_helix(self, center: Sequence[float], radius: float, pitch: float, height: float,
                      frame: str = "WRF", start_pose: Sequence[float] | None = None,
                      duration: float | None = None, speed: float | None = None,
                      clockwise: bool = False, wait: bool = True,
-                     timeout: float | None = None) -> Any:
+                     timeout: float | None = None) -> _Result | _Handle:
         """Helix about ``center``: ``radius``, ``pitch`` per turn, total ``height`` (mm)."""
-        return self._command(_check(wire.build_smooth_helix, center, radius, pitch, height, frame,
-                                    start_pose, duration, speed, clockwise), wait,
-                             _opt_timeout(timeout))
+        body = _check(wire.build_smooth_helix, center, radius, pitch, height, frame, start_pose,
+                      duration, speed, clockwise)
+        return self._command(body, wait, timeout)
 
-    def smooth_blend(self, segments: Sequence[dict[str, Any]], blend_time: float = 0.5,
+    @overload
+    def smooth_blend(self, segments: Sequence[Mapping[str, object]], blend_time: float = 0.5,
                      frame: str = "WRF", start_pose: Sequence[float] | None = None,
                      duration: float | None = None, speed: float | None = None,
-                     wait: bool = True, timeout: float | None = None) -> Any:
+                     wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def smooth_blend(self, segments: Sequence[Mapping[str, object]], blend_time: float = 0.5,
+                     frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                     duration: float | None = None, speed: float | None = None, *,
+                     wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def smooth_blend(self, segments: Sequence[Mapping[str, object]], blend_time: float = 0.5,
+                     frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                     duration: float | None = None, speed: float | None = None, wait: bool = True,
+                     timeout: float | None = None) -> _Result | _Handle: ...
+
+    def smooth_blend(self, segments: Sequence[Mapping[str, object]], blend_time: float = 0.5,
+                     frame: str = "WRF", start_pose: Sequence[float] | None = None,
+                     duration: float | None = None, speed: float | None = None, wait: bool = True,
+                     timeout: float | None = None) -> _Result | _Handle:
         """Blend LINE/CIRCLE/ARC/SPLINE segment dicts into one path (see robot_api)."""
-        return self._command(_check(wire.build_smooth_blend, segments, blend_time, frame,
-                                    start_pose, duration, speed), wait, _opt_timeout(timeout))
+        body = _check(wire.build_smooth_blend, segments, blend_time, frame, start_pose, duration,
+                      speed)
+        return self._command(body, wait, timeout)
 
     # ---- immediate control ----
-    def stop(self, timeout: float | None = None) -> Any:
+    def stop(self, timeout: float | None = None) -> _Result:
         """Cancel the active command and the queue (they end CANCELLED); hold position."""
-        return self._command("STOP", True, _opt_timeout(timeout))
+        return self._run("STOP", _opt_timeout(timeout))
 
-    def enable(self, timeout: float | None = None) -> Any:
+    def enable(self, timeout: float | None = None) -> _Result:
         """Enable the robot (clears a released E-stop latch and a latched error)."""
-        return self._command("ENABLE", True, _opt_timeout(timeout))
+        return self._run("ENABLE", _opt_timeout(timeout))
 
-    def disable(self, timeout: float | None = None) -> Any:
+    def disable(self, timeout: float | None = None) -> _Result:
         """Disable the robot."""
-        return self._command("DISABLE", True, _opt_timeout(timeout))
+        return self._run("DISABLE", _opt_timeout(timeout))
 
-    def clear_error(self, timeout: float | None = None) -> Any:
+    def clear_error(self, timeout: float | None = None) -> _Result:
         """Clear a latched error."""
-        return self._command("CLEAR_ERROR", True, _opt_timeout(timeout))
+        return self._run("CLEAR_ERROR", _opt_timeout(timeout))
 
-    def estop(self, timeout: float | None = None) -> Any:
+    def estop(self, timeout: float | None = None) -> _Result:
         """Software E-stop: cancel everything, latched until :meth:`enable`."""
-        return self._command("ESTOP", True, _opt_timeout(timeout))
+        return self._run("ESTOP", _opt_timeout(timeout))
 
-    def stream(self, on: Any, timeout: float | None = None) -> Any:
+    def stream(self, on: OnOff, timeout: float | None = None) -> _Result:
         """Streaming jog mode on/off (newest jog replaces the previous one)."""
-        return self._command(_check(wire.build_stream, _flag(on, "on")), True,
-                             _opt_timeout(timeout))
+        return self._run(_check(wire.build_stream, _flag(on, "on")), _opt_timeout(timeout))
 
-    def set_tool(self, name: str, timeout: float | None = None) -> Any:
+    def set_tool(self, name: str, timeout: float | None = None) -> _Result:
         """Select the tool ``name`` (default, flange or one from the config)."""
-        return self._command(_check(wire.build_set_tool, name), True, _opt_timeout(timeout))
+        return self._run(_check(wire.build_set_tool, name), _opt_timeout(timeout))
 
     def take_control(self, force: bool = False, secret: str | None = None,
-                     timeout: float | None = None) -> Any:
+                     timeout: float | None = None) -> _Result:
         """Take the control lease (docs/protocol.md): only its holder may move the robot. A free
         lease is also taken by the first motion command; ``force`` takes it from another client
         and cancels that client's commands; ``secret`` when the controller has one."""
-        return self._command(_check(wire.build_control, "TAKE", _flag(force, "force"), secret), True,
-                             _opt_timeout(timeout))
+        return self._run(_check(wire.build_control, "TAKE", _flag(force, "force"), secret),
+                         _opt_timeout(timeout))
 
-    def release_control(self, timeout: float | None = None) -> Any:
+    def release_control(self, timeout: float | None = None) -> _Result:
         """Give the control lease back."""
-        return self._command("CONTROL|RELEASE", True, _opt_timeout(timeout))
+        return self._run("CONTROL|RELEASE", _opt_timeout(timeout))
 
-    def set_port(self, name: str, timeout: float | None = None) -> Any:
+    def set_port(self, name: str, timeout: float | None = None) -> _Result:
         """Switch the controller's serial port to ``name``."""
-        return self._command(_check(wire.build_set_port, name), True, _opt_timeout(timeout))
+        return self._run(_check(wire.build_set_port, name), _opt_timeout(timeout))
 
-    # ---- queries ----
-    def angles(self) -> Any:
-        """Joint angles J1..J6 in deg (tuple)."""
-        return self._query("angles")
+    # ---- queries: a value on Robot, a coroutine of that value on AsyncRobot ----
+    @overload
+    def angles(self: _Sync) -> tuple[float, ...]: ...
+    @overload
+    def angles(self: _Async) -> AsyncResult[tuple[float, ...]]: ...
 
-    def pose(self) -> Any:
+    def angles(self) -> tuple[float, ...] | AsyncResult[tuple[float, ...]]:
+        """Joint angles J1..J6 in deg."""
+        return self._query(Queries.angles)
+
+    @overload
+    def pose(self: _Sync) -> Pose: ...
+    @overload
+    def pose(self: _Async) -> AsyncResult[Pose]: ...
+
+    def pose(self) -> Pose | AsyncResult[Pose]:
         """Tool :class:`Pose` (mm, deg)."""
-        return self._query("pose")
+        return self._query(Queries.pose)
 
-    def pose_matrix(self) -> Any:
+    @overload
+    def pose_matrix(self: _Sync) -> tuple[tuple[float, ...], ...]: ...
+    @overload
+    def pose_matrix(self: _Async) -> AsyncResult[tuple[tuple[float, ...], ...]]: ...
+
+    def pose_matrix(self) -> tuple[tuple[float, ...], ...] | AsyncResult[tuple[tuple[float, ...], ...]]:
         """4x4 tool pose as 4 row tuples, translation in METRES."""
-        return self._query("pose_matrix")
+        return self._query(Queries.pose_matrix)
 
-    def io(self) -> Any:
+    @overload
+    def io(self: _Sync) -> IOState: ...
+    @overload
+    def io(self: _Async) -> AsyncResult[IOState]: ...
+
+    def io(self) -> IOState | AsyncResult[IOState]:
         """:class:`IOState`."""
-        return self._query("io")
+        return self._query(Queries.io)
 
-    def gripper(self) -> Any:
+    @overload
+    def gripper(self: _Sync) -> GripperState: ...
+    @overload
+    def gripper(self: _Async) -> AsyncResult[GripperState]: ...
+
+    def gripper(self) -> GripperState | AsyncResult[GripperState]:
         """:class:`GripperState`."""
-        return self._query("gripper")
+        return self._query(Queries.gripper)
 
-    def speeds(self) -> Any:
-        """Joint speeds J1..J6 in steps/s (tuple)."""
-        return self._query("speeds")
+    @overload
+    def speeds(self: _Sync) -> tuple[float, ...]: ...
+    @overload
+    def speeds(self: _Async) -> AsyncResult[tuple[float, ...]]: ...
 
-    def status(self) -> Any:
+    def speeds(self) -> tuple[float, ...] | AsyncResult[tuple[float, ...]]:
+        """Joint speeds J1..J6 in steps/s."""
+        return self._query(Queries.speeds)
+
+    @overload
+    def status(self: _Sync) -> RobotStatus: ...
+    @overload
+    def status(self: _Async) -> AsyncResult[RobotStatus]: ...
+
+    def status(self) -> RobotStatus | AsyncResult[RobotStatus]:
         """Full :class:`RobotStatus` (GET_STATUS_JSON)."""
-        return self._query("status")
+        return self._query(Queries.status)
 
-    def loop_stats(self) -> Any:
+    @overload
+    def loop_stats(self: _Sync) -> LoopStats: ...
+    @overload
+    def loop_stats(self: _Async) -> AsyncResult[LoopStats]: ...
+
+    def loop_stats(self) -> LoopStats | AsyncResult[LoopStats]:
         """:class:`LoopStats` of the controller's loop."""
-        return self._query("loop_stats")
+        return self._query(Queries.loop_stats)
 
-    def plan_info(self) -> Any:
+    @overload
+    def plan_info(self: _Sync) -> PlanInfo: ...
+    @overload
+    def plan_info(self: _Async) -> AsyncResult[PlanInfo]: ...
+
+    def plan_info(self) -> PlanInfo | AsyncResult[PlanInfo]:
         """:class:`PlanInfo` of the active motion."""
-        return self._query("plan_info")
+        return self._query(Queries.plan_info)
 
-    def queue(self) -> Any:
+    @overload
+    def queue(self: _Sync) -> QueueInfo: ...
+    @overload
+    def queue(self: _Async) -> AsyncResult[QueueInfo]: ...
+
+    def queue(self) -> QueueInfo | AsyncResult[QueueInfo]:
         """:class:`QueueInfo`: active and queued commands (IDs only of this client's own)."""
-        return self._query("queue")
+        return self._query(Queries.queue)
 
-    def control(self) -> Any:
-        """Who holds the control lease (dict: holder, held_s, idle_s, timeout_s, ...)."""
-        return self._query("control")
+    @overload
+    def control(self: _Sync) -> ControlInfo: ...
+    @overload
+    def control(self: _Async) -> AsyncResult[ControlInfo]: ...
 
-    def tool(self) -> Any:
+    def control(self) -> ControlInfo | AsyncResult[ControlInfo]:
+        """Who holds the control lease (:class:`ControlInfo`, a dict: ``holder``, ``held_s``,
+        ``idle_s``, ``timeout_s``, ``secret_required``, ``refused``, ``taken_over``)."""
+        return self._query(Queries.control)
+
+    @overload
+    def tool(self: _Sync) -> ToolInfo: ...
+    @overload
+    def tool(self: _Async) -> AsyncResult[ToolInfo]: ...
+
+    def tool(self) -> ToolInfo | AsyncResult[ToolInfo]:
         """:class:`ToolInfo`: the selected tool."""
-        return self._query("tool")
+        return self._query(Queries.tool)
 
-    def ping(self) -> Any:
+    @overload
+    def ping(self: _Sync) -> bool: ...
+    @overload
+    def ping(self: _Async) -> AsyncResult[bool]: ...
+
+    def ping(self) -> bool | AsyncResult[bool]:
         """True when the controller answers PING (``ControllerUnreachable`` when it does not);
         :meth:`link_up` says whether its board link is up."""
-        return self._query("ping")
+        return self._query(Queries.ping)
 
-    def link_up(self) -> Any:
+    @overload
+    def link_up(self: _Sync) -> bool: ...
+    @overload
+    def link_up(self: _Async) -> AsyncResult[bool]: ...
+
+    def link_up(self) -> bool | AsyncResult[bool]:
         """True when the controller's board link is up (False: controller up, board down)."""
-        return self._query("link")
+        return self._query(Queries.link)
 
 
-def _jog_index(joint: Any) -> int:
+#: the ``self`` of the queries' overloads: Robot answers with values, AsyncRobot with coroutines
+_Sync: TypeAlias = RobotCommands[CommandResult, object]
+_Async: TypeAlias = RobotCommands[AsyncResult[CommandResult], object]
+
+
+def _jog_index(joint: object) -> int:
     """Joint 1..6 -> index 0..5 (positive); -1..-6 -> 6..11 (negative)."""
     if isinstance(joint, bool) or not isinstance(joint, int) or joint == 0 or not -6 <= joint <= 6:
         raise ParolkitValueError(
             f"joint must be 1..6 (positive direction) or -1..-6 (negative direction), got {joint!r}")
     return joint - 1 if joint > 0 else 6 + (-joint - 1)
+
+
+def _jog_indices(joints: Sequence[int]) -> Sequence[int]:
+    """Signed joint numbers -> jog indices (a string is left to the builder's error)."""
+    return joints if isinstance(joints, (str, bytes)) else [_jog_index(j) for j in joints]

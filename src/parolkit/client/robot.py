@@ -19,7 +19,8 @@ its socket with the controller's (ext) ``ACK_HERE`` command.  Give
 protocol sends acks (one program per machine can hold that port).
 
 Every method is documented in :class:`parolkit.client.core.RobotCommands`; errors are the
-classes of :mod:`parolkit.client.errors`.
+classes of :mod:`parolkit.client.errors`.  Here a command returns its :class:`CommandResult`
+(``wait=True``) or a :class:`CommandHandle` (``wait=False``), a query its typed value.
 """
 
 from __future__ import annotations
@@ -29,27 +30,30 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
-from typing import Any
+from typing import Literal, TypeVar, overload
 
 from parolkit.client import robot_api as wire
 from parolkit.client.core import (
     DEFAULT_TIMEOUT_S,
-    QUERIES,
     SUBSCRIBE_RENEW_S,
     AckBook,
     AckRecord,
     AckStatus,
     CommandResult,
+    Queries,
+    QuerySpec,
     RobotCommands,
     RobotStatus,
     bind_address,
     check_port,
     parse_query_reply,
 )
-from parolkit.client.errors import CommandTimeout, ControllerUnreachable, RobotError
+from parolkit.client.errors import CommandNotCompleted, CommandTimeout, ControllerUnreachable, RobotError
 from parolkit.errors import ParolkitValueError
 
 __all__ = ["Robot", "CommandHandle", "StatusSubscription"]
+
+_T = TypeVar("_T")
 
 
 class CommandHandle:
@@ -77,9 +81,26 @@ class CommandHandle:
         with self._robot._cond:
             return self._record.terminal is not None
 
-    def result(self, timeout: float | None = None) -> CommandResult:
-        """Wait for the terminal ack (see ``wait=True``); raises like a waiting call."""
-        return self._robot._wait_terminal(self._record, timeout)
+    @overload
+    def result(self, timeout: float | None = None, *,
+               raise_on_error: Literal[True] = True) -> CommandResult: ...
+    @overload
+    def result(self, timeout: float | None = None, *,
+               raise_on_error: bool) -> CommandResult | CommandNotCompleted: ...
+
+    def result(self, timeout: float | None = None, *,
+               raise_on_error: bool = True) -> CommandResult | CommandNotCompleted:
+        """Wait for the terminal ack (see ``wait=True``) and return the COMPLETED
+        :class:`CommandResult`; a failure raises like a waiting call
+        (:class:`~parolkit.client.errors.CommandNotCompleted`: CommandFailed, CommandInvalid,
+        CommandCancelled, CommandTimeout).  ``raise_on_error=False`` returns that error
+        instead of raising it."""
+        try:
+            return self._robot._wait_terminal(self._record, timeout)
+        except CommandNotCompleted as exc:
+            if raise_on_error:
+                raise
+            return exc
 
     def __repr__(self) -> str:
         return f"<CommandHandle {self.command} id={self.id} status={self.status()}>"
@@ -97,7 +118,7 @@ class StatusSubscription:
     """
 
     def __init__(self, robot: Robot, every_n: int, timeout: float,
-                 callback: Callable[[RobotStatus], Any] | None = None) -> None:
+                 callback: Callable[[RobotStatus], object] | None = None) -> None:
         self._robot = robot
         self._every_n = every_n
         self._timeout = timeout
@@ -132,7 +153,7 @@ class StatusSubscription:
             except (OSError, RobotError):
                 pass  # the next renewal retries; iteration reports a silent controller
 
-    def _pump(self, callback: Callable[[RobotStatus], Any]) -> None:
+    def _pump(self, callback: Callable[[RobotStatus], object]) -> None:
         try:
             for status in self:
                 callback(status)
@@ -164,8 +185,7 @@ class StatusSubscription:
             text = data.decode("utf-8", "replace")
             if text.startswith("STATUS_JSON|"):
                 self.received += 1
-                status: RobotStatus = parse_query_reply(QUERIES["status"], text)
-                return status
+                return parse_query_reply(Queries.status, text)
             cookie = wire.parse_cookie(text)
             if cookie is not None:
                 self._cookie = cookie
@@ -196,7 +216,7 @@ class StatusSubscription:
         self.close()
 
 
-class Robot(RobotCommands):
+class Robot(RobotCommands[CommandResult, CommandHandle]):
     """Synchronous client of a parolkit (or original PAROL6) controller.
 
     ``host``/``port``: the controller's UDP address; ``ack_port``: local port for replies
@@ -300,11 +320,12 @@ class Robot(RobotCommands):
                 if head in (tag, "ERROR"):
                     return text
 
-    def _query(self, name: str) -> Any:
-        q = QUERIES[name]
-        return parse_query_reply(q, self._request(q.request, q.tag, self.timeout))
+    def _query(self, query: QuerySpec[_T]) -> _T:
+        return parse_query_reply(query, self._request(query.request, query.tag, self.timeout))
 
-    def _command(self, body: str, wait: bool, timeout: float | None) -> Any:
+    def _accepted(self, body: str, timeout: float | None) -> AckRecord:
+        """Send ``body`` with a fresh ID and wait for its first ack (``CommandTimeout`` without
+        one within the Robot's timeout)."""
         with self._cond:
             record, text = self._acks.new(body)
         self._send(text)
@@ -321,13 +342,17 @@ class Robot(RobotCommands):
                         f"{self.ack_port}? (a controller that acks only its --ack-port needs "
                         "Robot(ack_port=<that port>))")
                 self._cond.wait(left)
-            if not wait:
-                if record.terminal is not None:
-                    record.result()  # refused (INVALID) or failed at once: raise now
-                return CommandHandle(self, record)
+        return record
+
+    def _run(self, body: str, timeout: float | None) -> CommandResult:
+        return self._wait_terminal(self._accepted(body, timeout), timeout)
+
+    def _start(self, body: str, timeout: float | None) -> CommandHandle:
+        record = self._accepted(body, timeout)
+        with self._cond:
             if record.terminal is not None:
-                return record.result()
-        return self._wait_terminal(record, timeout)
+                record.result()  # refused (INVALID) or failed at once: raise now
+        return CommandHandle(self, record)
 
     def _wait_terminal(self, record: AckRecord, timeout: float | None) -> CommandResult:
         start = time.monotonic()
@@ -346,7 +371,7 @@ class Robot(RobotCommands):
                     if now - self._last_heard > self.timeout:
                         self._cond.release()
                         try:
-                            self._query("ping")
+                            self._query(Queries.ping)
                         except ControllerUnreachable as exc:
                             raise CommandTimeout(record.id, record.command, "TIMEOUT",
                                                  f"controller stopped answering: {exc}") from None
@@ -359,7 +384,7 @@ class Robot(RobotCommands):
             return record.result()
 
     # ---- status stream ----
-    def subscribe(self, every_n: int = 1, callback: Callable[[RobotStatus], Any] | None = None,
+    def subscribe(self, every_n: int = 1, callback: Callable[[RobotStatus], object] | None = None,
                   timeout: float | None = None) -> StatusSubscription:
         """Status stream: every ``every_n``-th control tick a :class:`RobotStatus`.
 
@@ -379,7 +404,7 @@ class Robot(RobotCommands):
         """Poll the status until no command is active or queued; returns that status."""
         deadline = time.monotonic() + timeout
         while True:
-            st: RobotStatus = self.status()
+            st = self.status()
             if st.command is None and st.queue == 0 and st.state not in ("MOVING", "HOMING"):
                 return st
             if time.monotonic() >= deadline:

@@ -58,14 +58,15 @@ import threading
 import time
 from collections import OrderedDict
 from datetime import datetime
-from typing import Any, Dict, FrozenSet, List, Literal, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Callable, Dict, FrozenSet, List, Literal, Optional, Sequence, Tuple, TypedDict, Union, overload
 
 __all__ = [
     # configuration
-    "SERVER_IP", "SERVER_PORT", "ACK_PORT", "QUERY_TIMEOUT", "configure",
+    "SERVER_IP", "SERVER_PORT", "ACK_PORT", "QUERY_TIMEOUT", "configure", "Settings",
     "AckPortBusyError", "TERMINAL_STATUSES",
     # sending and tracking
     "send_robot_command", "send_robot_command_tracked", "send_and_wait", "LazyCommandTracker",
+    "CommandRecord", "Result", "TrackingStats",
     # motion and actions (original names and defaults)
     "move_robot_joints", "move_robot_pose", "move_robot_cartesian", "move_robot_cartesian_rel_trf",
     "jog_robot_joint", "jog_multiple_joints", "jog_cartesian",
@@ -80,12 +81,12 @@ __all__ = [
     # queries
     "get_robot_pose", "get_robot_pose_matrix", "get_robot_joint_angles", "get_robot_io",
     "get_electric_gripper_status", "get_robot_joint_speeds", "is_robot_stopped",
-    "is_estop_pressed", "get_robot_status", "wait_for_robot_stopped", "ping_robot",
+    "is_estop_pressed", "get_robot_status", "RobotStatusDict", "wait_for_robot_stopped", "ping_robot",
     # tracking
     "check_command_status", "is_tracking_active", "get_tracking_stats",
     # shared building blocks (used by parolkit.Robot / AsyncRobot)
     "new_command_id", "format_value", "matrix_to_pose", "parse_reply", "parse_ack",
-    "parse_numbers", "parse_status_fields", "parse_cookie",
+    "parse_numbers", "parse_status_fields", "parse_cookie", "parse_control", "ControlInfo",
     "build_move_joint", "build_move_pose", "build_move_cart", "build_move_cart_rel_trf",
     "build_jog", "build_multijog", "build_cartjog", "build_pneumatic_gripper",
     "build_electric_gripper", "build_delay", "build_home", "build_speed_joint", "build_move_joint_path",
@@ -135,12 +136,20 @@ GRIPPER_SPEED_RANGE = (0, 255)
 GRIPPER_CURRENT_RANGE_MA = (0, 1300)  # the seed: "0 - 1300 mA"
 
 
+class Settings(TypedDict):
+    """What :func:`configure` returns: the settings in effect."""
+
+    host: str
+    port: int
+    ack_port: int
+
+
 class AckPortBusyError(OSError):
     """The acknowledgement port could not be bound (another program listens on it)."""
 
 
 def configure(host: Optional[str] = None, port: Optional[int] = None,
-              ack_port: Optional[int] = None) -> Dict[str, Any]:
+              ack_port: Optional[int] = None) -> Settings:
     """Point the API at a controller; returns the settings now in effect.
 
     ``host``: controller address; ``port``: its UDP command port (1..65535);
@@ -768,6 +777,51 @@ def parse_status_fields(payload: str) -> Dict[str, str]:
     return out
 
 
+class ControlInfo(TypedDict):
+    """**(ext)** The ``GET_CONTROL`` answer: ``holder`` ("address:port", None when nobody holds
+    the lease), ``held_s`` / ``idle_s`` (None when free), ``timeout_s``, ``secret_required``,
+    ``refused`` (commands refused to non-holders), ``taken_over`` (forced take-overs)."""
+
+    holder: Optional[str]
+    held_s: Optional[float]
+    idle_s: Optional[float]
+    timeout_s: float
+    secret_required: bool
+    refused: int
+    taken_over: int
+
+
+def parse_control(payload: str) -> ControlInfo:
+    """The JSON object of a ``CONTROL|{...}`` reply as a :class:`ControlInfo`; ``ValueError``
+    naming a missing or mistyped field."""
+    try:
+        obj = json.loads(payload)
+    except ValueError:
+        raise ValueError(f"CONTROL: not JSON: {payload[:80]!r}") from None
+    if not isinstance(obj, dict):
+        raise ValueError(f"CONTROL: not a JSON object: {payload[:80]!r}")
+
+    def field(key: str, kinds: Tuple[type, ...], optional: bool = False) -> Any:
+        if key not in obj:
+            raise ValueError(f"CONTROL: field {key!r} is missing")
+        value = obj[key]
+        if (value is None and optional) or (isinstance(value, kinds) and not (
+                isinstance(value, bool) and bool not in kinds)):
+            return value
+        raise ValueError(f"CONTROL: {key} must be {' or '.join(k.__name__ for k in kinds)}"
+                         f"{' or null' if optional else ''}, got {value!r}")
+
+    def seconds(key: str, optional: bool = False) -> Optional[float]:
+        value = field(key, (int, float), optional)
+        return None if value is None else float(value)
+
+    return ControlInfo(holder=field("holder", (str,), optional=True),
+                       held_s=seconds("held_s", optional=True), idle_s=seconds("idle_s", optional=True),
+                       timeout_s=float(field("timeout_s", (int, float))),
+                       secret_required=field("secret_required", (bool,)),
+                       refused=field("refused", (int,)), taken_over=field("taken_over", (int,)))
+
+
 def matrix_to_pose(matrix: Sequence[Any]) -> List[float]:
     """4x4 tool pose (16 row-major numbers or 4 rows, translation in METRES) -> [x, y, z, A, B, C].
 
@@ -852,8 +906,38 @@ def _controller_addresses(host: str, port: int) -> FrozenSet[Tuple[str, int]]:
 
 _resolved: Dict[Tuple[str, int], FrozenSet[Tuple[str, int]]] = {}
 
+
+class CommandRecord(TypedDict, total=False):
+    """The original's record of a tracked command (what ``wait_for_ack=True`` returns): every
+    key is there once the command was tracked; the record of a wait before tracking started
+    holds only ``status`` (``NO_TRACKING``), ``details`` and ``completed``, and ``last_status``
+    is there only in a ``TIMEOUT`` record."""
+
+    command: Optional[str]
+    sent_time: Optional[datetime]
+    status: str
+    details: str
+    completed: bool
+    ack_time: Optional[datetime]
+    history: List[str]
+    command_id: str
+    last_status: str
+
+
+class TrackingStats(TypedDict):
+    """:func:`get_tracking_stats`: the original's keys, and ``ack_port``, ``pending``, ``foreign``."""
+
+    active: bool
+    commands_tracked: int
+    memory_bytes: int
+    thread_active: bool
+    ack_port: Optional[int]
+    pending: int
+    foreign: int
+
+
 #: what a wait returns when the tracker never started (the original's answer)
-_NO_TRACKING = {"status": "NO_TRACKING", "details": "Tracker not initialized", "completed": True}
+_NO_TRACKING = CommandRecord(status="NO_TRACKING", details="Tracker not initialized", completed=True)
 
 
 class LazyCommandTracker:
@@ -873,7 +957,7 @@ class LazyCommandTracker:
         self.listen_port = _int(listen_port, "listen_port", 0, 65535)
         self.history_size = _int(history_size, "history_size", 1, 1_000_000)
         #: command id -> its record (see :meth:`get_status`), oldest first
-        self.command_history: "OrderedDict[str, Dict[str, Any]]" = OrderedDict()
+        self.command_history: "OrderedDict[str, CommandRecord]" = OrderedDict()
         self.lock = threading.Condition()
         self._socket: Optional[socket.socket] = None
         self._thread: Optional[threading.Thread] = None
@@ -951,8 +1035,8 @@ class LazyCommandTracker:
             rec = self.command_history.get(cmd_id)
             if rec is None or rec["completed"]:
                 return  # not a command of ours, or already final
-            rec.update(status=status, details=details, ack_time=datetime.now(),
-                       completed=status in TERMINAL_STATUSES)
+            rec["status"], rec["details"], rec["ack_time"] = status, details, datetime.now()
+            rec["completed"] = status in TERMINAL_STATUSES
             rec["history"].append(status)
             self._prune()
             self.lock.notify_all()
@@ -980,7 +1064,7 @@ class LazyCommandTracker:
             self._prune()
         return f"{cmd_id}|{command}", cmd_id
 
-    def get_status(self, cmd_id: str) -> Optional[Dict[str, Any]]:
+    def get_status(self, cmd_id: str) -> Optional[CommandRecord]:
         """A copy of the record of ``cmd_id``: ``command``, ``sent_time`` / ``ack_time``
         (``datetime``; ack_time None before the first ack), ``status`` (SENT, QUEUED,
         EXECUTING or a terminal status), ``details``, ``completed``, ``history`` (every status
@@ -991,15 +1075,17 @@ class LazyCommandTracker:
             rec = self.command_history.get(cmd_id)
             if rec is None:
                 return None
-            return dict(rec, history=list(rec["history"]), command_id=cmd_id)
+            out = rec.copy()
+            out["history"], out["command_id"] = list(rec["history"]), cmd_id
+            return out
 
-    def wait_for_completion(self, cmd_id: str, timeout: float = 5.0) -> Dict[str, Any]:
+    def wait_for_completion(self, cmd_id: str, timeout: float = 5.0) -> CommandRecord:
         """Wait up to ``timeout`` s for the terminal ack of ``cmd_id``; returns its record (as
         :meth:`get_status`).  Without one in time: ``status`` ``'TIMEOUT'``, ``completed``
         False, ``last_status`` the last status received (the command may still run)."""
         t = _number(timeout, "timeout", 0.0)
         if not self._initialized:
-            return dict(_NO_TRACKING)
+            return _NO_TRACKING.copy()
         deadline = time.monotonic() + t
         with self.lock:
             while True:
@@ -1009,12 +1095,11 @@ class LazyCommandTracker:
                 left = deadline - time.monotonic()
                 if left <= 0:
                     last = rec["status"] if rec else "SENT"
-                    out = rec if rec is not None else {
-                        "command": None, "sent_time": None, "ack_time": None, "history": [],
-                        "command_id": cmd_id}
-                    out.update(status="TIMEOUT", completed=False, last_status=last,
-                               details=f"no terminal acknowledgement within {t:g} s (last status: "
-                                       f"{last}); the command may still run")
+                    out = rec if rec is not None else CommandRecord(
+                        command=None, sent_time=None, ack_time=None, history=[], command_id=cmd_id)
+                    out["status"], out["completed"], out["last_status"] = "TIMEOUT", False, last
+                    out["details"] = (f"no terminal acknowledgement within {t:g} s (last status: "
+                                      f"{last}); the command may still run")
                     return out
                 self.lock.wait(left)
 
@@ -1029,20 +1114,20 @@ class LazyCommandTracker:
             raise OSError("the acknowledgement listener is not running")
         sock.sendto(text.encode("utf-8"), (SERVER_IP, SERVER_PORT))
 
-    def stats(self) -> Dict[str, Any]:
+    def stats(self) -> TrackingStats:
         """``active``, ``commands_tracked``, ``memory_bytes``, ``thread_active`` (the
         original's keys) and ``ack_port`` (the port bound), ``pending``, ``foreign``."""
         with self.lock:
             sock = self._socket
-            return {
-                "active": self.is_active(),
-                "commands_tracked": len(self.command_history),
-                "memory_bytes": len(str(self.command_history)),
-                "thread_active": self._thread is not None and self._thread.is_alive(),
-                "ack_port": sock.getsockname()[1] if sock is not None else None,
-                "pending": sum(1 for r in self.command_history.values() if not r["completed"]),
-                "foreign": self.foreign,
-            }
+            return TrackingStats(
+                active=self.is_active(),
+                commands_tracked=len(self.command_history),
+                memory_bytes=len(str(self.command_history)),
+                thread_active=self._thread is not None and self._thread.is_alive(),
+                ack_port=sock.getsockname()[1] if sock is not None else None,
+                pending=sum(1 for r in self.command_history.values() if not r["completed"]),
+                foreign=self.foreign,
+            )
 
 
 #: the module's tracker (created on the first tracked command, on :data:`ACK_PORT`)
@@ -1078,8 +1163,17 @@ def send_robot_command_tracked(command_string: str) -> Tuple[str, Optional[str]]
     return f"Command sent with tracking (ID: {cmd_id})", cmd_id
 
 
+@overload
 def send_and_wait(command_string: str, timeout: float = 2.0,
-                  non_blocking: bool = False) -> Union[Dict[str, Any], str, None]:
+                  non_blocking: Literal[False] = False) -> CommandRecord: ...
+@overload
+def send_and_wait(command_string: str, timeout: float = 2.0, *,
+                  non_blocking: Literal[True]) -> Optional[str]: ...
+@overload
+def send_and_wait(command_string: str, timeout: float = 2.0,
+                  non_blocking: bool = False) -> Union[CommandRecord, str, None]: ...
+def send_and_wait(command_string: str, timeout: float = 2.0,
+                  non_blocking: bool = False) -> Union[CommandRecord, str, None]:
     """Send with an ID; return the command ID at once (``non_blocking``) or the record of
     its terminal acknowledgement: ``{'command', 'sent_time', 'status', 'details', 'completed',
     'ack_time', 'command_id', ...}`` (times are ``datetime``); status ``'TIMEOUT'`` when none
@@ -1092,7 +1186,9 @@ def send_and_wait(command_string: str, timeout: float = 2.0,
     return _get_tracker().wait_for_completion(cmd_id, t)
 
 
-Result = Union[Dict[str, Any], str, None]
+#: What a motion/action function returns: the confirmation string (fire and forget), the
+#: :class:`CommandRecord` (``wait_for_ack=True``) or the command ID (``non_blocking=True``).
+Result = Union[CommandRecord, str, None]
 
 
 def _dispatch(command: str, wait_for_ack: bool, timeout: float, non_blocking: bool) -> Result:
@@ -1101,7 +1197,7 @@ def _dispatch(command: str, wait_for_ack: bool, timeout: float, non_blocking: bo
     return send_robot_command(command)
 
 
-def check_command_status(command_id: str) -> Optional[Dict[str, Any]]:
+def check_command_status(command_id: str) -> Optional[CommandRecord]:
     """The latest known record of a tracked command (see :meth:`LazyCommandTracker.get_status`),
     or None if unknown or tracking never started."""
     tracker = _command_tracker
@@ -1116,13 +1212,13 @@ def is_tracking_active() -> bool:
     return tracker is not None and tracker.is_active()
 
 
-def get_tracking_stats() -> Dict[str, Any]:
+def get_tracking_stats() -> TrackingStats:
     """``{'active', 'commands_tracked', 'memory_bytes', 'thread_active'}`` as the original,
     plus ``ack_port`` (the port bound), ``pending`` and ``foreign`` (ignored datagrams)."""
     tracker = _command_tracker
     if tracker is None:
-        return {"active": False, "commands_tracked": 0, "memory_bytes": 0, "thread_active": False,
-                "ack_port": None, "pending": 0, "foreign": 0}
+        return TrackingStats(active=False, commands_tracked=0, memory_bytes=0, thread_active=False,
+                             ack_port=None, pending=0, foreign=0)
     return tracker.stats()
 
 
@@ -1218,31 +1314,31 @@ def home_robot(wait_for_ack: bool = False, timeout: float = 30.0,
 
 
 def take_control(force: bool = False, secret: Optional[str] = None, timeout: float = 2.0
-                 ) -> Dict[str, Any]:
+                 ) -> CommandRecord:
     """**(ext)** Take the control lease: only its holder may move the robot (while nobody holds
     it, any script may).  From the call on, every command of this process goes out from the
     acknowledgement listener's socket, the client that holds the lease.  ``force`` takes it from
     another client and cancels that client's commands.  Returns the terminal ack dict."""
-    return send_and_wait(build_control("TAKE", force, secret), timeout)  # type: ignore[return-value]
+    return send_and_wait(build_control("TAKE", force, secret), timeout)
 
 
-def release_control(timeout: float = 2.0) -> Dict[str, Any]:
+def release_control(timeout: float = 2.0) -> CommandRecord:
     """**(ext)** Give the control lease back (another client may then command the robot)."""
-    return send_and_wait(build_control("RELEASE"), timeout)  # type: ignore[return-value]
+    return send_and_wait(build_control("RELEASE"), timeout)
 
 
-def get_control() -> Optional[Dict[str, Any]]:
+def get_control() -> Optional[ControlInfo]:
     """**(ext)** Who holds the control lease: ``{'holder', 'held_s', 'idle_s', 'timeout_s',
-    'secret_required', 'refused', 'taken_over'}`` (holder None when free), or None."""
+    'secret_required', 'refused', 'taken_over'}`` (holder None when free), or None (message on
+    stderr) without a reply or for a malformed one."""
     payload = _query("GET_CONTROL", "CONTROL")
     if payload is None:
         return None
     try:
-        value = json.loads(payload)
-    except ValueError:
-        print(f"robot_api: GET_CONTROL: malformed reply {payload[:80]!r}", file=sys.stderr)
+        return parse_control(payload)
+    except ValueError as exc:
+        print(f"robot_api: GET_CONTROL: {exc}", file=sys.stderr)
         return None
-    return value if isinstance(value, dict) else None
 
 
 def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,
@@ -1318,7 +1414,7 @@ def smooth_blend(segments: List[Dict[str, Any]], blend_time: float = 0.5, frame:
 # ---- the original's convenience functions ----
 
 #: chain_smooth_motions types -> (builder, the key holding where the motion ends or None)
-_CHAIN_TYPES: Dict[str, Tuple[Any, Optional[str]]] = {
+_CHAIN_TYPES: Dict[str, Tuple[Callable[..., str], Optional[str]]] = {
     "circle": (build_smooth_circle, None),
     "arc": (build_smooth_arc_center, "end_pose"),
     "arc_center": (build_smooth_arc_center, "end_pose"),
@@ -1429,7 +1525,8 @@ def execute_trajectory(trajectory: List[List[float]], timing_mode: str = "durati
     return _send_in_turn(commands, wait_for_ack, timeout)
 
 
-def safe_move_with_retry(move_func: Any, *args: Any, max_retries: int = 3, retry_delay: float = 1.0,
+def safe_move_with_retry(move_func: Callable[..., Result], *args: Any, max_retries: int = 3,
+                         retry_delay: float = 1.0,
                          **kwargs: Any) -> Result:
     """Call ``move_func(*args, **kwargs, wait_for_ack=True)`` until it is accepted.
 
@@ -1658,11 +1755,27 @@ def is_estop_pressed() -> bool:
     return io[4] == 0
 
 
-_STATUS_KEYS = ("pose", "pose_matrix", "angles", "speeds", "io", "gripper", "state", "homed", "queue",
-                "command", "error", "serial")
+class RobotStatusDict(TypedDict):
+    """What :func:`get_robot_status` returns (units and meanings there); every value but
+    ``stopped`` and ``estop`` is None without a reply."""
+
+    pose: Optional[List[float]]
+    pose_matrix: Optional[List[List[float]]]
+    angles: Optional[List[float]]
+    speeds: Optional[List[float]]
+    io: Optional[List[int]]
+    gripper: Optional[List[int]]
+    state: Optional[str]
+    homed: Optional[List[bool]]
+    queue: Optional[int]
+    command: Optional[str]
+    error: Optional[str]
+    serial: Optional[bool]
+    stopped: bool
+    estop: bool
 
 
-def get_robot_status() -> Dict[str, Any]:
+def get_robot_status() -> RobotStatusDict:
     """Everything in one GET_STATUS round trip.
 
     Keys: the original's ``pose`` [x, y, z, A, B, C] mm/deg, ``angles`` deg, ``speeds``
@@ -1672,8 +1785,9 @@ def get_robot_status() -> Dict[str, Any]:
     (True when the controller's board link is up).  As the original, a dict always: without
     a reply (message on stderr) every value is None and ``stopped`` / ``estop`` are False.
     """
-    empty: Dict[str, Any] = dict.fromkeys(_STATUS_KEYS)
-    empty.update(stopped=False, estop=False)
+    empty = RobotStatusDict(pose=None, pose_matrix=None, angles=None, speeds=None, io=None, gripper=None,
+                            state=None, homed=None, queue=None, command=None, error=None, serial=None,
+                            stopped=False, estop=False)
     payload = _query("GET_STATUS", "STATUS")
     if payload is None:
         return empty
@@ -1682,22 +1796,22 @@ def get_robot_status() -> Dict[str, Any]:
         matrix = parse_numbers(f["POSE"], 16, "STATUS POSE")
         speeds = parse_numbers(f["SPEEDS"], 6, "STATUS SPEEDS") if "SPEEDS" in f else None
         io = _ints(f["IO"], 5, "STATUS IO")
-        out = {
-            "pose": matrix_to_pose(matrix),
-            "pose_matrix": [matrix[0:4], matrix[4:8], matrix[8:12], matrix[12:16]],
-            "angles": parse_numbers(f["ANGLES"], 6, "STATUS ANGLES"),
-            "speeds": speeds,
-            "io": io,
-            "gripper": _ints(f["GRIPPER"], 6, "STATUS GRIPPER") if "GRIPPER" in f else None,
-            "stopped": speeds is not None and max(abs(s) for s in speeds) < 2.0,
-            "estop": io[4] == 0,
-            "state": f.get("STATE"),
-            "homed": [v.strip() == "1" for v in f["HOMED"].split(",")] if "HOMED" in f else None,
-            "queue": int(f["QUEUE"]) if f.get("QUEUE", "").strip().isdigit() else None,
-            "command": None if f.get("CMD") in (None, "None", "") else f["CMD"],
-            "error": None if f.get("ERROR") in (None, "None", "") else f["ERROR"],
-            "serial": f["SERIAL"].strip() == "1" if "SERIAL" in f else None,
-        }
+        out = RobotStatusDict(
+            pose=matrix_to_pose(matrix),
+            pose_matrix=[matrix[0:4], matrix[4:8], matrix[8:12], matrix[12:16]],
+            angles=parse_numbers(f["ANGLES"], 6, "STATUS ANGLES"),
+            speeds=speeds,
+            io=io,
+            gripper=_ints(f["GRIPPER"], 6, "STATUS GRIPPER") if "GRIPPER" in f else None,
+            stopped=speeds is not None and max(abs(s) for s in speeds) < 2.0,
+            estop=io[4] == 0,
+            state=f.get("STATE"),
+            homed=[v.strip() == "1" for v in f["HOMED"].split(",")] if "HOMED" in f else None,
+            queue=int(f["QUEUE"]) if f.get("QUEUE", "").strip().isdigit() else None,
+            command=None if f.get("CMD") in (None, "None", "") else f["CMD"],
+            error=None if f.get("ERROR") in (None, "None", "") else f["ERROR"],
+            serial=f["SERIAL"].strip() == "1" if "SERIAL" in f else None,
+        )
     except (KeyError, ValueError) as exc:
         print(f"robot_api: malformed STATUS reply ({exc!s})", file=sys.stderr)
         return empty

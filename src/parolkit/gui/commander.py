@@ -28,9 +28,13 @@ from parolkit.gui.templates import SEED_EXAMPLES
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
     from parolkit.gui.own_controller import OwnController
-    from parolkit.script.interpreter import Interpreter
+    from parolkit.script.interpreter import Interpreter, InterpreterState
 
-__all__ = ["Commander", "ProgramRunner"]
+__all__ = ["ACTIVE_STATES", "Commander", "ProgramRunner"]
+
+#: the runner's states while a program runs: "pausing" is Pause pressed while a line (a move,
+#: a Delay) still runs: the program pauses after it
+ACTIVE_STATES = ("running", "pausing", "paused")
 
 
 class Commander:
@@ -181,8 +185,11 @@ class ProgramRunner:
         self.errors: list[Any] = []
         self.thread: threading.Thread | None = None
         self.current_line: int | None = None
-        #: idle (never run), running, paused, finished, stopped, error
+        #: idle (never run), running, pausing (Pause pressed: the line running finishes
+        #: first), paused, finished, stopped, error
         self.state = "idle"
+        #: guards the state between the page (pause, stop) and the interpreter's thread
+        self._lock = threading.Lock()
         self.message = ""
         #: the text and program name of the program running (or run last): the page shows it
         self.text = ""
@@ -211,6 +218,16 @@ class ProgramRunner:
         self.current_line = int(getattr(progress, "line", progress))
         self.version += 1
 
+    def _on_state(self, state: InterpreterState) -> None:
+        """Interpreter callback (its thread): "paused" only once the interpreter has paused
+        (between lines), "running" again when it runs the next line (Run, Step)."""
+        word = {"paused": "paused", "running": "running"}.get(state.value)
+        with self._lock:
+            if word is None or self._stopping or self.state not in ACTIVE_STATES or self.state == word:
+                return
+            self.state = word
+            self.version += 1
+
     async def start(self, text: str, *, step: bool = False, name: str = "") -> list[Any]:
         """Parse ``text`` (the program ``name``) and run it; returns the parse errors (nothing
         runs when there are any, nor when :meth:`stop` cancelled the start)."""
@@ -226,9 +243,11 @@ class ProgramRunner:
         if self.active:
             if step and self.interpreter is not None:
                 self.interpreter.step()
-            elif self.interpreter is not None and self.state == "paused":
-                self.interpreter.resume()
-                self.state = "running"
+            elif self.interpreter is not None and self.state in ("pausing", "paused"):
+                with self._lock:
+                    self.interpreter.resume()
+                    self.state = "running"  # a pause still pending is called off
+                    self.version += 1
             return []
         thread = self.thread
         if thread is not None and thread.is_alive():  # the last run ended and closes its client
@@ -272,7 +291,7 @@ class ProgramRunner:
             self.version += 1
             return []
         self.robot = robot
-        self.interpreter = Interpreter(program, robot, on_line=self._on_line, step=step)
+        self.interpreter = Interpreter(program, robot, on_line=self._on_line, on_state=self._on_state, step=step)
         self.errors = []
         self.state = "running"
         self.message = ""
@@ -341,13 +360,16 @@ class ProgramRunner:
         """A program runs or is paused (the editor shows it, read-only).  Not once it ended
         (finished, stopped, error) while its thread still closes its client: the page says
         "finished" then, and the editor takes typing again."""
-        return self.running and self.state in ("running", "paused")
+        return self.running and self.state in ACTIVE_STATES
 
     def pause(self) -> None:
-        if self.active and self.interpreter is not None:
-            self.interpreter.pause()
-            self.state = "paused"
-            self.version += 1
+        """Pause after the line that runs now (the interpreter pauses between lines: a move
+        in progress finishes): "pausing" until the interpreter has paused (:meth:`_on_state`)."""
+        if self.active and self.interpreter is not None and self.state == "running":
+            with self._lock:
+                self.interpreter.pause()
+                self.state = "pausing"
+                self.version += 1
 
     def stop(self, reason: str = "stopped") -> None:
         if self.starting and not self.active and not self._start_cancelled:
@@ -357,9 +379,10 @@ class ProgramRunner:
             self.commander.log.add(f"program {reason} before it started", Level.WARNING)
             self.version += 1
         if self.active and self.interpreter is not None:
-            self._stopping = True
-            self.interpreter.stop()
-            self.state = "stopped"
+            with self._lock:
+                self._stopping = True
+                self.state = "stopped"
+            self.interpreter.stop()  # its state callbacks take the lock: not held here
             self.message = reason
             self.commander.log.add(f"program {reason}", Level.WARNING)
             self.version += 1

@@ -64,11 +64,14 @@ class ProgramsPanel:
         self.status.classes(replace="text-xs pk-mono text-green-400")
         self.log.add(text, Level.SUCCESS)
 
-    def _refused(self, text: str) -> None:
+    def _refused(self, text: str, *, notify: bool = True) -> None:
+        """A refusal in the row and the log, and as a notification unless ``notify`` is False
+        (a dialog that shows it itself)."""
         self.status.set_text(text)
         self.status.classes(replace="text-xs pk-mono text-red-400")
         self.log.error(text)
-        ui.notify(text, type="negative", multi_line=True)
+        if notify:
+            ui.notify(text, type="negative", multi_line=True)
 
     def open(self, name: str) -> bool:
         """Load the program ``name`` into the editor; False (and a message) when refused."""
@@ -89,38 +92,48 @@ class ProgramsPanel:
         self._ok(f"opened {path.name} ({self.folder.root})")
         return True
 
-    def save(self, name: str) -> bool:
-        """Save the editor's text as the program ``name``; False (and a message) when refused."""
+    def save(self, name: str, *, notify: bool = True) -> str | None:
+        """Save the editor's text as the program ``name``; None when saved, else the refusal
+        (in the row, the log and, unless ``notify`` is False, a notification)."""
         program = self.get_text()
         try:
             path = self.folder.write(name, program)
-        except ProgramNameError as exc:
-            self._refused(f"cannot save {name!r}: {exc}")
-            return False
-        except OSError as exc:
-            self._refused(f"cannot save {name!r}: {exc}")
-            return False
+        except (ProgramNameError, OSError) as exc:
+            refusal = f"cannot save {name!r}: {exc}"
+            self._refused(refusal, notify=notify)
+            return refusal
         self.doc.edit(program)
         self.doc.saved(path.name)
         self.name_input.value = path.name
         self.update()
         self._ok(f"saved {path.name} ({self.folder.root})")
         ui.notify(f"saved {path.name}", type="positive")
-        return True
+        return None
 
     async def save_as(self) -> None:
+        """A dialog asking the name.  A refused name keeps it open with the reason in it: the
+        Esc that dismisses the reason only closes the dialog (Esc with nothing open is E-STOP)."""
         with ui.dialog().props('aria-label="Save program as"') as dlg, ui.card().classes("pk-card"):
             ui.label("Save program as").classes("font-bold")
             ui.label(f"in {self.folder.root}").classes("text-xs text-slate-400 pk-mono")
             name = ui.input("program name", value=self.name_input.value).classes("w-96") \
                 .props("data-testid=save-as-name")
+            reason = ui.label("").classes("text-sm text-red-300 pk-mono w-96") \
+                .style("white-space: normal").props("data-testid=save-as-error role=alert")
+            reason.set_visibility(False)
+
+            def confirm() -> None:
+                refusal = self.save(str(name.value or ""), notify=False)
+                if refusal is None:
+                    dlg.submit(True)
+                else:
+                    reason.set_text(refusal)
+                    reason.set_visibility(True)
+
             with ui.row():
-                ui.button("Save", on_click=lambda: dlg.submit(name.value)) \
-                    .props("unelevated color=primary data-testid=save-as-confirm")
+                ui.button("Save", on_click=confirm).props("unelevated color=primary data-testid=save-as-confirm")
                 ui.button("Cancel", on_click=lambda: dlg.submit(None)).props("flat")
-        result = await dlg
-        if result:
-            self.save(str(result))
+        await dlg
 
     async def show_list(self) -> None:
         """A dialog listing the folder's programs; clicking one opens it."""

@@ -13,6 +13,7 @@ from parolkit.client.core import GripperState, LoopStats, RobotState, RobotStatu
 
 __all__ = [
     "POSE_LABELS",
+    "POSE_READOUTS",
     "POSE_UNITS",
     "format_angles",
     "format_pose",
@@ -24,10 +25,14 @@ __all__ = [
     "state_badge",
 ]
 
-#: The TCP pose's six values, named as the Cartesian jog names its axes (RX RY RZ: the
-#: orientation angles in degrees, pose convention R = Rx(RX) @ Ry(RY) @ Rz(RZ) with the
-#: angles as the controller reports them).
-POSE_LABELS = ("X", "Y", "Z", "RX", "RY", "RZ")
+#: The TCP pose readouts: (name, index into the pose [x, y, z, A, B, C], the pose's own name
+#: of the value).  The pose's orientation is R = Rx(C) · Ry(B) · Rz(A) (docs/kinematics.md),
+#: so each angle is named after the axis it turns about, as the Cartesian jog names its axes:
+#: RX is C (a WRF RX jog changes C alone), RY is B, RZ is A (a TRF RZ jog changes A alone).
+#: The original GUI labelled A, B, C "Rx, Ry, Rz" in that order: jogging RX changed its "Rz".
+POSE_READOUTS = (("X", 0, "x"), ("Y", 1, "y"), ("Z", 2, "z"), ("RX", 5, "C"), ("RY", 4, "B"), ("RZ", 3, "A"))
+#: the readouts' names, as the Cartesian jog names its axes
+POSE_LABELS = tuple(name for name, _, _ in POSE_READOUTS)
 POSE_UNITS = ("mm", "mm", "mm", "°", "°", "°")
 
 
@@ -42,8 +47,9 @@ def format_angles(angles: Sequence[float]) -> list[str]:
 
 
 def format_pose(pose: Sequence[float]) -> list[str]:
-    """TCP pose as six strings: X, Y, Z in mm (2 decimals), RX, RY, RZ in degrees (3 decimals)."""
-    return [f"{v:+.2f} mm" if i < 3 else f"{v:+.3f}°" for i, v in enumerate(pose)]
+    """The readouts of the TCP pose [x, y, z, A, B, C] in :data:`POSE_READOUTS` order: X, Y, Z
+    in mm (2 decimals), RX (= C), RY (= B), RZ (= A) in degrees (3 decimals)."""
+    return [f"{pose[i]:+.2f} mm" if i < 3 else f"{pose[i]:+.3f}°" for _, i, _ in POSE_READOUTS]
 
 
 def format_speeds(speeds_deg_s: Sequence[float]) -> list[str]:
@@ -120,9 +126,11 @@ def format_gripper(g: GripperState) -> str:
     return text
 
 
-def state_badge(status: RobotStatus | None, link_up: bool) -> tuple[str, str]:
+def state_badge(status: RobotStatus | None, link_up: bool, program: str | None = None) -> tuple[str, str]:
     """(text, colour) for the state badge; colour is a Quasar colour: 'positive', 'warning',
-    'negative', 'info' or 'grey-8'."""
+    'negative', 'info' or 'grey-8'.  ``program``: the program runner's state while a program
+    runs ("running", "pausing", "paused"), else None: PROGRAM RUNNING / PROGRAM PAUSED then,
+    through its moves, Delay and Output lines alike (only a fault or DISABLED says more)."""
     if not link_up or status is None:
         return "NO LINK", "grey-8"
     if status.estop_latched or status.estop_pressed or status.state is RobotState.ESTOP:
@@ -133,6 +141,10 @@ def state_badge(status: RobotStatus | None, link_up: bool) -> tuple[str, str]:
         return "BOARD LOST", "negative"
     if not status.enabled or status.state is RobotState.DISABLED:
         return "DISABLED", "warning"
+    if program == "paused":
+        return "PROGRAM PAUSED", "warning"
+    if program is not None:
+        return "PROGRAM RUNNING", "info"
     if status.state is RobotState.HOMING:
         return "HOMING", "warning"
     if not status.all_homed:

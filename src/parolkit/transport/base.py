@@ -39,6 +39,10 @@ class Transport(abc.ABC):
     #: True when the far end is a board on a virtual clock (its time stands still between the
     #: caller's steps: a reply read in a tick was produced in that tick's time)
     virtual_clock: bool = False
+    #: simulated seconds each frame written runs the board (a simulated board in lockstep with
+    #: the frames, ``sim://?clock=virtual&step=...``; the controller then schedules trajectories
+    #: on its ticks); None for a board on its own clock.  Wrappers pass on their inner link's.
+    step_s: float | None = None
 
     @property
     @abc.abstractmethod

@@ -26,6 +26,7 @@ class FaultyTransport(Transport):
         self.inner = inner
         self.simulated = inner.simulated
         self.virtual_clock = inner.virtual_clock
+        self.step_s = inner.step_s
         lf = faults_from_options(faults)
         self._tx = ByteFaultInjector(lf, seed=seed)
         self._rx = ByteFaultInjector(lf, seed=None if seed is None else seed + 1)

@@ -52,6 +52,7 @@ class SpyTransport(Transport):
         self.inner = inner
         self.simulated = inner.simulated
         self.virtual_clock = inner.virtual_clock
+        self.step_s = inner.step_s
         self.log_target: str | TextIO = log
         self.raw = raw
         self._lock = threading.Lock()

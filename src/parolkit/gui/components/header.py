@@ -1,6 +1,7 @@
 """The header (NiceGUI): always visible (a fixed Quasar header), it holds what must never
 scroll away: link and robot state, who controls the robot, the compact gripper readout, REC
-while a recording runs, Home / Enable / Disable / Clear error / Stop, help and the E-STOP button.
+while a recording runs, Home / Enable / Disable / Clear error / Stop, help and the E-STOP button
+(in a layer of its own above every dialog, menu and tooltip, over its slot in the header row).
 
 On a narrow screen (phones, <= 760 px) the stylesheet moves E-STOP onto the first row and
 shows the buttons as icons; every button keeps its accessible name (``aria-label``).
@@ -78,11 +79,8 @@ class Header:
                             ui.button(icon="logout", on_click=lambda: ui.navigate.to("/logout")) \
                                 .props('flat round color=grey-4 aria-label="Log out" data-testid=btn-logout') \
                                 .tooltip("log out")
-                with ui.element("div").classes("pk-estop-slot"):
-                    self.estop_btn = ui.button("E-STOP", icon="dangerous", on_click=c.estop) \
-                        .props('color=red-8 size=lg aria-label="E-STOP" data-testid=btn-estop') \
-                        .classes("pk-estop")
-                    self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
+                # E-STOP's place in the row; the button itself is in a layer of its own (below)
+                ui.element("div").classes("pk-estop-slot").props("aria-hidden=true")
             # shown while there is no link to the controller: says so and offers a restart of
             # the controller this GUI started
             with ui.element("div").classes("pk-link-banner").props('role=alert data-testid=link-banner') \
@@ -93,6 +91,17 @@ class Header:
                     .props('unelevated dense no-caps color=primary data-testid=link-restart')
                 self.restart_btn.set_visibility(c.own_controller is not None)
             self.banner.set_visibility(False)
+        # E-STOP sits in a layer of its own above every overlay (dialogs and their dimming
+        # backdrop, menus, tooltips, notifications), over its slot in the header row: what the
+        # user sees on top is what a click or a tap hits.  It acts on the press (commander.js
+        # sends "pk_estop" on pointerdown, and on a click without a pointer: Enter, assistive
+        # technology), before an open menu takes that press for closing itself.
+        with ui.element("div").classes("pk-estop-layer"):
+            self.estop_btn = ui.button("E-STOP", icon="dangerous") \
+                .props('color=red-8 size=lg aria-label="E-STOP" data-testid=btn-estop') \
+                .classes("pk-estop")
+            self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
+        ui.on("pk_estop", lambda _: c.estop())
         self._banner_key: tuple[bool, str] | None = None
 
     def _update_banner(self, link_up: bool) -> None:
@@ -129,12 +138,14 @@ class Header:
             self._rec_shown = text
 
     def update(self, st: RobotStatus | None, link_up: bool) -> None:
-        """Show the link, the robot state, the E-STOP latch and the gripper (every 0.1 s;
-        an element is sent to the page only when what it shows changed)."""
+        """Show the link, the robot state (PROGRAM RUNNING / PAUSED from the program runner
+        while a program runs), the E-STOP latch and the gripper (every 0.1 s; an element is
+        sent to the page only when what it shows changed)."""
         self.control_badge.update()
         self._update_recording()
         self._update_banner(link_up)
-        text, colour = state_badge(st, link_up)
+        runner = self.c.program
+        text, colour = state_badge(st, link_up, runner.state if runner.active else None)
         latched = st is not None and (st.estop_latched or st.estop_pressed)
         key = (link_up, text, colour, latched)
         if key != self._shown:

@@ -14,7 +14,7 @@ from typing import Any
 from nicegui import ui
 
 from parolkit.errors import ParolkitError
-from parolkit.gui.commander import Commander
+from parolkit.gui.commander import ACTIVE_STATES, Commander
 from parolkit.gui.components.telemetry import plan_options
 from parolkit.gui.highlight import line_decorations, mark_decorations
 from parolkit.gui.programs_panel import ProgramsPanel
@@ -57,7 +57,8 @@ class ProgramPanel:
         with ui.row().classes("w-full items-center gap-2"):
             self._run_btn = _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
                                   lambda: self.run_program(step=False))
-            _tool("pause", "Pause the program", "prog-pause", "unelevated color=warning", self.c.program.pause)
+            # the interpreter pauses between lines: the move in progress finishes first
+            _tool("pause", "Pause after this move", "prog-pause", "unelevated color=warning", self.c.program.pause)
             self._step_btn = _tool("skip_next", "Step one line", "prog-step", "unelevated color=info",
                                    lambda: self.run_program(step=True))
             _tool("stop", "Stop the program", "prog-stop", "unelevated color=negative", self.stop_program)
@@ -320,9 +321,10 @@ class ProgramPanel:
         if runner.version == self._prog_version:
             return
         self._prog_version = runner.version
-        if runner.state in ("running", "paused"):
+        if runner.state in ACTIVE_STATES:
             where = f" · {runner.name}" if runner.name else ""
-            self.prog_status.set_text(f"▶ {runner.state} · line {runner.current_line or '—'}{where}")
+            what = {"pausing": "▶ running · pause after this move", "paused": "⏸ paused"}.get(runner.state, "▶ running")
+            self.prog_status.set_text(f"{what} · line {runner.current_line or '—'}{where}")
             self.prog_status.classes(replace="text-sm pk-mono text-amber-300")
         elif runner.state == "error":
             if runner.errors:

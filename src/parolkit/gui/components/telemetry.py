@@ -17,7 +17,7 @@ from nicegui import ui
 from parolkit.client.core import RobotStatus
 from parolkit.gui.eventlog import EventLog
 from parolkit.gui.link import ControllerLink
-from parolkit.gui.status import POSE_LABELS, format_angles, format_loop, format_pose, format_speeds
+from parolkit.gui.status import POSE_READOUTS, format_angles, format_loop, format_pose, format_speeds
 from parolkit.robot import JOINT_NAMES
 
 __all__ = ["Readouts", "LiveCharts", "live_options", "plan_options", "PLOT_WINDOW_S", "JOINT_COLOURS"]
@@ -69,8 +69,12 @@ class Readouts:
                     ui.label("TCP pose").classes("pk-title")
                     self.pose_labels: list[ui.label] = []
                     with ui.element("div").classes("pk-grid pk-grid-pose"):
-                        for name in POSE_LABELS:
-                            ui.label(name).classes("text-slate-300 text-sm")
+                        for name, index, letter in POSE_READOUTS:
+                            if index < 3:
+                                ui.label(name).classes("text-slate-300 text-sm")
+                            else:  # an angle also shows the pose's own name of it (MoveCart's A B C)
+                                ui.label(f"{name} ({letter})").classes("text-slate-300 text-sm") \
+                                    .tooltip(f"{letter}: the turn about {name[1]} in R = Rx(C)·Ry(B)·Rz(A)")
                             self.pose_labels.append(
                                 ui.label("—").classes("pk-val pk-num text-sm")
                                 .props(f"data-testid=pose-{name.lower()}"))

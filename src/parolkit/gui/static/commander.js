@@ -3,7 +3,8 @@
 // (parolkit.gui.jog.KEYMAP).  Every key goes to the server as the NiceGUI event "pk_key".
 //
 //  * Esc is E-STOP whatever has the focus (the editor too), except while a dialog or a menu
-//    is open: then Esc only closes it.
+//    is open: then Esc only closes it.  A press on the E-STOP button latches it at once,
+//    whatever is open (the event "pk_estop").
 //  * Space is STOP whatever has the focus.  Only while nothing moves does Space in a text
 //    field (an input, the editor) type a space: "something moves" (the robot moving or
 //    homing, a command queued, a program starting, running or paused, a held jog) is the
@@ -75,6 +76,19 @@
   }, true);
 
   window.addEventListener("blur", () => send("blur", false));
+
+  // E-STOP acts on the press, whatever pointer (mouse, pen, finger) and whatever is open: the
+  // button is drawn above every overlay (commander.css, .pk-estop-layer), and the press is
+  // taken here, before anything else sees it: an open menu takes a touch outside it for
+  // closing itself and cancels that tap's click.  A click without a pointer (Enter on the
+  // focused button, assistive technology) latches it too.
+  const ESTOP = "[data-testid=btn-estop]";
+  const onEstop = (e) => e.target instanceof Element && e.target.closest(ESTOP) !== null;
+  const estop = () => {
+    if (typeof window.emitEvent === "function") window.emitEvent("pk_estop", {});
+  };
+  window.addEventListener("pointerdown", (e) => { if (onEstop(e)) estop(); }, true);
+  window.addEventListener("click", (e) => { if (onEstop(e) && e.detail === 0) estop(); }, true);
 
   // a held jog button may be greyed out under the pointer (limit reached): a disabled button
   // sends no pointerup, so any pointer release on the page also ends a held jog
