@@ -44,7 +44,7 @@ if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ l
         ReplyError,
         RobotError,
     )
-    from parolkit.client.robot import CommandHandle, Robot, StatusSubscription
+    from parolkit.client.robot import CommandHandle, DatagramChannel, Robot, StatusSubscription
 
 __all__ = [
     "Robot", "CommandHandle", "StatusSubscription", "AsyncRobot", "AsyncCommandHandle",
@@ -52,12 +52,13 @@ __all__ = [
     "CommandInvalid", "CommandCancelled", "CommandTimeout", "ControllerUnreachable", "ReplyError",
     "CommandResult", "AckStatus", "AsyncResult", "RobotStatus", "RobotState", "Pose", "IOState",
     "GripperState", "ErrorInfo", "BoardInfo", "LoopStats", "ActiveCommand", "PlanInfo", "QueueInfo",
-    "ToolInfo", "ControlInfo",
+    "ToolInfo", "ControlInfo", "DatagramChannel",
 ]
 
 _WHERE = {
     "Robot": "parolkit.client.robot",
     "CommandHandle": "parolkit.client.robot",
+    "DatagramChannel": "parolkit.client.robot",
     "StatusSubscription": "parolkit.client.robot",
     "AsyncRobot": "parolkit.client.async_robot",
     "AsyncCommandHandle": "parolkit.client.async_robot",

@@ -18,6 +18,12 @@ its socket with the controller's (ext) ``ACK_HERE`` command.  Give
 ``ack_port=<the controller's --ack-port>`` (5002 by default) to listen where the original
 protocol sends acks (one program per machine can hold that port).
 
+``channel=``: instead of a UDP socket, a :class:`DatagramChannel`, an in-process path to a
+controller (``parolkit run --sim`` drives its simulated controller so, tick by tick:
+:class:`parolkit.controller.fastforward.InProcessController`).  The Robot then has no reader
+thread: a call that waits for an ack or a reply receives from the channel itself, and the
+controller behind it may advance while (and only while) someone waits.
+
 Every method is documented in :class:`parolkit.client.core.RobotCommands`; errors are the
 classes of :mod:`parolkit.client.errors`.  Here a command returns its :class:`CommandResult`
 (``wait=True``) or a :class:`CommandHandle` (``wait=False``), a query its typed value.
@@ -30,7 +36,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
-from typing import Literal, TypeVar, overload
+from typing import Literal, Protocol, TypeVar, overload
 
 from parolkit.client import robot_api as wire
 from parolkit.client.core import (
@@ -51,9 +57,23 @@ from parolkit.client.core import (
 from parolkit.client.errors import CommandNotCompleted, CommandTimeout, ControllerUnreachable, RobotError
 from parolkit.errors import ParolkitValueError
 
-__all__ = ["Robot", "CommandHandle", "StatusSubscription"]
+__all__ = ["Robot", "CommandHandle", "StatusSubscription", "DatagramChannel"]
 
 _T = TypeVar("_T")
+
+
+class DatagramChannel(Protocol):
+    """An in-process datagram path to a controller, in place of the Robot's UDP socket.
+
+    :meth:`send` hands one datagram to the controller (it is taken in before ``send``
+    returns); :meth:`receive` returns the next datagram the controller sent this client,
+    waiting up to ``timeout`` seconds (None when nothing came).  A channel whose controller
+    runs only while a client waits (a simulated one, fast-forwarded) advances it inside
+    :meth:`receive`.  Both may be called from several threads."""
+
+    def send(self, data: bytes) -> None: ...
+
+    def receive(self, timeout: float) -> bytes | None: ...
 
 
 class CommandHandle:
@@ -225,7 +245,7 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
     """
 
     def __init__(self, host: str = "127.0.0.1", port: int = 5001, ack_port: int = 0,
-                 timeout: float = DEFAULT_TIMEOUT_S) -> None:
+                 timeout: float = DEFAULT_TIMEOUT_S, *, channel: DatagramChannel | None = None) -> None:
         if not isinstance(host, str) or not host:
             raise ParolkitValueError(f"host must be a host name or address, got {host!r}")
         self.host = host
@@ -234,6 +254,19 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
             raise ParolkitValueError(f"timeout must be a number of seconds > 0, got {timeout!r}")
         self.timeout = float(timeout)
         self._addr = (host, self.port)
+        self._cond = threading.Condition()
+        self._acks = AckBook()
+        self._replies: queue.Queue[str] = queue.Queue()
+        self._query_lock = threading.Lock()
+        self._last_heard = 0.0
+        self._closed = False
+        self._channel = channel
+        #: one thread at a time receives from the channel; the others wait for what it sorts
+        self._pump_lock = threading.Lock()
+        if channel is not None:
+            self.ack_port: int = 0
+            self._send("ACK_HERE")
+            return
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self._sock.bind((bind_address(host), check_port(ack_port, "ack_port", 0)))
@@ -249,14 +282,8 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
         except OSError as exc:
             self._sock.close()
             raise ControllerUnreachable(f"cannot reach {host}:{self.port}: {exc.strerror or exc}") from None
-        self.ack_port: int = self._sock.getsockname()[1]
+        self.ack_port = self._sock.getsockname()[1]
         self._sock.settimeout(0.25)  # lets the reader thread notice close()
-        self._cond = threading.Condition()
-        self._acks = AckBook()
-        self._replies: queue.Queue[str] = queue.Queue()
-        self._query_lock = threading.Lock()
-        self._last_heard = 0.0
-        self._closed = False
         self._reader = threading.Thread(target=self._read_loop, daemon=True,
                                         name=f"parolkit-robot-{self.ack_port}")
         self._reader.start()
@@ -268,6 +295,9 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
     def _send(self, text: str) -> None:
         if self._closed:
             raise RobotError("this Robot is closed")
+        if self._channel is not None:
+            self._channel.send(text.encode("utf-8"))
+            return
         try:
             self._sock.send(text.encode("utf-8"))
         except OSError as exc:  # unresolvable host, no route, ...
@@ -285,16 +315,36 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
                 if self._closed:
                     return
                 continue  # e.g. ICMP port unreachable reported on Linux: keep listening
-            if not data:
-                continue  # close() shut the socket down (or an empty datagram): check _closed
-            text = data.decode("utf-8", "replace")
-            with self._cond:
-                self._last_heard = time.monotonic()
-                if text.startswith("ACK|"):
-                    self._acks.on_datagram(text)
-                    self._cond.notify_all()
-                    continue
-            self._replies.put(text)
+            if data:  # (empty: close() shut the socket down, or an empty datagram)
+                self._sort(data)
+
+    def _sort(self, data: bytes) -> None:
+        """One datagram from the controller: an ack to its record, anything else to the
+        replies; wakes the waiters."""
+        text = data.decode("utf-8", "replace")
+        with self._cond:
+            self._last_heard = time.monotonic()
+            if text.startswith("ACK|"):
+                self._acks.on_datagram(text)
+            else:
+                self._replies.put(text)
+            self._cond.notify_all()
+
+    def _pump(self, deadline: float) -> None:
+        """(channel only; not holding ``_cond``) Receive one datagram until ``deadline``
+        (monotonic s) and sort it; when another thread is receiving, wait for what it sorts."""
+        assert self._channel is not None
+        left = max(0.0, deadline - time.monotonic())
+        if self._pump_lock.acquire(blocking=False):
+            try:
+                data = self._channel.receive(left)
+            finally:
+                self._pump_lock.release()
+            if data:
+                self._sort(data)
+            return
+        with self._cond:
+            self._cond.wait(min(left, 0.05))
 
     def _request(self, request: str, tag: str, timeout: float) -> str:
         """Send a query and return the raw reply carrying ``tag`` (or an ERROR reply)."""
@@ -313,8 +363,10 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
                         f"no {tag} reply from {self.host}:{self.port} within {timeout:g} s "
                         "(is the controller running?)")
                 try:
-                    text = self._replies.get(timeout=left)
+                    text = self._replies.get_nowait() if self._channel else self._replies.get(timeout=left)
                 except queue.Empty:
+                    if self._channel:
+                        self._pump(deadline)
                     continue
                 head = text.partition("|")[0]
                 if head in (tag, "ERROR"):
@@ -341,8 +393,19 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
                         f"{self.host}:{self.port}, and does it send acks to this client's port "
                         f"{self.ack_port}? (a controller that acks only its --ack-port needs "
                         "Robot(ack_port=<that port>))")
-                self._cond.wait(left)
+                self._wait(deadline)
         return record
+
+    def _wait(self, deadline: float) -> None:
+        """(holding ``_cond``) Wait for the next datagram until ``deadline`` (monotonic s)."""
+        if self._channel is None:
+            self._cond.wait(max(0.0, deadline - time.monotonic()))
+            return
+        self._cond.release()
+        try:
+            self._pump(deadline)
+        finally:
+            self._cond.acquire()
 
     def _run(self, body: str, timeout: float | None) -> CommandResult:
         return self._wait_terminal(self._accepted(body, timeout), timeout)
@@ -379,8 +442,7 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
                             self._cond.acquire()
                     probe_at = time.monotonic() + max(self.timeout, 1.0)
                     continue
-                wake = probe_at if deadline is None else min(probe_at, deadline)
-                self._cond.wait(max(0.0, wake - now))
+                self._wait(probe_at if deadline is None else min(probe_at, deadline))
             return record.result()
 
     # ---- status stream ----
@@ -395,6 +457,9 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
         """
         if isinstance(every_n, bool) or not isinstance(every_n, int) or every_n < 1:
             raise ParolkitValueError(f"every_n must be an integer >= 1 (ticks), got {every_n!r}")
+        if self._channel is not None:
+            raise RobotError("the status stream needs a UDP controller; this Robot talks to an "
+                             "in-process one (channel=): poll status() instead")
         n = every_n
         wait = max(self.timeout, 2.0) if timeout is None else float(timeout)
         return StatusSubscription(self, n, wait, callback)
@@ -422,6 +487,8 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
         except RobotError:
             pass
         self._closed = True
+        if self._channel is not None:
+            return
         try:  # wake the reader thread at once instead of waiting for its poll timeout
             self._sock.shutdown(socket.SHUT_RDWR)
         except OSError:

@@ -101,22 +101,10 @@ class Controller:
         return str(host), int(port)
 
     def start(self) -> None:
-        cs = self.config.controller
         if self.sock is None:
             self.bind()
         assert self.sock is not None
-        self.outbox = Outbox(self.sock)
-        self.core = ControllerCore(
-            model=self.config.robot, rate_hz=self.rate_hz, queue_size=cs.queue_size,
-            watchdog_s=cs.stream_watchdog_s, link_timeout_ticks=cs.link_timeout_ticks,
-            link_hold_frames=cs.link_hold_frames, homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
-            homing_speedup=self._homing_speedup(), unhomed_jog_travel_deg=cs.unhomed_jog_travel_deg,
-            pose_provider=self._pose_provider, config=self.config,
-        )
-        self.stream = StatusStream(self.sock)
-        self.server = UdpServer(self.sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
-                                stream=self.stream, answerer=self, ack_port=cs.ack_port,
-                                lease=ControlLease(cs.lease_timeout_s, cs.secret))
+        self.assemble_server(self.sock)
         self.outbox.start()
         self.server.start()  # PING answers from here on (GET_STATUS: SERIAL=0 until the link is up)
         self.stream.start()
@@ -127,15 +115,45 @@ class Controller:
             transport = open_transport(self.link_url)
         elif not transport.is_open:
             transport.open()
+        loop = self.assemble_driver(transport)
+        loop.start()
+        threading.Thread(target=self._warm_up, name="parolkit-warmup", daemon=True).start()
+        self.home_if_simulated(transport)
+
+    def assemble_server(self, sock: socket.socket) -> None:
+        """Build the core, the outbox, the status stream and the UDP server on ``sock``; no
+        thread started (:meth:`start` starts them; an in-process driver such as
+        :class:`~parolkit.controller.fastforward.InProcessController` calls them itself)."""
+        cs = self.config.controller
+        self.sock = sock
+        self.outbox = Outbox(sock)
+        self.core = ControllerCore(
+            model=self.config.robot, rate_hz=self.rate_hz, queue_size=cs.queue_size,
+            watchdog_s=cs.stream_watchdog_s, link_timeout_ticks=cs.link_timeout_ticks,
+            link_hold_frames=cs.link_hold_frames, homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
+            homing_speedup=self._homing_speedup(), unhomed_jog_travel_deg=cs.unhomed_jog_travel_deg,
+            pose_provider=self._pose_provider, config=self.config,
+        )
+        self.stream = StatusStream(sock)
+        self.server = UdpServer(sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
+                                stream=self.stream, answerer=self, ack_port=cs.ack_port,
+                                lease=ControlLease(cs.lease_timeout_s, cs.secret))
+
+    def assemble_driver(self, transport: Transport, *, plan_inline: bool = False) -> Driver:
+        """The driver around the open ``transport`` (not started).  ``plan_inline``: plans are
+        made in the tick that asks (no planner thread, no stop supervisor: fast-forward)."""
+        cs = self.config.controller
         self.board_description = transport.description
         self.loop = Driver(
             self.core, transport, realtime_priority=cs.realtime_priority, inbox=self.inbox, publish=self._publish,
             supervisor=(StopSupervisor(cs.period_s, cs.supervisor_stall_s, priority=cs.supervisor_priority)
-                        if cs.supervisor else None),
-            server_view=self.server.overload_view,
+                        if cs.supervisor and not plan_inline else None),
+            server_view=self.server.overload_view, plan_inline=plan_inline,
         )
-        self.loop.start()
-        threading.Thread(target=self._warm_up, name="parolkit-warmup", daemon=True).start()
+        return self.loop
+
+    def home_if_simulated(self, transport: Transport) -> None:
+        """A simulated board homes first when the config says so (a HOME in the inbox)."""
         if self.home_on_start and getattr(transport, "simulated", False):
             self.inbox.put(Submission(C.Home(), None, None, ("controller", 0)))
 

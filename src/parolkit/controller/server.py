@@ -118,6 +118,17 @@ class Outbox:
         for ack in acks:
             self.put(ack.text, ack.route)
 
+    def send_waiting(self) -> None:
+        """Send every queued datagram now, in the calling thread (an outbox whose thread was
+        never started: a controller driven in-process)."""
+        while True:
+            try:
+                item = self._q.get_nowait()
+            except Empty:
+                return
+            if item is not None:
+                self._send(*item)
+
     def flush(self, timeout: float = 1.0) -> None:
         end = time.monotonic() + timeout
         while not self._q.empty() and time.monotonic() < end:
@@ -323,7 +334,8 @@ class UdpServer:
 
     def stop(self) -> None:
         self._running = False
-        self._thread.join(2.0)
+        if self._thread.ident is not None:  # (never started: served in-process, serve_now)
+            self._thread.join(2.0)
         self._nowait.close()
 
     def overload_view(self) -> dict[str, int]:
@@ -368,17 +380,29 @@ class UdpServer:
             for _ in range(SERVE_BATCH):
                 if not self._turn:
                     break
-                src = self._turn.popleft()
-                lane = self._lanes[src]
-                seq, data = lane.popleft()
-                if lane:
-                    self._turn.append(src)  # its next datagram after every other source's
-                else:
-                    del self._lanes[src]
-                try:
-                    self.handle(data, src, seq)
-                except Exception:  # nothing a datagram contains may stop the server
-                    log.exception("handling a datagram from %s failed", src)
+                self._serve_one()
+
+    def _serve_one(self) -> None:
+        """Serve the next datagram in turn (round-robin over the sources)."""
+        src = self._turn.popleft()
+        lane = self._lanes[src]
+        seq, data = lane.popleft()
+        if lane:
+            self._turn.append(src)  # its next datagram after every other source's
+        else:
+            del self._lanes[src]
+        try:
+            self.handle(data, src, seq)
+        except Exception:  # nothing a datagram contains may stop the server
+            log.exception("handling a datagram from %s failed", src)
+
+    def serve_now(self, data: bytes, addr: Address) -> None:
+        """Take in ``data`` from ``addr`` and serve everything waiting, in the calling thread:
+        for a controller driven in-process, without the server thread (:meth:`start` not
+        called; :class:`~parolkit.controller.fastforward.InProcessController`)."""
+        self._take_in(data, addr)
+        while self._turn:
+            self._serve_one()
 
     def _drain(self) -> None:
         """Read every datagram waiting in the socket (at most DRAIN_MAX), without blocking."""

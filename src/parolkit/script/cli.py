@@ -2,10 +2,15 @@
 
 ::
 
-    parolkit run PROGRAM [--sim] [--host H --port P [--ack-port A]] [--dry-run] [--plot out.png] [--step]
-                         [--loops N] [--from J1 .. J6] [--config FILE] [--quiet]
+    parolkit run PROGRAM [--sim [--fast] [--frame-log FILE]] [--host H --port P [--ack-port A]] [--dry-run]
+                         [--plot out.png] [--step] [--loops N] [--from J1 .. J6] [--config FILE] [--quiet]
     parolkit check PROGRAM... [--no-plan] [--table] [--loops N] [--from J1 .. J6] [--strict]
     parolkit fmt PROGRAM... [--check] [--stdout]
+
+``run --sim`` runs the controller in this process on a simulated board in lockstep with its
+frames (:class:`parolkit.controller.fastforward.InProcessController`): each command reaches
+it at a tick fixed by the program, so a run paced at real time and a ``--fast`` one (no
+sleeping: as fast as the machine computes the ticks) write the same frames (``--frame-log``).
 
 Exit status: 0 success; 1 the program has errors (nothing moved), the run failed or a file
 is not formatted (``fmt --check``); 2 bad command line; 130 interrupted (Ctrl-C sends STOP).
@@ -20,8 +25,6 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
-
-from parolkit.client.launch import SimController
 
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
@@ -62,7 +65,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
     if name == "run":
         p.add_argument("program", help="the .rbt program file")
         p.add_argument("--sim", action="store_true",
-                       help="start a controller with the simulated board for this run")
+                       help="run a controller with the simulated board in this process for this run")
+        p.add_argument("--fast", action="store_true",
+                       help="with --sim: fast-forward (no waiting for the clock; the same frames as "
+                            "a real-time run, as fast as this machine computes them)")
+        p.add_argument("--frame-log", metavar="FILE", default=None,
+                       help="with --sim: write every frame sent to the board to FILE, one line each: "
+                            "tick index, bytes in hex")
         p.add_argument("--host", default="127.0.0.1", help="controller address (default 127.0.0.1)")
         p.add_argument("--port", type=int, default=None,
                        help="controller UDP port (default: from the config, 5001)")
@@ -328,10 +337,27 @@ def _step_console(interp: Interpreter, done: threading.Event) -> None:
             done.wait(0.01)
 
 
+def _sim_flag_error(args: argparse.Namespace) -> str | None:
+    """What is wrong with --fast / --frame-log on this command line (None: nothing)."""
+    for flag, given in (("--fast", args.fast), ("--frame-log", args.frame_log is not None)):
+        if given and not args.sim:
+            return (f"{flag} needs --sim: it runs the simulated board in this process, in lockstep "
+                    "with the frames (a controller over UDP runs on its own clock)")
+        if given and args.dry_run:
+            return f"{flag} applies to a --sim run; --dry-run only plans (nothing is sent to a board)"
+    if args.frame_log is not None and not args.frame_log:
+        return "--frame-log needs a file name"
+    return None
+
+
 def run_main(args: argparse.Namespace) -> int:
     from parolkit.errors import ParolkitError
     from parolkit.script.parser import parse_file
 
+    bad = _sim_flag_error(args)
+    if bad is not None:
+        print(f"parolkit run: {bad}", file=sys.stderr)
+        return 2
     try:
         cfg = _config(args)
     except ParolkitError as exc:
@@ -351,22 +377,72 @@ def run_main(args: argparse.Namespace) -> int:
         _print_diagnostics(result.warnings)
 
     from parolkit.client.robot import Robot
-    from parolkit.script.interpreter import Interpreter
 
-    sim: SimController | None = None
+    if args.sim:
+        return _run_sim(args, program, cfg)
     port = args.port if args.port is not None else cfg.controller.udp_port
     ack_port = args.ack_port if args.ack_port is not None else cfg.controller.ack_port
-    host = args.host
+    try:
+        robot = Robot(args.host, port, ack_port=ack_port)
+    except (ParolkitError, OSError) as exc:
+        print(f"parolkit run: {exc}", file=sys.stderr)
+        return 1
+    try:
+        return _run_program(args, program, cfg, robot)
+    finally:
+        robot.close()
+
+
+def _run_sim(args: argparse.Namespace, program: Program, cfg: Config) -> int:
+    """``run --sim``: the controller in this process on a simulated board in lockstep, paced at
+    real time or fast-forwarded (``--fast``); the composition root of that run."""
+    from parolkit.client.robot import Robot
+    from parolkit.controller.fastforward import InProcessController
+    from parolkit.errors import ParolkitError
+
+    log: TextIO | None = None
+    if args.frame_log is not None:
+        try:
+            log = open(args.frame_log, "w", encoding="ascii")  # closed below
+        except OSError as exc:
+            print(f"parolkit run: --frame-log {args.frame_log}: {exc.strerror or exc}", file=sys.stderr)
+            return 2
+    sim: InProcessController | None = None
     robot: Robot | None = None
     try:
-        if args.sim:
-            sim = SimController(["--config", args.config] if args.config else [])
-            host, port, ack_port = "127.0.0.1", sim.port, sim.ack_port
+        sim = InProcessController(cfg, paced=not args.fast, frame_log=log)
+        if not args.quiet:
+            print("starting a controller with the simulated board"
+                  + (" (fast-forward) ..." if args.fast else " ..."), flush=True)
+        sim.start()
+        robot = Robot(channel=sim)
+        t0, ticks0 = time.monotonic(), sim.ticks
+        rc = _run_program(args, program, cfg, robot)
+        if args.fast and not args.quiet:
+            wall = time.monotonic() - t0
+            board = (sim.ticks - ticks0) * sim.period
+            ratio = f", {board / wall:.0f}x real time" if wall > 0 else ""
+            print(f"fast-forward: {board:.2f} s of board time in {wall:.2f} s{ratio}")
+        return rc
+    except (ParolkitError, RuntimeError, OSError) as exc:
+        print(f"parolkit run: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        if robot is not None:
+            robot.close()
         if sim is not None:
-            if not args.quiet:
-                print("starting a controller with the simulated board ...", flush=True)
-            sim.wait_ready()
-        robot = Robot(host, port, ack_port=ack_port)
+            sim.close()
+        if log is not None:
+            log.close()
+
+
+def _run_program(args: argparse.Namespace, program: Program, cfg: Config, robot: Robot) -> int:
+    """Run ``program`` on ``robot`` with progress lines, single-stepping, Ctrl-C (STOP) and the
+    final report; the exit status."""
+    from parolkit.errors import ParolkitError
+    from parolkit.script.interpreter import Interpreter
+
+    try:
         quiet = args.quiet
         progress = _ProgressPrinter(program.loops, live=sys.stdout.isatty() and not args.step)
         interp = Interpreter(program, robot, on_line=None if quiet else progress.on_line,
@@ -412,8 +488,3 @@ def run_main(args: argparse.Namespace) -> int:
     except (ParolkitError, RuntimeError, OSError) as exc:
         print(f"parolkit run: {exc}", file=sys.stderr)
         return 1
-    finally:
-        if robot is not None:
-            robot.close()
-        if sim is not None:
-            sim.close()
