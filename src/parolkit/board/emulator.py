@@ -43,7 +43,7 @@ from parolkit.board.homing import (
     HomingPhase,
     HomingSequence,
 )
-from parolkit.board.steppers import Stepper, clamp_speed
+from parolkit.board.steppers import SPEED_CLAMP_STEPS_S, Stepper, clamp_speed
 from parolkit.errors import ParolkitValueError
 from parolkit.protocol.frames import (
     TIMER_HZ,
@@ -318,25 +318,11 @@ class BoardEmulator:
             return
         cmd = self._command
         if self._enabled and cmd == BoardCommand.GOTO:
-            targets, ff, sts = self._targets, self._ff, self._steppers
-            for i in range(n):
-                moving = False
-                for st, tgt, vff in zip(sts, targets, ff):
-                    v = clamp_speed(((tgt - st.counter) / 0.01 + vff) / 2)
-                    st.speed = v
-                    if v:
-                        moving = True
-                        st.run(v, dt)
-                if g.busy:
-                    g.advance(dt)
-                if not moving:  # every joint settled: the remaining passes change nothing
-                    for st in sts:
-                        st.stop_phase()
-                    rest = n - i - 1
-                    if rest and g.busy:
-                        for _ in range(rest):
-                            g.advance(dt)
+            self._goto_passes(n, dt)
+            for _ in range(n):  # (advance does nothing once the jaws are idle)
+                if not g.busy:
                     break
+                g.advance(dt)
         else:
             if self._enabled and cmd == BoardCommand.JOG:
                 span = n * dt  # constant speeds: n passes integrate exactly like one span
@@ -347,6 +333,42 @@ class BoardEmulator:
                 for _ in range(n):
                     g.advance(dt)
         self._t += n * dt
+
+    def _goto_passes(self, n: int, dt: float) -> None:
+        """``n`` passes of the GO TO law, ``v = (target - counter) / 0.01 + v_ff) / 2`` (clamped,
+        whole steps/s) stepped once a pass.  The joints do not interact, so each one runs its
+        passes on its own, in local variables (the same arithmetic, in the same order, as one
+        pass of all joints after another); a joint whose speed comes out 0 stays there (its
+        counter no longer changes).  When every joint reached 0 within the ``n`` passes the
+        board stood still from that pass on and the sub-step phases are forgotten."""
+        if n <= 0:
+            return
+        clamp = SPEED_CLAMP_STEPS_S
+        settled = True
+        for st, tgt, vff in zip(self._steppers, self._targets, self._ff):
+            c = st.counter
+            acc = st._acc
+            v = 0
+            for _ in range(n):
+                v = int(((tgt - c) / 0.01 + vff) / 2)
+                if v > clamp:
+                    v = clamp
+                elif v < -clamp:
+                    v = -clamp
+                if not v:
+                    break
+                acc = acc + v * dt
+                k = int(acc)
+                acc = acc - k
+                c += k
+            else:
+                settled = False  # still running after the n passes
+            st.counter = c
+            st._acc = acc
+            st.speed = v
+        if settled:
+            for st in self._steppers:
+                st.stop_phase()
 
     # =======================================================================================
     # frames

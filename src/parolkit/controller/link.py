@@ -29,6 +29,7 @@ at the time its frame is written.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from collections.abc import Sequence
@@ -91,6 +92,11 @@ class LinkHistory:
         #: cleared by the owner when the integrity check has seen it end (it judges the homing
         #: from the raw replies: :attr:`parolkit.controller.integrity.StatusIntegrity.homing`)
         self.homing = False
+        #: the last :meth:`window` computed and what it was computed from (it is asked for
+        #: several times a tick with the same arguments)
+        self._window_key: tuple[float, int] | None = None
+        self._window_anchor: Anchor | None = None
+        self._window_value: tuple[tuple[float, float], ...] | None = None
 
     # ------------------------------------------------------------------ events
 
@@ -161,9 +167,13 @@ class LinkHistory:
         """The frames written from number ``n`` on, oldest first; None if any of them is no
         longer remembered."""
         w = self._written
-        if w and w[0].n > max(n, 1):
+        if not w:
+            return []
+        first = w[0].n
+        if first > max(n, 1):
             return None
-        return [x for x in w if x.n >= n]
+        # numbers are consecutive: frame n sits at n - first
+        return list(itertools.islice(w, max(0, n - first), None))
 
     def window(self, t_write: float) -> list[tuple[float, float]] | None:
         """Per joint, the interval (steps) the board's position lies in when a frame written at
@@ -172,6 +182,15 @@ class LinkHistory:
         a = self.anchor
         if a is None or self.homing:
             return None
+        key = (t_write, self._n)
+        if key != self._window_key or a is not self._window_anchor:
+            win = self._window(a, t_write)
+            self._window_value = None if win is None else tuple(win)
+            self._window_key, self._window_anchor = key, a
+        v = self._window_value
+        return None if v is None else list(v)
+
+    def _window(self, a: Anchor, t_write: float) -> list[tuple[float, float]] | None:
         frames = self.since(a.n)
         if frames is None:
             return None
