@@ -93,7 +93,8 @@ def _frames(rng: random.Random, count: int) -> list[tuple[CommandFrame, float]]:
         else:
             frame = CommandFrame(command=BoardCommand.GOTO, positions=tuple(pos),
                                  gripper_position=rng.randint(0, 255), gripper_speed=rng.randint(1, 255),
-                                 gripper_current=600, gripper_command=GripperCommandBits.ACTIVATE | GripperCommandBits.MOVE)
+                                 gripper_current=600,
+                                 gripper_command=GripperCommandBits.ACTIVATE | GripperCommandBits.MOVE)
         out.append((frame, rng.choice([0.01, 0.01, 0.01, 0.004, 0.0005, 0.03])))
     return out
 
