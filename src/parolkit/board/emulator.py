@@ -61,6 +61,8 @@ __all__ = ["BoardEmulator", "ClockMode", "EmulatorStats", "Direction"]
 _T = TypeVar("_T")
 
 _HOMING_CONTINUES = frozenset(range(256)) - {101, 102, 103, 123, 156}
+#: the IO byte's bits as plain ints (the status frame is built every frame)
+_IN1, _IN2, _ESTOP = int(IOBits.IN1), int(IOBits.IN2), int(IOBits.ESTOP)
 
 
 class ClockMode(str, Enum):
@@ -435,10 +437,10 @@ class BoardEmulator:
 
     def _io_byte(self) -> int:
         return (
-            (IOBits.IN1 if self._in1 else 0)
-            | (IOBits.IN2 if self._in2 else 0)
-            | self._outputs
-            | (0 if self._estop else IOBits.ESTOP)
+            (_IN1 if self._in1 else 0)
+            | (_IN2 if self._in2 else 0)
+            | int(self._outputs)
+            | (0 if self._estop else _ESTOP)
             | 0x07
         )
 

@@ -50,7 +50,7 @@ from parolkit.controller.messages import (
 )
 from parolkit.controller.planning import PlanRequest, PlanResult, plan
 from parolkit.controller.scheduling import raise_priority
-from parolkit.controller.stats import LoopMetrics
+from parolkit.controller.stats import LoopMetrics, LoopStatsView
 from parolkit.controller.supervisor import STOPPED_PERIODS, StopSupervisor
 from parolkit.protocol.frames import CommandFrame
 from parolkit.protocol.stream import StatusParser
@@ -111,6 +111,8 @@ class Driver:
         self.server_view = server_view
         self.reply_wait = min(self.period * reply_wait_fraction, 0.003)
         self.stats = LoopMetrics(self.rate_hz)
+        self._stats_view: LoopStatsView | None = None
+        self._stats_dict: dict[str, Any] = {}
         self.parser = StatusParser()
         self.tick_count = 0
         self.start_time = time.monotonic()
@@ -439,7 +441,10 @@ class Driver:
         started), restarts, scheduling and limits: a stopped controller is stopped after
         ``supervisor_stopped_ms`` without a frame, a running one after ``supervisor_stall_ms``
         (0: never)."""
-        view = self.stats.view(max_age_s=0.25).as_dict()
+        stats = self.stats.view(max_age_s=0.25)
+        if stats is not self._stats_view:  # (a view is reused for 0.25 s: so is its dict)
+            self._stats_view, self._stats_dict = stats, stats.as_dict()
+        view = dict(self._stats_dict)
         sup = self.supervisor
         view["supervisor"] = sup.state if sup is not None else "off"
         view["supervisor_pid"] = sup.pid if sup is not None else None

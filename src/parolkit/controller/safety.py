@@ -116,6 +116,8 @@ class SafetyState:
         else:
             pressed = self.estop_pressed and self.estop_raw_prev
         now_pressed = pressed and not self.estop_pressed
+        if pressed == self.estop_pressed and raw == self.estop_raw_prev and status.io == self.io_prev:
+            return self, now_pressed  # (nothing changed: most frames)
         return replace(self, estop_pressed=pressed, estop_raw_prev=raw, io_prev=status.io), now_pressed
 
     # ------------------------------------------------------------------ this tick's frame
