@@ -197,6 +197,13 @@ def _check_int(value: SupportsIndex, name: str, bounds: tuple[int, int]) -> int:
 
 
 def _check_six(values: Iterable[SupportsIndex], name: str, bounds: tuple[int, int]) -> tuple[int, ...]:
+    if type(values) is tuple and len(values) == 6:  # the common case, fast: 6 plain in-range ints
+        lo, hi = bounds
+        a, b, c, d, e, f = values
+        if (type(a) is int and type(b) is int and type(c) is int and type(d) is int and type(e) is int
+                and type(f) is int and lo <= a <= hi and lo <= b <= hi and lo <= c <= hi and lo <= d <= hi
+                and lo <= e <= hi and lo <= f <= hi):
+            return values
     if isinstance(values, (str, bytes)) or not hasattr(values, "__len__"):
         raise ParolkitValueError(f"{name} must be a sequence of 6 integers, got {values!r}")
     seq = tuple(values)
@@ -236,11 +243,38 @@ def _put24(buf: bytearray, values: tuple[int, ...]) -> None:
 
 
 def _get24(data: bytes, off: int) -> tuple[int, ...]:
-    out = []
-    for i in range(off, off + 18, 3):
-        raw = data[i] << 16 | data[i + 1] << 8 | data[i + 2]
-        out.append(raw - 0x1000000 if raw & 0x800000 else raw)
-    return tuple(out)
+    """Six 24-bit two's complement big-endian values from ``data[off:off + 18]``."""
+    fb = int.from_bytes
+    return (fb(data[off:off + 3], "big", signed=True), fb(data[off + 3:off + 6], "big", signed=True),
+            fb(data[off + 6:off + 9], "big", signed=True), fb(data[off + 9:off + 12], "big", signed=True),
+            fb(data[off + 12:off + 15], "big", signed=True), fb(data[off + 15:off + 18], "big", signed=True))
+
+
+#: a frame's scalar fields and their ranges, in the order they are checked
+_COMMAND_FIELDS: tuple[tuple[str, tuple[int, int]], ...] = (
+    *((n, _U8) for n in ("command", "affected", "io", "timeout", "gripper_command", "gripper_mode", "gripper_id",
+                         "crc")),
+    *((n, _I16) for n in ("gripper_position", "gripper_speed", "gripper_current")),
+)
+_STATUS_FIELDS: tuple[tuple[str, tuple[int, int]], ...] = (
+    *((n, _U8) for n in ("homed", "io", "temperature_error", "position_error", "timeout_error", "xtr",
+                         "gripper_id", "gripper_status", "object_detection", "crc")),
+    ("timing", _U16),
+    *((n, _I16) for n in ("gripper_position", "gripper_speed", "gripper_current")),
+)
+
+
+def _check_fields(frame: CommandFrame | StatusFrame, scalars: tuple[tuple[str, tuple[int, int]], ...]) -> None:
+    """Check (and normalise to plain ints) a new frame's fields: the six positions and speeds,
+    then ``scalars`` in order; the first bad one raises.  (Written into the instance's dict,
+    as ``object.__setattr__`` on a frozen dataclass would.)"""
+    d = frame.__dict__
+    d["positions"] = _check_six(d["positions"], "positions", _I24)
+    d["speeds"] = _check_six(d["speeds"], "speeds", _I24)
+    for name, bounds in scalars:
+        v = d[name]
+        if type(v) is not int or not bounds[0] <= v <= bounds[1]:
+            d[name] = _check_int(v, name, bounds)
 
 
 def _i16(data: bytes, off: int) -> int:
@@ -304,13 +338,7 @@ class CommandFrame:
     crc: int = PC_CRC
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "positions", _check_six(self.positions, "positions", _I24))
-        object.__setattr__(self, "speeds", _check_six(self.speeds, "speeds", _I24))
-        for name in ("command", "affected", "io", "timeout", "gripper_command", "gripper_mode",
-                     "gripper_id", "crc"):
-            object.__setattr__(self, name, _check_int(getattr(self, name), name, _U8))
-        for name in ("gripper_position", "gripper_speed", "gripper_current"):
-            object.__setattr__(self, name, _check_int(getattr(self, name), name, _I16))
+        _check_fields(self, _COMMAND_FIELDS)
         # an unknown code is legal on the wire: the board idles and replies
         object.__setattr__(self, "command", _COMMANDS.get(self.command, self.command))
 
@@ -390,14 +418,7 @@ class StatusFrame:
     crc: int = BOARD_CRC
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "positions", _check_six(self.positions, "positions", _I24))
-        object.__setattr__(self, "speeds", _check_six(self.speeds, "speeds", _I24))
-        for name in ("homed", "io", "temperature_error", "position_error", "timeout_error", "xtr",
-                     "gripper_id", "gripper_status", "object_detection", "crc"):
-            object.__setattr__(self, name, _check_int(getattr(self, name), name, _U8))
-        object.__setattr__(self, "timing", _check_int(self.timing, "timing", _U16))
-        for name in ("gripper_position", "gripper_speed", "gripper_current"):
-            object.__setattr__(self, name, _check_int(getattr(self, name), name, _I16))
+        _check_fields(self, _STATUS_FIELDS)
 
     # ---- convenience views ----
     @property
