@@ -11,63 +11,37 @@ import types
 import pytest
 
 from parolkit.board import BoardEmulator
-from parolkit.board.emulator import _HOMING_CONTINUES
 from parolkit.board.steppers import clamp_speed
 from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperCommandBits
 
 
 def _per_pass_loop(self: BoardEmulator, n: int) -> None:
-    """The emulator's pass loop as it was before the joint-by-joint GO TO (the reference)."""
-    dt = self._dt
+    """The emulator's GO TO passes as they were before the joint-by-joint stepping (the
+    reference); the other branches (homing, JOG, idle) are the emulator's own."""
     g = self._gripper
-    if self._homing.active:
-        if self._enabled and self._command in _HOMING_CONTINUES:
-            dth = dt * self.homing_speedup
-            for i in range(n):
-                bits = self._homing.step(dth)
-                if bits:
-                    self._homed = 0xFF if bits == 0xFF else self._homed | bits
-                if g.busy:
-                    g.advance(dt)
-                if not self._homing.active:
-                    self._t += (i + 1) * dt
-                    _per_pass_loop(self, n - i - 1)
-                    return
-        elif g.busy:
-            for _ in range(n):
-                g.advance(dt)
-        self._t += n * dt
+    if self._homing.active or not (self._enabled and self._command == BoardCommand.GOTO):
+        BoardEmulator._run_passes(self, n)
         return
-    cmd = self._command
-    if self._enabled and cmd == BoardCommand.GOTO:
-        targets, ff, sts = self._targets, self._ff, self._steppers
-        for i in range(n):
-            moving = False
-            for st, tgt, vff in zip(sts, targets, ff):
-                v = clamp_speed(((tgt - st.counter) / 0.01 + vff) / 2)
-                st.speed = v
-                if v:
-                    moving = True
-                    st.run(v, dt)
-            if g.busy:
-                g.advance(dt)
-            if not moving:
-                for st in sts:
-                    st.stop_phase()
-                rest = n - i - 1
-                if rest and g.busy:
-                    for _ in range(rest):
-                        g.advance(dt)
-                break
-    else:
-        if self._enabled and cmd == BoardCommand.JOG:
-            span = n * dt
-            for st in self._steppers:
-                if st.speed:
-                    st.run(st.speed, span)
+    dt = self._dt
+    targets, ff, sts = self._targets, self._ff, self._steppers
+    for i in range(n):
+        moving = False
+        for st, tgt, vff in zip(sts, targets, ff):
+            v = clamp_speed(((tgt - st.counter) / 0.01 + vff) / 2)
+            st.speed = v
+            if v:
+                moving = True
+                st.run(v, dt)
         if g.busy:
-            for _ in range(n):
-                g.advance(dt)
+            g.advance(dt)
+        if not moving:
+            for st in sts:
+                st.stop_phase()
+            rest = n - i - 1
+            if rest and g.busy:
+                for _ in range(rest):
+                    g.advance(dt)
+            break
     self._t += n * dt
 
 
