@@ -42,11 +42,15 @@ $(STAMP_ROS):
 
 ros-venv: $(STAMP_ROS)
 
-## make test: set everything up, lint and type-check, and run every test (unit, integration, browser)
+## make test: set everything up, lint and type-check, and run every test (unit, integration, browser):
+## TEST_WORKERS processes in parallel (pytest-xdist, each test module in one process), then the
+## tests marked alone (a flood that takes the whole machine) on their own
+TEST_WORKERS ?= 2
 test: lint ros-venv
 	./scripts/ensure-chromium.sh
 	./scripts/ensure-axe.sh
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not soak and not alone"
+	$(PY) -m pytest -q -m alone
 
 ## make lint: ruff (style, imports, bugs) and mypy --strict (types, the whole package);
 ## the import-cycle check is a unit test (tests/unit/test_import_cycles.py)

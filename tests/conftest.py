@@ -47,6 +47,18 @@ def process_state(pid: int) -> str | None:
         return None
 
 
+def process_exited(pid: int) -> bool:
+    """Process ``pid`` has exited with all its threads (not yet reaped): its files are closed.
+    (A killed multi-threaded process shows ``Z`` as soon as its main thread is gone, while its
+    other threads, which share its open files, may still be exiting on a loaded machine.)"""
+    if process_state(pid) != "Z":
+        return False
+    try:
+        return len(os.listdir(f"/proc/{pid}/task")) <= 1
+    except OSError:
+        return True
+
+
 def child_pids(pid: int) -> list[int]:
     """Process ids whose parent is ``pid`` (from /proc; exited ones not yet reaped included)."""
     out = []

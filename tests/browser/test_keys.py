@@ -9,6 +9,9 @@ enabled, homed and idle.
 
 from __future__ import annotations
 
+import contextlib
+import re
+
 import pytest
 from tests.browser.helpers import (
     count_log,
@@ -24,10 +27,38 @@ from tests.browser.helpers import (
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
-#: the J1 steps that Space must stop: from standby (90°) this far in the negative direction
-#: stays inside J1's range and takes seconds at the jog speed, so the step still runs after
-#: the clicks between its start and the Space on a loaded machine
-STEP_DEG = 150
+#: the J1 steps that Space must stop (the step field's maximum), run at the slowest jog speed
+#: (:func:`slowest_jog`): it takes most of a minute, so it still runs after the clicks between
+#: its start and the Space however loaded the machine
+STEP_DEG = 45
+
+
+def _set_jog_speed(page, percent: int) -> None:
+    """The jog speed slider to ``percent``: a click where that value lies on its track, then its
+    arrow keys until the label says so."""
+    page.get_by_test_id("tab-jog").click()
+    slider = page.get_by_test_id("speed-slider")
+    b = slider.bounding_box()
+    slider.click(position={"x": max(1.0, b["width"] * (percent - 1) / 99), "y": b["height"] / 2})
+    for _ in range(20):
+        now = int(re.search(r"\d+", page.get_by_text(re.compile(r"^Speed \d+ %$")).inner_text()).group())
+        if now == percent:
+            return
+        page.keyboard.press("ArrowRight" if now < percent else "ArrowLeft")
+    wait_until(lambda: page.get_by_text(f"Speed {percent} %", exact=True).count() == 1, 5,
+               what=f"the jog speed at {percent} %", page=page)
+
+
+@contextlib.contextmanager
+def slowest_jog(page):
+    """The jog speed at 1 % while the block runs, then back to what it was."""
+    label = page.get_by_text(re.compile(r"^Speed \d+ %$"))
+    before = int(re.search(r"\d+", label.inner_text()).group())
+    _set_jog_speed(page, 1)
+    try:
+        yield
+    finally:
+        _set_jog_speed(page, before)
 
 
 @pytest.fixture(scope="module")
@@ -65,15 +96,16 @@ def test_space_stops_a_step_jog_right_after_its_button_was_clicked(kpage):
     step_input.press("Tab")
     page.wait_for_timeout(300)
     try:
-        start = settled(page, "angle-1")
-        stops = count_log(page, "sent Stop")
-        page.get_by_test_id("jog-j1-").click()
-        wait_until(lambda: number(page, "angle-1") < start - 0.3, 15, what="the J1 step moving", page=page)
-        page.keyboard.press("Space")
-        wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
-        end = settled(page, "angle-1", 15)
-        assert end > start - (STEP_DEG - 1), \
-            f"the {STEP_DEG}° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
+        with slowest_jog(page):
+            start = settled(page, "angle-1")
+            stops = count_log(page, "sent Stop")
+            page.get_by_test_id("jog-j1-").click()
+            wait_until(lambda: number(page, "angle-1") < start - 0.3, 15, what="the J1 step moving", page=page)
+            page.keyboard.press("Space")
+            wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
+            end = settled(page, "angle-1", 15)
+            assert end > start - (STEP_DEG - 1), \
+                f"the {STEP_DEG}° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
     finally:
         step_input.fill("5")
         step_input.press("Tab")
@@ -154,8 +186,8 @@ def _moving_attr(page) -> str | None:
 def test_space_in_a_text_input_while_a_step_move_runs_stops_the_robot(kpage):
     """Failed on the old page: Space in a text field always typed a space there, so with the
     program name field focused the J1 step ran to completion and no STOP was sent.  The step
-    is 150° (several seconds at the jog speed): long enough to still run after the tab switch
-    and the click on a loaded machine."""
+    is 45° at 1 % speed: long enough to still run after the tab switch and the click on a
+    loaded machine."""
     page = kpage
     wait_ready(page)
     page.get_by_test_id("tab-jog").click()
@@ -166,20 +198,21 @@ def test_space_in_a_text_input_while_a_step_move_runs_stops_the_robot(kpage):
     page.wait_for_timeout(300)
     name = page.get_by_test_id("prog-name")
     try:
-        start = settled(page, "angle-1")
-        stops = count_log(page, "sent Stop")
-        page.get_by_test_id("jog-j1-").click()
-        wait_until(lambda: number(page, "angle-1") < start - 0.3, 15, what="the J1 step moving", page=page)
-        page.get_by_test_id("tab-program").click()
-        name.click()
-        before = name.input_value()
-        assert state(page) == "MOVING", f"the step ended before Space could be pressed: {state(page)}"
-        page.keyboard.press("Space")
-        wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
-        end = settled(page, "angle-1", 15)
-        assert end > start - (STEP_DEG - 1), \
-            f"the {STEP_DEG}° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
-        assert name.input_value() == before, "Space typed into the name field while the robot moved"
+        with slowest_jog(page):
+            start = settled(page, "angle-1")
+            stops = count_log(page, "sent Stop")
+            page.get_by_test_id("jog-j1-").click()
+            wait_until(lambda: number(page, "angle-1") < start - 0.3, 15, what="the J1 step moving", page=page)
+            page.get_by_test_id("tab-program").click()
+            name.click()
+            before = name.input_value()
+            assert state(page) == "MOVING", f"the step ended before Space could be pressed: {state(page)}"
+            page.keyboard.press("Space")
+            wait_until(lambda: count_log(page, "sent Stop") == stops + 1, 10, what="Space sent Stop", page=page)
+            end = settled(page, "angle-1", 15)
+            assert end > start - (STEP_DEG - 1), \
+                f"the {STEP_DEG}° step was not stopped: J1 {start} -> {end}\n{log_text(page)}"
+            assert name.input_value() == before, "Space typed into the name field while the robot moved"
     finally:
         page.get_by_test_id("tab-jog").click()
         step_input.fill("5")

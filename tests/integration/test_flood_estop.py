@@ -84,6 +84,7 @@ def rig(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.alone  # the flood takes the whole machine: beside other tests it judges them, not us
 def test_a_20000_per_second_flood_never_delays_estop_ping_or_an_ack_of_another_client(rig):
     run = flood.run_flood(rig.ctl.port, rig.acks, f"{rig.link}.ctl", rate=FLOOD_RATE, duration=FLOOD_S,
                           estops=ESTOPS, reference_s=REFERENCE_S, reference_estops=REFERENCE_ESTOPS,

@@ -17,7 +17,6 @@ import inspect
 import json
 import re
 import socket
-import time
 from datetime import datetime
 
 import pytest

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 import pytest
-from tests.conftest import child_pids, process_state, wait_until
+from tests.conftest import child_pids, process_exited, process_state, wait_until
 from tests.integration.load import Client
 from tests.integration.test_bounded_commitment import BOUND_S, KillBench
 
@@ -104,7 +104,7 @@ def test_a_killed_supervisor_is_noticed_in_the_next_tick_stops_the_jog_and_motio
     old = b.sup.pid
     assert old is not None
     os.kill(old, signal.SIGKILL)
-    wait_until(lambda: process_state(old) == "Z", 5, interval=0.001, what="the supervisor dead")
+    wait_until(lambda: process_exited(old), 5, interval=0.001, what="the supervisor dead, its threads too")
 
     out = b.tick()  # the first tick after the death
     what = f"the stop supervisor (pid {old}) exited (killed by signal 9)"

@@ -52,12 +52,35 @@ class _DeadLink:
 
 
 def test_an_unanswering_board_is_reported_not_waited_for_forever():
-    from parolkit.boardtest import BoardTestError
+    from parolkit.boardtest import FIRST_REPLY_S, BoardTestError
 
     t = BoardTester(_DeadLink(), rate_hz=200, out=io.StringIO())
-    with pytest.raises(BoardTestError, match="did not answer"):
+    with pytest.raises(BoardTestError, match=r"did not answer \d+ frames"):
         t.read_inputs()
-    assert t.missed == t.sent > 0
+    # it waited FIRST_REPLY_S for a first reply (at 200 Hz), and no longer
+    assert t.missed == t.sent and round(FIRST_REPLY_S * 200) <= t.sent <= round(FIRST_REPLY_S * 200) + 20
+
+
+class _LateLink(_DeadLink):
+    """A board whose first replies a loaded PC's tty layer held back: nothing comes until the
+    ``late``-th frame was written, then one status a frame."""
+
+    def __init__(self, late: int):
+        super().__init__()
+        self.late = late
+
+    def read(self) -> bytes:
+        if self.written < self.late:
+            return b""
+        return StatusFrame(io=0x2C, homed=0xFF).encode()
+
+
+def test_a_board_whose_first_replies_come_late_is_waited_for():
+    """Failed before: the tool gave up after 0.1 s (20 frames at 200 Hz) without a reply, so a
+    board-sim that a loaded machine had not scheduled yet was reported as not there."""
+    t = BoardTester(_LateLink(60), rate_hz=200, out=io.StringIO())
+    t.read_inputs()
+    assert t.status is not None and t.sent == 60 and t.missed == 59
 
 
 @pytest.mark.parametrize("call,needle", [

@@ -12,7 +12,7 @@ import sys
 import time
 
 import pytest
-from tests.conftest import process_state, wait_until
+from tests.conftest import process_exited, wait_until
 
 from parolkit.config import ControllerSettings
 from parolkit.controller.supervisor import (
@@ -147,7 +147,7 @@ def test_a_supervisor_killed_is_reported_lost_once_with_the_signal_and_a_new_one
     old = sup.pid
     assert old is not None
     os.kill(old, signal.SIGKILL)
-    wait_until(lambda: process_state(old) == "Z", 5, interval=0.001, what="the supervisor dead")
+    wait_until(lambda: process_exited(old), 5, interval=0.001, what="the supervisor dead, its threads too")
     if found_by == "send":
         sup.sent(b"\x00" * 56)
         assert sup.state == "dead"
