@@ -19,6 +19,7 @@ import urllib.parse
 
 import numpy as np
 import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
 from tests.browser.conftest import gui_on_controller
 from tests.browser.helpers import axe_report, axe_violations, text, wait_linked, wait_ready, wait_until
 
@@ -59,10 +60,12 @@ def rpage(browser, setup):
     pg.close()
 
 
-def _ticks(page) -> int:
-    """Statuses the running recording holds, as the page shows them (0 when not recording)."""
-    m = re.search(r"(\d+) ticks", text(page, "rec-status"))
-    return int(m.group(1)) if m and "REC" in text(page, "rec-status") else 0
+def _ticks(page, timeout: float = 30_000) -> int:
+    """Statuses the running recording holds, as the page shows them (0 when not recording);
+    ``timeout`` (ms) for the Record tab to be in the page."""
+    shown = page.get_by_test_id("rec-status").inner_text(timeout=timeout)
+    m = re.search(r"(\d+) ticks", shown)
+    return int(m.group(1)) if m and "REC" in shown else 0
 
 
 def _start(page) -> str:
@@ -272,13 +275,17 @@ def test_a_long_teach_leaves_the_page_live(rpage, setup):
     polls: list[tuple[float, int]] = []  # (time, ticks shown) while the page says "teaching"
 
     def taught() -> bool:
+        # once taught, the program opens in the Program tab, which takes the Record tab (its
+        # status and ticks) out of the page, at any moment between two reads: then back to it
         if page.get_by_test_id("teach-status").count() == 0:
-            # taught, and the taught program opened in the Program tab (between two polls of a
-            # loaded machine's browser): back to the Record tab, where the status says so
             page.get_by_test_id("tab-record").click()
-        status = text(page, "teach-status")
-        if "teaching from" in status:
-            polls.append((time.monotonic(), _ticks(page)))
+            return False
+        try:
+            status = page.get_by_test_id("teach-status").inner_text(timeout=2000)
+            if "teaching from" in status:
+                polls.append((time.monotonic(), _ticks(page, timeout=2000)))
+        except PlaywrightTimeoutError:
+            return False
         return "taught long demo.rbt" in status
 
     wait_until(taught, 180, interval=0.1, what="the long recording taught", page=page)
