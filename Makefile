@@ -44,7 +44,8 @@ ros-venv: $(STAMP_ROS)
 
 ## make test: set everything up, lint and type-check, and run every test (unit, integration, browser):
 ## TEST_WORKERS processes in parallel (pytest-xdist, each test module in one process), then the
-## tests marked alone (a flood that takes the whole machine) on their own
+## tests marked alone (a flood that takes the whole machine; the pty tests whose board emulator
+## runs in the test process) on their own
 TEST_WORKERS ?= 2
 test: lint ros-venv
 	./scripts/ensure-chromium.sh

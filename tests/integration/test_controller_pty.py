@@ -21,6 +21,12 @@ from tests.conftest import start_controller, wait_until
 from parolkit.board import BoardEmulator, PtyBoardServer
 from parolkit.protocol.frames import BoardCommand
 
+#: the board's emulator runs in this test process and these tests judge its link on the wall
+#: clock (replies within 50 ticks): beside another test process it starved for 0.5 s and the
+#: controller rightly declared the link lost.  make test runs them on their own, after the
+#: parallel part (board-sim in its own process, as test_boardtest, is the way out).
+pytestmark = pytest.mark.alone
+
 TERMINAL = {"COMPLETED", "FAILED", "CANCELLED", "INVALID"}
 
 
