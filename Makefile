@@ -7,7 +7,7 @@ STAMP_RUN  := $(VENV)/.stamp-run
 STAMP_DEV  := $(VENV)/.stamp-dev
 INSTALL_DEPS := pyproject.toml setup.py $(wildcard src/parolkit/*/*.c)
 
-.PHONY: run test test-fast soak lint bench screenshot clean venv ros-venv
+.PHONY: run test test-fast soak lint bench screenshot clean venv ros-venv browser-deps
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -42,14 +42,19 @@ $(STAMP_ROS):
 
 ros-venv: $(STAMP_ROS)
 
-## make test: set everything up, lint and type-check, and run every test (unit, integration, browser):
-## TEST_WORKERS processes in parallel (pytest-xdist, each test module in one process), then the
-## tests marked alone (a flood that takes the whole machine; the pty tests whose board emulator
-## runs in the test process) on their own
-TEST_WORKERS ?= 2
-test: lint ros-venv
+## the browser tests' headless Chromium (Debian's) and axe-core (npm), installed if missing
+browser-deps:
 	./scripts/ensure-chromium.sh
 	./scripts/ensure-axe.sh
+
+## make test: set everything up, lint and type-check, and run every test (unit, integration, browser).
+## The set-up jobs run side by side (the dev virtualenv then lint; the ROS 2 virtualenv; Chromium
+## and axe-core). Then TEST_WORKERS processes in parallel (pytest-xdist, each test module in one
+## process), then the tests marked alone (a flood that takes the whole machine; the pty tests
+## whose board emulator runs in the test process) on their own
+TEST_WORKERS ?= 2
+test:
+	$(MAKE) -j3 --no-print-directory lint ros-venv browser-deps
 	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not soak and not alone"
 	$(PY) -m pytest -q -m alone
 
@@ -69,9 +74,7 @@ test-fast: $(STAMP_DEV)
 	$(PY) -m pytest -q tests/unit
 
 ## make screenshot: regenerate docs/images/commander*.png with the browser test suite
-screenshot: $(STAMP_DEV)
-	./scripts/ensure-chromium.sh
-	./scripts/ensure-axe.sh
+screenshot: $(STAMP_DEV) browser-deps
 	PAROLKIT_UPDATE_SCREENSHOT=1 $(PY) -m pytest -q tests/browser
 
 ## make bench: run every benchmark script and print its figures
