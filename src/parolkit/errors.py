@@ -105,3 +105,13 @@ class JointLimitError(ParolkitValueError):
             f"{what}{where}: {self.joint_name} = {value:g} {unit} is out of range: {side} "
             f"(allowed {low:g} .. {high:g} {unit})"
         )
+
+    def __reduce__(self) -> tuple[object, ...]:
+        # keyword-only arguments: rebuilt from them (an error raised in a worker process, e.g.
+        # the commander's teach process, reaches the page as itself)
+        return (_joint_limit_error, (self.joint, self.value, self.low, self.high, self.unit, self.sample, self.what))
+
+
+def _joint_limit_error(joint: int, value: float, low: float, high: float, unit: str, sample: int | None,
+                       what: str) -> JointLimitError:
+    return JointLimitError(joint=joint, value=value, low=low, high=high, unit=unit, sample=sample, what=what)

@@ -160,3 +160,41 @@ def test_recordings_dir_config_and_default(tmp_path, monkeypatch):
         load_config(f)
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
     assert default_recordings_dir() == tmp_path / "parolkit" / "recordings"  # beside the programs folder
+
+
+def test_the_teach_process_fits_as_the_thread_does_says_what_failed_and_survives_being_killed(tmp_path):
+    """The commander's fits run in a process of their own (a fit in a thread would hold the
+    interpreter lock the page's event loop needs): the same program as a fit in this process,
+    the fit's own error (not a pickling one) for a recording without status, and a killed
+    process is replaced at the next fit."""
+    import signal
+    from concurrent.futures.process import BrokenProcessPool
+
+    from tests.unit.test_record import _planned_recording, _write
+
+    from parolkit.gui.recordings import TeachProcess
+    from parolkit.moves import JointMove
+
+    recordings, programs = RecordingsFolder(tmp_path / "r"), ProgramsFolder(tmp_path / "p")
+    recordings.create()
+    _, statuses = _planned_recording(tmp_path, [JointMove((80, -80, 170, 0, 10, 170), 1.5)])
+    _write(recordings.root / "demo.mcap", statuses)
+    _mcap(recordings.root / "empty.mcap")
+    here = teach_recording(recordings, programs, "demo.mcap")
+    proc = TeachProcess()
+    try:
+        there = teach_recording(recordings, programs, "demo.mcap", fit=proc.fit)
+        assert there.text == here.text and there.path.name == "demo-2.rbt"
+        with pytest.raises(ParolkitValueError, match="no /parolkit/status messages"):
+            teach_recording(recordings, programs, "empty.mcap", fit=proc.fit)
+        pool = proc._pool
+        assert pool is not None
+        for pid in list(pool._processes):  # the process dies (killed, out of memory ...)
+            os.kill(pid, signal.SIGKILL)
+        with pytest.raises(BrokenProcessPool):
+            teach_recording(recordings, programs, "demo.mcap", fit=proc.fit)
+        again = teach_recording(recordings, programs, "demo.mcap", fit=proc.fit)
+        assert again.text == here.text
+    finally:
+        proc.close()
+    assert proc._pool is None

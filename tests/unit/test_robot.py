@@ -106,6 +106,20 @@ def test_limit_check_reports_the_sample_of_a_batch():
     assert exc.value.sample == 2
 
 
+def test_a_limit_error_survives_pickling_whole():
+    """An error raised in a worker process (the commander's teach process) reaches the caller
+    as itself: before, unpickling failed on the keyword-only arguments."""
+    import pickle
+
+    q = np.tile(PAROL6.standby_deg, (4, 1))
+    q[2, 1] = -150
+    with pytest.raises(JointLimitError) as exc:
+        check_joint_limits_deg(q)
+    back = pickle.loads(pickle.dumps(exc.value))
+    assert type(back) is JointLimitError and str(back) == str(exc.value)
+    assert (back.joint, back.value, back.sample, back.unit) == (1, -150, 2, exc.value.unit)
+
+
 def test_step_limits_and_speed_limits():
     check_joint_limits_steps(PAROL6.standby_steps)
     with pytest.raises(JointLimitError, match="J1 = 14001 steps"):

@@ -191,6 +191,7 @@ def build_app(commander: Commander) -> Callable[[], None]:
         commander.jog_release()
         commander.program.stop("stopped: commander shutting down")
         await asyncio.to_thread(commander.recording.close)  # the file gets its summary
+        await asyncio.to_thread(commander.teach_process.close)
         await commander.control.stop()
         await commander.link.close()  # gives the control lease back (CONTROL|RELEASE)
 

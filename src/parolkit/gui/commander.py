@@ -22,7 +22,7 @@ from parolkit.gui.lease_watch import ControlWatch, local_host_for
 from parolkit.gui.link import ControllerLink
 from parolkit.gui.program_doc import ProgramDoc
 from parolkit.gui.programs import ProgramsFolder, default_programs_dir
-from parolkit.gui.recordings import RecordingSession, RecordingsFolder, default_recordings_dir
+from parolkit.gui.recordings import RecordingSession, RecordingsFolder, TeachProcess, default_recordings_dir
 from parolkit.gui.templates import SEED_EXAMPLES
 
 if TYPE_CHECKING:
@@ -64,6 +64,8 @@ class Commander:
         self.recordings = recordings or RecordingsFolder(default_recordings_dir())
         #: the one recording of the controller's status stream (an observer, like `parolkit record`)
         self.recording = RecordingSession(self.recordings, link.host, link.port, self.log)
+        #: where the Record tab's teach fits run (a process of their own)
+        self.teach_process = TeachProcess()
         self.login = login
         self.own_controller = own_controller
         #: the one program document every tab edits (kept until saved)

@@ -10,13 +10,19 @@ folder, and nothing in it that is not a recording, is ever read or removed.
 (:class:`~parolkit.record.recorder.Recorder`, an observer of the status stream: it never takes
 the control lease) in a thread; :func:`teach_recording` runs ``parolkit teach``'s fit and saves
 the program in the programs folder.  Both are slow or blocking: the page calls them off its
-event loop.
+event loop.  The page's fit runs in :class:`TeachProcess`, a process of its own: a fit is
+seconds of numpy and Python, and in a thread of the commander it would share the interpreter
+lock with the event loop that serves every page (both slower, the page's updates stalled).
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import threading
 import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -38,8 +44,8 @@ if TYPE_CHECKING:
 
 __all__ = ["EXTENSION", "RECORDINGS_URL", "RecordingInfo", "RecordingNameError", "RecordingNotListed",
            "RecordingSession", "RecordingsFolder", "TaughtProgram", "default_recordings_dir", "fit_text",
-           "free_program_name",
-           "recording_name", "size_text", "teach_recording"]
+           "TeachProcess", "fit_recording", "free_program_name", "recording_name", "size_text",
+           "teach_recording"]
 
 #: file extension of recordings (MCAP)
 EXTENSION = ".mcap"
@@ -315,23 +321,67 @@ def free_program_name(programs: ProgramsFolder, stem: str) -> str:
         n += 1
 
 
-def teach_recording(recordings: RecordingsFolder, programs: ProgramsFolder, name: str, *,
-                    tol_mm: float = TEACH_TOL_MM, tol_deg: float = TEACH_TOL_DEG) -> TaughtProgram:
-    """Fit a program to the listed recording ``name`` (``parolkit teach``) and save it in the
-    programs folder under the recording's name (never over an existing program).  Blocking
-    (seconds for a long recording): call it in a worker thread.  Raises RecordingNameError for
-    a refused name, ParolkitValueError / ValueError when there is nothing to teach (no status,
-    the robot never moves), ProgramNameError / OSError when the program cannot be saved."""
+#: what fits a recording: (path, tol_mm, tol_deg) -> (the fit, the damage warning or "")
+Fit = Callable[[Path, float, float], "tuple[TeachResult, str]"]
+
+
+def fit_recording(path: Path, tol_mm: float, tol_deg: float) -> tuple[TeachResult, str]:
+    """``parolkit teach``'s fit of the recording at ``path``, and a ``# warning:`` line when
+    only part of it could be read (empty when whole).  Blocking: seconds for a long recording."""
     from parolkit.record.reader import load_recording
     from parolkit.record.teach import teach
 
-    path = recordings.listed(name)
     rec = load_recording(path)
     result = teach(rec, tol_mm=tol_mm, tol_deg=tol_deg)
     # the fit stays with the program: the editor shows where it came from and how close it is,
     # and that only part of the recording was read when it ends early or is damaged
     damage = f"# warning: {rec.damage.replace(str(path), path.name)}\n" if rec.damage else ""
+    return result, damage
+
+
+def teach_recording(recordings: RecordingsFolder, programs: ProgramsFolder, name: str, *,
+                    tol_mm: float = TEACH_TOL_MM, tol_deg: float = TEACH_TOL_DEG,
+                    fit: Fit = fit_recording) -> TaughtProgram:
+    """Fit a program to the listed recording ``name`` (``parolkit teach``; ``fit`` does it, in
+    this thread by default) and save it in the programs folder under the recording's name
+    (never over an existing program).  Blocking: call it in a worker thread.  Raises
+    RecordingNameError for a refused name, ParolkitValueError / ValueError when there is
+    nothing to teach (no status, the robot never moves), ProgramNameError / OSError when the
+    program cannot be saved."""
+    path = recordings.listed(name)
+    result, damage = fit(path, tol_mm, tol_deg)
     text = f"# taught from {path.name}: {fit_text(result, tol_mm, tol_deg)}\n{damage}{result.text}"
     program = free_program_name(programs, path.name[:-len(EXTENSION)])
     saved = programs.write(program, text)
     return TaughtProgram(saved, text, result, tol_mm, tol_deg)
+
+
+class TeachProcess:
+    """The commander's teach fits, in one process of their own (spawned at the first fit, kept
+    for the next; :meth:`close` at shutdown).  :meth:`fit` is a :data:`Fit`: it blocks the
+    calling thread (not the interpreter) until the process has the answer, and raises what
+    the fit raised.  A process that died (killed, out of memory) is replaced at the next fit."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._pool: ProcessPoolExecutor | None = None
+
+    def fit(self, path: Path, tol_mm: float, tol_deg: float) -> tuple[TeachResult, str]:
+        with self._lock:
+            if self._pool is None:
+                self._pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+            pool = self._pool
+        try:
+            return pool.submit(fit_recording, path, tol_mm, tol_deg).result()
+        except BrokenProcessPool:
+            with self._lock:
+                if self._pool is pool:
+                    self._pool = None
+            pool.shutdown(wait=False)
+            raise
+
+    def close(self) -> None:
+        with self._lock:
+            pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)

@@ -225,7 +225,7 @@ class RecordingsPanel:
             b.set_enabled(name is None)
 
     async def teach(self, name: str) -> None:
-        """Fit a program to the recording ``name`` off the event loop, save it in the programs
+        """Fit a program to the recording ``name`` in the teach process, save it in the programs
         folder and open it in the editor; a recording with nothing to teach (the robot never
         moves, no status) is a message, never a crash."""
         if self._teaching is not None:
@@ -235,7 +235,8 @@ class RecordingsPanel:
         self.teach_status.classes(replace="text-sm pk-mono text-amber-300")
         c = self.c
         try:
-            taught = await asyncio.to_thread(teach_recording, c.recordings, c.programs, name)
+            taught = await asyncio.to_thread(teach_recording, c.recordings, c.programs, name,
+                                             fit=c.teach_process.fit)
         except RecordingNameError as exc:
             self._message(f"cannot teach from {name!r}: {exc}", ok=False)
             return
