@@ -27,8 +27,8 @@ tick (as the recorder subscribes), then
   link holds and losses), the integrity counters (IMPLAUSIBLE / UNCOMMANDED: false faults on
   a link without faults), every command that did not complete, every "ran stretched" warning;
 * serial bytes/s each way, counted at the board (exchange log), against what the link
-  carries: 3,000,000 baud (docs/protocol.md; serial-protocol.md "Timing budget") = 300,000
-  bytes/s each way at 10 bits a byte;
+  carries: 3,000,000 baud (``serial.baud``, docs/transport.md) = 300,000 bytes/s each way at
+  10 bits a byte;
 * the status stream's datagrams and bytes per second and the ticks it skipped.
 
     python bench/tick_rate.py [--rates 100,250] [--hogs 2] [--idle 6] [--cycles 2] [--repeats 1]
@@ -66,13 +66,13 @@ from tests.integration import load  # noqa: E402
 from tests.integration.boardsim import BoardSim  # noqa: E402
 
 from parolkit.client.launch import stop_process  # noqa: E402
-from parolkit.config import ControllerSettings  # noqa: E402
+from parolkit.config import ControllerSettings, SerialSettings  # noqa: E402
 from parolkit.robot import GOTO_GAIN_PER_S, PAROL6, goto_tracking_factor  # noqa: E402
 
 HOST = "127.0.0.1"
-#: the link's nominal rate (serial-protocol.md: both sides open the port at 3,000,000 baud),
-#: bytes/s each way at 10 bits a byte (8N1)
-LINK_BYTES_S = 3_000_000 / 10
+#: the link's nominal rate (``serial.baud``, 3,000,000: both sides open the port at it; over USB
+#: CDC it is nominal), bytes/s each way at 10 bits a byte (8N1)
+LINK_BYTES_S = SerialSettings().baud / 10
 BOARD_GOTO = load.BOARD_GOTO
 VMAX = tuple(float(v) for v in PAROL6.max_speed_steps_s)
 SPD = load.SPD
