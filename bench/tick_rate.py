@@ -22,7 +22,8 @@ tick (as the recorder subscribes), then
   back; the move back): CPU during motion; each move's duration at the board (first to last
   GO TO frame between the command and its COMPLETED) and each joint's cruise speed (the
   largest mean speed over 0.5 s, from the board's own position reports) as % of the joint's
-  maximum; the highest speed the board reported, as % of the maximum;
+  maximum, from the commands before the first that did not complete; the highest speed the
+  board reported, as % of the maximum;
 * the loop's GET_LOOP_STATS (period p50/p99/max, overruns, tick work, serial round trip,
   link holds and losses), the integrity counters (IMPLAUSIBLE / UNCOMMANDED: false faults on
   a link without faults), every command that did not complete, every "ran stretched" warning;
@@ -368,8 +369,11 @@ def _ratio(v: float, ref: float) -> str:
 
 
 def summarize(run: Run) -> dict[str, float]:
-    moves = [c for c in run.commands if c.kind == "move" and c.status == "COMPLETED"]
-    jogs = [c for c in run.commands if c.kind == "jog" and c.status == "COMPLETED"]
+    # speeds and durations from the commands before the first that failed (after it, the next
+    # ones start from wherever the robot stopped)
+    fine = run.commands[:next((i for i, c in enumerate(run.commands) if c.status != "COMPLETED"), None)]
+    moves = [c for c in fine if c.kind == "move"]
+    jogs = [c for c in fine if c.kind == "jog"]
     out: dict[str, float] = {
         "cpu_idle": run.cpu_idle.get("controller", math.nan),
         "cpu_motion": run.cpu_motion.get("controller", math.nan),
