@@ -161,13 +161,13 @@ def test_a_frame_off_the_board_s_own_account_is_held_back_and_the_next_true_one_
     the truth; the next good frame is; a power cycle (counters 0, homed 0x03) is reported."""
     integ = StatusIntegrity(PAROL6, RATE)
     at = StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=255)
-    assert not integ.accept(at, 0.00, 0)  # one frame proves nothing
+    assert not integ.accept(at, 0.00, 0)  # one frame proves nothing (and is not implausible)
     assert integ.accept(at, 0.01, 0)
     glitch = list(STANDBY)
     glitch[3] += 0x10000
     assert not integ.accept(StatusFrame(positions=tuple(glitch), homed=0xFF, timing=7031), 0.02, 0)
     assert integ.accept(at, 0.03, 0)  # back where the truth was, at rest: shown
-    assert integ.ref is at and integ.implausible == 2
+    assert integ.ref is at and integ.implausible == 1  # the glitch
     bad_io = StatusFrame(positions=STANDBY, homed=0xFF, io=0x08, timing=7031)
     assert not integ.accept(bad_io, 0.04, 0)  # IO low bits are always 1
     reset = StatusFrame(positions=(0,) * 6, homed=0x03, timing=7031)
@@ -176,6 +176,28 @@ def test_a_frame_off_the_board_s_own_account_is_held_back_and_the_next_true_one_
     fault = integ.take_fault()
     assert fault is not None and "no longer homed" in fault
     assert integ.take_fault() is None  # reported once
+
+
+def test_the_first_frame_of_a_link_session_is_the_base_of_the_next_not_an_implausible_one():
+    """StatusIntegrity alone: the first frame of a session has nothing to be judged against; it
+    is not the truth (one frame proves nothing) and not implausible either (nothing says it is
+    corrupted): the next frame is checked from it.  A new session (reset) starts so again."""
+    integ = StatusIntegrity(PAROL6, RATE)
+    at = StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=255)
+    for t0 in (0.0, 1.0):
+        integ.reset()
+        assert not integ.accept(at, t0, 0)
+        assert integ.implausible == 0 and integ.ref is None
+        assert integ.accept(at, t0 + 0.01, 0) and integ.ref is at
+    assert integ.implausible == 0
+    # a first frame that the next one does not follow from: one of the two is wrong (one count),
+    # and the truth starts where two frames agree
+    integ.reset()
+    glitch = list(STANDBY)
+    glitch[1] += 0x10000
+    assert not integ.accept(StatusFrame(positions=tuple(glitch), homed=0xFF, timing=7031, xtr=255), 2.0, 0)
+    assert not integ.accept(at, 2.01, 0) and integ.implausible == 1
+    assert integ.accept(at, 2.02, 0) and integ.ref is at and integ.implausible == 1
 
 
 def test_a_jog_is_shown_only_where_its_own_speed_and_timing_take_it():
