@@ -161,13 +161,13 @@ def test_a_frame_off_the_board_s_own_account_is_held_back_and_the_next_true_one_
     the truth; the next good frame is; a power cycle (counters 0, homed 0x03) is reported."""
     integ = StatusIntegrity(PAROL6, RATE)
     at = StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=255)
-    assert not integ.accept(at, 0.00, 0)  # one frame proves nothing
+    assert not integ.accept(at, 0.00, 0)  # one frame proves nothing (and is not implausible)
     assert integ.accept(at, 0.01, 0)
     glitch = list(STANDBY)
     glitch[3] += 0x10000
     assert not integ.accept(StatusFrame(positions=tuple(glitch), homed=0xFF, timing=7031), 0.02, 0)
     assert integ.accept(at, 0.03, 0)  # back where the truth was, at rest: shown
-    assert integ.ref is at and integ.implausible == 2
+    assert integ.ref is at and integ.implausible == 1  # the glitch
     bad_io = StatusFrame(positions=STANDBY, homed=0xFF, io=0x08, timing=7031)
     assert not integ.accept(bad_io, 0.04, 0)  # IO low bits are always 1
     reset = StatusFrame(positions=(0,) * 6, homed=0x03, timing=7031)
@@ -176,6 +176,67 @@ def test_a_frame_off_the_board_s_own_account_is_held_back_and_the_next_true_one_
     fault = integ.take_fault()
     assert fault is not None and "no longer homed" in fault
     assert integ.take_fault() is None  # reported once
+
+
+def test_the_first_frame_of_a_link_session_is_the_base_of_the_next_not_an_implausible_one():
+    """StatusIntegrity alone: the first frame of a session has nothing to be judged against; it
+    is not the truth (one frame proves nothing) and not implausible either (nothing says it is
+    corrupted): the next frame is checked from it.  A new session (reset) starts so again."""
+    integ = StatusIntegrity(PAROL6, RATE)
+    at = StatusFrame(positions=STANDBY, homed=0xFF, timing=7031, xtr=255)
+    for t0 in (0.0, 1.0):
+        integ.reset()
+        assert not integ.accept(at, t0, 0)
+        assert integ.implausible == 0 and integ.ref is None
+        assert integ.accept(at, t0 + 0.01, 0) and integ.ref is at
+    assert integ.implausible == 0
+    # a first frame that the next one does not follow from: one of the two is wrong (one count),
+    # and the truth starts where two frames agree
+    integ.reset()
+    glitch = list(STANDBY)
+    glitch[1] += 0x10000
+    assert not integ.accept(StatusFrame(positions=tuple(glitch), homed=0xFF, timing=7031, xtr=255), 2.0, 0)
+    assert not integ.accept(at, 2.01, 0) and integ.implausible == 1
+    assert integ.accept(at, 2.02, 0) and integ.ref is at and integ.implausible == 1
+
+
+def test_a_clean_link_counts_no_implausible_frame_from_start_up_through_homing_a_move_and_a_reconnect():
+    """A perfect link (the emulator in lockstep with the frames) never yields a frame the check
+    rejects: not the first frame of a link session, not the start-up probe's replies, not the
+    homing's, not a move's, and not after the link comes up again (a new session).  The status
+    (GET_STATUS ``IMPLAUSIBLE=``, ``integrity.implausible``) and the loop statistics
+    (``implausible_frames``) say 0.  (A GUI on the simulated board logged "1 status frame(s)
+    ignored as implausible" right after the link came up: the first frame of every session
+    was counted.)"""
+    r = Rig(homed=False, lockstep=True)
+    try:
+        r.submit("aaaa0001|HOME")
+        r.run_until(lambda: r.terminal("aaaa0001") is not None, 3000)
+        assert r.terminal("aaaa0001") is AckStatus.COMPLETED
+        r.submit("aaaa0002|MOVEJOINT|80|-90|170|0|0|180|1|None")
+        r.run_until(lambda: r.terminal("aaaa0002") is not None)
+        assert r.terminal("aaaa0002") is AckStatus.COMPLETED
+        assert r.core.counters.frames_received > 100
+        r.emu.unplug()
+        r.tick(3)
+        assert not r.loop.link_up
+        r.emu.replug()
+        r.loop._next_reconnect = 0.0
+        end = time.monotonic() + 5
+        while not r.loop.link_up and time.monotonic() < end:  # (the reconnect runs in a thread)
+            r.tick()
+            time.sleep(0.01)
+        assert r.loop.link_up
+        received = r.core.counters.frames_received
+        r.run_until(lambda: r.core.counters.frames_received >= received + 20)
+        assert r.core.status is not None and tuple(r.core.status.positions) == tuple(r.emu.positions)
+        integ = r.core.integrity
+        assert integ.implausible == 0 and integ.uncommanded == 0
+        snap = r.outputs[-1].snapshot
+        assert "|IMPLAUSIBLE=0|" in snap.reply("GET_STATUS")
+        assert snap.loop_view["implausible_frames"] == 0
+    finally:
+        r.close()
 
 
 def test_a_jog_is_shown_only_where_its_own_speed_and_timing_take_it():

@@ -181,6 +181,7 @@ class LinkCounters:
     """The core's part of the loop statistics."""
 
     frames_received: int = 0
+    #: the integrity check's count (``integrity.implausible`` of the status): one number
     implausible_frames: int = 0
     bytes_dropped: int = 0
     link_losses: int = 0
@@ -379,8 +380,7 @@ class ControllerCore:
                 self.last_status = f
                 self.link.trust(earliest, f, batch.t)
                 self._took_status(f)
-            else:
-                self.counters.implausible_frames += 1
+            self.counters.implausible_frames = self.integrity.implausible
             self.link.homing = self.integrity.homing
             fault = self.integrity.take_fault()
             if fault is not None:

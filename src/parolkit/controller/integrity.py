@@ -26,11 +26,13 @@ between: the parser dropped no bytes between them):
   of them is the one the board answered) produce from the first frame's.  A frame that links
   AND matches within the board's own precision is the truth (:meth:`StatusIntegrity.accept`
   returns True); anything else is *implausible*: counted, never the truth (the snapshot keeps
-  the last true frame).  A corrupted position byte breaks one check or the other unless it
-  changes a *moving* joint by no more than the stepper's own sub-step jitter (a step, two at
-  speed; a joint at rest is exact: see :class:`Tolerances`).  Two adjacent frames that link
-  re-establish the truth after a gap (checked against the hull of everything the frames
-  written since could reach).
+  the last true frame).  The first frame of a link session is neither: nothing is there to
+  judge it against (a perfect link counts 0); the next frame is checked from it, and the
+  truth starts where two frames agree.  A corrupted position byte breaks one check or the
+  other unless it changes a *moving* joint by no more than the stepper's own sub-step jitter
+  (a step, two at speed; a joint at rest is exact: see :class:`Tolerances`).  Two adjacent
+  frames that link re-establish the truth after a gap (checked against the hull of everything
+  the frames written since could reach).
 
 * **Uncommanded motion**: a frame that links to a true one but lies beyond what was commanded
   (wider than the precision above, by what a reply byte that slipped through the link could
@@ -129,9 +131,11 @@ class Tolerances:
 class IntegrityView:
     """Counters for GET_STATUS / GET_STATUS_JSON.
 
-    ``implausible``: status frames never taken as the truth; ``uncommanded``: motions nobody
-    commanded (each one disabled the robot); ``status_age_s``: how old the snapshot's status
-    frame is; ``last``: the message of the newest uncommanded motion (or None)."""
+    ``implausible``: status frames judged and never taken as the truth (the first frame of a
+    link session is not judged: nothing is there to judge it against); ``uncommanded``:
+    motions nobody commanded (each one disabled the robot); ``status_age_s``: how old the
+    snapshot's status frame is; ``last``: the message of the newest uncommanded motion (or
+    None)."""
 
     implausible: int = 0
     uncommanded: int = 0
@@ -466,12 +470,17 @@ class StatusIntegrity:
         if not rx.ok:
             self.implausible += 1
             return False
-        if adjacent and prev is not None:
+        if prev is None:
+            # the first frame of the session: nothing to judge it against.  Not the truth (one
+            # frame proves nothing) and not implausible either (nothing says it is corrupted):
+            # the next frame is checked from it
+            return False
+        if adjacent:
             fault = self._raw_checks(prev, rx)
             if fault is not None:
                 self._fault(fault)
-        dt = self._dt(prev, rx) if adjacent and prev is not None else None
-        linked = prev is not None and dt is not None and self._link(prev.f, f, dt, prev.n)
+        dt = self._dt(prev, rx) if adjacent else None
+        linked = dt is not None and self._link(prev.f, f, dt, prev.n)
         ref = self._ref
         pending = self._suspect
         if pending is not None:
@@ -495,7 +504,7 @@ class StatusIntegrity:
             if left <= 1:
                 log.info("integrity: not confirmed by the next frames: %s", sdev.message)
         if linked:
-            assert prev is not None and dt is not None
+            assert dt is not None
             if ref is None:
                 return self._truth(rx)  # a new session: two frames agree
             if ref is not prev and prev is not self._suspect_reply():
