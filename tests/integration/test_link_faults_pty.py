@@ -3,9 +3,9 @@
 * Replies that go bad mid-jog (every byte corrupted, or every reply lost) while the frames
   still reach the board: every frame is a bounded commitment, so the board comes to rest a
   bounded distance on, and after the loss its speeds are 0 and its joints stay where they are.
-  The emulator and its pty server run in this process (``test_controller_pty.Bench``) so
-  every frame the board receives is recorded with its speeds, in order with the moment the
-  fault is switched on; the controller is its own process on the pty.
+  The emulator and its pty server run in this process (:class:`InProcessBench`) so every
+  frame the board receives is recorded with its speeds, in order with the moment the fault is
+  switched on; the controller is its own process on the pty.
 * A silent board is lost after exactly the configured number of unanswered frames.
 * A controller stalled by SIGSTOP for 200 ms (20 ticks) is not a lost link: the board
   answered every frame it got, the replies wait in the pty.  (``board-sim`` in its own
@@ -30,6 +30,7 @@ from tests.conftest import start_controller, wait_until
 from tests.integration import load
 from tests.integration.test_controller_pty import Bench
 
+from parolkit.board import BoardEmulator, PtyBoardServer
 from parolkit.protocol.frames import BoardCommand, CommandFrame
 from parolkit.protocol.stream import CommandParser
 from parolkit.robot import PAROL6
@@ -37,11 +38,26 @@ from parolkit.robot import PAROL6
 ZERO = (0, 0, 0, 0, 0, 0)
 
 
+class InProcessBench(Bench):
+    """:class:`Bench` on an emulator and pty server in this process (:attr:`emu`)."""
+
+    def __init__(self, tmp_path: Path, *, link_timeout_ticks: int) -> None:
+        self.emu = BoardEmulator(start_homed=True, homing_speedup=100)
+        self.pty = PtyBoardServer(self.emu, tmp_path / "p6").start()
+        super().__init__(tmp_path, link_timeout_ticks=link_timeout_ticks, link=tmp_path / "p6")
+
+    def close(self) -> int:
+        rc = super().close()
+        self.pty.stop()
+        self.emu.stop()
+        return rc
+
+
 class Recorder:
     """Every frame the emulated board receives, in order; faults are switched under the same
     lock, so ``switch`` knows exactly which frames came after it."""
 
-    def __init__(self, bench: Bench) -> None:
+    def __init__(self, bench: InProcessBench) -> None:
         self.emu = bench.emu
         self.lock = threading.Lock()
         self.frames: list[tuple[float, CommandFrame]] = []
@@ -64,7 +80,7 @@ class Recorder:
             return len(self.frames)
 
 
-def _jog_then_break_replies(bench: Bench, rec: Recorder, **faults: object) -> tuple[str, int]:
+def _jog_then_break_replies(bench: InProcessBench, rec: Recorder, **faults: object) -> tuple[str, int]:
     """A long J1 jog, then the replies go bad; returns the jog's ID and the switch index."""
     for _ in range(3):  # a jog paused or cancelled by this busy process before the fault: again
         cid = bench.send("JOG|0|50|None|60")
@@ -84,7 +100,7 @@ def test_bad_replies_mid_jog_leave_the_board_within_bounded_travel_and_nothing_m
     last trusted reply by more than 20 ms of maximum-speed travel beyond the goals already
     sent: the board comes to rest within a few such distances of where it was when the faults
     began, and after the loss it stays there."""
-    bench = Bench(tmp_path, link_timeout_ticks=10)
+    bench = InProcessBench(tmp_path, link_timeout_ticks=10)
     rec = Recorder(bench)
     try:
         cid, mark = _jog_then_break_replies(bench, rec, **faults)
@@ -109,7 +125,7 @@ def test_bad_replies_mid_jog_leave_the_board_within_bounded_travel_and_nothing_m
 
 
 def test_a_silent_board_is_lost_after_the_configured_number_of_unanswered_frames(tmp_path):
-    bench = Bench(tmp_path, link_timeout_ticks=7)
+    bench = InProcessBench(tmp_path, link_timeout_ticks=7)
     rec = Recorder(bench)
     try:
         for _ in range(3):
