@@ -50,8 +50,8 @@ browser-deps:
 ## make test: set everything up, lint and type-check, and run every test (unit, integration, browser).
 ## The set-up jobs run side by side (the dev virtualenv then lint; the ROS 2 virtualenv; Chromium
 ## and axe-core). Then TEST_WORKERS processes in parallel (pytest-xdist, each test module in one
-## process), then the tests marked alone (a flood that takes the whole machine; the pty tests
-## whose board emulator runs in the test process) on their own
+## process), then the tests marked alone on their own (only the 20,000 datagrams/s flood of
+## test_flood_estop, which takes the whole machine)
 TEST_WORKERS ?= 2
 test:
 	$(MAKE) -j3 --no-print-directory lint ros-venv browser-deps
