@@ -112,10 +112,16 @@ def test_save_ends_the_kept_edits_and_a_restarted_gui_restores_unsaved_work(brow
     b.close()
 
 
+#: the long line: it lasts beyond every wait of the test (which stops it), so the program still
+#: runs however long a loaded machine takes to open the second tab (a failing run under load took
+#: over 36 s for that: a Delay(30) had ended before the new tab could show it)
+LONG_DELAY = "Delay(600)"
+
+
 def _long_program(n_pad: int) -> str:
-    """Comment lines first, then a long Delay at line ``n_pad + 3`` (beyond the editor's view)."""
+    """Comment lines first, then the long Delay at line ``n_pad + 3`` (beyond the editor's view)."""
     pad = "".join(f"# padding line {i}\n" for i in range(n_pad))
-    return f"Begin()\n{pad}Delay(0.2)\nDelay(30)\nEnd()\n"
+    return f"Begin()\n{pad}Delay(0.2)\n{LONG_DELAY}\nEnd()\n"
 
 
 def test_a_new_tab_shows_the_running_program_and_its_current_line_in_view(browser, gui):
@@ -123,33 +129,39 @@ def test_a_new_tab_shows_the_running_program_and_its_current_line_in_view(browse
     wait_ready(a)
     program = _long_program(60)
     lines = program.splitlines()
-    long_line = lines.index("Delay(30)") + 1
+    long_line = lines.index(LONG_DELAY) + 1
     _type(a, program)
     a.get_by_test_id("prog-run").click()
-    wait_until(lambda: f"line {long_line}" in text(a, "prog-status"), 20, what="the long delay runs", page=a)
-    # another tab (and a reload) opens on the running program at its real line
-    b = _open(browser, gui["url"])
-    cur = b.locator("[data-testid=editor] .cm-line.rbt-current")
-    wait_until(lambda: cur.count() == 1 and cur.inner_text() == "Delay(30)", 15,
-               what="the executing line highlighted in the new tab", page=b)
-    scroller = b.locator("[data-testid=editor] .cm-scroller").bounding_box()
-    line_box = cur.bounding_box()
-    assert scroller and line_box
-    top, bottom = scroller["y"] - 1, scroller["y"] + scroller["height"] + 1
-    assert top <= line_box["y"] and line_box["y"] + line_box["height"] <= bottom, (scroller, line_box)
-    assert f"line {long_line}" in text(b, "prog-status")
-    # the editor is read-only while it runs: what it shows is what runs
-    assert b.locator("[data-testid=editor] .cm-content").get_attribute("contenteditable") == "false"
-    # item 5: the header Stop ends it as "stopped", not "failed ... cancelled"
-    b.get_by_test_id("btn-stop").click()
-    for pg in (a, b):
-        wait_until(lambda pg=pg: "stopped" in text(pg, "prog-status"), 15, what="status stopped", page=pg)
-        status = text(pg, "prog-status")
-        assert not re.search(r"fail|cancel|error", status, re.I), status
-    wait_until(lambda: b.locator("[data-testid=editor] .cm-content").get_attribute("contenteditable") == "true",
-               10, what="the editor editable again", page=b)
-    a.close()
-    b.close()
+    try:
+        wait_until(lambda: f"line {long_line}" in text(a, "prog-status"), 20, what="the long delay runs", page=a)
+        # another tab (and a reload) opens on the running program at its real line
+        b = _open(browser, gui["url"])
+        wait_until(lambda: f"line {long_line}" in text(b, "prog-status"), 15,
+                   what="the new tab shows the program running at its line", page=b)
+        cur = b.locator("[data-testid=editor] .cm-line.rbt-current")
+        wait_until(lambda: cur.count() == 1 and cur.inner_text() == LONG_DELAY, 15,
+                   what="the executing line highlighted in the new tab", page=b)
+        scroller = b.locator("[data-testid=editor] .cm-scroller").bounding_box()
+        line_box = cur.bounding_box()
+        assert scroller and line_box
+        top, bottom = scroller["y"] - 1, scroller["y"] + scroller["height"] + 1
+        assert top <= line_box["y"] and line_box["y"] + line_box["height"] <= bottom, (scroller, line_box)
+        assert f"line {long_line}" in text(b, "prog-status")
+        # the editor is read-only while it runs: what it shows is what runs
+        assert b.locator("[data-testid=editor] .cm-content").get_attribute("contenteditable") == "false"
+        # item 5: the header Stop ends it as "stopped", not "failed ... cancelled"
+        b.get_by_test_id("btn-stop").click()
+        for pg in (a, b):
+            wait_until(lambda pg=pg: "stopped" in text(pg, "prog-status"), 15, what="status stopped", page=pg)
+            status = text(pg, "prog-status")
+            assert not re.search(r"fail|cancel|error", status, re.I), status
+        wait_until(lambda: b.locator("[data-testid=editor] .cm-content").get_attribute("contenteditable") == "true",
+                   10, what="the editor editable again", page=b)
+        b.close()
+    finally:
+        if re.search(r"running|paus", text(a, "prog-status")):
+            a.get_by_test_id("btn-stop").click()  # a failed check leaves no program running for the next test
+        a.close()
 
 
 def test_space_stops_a_program_as_stopped(browser, gui):
