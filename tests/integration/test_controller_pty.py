@@ -289,6 +289,17 @@ def test_get_gripper_object_detection_over_a_real_pty_follows_the_status_byte(be
     assert g[5] == 1 and g[1] == 128, g
 
 
+def _reported_j1(bench) -> float:
+    """J1 as the controller reports it, once the report has caught up with the board's own
+    position (on a busy machine the status may show a frame or two before the newest)."""
+    def agreed() -> list[float] | None:
+        board_j1 = bench.sim.positions_deg()[0]
+        j1 = bench.status()["angles"][0]
+        return [j1] if abs(j1 - board_j1) < 0.01 else None
+
+    return wait_until(agreed, 10, what="the controller's J1 caught up with the board's")[0]
+
+
 def test_stop_mid_move_cancels_and_holds(bench):
     a = bench.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
     b = bench.send("MOVEJOINT|90|-90|180|0|0|180|3|None")
@@ -298,7 +309,7 @@ def test_stop_mid_move_cancels_and_holds(bench):
     assert bench.acks.terminal(a)[0] == "CANCELLED"
     assert bench.acks.terminal(b)[0] == "CANCELLED"
     wait_until(lambda: not any(bench.sim.status()["speeds"]), 10, what="the board at rest")
-    j1 = bench.status()["angles"][0]
+    j1 = _reported_j1(bench)
     bench.wait_frames(50)
     assert abs(bench.status()["angles"][0] - j1) < 0.2
     assert 40 < j1 < 90
@@ -344,7 +355,7 @@ def test_pulling_the_cable_mid_move_cancels_reports_and_reconnects_without_resum
     bench.wait_ticks(50)  # the cable stays out for 50 ticks
     bench.sim.control("replug")
     wait_until(lambda: bench.serial() == "1", 6, 0.1, what="the link up again")
-    j1 = bench.status()["angles"][0]
+    j1 = _reported_j1(bench)
     bench.wait_frames(50)
     assert abs(bench.status()["angles"][0] - j1) < 0.05  # the cancelled move is not resumed
     assert bench.status()["command"] is None
@@ -544,8 +555,16 @@ def test_flood_of_5000_datagrams_per_second_keeps_the_loop_and_acks_exact(bench)
 def test_serial_silence_is_detected_within_the_default_three_ticks(tmp_path):
     b = Bench(tmp_path, link_timeout_ticks=3)
     try:
-        a = b.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
-        b.acks.wait_status(a, "EXECUTING")
+        # on this busy machine a natural stall (30 ms) can also trip the 3-tick limit, even with
+        # board-sim at raised priority (seen at load 12 beside another test module): the move is
+        # then cancelled before the silence; try again
+        for _attempt in range(3):
+            a = b.send("MOVEJOINT|40|-90|180|0|0|180|3|None")
+            try:
+                b.acks.wait_status(a, "EXECUTING")
+                break
+            except AssertionError:
+                wait_until(lambda: b.serial() == "1", 6, 0.1, what="the link up again")
         b.sim.control("faults silent=1")
         status, details = b.acks.terminal(a, 2)
         assert status == "CANCELLED" and "link lost" in details
