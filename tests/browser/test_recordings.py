@@ -278,9 +278,9 @@ def test_a_long_teach_leaves_the_page_live(rpage, setup):
     # written beside the folder, then moved in whole (the list polls the folder: a file still
     # being written shows as "not closed", as a killed recorder's does)
     staging = setup["recordings"].parent / "staging.mcap"
-    _demonstration(staging, 120.0)  # its fit takes seconds (2 min of motion: 3 s on a quiet machine)
+    _demonstration(staging, 300.0)  # its fit takes seconds (5 min of motion)
     os.replace(staging, setup["recordings"] / long_demo)
-    wait_until(lambda: "12000 ticks" in (_item(page, long_demo).get_by_test_id("rec-duration").inner_text()
+    wait_until(lambda: "30000 ticks" in (_item(page, long_demo).get_by_test_id("rec-duration").inner_text()
                                          if _item(page, long_demo).count() == 1 else ""),
                15, what="the copied-in recording listed with its ticks", page=page)
     name = _start(page)
@@ -309,7 +309,7 @@ def test_a_long_teach_leaves_the_page_live(rpage, setup):
     updates = sum(1 for (_, a), (_, b) in zip(polls, polls[1:]) if b > a)
     assert updates >= 5, f"the page showed {updates} tick updates during the {span:.1f} s fit: {polls}"
     page.get_by_test_id("tab-record").click()  # (the taught program opened in the Program tab)
-    assert re.search(r"taught long demo.rbt: 30 moves, 29 delays", text(page, "teach-status")), \
+    assert re.search(r"taught long demo.rbt: 75 moves, 74 delays", text(page, "teach-status")), \
         text(page, "teach-status")
     _stop(page, name)
 
