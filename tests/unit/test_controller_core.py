@@ -3,6 +3,7 @@ integrity check against the real board emulator on a virtual clock (deterministi
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -76,6 +77,16 @@ class Rig:
             self.now += dt
             if self.emu.plugged and not self.lockstep:
                 self.emu.advance(dt)
+
+    def reconnect(self) -> None:
+        """After ``emu.replug()``: the driver's reconnect starts at the next tick (in its own
+        thread, joined here: the link is up when this returns, without a wall-clock wait)."""
+        self.loop._next_reconnect = 0.0
+        self.tick()  # starts it
+        for thread in threading.enumerate():
+            if thread.name == "parolkit-reconnect":
+                thread.join(5.0)
+        assert self.loop.link_up, "the replugged board's link did not come up"
 
     def _record(self, acks) -> None:
         self.acks.extend((a.command_id, a.status, a.details) for a in acks)
@@ -215,12 +226,7 @@ def test_unplugged_link_cancels_motion_within_three_ticks_and_reconnects(rig):
     rig.submit("aaaa0002|DELAY|0.1")  # refused while the link is down
     assert rig.terminal("aaaa0002") is AckStatus.FAILED
     rig.emu.replug()
-    rig.loop._next_reconnect = 0.0
-    end = time.monotonic() + 5
-    while not rig.loop.link_up and time.monotonic() < end:
-        rig.tick()
-        time.sleep(0.01)
-    assert rig.loop.link_up
+    rig.reconnect()
     rig.tick(5)
     assert rig.ex.active is None  # never resumed
 
