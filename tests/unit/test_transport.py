@@ -217,3 +217,66 @@ def test_a_lockstep_board_stays_in_lockstep_inside_spy_and_faulty_wrappers(wrapp
 def test_a_lockstep_board_needs_the_virtual_clock_and_a_step_in_range(url, fragment):
     with pytest.raises((ParolkitValueError, TransportError, ValueError), match=fragment):
         open_transport(url)
+
+
+class _StallingClock:
+    """A monotonic clock that jumps by ``step_s`` at every read: each read is as if the process had
+    just been stopped that long (SIGSTOP, a busy machine) between two lines of the write."""
+
+    def __init__(self, step_s: float) -> None:
+        self.now = 1000.0
+        self.step_s = step_s
+
+    def __call__(self) -> float:
+        self.now += self.step_s
+        return self.now
+
+
+@pytest.fixture
+def pty_serial():
+    import os
+    import tty
+
+    master, slave = os.openpty()
+    tty.setraw(master)
+    t = SerialTransport(os.ttyname(slave), write_timeout_s=0.1)
+    t.open()
+    try:
+        yield t, master
+    finally:
+        t.close()
+        os.close(master)
+        os.close(slave)
+
+
+def test_a_serial_write_that_went_through_is_no_timeout_however_long_the_process_was_stalled(
+        pty_serial, monkeypatch):
+    # pyserial's own write raises "Write timeout" after a complete os.write when its timer expired
+    # meanwhile: a controller stopped for 200 ms reported the board link lost though every byte had
+    # gone out.  A write is judged by whether the bytes went, not by the clock.
+    import os
+
+    import serial.serialutil
+
+    from parolkit.transport import serial_port
+
+    t, master = pty_serial
+    clock = _StallingClock(0.5)
+    monkeypatch.setattr(serial.serialutil.Timeout, "TIME", clock)
+    monkeypatch.setattr(serial_port, "_clock", clock)
+    t.write(IDLE)
+    got = b""
+    while len(got) < len(IDLE):
+        got += os.read(master, 4096)
+    assert got == IDLE
+
+
+def test_a_serial_write_the_other_end_never_takes_times_out_naming_port_and_bytes(pty_serial):
+    # nobody reads the pty: the kernel's buffer fills and the rest of the write cannot go out
+    t, _master = pty_serial
+    big = bytes(range(256)) * 4096  # 1 MiB, far more than a pty buffers
+    t0 = time.monotonic()
+    with pytest.raises(TransportError, match=r"write timed out after 0\.1 s \(\d+ of 1048576 bytes written\)"):
+        t.write(big)
+    assert time.monotonic() - t0 < 5.0
+    assert t.is_open  # a slow reader is not a lost link: the port stays open

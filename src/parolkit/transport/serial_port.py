@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import errno
 import math
+import os
+import select
+import time
 
 from parolkit.errors import ParolkitValueError
 from parolkit.transport.base import LinkLostError, Transport, TransportError
@@ -12,12 +16,19 @@ __all__ = ["SerialTransport", "DEFAULT_BAUD"]
 #: The PAROL6 board's nominal baud rate (over USB CDC the value is nominal).
 DEFAULT_BAUD = 3_000_000
 
+#: The clock a write's deadline is read from (a test replaces it to stall the process in between).
+_clock = time.monotonic
+
+_RETRY_ERRNOS = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR)
+
 
 class SerialTransport(Transport):
     """pyserial link: ``SerialTransport("/dev/ttyACM0")`` or the path of ``parolkit board-sim``.
 
     * :meth:`read` never blocks (pyserial ``timeout=0``) and returns ``b""`` when nothing came.
-    * :meth:`write` gives up after ``write_timeout_s`` seconds (``TransportError``).
+    * :meth:`write` gives up when bytes are still left after ``write_timeout_s`` seconds
+      (``TransportError``); a write that went through is never a timeout, however long the process
+      was stalled meanwhile.
     * A vanished device (cable pulled, pty closed: read returns EOF / EIO) raises
       :class:`LinkLostError`; the port is then closed and :meth:`open` reconnects.
     """
@@ -85,15 +96,48 @@ class SerialTransport(Transport):
         ser = self._ser
         if ser is None:
             raise TransportError(f"serial port {self.port} is not open (call open())")
-        try:
-            n = ser.write(data)
-            if n is not None and n != len(data):
-                raise TransportError(f"serial port {self.port}: wrote {n} of {len(data)} bytes")
-        except serial.SerialTimeoutException as exc:
-            raise TransportError(
-                f"serial port {self.port}: write timed out after {self.write_timeout_s} s") from exc
-        except (serial.SerialException, OSError) as exc:
-            raise self._lost(exc) from exc
+        fd = self.fileno()
+        if fd is None:  # not a POSIX port (Windows): pyserial's own write and timeout
+            try:
+                n = ser.write(data)
+                if n is not None and n != len(data):
+                    raise TransportError(f"serial port {self.port}: wrote {n} of {len(data)} bytes")
+            except serial.SerialTimeoutException as exc:
+                raise TransportError(
+                    f"serial port {self.port}: write timed out after {self.write_timeout_s} s") from exc
+            except (serial.SerialException, OSError) as exc:
+                raise self._lost(exc) from exc
+            return
+        self._write_fd(fd, data)
+
+    def _write_fd(self, fd: int, data: bytes) -> None:
+        """Write all of ``data`` to the non-blocking descriptor, waiting at most ``write_timeout_s``.
+
+        Unlike pyserial's POSIX write (which raises "Write timeout" after a complete ``os.write``
+        when its timer ran out meanwhile), the deadline only matters while bytes are still left: a
+        process stalled mid-write (stopped, descheduled on a busy machine) always gets one more try,
+        and a write that went through is never reported as timed out.
+        """
+        view = memoryview(data)
+        sent = 0
+        deadline = _clock() + self.write_timeout_s
+        while True:
+            try:
+                sent += os.write(fd, view[sent:])
+            except OSError as exc:
+                if exc.errno not in _RETRY_ERRNOS:
+                    raise self._lost(exc) from exc
+            if sent >= len(data):
+                return
+            left = deadline - _clock()
+            if left <= 0:
+                raise TransportError(
+                    f"serial port {self.port}: write timed out after {self.write_timeout_s} s "
+                    f"({sent} of {len(data)} bytes written)")
+            try:
+                select.select([], [fd], [], left)
+            except OSError as exc:  # EINTR is retried by Python itself (PEP 475)
+                raise self._lost(exc) from exc
 
     def read(self) -> bytes:
         import serial
