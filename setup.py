@@ -20,6 +20,8 @@ setup(
     ext_modules=[
         Extension("parolkit.kinematics._cik", ["src/parolkit/kinematics/_cik.c"],
                   extra_compile_args=_ARGS, optional=True),
+        Extension("parolkit.board._cgoto", ["src/parolkit/board/_cgoto.c"],
+                  extra_compile_args=_ARGS, optional=True),
         Extension("parolkit.motion._csamples", ["src/parolkit/motion/_csamples.c"],
                   include_dirs=[numpy.get_include()],
                   extra_compile_args=_ARGS + _VECTORISE, optional=True),

@@ -1,16 +1,21 @@
 """The emulator's GO TO passes, stepped joint by joint (``BoardEmulator._goto_passes``), give
 exactly what the per-pass loop they replaced gave: the same counters, speeds, sub-step phases
 and status frames, frame after frame, over random frame sequences (GO TO near and far, with
-feed-forward, clamped speeds, settling, IDLE/JOG in between, gripper moves, uneven advances)."""
+feed-forward, clamped speeds, settling, IDLE/JOG in between, gripper moves, uneven advances).
+Both ways of running them are checked: the compiled kernel (``board/_cgoto.c``, what runs when
+it is built) and its Python reference (``emulator.goto_passes``, the fallback)."""
 
 from __future__ import annotations
 
+import os
 import random
 import types
 
 import pytest
 
+from parolkit import _native
 from parolkit.board import BoardEmulator
+from parolkit.board import emulator as emulator_module
 from parolkit.board.steppers import clamp_speed
 from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperCommandBits
 
@@ -77,8 +82,25 @@ def _state(emu: BoardEmulator) -> tuple[object, ...]:
     return (tuple((st.counter, st.speed, st._acc) for st in emu._steppers), emu._t, emu._gripper.position)
 
 
+PURE = os.environ.get("PAROLKIT_PURE_PYTHON", "") not in ("", "0")
+#: the ways the emulator may run its GO TO passes
+KERNELS = {"reference": emulator_module.goto_passes}
+if emulator_module._cgoto is not None:
+    KERNELS["compiled"] = emulator_module._cgoto.passes
+
+
+def test_the_goto_kernel_is_built_in_this_checkout():
+    if PURE:
+        pytest.skip("PAROLKIT_PURE_PYTHON is set")
+    assert emulator_module._goto_passes is getattr(emulator_module._cgoto, "passes", None), (
+        "the compiled GO TO passes are missing: "
+        f"{_native.status().get('parolkit.board._cgoto')}; `pip install -e .` needs a C compiler")
+
+
+@pytest.mark.parametrize("kernel", sorted(KERNELS))
 @pytest.mark.parametrize("seed", range(12))
-def test_joint_by_joint_goto_passes_equal_the_per_pass_loop(seed):
+def test_joint_by_joint_goto_passes_equal_the_per_pass_loop(seed, kernel, monkeypatch):
+    monkeypatch.setattr(emulator_module, "_goto_passes", KERNELS[kernel])
     rng = random.Random(seed)
     new = BoardEmulator(clock="virtual", start_homed=True, pass_hz=rng.choice([1000, 2000, 5000]))
     old = BoardEmulator(clock="virtual", start_homed=True, pass_hz=new.pass_hz)

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import TypeVar
 
+from parolkit._native import load as load_native
 from parolkit.board.faults import ByteFaultInjector, LinkFaults, faults_from_options
 from parolkit.board.gripper import GripperState, SSG48Gripper
 from parolkit.board.homing import (
@@ -125,6 +126,47 @@ def _joint_mask(joints: Iterable[object] | None, name: str) -> int:
             raise ParolkitValueError(f"{name}: joint {j!r} is not one of 1..6 / J1..J6")
         mask |= 0x80 >> (idx - 1)
     return mask
+
+
+def goto_passes(n: int, dt: float, clamp: int, counters: tuple[int, ...], phases: tuple[float, ...],
+                targets: tuple[int, ...], feed_forwards: tuple[int, ...],
+                ) -> tuple[tuple[int, ...], tuple[float, ...], tuple[int, ...], bool]:
+    """``n`` (>= 1) passes of the GO TO law, ``v = int(((target - counter) / 0.01 + v_ff) / 2)``
+    clamped to +-``clamp`` (whole steps/s), each joint stepped once a pass (``phase += v x dt``,
+    its whole steps move the counter); a joint whose speed comes out 0 stays there (its counter
+    no longer changes).  Returns the counters, the sub-step phases, the speeds, and whether
+    every joint reached speed 0 within the passes.  The joints do not interact, so each runs
+    its passes on its own, in local variables (the same arithmetic, in the same order, as one
+    pass of all joints after another).  The reference of the compiled ``_cgoto.passes``."""
+    out_c, out_a, out_v = [], [], []
+    settled = True
+    for c, acc, tgt, vff in zip(counters, phases, targets, feed_forwards):
+        v = 0
+        for _ in range(n):
+            v = int(((tgt - c) / 0.01 + vff) / 2)
+            if v > clamp:
+                v = clamp
+            elif v < -clamp:
+                v = -clamp
+            if not v:
+                break
+            acc = acc + v * dt
+            k = int(acc)
+            acc = acc - k
+            c += k
+        else:
+            settled = False  # still running after the n passes
+        out_c.append(c)
+        out_a.append(acc)
+        out_v.append(v)
+    return tuple(out_c), tuple(out_a), tuple(out_v), settled
+
+
+_cgoto = load_native("parolkit.board._cgoto")
+#: the GO TO passes: compiled when built, else the reference
+_goto_passes: Callable[[int, float, int, tuple[int, ...], tuple[float, ...], tuple[int, ...], tuple[int, ...]],
+                       tuple[tuple[int, ...], tuple[float, ...], tuple[int, ...], bool]] = (
+    _cgoto.passes if _cgoto is not None else goto_passes)
 
 
 class BoardEmulator:
@@ -337,40 +379,19 @@ class BoardEmulator:
         self._t += n * dt
 
     def _goto_passes(self, n: int, dt: float) -> None:
-        """``n`` passes of the GO TO law, ``v = (target - counter) / 0.01 + v_ff) / 2`` (clamped,
-        whole steps/s) stepped once a pass.  The joints do not interact, so each one runs its
-        passes on its own, in local variables (the same arithmetic, in the same order, as one
-        pass of all joints after another); a joint whose speed comes out 0 stays there (its
-        counter no longer changes).  When every joint reached 0 within the ``n`` passes the
-        board stood still from that pass on and the sub-step phases are forgotten."""
+        """``n`` passes of the GO TO law on every joint (:func:`goto_passes`, compiled when
+        built); when every joint's speed reached 0 within them the board stood still from that
+        pass on and the sub-step phases are forgotten."""
         if n <= 0:
             return
-        clamp = SPEED_CLAMP_STEPS_S
-        settled = True
-        for st, tgt, vff in zip(self._steppers, self._targets, self._ff):
-            c = st.counter
-            acc = st._acc
-            v = 0
-            for _ in range(n):
-                v = int(((tgt - c) / 0.01 + vff) / 2)
-                if v > clamp:
-                    v = clamp
-                elif v < -clamp:
-                    v = -clamp
-                if not v:
-                    break
-                acc = acc + v * dt
-                k = int(acc)
-                acc = acc - k
-                c += k
-            else:
-                settled = False  # still running after the n passes
+        sts = self._steppers
+        counters, phases, speeds, settled = _goto_passes(
+            n, dt, SPEED_CLAMP_STEPS_S, tuple(st.counter for st in sts), tuple(st._acc for st in sts),
+            self._targets, self._ff)
+        for st, c, acc, v in zip(sts, counters, phases, speeds):
             st.counter = c
-            st._acc = acc
+            st._acc = 0.0 if settled else acc
             st.speed = v
-        if settled:
-            for st in self._steppers:
-                st.stop_phase()
 
     # =======================================================================================
     # frames

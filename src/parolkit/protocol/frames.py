@@ -312,7 +312,7 @@ def _check_envelope(data: bytes, length: int, crc_expected: int | None, what: st
 # ---------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class CommandFrame:
     """One PC -> board frame.
 
@@ -323,24 +323,35 @@ class CommandFrame:
     what the gripper uses; the codec checks only what fits the wire).
     """
 
-    positions: tuple[int, ...] = (0, 0, 0, 0, 0, 0)
-    speeds: tuple[int, ...] = (0, 0, 0, 0, 0, 0)
-    command: int = BoardCommand.IDLE
-    affected: int = 0xFF
-    io: int = 0
-    timeout: int = 0
-    gripper_position: int = 0
-    gripper_speed: int = 0
-    gripper_current: int = 0
-    gripper_command: int = 0
-    gripper_mode: int = GripperMode.OPERATE
-    gripper_id: int = 0
-    crc: int = PC_CRC
+    positions: tuple[int, ...]
+    speeds: tuple[int, ...]
+    command: int
+    affected: int
+    io: int
+    timeout: int
+    gripper_position: int
+    gripper_speed: int
+    gripper_current: int
+    gripper_command: int
+    gripper_mode: int
+    gripper_id: int
+    crc: int
 
-    def __post_init__(self) -> None:
+    # (written out rather than generated: a frozen dataclass's own __init__ sets each field
+    # with object.__setattr__, which made building a frame cost more than encoding it)
+    def __init__(self, positions: tuple[int, ...] = (0, 0, 0, 0, 0, 0),
+                 speeds: tuple[int, ...] = (0, 0, 0, 0, 0, 0), command: int = BoardCommand.IDLE,
+                 affected: int = 0xFF, io: int = 0, timeout: int = 0, gripper_position: int = 0,
+                 gripper_speed: int = 0, gripper_current: int = 0, gripper_command: int = 0,
+                 gripper_mode: int = GripperMode.OPERATE, gripper_id: int = 0, crc: int = PC_CRC) -> None:
+        self.__dict__.update(
+            positions=positions, speeds=speeds, command=command, affected=affected, io=io, timeout=timeout,
+            gripper_position=gripper_position, gripper_speed=gripper_speed, gripper_current=gripper_current,
+            gripper_command=gripper_command, gripper_mode=gripper_mode, gripper_id=gripper_id, crc=crc)
         _check_fields(self, _COMMAND_FIELDS)
         # an unknown code is legal on the wire: the board idles and replies
-        object.__setattr__(self, "command", _COMMANDS.get(self.command, self.command))
+        cmd = self.command
+        self.__dict__["command"] = _COMMANDS.get(cmd, cmd)
 
     @property
     def outputs(self) -> tuple[bool, bool]:
@@ -391,7 +402,7 @@ class CommandFrame:
 # ---------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class StatusFrame:
     """One board -> PC frame (telemetry).
 
@@ -400,24 +411,36 @@ class StatusFrame:
     ``timing`` is in board timer ticks (1/703125 s), low 16 bits.
     """
 
-    positions: tuple[int, ...] = (0, 0, 0, 0, 0, 0)
-    speeds: tuple[int, ...] = (0, 0, 0, 0, 0, 0)
-    homed: int = 0x03
-    io: int = 0x0F
-    temperature_error: int = 0x03
-    position_error: int = 0x03
-    timing: int = 0
-    timeout_error: int = 100
-    xtr: int = 255
-    gripper_id: int = 0
-    gripper_position: int = 0
-    gripper_speed: int = 1
-    gripper_current: int = 0
-    gripper_status: int = 0
-    object_detection: int = 1
-    crc: int = BOARD_CRC
+    positions: tuple[int, ...]
+    speeds: tuple[int, ...]
+    homed: int
+    io: int
+    temperature_error: int
+    position_error: int
+    timing: int
+    timeout_error: int
+    xtr: int
+    gripper_id: int
+    gripper_position: int
+    gripper_speed: int
+    gripper_current: int
+    gripper_status: int
+    object_detection: int
+    crc: int
 
-    def __post_init__(self) -> None:
+    # (written out rather than generated, as CommandFrame's)
+    def __init__(self, positions: tuple[int, ...] = (0, 0, 0, 0, 0, 0),
+                 speeds: tuple[int, ...] = (0, 0, 0, 0, 0, 0), homed: int = 0x03, io: int = 0x0F,
+                 temperature_error: int = 0x03, position_error: int = 0x03, timing: int = 0,
+                 timeout_error: int = 100, xtr: int = 255, gripper_id: int = 0, gripper_position: int = 0,
+                 gripper_speed: int = 1, gripper_current: int = 0, gripper_status: int = 0,
+                 object_detection: int = 1, crc: int = BOARD_CRC) -> None:
+        self.__dict__.update(
+            positions=positions, speeds=speeds, homed=homed, io=io, temperature_error=temperature_error,
+            position_error=position_error, timing=timing, timeout_error=timeout_error, xtr=xtr,
+            gripper_id=gripper_id, gripper_position=gripper_position, gripper_speed=gripper_speed,
+            gripper_current=gripper_current, gripper_status=gripper_status, object_detection=object_detection,
+            crc=crc)
         _check_fields(self, _STATUS_FIELDS)
 
     # ---- convenience views ----
