@@ -24,6 +24,7 @@ returns the wire value unchanged.
 from __future__ import annotations
 
 import operator
+import struct
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, fields
 from enum import IntEnum, IntFlag
@@ -231,23 +232,47 @@ def bits_to_byte(bits: Sequence[object]) -> int:
     return out
 
 
+#: every byte's 8 flags, MSB first
+_BITS = tuple(tuple(bool(v & (0x80 >> i)) for i in range(8)) for v in range(256))
+
+
 def byte_to_bits(value: int) -> tuple[bool, ...]:
     """A byte to 8 flags, MSB first."""
-    v = _check_int(value, "bitfield byte", _U8)
-    return tuple(bool(v & (0x80 >> i)) for i in range(8))
+    return _BITS[_check_int(value, "bitfield byte", _U8)]
 
 
-def _put24(buf: bytearray, values: tuple[int, ...]) -> None:
-    for v in values:
-        buf += (v & 0xFFFFFF).to_bytes(3, "big")
+_M24 = 0xFFFFFF
+_S24 = 0x800000
 
 
-def _get24(data: bytes, off: int) -> tuple[int, ...]:
-    """Six 24-bit two's complement big-endian values from ``data[off:off + 18]``."""
-    fb = int.from_bytes
-    return (fb(data[off:off + 3], "big", signed=True), fb(data[off + 3:off + 6], "big", signed=True),
-            fb(data[off + 6:off + 9], "big", signed=True), fb(data[off + 9:off + 12], "big", signed=True),
-            fb(data[off + 12:off + 15], "big", signed=True), fb(data[off + 15:off + 18], "big", signed=True))
+def _pack24(positions: tuple[int, ...], speeds: tuple[int, ...]) -> bytes:
+    """The six positions then the six speeds as 24-bit two's complement big-endian values: 36
+    bytes (as one integer: one conversion instead of twelve)."""
+    a, b, c, d, e, f = positions
+    g, h, i, j, k, m = speeds
+    M = _M24
+    return ((a & M) << 264 | (b & M) << 240 | (c & M) << 216 | (d & M) << 192 | (e & M) << 168
+            | (f & M) << 144 | (g & M) << 120 | (h & M) << 96 | (i & M) << 72 | (j & M) << 48
+            | (k & M) << 24 | (m & M)).to_bytes(36, "big")
+
+
+def _unpack24(payload: bytes) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """(positions, speeds): the twelve 24-bit two's complement big-endian values of
+    ``payload[0:36]`` (``(x ^ 0x800000) - 0x800000`` sign-extends a 24-bit ``x``)."""
+    n = int.from_bytes(payload[0:36], "big")
+    M, S = _M24, _S24
+    return (((n >> 264 & M ^ S) - S, (n >> 240 & M ^ S) - S, (n >> 216 & M ^ S) - S,
+             (n >> 192 & M ^ S) - S, (n >> 168 & M ^ S) - S, (n >> 144 & M ^ S) - S),
+            ((n >> 120 & M ^ S) - S, (n >> 96 & M ^ S) - S, (n >> 72 & M ^ S) - S,
+             (n >> 48 & M ^ S) - S, (n >> 24 & M ^ S) - S, (n & M ^ S) - S))
+
+
+#: a frame's bytes after the 36 bytes of positions and speeds, up to the end bytes (the
+#: 16-bit gripper fields are signed, as the fields are checked)
+_COMMAND_TAIL = struct.Struct(">4B3h4B")
+_STATUS_TAIL = struct.Struct(">4BH3B3h3B")
+_COMMAND_HEAD = START + bytes((COMMAND_LEN,))
+_STATUS_HEAD = START + bytes((STATUS_LEN,))
 
 
 #: a frame's scalar fields and their ranges, in the order they are checked
@@ -275,10 +300,6 @@ def _check_fields(frame: CommandFrame | StatusFrame, scalars: tuple[tuple[str, t
         v = d[name]
         if type(v) is not int or not bounds[0] <= v <= bounds[1]:
             d[name] = _check_int(v, name, bounds)
-
-
-def _i16(data: bytes, off: int) -> int:
-    return int.from_bytes(data[off : off + 2], "big", signed=True)
 
 
 _Frame = TypeVar("_Frame", "CommandFrame", "StatusFrame")
@@ -360,16 +381,11 @@ class CommandFrame:
 
     def encode(self) -> bytes:
         """The 56 bytes of this frame."""
-        buf = bytearray(START)
-        buf.append(COMMAND_LEN)
-        _put24(buf, self.positions)
-        _put24(buf, self.speeds)
-        buf += bytes((self.command, self.affected, self.io, self.timeout))
-        for v in (self.gripper_position, self.gripper_speed, self.gripper_current):
-            buf += (v & 0xFFFF).to_bytes(2, "big")
-        buf += bytes((self.gripper_command, self.gripper_mode, self.gripper_id, self.crc))
-        buf += END
-        return bytes(buf)
+        return (_COMMAND_HEAD + _pack24(self.positions, self.speeds)
+                + _COMMAND_TAIL.pack(self.command, self.affected, self.io, self.timeout, self.gripper_position,
+                                     self.gripper_speed, self.gripper_current, self.gripper_command,
+                                     self.gripper_mode, self.gripper_id, self.crc)
+                + END)
 
     @classmethod
     def decode(cls, data: bytes, *, check_crc: bool = False) -> CommandFrame:
@@ -379,22 +395,13 @@ class CommandFrame:
         """
         _check_envelope(data, COMMAND_LEN, PC_CRC if check_crc else None, "command frame")
         p = bytes(data[4:])
-        cmd = p[36]
+        positions, speeds = _unpack24(p)
+        cmd, affected, io, timeout, g_pos, g_speed, g_current, g_cmd, g_mode, g_id, crc = \
+            _COMMAND_TAIL.unpack_from(p, 36)
         return _trusted(cls, dict(
-            positions=_get24(p, 0),
-            speeds=_get24(p, 18),
-            command=_COMMANDS.get(cmd, cmd),
-            affected=p[37],
-            io=p[38],
-            timeout=p[39],
-            gripper_position=_i16(p, 40),
-            gripper_speed=_i16(p, 42),
-            gripper_current=_i16(p, 44),
-            gripper_command=p[46],
-            gripper_mode=p[47],
-            gripper_id=p[48],
-            crc=p[49],
-        ))
+            positions=positions, speeds=speeds, command=_COMMANDS.get(cmd, cmd), affected=affected, io=io,
+            timeout=timeout, gripper_position=g_pos, gripper_speed=g_speed, gripper_current=g_current,
+            gripper_command=g_cmd, gripper_mode=g_mode, gripper_id=g_id, crc=crc))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -451,7 +458,7 @@ class StatusFrame:
 
     @property
     def all_homed(self) -> bool:
-        return all(self.homed_joints)
+        return self.homed & 0xFC == 0xFC  # J1..J6 are the six high bits
 
     @property
     def estop_pressed(self) -> bool:
@@ -477,42 +484,26 @@ class StatusFrame:
 
     def encode(self) -> bytes:
         """The 60 bytes of this frame."""
-        buf = bytearray(START)
-        buf.append(STATUS_LEN)
-        _put24(buf, self.positions)
-        _put24(buf, self.speeds)
-        buf += bytes((self.homed, self.io, self.temperature_error, self.position_error))
-        buf += self.timing.to_bytes(2, "big")
-        buf += bytes((self.timeout_error, self.xtr, self.gripper_id))
-        for v in (self.gripper_position, self.gripper_speed, self.gripper_current):
-            buf += (v & 0xFFFF).to_bytes(2, "big")
-        buf += bytes((self.gripper_status, self.object_detection, self.crc))
-        buf += END
-        return bytes(buf)
+        return (_STATUS_HEAD + _pack24(self.positions, self.speeds)
+                + _STATUS_TAIL.pack(self.homed, self.io, self.temperature_error, self.position_error, self.timing,
+                                    self.timeout_error, self.xtr, self.gripper_id, self.gripper_position,
+                                    self.gripper_speed, self.gripper_current, self.gripper_status,
+                                    self.object_detection, self.crc)
+                + END)
 
     @classmethod
     def decode(cls, data: bytes, *, check_crc: bool = False) -> StatusFrame:
         """Parse exactly one 60-byte frame.  Raises :class:`FrameError` on a bad envelope."""
         _check_envelope(data, STATUS_LEN, BOARD_CRC if check_crc else None, "status frame")
         p = bytes(data[4:])
+        positions, speeds = _unpack24(p)
+        (homed, io, temperature_error, position_error, timing, timeout_error, xtr, g_id, g_pos, g_speed, g_current,
+         g_status, object_detection, crc) = _STATUS_TAIL.unpack_from(p, 36)
         return _trusted(cls, dict(
-            positions=_get24(p, 0),
-            speeds=_get24(p, 18),
-            homed=p[36],
-            io=p[37],
-            temperature_error=p[38],
-            position_error=p[39],
-            timing=int.from_bytes(p[40:42], "big"),
-            timeout_error=p[42],
-            xtr=p[43],
-            gripper_id=p[44],
-            gripper_position=_i16(p, 45),
-            gripper_speed=_i16(p, 47),
-            gripper_current=_i16(p, 49),
-            gripper_status=p[51],
-            object_detection=p[52],
-            crc=p[53],
-        ))
+            positions=positions, speeds=speeds, homed=homed, io=io, temperature_error=temperature_error,
+            position_error=position_error, timing=timing, timeout_error=timeout_error, xtr=xtr, gripper_id=g_id,
+            gripper_position=g_pos, gripper_speed=g_speed, gripper_current=g_current, gripper_status=g_status,
+            object_detection=object_detection, crc=crc))
 
 
 def frame_fields(frame: CommandFrame | StatusFrame) -> dict[str, object]:
