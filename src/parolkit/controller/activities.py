@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
+from parolkit._frozen import quick_init
 from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand, GripperMode, StatusFrame
 from parolkit.robot import GOTO_FF_GAIN, GOTO_GAIN_PER_S, JOINT_NAMES, goto_goal
@@ -37,6 +38,7 @@ Samples = tuple[list[list[int]], list[list[int]], list[int]]
 WARNING_PREFIX = "warning: "
 
 
+@quick_init
 @dataclass(frozen=True)
 class TickContext:
     """What an activity may look at: tick number, time (s), rate, latest status frame, and the
@@ -70,6 +72,7 @@ class TickContext:
         return self.now if self.clock_s is None else self.clock_s
 
 
+@quick_init
 @dataclass(frozen=True)
 class FrameRequest:
     """The frame content an activity asks for this tick, and whether the job ends with it."""

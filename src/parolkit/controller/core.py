@@ -42,6 +42,7 @@ from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Any
 
+from parolkit._frozen import quick_init
 from parolkit.controller.activities import (
     Activity,
     DelayActivity,
@@ -104,7 +105,8 @@ UNHOMED_JOG_TRAVEL_DEG = 20.0
 _EARLY_PLANS = 16
 
 
-@dataclass(frozen=True, slots=True)
+@quick_init
+@dataclass(frozen=True)
 class ReplyBatch:
     """Status frames the driver read in one go: at ``t`` on the link record's clock (``wall``:
     monotonic s), ``after_write``: while waiting for the reply to the frame just written (the
@@ -118,7 +120,8 @@ class ReplyBatch:
     dropped: int = 0
 
 
-@dataclass(frozen=True, slots=True)
+@quick_init
+@dataclass(frozen=True)
 class Written:
     """The frame the driver wrote (the previous output's, or the one recomposed), at ``t`` on the
     link record's clock (``wall``: monotonic s)."""
@@ -128,6 +131,7 @@ class Written:
     wall: float
 
 
+@quick_init
 @dataclass(frozen=True)
 class TickInput:
     """Everything one tick needs (see the module docstring)."""
@@ -164,6 +168,7 @@ class TickResult(Enum):
     LINK_LOST = "link_lost"
 
 
+@quick_init
 @dataclass(frozen=True)
 class TickOutput:
     """What one tick decided (see the module docstring)."""

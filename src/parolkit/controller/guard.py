@@ -41,6 +41,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+from parolkit._frozen import quick_init
 from parolkit.controller.link import LinkHistory
 from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperCommandBits, StatusFrame
 from parolkit.robot import GOTO_GAIN_PER_S, JOINT_NAMES, RobotModel, goto_goal, goto_reach_steps
@@ -56,6 +57,7 @@ ROUNDING_STEPS = 0.01
 PROBE_SPEED_STEPS_S = 1
 
 
+@quick_init
 @dataclass(frozen=True)
 class GuardResult:
     """The frame to send and, when the asked frame was replaced, why."""

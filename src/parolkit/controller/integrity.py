@@ -66,6 +66,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
+from parolkit._frozen import quick_init
 from parolkit.protocol.frames import TIMER_HZ, BoardCommand, CommandFrame, StatusFrame
 from parolkit.robot import FIRMWARE_SPEED_CLAMP_STEPS_S as BOARD_SPEED_CLAMP
 from parolkit.robot import JOINT_NAMES, RobotModel
@@ -127,6 +128,7 @@ class Tolerances:
     gap: float = 16.0
 
 
+@quick_init
 @dataclass(frozen=True)
 class IntegrityView:
     """Counters for GET_STATUS / GET_STATUS_JSON.

@@ -12,6 +12,7 @@ import logging
 from collections import deque
 from dataclasses import dataclass, field
 
+from parolkit._frozen import quick_init
 from parolkit.controller.activities import WARNING_PREFIX, Activity, Samples
 from parolkit.controller.messages import Ack, AckRoute
 from parolkit.protocol.commands import AckStatus, Command
@@ -98,7 +99,8 @@ class Job:
         self.start_deg, self.final_deg, self.planned, self.plan_error = start, start, True, error
 
 
-@dataclass(frozen=True, slots=True)
+@quick_init
+@dataclass(frozen=True)
 class QueueEntry:
     """One command in the queue view: its ID (shown to its own client only), name, client."""
 
@@ -107,7 +109,8 @@ class QueueEntry:
     client: str
 
 
-@dataclass(frozen=True, slots=True)
+@quick_init
+@dataclass(frozen=True)
 class QueueView:
     """GET_QUEUE as plain data (the snapshot formats it per viewer)."""
 

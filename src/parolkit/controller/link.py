@@ -35,6 +35,7 @@ from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from parolkit._frozen import quick_init
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
 from parolkit.robot import FIRMWARE_PASS_MAX_S, GOTO_GAIN_PER_S, goto_goal
 
@@ -47,7 +48,8 @@ _HOME = int(BoardCommand.HOME)
 _SIZE = 128
 
 
-@dataclass(frozen=True, slots=True)
+@quick_init
+@dataclass(frozen=True)
 class Sent:
     """Frame number ``n`` (from 1 in a session), written at ``t`` (s); ``window``: where each
     joint could be as it arrived, as known when it was written (None: not known)."""
@@ -58,7 +60,8 @@ class Sent:
     window: tuple[tuple[float, float], ...] | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@quick_init
+@dataclass(frozen=True)
 class Anchor:
     """A trusted reply: the board's ``status`` as it accepted frame ``n``, read at ``t`` (s)."""
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
+from parolkit._frozen import quick_init
 from parolkit.controller.integrity import IntegrityView
 from parolkit.controller.jobs import QueueView
 from parolkit.protocol.commands import dumps, format_floats
@@ -41,6 +42,7 @@ class RobotState(str, Enum):
     DISCONNECTED = "DISCONNECTED"
 
 
+@quick_init
 @dataclass(frozen=True)
 class CommandInfo:
     """The active command: ID (or None), name, progress 0..1."""
@@ -53,6 +55,7 @@ class CommandInfo:
         return {"id": self.command_id, "name": self.name, "progress": round(self.progress, 4)}
 
 
+@quick_init
 @dataclass(frozen=True)
 class BoardInfo:
     """The board link."""
@@ -66,6 +69,7 @@ class BoardInfo:
 PoseProvider = Callable[[Sequence[float], str], tuple[tuple[float, ...], tuple[float, ...]]]
 
 
+@quick_init
 @dataclass(frozen=True)
 class PlanView:
     """GET_PLAN as data: the plan counter, the running command (name, ID), its target angles

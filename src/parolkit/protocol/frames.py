@@ -30,6 +30,7 @@ from dataclasses import dataclass, fields
 from enum import IntEnum, IntFlag
 from typing import SupportsIndex, TypeVar, cast
 
+from parolkit._frozen import quick_init
 from parolkit.errors import ParolkitValueError
 
 __all__ = [
@@ -129,6 +130,7 @@ class GripperMode(IntEnum):
     CLEAR_ERROR = 2
 
 
+@quick_init
 @dataclass(frozen=True)
 class GripperStatus:
     """Decoded SSG-48 status byte (board -> PC offset 51)."""
