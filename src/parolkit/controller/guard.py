@@ -83,6 +83,9 @@ class SafetyGuard:
         self.replaced_frames = 0
         self.violations = 0
         self.last_violation: str | None = None
+        #: the last goal_box: the link's box it was made from, and the result
+        self._box_from: tuple[tuple[float, float], ...] | None = None
+        self._box: tuple[tuple[float, float], ...] = ()
 
     # ---- safe frames ----
 
@@ -107,14 +110,17 @@ class SafetyGuard:
 
     # ---- the check ----
 
-    def goal_box(self, link: LinkHistory, t_write: float) -> list[tuple[float, float]] | None:
+    def goal_box(self, link: LinkHistory, t_write: float) -> tuple[tuple[float, float], ...] | None:
         """Per joint, the goals (steps) rule 6 allows for a GO TO frame written at ``t_write``
         (s, the link record's clock); None when rule 5 refuses every GO TO now.  The motion
         activities choose their goals inside it, so their frames are the ones the guard passes."""
         box = link.goal_box(t_write, self.reach)
         if box is None:
             return None
-        return [(lo - ROUNDING_STEPS, hi + ROUNDING_STEPS) for lo, hi in box]
+        if box is not self._box_from:  # (the same box: the same answer, asked twice a tick)
+            self._box = tuple((lo - ROUNDING_STEPS, hi + ROUNDING_STEPS) for lo, hi in box)
+            self._box_from = box
+        return self._box
 
     def _goto_violation(self, f: CommandFrame, link: LinkHistory, homed: bool, t_write: float) -> str | None:
         if homed:

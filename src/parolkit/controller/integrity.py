@@ -349,6 +349,8 @@ class StatusIntegrity:
         self.last_fault: str | None = None
         #: the newest frames written: (number, monotonic s, frame); numbers count from 1
         self._sent: deque[tuple[int, float, CommandFrame]] = deque(maxlen=64)
+        #: :meth:`_candidates` by ``n`` since the last frame written (asked several times a reply)
+        self._cands: dict[int, tuple[CommandFrame, ...]] = {}
         self._n = 0
         self.reset()
 
@@ -366,6 +368,7 @@ class StatusIntegrity:
         #: a second frame to confirm it: (that frame, what it shows, frames left to confirm)
         self._suspect: tuple[_Reply, _Deviation, int] | None = None
         self._sent.clear()
+        self._cands.clear()
         #: HOME was written (its frame number) and no aborting code since; None: none asked
         self._home_t: int | None = None
         #: frame number of a 101/102/103 that aborted a homing (None: none pending)
@@ -417,6 +420,7 @@ class StatusIntegrity:
         a reply's ``answers`` means the same frame here and there."""
         self._n = self._n + 1 if n is None else int(n)
         self._sent.append((self._n, t, frame))
+        self._cands.clear()
         code = int(frame.command)
         if code == _HOME:
             self._home_t, self._home_seen = self._n, False
@@ -696,9 +700,12 @@ class StatusIntegrity:
 
     # ------------------------------------------------------------------ the commanded check
 
-    def _candidates(self, n: int) -> list[CommandFrame]:
+    def _candidates(self, n: int) -> tuple[CommandFrame, ...]:
         """The frames one of which a status frame read after frame number ``n`` was written
         answered (the newest few of those)."""
+        known = self._cands.get(n)
+        if known is not None:
+            return known
         out: list[CommandFrame] = []
         low = n - self.candidates
         for k, _, fr in reversed(self._sent):  # newest first: a few steps, not the whole deque
@@ -707,7 +714,8 @@ class StatusIntegrity:
             if k <= n:
                 out.append(fr)
         out.reverse()
-        return out
+        known = self._cands[n] = tuple(out)
+        return known
 
     def _predict(self, p0: Sequence[int], frame: CommandFrame, dt: float) -> tuple[list[float], list[float]]:
         """Positions ``frame`` takes the joints to from ``p0`` in ``dt`` s, and how far the

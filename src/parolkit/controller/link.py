@@ -100,6 +100,9 @@ class LinkHistory:
         self._window_key: tuple[float, int] | None = None
         self._window_anchor: Anchor | None = None
         self._window_value: tuple[tuple[float, float], ...] | None = None
+        #: the last :meth:`goal_box`: the window and reach it was made from, and the box
+        self._box_from: tuple[tuple[tuple[float, float], ...], Sequence[float]] | None = None
+        self._box_value: tuple[tuple[float, float], ...] = ()
 
     # ------------------------------------------------------------------ events
 
@@ -117,7 +120,7 @@ class LinkHistory:
         """``frame`` was written at ``t``; returns its number."""
         win = self.window(t)
         self._n += 1
-        self._written.append(Sent(self._n, frame, t, None if win is None else tuple(win)))
+        self._written.append(Sent(self._n, frame, t, win))
         if int(frame.command) == _HOME:
             self.homing = True
         self.unanswered += 1
@@ -178,7 +181,7 @@ class LinkHistory:
         # numbers are consecutive: frame n sits at n - first
         return list(itertools.islice(w, max(0, n - first), None))
 
-    def window(self, t_write: float) -> list[tuple[float, float]] | None:
+    def window(self, t_write: float) -> tuple[tuple[float, float], ...] | None:
         """Per joint, the interval (steps) the board's position lies in when a frame written at
         ``t_write`` (s) arrives; None when that is not known (no trusted reply in this session,
         frames since then forgotten, a homing or a speed (JOG) frame since then)."""
@@ -190,8 +193,7 @@ class LinkHistory:
             win = self._window(a, t_write)
             self._window_value = None if win is None else tuple(win)
             self._window_key, self._window_anchor = key, a
-        v = self._window_value
-        return None if v is None else list(v)
+        return self._window_value
 
     def _window(self, a: Anchor, t_write: float) -> list[tuple[float, float]] | None:
         frames = self.since(a.n)
@@ -233,7 +235,7 @@ class LinkHistory:
             out.append((lo, hi))
         return out
 
-    def goal_box(self, t_write: float, reach: Sequence[float]) -> list[tuple[float, float]] | None:
+    def goal_box(self, t_write: float, reach: Sequence[float]) -> tuple[tuple[float, float], ...] | None:
         """Per joint, the goals (steps) a GO TO frame written at ``t_write`` may carry so that the
         board starts it within its maximum speed wherever it is in :meth:`window`: within
         ``reach[j]`` (the maximum speed / 50, i.e. 20 ms of travel at it) of both ends.  An
@@ -242,4 +244,8 @@ class LinkHistory:
         win = self.window(t_write)
         if win is None:
             return None
-        return [(hi - r, lo + r) for (lo, hi), r in zip(win, reach)]
+        made = self._box_from
+        if made is None or made[0] is not win or made[1] is not reach:
+            self._box_value = tuple((hi - r, lo + r) for (lo, hi), r in zip(win, reach))
+            self._box_from = (win, reach)
+        return self._box_value
