@@ -221,11 +221,13 @@ def test_space_in_a_text_input_while_a_step_move_runs_stops_the_robot(kpage):
     recover(page)
 
 
-LONG = "Begin()\nDelay(30)\nEnd()\n"
+LONG = "Begin()\nDelay(120)\nEnd()\n"
 
 
 def _editor_with_long_program(page) -> None:
-    """The Program tab, the editor focused with a 30 s program, its status "✓ program OK"."""
+    """The Program tab, the editor focused with a 120 s program, its status "✓ program OK" (the
+    tests stop it; it must still be running after their waits of up to 30 s on a slow machine:
+    a 30 s program could end before Space was pressed)."""
     page.get_by_test_id("tab-program").click()
     page.locator(EDITOR).click()
     page.keyboard.press("Control+A")

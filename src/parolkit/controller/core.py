@@ -369,8 +369,15 @@ class ControllerCore:
         """The driver wrote ``w.frame``: the link record, the integrity check and the probe
         count it."""
         n = self.link.sent(w.frame, w.t)
-        self.integrity.sent(w.frame, w.wall, n)
+        self.integrity.sent(w.frame, self._board_time(w.t, w.wall), n)
         self.last_frame = w.frame
+
+    def _board_time(self, t: float, wall: float) -> float:
+        """The time the integrity check judges the board's motion by: the PC's clock (``wall``,
+        monotonic s) on a real link; on a board in lockstep with the frames its own time, the
+        link record's ``t`` (each frame one period): a PC stalled longer than the board timer's
+        wrap must not read as board time that passed."""
+        return t if self.lockstep else wall
 
     def _read(self, batch: ReplyBatch) -> None:
         """Judge every status frame of ``batch`` (see :meth:`LinkHistory.answered`)."""
@@ -380,7 +387,7 @@ class ControllerCore:
             answers = self.link.answered(count, i, after_write=batch.after_write)
             earliest = self.link.earliest(f)
             self.holding = False
-            if self.integrity.accept(f, batch.wall, batch.dropped, answers):
+            if self.integrity.accept(f, self._board_time(batch.t, batch.wall), batch.dropped, answers):
                 self.status = f
                 self.last_status = f
                 self.link.trust(earliest, f, batch.t)
@@ -1113,7 +1120,8 @@ class ControllerCore:
             status=self.status or self.last_status, board=board, error=s.error, command=info,
             queue=len(jobs.waiting), stream_mode=self.stream_mode, tool=self.tool_name, plan_seq=self.plan_seq,
             outputs=self.setpoints.outputs, steps_per_deg=self._spd, pose_provider=self.pose_provider,
-            loop=loop, server=dict(inp.server_stats), integrity=self.integrity.view(inp.wall),
+            loop=loop, server=dict(inp.server_stats),
+            integrity=self.integrity.view(self._board_time(inp.time, inp.wall)),
             # known once the core has taken the probe's answer in (it does so in the tick after
             # the reply that answered it: until then the snapshot would show the old state)
             state_known=not self.probe.active and self.probe.result is None,
