@@ -64,6 +64,7 @@ _T = TypeVar("_T")
 _HOMING_CONTINUES = frozenset(range(256)) - {101, 102, 103, 123, 156}
 #: the IO byte's bits as plain ints (the status frame is built every frame)
 _IN1, _IN2, _ESTOP = int(IOBits.IN1), int(IOBits.IN2), int(IOBits.ESTOP)
+_OUTPUTS = int(IOBits.OUT1 | IOBits.OUT2)
 
 
 class ClockMode(str, Enum):
@@ -336,8 +337,8 @@ class BoardEmulator:
     def _passes(self, n: int) -> None:
         """Run ``n`` loop passes, then copy counters, speeds and homed into the telemetry."""
         self._run_passes(n)
-        self._telemetry = (tuple(st.counter for st in self._steppers),
-                           tuple(st.speed for st in self._steppers), self._homed)
+        sts = self._steppers
+        self._telemetry = (tuple([st.counter for st in sts]), tuple([st.speed for st in sts]), self._homed)
 
     def _run_passes(self, n: int) -> None:
         dt = self._dt
@@ -450,7 +451,7 @@ class BoardEmulator:
                 st.speed = 0
                 st.stop_phase()
         # IO: outputs follow the frame, inputs are sampled now
-        self._outputs = frame.io & (IOBits.OUT1 | IOBits.OUT2)
+        self._outputs = frame.io & _OUTPUTS
         self._gripper_id = frame.gripper_id
         self._gripper.on_frame(frame.gripper_position, frame.gripper_speed,
                                frame.gripper_current, frame.gripper_command, frame.gripper_mode)

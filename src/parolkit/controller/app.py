@@ -19,7 +19,7 @@ import socket
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from types import ModuleType
 from typing import Any
 
@@ -260,7 +260,7 @@ class Controller:
             self._spd_cache = v
         return v
 
-    def _loop_dict(self) -> dict[str, Any]:
+    def _loop_dict(self) -> Mapping[str, Any]:
         if self.loop is None:
             return {}
         return self.loop.loop_view()

@@ -34,7 +34,7 @@ import logging
 import os
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
 from typing import Any
@@ -112,7 +112,9 @@ class Driver:
         self.reply_wait = min(self.period * reply_wait_fraction, 0.003)
         self.stats = LoopMetrics(self.rate_hz)
         self._stats_view: LoopStatsView | None = None
-        self._stats_dict: dict[str, Any] = {}
+        #: the last :meth:`loop_view` and what it was made from
+        self._view_parts: tuple[object, ...] = ()
+        self._view: Mapping[str, Any] = {}
         self.parser = StatusParser()
         self.tick_count = 0
         self.start_time = time.monotonic()
@@ -436,22 +438,21 @@ class Driver:
                 break
         return out
 
-    def loop_view(self) -> dict[str, Any]:
+    def loop_view(self) -> Mapping[str, Any]:
         """The loop statistics with the stop supervisor's state, process id (None: none
         started), restarts, scheduling and limits: a stopped controller is stopped after
         ``supervisor_stopped_ms`` without a frame, a running one after ``supervisor_stall_ms``
-        (0: never)."""
+        (0: never).  The same mapping while none of that changed: read it, do not change it."""
         stats = self.stats.view(max_age_s=0.25)
-        if stats is not self._stats_view:  # (a view is reused for 0.25 s: so is its dict)
-            self._stats_view, self._stats_dict = stats, stats.as_dict()
-        view = dict(self._stats_dict)
         sup = self.supervisor
-        view["supervisor"] = sup.state if sup is not None else "off"
-        view["supervisor_pid"] = sup.pid if sup is not None else None
-        view["supervisor_restarts"] = sup.restarts if sup is not None else 0
-        view["supervisor_scheduling"] = sup.scheduling if sup is not None else "off"
-        view["supervisor_stopped_ms"] = round(STOPPED_PERIODS * sup.period_s * 1e3, 3) if sup is not None else 0.0
-        view["supervisor_stall_ms"] = round(sup.stall_s * 1e3, 3) if sup is not None else 0.0
+        parts = ((sup.state, sup.pid, sup.restarts, sup.scheduling, round(STOPPED_PERIODS * sup.period_s * 1e3, 3),
+                  round(sup.stall_s * 1e3, 3)) if sup is not None else ("off", None, 0, "off", 0.0, 0.0))
+        if stats is self._stats_view and parts == self._view_parts:
+            return self._view  # (a view is reused for 0.25 s: so is the dict made from it)
+        view = stats.as_dict()
+        view.update(zip(("supervisor", "supervisor_pid", "supervisor_restarts", "supervisor_scheduling",
+                         "supervisor_stopped_ms", "supervisor_stall_ms"), parts))
+        self._stats_view, self._view_parts, self._view = stats, parts, view
         return view
 
     #: SCHED_FIFO at a priority, else nice -10, for the calling thread (:mod:`.scheduling`)

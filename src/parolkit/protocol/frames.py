@@ -206,7 +206,7 @@ def _check_six(values: Iterable[SupportsIndex], name: str, bounds: tuple[int, in
         if (type(a) is int and type(b) is int and type(c) is int and type(d) is int and type(e) is int
                 and type(f) is int and lo <= a <= hi and lo <= b <= hi and lo <= c <= hi and lo <= d <= hi
                 and lo <= e <= hi and lo <= f <= hi):
-            return cast("tuple[int, ...]", values)
+            return values  # type: ignore[return-value]  # (6 plain ints: no call to cast them)
     if isinstance(values, (str, bytes)) or not hasattr(values, "__len__"):
         raise ParolkitValueError(f"{name} must be a sequence of 6 integers, got {values!r}")
     seq = tuple(values)
