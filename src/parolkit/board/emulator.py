@@ -485,7 +485,7 @@ class BoardEmulator:
             gripper_position=int(round(g.position)),
             gripper_speed=1,
             gripper_current=g.current_ma,
-            gripper_status=g.status().to_byte(),
+            gripper_status=g.status_byte(),
             object_detection=1,
         )
 

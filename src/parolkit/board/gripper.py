@@ -34,6 +34,7 @@ Opening moves never meet an object (internal grips are not modelled: code 2 is n
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -220,15 +221,11 @@ class SSG48Gripper:
         return REST_CURRENT_MA if self.calibrated else 0
 
     def status(self) -> GripperStatus:
-        return GripperStatus(
-            activated=self.activated,
-            action=self.action,
-            object_code=self.object_code,
-            temperature_error=False,
-            timeout_error=False,
-            estop_error=self.error,
-            calibrated=self.calibrated,
-        )
+        return _status(self.activated, self.action, self.object_code, self.error, self.calibrated)[0]
+
+    def status_byte(self) -> int:
+        """:meth:`status` as the status frame's byte."""
+        return _status(self.activated, self.action, self.object_code, self.error, self.calibrated)[1]
 
     def state(self) -> GripperState:
         return GripperState(
@@ -238,3 +235,13 @@ class SSG48Gripper:
             setpoint=int(round(self.setpoint)),
             object_width_mm=self.object_width_mm,
         )
+
+
+@functools.cache
+def _status(activated: bool, action: bool, object_code: int, error: bool,
+            calibrated: bool) -> tuple[GripperStatus, int]:
+    """The status and its byte (a few dozen combinations: each made once, the reply of every
+    frame reads it)."""
+    st = GripperStatus(activated=activated, action=action, object_code=object_code, temperature_error=False,
+                       timeout_error=False, estop_error=error, calibrated=calibrated)
+    return st, st.to_byte()

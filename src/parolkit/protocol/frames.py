@@ -300,8 +300,8 @@ def _check_fields(frame: CommandFrame | StatusFrame, scalars: tuple[tuple[str, t
     d["speeds"] = _check_six(d["speeds"], "speeds", _I24)
     for name, bounds in scalars:
         v = d[name]
-        if type(v) is not int or not bounds[0] <= v <= bounds[1]:
-            d[name] = _check_int(v, name, bounds)
+        if (type(v) is not int or not bounds[0] <= v <= bounds[1]) and type(v) is not BoardCommand:
+            d[name] = _check_int(v, name, bounds)  # (a BoardCommand is a byte: it stays as it is)
 
 
 _Frame = TypeVar("_Frame", "CommandFrame", "StatusFrame")
