@@ -148,16 +148,28 @@ def test_one_percent_corruption_loses_frames_without_breaking_the_board(board):
     assert pc.exchange(io=0x10).io == 0x1F
 
 
+def _replies(t: SerialTransport, timeout: float = 5.0) -> list[StatusFrame]:
+    """The status frames of the board's reply, as soon as it has come (a busy machine may run
+    the board's thread late: how late is not what these tests judge)."""
+    parser = StatusParser()
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        frames = parser.feed(t.read())
+        if frames:
+            return frames
+        time.sleep(0.001)
+    raise AssertionError(f"no reply from the board within {timeout} s")
+
+
 def test_unplug_closes_the_pty_so_the_pc_sees_link_lost_and_replug_reconnects(board, tmp_path):
     emu, server, pc = board
     link = tmp_path / "p6"
     t = SerialTransport(str(link))
     t.open()
     t.write(CommandFrame().encode())
-    time.sleep(0.05)
-    assert len(StatusParser().feed(t.read())) == 1
+    assert len(_replies(t)) == 1
     emu.unplug()
-    deadline = time.monotonic() + 2.0
+    deadline = time.monotonic() + 10.0
     with pytest.raises(LinkLostError):
         while time.monotonic() < deadline:
             t.read()
@@ -166,13 +178,12 @@ def test_unplug_closes_the_pty_so_the_pc_sees_link_lost_and_replug_reconnects(bo
     assert not t.is_open
     assert not link.exists()
     emu.replug()
-    deadline = time.monotonic() + 2.0
+    deadline = time.monotonic() + 10.0
     while not link.exists() and time.monotonic() < deadline:
         time.sleep(0.01)
     t.open()
     t.write(CommandFrame(command=77).encode())
-    time.sleep(0.05)
-    frames = StatusParser().feed(t.read())
+    frames = _replies(t)
     assert len(frames) == 1 and frames[0].xtr == 77
     t.close()
 
