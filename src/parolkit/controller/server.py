@@ -19,8 +19,10 @@
 
 from __future__ import annotations
 
+import itertools
 import logging
 import os
+import select
 import socket
 import threading
 import time
@@ -35,6 +37,7 @@ from parolkit.controller.lease import ClientId, ControlLease, is_loopback
 from parolkit.controller.messages import SET_PORT_SCHEMES, Ack, AckRoute, Address, Submission
 from parolkit.controller.senders import CommandIds, KnownClients, ReturnCookies
 from parolkit.controller.snapshot import Snapshot
+from parolkit.controller.steering import SAFETY_MAX_BYTES
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
     AckStatus,
@@ -65,6 +68,8 @@ MAX_DATAGRAMS_PER_SOURCE = 256
 SERVE_BATCH = 8
 #: at most this many datagrams are read in one drain before serving again
 DRAIN_MAX = 512
+#: at most this many datagrams the tick thread reads from the safety socket per call
+SAFETY_READS_PER_CALL = 32
 #: bytes of log lines about invalid datagrams per second; the rest is counted, not logged
 LOG_BUDGET_BYTES_PER_S = 4096
 
@@ -286,8 +291,12 @@ class UdpServer:
         ack_port: int,
         max_waiting_per_source: int = MAX_DATAGRAMS_PER_SOURCE,
         lease: ControlLease | None = None,
+        safety_sock: socket.socket | None = None,
     ) -> None:
         self.sock = sock
+        #: the port's safety socket (:mod:`parolkit.controller.steering`): read by the tick
+        #: thread (:meth:`read_safety_socket`); None: everything comes to ``sock``
+        self.safety_sock = safety_sock
         self.model = model
         self.inbox = inbox
         self.outbox = outbox
@@ -313,8 +322,22 @@ class UdpServer:
         # read even with MSG_DONTWAIT, so draining reads through a non-blocking twin
         self._nowait = sock.dup()
         self._nowait.setblocking(False)
-        #: datagrams received / not valid / refused because their source was over its share
-        self.received = 0
+        # receive order over both sockets (next() on a count is one step: any thread)
+        self._seqs = itertools.count(1)
+        # datagrams the tick thread read from the safety socket that are not stops (ACK_HERE,
+        # lookalikes): the server thread serves them, woken through a socket pair
+        self._passed: deque[tuple[int, bytes, Address]] = deque()
+        self._wake_r: socket.socket | None = None
+        self._wake_w: socket.socket | None = None
+        if safety_sock is not None:
+            self._wake_r, self._wake_w = socket.socketpair()
+            self._wake_r.setblocking(False)
+            self._wake_w.setblocking(False)
+        #: datagrams read from the command socket (server thread) / from the safety socket
+        #: (tick thread)
+        self.read_main = 0
+        self.steered = 0
+        #: datagrams not valid / refused because their source was over its share
         self.invalid = 0
         self.shed = 0
         #: commands refused with a busy ack (datagram lane or the loop's inbox full)
@@ -337,13 +360,21 @@ class UdpServer:
         if self._thread.ident is not None:  # (never started: served in-process, serve_now)
             self._thread.join(2.0)
         self._nowait.close()
+        for s in (self._wake_r, self._wake_w):
+            if s is not None:
+                s.close()
+
+    @property
+    def received(self) -> int:
+        """Datagrams read from the port (both sockets)."""
+        return self.read_main + self.steered
 
     def overload_view(self) -> dict[str, int]:
         """Counters of refused traffic (GET_STATUS ``OVERLOAD=``, JSON ``server``)."""
         return {
             "received": self.received, "invalid": self.invalid, "shed": self.shed,
             "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
-            "safety_fast": self.safety_fast, "log_suppressed": self.log_suppressed,
+            "safety_fast": self.safety_fast, "steered": self.steered, "log_suppressed": self.log_suppressed,
             "foreign_ids": self.ids.refused, "clients_refused": self.clients_refused,
         }
 
@@ -364,18 +395,25 @@ class UdpServer:
     def _serve(self) -> None:
         self.sock.settimeout(0.2)
         while self._running:
-            if not self._turn:
-                try:  # nothing to serve: sleep until a datagram comes
-                    data, addr = self.sock.recvfrom(65535)
-                except TimeoutError:
-                    continue
-                except OSError as exc:
-                    if not self._running:
-                        return
-                    # e.g. ICMP port unreachable reported on Linux: ignore and go on
-                    log.debug("recvfrom: %s", exc)
-                    continue
-                self._take_in(data, addr)
+            if not self._turn and not self._passed:
+                if self._wake_r is not None:  # nothing to serve: sleep until a datagram comes
+                    ready = select.select([self._nowait, self._wake_r], [], [], 0.2)[0]
+                    if self._wake_r in ready:
+                        self._drain_wake()
+                else:
+                    try:
+                        data, addr = self.sock.recvfrom(65535)
+                    except TimeoutError:
+                        continue
+                    except OSError as exc:
+                        if not self._running:
+                            return
+                        # e.g. ICMP port unreachable reported on Linux: ignore and go on
+                        log.debug("recvfrom: %s", exc)
+                        continue
+                    self._take_in(data, addr)
+            while self._passed:
+                self._queue(*self._passed.popleft())
             self._drain()
             for _ in range(SERVE_BATCH):
                 if not self._turn:
@@ -417,17 +455,61 @@ class UdpServer:
                 return
             self._take_in(data, addr)
 
+    def _drain_wake(self) -> None:
+        assert self._wake_r is not None
+        try:
+            while self._wake_r.recv(4096):
+                pass
+        except (BlockingIOError, InterruptedError):
+            pass
+
+    def read_safety_socket(self) -> None:
+        """(tick thread) Read what the kernel steered to the safety socket (at most
+        :data:`SAFETY_READS_PER_CALL` datagrams, never waiting): a stop goes to the loop's
+        safety lane now, anything else on to the server thread.  The tick calls it before it
+        takes the safety lane and again before it writes the frame."""
+        sock = self.safety_sock
+        if sock is None:
+            return
+        for _ in range(SAFETY_READS_PER_CALL):
+            try:
+                data, addr = sock.recvfrom(65535)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:
+                log.debug("recvfrom (safety socket): %s", exc)
+                return
+            self.steered += 1
+            seq = next(self._seqs)
+            if not self._sorted_out(data, addr, seq):
+                self._passed.append((seq, data, addr))
+                try:
+                    assert self._wake_w is not None
+                    self._wake_w.send(b"w")
+                except OSError:
+                    pass  # (full: the server thread is awake anyway)
+
     def _take_in(self, data: bytes, addr: Address) -> None:
         """A datagram just read: the safety lane, its source's lane, or refused as busy."""
-        self.received += 1
-        seq = self.received  # receive order
+        self.read_main += 1
+        seq = next(self._seqs)  # receive order
+        if not self._sorted_out(data, addr, seq):
+            self._queue(seq, data, addr)
+
+    def _sorted_out(self, data: bytes, addr: Address, seq: int) -> bool:
+        """True when ``data`` was a safety command (now in the loop's safety lane); an
+        ACK_HERE takes effect here, as it is read."""
         try:
-            if len(data) <= 80:
+            if len(data) <= SAFETY_MAX_BYTES:
                 if self._safety(data, addr, seq):
-                    return
+                    return True
                 self._ack_here_now(data, addr)
         except Exception:  # nothing a datagram contains may stop the server
             log.exception("safety check of a datagram from %s failed", addr)
+        return False
+
+    def _queue(self, seq: int, data: bytes, addr: Address) -> None:
+        """(server thread) ``data`` waits in its source's lane, or is refused as busy."""
         lane = self._lanes.get(addr)
         if lane is None:
             lane = self._lanes[addr] = deque()
