@@ -32,7 +32,7 @@ from parolkit.controller.messages import Submission
 from parolkit.controller.planning import PlanRequest, needs_plan
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
 from parolkit.controller.snapshot import SNAPSHOT_QUERIES, BoardInfo, RobotState, Snapshot
-from parolkit.controller.steering import open_command_port
+from parolkit.controller.steering import CommandPort, open_command_port
 from parolkit.controller.supervisor import StopSupervisor
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps
@@ -84,16 +84,14 @@ class Controller:
 
     # ------------------------------------------------------------------ lifecycle
 
-    def bind(self, sock: socket.socket | None = None) -> tuple[str, int]:
-        """Bind the command socket (or adopt ``sock``, already bound); returns (host, port)."""
+    def bind(self, port: CommandPort | None = None) -> tuple[str, int]:
+        """Bind the command port (or adopt ``port``, already bound); returns (host, port)."""
         cs = self.config.controller
-        if sock is not None:
-            self.sock = sock
-        else:
-            port = open_command_port(cs.bind, cs.udp_port, rcvbuf=1 << 21)
-            self.sock, self.safety_sock = port.sock, port.safety
-            if port.safety is None:
-                log.warning("no safety socket: %s; a stop waits behind every datagram before it", port.why_not)
+        if port is None:
+            port = open_command_port(cs.bind, cs.udp_port)
+        self.sock, self.safety_sock = port.sock, port.safety
+        if port.safety is None:
+            log.warning("no safety socket: %s; a stop waits behind every datagram before it", port.why_not)
         if not is_loopback(cs.bind):
             log.warning(
                 "binding %s: the controller is reachable from the network and has no "

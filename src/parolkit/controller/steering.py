@@ -32,12 +32,14 @@ import ctypes
 import socket
 import struct
 
-__all__ = ["SAFETY_MAX_BYTES", "MARKERS", "safety_program", "open_command_port", "CommandPort"]
+__all__ = ["SAFETY_MAX_BYTES", "MARKERS", "RCVBUF", "safety_program", "open_command_port", "CommandPort"]
 
 #: datagrams longer than this are never taken for a stop (the server's check too)
 SAFETY_MAX_BYTES = 80
 #: 4 bytes (lower case) of which one in a datagram sends it to the safety socket
 MARKERS = (b"stop", b"disa", b"ack_")
+#: the command socket's receive buffer asked for, bytes
+RCVBUF = 1 << 21
 #: linux/asm-generic/socket.h
 SO_ATTACH_REUSEPORT_CBPF = 51
 
@@ -97,7 +99,7 @@ class CommandPort:
         self.why_not = why_not
 
 
-def open_command_port(host: str, port: int, *, rcvbuf: int) -> CommandPort:
+def open_command_port(host: str, port: int, *, rcvbuf: int = RCVBUF) -> CommandPort:
     """Bind ``(host, port)`` (0: a free port): the command socket and, where the kernel
     steers (see the module docstring), the safety socket beside it.  ``OSError`` when the port
     is taken, as a plain bind."""
