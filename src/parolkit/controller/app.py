@@ -98,8 +98,8 @@ class Controller:
                 "authentication; anyone who can send UDP to it can move the robot", cs.bind)
             print(f"WARNING: listening on {cs.bind}, not loopback: anyone on the network can move the robot",
                   file=sys.stderr, flush=True)
-        host, port = self.sock.getsockname()[:2]
-        return str(host), int(port)
+        host, number = self.sock.getsockname()[:2]
+        return str(host), int(number)
 
     def start(self) -> None:
         if self.sock is None:

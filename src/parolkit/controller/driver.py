@@ -388,14 +388,16 @@ class Driver:
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
         inp = self._input(now, t)
         out = self.core.update(inp)
-        if out.frame is not None and out.result is TickResult.FRAME and self.safety_intake is not None:
-            self.safety_intake()
-        if out.frame is not None and out.result is TickResult.FRAME and self.inbox.safety_waiting:
-            # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
-            again = self.core.update(TickInput(self.tick_count, t, time.monotonic(),
-                                               submissions=tuple(self.inbox.take_safety()), recompose=True,
-                                               loop_stats=inp.loop_stats, server_stats=inp.server_stats))
-            out = replace(again, acks=out.acks + again.acks, plan_requests=out.plan_requests + again.plan_requests)
+        if out.frame is not None and out.result is TickResult.FRAME:
+            if self.safety_intake is not None:
+                self.safety_intake()
+            if self.inbox.safety_waiting:
+                # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
+                again = self.core.update(TickInput(self.tick_count, t, time.monotonic(),
+                                                   submissions=tuple(self.inbox.take_safety()), recompose=True,
+                                                   loop_stats=inp.loop_stats, server_stats=inp.server_stats))
+                out = replace(again, acks=out.acks + again.acks,
+                              plan_requests=out.plan_requests + again.plan_requests)
         self._plan(out.plan_requests)
         if out.port_request is not None:
             self.port_request = out.port_request

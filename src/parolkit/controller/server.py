@@ -13,6 +13,10 @@
   share is refused with a "busy" ack (or ``ERROR|`` reply to a query), never silently: the
   counts are in GET_STATUS (``OVERLOAD=``) and GET_STATUS_JSON (``server``).  Nothing a
   datagram contains can raise out of :meth:`UdpServer.handle`.
+  What may be a stop does not come to this socket at all where the kernel steers it to the
+  port's safety socket (:mod:`parolkit.controller.steering`): the tick thread reads that one
+  (:meth:`UdpServer.read_safety_socket`), the same checks, so a stop never waits behind the
+  flood in the command socket's queue; what is not a stop there comes on to this thread.
 * :class:`Outbox` sends acks and replies in order from one thread.
 * :class:`StatusStream` sends ``STATUS_JSON|{...}`` to subscribers every N ticks.
 """
