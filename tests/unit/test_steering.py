@@ -146,3 +146,29 @@ def test_an_ack_here_and_the_id_d_stop_after_it_keep_their_order_through_the_saf
         for s in (ctl.sock, ctl.safety_sock):
             if s is not None:
                 s.close()
+
+
+def test_a_command_sent_after_ack_here_is_acked_to_the_socket_that_asked_whoever_reads_the_safety_socket(client):
+    """``Robot(ack_port=0)`` sends ACK_HERE (to the safety socket) and then MOVEJOINT (to the
+    command socket): with only the tick reading the safety socket, the server thread served the
+    move before the ACK_HERE was read and its acks went to the ack port alone (the client timed
+    out: tests/integration/test_control_lease.py).  The server thread reads the safety socket
+    too before it serves what it read; here no tick runs at all."""
+    cfg = load_config(None).with_overrides({"controller": {"udp_port": free_udp_port()}})
+    ctl = Controller(cfg)
+    host, number = ctl.bind()
+    ctl.assemble_server(ctl.sock)
+    ctl.outbox.start()
+    ctl.server.start()
+    try:
+        client.settimeout(2.0)
+        client.sendto(b"ACK_HERE", (host, number))
+        client.sendto(b"ping0001|PING", (host, number))
+        got = [client.recv(65535) for _ in range(2)]  # PONG and the ack
+        assert b"PONG" in got and any(g.startswith(b"ACK|ping0001|COMPLETED") for g in got), got
+    finally:
+        ctl.server.stop()
+        ctl.outbox.stop()
+        for s in (ctl.sock, ctl.safety_sock):
+            if s is not None:
+                s.close()

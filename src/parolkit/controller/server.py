@@ -31,7 +31,7 @@ import socket
 import threading
 import time
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
 from typing import Protocol
@@ -333,12 +333,13 @@ class UdpServer:
         self._passed: deque[tuple[int, bytes, Address]] = deque()
         self._wake_r: socket.socket | None = None
         self._wake_w: socket.socket | None = None
+        self._safety_lock = threading.Lock()
         if safety_sock is not None:
             self._wake_r, self._wake_w = socket.socketpair()
             self._wake_r.setblocking(False)
             self._wake_w.setblocking(False)
         #: datagrams read from the command socket (server thread) / from the safety socket
-        #: (tick thread)
+        #: (tick thread, server thread; under the safety lock)
         self.read_main = 0
         self.steered = 0
         #: datagrams not valid / refused because their source was over its share
@@ -401,7 +402,8 @@ class UdpServer:
         while self._running:
             if not self._turn and not self._passed:
                 if self._wake_r is not None:  # nothing to serve: sleep until a datagram comes
-                    ready = select.select([self._nowait, self._wake_r], [], [], 0.2)[0]
+                    assert self.safety_sock is not None
+                    ready = select.select([self._nowait, self.safety_sock, self._wake_r], [], [], 0.2)[0]
                     if self._wake_r in ready:
                         self._drain_wake()
                 else:
@@ -419,6 +421,8 @@ class UdpServer:
             while self._passed:
                 self._queue(*self._passed.popleft())
             self._drain()
+            # an ACK_HERE sent before what was just read is in effect before that is served
+            self._read_safety(self._queue)
             for _ in range(SERVE_BATCH):
                 if not self._turn:
                     break
@@ -472,26 +476,38 @@ class UdpServer:
         :data:`SAFETY_READS_PER_CALL` datagrams, never waiting): a stop goes to the loop's
         safety lane now, anything else on to the server thread.  The tick calls it before it
         takes the safety lane and again before it writes the frame."""
+        self._read_safety(self._pass_on)
+
+    def _pass_on(self, seq: int, data: bytes, addr: Address) -> None:
+        """(tick thread) A datagram from the safety socket that is not a stop: to the server
+        thread, woken."""
+        self._passed.append((seq, data, addr))
+        try:
+            assert self._wake_w is not None
+            self._wake_w.send(b"w")
+        except OSError:
+            pass  # (full: the server thread is awake anyway)
+
+    def _read_safety(self, rest: Callable[[int, bytes, Address], None]) -> None:
+        """Read the safety socket (both threads, one at a time: an ACK_HERE is in effect
+        before the stop read after it, whoever reads that); ``rest(seq, data, addr)`` takes
+        what is not a stop."""
         sock = self.safety_sock
         if sock is None:
             return
-        for _ in range(SAFETY_READS_PER_CALL):
-            try:
-                data, addr = sock.recvfrom(65535)
-            except (BlockingIOError, InterruptedError):
-                return
-            except OSError as exc:
-                log.debug("recvfrom (safety socket): %s", exc)
-                return
-            self.steered += 1
-            seq = next(self._seqs)
-            if not self._sorted_out(data, addr, seq):
-                self._passed.append((seq, data, addr))
+        with self._safety_lock:
+            for _ in range(SAFETY_READS_PER_CALL):
                 try:
-                    assert self._wake_w is not None
-                    self._wake_w.send(b"w")
-                except OSError:
-                    pass  # (full: the server thread is awake anyway)
+                    data, addr = sock.recvfrom(65535)
+                except (BlockingIOError, InterruptedError):
+                    return
+                except OSError as exc:
+                    log.debug("recvfrom (safety socket): %s", exc)
+                    return
+                self.steered += 1
+                seq = next(self._seqs)
+                if not self._sorted_out(data, addr, seq):
+                    rest(seq, data, addr)
 
     def _take_in(self, data: bytes, addr: Address) -> None:
         """A datagram just read: the safety lane, its source's lane, or refused as busy."""
