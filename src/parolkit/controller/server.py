@@ -422,7 +422,7 @@ class UdpServer:
                 self._queue(*self._passed.popleft())
             self._drain()
             # an ACK_HERE sent before what was just read is in effect before that is served
-            self._read_safety(self._queue)
+            self._server_reads_safety()
             for _ in range(SERVE_BATCH):
                 if not self._turn:
                     break
@@ -475,8 +475,15 @@ class UdpServer:
         """(tick thread) Read what the kernel steered to the safety socket (at most
         :data:`SAFETY_READS_PER_CALL` datagrams, never waiting): a stop goes to the loop's
         safety lane now, anything else on to the server thread.  The tick calls it before it
-        takes the safety lane and again before it writes the frame."""
-        self._read_safety(self._pass_on)
+        takes the safety lane and again before it writes the frame.  It never waits for the
+        server thread: while that one reads the socket (it puts a stop in the safety lane the
+        same way) the tick leaves it."""
+        if self.safety_sock is None or not self._safety_lock.acquire(blocking=False):
+            return
+        try:
+            self._read_safety(self._pass_on)
+        finally:
+            self._safety_lock.release()
 
     def _pass_on(self, seq: int, data: bytes, addr: Address) -> None:
         """(tick thread) A datagram from the safety socket that is not a stop: to the server
@@ -488,26 +495,35 @@ class UdpServer:
         except OSError:
             pass  # (full: the server thread is awake anyway)
 
-    def _read_safety(self, rest: Callable[[int, bytes, Address], None]) -> None:
-        """Read the safety socket (both threads, one at a time: an ACK_HERE is in effect
-        before the stop read after it, whoever reads that); ``rest(seq, data, addr)`` takes
-        what is not a stop."""
+    def _server_reads_safety(self) -> None:
+        """(server thread, before it serves) Every ACK_HERE that arrived before what was just
+        read is in effect: read the safety socket when it holds something, else wait out a
+        read of the tick's that may be under way (the lock is held for microseconds)."""
         sock = self.safety_sock
         if sock is None:
             return
+        ready = bool(select.select([sock], [], [], 0)[0])
         with self._safety_lock:
-            for _ in range(SAFETY_READS_PER_CALL):
-                try:
-                    data, addr = sock.recvfrom(65535)
-                except (BlockingIOError, InterruptedError):
-                    return
-                except OSError as exc:
-                    log.debug("recvfrom (safety socket): %s", exc)
-                    return
-                self.steered += 1
-                seq = next(self._seqs)
-                if not self._sorted_out(data, addr, seq):
-                    rest(seq, data, addr)
+            if ready:
+                self._read_safety(self._queue)
+
+    def _read_safety(self, rest: Callable[[int, bytes, Address], None]) -> None:
+        """(under the safety lock: one reader at a time, so an ACK_HERE is in effect before the
+        stop read after it, whoever reads that) Read the safety socket; ``rest(seq, data,
+        addr)`` takes what is not a stop."""
+        assert self.safety_sock is not None
+        for _ in range(SAFETY_READS_PER_CALL):
+            try:
+                data, addr = self.safety_sock.recvfrom(65535)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:
+                log.debug("recvfrom (safety socket): %s", exc)
+                return
+            self.steered += 1
+            seq = next(self._seqs)
+            if not self._sorted_out(data, addr, seq):
+                rest(seq, data, addr)
 
     def _take_in(self, data: bytes, addr: Address) -> None:
         """A datagram just read: the safety lane, its source's lane, or refused as busy."""
