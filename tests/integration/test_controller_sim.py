@@ -250,4 +250,5 @@ def test_parolkit_serve_reads_stops_from_the_safety_socket_the_kernel_steers_the
     (parolkit.controller.steering; the first version bound it only in Controller.bind)."""
     stop = client.send("STOP")
     assert client.acks.terminal(stop, 5)[0] == "COMPLETED"
-    assert client.json("GET_STATUS_JSON")["server"]["steered"] == 1
+    # (the status is the last tick's: the count may show a tick after the ack)
+    wait_until(lambda: client.json("GET_STATUS_JSON")["server"]["steered"] == 1, 2, what="server.steered == 1")

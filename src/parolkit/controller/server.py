@@ -418,11 +418,12 @@ class UdpServer:
                         log.debug("recvfrom: %s", exc)
                         continue
                     self._take_in(data, addr)
-            while self._passed:
-                self._queue(*self._passed.popleft())
+            self._server_reads_safety()  # (first: what waits there arrived before the drain's)
             self._drain()
             # an ACK_HERE sent before what was just read is in effect before that is served
             self._server_reads_safety()
+            while self._passed:
+                self._queue(*self._passed.popleft())
             for _ in range(SERVE_BATCH):
                 if not self._turn:
                     break
@@ -481,7 +482,7 @@ class UdpServer:
         if self.safety_sock is None or not self._safety_lock.acquire(blocking=False):
             return
         try:
-            self._read_safety(self._pass_on)
+            self._read_safety(self._pass_on, SAFETY_READS_PER_CALL)
         finally:
             self._safety_lock.release()
 
@@ -505,14 +506,14 @@ class UdpServer:
         ready = bool(select.select([sock], [], [], 0)[0])
         with self._safety_lock:
             if ready:
-                self._read_safety(self._queue)
+                self._read_safety(self._queue, DRAIN_MAX)
 
-    def _read_safety(self, rest: Callable[[int, bytes, Address], None]) -> None:
+    def _read_safety(self, rest: Callable[[int, bytes, Address], None], limit: int) -> None:
         """(under the safety lock: one reader at a time, so an ACK_HERE is in effect before the
-        stop read after it, whoever reads that) Read the safety socket; ``rest(seq, data,
-        addr)`` takes what is not a stop."""
+        stop read after it, whoever reads that) Read the safety socket (at most ``limit``
+        datagrams); ``rest(seq, data, addr)`` takes what is not a stop."""
         assert self.safety_sock is not None
-        for _ in range(SAFETY_READS_PER_CALL):
+        for _ in range(limit):
             try:
                 data, addr = self.safety_sock.recvfrom(65535)
             except (BlockingIOError, InterruptedError):
@@ -552,6 +553,11 @@ class UdpServer:
             self._turn.append(addr)
         if len(lane) >= self.max_waiting:
             self._shed(data, addr, len(lane))
+        elif lane and lane[-1][0] > seq:
+            # read from the safety socket after the datagrams that came after it (ACK_HERE):
+            # its place is by receive order, so its reply comes before theirs
+            at = next(i for i, (s, _) in enumerate(lane) if s > seq)
+            lane.insert(at, (seq, data))
         else:
             lane.append((seq, data))
 

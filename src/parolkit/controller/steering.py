@@ -127,6 +127,7 @@ def open_command_port(host: str, port: int, *, rcvbuf: int = RCVBUF) -> CommandP
         return CommandPort(sock, None, "the OS has no SO_REUSEPORT")
     safety = socket.socket(fam, socket.SOCK_DGRAM)
     try:
+        safety.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)  # (a burst of ACK_HEREs)
         safety.setsockopt(socket.SOL_SOCKET, reuse, 1)
         safety.bind(sock.getsockname()[:2])
         _attach(sock, safety_program())
