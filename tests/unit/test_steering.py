@@ -172,3 +172,46 @@ def test_a_command_sent_after_ack_here_is_acked_to_the_socket_that_asked_whoever
         for s in (ctl.sock, ctl.safety_sock):
             if s is not None:
                 s.close()
+
+
+def test_a_stop_read_by_the_tick_before_the_server_reads_an_earlier_move_still_cancels_that_move(client):
+    """MOVEJOINT, then STOP: the STOP goes to the safety socket and the tick may read it before
+    the server thread reads the move (test_controller_sim's command-after-STOP test saw the
+    move start after the STOP and run).  Receive numbers are the kernel's arrival times on
+    both sockets, so the core knows the move came before the STOP and cancels it."""
+    ack = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    ack.bind(("127.0.0.1", 0))
+    cfg = load_config(None).with_overrides(
+        {"controller": {"udp_port": free_udp_port(), "ack_port": ack.getsockname()[1], "supervisor": False}})
+    ctl = Controller(cfg)
+    host, number = ctl.bind()
+    ctl.assemble_server(ctl.sock)
+    board = open_transport(f"sim://?clock=virtual&step={cfg.controller.period_s!r}&homed=1")
+    driver = ctl.assemble_driver(board, plan_inline=True)
+    acks: list = []
+    try:
+        def tick():
+            out = driver.tick(driver.tick_count * driver.period)
+            driver.tick_count += 1
+            ctl._publish(out)
+            acks.extend((a.command_id, a.status.name) for a in out.acks)
+
+        for _ in range(40):  # the start-up probe; an enabled, homed, idle robot
+            tick()
+        client.sendto(b"move0001|MOVEJOINT|80|-90|170|0|0|180|2|None", (host, number))
+        client.sendto(b"stop0001|STOP", (host, number))
+        tick()  # the tick reads the STOP first (the server thread has not run)
+        ctl.server._drain()  # now the server thread reads and serves the move
+        while ctl.server._turn:
+            ctl.server._serve_one()
+        for _ in range(5):
+            tick()
+        move = [s for c, s in acks if c == "move0001"]
+        assert "EXECUTING" not in move and move[-1] == "CANCELLED", acks
+        assert ("stop0001", "COMPLETED") in acks, acks
+    finally:
+        driver.stop()
+        ctl.server.stop()
+        for s in (ctl.sock, ctl.safety_sock, ack):
+            if s is not None:
+                s.close()

@@ -28,6 +28,7 @@ import logging
 import os
 import select
 import socket
+import struct
 import threading
 import time
 from collections import deque
@@ -41,7 +42,7 @@ from parolkit.controller.lease import ClientId, ControlLease, is_loopback
 from parolkit.controller.messages import SET_PORT_SCHEMES, Ack, AckRoute, Address, Submission
 from parolkit.controller.senders import CommandIds, KnownClients, ReturnCookies
 from parolkit.controller.snapshot import Snapshot
-from parolkit.controller.steering import SAFETY_MAX_BYTES
+from parolkit.controller.steering import SAFETY_MAX_BYTES, SO_TIMESTAMPNS
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
     AckStatus,
@@ -72,6 +73,8 @@ MAX_DATAGRAMS_PER_SOURCE = 256
 SERVE_BATCH = 8
 #: at most this many datagrams are read in one drain before serving again
 DRAIN_MAX = 512
+#: ancillary buffer for one SO_TIMESTAMPNS stamp (struct timespec)
+_STAMP_SPACE = socket.CMSG_SPACE(16)
 #: at most this many datagrams the tick thread reads from the safety socket per call
 SAFETY_READS_PER_CALL = 32
 #: bytes of log lines about invalid datagrams per second; the rest is counted, not logged
@@ -453,16 +456,30 @@ class UdpServer:
 
     def _drain(self) -> None:
         """Read every datagram waiting in the socket (at most DRAIN_MAX), without blocking."""
-        recv = self._nowait.recvfrom
         for _ in range(DRAIN_MAX):
             try:
-                data, addr = recv(65535)
+                data, addr, seq = self._recv(self._nowait)
             except (BlockingIOError, InterruptedError):
                 return
             except OSError as exc:
                 log.debug("recvfrom: %s", exc)
                 return
-            self._take_in(data, addr)
+            self._take_in(data, addr, seq)
+
+    def _recv(self, sock: socket.socket) -> tuple[bytes, Address, int]:
+        """A datagram, its sender and its receive number.  With a safety socket, that is the
+        kernel's arrival time (ns, ``SO_TIMESTAMPNS``) on both sockets: a stop the tick reads
+        before the server thread reads a command sent before it still has the later number, so
+        the core cancels that command when it comes (a STOP cancels what was sent before it)."""
+        if self.safety_sock is None:
+            data, addr = sock.recvfrom(65535)
+            return data, addr, next(self._seqs)
+        data, anc, _flags, addr = sock.recvmsg(65535, _STAMP_SPACE)
+        for level, kind, value in anc:
+            if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(value) >= 16:
+                sec, nsec = struct.unpack("=qq", value[:16])
+                return data, addr, sec * 1_000_000_000 + nsec
+        return data, addr, time.time_ns()
 
     def _drain_wake(self) -> None:
         assert self._wake_r is not None
@@ -515,21 +532,22 @@ class UdpServer:
         assert self.safety_sock is not None
         for _ in range(limit):
             try:
-                data, addr = self.safety_sock.recvfrom(65535)
+                data, addr, seq = self._recv(self.safety_sock)
             except (BlockingIOError, InterruptedError):
                 return
             except OSError as exc:
                 log.debug("recvfrom (safety socket): %s", exc)
                 return
             self.steered += 1
-            seq = next(self._seqs)
             if not self._sorted_out(data, addr, seq):
                 rest(seq, data, addr)
 
-    def _take_in(self, data: bytes, addr: Address) -> None:
-        """A datagram just read: the safety lane, its source's lane, or refused as busy."""
+    def _take_in(self, data: bytes, addr: Address, seq: int | None = None) -> None:
+        """A datagram just read (``seq``: its receive number, see :meth:`_recv`): the safety
+        lane, its source's lane, or refused as busy."""
         self.read_main += 1
-        seq = next(self._seqs)  # receive order
+        if seq is None:
+            seq = next(self._seqs)
         if not self._sorted_out(data, addr, seq):
             self._queue(seq, data, addr)
 
@@ -812,7 +830,8 @@ class UdpServer:
         if ok and prev is not None:
             # the previous holder's commands stop with the lease (the STOP lane: first frame)
             log.warning("%s", text)
-            self.inbox.put_safety(Submission(C.Stop(reason=f"stopped: {text}"), None, None, addr, self.received))
+            self.inbox.put_safety(Submission(C.Stop(reason=f"stopped: {text}"), None, None, addr,
+                                             time.time_ns() if self.safety_sock is not None else self.received))
         self._ack(cid, addr, AckStatus.COMPLETED if ok else AckStatus.FAILED, text)
         if cid is None and not ok:
             self._reply(format_error(text), addr)

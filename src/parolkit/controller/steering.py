@@ -42,6 +42,8 @@ MARKERS = (b"stop", b"disa", b"ack_")
 RCVBUF = 1 << 21
 #: linux/asm-generic/socket.h
 SO_ATTACH_REUSEPORT_CBPF = 51
+#: the kernel stamps each datagram with its arrival time (both sockets: one receive order)
+SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)
 
 # classic BPF opcodes (linux/filter.h)
 _LD_W_ABS = 0x20   # A = 4 bytes at k (big-endian); past the end: the program returns 0
@@ -131,6 +133,8 @@ def open_command_port(host: str, port: int, *, rcvbuf: int = RCVBUF) -> CommandP
         safety.setsockopt(socket.SOL_SOCKET, reuse, 1)
         safety.bind(sock.getsockname()[:2])
         _attach(sock, safety_program())
+        for s in (sock, safety):
+            s.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
     except OSError as exc:
         safety.close()
         return CommandPort(sock, None, f"the kernel does not steer datagrams ({exc})")
