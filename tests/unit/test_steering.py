@@ -12,6 +12,7 @@ from tests.conftest import free_udp_port
 
 from parolkit.config import load_config
 from parolkit.controller.app import Controller
+from parolkit.controller.driver import Driver
 from parolkit.controller.steering import SAFETY_MAX_BYTES, open_command_port
 from parolkit.protocol.frames import BoardCommand
 from parolkit.transport import open_transport
@@ -31,6 +32,26 @@ def _read_all(sock: socket.socket) -> list[bytes]:
             out.append(sock.recv(65535))
         except BlockingIOError:
             return out
+
+
+def _ticked_controller(ack_port: int) -> tuple[Controller, Driver]:
+    """The controller's own bind, server and driver on a simulated board in lockstep, acks to
+    ``ack_port``; no thread started: the test ticks the driver and plays the server thread."""
+    cfg = load_config(None).with_overrides(
+        {"controller": {"udp_port": free_udp_port(), "ack_port": ack_port, "supervisor": False}})
+    ctl = Controller(cfg)
+    ctl.bind()
+    ctl.assemble_server(ctl.sock)
+    board = open_transport(f"sim://?clock=virtual&step={cfg.controller.period_s!r}&homed=1")
+    return ctl, ctl.assemble_driver(board, plan_inline=True)
+
+
+def _close(ctl: Controller, driver: Driver, ack: socket.socket) -> None:
+    driver.stop()
+    ctl.server.stop()
+    for s in (ctl.sock, ctl.safety_sock, ack):
+        if s is not None:
+            s.close()
 
 
 @pytest.fixture
@@ -84,13 +105,8 @@ def test_the_tick_writes_disable_for_an_estop_behind_a_flood_the_server_thread_h
     still writes DISABLE, and the ESTOP's ID is acked to its sender."""
     ack = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     ack.bind(("127.0.0.1", 0))
-    cfg = load_config(None).with_overrides(
-        {"controller": {"udp_port": free_udp_port(), "ack_port": ack.getsockname()[1], "supervisor": False}})
-    ctl = Controller(cfg)
-    host, number = ctl.bind()
-    ctl.assemble_server(ctl.sock)
-    board = open_transport(f"sim://?clock=virtual&step={cfg.controller.period_s!r}&homed=1")
-    driver = ctl.assemble_driver(board, plan_inline=True)
+    ctl, driver = _ticked_controller(ack.getsockname()[1])
+    host, number = ctl.sock.getsockname()[:2]
     try:
         def tick():
             out = driver.tick(driver.tick_count * driver.period)
@@ -116,11 +132,7 @@ def test_the_tick_writes_disable_for_an_estop_behind_a_flood_the_server_thread_h
         acks = [ack.recv(65535) for _ in range(2)]
         assert any(a.startswith(b"ACK|estp0001|COMPLETED") for a in acks), acks
     finally:
-        driver.stop()
-        ctl.server.stop()
-        for s in (ctl.sock, ctl.safety_sock, ack):
-            if s is not None:
-                s.close()
+        _close(ctl, driver, ack)
 
 
 def test_an_ack_here_and_the_id_d_stop_after_it_keep_their_order_through_the_safety_socket(client):
@@ -181,13 +193,8 @@ def test_a_stop_read_by_the_tick_before_the_server_reads_an_earlier_move_still_c
     both sockets, so the core knows the move came before the STOP and cancels it."""
     ack = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     ack.bind(("127.0.0.1", 0))
-    cfg = load_config(None).with_overrides(
-        {"controller": {"udp_port": free_udp_port(), "ack_port": ack.getsockname()[1], "supervisor": False}})
-    ctl = Controller(cfg)
-    host, number = ctl.bind()
-    ctl.assemble_server(ctl.sock)
-    board = open_transport(f"sim://?clock=virtual&step={cfg.controller.period_s!r}&homed=1")
-    driver = ctl.assemble_driver(board, plan_inline=True)
+    ctl, driver = _ticked_controller(ack.getsockname()[1])
+    host, number = ctl.sock.getsockname()[:2]
     acks: list = []
     try:
         def tick():
@@ -210,8 +217,4 @@ def test_a_stop_read_by_the_tick_before_the_server_reads_an_earlier_move_still_c
         assert "EXECUTING" not in move and move[-1] == "CANCELLED", acks
         assert ("stop0001", "COMPLETED") in acks, acks
     finally:
-        driver.stop()
-        ctl.server.stop()
-        for s in (ctl.sock, ctl.safety_sock, ack):
-            if s is not None:
-                s.close()
+        _close(ctl, driver, ack)
