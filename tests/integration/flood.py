@@ -231,17 +231,16 @@ def acks_main(argv: list[str]) -> int:
 
 
 def udp_drops(port: int) -> int | None:
-    """Datagrams the kernel dropped at the IPv4 UDP socket bound to ``port`` (its receive buffer
-    was full), from ``/proc/net/udp``; None when not found."""
+    """Datagrams the kernel dropped at the IPv4 UDP sockets bound to ``port`` (a receive buffer
+    was full), from ``/proc/net/udp``: all of them (the controller's port has two, the command
+    socket and the safety socket); None when none is found."""
     try:
         lines = Path("/proc/net/udp").read_text().splitlines()[1:]
     except OSError:
         return None
-    for line in lines:
-        f = line.split()
-        if len(f) >= 13 and int(f[1].rsplit(":", 1)[1], 16) == port:
-            return int(f[-1])
-    return None
+    drops = [int(f[-1]) for f in (line.split() for line in lines)
+             if len(f) >= 13 and int(f[1].rsplit(":", 1)[1], 16) == port]
+    return sum(drops) if drops else None
 
 
 def pct(xs: list[float], q: float) -> float:

@@ -242,3 +242,13 @@ def test_a_command_sent_right_after_stops_ack_is_not_cancelled_by_that_stop(clie
         status, details = client.acks.terminal(cid, 5)
         assert status == "COMPLETED", details
 
+
+
+def test_parolkit_serve_reads_stops_from_the_safety_socket_the_kernel_steers_them_to(client):
+    """``parolkit serve`` binds its port itself (to answer PING early): it must bind the
+    safety socket too, or every stop waits behind a flood in the command socket's queue
+    (parolkit.controller.steering; the first version bound it only in Controller.bind)."""
+    stop = client.send("STOP")
+    assert client.acks.terminal(stop, 5)[0] == "COMPLETED"
+    # (the status is the last tick's: the count may show a tick after the ack)
+    wait_until(lambda: client.json("GET_STATUS_JSON")["server"]["steered"] == 1, 2, what="server.steered == 1")

@@ -6,6 +6,7 @@ import argparse
 import socket
 
 from parolkit.controller import cli
+from parolkit.controller.steering import open_command_port
 
 
 def _args(**kw) -> argparse.Namespace:
@@ -38,9 +39,10 @@ def test_early_address_reads_the_toml_and_flags_win(tmp_path):
 
 
 def test_early_responder_answers_ping_and_leaves_commands_for_the_server():
-    sock = cli._bind("127.0.0.1", 0)
+    bound = open_command_port("127.0.0.1", 0)
+    sock = bound.sock
     port = sock.getsockname()[1]
-    early = cli.EarlyPong(sock)
+    early = cli.EarlyPong(bound)
     early.start()
     try:
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as c:
@@ -55,4 +57,4 @@ def test_early_responder_answers_ping_and_leaves_commands_for_the_server():
         early.stop()
     sock.settimeout(1.0)
     assert sock.recvfrom(100)[0] == b"abcd1234|HOME"  # still queued for the real server
-    sock.close()
+    early.close()

@@ -32,6 +32,7 @@ from parolkit.controller.messages import Submission
 from parolkit.controller.planning import PlanRequest, needs_plan
 from parolkit.controller.server import Outbox, StatusStream, UdpServer
 from parolkit.controller.snapshot import SNAPSHOT_QUERIES, BoardInfo, RobotState, Snapshot
+from parolkit.controller.steering import CommandPort, open_command_port
 from parolkit.controller.supervisor import StopSupervisor
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import dumps
@@ -61,6 +62,8 @@ class Controller:
         self._kin: tuple[ModuleType, ModuleType] | None = None
         self.started_at = time.monotonic()
         self.sock: socket.socket | None = None
+        #: the command port's safety socket (:mod:`parolkit.controller.steering`), None: none
+        self.safety_sock: socket.socket | None = None
         self.outbox: Outbox
         self.core: ControllerCore
         self.loop: Driver | None = None
@@ -81,24 +84,22 @@ class Controller:
 
     # ------------------------------------------------------------------ lifecycle
 
-    def bind(self, sock: socket.socket | None = None) -> tuple[str, int]:
-        """Bind the command socket (or adopt ``sock``, already bound); returns (host, port)."""
+    def bind(self, port: CommandPort | None = None) -> tuple[str, int]:
+        """Bind the command port (or adopt ``port``, already bound); returns (host, port)."""
         cs = self.config.controller
-        if sock is not None:
-            self.sock = sock
-        else:
-            fam = socket.AF_INET6 if ":" in cs.bind else socket.AF_INET
-            self.sock = socket.socket(fam, socket.SOCK_DGRAM)
-            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
-            self.sock.bind((cs.bind, cs.udp_port))
+        if port is None:
+            port = open_command_port(cs.bind, cs.udp_port)
+        self.sock, self.safety_sock = port.sock, port.safety
+        if port.safety is None:
+            log.warning("no safety socket: %s; a stop waits behind every datagram before it", port.why_not)
         if not is_loopback(cs.bind):
             log.warning(
                 "binding %s: the controller is reachable from the network and has no "
                 "authentication; anyone who can send UDP to it can move the robot", cs.bind)
             print(f"WARNING: listening on {cs.bind}, not loopback: anyone on the network can move the robot",
                   file=sys.stderr, flush=True)
-        host, port = self.sock.getsockname()[:2]
-        return str(host), int(port)
+        host, number = self.sock.getsockname()[:2]
+        return str(host), int(number)
 
     def start(self) -> None:
         if self.sock is None:
@@ -125,6 +126,7 @@ class Controller:
         thread started (:meth:`start` starts them; an in-process driver such as
         :class:`~parolkit.controller.fastforward.InProcessController` calls them itself)."""
         cs = self.config.controller
+        safety = self.safety_sock if sock is self.sock else None  # (bound by :meth:`bind`)
         self.sock = sock
         self.outbox = Outbox(sock)
         self.core = ControllerCore(
@@ -137,7 +139,7 @@ class Controller:
         self.stream = StatusStream(sock)
         self.server = UdpServer(sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,
                                 stream=self.stream, answerer=self, ack_port=cs.ack_port,
-                                lease=ControlLease(cs.lease_timeout_s, cs.secret))
+                                lease=ControlLease(cs.lease_timeout_s, cs.secret), safety_sock=safety)
 
     def assemble_driver(self, transport: Transport, *, plan_inline: bool = False) -> Driver:
         """The driver around the open ``transport`` (not started).  ``plan_inline``: plans are
@@ -149,6 +151,7 @@ class Controller:
             supervisor=(StopSupervisor(cs.period_s, cs.supervisor_stall_s, priority=cs.supervisor_priority)
                         if cs.supervisor and not plan_inline else None),
             server_view=self.server.overload_view, plan_inline=plan_inline,
+            safety_intake=self.server.read_safety_socket,
         )
         return self.loop
 
@@ -175,8 +178,9 @@ class Controller:
             self.outbox.send_acks(self.loop.take_acks())  # the shutdown's CANCELLED acks
         self.outbox.flush(0.5)
         self.outbox.stop()
-        if self.sock is not None:
-            self.sock.close()
+        for sock in (self.sock, self.safety_sock):
+            if sock is not None:
+                sock.close()
 
     def __enter__(self) -> Controller:
         self.start()

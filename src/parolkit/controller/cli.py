@@ -19,6 +19,7 @@ import sys
 import threading
 
 from parolkit._shutdown import ShutdownRequest
+from parolkit.controller.steering import CommandPort, open_command_port
 
 __all__ = ["register", "run", "build_overrides"]
 
@@ -98,17 +99,6 @@ def _early_address(args: argparse.Namespace) -> tuple[str | None, int]:
     return bind, port
 
 
-def _bind(host: str, port: int) -> socket.socket:
-    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_DGRAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
-    try:
-        sock.bind((host, port))
-    except OSError:
-        sock.close()
-        raise
-    return sock
-
-
 class EarlyPong(threading.Thread):
     """Answers PING with ``PONG`` while the rest of the controller is still loading.
 
@@ -116,9 +106,10 @@ class EarlyPong(threading.Thread):
     else stays queued in the socket for the real server, which takes over the same socket.
     """
 
-    def __init__(self, sock: socket.socket) -> None:
+    def __init__(self, port: CommandPort) -> None:
         super().__init__(name="parolkit-early-pong", daemon=True)
-        self.sock = sock
+        self.port = port
+        self.sock = port.sock
         self._done = threading.Event()
 
     def run(self) -> None:
@@ -143,6 +134,12 @@ class EarlyPong(threading.Thread):
         self._done.set()
         self.join(1.0)
 
+    def close(self) -> None:
+        """Close the port's sockets (the controller did not take them over)."""
+        for sock in (self.port.sock, self.port.safety):
+            if sock is not None:
+                sock.close()
+
 
 def run(args: argparse.Namespace) -> int:
     logging.basicConfig(
@@ -158,14 +155,14 @@ def run(args: argparse.Namespace) -> int:
     # Listen (and answer PING) before the heavy imports: numpy alone can take most of the
     # 1.5 s start-up budget on a busy machine.
     bind, udp_port = _early_address(args)
-    sock = None
+    port = None
     if bind is not None:
         try:
-            sock = _bind(bind, udp_port)
+            port = open_command_port(bind, udp_port)
         except OSError as exc:
             print(f"parolkit serve: cannot listen on {bind}:{udp_port}: {exc}", file=sys.stderr)
             return 2
-    early = EarlyPong(sock) if sock is not None else None
+    early = EarlyPong(port) if port is not None else None
     if early is not None:
         early.start()
 
@@ -178,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"parolkit serve: {exc}", file=sys.stderr)
         if early is not None:
             early.stop()
-            early.sock.close()
+            early.close()
         return 2
     if args.sim and cfg.serial.port is not None:
         import dataclasses
@@ -188,26 +185,26 @@ def run(args: argparse.Namespace) -> int:
     if early is None or (bind, udp_port) != (cs.bind, cs.udp_port):
         if early is not None:
             early.stop()
-            early.sock.close()
+            early.close()
         try:
-            sock = _bind(cs.bind, cs.udp_port)
+            port = open_command_port(cs.bind, cs.udp_port)
         except OSError as exc:
             print(f"parolkit serve: cannot listen on {cs.bind}:{cs.udp_port}: {exc}", file=sys.stderr)
             return 2
-        early = EarlyPong(sock)
+        early = EarlyPong(port)
         early.start()
     from parolkit.controller.app import Controller
 
     ctl = Controller(cfg)
     early.stop()
-    host, port = ctl.bind(early.sock)
+    host, number = ctl.bind(early.port)
     try:
         ctl.start()
     except ParolkitError as exc:
         print(f"parolkit serve: {exc}", file=sys.stderr)
         ctl.stop()
         return 2
-    print(f"parolkit controller listening on udp://{host}:{port} (board: {ctl.board_description}, "
+    print(f"parolkit controller listening on udp://{host}:{number} (board: {ctl.board_description}, "
           f"{ctl.rate_hz:g} Hz, acks to port {cfg.controller.ack_port})", flush=True)
     try:
         shutdown.wait()

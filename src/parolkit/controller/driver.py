@@ -90,6 +90,7 @@ class Driver:
         supervisor: StopSupervisor | None = None,
         plan_inline: bool = False,
         server_view: Callable[[], dict[str, Any]] | None = None,
+        safety_intake: Callable[[], None] | None = None,
     ) -> None:
         self.core = core
         self.transport = transport
@@ -109,6 +110,9 @@ class Driver:
         self.inbox = inbox if inbox is not None else CommandInbox()
         self.publish = publish
         self.server_view = server_view
+        #: reads the port's safety socket into the inbox's safety lane (the UDP server's
+        #: ``read_safety_socket``): called before the lane is taken and before the frame is written
+        self.safety_intake = safety_intake
         self.reply_wait = min(self.period * reply_wait_fraction, 0.003)
         self.stats = LoopMetrics(self.rate_hz)
         self._stats_view: LoopStatsView | None = None
@@ -366,6 +370,8 @@ class Driver:
             events, self._events = tuple(self._events), []
         written, self._written = self._written, None
         batches, self._batches = tuple(self._batches), []
+        if self.safety_intake is not None:
+            self.safety_intake()
         subs = self.inbox.take_safety()
         subs += self.inbox.take()
         return TickInput(self.tick_count, t, time.monotonic(), written=written, replies=batches,
@@ -384,12 +390,16 @@ class Driver:
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
         inp = self._input(now, t)
         out = self.core.update(inp)
-        if out.frame is not None and out.result is TickResult.FRAME and self.inbox.safety_waiting:
-            # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
-            again = self.core.update(TickInput(self.tick_count, t, time.monotonic(),
-                                               submissions=tuple(self.inbox.take_safety()), recompose=True,
-                                               loop_stats=inp.loop_stats, server_stats=inp.server_stats))
-            out = replace(again, acks=out.acks + again.acks, plan_requests=out.plan_requests + again.plan_requests)
+        if out.frame is not None and out.result is TickResult.FRAME:
+            if self.safety_intake is not None:
+                self.safety_intake()
+            if self.inbox.safety_waiting:
+                # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
+                again = self.core.update(TickInput(self.tick_count, t, time.monotonic(),
+                                                   submissions=tuple(self.inbox.take_safety()), recompose=True,
+                                                   loop_stats=inp.loop_stats, server_stats=inp.server_stats))
+                out = replace(again, acks=out.acks + again.acks,
+                              plan_requests=out.plan_requests + again.plan_requests)
         self._plan(out.plan_requests)
         if out.port_request is not None:
             self.port_request = out.port_request

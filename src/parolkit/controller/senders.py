@@ -1,8 +1,10 @@
 """What the UDP server knows about the senders of datagrams (issue 22).
 
 A sender is its address and port, nothing else: two sockets are two clients, whatever they
-send.  Three small records, each bounded, each read and written by the server thread (the
-loop thread only reports finished command IDs, through a lock-free deque):
+send.  Three small records, each bounded, read and written by the server thread and by the
+tick thread when it reads the safety socket (a stop's ID, ACK_HERE: see
+:mod:`parolkit.controller.steering`), so the two that change hold a lock for each short step;
+the loop thread reports finished command IDs through a lock-free deque:
 
 * :class:`KnownClients`: the sockets that asked for their acks (``ACK_HERE``).  At most
   :data:`MAX_KNOWN_CLIENTS`; when full, a newcomer takes the place of one silent for
@@ -25,6 +27,7 @@ import base64
 import hashlib
 import hmac
 import secrets
+import threading
 from collections import deque
 from collections.abc import Callable
 
@@ -54,6 +57,7 @@ class KnownClients:
         self.capacity = capacity
         self.idle_s = idle_s
         self._heard: dict[Address, float] = {}
+        self._lock = threading.Lock()
 
     def __contains__(self, addr: object) -> bool:
         return addr in self._heard
@@ -63,6 +67,10 @@ class KnownClients:
 
     def heard(self, addr: Address, now: float) -> None:
         """A datagram from ``addr``: a known socket moves to the back (the last to give way)."""
+        with self._lock:
+            self._heard_locked(addr, now)
+
+    def _heard_locked(self, addr: Address, now: float) -> None:
         if addr in self._heard:
             del self._heard[addr]
             self._heard[addr] = now
@@ -71,8 +79,12 @@ class KnownClients:
         """Remember ``addr`` (ACK_HERE).  None when it is in; else why not.  When the table is
         full, the socket silent longest gives way if it has been silent for ``idle_s`` and
         ``pinned`` (the lease holder, a socket with live commands) is false for it."""
+        with self._lock:
+            return self._admit_locked(addr, now, pinned)
+
+    def _admit_locked(self, addr: Address, now: float, pinned: Callable[[Address], bool]) -> str | None:
         if addr in self._heard:
-            self.heard(addr, now)
+            self._heard_locked(addr, now)
             return None
         if len(self._heard) >= self.capacity:
             victim = None
@@ -102,13 +114,18 @@ class CommandIds:
         self._live: dict[str, Address] = {}
         self._recent: dict[str, Address] = {}  # oldest first
         self._live_per_sender: dict[Address, int] = {}
-        self._ended: deque[str] = deque()  # appended by any thread, taken by the server thread
+        self._ended: deque[str] = deque()  # appended by any thread, taken under the lock
+        self._lock = threading.Lock()
         #: datagrams refused because their ID belonged to another sender
         self.refused = 0
 
     def claim(self, cid: str, addr: Address) -> Address | None:
         """``cid`` arrives from ``addr``: None when it is free or already ``addr``'s (it is then
         live for ``addr``), else the sender it belongs to (refuse the datagram)."""
+        with self._lock:
+            return self._claim_locked(cid, addr)
+
+    def _claim_locked(self, cid: str, addr: Address) -> Address | None:
         self._absorb()
         owner = self._live.get(cid)
         if owner is None:
@@ -129,15 +146,18 @@ class CommandIds:
 
     def has_live(self, addr: Address) -> bool:
         """True while a command ``addr`` sent is live (queued, running, waiting for the loop)."""
-        self._absorb()
-        return addr in self._live_per_sender
+        with self._lock:
+            self._absorb()
+            return addr in self._live_per_sender
 
     @property
     def live(self) -> int:
-        self._absorb()
-        return len(self._live)
+        with self._lock:
+            self._absorb()
+            return len(self._live)
 
     def _absorb(self) -> None:
+        """(under the lock) The IDs that ended since: recent, no longer live."""
         ended, live, recent = self._ended, self._live, self._recent
         while ended:
             cid = ended.popleft()

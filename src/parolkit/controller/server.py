@@ -13,19 +13,26 @@
   share is refused with a "busy" ack (or ``ERROR|`` reply to a query), never silently: the
   counts are in GET_STATUS (``OVERLOAD=``) and GET_STATUS_JSON (``server``).  Nothing a
   datagram contains can raise out of :meth:`UdpServer.handle`.
+  What may be a stop does not come to this socket at all where the kernel steers it to the
+  port's safety socket (:mod:`parolkit.controller.steering`): the tick thread reads that one
+  (:meth:`UdpServer.read_safety_socket`), the same checks, so a stop never waits behind the
+  flood in the command socket's queue; what is not a stop there comes on to this thread.
 * :class:`Outbox` sends acks and replies in order from one thread.
 * :class:`StatusStream` sends ``STATUS_JSON|{...}`` to subscribers every N ticks.
 """
 
 from __future__ import annotations
 
+import itertools
 import logging
 import os
+import select
 import socket
+import struct
 import threading
 import time
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
 from typing import Protocol
@@ -35,6 +42,7 @@ from parolkit.controller.lease import ClientId, ControlLease, is_loopback
 from parolkit.controller.messages import SET_PORT_SCHEMES, Ack, AckRoute, Address, Submission
 from parolkit.controller.senders import CommandIds, KnownClients, ReturnCookies
 from parolkit.controller.snapshot import Snapshot
+from parolkit.controller.steering import SAFETY_MAX_BYTES, SO_TIMESTAMPNS
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
     AckStatus,
@@ -65,6 +73,10 @@ MAX_DATAGRAMS_PER_SOURCE = 256
 SERVE_BATCH = 8
 #: at most this many datagrams are read in one drain before serving again
 DRAIN_MAX = 512
+#: ancillary buffer for one SO_TIMESTAMPNS stamp (struct timespec)
+_STAMP_SPACE = socket.CMSG_SPACE(16)
+#: at most this many datagrams the tick thread reads from the safety socket per call
+SAFETY_READS_PER_CALL = 32
 #: bytes of log lines about invalid datagrams per second; the rest is counted, not logged
 LOG_BUDGET_BYTES_PER_S = 4096
 
@@ -286,8 +298,12 @@ class UdpServer:
         ack_port: int,
         max_waiting_per_source: int = MAX_DATAGRAMS_PER_SOURCE,
         lease: ControlLease | None = None,
+        safety_sock: socket.socket | None = None,
     ) -> None:
         self.sock = sock
+        #: the port's safety socket (:mod:`parolkit.controller.steering`): read by the tick
+        #: thread (:meth:`read_safety_socket`); None: everything comes to ``sock``
+        self.safety_sock = safety_sock
         self.model = model
         self.inbox = inbox
         self.outbox = outbox
@@ -313,8 +329,23 @@ class UdpServer:
         # read even with MSG_DONTWAIT, so draining reads through a non-blocking twin
         self._nowait = sock.dup()
         self._nowait.setblocking(False)
-        #: datagrams received / not valid / refused because their source was over its share
-        self.received = 0
+        # receive order over both sockets (next() on a count is one step: any thread)
+        self._seqs = itertools.count(1)
+        # datagrams the tick thread read from the safety socket that are not stops (ACK_HERE,
+        # lookalikes): the server thread serves them, woken through a socket pair
+        self._passed: deque[tuple[int, bytes, Address]] = deque()
+        self._wake_r: socket.socket | None = None
+        self._wake_w: socket.socket | None = None
+        self._safety_lock = threading.Lock()
+        if safety_sock is not None:
+            self._wake_r, self._wake_w = socket.socketpair()
+            self._wake_r.setblocking(False)
+            self._wake_w.setblocking(False)
+        #: datagrams read from the command socket (server thread) / from the safety socket
+        #: (tick thread, server thread; under the safety lock)
+        self.read_main = 0
+        self.steered = 0
+        #: datagrams not valid / refused because their source was over its share
         self.invalid = 0
         self.shed = 0
         #: commands refused with a busy ack (datagram lane or the loop's inbox full)
@@ -337,13 +368,21 @@ class UdpServer:
         if self._thread.ident is not None:  # (never started: served in-process, serve_now)
             self._thread.join(2.0)
         self._nowait.close()
+        for s in (self._wake_r, self._wake_w):
+            if s is not None:
+                s.close()
+
+    @property
+    def received(self) -> int:
+        """Datagrams read from the port (both sockets)."""
+        return self.read_main + self.steered
 
     def overload_view(self) -> dict[str, int]:
         """Counters of refused traffic (GET_STATUS ``OVERLOAD=``, JSON ``server``)."""
         return {
             "received": self.received, "invalid": self.invalid, "shed": self.shed,
             "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
-            "safety_fast": self.safety_fast, "log_suppressed": self.log_suppressed,
+            "safety_fast": self.safety_fast, "steered": self.steered, "log_suppressed": self.log_suppressed,
             "foreign_ids": self.ids.refused, "clients_refused": self.clients_refused,
         }
 
@@ -364,19 +403,30 @@ class UdpServer:
     def _serve(self) -> None:
         self.sock.settimeout(0.2)
         while self._running:
-            if not self._turn:
-                try:  # nothing to serve: sleep until a datagram comes
-                    data, addr = self.sock.recvfrom(65535)
-                except TimeoutError:
-                    continue
-                except OSError as exc:
-                    if not self._running:
-                        return
-                    # e.g. ICMP port unreachable reported on Linux: ignore and go on
-                    log.debug("recvfrom: %s", exc)
-                    continue
-                self._take_in(data, addr)
+            if not self._turn and not self._passed:
+                if self._wake_r is not None:  # nothing to serve: sleep until a datagram comes
+                    assert self.safety_sock is not None
+                    ready = select.select([self._nowait, self.safety_sock, self._wake_r], [], [], 0.2)[0]
+                    if self._wake_r in ready:
+                        self._drain_wake()
+                else:
+                    try:
+                        data, addr = self.sock.recvfrom(65535)
+                    except TimeoutError:
+                        continue
+                    except OSError as exc:
+                        if not self._running:
+                            return
+                        # e.g. ICMP port unreachable reported on Linux: ignore and go on
+                        log.debug("recvfrom: %s", exc)
+                        continue
+                    self._take_in(data, addr)
+            self._server_reads_safety()  # (first: what waits there arrived before the drain's)
             self._drain()
+            # an ACK_HERE sent before what was just read is in effect before that is served
+            self._server_reads_safety()
+            while self._passed:
+                self._queue(*self._passed.popleft())
             for _ in range(SERVE_BATCH):
                 if not self._turn:
                     break
@@ -406,34 +456,126 @@ class UdpServer:
 
     def _drain(self) -> None:
         """Read every datagram waiting in the socket (at most DRAIN_MAX), without blocking."""
-        recv = self._nowait.recvfrom
         for _ in range(DRAIN_MAX):
             try:
-                data, addr = recv(65535)
+                data, addr, seq = self._recv(self._nowait)
             except (BlockingIOError, InterruptedError):
                 return
             except OSError as exc:
                 log.debug("recvfrom: %s", exc)
                 return
-            self._take_in(data, addr)
+            self._take_in(data, addr, seq)
 
-    def _take_in(self, data: bytes, addr: Address) -> None:
-        """A datagram just read: the safety lane, its source's lane, or refused as busy."""
-        self.received += 1
-        seq = self.received  # receive order
+    def _recv(self, sock: socket.socket) -> tuple[bytes, Address, int]:
+        """A datagram, its sender and its receive number.  With a safety socket, that is the
+        kernel's arrival time (ns, ``SO_TIMESTAMPNS``) on both sockets: a stop the tick reads
+        before the server thread reads a command sent before it still has the later number, so
+        the core cancels that command when it comes (a STOP cancels what was sent before it)."""
+        if self.safety_sock is None:
+            data, addr = sock.recvfrom(65535)
+            return data, addr, next(self._seqs)
+        data, anc, _flags, addr = sock.recvmsg(65535, _STAMP_SPACE)
+        for level, kind, value in anc:
+            if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(value) >= 16:
+                sec, nsec = struct.unpack("=qq", value[:16])
+                return data, addr, sec * 1_000_000_000 + nsec
+        return data, addr, time.time_ns()
+
+    def _drain_wake(self) -> None:
+        assert self._wake_r is not None
         try:
-            if len(data) <= 80:
+            while self._wake_r.recv(4096):
+                pass
+        except (BlockingIOError, InterruptedError):
+            pass
+
+    def read_safety_socket(self) -> None:
+        """(tick thread) Read what the kernel steered to the safety socket (at most
+        :data:`SAFETY_READS_PER_CALL` datagrams, never waiting): a stop goes to the loop's
+        safety lane now, anything else on to the server thread.  The tick calls it before it
+        takes the safety lane and again before it writes the frame.  It never waits for the
+        server thread: while that one reads the socket (it puts a stop in the safety lane the
+        same way) the tick leaves it."""
+        if self.safety_sock is None or not self._safety_lock.acquire(blocking=False):
+            return
+        try:
+            self._read_safety(self._pass_on, SAFETY_READS_PER_CALL)
+        finally:
+            self._safety_lock.release()
+
+    def _pass_on(self, seq: int, data: bytes, addr: Address) -> None:
+        """(tick thread) A datagram from the safety socket that is not a stop: to the server
+        thread, woken."""
+        self._passed.append((seq, data, addr))
+        try:
+            assert self._wake_w is not None
+            self._wake_w.send(b"w")
+        except OSError:
+            pass  # (full: the server thread is awake anyway)
+
+    def _server_reads_safety(self) -> None:
+        """(server thread, before it serves) Every ACK_HERE that arrived before what was just
+        read is in effect: read the safety socket when it holds something, else wait out a
+        read of the tick's that may be under way (the lock is held for microseconds)."""
+        sock = self.safety_sock
+        if sock is None:
+            return
+        ready = bool(select.select([sock], [], [], 0)[0])
+        with self._safety_lock:
+            if ready:
+                self._read_safety(self._queue, DRAIN_MAX)
+
+    def _read_safety(self, rest: Callable[[int, bytes, Address], None], limit: int) -> None:
+        """(under the safety lock: one reader at a time, so an ACK_HERE is in effect before the
+        stop read after it, whoever reads that) Read the safety socket (at most ``limit``
+        datagrams); ``rest(seq, data, addr)`` takes what is not a stop."""
+        assert self.safety_sock is not None
+        for _ in range(limit):
+            try:
+                data, addr, seq = self._recv(self.safety_sock)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:
+                log.debug("recvfrom (safety socket): %s", exc)
+                return
+            self.steered += 1
+            if not self._sorted_out(data, addr, seq):
+                rest(seq, data, addr)
+
+    def _take_in(self, data: bytes, addr: Address, seq: int | None = None) -> None:
+        """A datagram just read (``seq``: its receive number, see :meth:`_recv`): the safety
+        lane, its source's lane, or refused as busy."""
+        self.read_main += 1
+        if seq is None:
+            seq = next(self._seqs)
+        if not self._sorted_out(data, addr, seq):
+            self._queue(seq, data, addr)
+
+    def _sorted_out(self, data: bytes, addr: Address, seq: int) -> bool:
+        """True when ``data`` was a safety command (now in the loop's safety lane); an
+        ACK_HERE takes effect here, as it is read."""
+        try:
+            if len(data) <= SAFETY_MAX_BYTES:
                 if self._safety(data, addr, seq):
-                    return
+                    return True
                 self._ack_here_now(data, addr)
         except Exception:  # nothing a datagram contains may stop the server
             log.exception("safety check of a datagram from %s failed", addr)
+        return False
+
+    def _queue(self, seq: int, data: bytes, addr: Address) -> None:
+        """(server thread) ``data`` waits in its source's lane, or is refused as busy."""
         lane = self._lanes.get(addr)
         if lane is None:
             lane = self._lanes[addr] = deque()
             self._turn.append(addr)
         if len(lane) >= self.max_waiting:
             self._shed(data, addr, len(lane))
+        elif lane and lane[-1][0] > seq:
+            # read from the safety socket after the datagrams that came after it (ACK_HERE):
+            # its place is by receive order, so its reply comes before theirs
+            at = next(i for i, (s, _) in enumerate(lane) if s > seq)
+            lane.insert(at, (seq, data))
         else:
             lane.append((seq, data))
 
@@ -688,7 +830,8 @@ class UdpServer:
         if ok and prev is not None:
             # the previous holder's commands stop with the lease (the STOP lane: first frame)
             log.warning("%s", text)
-            self.inbox.put_safety(Submission(C.Stop(reason=f"stopped: {text}"), None, None, addr, self.received))
+            self.inbox.put_safety(Submission(C.Stop(reason=f"stopped: {text}"), None, None, addr,
+                                             time.time_ns() if self.safety_sock is not None else self.received))
         self._ack(cid, addr, AckStatus.COMPLETED if ok else AckStatus.FAILED, text)
         if cid is None and not ok:
             self._reply(format_error(text), addr)
