@@ -39,8 +39,17 @@ GIZMO = """() => {
 
 def _gizmo(page) -> tuple[list[float], list[list[float]]]:
     """The gizmo's world position (scene units) and rotation (rows) in the page's scene."""
-    wait_until(lambda: page.evaluate(GIZMO) is not None, 20, what="the TCP axes gizmo in the scene", page=page)
-    g = page.evaluate(GIZMO)
+    # the page builds its scene object by object: the gizmo can exist a moment before the
+    # group it hangs from is in the scene (seen on a loaded machine)
+    found: list[dict] = []
+
+    def in_scene() -> bool:
+        g = page.evaluate(GIZMO)
+        found[:] = [g] if g is not None else []
+        return g is not None and g["inScene"]
+
+    wait_until(in_scene, 20, what="the TCP axes gizmo in the scene", page=page)
+    g = found[0]
     assert g["type"] == "AxesHelper" and g["shown"] and g["inScene"], g
     m = g["m"]  # three.js: column-major
     return [m[12], m[13], m[14]], [[m[4 * j + i] for j in range(3)] for i in range(3)]
