@@ -136,9 +136,7 @@ class EarlyPong(threading.Thread):
 
     def close(self) -> None:
         """Close the port's sockets (the controller did not take them over)."""
-        for sock in (self.port.sock, self.port.safety):
-            if sock is not None:
-                sock.close()
+        self.port.close()
 
 
 def run(args: argparse.Namespace) -> int:

@@ -32,7 +32,7 @@ import struct
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
 from typing import Protocol
@@ -456,15 +456,22 @@ class UdpServer:
 
     def _drain(self) -> None:
         """Read every datagram waiting in the socket (at most DRAIN_MAX), without blocking."""
-        for _ in range(DRAIN_MAX):
+        for data, addr, seq in self._waiting(self._nowait, DRAIN_MAX, "recvfrom"):
+            self._take_in(data, addr, seq)
+
+    def _waiting(self, sock: socket.socket, limit: int, what: str) -> Iterator[tuple[bytes, Address, int]]:
+        """The datagrams waiting in the non-blocking ``sock`` (at most ``limit``), with their
+        senders and receive numbers (:meth:`_recv`); ends when none is left or the socket
+        fails (logged at debug level as ``what``)."""
+        for _ in range(limit):
             try:
-                data, addr, seq = self._recv(self._nowait)
+                got = self._recv(sock)
             except (BlockingIOError, InterruptedError):
                 return
             except OSError as exc:
-                log.debug("recvfrom: %s", exc)
+                log.debug("%s: %s", what, exc)
                 return
-            self._take_in(data, addr, seq)
+            yield got
 
     def _recv(self, sock: socket.socket) -> tuple[bytes, Address, int]:
         """A datagram, its sender and its receive number.  With a safety socket, that is the
@@ -530,14 +537,7 @@ class UdpServer:
         stop read after it, whoever reads that) Read the safety socket (at most ``limit``
         datagrams); ``rest(seq, data, addr)`` takes what is not a stop."""
         assert self.safety_sock is not None
-        for _ in range(limit):
-            try:
-                data, addr, seq = self._recv(self.safety_sock)
-            except (BlockingIOError, InterruptedError):
-                return
-            except OSError as exc:
-                log.debug("recvfrom (safety socket): %s", exc)
-                return
+        for data, addr, seq in self._waiting(self.safety_sock, limit, "recvfrom (safety socket)"):
             self.steered += 1
             if not self._sorted_out(data, addr, seq):
                 rest(seq, data, addr)

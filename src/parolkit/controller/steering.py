@@ -100,6 +100,12 @@ class CommandPort:
         self.safety = safety
         self.why_not = why_not
 
+    def close(self) -> None:
+        """Close both sockets."""
+        for sock in (self.sock, self.safety):
+            if sock is not None:
+                sock.close()
+
 
 def open_command_port(host: str, port: int, *, rcvbuf: int = RCVBUF) -> CommandPort:
     """Bind ``(host, port)`` (0: a free port): the command socket and, where the kernel
