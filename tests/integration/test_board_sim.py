@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import os
+import select
 import signal
 import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -22,6 +24,22 @@ STANDBY = (10240, -32000, 57905, 0, 0, 32000)
 REPO = Path(__file__).resolve().parents[2]
 
 
+def _replies(read: Callable[[], bytes], fd: int | None, parser: StatusParser, timeout: float = 5.0
+             ) -> list[StatusFrame]:
+    """The status frames of the board's reply, as soon as they have come: ``read()`` until
+    ``parser`` makes whole frames of it, waiting on the descriptor ``fd`` in between (a busy
+    machine may run the board's thread late: how late is not what these tests judge)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        frames = parser.feed(read())
+        if frames:
+            return frames
+        left = deadline - time.monotonic()
+        if left <= 0 or fd is None:
+            raise AssertionError(f"no reply from the board within {timeout} s")
+        select.select([fd], [], [], left)
+
+
 class Link:
     """A plain pyserial PC side."""
 
@@ -31,14 +49,9 @@ class Link:
 
     def exchange(self, timeout: float = 1.0, **kw: object) -> StatusFrame:
         self.ser.write(CommandFrame(**kw).encode())  # type: ignore[arg-type]
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            frames = self.parser.feed(self.ser.read(4096))
-            if frames:
-                assert len(frames) == 1
-                return frames[0]
-            time.sleep(0.0005)
-        raise AssertionError("no reply from the board")
+        frames = _replies(lambda: self.ser.read(4096), self.ser.fileno(), self.parser, timeout)
+        assert len(frames) == 1
+        return frames[0]
 
     def silence(self, wait: float = 0.2) -> list[StatusFrame]:
         time.sleep(wait)
@@ -148,26 +161,13 @@ def test_one_percent_corruption_loses_frames_without_breaking_the_board(board):
     assert pc.exchange(io=0x10).io == 0x1F
 
 
-def _replies(t: SerialTransport, timeout: float = 5.0) -> list[StatusFrame]:
-    """The status frames of the board's reply, as soon as it has come (a busy machine may run
-    the board's thread late: how late is not what these tests judge)."""
-    parser = StatusParser()
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        frames = parser.feed(t.read())
-        if frames:
-            return frames
-        time.sleep(0.001)
-    raise AssertionError(f"no reply from the board within {timeout} s")
-
-
 def test_unplug_closes_the_pty_so_the_pc_sees_link_lost_and_replug_reconnects(board, tmp_path):
     emu, server, pc = board
     link = tmp_path / "p6"
     t = SerialTransport(str(link))
     t.open()
     t.write(CommandFrame().encode())
-    assert len(_replies(t)) == 1
+    assert len(_replies(t.read, t.fileno(), StatusParser())) == 1
     emu.unplug()
     deadline = time.monotonic() + 10.0
     with pytest.raises(LinkLostError):
@@ -183,7 +183,7 @@ def test_unplug_closes_the_pty_so_the_pc_sees_link_lost_and_replug_reconnects(bo
         time.sleep(0.01)
     t.open()
     t.write(CommandFrame(command=77).encode())
-    frames = _replies(t)
+    frames = _replies(t.read, t.fileno(), StatusParser())
     assert len(frames) == 1 and frames[0].xtr == 77
     t.close()
 

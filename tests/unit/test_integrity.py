@@ -639,17 +639,26 @@ def test_after_a_lost_reply_the_frame_that_confirms_a_race_is_not_shown_until_ch
     assert not any(faulty.emu.speeds) and tuple(shown[-1].positions) == tuple(told.items[-1][1].positions)
 
 
-def _lockstep_move(stall_at: int | None) -> tuple[list[CommandFrame], list[tuple[int, ...]], int]:
-    """A MoveJoint on a board in lockstep with the frames; with ``stall_at``, the PC stalls
-    0.12 s of wall time before that tick (a descheduled controller on a busy machine).  Returns
-    the frames written, the positions the core showed at each tick, the implausible count."""
+def _lockstep_move(stall_at: int | None = None, monkeypatch: pytest.MonkeyPatch | None = None
+                   ) -> tuple[list[CommandFrame], list[tuple[int, ...]], int]:
+    """A MoveJoint on a board in lockstep with the frames; with ``stall_at``, the PC's clock
+    (``time.monotonic``, which the driver stamps writes and reads with) jumps 0.12 s ahead
+    before that tick, as it does for a controller descheduled that long on a busy machine.
+    Returns the frames written, the positions the core showed at each tick, the implausible
+    count."""
+    pc_clock = time.monotonic
+
+    def stalled_clock() -> float:
+        return pc_clock() + 0.12
+
     r = Rig(lockstep=True)
     try:
         r.submit("aaaa0003|MOVEJOINT|80|-90|170|0|0|180|1|None")
         shown: list[tuple[int, ...]] = []
         for k in range(400):
             if k == stall_at:
-                time.sleep(0.12)  # the stall itself; nothing here is judged by the clock
+                assert monkeypatch is not None
+                monkeypatch.setattr(time, "monotonic", stalled_clock)
             r.tick()
             shown.append(tuple(r.core.status.positions))
             if r.terminal("aaaa0003") is not None:
@@ -660,15 +669,15 @@ def _lockstep_move(stall_at: int | None) -> tuple[list[CommandFrame], list[tuple
         r.close()
 
 
-def test_a_wall_clock_stall_changes_nothing_on_a_board_in_lockstep_with_the_frames():
+def test_a_wall_clock_stall_changes_nothing_on_a_board_in_lockstep_with_the_frames(monkeypatch):
     """A lockstep board's time is its frames (one period each), not the PC's clock: a controller
     stalled 0.12 s mid-move (longer than the board timer's 93 ms wrap) must judge the replies
     after the stall by board time.  Judged by the PC's read times, the check added a timer wrap
     that never happened, rejected the next true reply as implausible, and the status showed the
     joints one tick behind (a replayed recording then differed from its original by 24-33
     steps at that tick, test_record's round trip)."""
-    frames, shown, implausible = _lockstep_move(None)
-    frames_stalled, shown_stalled, implausible_stalled = _lockstep_move(40)
+    frames, shown, implausible = _lockstep_move()
+    frames_stalled, shown_stalled, implausible_stalled = _lockstep_move(40, monkeypatch)
     assert implausible == 0 and implausible_stalled == 0
     assert shown_stalled == shown
     assert [f.encode() for f in frames_stalled] == [f.encode() for f in frames]
