@@ -193,3 +193,30 @@ def test_plan_warnings_join_any_other_detail_of_the_terminal_ack():
     job.notes = ()
     assert job.ack_details(AckStatus.COMPLETED, "done") == "done"
     assert WARNING_PREFIX == validate.WARNING_PREFIX
+
+
+@pytest.mark.parametrize("rate", [100.0, 250.0, 50.0])
+def test_a_trajectory_plays_one_sample_a_tick_whatever_tick_it_starts_on(rate):
+    """On a board in lockstep with the frames the schedule's time is the tick count x period,
+    and the floating-point products are not exact (457 x 0.01 - 0.01 x 456 is not 0.01): the
+    sample due was 0.999999... of a sample, played as the one before.  So a move started on
+    some ticks stalled a tick and jumped two later, and ended a tick late: a fresh clone's
+    recorded run and its replay differed by one tick in the second command's start.  Every
+    start tick now plays sample k on the k-th tick and ends on the n-th."""
+    n = 40
+    samples = ([[10240 + 10 * i, -32000, 57905, 100, 0, 32000] for i in range(n)], [[1000, 0, 0, 0, 0, 0]] * n,
+               [BoardCommand.GOTO] * n)
+    box = [(-1e9, 1e9)] * 6
+    late = []
+    for start in range(0, 2000, 7):
+        t0 = start * (1.0 / rate)
+        act = TrajectoryActivity(samples, settle_ticks=10, started=t0, schedule_start=t0)
+        played = []
+        for k in range(n):
+            ctx = TickContext(tick=start + k, now=(start + k) * (1.0 / rate), rate_hz=rate, status=None, homed=True,
+                              stream_mode=False, watchdog_s=0.2, limits_steps=PAROL6.limits_steps, box=box)
+            req = act.step(ctx)
+            played.append((req.positions[0] - 10240) / 10)
+        if played != list(range(n)) or act.i != act.n:
+            late.append((start, [p for k, p in enumerate(played) if p != k][:3]))
+    assert not late, late

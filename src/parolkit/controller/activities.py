@@ -207,8 +207,13 @@ class TrajectoryActivity(Activity):
         self._offset = self.i
 
     def _elapsed_samples(self, t: float, rate_hz: float) -> float:
-        """The (fractional) sample due at schedule time ``t``."""
-        return (t - self.t0) * rate_hz + self._offset
+        """The (fractional) sample due at schedule time ``t``.  Within 1e-6 of a whole sample
+        it is that sample: on a board in lockstep the times are tick x period, products that
+        are not exact (0.01 x 457 - 0.01 x 456 is not 0.01), and 2.9999999 samples would play
+        as sample 2, a tick behind, and end the move a tick late on some start ticks only."""
+        s = (t - self.t0) * rate_hz + self._offset
+        whole = round(s)
+        return float(whole) if abs(s - whole) < 1e-6 else s
 
     def _ask(self, pos: Sequence[int], spd: Sequence[int], done: AckStatus | None = None,
              details: str = "") -> FrameRequest:
