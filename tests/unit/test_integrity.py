@@ -681,3 +681,72 @@ def test_a_wall_clock_stall_changes_nothing_on_a_board_in_lockstep_with_the_fram
     assert implausible == 0 and implausible_stalled == 0
     assert shown_stalled == shown
     assert [f.encode() for f in frames_stalled] == [f.encode() for f in frames]
+
+
+def test_a_reply_held_back_in_the_pty_does_not_make_a_corrupted_frame_look_like_motion():
+    """StatusIntegrity alone, a board at rest on a GO TO target, frames written every 10 ms.
+    A reply is lost (bytes dropped), the next one has J1's low byte flipped (128 steps off: beyond
+    anything commanded, a suspect), and the reply after it waits 85 ms in the pty on a busy
+    machine (the kernel's flush ran late) while the controller goes on writing a frame every
+    10 ms.  The board's own timing says 10 ms; the timer wraps every 93.2 ms, and the old check
+    unwrapped it by the read times: 103 ms, time enough for the GO TO law to take any position
+    to the target, so the true frame "linked" to the corrupted one and confirmed a motion that
+    never happened (a fresh clone's test_controller_pty: "uncommanded motion: J1 moved -128
+    steps beyond anything commanded" at load).  The write times show no pause: 10 ms it is,
+    the corrupted frame stays a suspect nothing confirms, and no fault is raised."""
+    integ = StatusIntegrity(PAROL6, RATE)
+    target = tuple(int(v) for v in STANDBY)
+    goto = CommandFrame(command=BoardCommand.GOTO, positions=target, speeds=(0,) * 6)
+    at = StatusFrame(positions=target, homed=0xFF, io=0x0F, timing=7031, xtr=int(BoardCommand.GOTO))
+    off = list(target)
+    off[0] -= 128
+    corrupted = StatusFrame(positions=tuple(off), homed=0xFF, io=0x0F, timing=7031, xtr=int(BoardCommand.GOTO))
+    dropped = 0
+    n = 0
+
+    def write(t: float) -> int:
+        nonlocal n
+        n += 1
+        integ.sent(goto, t, n)
+        return n
+
+    for k in range(10):  # the truth: the board at rest on the target
+        write(k * 0.01)
+        integ.accept(at, k * 0.01 + 0.001, dropped, n)
+    assert integ.ref is not None
+    write(0.10)
+    dropped += 40  # its reply: a framing byte corrupted, the parser dropped it
+    write(0.11)
+    integ.accept(corrupted, 0.111, dropped, n)  # J1 128 steps off, after a lost reply
+    first = n
+    for k in range(2, 10):  # the next replies wait in the pty while frames go on
+        write(0.10 + k * 0.01)
+    for i, k in enumerate(range(first + 1, n + 1)):  # then arrive together, true
+        integ.accept(at, 0.196 + 0.0001 * i, dropped, k)
+    assert integ.take_fault() is None
+    assert integ.uncommanded == 0
+
+
+def test_a_pause_in_the_frames_written_unwraps_the_board_timer_by_whole_wraps():
+    """The other side of the test above: the controller wrote nothing for 200 ms (a stalled PC),
+    so the board ran its JOG that long and its timer wrapped twice (its timing field says
+    13.6 ms).  The pause is in the write times: the reply is unwrapped to 200 ms, links, and is
+    the truth; no fault."""
+    integ = StatusIntegrity(PAROL6, RATE)
+    v = 1000
+    jog = CommandFrame(command=BoardCommand.JOG, positions=(0,) * 6, speeds=(v, 0, 0, 0, 0, 0))
+    p = list(STANDBY)
+    n = 0
+    t = 0.0
+    for k in range(12):
+        wait = 0.2 if k == 10 else 0.01
+        t += wait
+        n += 1
+        integ.sent(jog, t, n)
+        p[0] += round(v * wait)
+        ticks = round(wait * 703125) % 65536
+        f = StatusFrame(positions=tuple(p), speeds=(v, 0, 0, 0, 0, 0), homed=0xFF, io=0x0F, timing=ticks,
+                        xtr=int(BoardCommand.JOG))
+        truth = integ.accept(f, t + 0.001, 0, n)
+        assert k < 1 or truth, (k, integ.implausible)
+    assert integ.take_fault() is None and integ.implausible == 0

@@ -610,12 +610,37 @@ class StatusIntegrity:
                 and f.homed == ref.homed)
 
     def _dt(self, a: _Reply, b: _Reply) -> float:
-        """Board time between the two frames (``b.timing``, unwrapped with the read times)."""
+        """Board time between the two frames: ``b.timing``, unwrapped by the longest pause in
+        the frames written between the ones they answer (:meth:`_pause`)."""
         dt = b.f.timing / TIMER_HZ
-        gap = b.t - a.t
+        gap = self._pause(a, b)
         if gap > 0.75 * _TIMING_WRAP_S:
             dt += max(0, round((gap - dt) / _TIMING_WRAP_S)) * _TIMING_WRAP_S
         return dt
+
+    def _pause(self, a: _Reply, b: _Reply) -> float:
+        """The longest the board can have waited for a frame between answering ``a`` and
+        ``b``: the longest interval between consecutive frames written from the newest one
+        ``a`` can answer to the newest one ``b`` can (a timer wrap needs a pause that long;
+        the board answers a frame as it arrives).  Not the read times: a reply held back in
+        the operating system on a busy machine is read late although the board sent it on
+        time, and a wrap added for it makes the GO TO law take any position to the target, so
+        a corrupted frame looks linked.  The read times when those frames are no longer
+        remembered (or the numbers say nothing)."""
+        lo, hi = a.n, b.n
+        sent = self._sent
+        if hi <= lo or not sent or sent[0][0] > lo or sent[-1][0] < hi:
+            return b.t - a.t
+        first = sent[0][0]
+        if sent[hi - first][0] != hi:  # (numbered one by one in a session: cannot happen)
+            return b.t - a.t
+        longest = 0.0
+        prev_t = sent[lo - first][1]
+        for k in range(lo + 1, hi + 1):
+            t = sent[k - first][1]
+            longest = max(longest, t - prev_t)
+            prev_t = t
+        return longest
 
     # ------------------------------------------------------------------ the link check
 

@@ -372,6 +372,13 @@ class ProgramRunner:
                 self.interpreter.pause()
                 self.state = "pausing"
                 self.version += 1
+            line = self.current_line
+            self.commander.log.info(f"pause: the program pauses after line {line}" if line is not None
+                                    else "pause: the program pauses before its next line")
+        elif self.state in ("pausing", "paused"):
+            self.commander.log.info(f"pause: the program is already {self.state}")
+        else:
+            self.commander.log.info("pause: no program is running")
 
     def stop(self, reason: str = "stopped") -> None:
         if self.starting and not self.active and not self._start_cancelled:
