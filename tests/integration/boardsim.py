@@ -33,17 +33,30 @@ BOARD_FIFO_PRIORITY = 20
 BOARD_NICE = -10
 
 
-def _board_preexec() -> None:
-    die_with_parent()
+def _raise(pid: int) -> str:
+    """Every thread of process ``pid`` to SCHED_FIFO at :data:`BOARD_FIFO_PRIORITY` (else nice
+    :data:`BOARD_NICE`, else as it is); returns what it got (``fifo:20``, ``nice:-10``,
+    ``normal``).  Done once the board is up, not before its ``exec``: a process raised from the
+    start runs its interpreter's start-up (a second or more of imports on a busy machine) at
+    real-time priority, and on 2 cores that starved everything else there, the kernel's tty
+    flush included: frames another test's controller wrote reached its board 70 ms late, and
+    its link was judged lost.  Threads started later inherit it."""
     try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(BOARD_FIFO_PRIORITY))
-        return
+        tids = [int(t) for t in os.listdir(f"/proc/{pid}/task")]
+    except OSError:
+        tids = [pid]
+    try:
+        for tid in tids:
+            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(BOARD_FIFO_PRIORITY))
+        return f"fifo:{BOARD_FIFO_PRIORITY}"
     except (AttributeError, OSError):
         pass
     try:
-        os.nice(BOARD_NICE)
+        for tid in tids:
+            os.setpriority(os.PRIO_PROCESS, tid, BOARD_NICE)
+        return f"nice:{BOARD_NICE}"
     except OSError:
-        pass  # not permitted: :attr:`BoardSim.scheduling` says what it got
+        return "normal"  # not permitted: :attr:`BoardSim.scheduling` says so
 
 
 class BoardSim:
@@ -75,18 +88,13 @@ class BoardSim:
             args += ["--speedup", str(speedup)]
         self._log = open(self.log_path, "wb")
         self.proc = subprocess.Popen(args, stdout=self._log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
-                                     preexec_fn=_board_preexec if raised else die_with_parent)
-        pid = self.proc.pid
-        if os.sched_getscheduler(pid) == os.SCHED_FIFO:
-            self.scheduling = f"fifo:{os.sched_getparam(pid).sched_priority}"
-        else:
-            nice = os.getpriority(os.PRIO_PROCESS, pid)
-            self.scheduling = f"nice:{nice}" if nice else "normal"
+                                     preexec_fn=die_with_parent)
         end = time.monotonic() + 20
         while not (self.link.exists() and Path(f"{self.link}.ctl").exists()):
             if self.proc.poll() is not None or time.monotonic() > end:
                 raise RuntimeError(f"board-sim did not start: {self.log_path.read_text(errors='replace')}")
             time.sleep(0.02)
+        self.scheduling = _raise(self.proc.pid) if raised else "normal"
         self.control_path = f"{self.link}.ctl"
 
     def ctl(self, text: str, timeout_s: float = 5.0) -> str:
