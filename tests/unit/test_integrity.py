@@ -750,3 +750,33 @@ def test_a_pause_in_the_frames_written_unwraps_the_board_timer_by_whole_wraps():
         truth = integ.accept(f, t + 0.001, 0, n)
         assert k < 1 or truth, (k, integ.implausible)
     assert integ.take_fault() is None and integ.implausible == 0
+
+
+def test_a_link_that_any_position_would_pass_confirms_nothing():
+    """StatusIntegrity alone, a board at rest on a GO TO target, frames written every 10 ms.  On
+    a busy machine the pty hands the board its frames in bursts, so its own timing between two
+    frames is now and then 90 ms: the GO TO law closes 99 % of any gap in that time, so a frame
+    with J1's position corrupted 226 steps off "links" to the true one before it, and the true
+    one after it "links" to it too.  The second link said nothing: the true frame follows just
+    as well from where the commands put the board.  It was taken as the confirmation of an
+    uncommanded motion (two runs of test_controller_pty under two CPU hogs: "uncommanded
+    motion: J1 moved 226 steps beyond anything commanded"); a link confirms only when it tells
+    the suspect from the commanded hull."""
+    integ = StatusIntegrity(PAROL6, RATE)
+    target = tuple(int(v) for v in STANDBY)
+    goto = CommandFrame(command=BoardCommand.GOTO, positions=target, speeds=(0,) * 6)
+    slow = 9 * 7031  # 90 ms on the board's timer: its frames came in a burst after a pause
+
+    def frame(j1_off: int, timing: int) -> StatusFrame:
+        pos = list(target)
+        pos[0] += j1_off
+        return StatusFrame(positions=tuple(pos), homed=0xFF, io=0x0F, timing=timing, xtr=int(BoardCommand.GOTO))
+
+    n = 0
+    for k, (off, timing) in enumerate([(0, 7031)] * 10 + [(226, slow), (0, slow)] + [(0, 7031)] * 5):
+        n += 1
+        integ.sent(goto, k * 0.01, n)
+        integ.accept(frame(off, timing), k * 0.01 + 0.001, 0, n)
+    assert integ.take_fault() is None
+    assert integ.uncommanded == 0
+
