@@ -20,43 +20,32 @@ from pathlib import Path
 
 from parolkit.board.control_channel import send_control
 from parolkit.client.launch import die_with_parent, stop_process
+from parolkit.controller.scheduling import raise_priority
 from parolkit.robot import PAROL6
 
-__all__ = ["BoardSim", "BOARD_FIFO_PRIORITY", "BOARD_NICE", "REPO_ROOT"]
+__all__ = ["BoardSim", "BOARD_FIFO_PRIORITY", "REPO_ROOT"]
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 SPD = tuple(float(v) for v in PAROL6.steps_per_deg)
 
 #: the SCHED_FIFO priority board-sim asks for (see :class:`BoardSim`); above the controller's
 BOARD_FIFO_PRIORITY = 20
-#: ... and the niceness where SCHED_FIFO is refused
-BOARD_NICE = -10
 
 
 def _raise(pid: int) -> str:
-    """Every thread of process ``pid`` to SCHED_FIFO at :data:`BOARD_FIFO_PRIORITY` (else nice
-    :data:`BOARD_NICE`, else as it is); returns what it got (``fifo:20``, ``nice:-10``,
-    ``normal``).  Done once the board is up, not before its ``exec``: a process raised from the
-    start runs its interpreter's start-up (a second or more of imports on a busy machine) at
-    real-time priority, and on 2 cores that starved everything else there, the kernel's tty
-    flush included: frames another test's controller wrote reached its board 70 ms late, and
-    its link was judged lost.  Threads started later inherit it."""
+    """Every thread of process ``pid`` to SCHED_FIFO at :data:`BOARD_FIFO_PRIORITY`, else nice
+    -10 (the controller's own rule, :func:`parolkit.controller.scheduling.raise_priority`);
+    returns what the first got (``fifo:20``, ``nice:-10``, ``normal``).  Done once the board is
+    up, not before its ``exec``: a process raised from the start runs its interpreter's
+    start-up (a second or more of imports on a busy machine) at real-time priority, and on 2
+    cores that starved everything else there, the kernel's tty flush included: frames another
+    test's controller wrote reached its board 70 ms late, and its link was judged lost.
+    Threads started later inherit it."""
     try:
         tids = [int(t) for t in os.listdir(f"/proc/{pid}/task")]
     except OSError:
         tids = [pid]
-    try:
-        for tid in tids:
-            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(BOARD_FIFO_PRIORITY))
-        return f"fifo:{BOARD_FIFO_PRIORITY}"
-    except (AttributeError, OSError):
-        pass
-    try:
-        for tid in tids:
-            os.setpriority(os.PRIO_PROCESS, tid, BOARD_NICE)
-        return f"nice:{BOARD_NICE}"
-    except OSError:
-        return "normal"  # not permitted: :attr:`BoardSim.scheduling` says so
+    return [raise_priority(BOARD_FIFO_PRIORITY, tid) for tid in tids][0]
 
 
 class BoardSim:

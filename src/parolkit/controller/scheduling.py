@@ -13,11 +13,12 @@ import threading
 __all__ = ["raise_priority"]
 
 
-def raise_priority(fifo_priority: int) -> str:
-    """Ask the OS to prefer the calling thread: SCHED_FIFO at ``fifo_priority`` (0: do not
-    ask), else nice -10, else nothing.  Returns what it got: ``"fifo:N"``, ``"nice:-10"`` or
-    ``"normal"``."""
-    tid = threading.get_native_id()
+def raise_priority(fifo_priority: int, tid: int | None = None) -> str:
+    """Ask the OS to prefer the calling thread (or thread ``tid``, of any process the caller
+    may change): SCHED_FIFO at ``fifo_priority`` (0: do not ask), else nice -10, else nothing.
+    Returns what it got: ``"fifo:N"``, ``"nice:-10"`` or ``"normal"``."""
+    if tid is None:
+        tid = threading.get_native_id()
     if fifo_priority > 0:
         try:
             os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(fifo_priority))
