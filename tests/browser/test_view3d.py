@@ -111,3 +111,69 @@ def test_the_gizmo_follows_a_jog_and_a_move(controller_page, controller_gui):
             robot.release_control()
     wait_until(lambda: state(page) == "READY", 20, what="READY after the move", page=page)
     _follows(page, controller_gui, "after a move")
+
+
+#: the page's scene: its NiceGUI element id, its drawing rate (the fps prop the server sets), the
+#: draws counted since :data:`COUNT_DRAWS` and the camera's place at the latest one
+SCENE = """() => {
+  const host = document.querySelector('[data-testid=scene]');
+  const s = host && getElement(host.id.slice(1));
+  if (!s || !s.renderer) return null;
+  return { id: Number(host.id.slice(1)), fps: s.fps, draws: s.renderer.pkDraws ?? null,
+           camera: s.renderer.pkCamera ?? null };
+}"""
+COUNT_DRAWS = """() => {
+  const host = document.querySelector('[data-testid=scene]');
+  const s = getElement(host.id.slice(1));
+  if (s.renderer.pkDraws === undefined) {
+    const render = s.renderer.render.bind(s.renderer);
+    s.renderer.render = (scene, camera) => {
+      s.renderer.pkDraws += 1;
+      s.renderer.pkCamera = camera.position.toArray();
+      return render(scene, camera);
+    };
+  }
+  s.renderer.pkDraws = 0;
+}"""
+
+
+def test_the_view_draws_30_fps_while_the_arm_moves_2_when_idle_and_a_camera_drag_at_once(
+        controller_page, controller_gui):
+    """An idle page drawn at 30 frames/s cost 1.3 cores of Chromium under SwiftShader (and
+    every browser test paid it): the view draws at 30 while the arm moves, at 2 once nothing
+    has changed for a second, and what the page changes itself (the camera) at once."""
+    page = controller_page
+    wait_ready(page, 20)
+    scene = lambda: page.evaluate(SCENE)  # noqa: E731
+    wait_until(lambda: scene()["fps"] == 2, 10, what="the idle view drawn at 2 fps", page=page)
+    page.evaluate(COUNT_DRAWS)
+    page.wait_for_timeout(3000)
+    # at most 2 a second (a busy machine draws fewer, never more)
+    assert scene()["draws"] <= 3 * 2 + 2, scene()
+    # a move by a client: 30 frames/s while the arm moves, back to 2 after it
+    with Robot("127.0.0.1", controller_gui["controller"].port, ack_port=0, timeout=5.0) as robot:
+        robot.take_control(force=True)
+        try:
+            handle = robot.move_joints([10, -80, 170, 0, 20, 150], duration=3.0, wait=False)
+            wait_until(lambda: scene()["fps"] == 30, 10, what="the moving arm drawn at 30 fps", page=page)
+            assert handle.result(timeout=30).ok
+        finally:
+            robot.release_control()
+    wait_until(lambda: scene()["fps"] == 2, 10, what="the view idle again after the move", page=page)
+    assert "idle" in page.get_by_test_id("scene").locator("xpath=..").inner_text()
+    # the page's own loop slowed to one frame per 20 s: a camera drag is still drawn, by the
+    # page's pointer handlers, with the camera where the drag left it
+    page.evaluate("id => { mounted_app.elements[id].props.fps = 0.05; }", scene()["id"])
+    page.wait_for_timeout(1000)  # the loop's frame already due at 2 fps
+    page.evaluate(COUNT_DRAWS)
+    before = scene()["camera"]
+    b = page.get_by_test_id("scene").bounding_box()
+    x, y = b["x"] + b["width"] / 2, b["y"] + b["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 120, y + 30, steps=6)
+    page.mouse.up()
+    wait_until(lambda: (scene()["draws"] or 0) >= 1, 10, what="the camera drag drawn", page=page)
+    after = scene()["camera"]
+    assert after is not None and before != after, (before, after)
+    page.evaluate("id => { mounted_app.elements[id].props.fps = 2; }", scene()["id"])

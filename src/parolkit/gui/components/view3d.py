@@ -21,10 +21,16 @@ from parolkit.robot import PAROL6
 if TYPE_CHECKING:
     from nicegui.elements.scene.scene_object3d import Object3D
 
-__all__ = ["ArmView", "arm_frames", "SCENE_FPS"]
+__all__ = ["ArmView", "arm_frames", "SCENE_FPS", "IDLE_FPS", "IDLE_AFTER_S"]
 
-#: frame rate of the view's updates, Hz
+#: frame rate of the view's updates, and of its drawing while something in it changes, Hz
 SCENE_FPS = 30.0
+#: the drawing's frame rate once nothing in the view has changed for :data:`IDLE_AFTER_S`, Hz:
+#: an idle page drawn at 30 frames/s cost 1.3 cores of Chromium under software WebGL
+#: (SwiftShader: no GPU, as on many school PCs), at 2 frames/s next to nothing
+IDLE_FPS = 2.0
+#: seconds without a change before the drawing slows to :data:`IDLE_FPS`
+IDLE_AFTER_S = 1.0
 
 
 def arm_frames(angles_deg: Any, tool: str = "default") -> Any:
@@ -72,6 +78,12 @@ class ArmView:
                 g.move(*pos).rotate_R(rot)
         self._frames_t = time.monotonic()
         self._frames_n = 0
+        # the drawing's rate (the scene's fps prop): SCENE_FPS from a change until IDLE_AFTER_S
+        # after the last one, then IDLE_FPS.  The scene's own loop only takes a new rate at its
+        # next frame (up to 1 / IDLE_FPS s on), so until then every change is drawn at once.
+        self.draw_fps = SCENE_FPS
+        self._changed_t = self._frames_t
+        self._woken_t = self._frames_t
 
     def show_preview(self, joint_samples_deg: Any, tool: str = "default") -> None:
         """Draw the TCP path of planned joint samples (deg, one row per sample; at most 300
@@ -80,6 +92,24 @@ class ArmView:
         step = max(1, len(rows) // 300)
         pts = [geometry.frame_pose_for_scene(arm_frames(q, tool)[-1])[0] for q in rows[::step]]
         self.preview.set_points(pts)
+        self._changed()
+
+    def _changed(self) -> None:
+        """Something in the view changed (sent to the page just before): draw at
+        :data:`SCENE_FPS`, and draw this change now if the scene's loop may still be waiting out
+        an idle frame."""
+        now = time.monotonic()
+        self._changed_t = now
+        if self.draw_fps != SCENE_FPS:
+            self._set_draw_fps(SCENE_FPS)
+            self._woken_t = now
+        if now - self._woken_t < 1.0 / IDLE_FPS:
+            # commander.js: one draw at the next animation frame (after the calls just sent)
+            self.scene.client.run_javascript(f"window.pkSceneDraw && window.pkSceneDraw({self.scene.id})")
+
+    def _set_draw_fps(self, fps: float) -> None:
+        self.draw_fps = fps
+        self.scene.props["fps"] = fps  # the scene's own loop reads it at each frame
 
     def _arm(self, *, opacity: float, ghost: bool = False) -> list[Any]:
         colours = {"base": "#475569", "joint": "#f97316", "link": "#cbd5e1", "tool": "#38bdf8"}
@@ -105,15 +135,24 @@ class ArmView:
         return groups
 
     def update(self) -> None:
-        """Move the arm (and the ghost / path) to the newest status; nothing when it is old."""
+        """Move the arm (and the ghost / path) to the newest status; nothing when it is old.
+        The drawing slows to :data:`IDLE_FPS` once nothing has changed for :data:`IDLE_AFTER_S`."""
+        if self._move_arm():
+            self._changed()
+        elif self.draw_fps != IDLE_FPS and time.monotonic() - self._changed_t >= IDLE_AFTER_S:
+            self._set_draw_fps(IDLE_FPS)
+            self.fps_label.set_text(f"idle · drawn {IDLE_FPS:g} fps")
+
+    def _move_arm(self) -> bool:
+        """Send the newest status's arm (ghost, path) to the page; False if nothing changed."""
         st = self.link.status
         if st is None or st.seq == self._last_seq:
-            return
+            return False
         self._last_seq = st.seq
         pose_key = (tuple(round(a, 3) for a in st.angles), st.tool)
         plan_key = (self.link.plan.seq if self.link.plan else None, st.state, st.plan_seq)
         if pose_key == self._last_pose and plan_key == self._last_plan_key:
-            return  # the arm stands still: nothing to send (an idle page costs next to nothing)
+            return False  # the arm stands still: nothing to send (an idle page costs next to nothing)
         self._last_pose, self._last_plan_key = pose_key, plan_key
         frames = arm_frames(st.angles, st.tool)
         with self.scene._batch_calls():  # one websocket message per update
@@ -126,6 +165,7 @@ class ArmView:
         if now - self._frames_t >= 1.0:
             self.fps_label.set_text(f"{self._frames_n / (now - self._frames_t):.0f} fps · seq {st.seq}")
             self._frames_t, self._frames_n = now, 0
+        return True
 
     def _update_plan(self, st: RobotStatus) -> None:
         plan = self.link.plan

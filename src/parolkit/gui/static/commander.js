@@ -15,6 +15,10 @@
 //  * Jog keys are ignored while typing (inputs, the editor) or adjusting a slider.
 //  * A held jog ends on any pointer release or cancel anywhere on the page and when the
 //    window loses focus.
+//  * The 3D view draws 30 frames/s while something in it changes and 2 once nothing has for a
+//    second (parolkit.gui.components.view3d: the server sets the scene's fps).  What the page
+//    changes itself is drawn at once: the camera turned or zoomed (drag, wheel, touch), the
+//    window resized; and pkSceneDraw(id) draws a change the server has just sent.
 (() => {
   "use strict";
   const island = document.getElementById("pk-keymap");
@@ -400,6 +404,35 @@
     rememberText();
     view.focus();
   };
+
+  // ---- the 3D view: a draw at the next animation frame, one per frame whatever asks ----
+  const drawPending = new Set();
+  const draw = (id) => {
+    if (drawPending.has(id)) return;
+    drawPending.add(id);
+    requestAnimationFrame(() => {
+      drawPending.delete(id);
+      const s = typeof window.getElement === "function" ? window.getElement(id) : null;
+      if (!s || !s.renderer || !s.scene || !s.camera) return;
+      s.renderer.render(s.scene, s.camera);
+      if (s.text_renderer) s.text_renderer.render(s.scene, s.camera);
+      if (s.text3d_renderer) s.text3d_renderer.render(s.scene, s.camera);
+    });
+  };
+  window.pkSceneDraw = draw;
+  const sceneOf = (t) => (t instanceof Element ? t.closest("[data-testid=scene]") : null);
+  const drawScene = (el) => { if (el && el.id) draw(Number(el.id.slice(1))); };
+  // the orbit controls move the camera in their own pointer and wheel handlers
+  for (const type of ["pointerdown", "pointerup", "wheel"]) {
+    document.addEventListener(type, (e) => drawScene(sceneOf(e.target)), { capture: true, passive: true });
+  }
+  document.addEventListener("pointermove", (e) => {
+    if (e.buttons !== 0) drawScene(sceneOf(e.target));
+  }, { capture: true, passive: true });
+  window.addEventListener("resize", () => {
+    // after the scene's own resize handler has sized its renderer (which clears the canvas)
+    setTimeout(() => document.querySelectorAll("[data-testid=scene]").forEach(drawScene), 0);
+  });
 
   // a long press on a jog button must not open the context menu (touch screens)
   document.addEventListener("contextmenu", (e) => {
