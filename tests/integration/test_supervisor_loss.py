@@ -25,7 +25,7 @@ from pathlib import Path
 import pytest
 from tests.conftest import child_pids, process_exited, process_state, wait_until
 from tests.integration.load import Client
-from tests.integration.test_bounded_commitment import BOUND_S, KillBench
+from tests.integration.test_bounded_commitment import KillBench
 
 from parolkit.board import BoardEmulator, PtyBoardServer
 from parolkit.controller.core import ControllerCore, TickOutput
@@ -144,13 +144,13 @@ def test_a_killed_supervisor_is_noticed_in_the_next_tick_stops_the_jog_and_motio
 
 def _jog_and_check_the_kill_9_stop(b: KillBench) -> None:
     """The replacement supervisor does its job: kill -9 of the controller mid-jog (J6 back to
-    where the first jog came from) stops the board within 100 ms (DISABLE, speeds 0, nothing
-    moves after)."""
+    where the first jog came from) stops the board: the next frame it gets is the DISABLE,
+    speeds 0, nothing moves after (the time is printed; make soak judges it:
+    test_bounded_commitment)."""
     b.send("JOG|11|60|20|None")
     wait_until(lambda: b.speeds()[5] != 0, 10, interval=0.005, what="the jog to start")
     t_kill, t_last = b.kill_and_time_the_stop()
     print(f"DISABLE {t_kill * 1000:.1f} ms after the kill, {t_last * 1000:.1f} ms after the last frame")
-    assert t_kill <= BOUND_S, t_kill
     p = b.board.status()["positions"]
     time.sleep(0.2)
     st = b.board.status()
