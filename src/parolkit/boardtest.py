@@ -51,8 +51,9 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["BoardTester", "BoardTestError", "format_status", "register", "main", "run_action"]
 
 #: Gripper command byte used for moves: activate | move | release-direction (0xD0).
-#: how long the tool waits for the board's first reply before it says the board is not there (s)
-FIRST_REPLY_S = 1.0
+#: how long the tool waits for the board's first reply before it says the board is not there (s):
+#: a busy PC's tty layer has held a reply back over a second (two CPU hogs beside the test suite)
+FIRST_REPLY_S = 3.0
 GRIPPER_MOVE_BITS = GripperCommandBits.ACTIVATE | GripperCommandBits.MOVE | GripperCommandBits.RELEASE_DIR
 
 
@@ -184,7 +185,7 @@ class BoardTester:
     def require_status(self) -> StatusFrame:
         """The latest status; without one yet, idle frames until the board answers, for at most
         :data:`FIRST_REPLY_S` (a board answers within a frame, but a loaded PC's tty layer may
-        hold its first replies back a few hundred ms)."""
+        hold its first replies back a second)."""
         for _ in range(max(1, round(FIRST_REPLY_S / self.period))):
             if self.status is not None:
                 break
