@@ -74,6 +74,7 @@ class Controller:
         self.server: UdpServer
         self.stream: StatusStream
         self._snapshot: Snapshot | None = None
+        self._snapshot_lazy = False
         self.inbox = CommandInbox()
         self._stopped = threading.Event()
         #: the board link's URL (``serial.port``; ``sim://`` without one), with the config's
@@ -250,11 +251,14 @@ class Controller:
     def _publish(self, out: TickOutput) -> None:
         """(loop thread) The tick's snapshot first, then its acks: a client that reads the
         status after an ack always sees what the ack reported."""
+        # (a tick without one: the driver builds it when it is first read, before the next tick)
         self._snapshot = out.snapshot
+        self._snapshot_lazy = out.snapshot is None
         if out.acks:
             self.outbox.send_acks(out.acks)
             self.server.commands_ended(out.acks)
-        self.stream.notify(out.snapshot)
+        if self.stream.subscribed:
+            self.stream.notify(self.snapshot)
 
     @property
     def _spd(self) -> tuple[float, ...]:
@@ -271,6 +275,8 @@ class Controller:
 
     @property
     def snapshot(self) -> Snapshot:
+        if self._snapshot_lazy and self.loop is not None:
+            self._snapshot, self._snapshot_lazy = self.loop.snapshot_now(), False
         s = self._snapshot
         if s is None:
             # before the first tick: a neutral snapshot (link down)

@@ -154,6 +154,10 @@ class TickInput:
     #: safety commands that arrived while this tick's frame was being made: apply them and
     #: give the frame to write instead (same tick, nothing read again)
     recompose: bool = False
+    #: build the snapshot in the output; False: the output's is None, and a caller that needs
+    #: it asks :meth:`ControllerCore.snapshot_now` before the next update (one thread only:
+    #: fast-forward, where a query comes between two ticks and most ticks are never looked at)
+    snapshot: bool = True
 
 
 class TickResult(Enum):
@@ -175,7 +179,8 @@ class TickOutput:
 
     frame: CommandFrame | None
     acks: tuple[Ack, ...]
-    snapshot: Snapshot
+    #: None when the input asked for none (:attr:`TickInput.snapshot`)
+    snapshot: Snapshot | None
     plan_requests: tuple[PlanRequest, ...] = ()
     port_request: str | None = None
     result: TickResult = TickResult.FRAME
@@ -334,7 +339,8 @@ class ControllerCore:
             self._lose(f"switching to port {port}")
             result = TickResult.LINK_LOST
         requests, self._plan_requests = tuple(self._plan_requests), []
-        return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame), requests, port, result)
+        return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame) if inp.snapshot else None,
+                          requests, port, result)
 
     def _recompose(self, inp: TickInput) -> TickOutput:
         """Safety commands that came while this tick's frame was made: applied, and this tick's
@@ -344,7 +350,8 @@ class ControllerCore:
         frame = self._frame(inp) if self.link_up else None
         result = TickResult.FRAME if frame is not None else TickResult.NO_LINK
         requests, self._plan_requests = tuple(self._plan_requests), []
-        return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame), requests, None, result)
+        return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame) if inp.snapshot else None,
+                          requests, None, result)
 
     # ================================================================== the link
 
@@ -1103,6 +1110,11 @@ class ControllerCore:
         if a is None or a.trajectory is None:
             return PlanView(self.plan_seq, a.name if a else None)
         return PlanView(self.plan_seq, a.name, a.command_id, a.final_deg, a.trajectory)
+
+    def snapshot_now(self, inp: TickInput, frame: CommandFrame | None) -> Snapshot:
+        """The snapshot the update of ``inp`` (which wrote ``frame``) would have given: asked
+        after an update made without one (:attr:`TickInput.snapshot` False), before the next."""
+        return self._snapshot(inp, frame)
 
     def _snapshot(self, inp: TickInput, frame: CommandFrame | None) -> Snapshot:
         jobs = self.jobs

@@ -50,6 +50,7 @@ from parolkit.controller.messages import (
 )
 from parolkit.controller.planning import PlanRequest, PlanResult, plan
 from parolkit.controller.scheduling import raise_priority
+from parolkit.controller.snapshot import Snapshot
 from parolkit.controller.stats import LoopMetrics, LoopStatsView
 from parolkit.controller.supervisor import STOPPED_PERIODS, StopSupervisor
 from parolkit.protocol.frames import CommandFrame
@@ -147,6 +148,10 @@ class Driver:
         self._supervisor_starting = False
         self._next_supervisor_start = 0.0
         self.last_output: TickOutput | None = None
+        #: ticks without a snapshot in their output, built when asked (:meth:`snapshot_now`);
+        #: only for a driver whose ticks and readers share one thread (fast-forward)
+        self.lazy_snapshots = False
+        self._snapshot_due: tuple[TickInput, CommandFrame | None] | Snapshot | None = None
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -377,7 +382,18 @@ class Driver:
         return TickInput(self.tick_count, t, time.monotonic(), written=written, replies=batches,
                          submissions=tuple(subs), plans=self._take_plans(), links=events,
                          supervisor=self._supervisor_events(now), loop_stats=self.loop_view(),
-                         server_stats=self.server_view() if self.server_view is not None else {})
+                         server_stats=self.server_view() if self.server_view is not None else {},
+                         snapshot=not self.lazy_snapshots)
+
+    def snapshot_now(self) -> Snapshot | None:
+        """The latest tick's snapshot when it was made without one (:attr:`lazy_snapshots`):
+        built now, once; None if that tick had one (or there was no tick)."""
+        due = self._snapshot_due
+        if due is None:
+            return None
+        if isinstance(due, tuple):
+            due = self._snapshot_due = self.core.snapshot_now(*due)
+        return due
 
     def tick(self, now: float) -> TickOutput:
         """One tick at time ``now`` (monotonic s): gather, update the core, write, wait briefly
@@ -389,15 +405,17 @@ class Driver:
             self._reconnecting = True
             threading.Thread(target=self._reconnect_worker, name="parolkit-reconnect", daemon=True).start()
         inp = self._input(now, t)
+        self._snapshot_due = None
         out = self.core.update(inp)
         if out.frame is not None and out.result is TickResult.FRAME:
             if self.safety_intake is not None:
                 self.safety_intake()
             if self.inbox.safety_waiting:
                 # ESTOP / STOP / DISABLE arrived while this frame was being made: it goes instead
-                again = self.core.update(TickInput(self.tick_count, t, time.monotonic(),
-                                                   submissions=tuple(self.inbox.take_safety()), recompose=True,
-                                                   loop_stats=inp.loop_stats, server_stats=inp.server_stats))
+                inp = TickInput(self.tick_count, t, time.monotonic(), submissions=tuple(self.inbox.take_safety()),
+                                recompose=True, loop_stats=inp.loop_stats, server_stats=inp.server_stats,
+                                snapshot=inp.snapshot)
+                again = self.core.update(inp)
                 out = replace(again, acks=out.acks + again.acks,
                               plan_requests=out.plan_requests + again.plan_requests)
         self._plan(out.plan_requests)
@@ -413,6 +431,8 @@ class Driver:
             self._link_down()
             if out.port_request is not None:
                 self._next_reconnect = 0.0
+        if out.snapshot is None:
+            self._snapshot_due = (inp, out.frame)
         self.last_output = out
         return out
 

@@ -126,6 +126,8 @@ class InProcessController:
         self._sock.client = self.client
         self.controller.assemble_server(self._sock)
         self.driver: Driver = self.controller.assemble_driver(self.transport, plan_inline=True)
+        # one thread: a snapshot is built when a query (or start's wait) reads it, between ticks
+        self.driver.lazy_snapshots = True
         self._lock = threading.RLock()
         self._closed = False
         self._t0 = 0.0

@@ -230,6 +230,12 @@ class StatusStream:
         with self._lock:
             return self._subs.pop(addr, None) is not None
 
+    @property
+    def subscribed(self) -> bool:
+        """Anyone subscribed (read without the lock: a subscriber added meanwhile gets the next
+        tick's)."""
+        return bool(self._subs)
+
     def notify(self, snapshot: Snapshot) -> None:
         """Loop thread: this tick's snapshot (cheap when nobody subscribed)."""
         if not self._subs:
