@@ -13,7 +13,8 @@ Used by ``tests/integration/test_flood_estop.py`` (which asserts) and ``bench/co
 * :class:`SecondClient` -- runs in the caller's process: ESTOP at given moments (re-ENABLE and a
   new MOVEJOINT after each one), PING round trips all the time, every command with an ID; the
   board's frame log (``board-sim --frame-log``) then says how many frames the board received
-  between each ESTOP and its first DISABLE frame.
+  between each ESTOP and its first DISABLE frame, or with the controller's ``spy+`` log, how
+  many frames the controller wrote in between (:meth:`SecondClient.judge_estops`).
 
 Standard library only (the two processes import nothing from parolkit).
 """
@@ -35,6 +36,9 @@ from pathlib import Path
 HOST = "127.0.0.1"
 #: board command code of DISABLE (parolkit.protocol.BoardCommand.DISABLE)
 BOARD_DISABLE = 102
+#: the board command codes by the names a spy+ log shows (parolkit.protocol.BoardCommand)
+BOARD_COMMANDS = {"HOME": 100, "ENABLE": 101, "DISABLE": 102, "CLEAR_ERROR": 103, "JOG": 123, "GOTO": 156,
+                  "IDLE": 255}
 TERMINAL = ("COMPLETED", "FAILED", "CANCELLED", "INVALID")
 THIS_FILE = Path(__file__).resolve()
 
@@ -320,33 +324,46 @@ def send_control(path: str, text: str, timeout_s: float = 2.0) -> str:
 
 @dataclass
 class EstopResult:
-    """One ESTOP of the second client, judged by the board's frame log."""
+    """One ESTOP of the second client, judged by the frames: the board's frame log, or with the
+    controller's ``spy+`` log, the frames as the controller wrote them (:func:`written_frames`)."""
 
     t_send: float
-    #: command code of the board's last frame before the send (None: no frame yet)
+    #: command code of the last frame before the send (None: no frame yet)
     before: int | None
-    #: frames the board received after the send before the first DISABLE frame (None: none came)
+    #: frames after the send before the first DISABLE frame (None: none came)
     frames_before: int | None
     #: time from the send to the board's receipt of that DISABLE frame, s (None: none came)
     latency_s: float | None
 
     @property
     def armed(self) -> bool:
-        """The board's last frame before the send was not DISABLE: the re-ENABLE had reached it,
-        so a DISABLE after the send is this ESTOP's."""
+        """The last frame before the send was not DISABLE: the re-ENABLE had been sent, so a
+        DISABLE after the send is this ESTOP's."""
         return self.before is not None and self.before != BOARD_DISABLE
 
     @property
     def ticks(self) -> float:
-        """The DISABLE was the N-th frame the board received after the send (inf: none came)."""
+        """The DISABLE was the N-th frame after the send (inf: none came)."""
         return math.inf if self.frames_before is None else self.frames_before + 1
 
     def describe(self) -> str:
         if not self.armed:
-            return "the board was already disabled at the send (the re-ENABLE had not reached it)"
+            return "the last frame before the send was already DISABLE (the re-ENABLE had not been sent)"
         if self.frames_before is None:
-            return "no DISABLE frame reached the board at all"
+            return "no DISABLE frame after the send, or none reached the board"
         return f"DISABLE was frame {self.ticks} after the send, {self.latency_s * 1e3:.1f} ms"
+
+
+def written_frames(spy_log: Path) -> list[tuple[float, int]]:
+    """The frames the controller wrote, from its ``spy+`` log: (monotonic s as ``write`` was
+    called, command code), in order."""
+    out = []
+    for line in spy_log.read_text(errors="replace").splitlines():
+        parts = line.split(" ")
+        if len(parts) > 3 and parts[2] == "PC>BOARD" and parts[3] == "CommandFrame":
+            name = next((p[8:] for p in parts[4:] if p.startswith("command=")), "")
+            out.append((float(parts[1]), BOARD_COMMANDS[name] if name in BOARD_COMMANDS else int(name)))
+    return out
 
 
 @dataclass
@@ -475,20 +492,28 @@ class SecondClient:
             self.move()
         return sent
 
-    def judge_estops(self, sent: list[float]) -> list[EstopResult]:
-        """Count, in the board's frame log, the frames after each send before the first DISABLE.
+    def judge_estops(self, sent: list[float], spy_log: Path | None = None) -> list[EstopResult]:
+        """Count the frames after each send before the first DISABLE: in the board's frame log,
+        or with ``spy_log`` (the controller's ``spy+`` log) in the frames as the controller
+        wrote them, each DISABLE then also found in the board's log (it arrived).  The latency
+        is always the board's receipt.
 
         A DISABLE that an earlier, late ESTOP caused can be taken for a later one's, which then
         looks faster than it was; the verdict stays right: that earlier ESTOP was itself more
         than a re-ENABLE late (at least 0.35 s), so it fails."""
-        frames = self.frames(min(sent) - 1.0) if sent else []
+        board = [(f[1], f[2]) for f in self.frames(min(sent) - 1.0)] if sent else []
+        frames = written_frames(spy_log) if spy_log is not None and sent else board
         results = []
         for t_send in sent:
-            before = [f for f in frames if f[1] <= t_send]
-            after = [f for f in frames if f[1] > t_send]
-            idx = next((i for i, f in enumerate(after) if f[2] == BOARD_DISABLE), None)
-            results.append(EstopResult(t_send, before[-1][2] if before else None, idx,
-                                       None if idx is None else after[idx][1] - t_send))
+            before = [f for f in frames if f[0] <= t_send]
+            after = [f for f in frames if f[0] > t_send]
+            idx = next((i for i, f in enumerate(after) if f[1] == BOARD_DISABLE), None)
+            # the board's receipt of the first DISABLE after the send (none: it never arrived)
+            t_board = next((t for t, cmd in board if t > t_send and cmd == BOARD_DISABLE), None)
+            if t_board is None:
+                idx = None
+            results.append(EstopResult(t_send, before[-1][1] if before else None, idx,
+                                       None if t_board is None else t_board - t_send))
         return results
 
     def phase(self, start: float, duration: float, estops: int, rng: random.Random) -> tuple[PhaseResult, list[float]]:
@@ -593,10 +618,11 @@ class FloodRun:
 def run_flood(ctl_port: int, ack_recorder: AckRecorder, control_path: str, *, rate: float = 20_000,
               duration: float = 10.0, estops: int = 20, reference_s: float = 1.6,
               reference_estops: int = 3, seed: int = 11, settle_quiet_s: float = 3.0,
-              settle_max_s: float = 40.0) -> FloodRun:
+              settle_max_s: float = 40.0, spy_log: Path | None = None) -> FloodRun:
     """The scenario: a reference phase (the second client alone), then the flood with the second
     client's ESTOP cycles and PINGs; then STOP, wait until the acks settle and judge the ESTOPs
-    by the board's frame log."""
+    by the frames (:meth:`SecondClient.judge_estops`: ``spy_log``, the controller's log of
+    the frames it wrote, else the board's frame log)."""
     rng = random.Random(seed)
     drops_before = udp_drops(ctl_port) or 0
     client = SecondClient(ctl_port, control_path)
@@ -609,8 +635,8 @@ def run_flood(ctl_port: int, ack_recorder: AckRecorder, control_path: str, *, ra
         fl = flooder.result()
         client.send("STOP")  # ends the last move (CANCELLED) with an ack of its own
         acks = ack_recorder.finish(settle_quiet_s, settle_max_s)
-        reference.estops = client.judge_estops(ref_sent)
-        flood.estops = client.judge_estops(sent)
+        reference.estops = client.judge_estops(ref_sent, spy_log)
+        flood.estops = client.judge_estops(sent, spy_log)
     finally:
         if flooder is not None:
             flooder.kill()
@@ -673,9 +699,10 @@ def report(run: FloodRun) -> list[str]:
         f"lost); all replies by kind {fl['replies']}; the flooder's own socket dropped {fl['drops']}",
         f"  kernel drops at the controller's socket: {run.controller_drops:,}; at the ack recorder's: "
         f"{run.acks['drops']} (buffer {run.ack_rcvbuf:,} B; {run.acks['datagrams']:,} acks recorded)",
-        "ESTOP -> the first DISABLE frame the board received (frame N after the send; "
-        "'-' = the board was still disabled at the send, 'never' = no DISABLE came; once ESTOPs "
-        "are late, a later one may see an earlier one's DISABLE: then N is a lower bound):",
+        "ESTOP -> the first DISABLE frame (frame N after the send, of the frames written with a spy+ "
+        "log, else received; ms: its arrival at the board; '-' = the last frame before the send was "
+        "DISABLE, 'never' = no DISABLE came; once ESTOPs are late, a later one may see an earlier "
+        "one's DISABLE: then N is a lower bound):",
         estop_line("reference, no flood", run.reference.estops),
         estop_line(f"under the flood ({len(run.flood.estops)} ESTOPs)", run.flood.estops),
         "PING round trip of the second client:",
