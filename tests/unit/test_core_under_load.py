@@ -8,14 +8,16 @@ For every example:
 * the board never runs a joint above its maximum speed (read at every 0.5 ms of board time,
   plus the guard's rounding allowance of a hundredth of a step = 0.5 steps/s);
 * no uncommanded-motion fault (the late replies are true ones);
-* every command COMPLETES and the last one ends exactly at its target;
+* every command COMPLETES (a Cartesian move that the jogs before it left at the wrist
+  singularity may be refused before it starts, naming it) and the last one ends exactly at
+  its target;
 * what the lateness cost shows, if anywhere, as a move that ran stretched (a warning in its
   ack), never as a refusal.
 """
 
 from __future__ import annotations
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from tests.unit.test_controller_core import RATE, Rig
 
@@ -49,6 +51,10 @@ def _text(cid: str, m: tuple) -> str:
 
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# found by Hypothesis beside two CPU hogs: J5 jogged from 30 deg to the wrist singularity, then a
+# 1 s Cartesian move from there, rightly refused (with the duration that would do)
+@example(moves=[("jog", 4, -1, 80), ("jog", 0, -1, 20), ("cart", 19.06, 15.49, 0.0),
+                ("joint", 63.3, -87.83, 150.0, "3")], timing=[(1.0, 0.0)] * 20)
 @given(moves=st.lists(_move, min_size=1, max_size=4), timing=st.lists(st.tuples(_dt, _delay), min_size=20,
                                                                       max_size=400))
 def test_late_ticks_and_late_replies_never_overspeed_fault_or_lose_a_move(moves, timing):
@@ -86,7 +92,14 @@ def test_late_ticks_and_late_replies_never_overspeed_fault_or_lose_a_move(moves,
         assert not over, over
         assert rig.core.integrity.uncommanded == 0, rig.core.integrity.last_fault
         done = {cid: rig.terminal(cid) for cid in ids}
-        assert all(s is AckStatus.COMPLETED for s in done.values()), (done, rig.acks[-6:])
+        # a Cartesian move planned from where the jogs left the wrist may be refused before it
+        # starts (J5 jogged to 0: the wrist singularity), with the reason and the duration that
+        # would do: geometry, not lateness; every other command completes
+        refused = {c for c, s, d in rig.acks if c in ids and s is AckStatus.FAILED
+                   and "refused" in d and "singularity" in d}
+        started = {c for c, s, _ in rig.acks if s is AckStatus.EXECUTING}
+        assert not refused & started, (refused, rig.acks[-6:])
+        assert all(s is AckStatus.COMPLETED or c in refused for c, s in done.items()), (done, rig.acks[-6:])
         details = [d for c, s, d in rig.acks if c in ids and s is AckStatus.COMPLETED]
         assert all("finished successfully" in d or "stopped at the" in d for d in details), details
         # at rest exactly on the last move's final target (COMPLETED says the board reported it)
