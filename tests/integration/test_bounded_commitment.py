@@ -84,6 +84,10 @@ class KillBench:
         last one was a motion frame (GO TO), and nothing came between."""
         t_kill = time.monotonic()
         self.ctl.proc.kill()
+        # (the board's speeds reach 0 by themselves, the last frames being GO TOs: the DISABLE
+        # may come after that on a busy machine, so the wait is for the DISABLE itself)
+        wait_until(lambda: any(cmd == BoardCommand.DISABLE for _, _, cmd in self.board.frames(t_kill - 1.0)), 5,
+                   interval=0.005, what="the supervisor's DISABLE at the board")
         wait_until(lambda: not any(self.speeds()), 5, interval=0.002, what="board speeds 0 after the kill")
         t_disable, t_last, cmd_last = self.first_disable(t_kill - 1.0)
         assert cmd_last == BoardCommand.GOTO, f"the frame before the DISABLE was command {cmd_last}, not a GO TO"
