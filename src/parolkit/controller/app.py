@@ -74,7 +74,6 @@ class Controller:
         self.server: UdpServer
         self.stream: StatusStream
         self._snapshot: Snapshot | None = None
-        self._snapshot_lazy = False
         self.inbox = CommandInbox()
         self._stopped = threading.Event()
         #: the board link's URL (``serial.port``; ``sim://`` without one), with the config's
@@ -251,9 +250,8 @@ class Controller:
     def _publish(self, out: TickOutput) -> None:
         """(loop thread) The tick's snapshot first, then its acks: a client that reads the
         status after an ack always sees what the ack reported."""
-        # (a tick without one: the driver builds it when it is first read, before the next tick)
+        # (None: a tick without one, which the driver builds when it is first read)
         self._snapshot = out.snapshot
-        self._snapshot_lazy = out.snapshot is None
         if out.acks:
             self.outbox.send_acks(out.acks)
             self.server.commands_ended(out.acks)
@@ -275,9 +273,9 @@ class Controller:
 
     @property
     def snapshot(self) -> Snapshot:
-        if self._snapshot_lazy and self.loop is not None:
-            self._snapshot, self._snapshot_lazy = self.loop.snapshot_now(), False
         s = self._snapshot
+        if s is None and self.loop is not None:
+            s = self.loop.snapshot_now()  # (built once, kept by the driver until its next tick)
         if s is None:
             # before the first tick: a neutral snapshot (link down)
             s = Snapshot(
