@@ -155,6 +155,12 @@ def _fifo_thread(pid: int) -> int | None:
     return None
 
 
+def _frames_pass(client: load.Client, n: int) -> None:
+    """Wait until the controller has written ``n`` more frames (its ticks, not the clock)."""
+    sent = client.loop_stats()["frames_sent"]
+    wait_until(lambda: client.loop_stats().get("frames_sent", 0) >= sent + n, 20, what=f"{n} more frames written")
+
+
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads thread policies from /proc")
 def test_a_controller_stalled_for_400_ms_is_no_lost_link_and_reports_its_scheduling(tmp_path):
     board = load.BoardSim(tmp_path)
@@ -180,12 +186,12 @@ def test_a_controller_stalled_for_400_ms_is_no_lost_link_and_reports_its_schedul
             == fields["SCHED"]
         for text, label in (("MOVEJOINT|60|-80|170|10|-10|170|3|None", "MoveJoint"), ("JOG|0|40|2|None", "Jog")):
             cid = client.send(text)
-            time.sleep(0.4)
+            _frames_pass(client, 40)
             for _ in range(3):
                 os.kill(ctl.proc.pid, signal.SIGSTOP)
-                time.sleep(0.4)
+                time.sleep(0.4)  # the stall itself: the stopped process counts no ticks
                 os.kill(ctl.proc.pid, signal.SIGCONT)
-                time.sleep(0.3)
+                _frames_pass(client, 30)
             status, details = client.terminal(cid, 20)
             # what the stalls cost is a move that ran stretched, and says so
             assert status == "COMPLETED" and details.startswith(f"{label} finished successfully"), (text, details)
