@@ -42,7 +42,7 @@ from parolkit.controller.lease import ClientId, ControlLease, is_loopback
 from parolkit.controller.messages import SET_PORT_SCHEMES, Ack, AckRoute, Address, Submission
 from parolkit.controller.senders import CommandIds, KnownClients, ReturnCookies
 from parolkit.controller.snapshot import Snapshot
-from parolkit.controller.steering import SAFETY_MAX_BYTES, SO_TIMESTAMPNS
+from parolkit.controller.steering import SAFETY_MAX_BYTES, SO_RXQ_OVFL, SO_TIMESTAMPNS
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import (
     AckStatus,
@@ -73,8 +73,8 @@ MAX_DATAGRAMS_PER_SOURCE = 256
 SERVE_BATCH = 8
 #: at most this many datagrams are read in one drain before serving again
 DRAIN_MAX = 512
-#: ancillary buffer for one SO_TIMESTAMPNS stamp (struct timespec)
-_STAMP_SPACE = socket.CMSG_SPACE(16)
+#: ancillary buffer for one SO_TIMESTAMPNS stamp (struct timespec) and one SO_RXQ_OVFL count
+_ANC_SPACE = socket.CMSG_SPACE(16) + socket.CMSG_SPACE(4)
 #: at most this many datagrams the tick thread reads from the safety socket per call
 SAFETY_READS_PER_CALL = 32
 #: bytes of log lines about invalid datagrams per second; the rest is counted, not logged
@@ -351,6 +351,8 @@ class UdpServer:
         #: (tick thread, server thread; under the safety lock)
         self.read_main = 0
         self.steered = 0
+        # the kernel's drop count of the command socket (False) and the safety socket (True)
+        self._dropped: dict[bool, int] = {}
         #: datagrams not valid / refused because their source was over its share
         self.invalid = 0
         self.shed = 0
@@ -390,6 +392,7 @@ class UdpServer:
             "busy_acks": self.busy_acks, "inbox_refused": self.inbox.refused,
             "safety_fast": self.safety_fast, "steered": self.steered, "log_suppressed": self.log_suppressed,
             "foreign_ids": self.ids.refused, "clients_refused": self.clients_refused,
+            "kernel_dropped": self.kernel_dropped,
         }
 
     def commands_ended(self, acks: Iterable[Ack]) -> None:
@@ -401,8 +404,9 @@ class UdpServer:
 
     @property
     def overload(self) -> int:
-        """Datagrams refused for load so far (shed + commands refused by the inbox)."""
-        return self.shed + self.inbox.refused
+        """Datagrams refused or lost for load so far (shed + commands refused by the inbox +
+        dropped by the kernel before they were read)."""
+        return self.shed + self.inbox.refused + self.kernel_dropped
 
     # ------------------------------------------------------------------ the server thread
 
@@ -483,16 +487,30 @@ class UdpServer:
         """A datagram, its sender and its receive number.  With a safety socket, that is the
         kernel's arrival time (ns, ``SO_TIMESTAMPNS``) on both sockets: a stop the tick reads
         before the server thread reads a command sent before it still has the later number, so
-        the core cancels that command when it comes (a STOP cancels what was sent before it)."""
-        if self.safety_sock is None:
-            data, addr = sock.recvfrom(65535)
-            return data, addr, next(self._seqs)
-        data, anc, _flags, addr = sock.recvmsg(65535, _STAMP_SPACE)
+        the core cancels that command when it comes (a STOP cancels what was sent before it).
+        The kernel's count of datagrams it dropped at the socket comes along
+        (``SO_RXQ_OVFL``): :attr:`kernel_dropped`."""
+        data, anc, _flags, addr = sock.recvmsg(65535, _ANC_SPACE)
+        stamp = None
         for level, kind, value in anc:
-            if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(value) >= 16:
+            if level != socket.SOL_SOCKET:
+                continue
+            if kind == SO_TIMESTAMPNS and len(value) >= 16:
                 sec, nsec = struct.unpack("=qq", value[:16])
-                return data, addr, sec * 1_000_000_000 + nsec
-        return data, addr, time.time_ns()
+                stamp = sec * 1_000_000_000 + nsec
+            elif kind == SO_RXQ_OVFL and len(value) >= 4:
+                self._dropped[sock is self.safety_sock] = struct.unpack("=I", value[:4])[0]
+        if self.safety_sock is None:
+            return data, addr, next(self._seqs)
+        return data, addr, stamp if stamp is not None else time.time_ns()
+
+    @property
+    def kernel_dropped(self) -> int:
+        """Datagrams the kernel dropped at the port's sockets because their receive buffers
+        were full (a client sending faster than this server reads): they never reached the
+        controller, so nothing can answer them.  The kernel stamps its count on each datagram as it
+        queues it, so drops show with the first datagram that arrives after them, once read."""
+        return sum(self._dropped.values())
 
     def _drain_wake(self) -> None:
         assert self._wake_r is not None

@@ -294,9 +294,10 @@ class Snapshot:
 
     @property
     def overload(self) -> int:
-        """Datagrams and commands the server refused for load so far (0 without a server)."""
+        """Datagrams and commands the server refused for load so far, and datagrams the kernel
+        dropped before the server could read them (0 without a server)."""
         v = self.server_view
-        return int(v.get("shed", 0)) + int(v.get("inbox_refused", 0))
+        return int(v.get("shed", 0)) + int(v.get("inbox_refused", 0)) + int(v.get("kernel_dropped", 0))
 
     def as_dict(self) -> dict[str, Any]:
         s = self.status

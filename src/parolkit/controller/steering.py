@@ -32,7 +32,8 @@ import ctypes
 import socket
 import struct
 
-__all__ = ["SAFETY_MAX_BYTES", "MARKERS", "RCVBUF", "safety_program", "open_command_port", "CommandPort"]
+__all__ = ["SAFETY_MAX_BYTES", "MARKERS", "RCVBUF", "SO_RXQ_OVFL", "safety_program", "open_command_port",
+           "CommandPort"]
 
 #: datagrams longer than this are never taken for a stop (the server's check too)
 SAFETY_MAX_BYTES = 80
@@ -44,6 +45,9 @@ RCVBUF = 1 << 21
 SO_ATTACH_REUSEPORT_CBPF = 51
 #: the kernel stamps each datagram with its arrival time (both sockets: one receive order)
 SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)
+#: each datagram read carries the count of datagrams the kernel dropped at that socket (its
+#: receive buffer was full) since it was opened: the controller counts what it never saw
+SO_RXQ_OVFL = getattr(socket, "SO_RXQ_OVFL", 40)
 
 # classic BPF opcodes (linux/filter.h)
 _LD_W_ABS = 0x20   # A = 4 bytes at k (big-endian); past the end: the program returns 0
@@ -107,6 +111,15 @@ class CommandPort:
                 sock.close()
 
 
+def _count_drops(sock: socket.socket) -> None:
+    """Ask the kernel for its drop count with every datagram (``SO_RXQ_OVFL``); an OS without
+    it leaves the count at 0."""
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, SO_RXQ_OVFL, 1)
+    except OSError:
+        pass
+
+
 def open_command_port(host: str, port: int, *, rcvbuf: int = RCVBUF) -> CommandPort:
     """Bind ``(host, port)`` (0: a free port): the command socket and, where the kernel
     steers (see the module docstring), the safety socket beside it.  ``OSError`` when the port
@@ -122,6 +135,7 @@ def open_command_port(host: str, port: int, *, rcvbuf: int = RCVBUF) -> CommandP
     sock = socket.socket(fam, socket.SOCK_DGRAM)
     try:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
+        _count_drops(sock)
         if reuse is not None:
             try:
                 sock.setsockopt(socket.SOL_SOCKET, reuse, 1)
@@ -137,6 +151,7 @@ def open_command_port(host: str, port: int, *, rcvbuf: int = RCVBUF) -> CommandP
     try:
         safety.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)  # (a burst of ACK_HEREs)
         safety.setsockopt(socket.SOL_SOCKET, reuse, 1)
+        _count_drops(safety)
         safety.bind(sock.getsockname()[:2])
         _attach(sock, safety_program())
         for s in (sock, safety):
