@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import bisect
 import json
+import math
 import re
 import socket
 import threading
@@ -27,7 +28,7 @@ from tests.integration.test_controller_pty import AckListener
 
 from parolkit.protocol.frames import TIMER_HZ, BoardCommand, CommandFrame, StatusFrame
 from parolkit.protocol.stream import StatusParser
-from parolkit.robot import PAROL6
+from parolkit.robot import GOTO_GAIN_PER_S, PAROL6
 
 SPD = tuple(float(v) for v in PAROL6.steps_per_deg)
 
@@ -444,11 +445,12 @@ def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_un
     #    status that showed it and reached the controller intact; when replies were lost before
     #    a second one confirmed it, within 2 frames of that confirming one (the frame after it,
     #    or the next if the reply came after the loop's reply wait); when the reply before the
-    #    first intact one was not intact, within 2 frames of the first two intact in a row
+    #    first intact one was not intact, within 2 frames of the first two intact in a row (unless
+    #    the board's GO TO law had settled it under 100 steps by then: counted, not judged)
     align = rec.align()
     intact = rec.intact()
     cmds = rec.sent_commands()
-    events = late = 0
+    events = late = settled = 0
     misses = []
     for k in range(len(rec.exs) - 1):
         _, executed, raw, r0 = rec.exs[k]
@@ -477,6 +479,16 @@ def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_un
             pair = next((i for i in range(s + 1, len(rec.exs)) if intact[i] and intact[i - 1]), None)
             if pair is None:
                 continue
+            # the board follows its GO TO frames the whole time: the deviation decays as
+            # exp(-50 t) (robot.py's law).  When it had decayed under the 100 steps that make an
+            # event before the first of the pair, no reply the controller could trust shows it
+            # (a CI run: 1 intact reply showed J5 171 steps off between corrupted ones, then the
+            # pty held the next 20 frames back 200 ms while the board settled on its goal)
+            dev = max(abs(r1.positions[j] - want[j]) for j in range(6))
+            gap = rec.exs[pair - 1][0] - rec.exs[s][0]
+            if dev * math.exp(-GOTO_GAIN_PER_S * gap) <= 100:
+                settled += 1
+                continue
             bound = max(bound, align[pair] + 2)
         if not any(cmds[i] == BoardCommand.DISABLE for i in range(align[k] + 1, min(bound + 1, len(cmds)))):
             misses.append((k, int(executed.command), align[s], align[c], cmds[align[k]:bound + 3],
@@ -484,7 +496,8 @@ def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_un
         elif align[c] + 2 > align[s] + 3:
             late += 1
     report.append(f"uncommanded motions the board really made: {events}; DISABLE in time for "
-                  f"{events - len(misses)} ({late} after lost replies delayed the confirmation); "
+                  f"{events - len(misses) - settled} ({late} after lost replies delayed the confirmation); "
+                  f"{settled} settled by the board before two intact replies in a row could show them; "
                   f"misses (k, executed, first intact, confirming, frames sent, replies intact/x from k): "
                   f"{misses[:5]}")
 
