@@ -90,8 +90,11 @@ class KillBench:
                    interval=0.005, what="the supervisor's DISABLE at the board")
         wait_until(lambda: not any(self.speeds()), 5, interval=0.002, what="board speeds 0 after the kill")
         t_disable, t_last, cmd_last = self.first_disable(t_kill - 1.0)
+        # the supervisor writes DISABLE frames only (supervisor.py): a GO TO right before the
+        # first DISABLE is the controller's, written before it died, so nothing came between.
+        # (When it arrived says nothing: the pty's worker thread delivered it 5 ms after the
+        # kill in a fresh clone's run, beside the rest of the suite)
         assert cmd_last == BoardCommand.GOTO, f"the frame before the DISABLE was command {cmd_last}, not a GO TO"
-        assert t_last <= t_kill, "a frame came between the kill and the supervisor's DISABLE"
         return t_disable - t_kill, t_disable - t_last
 
     def running(self) -> None:

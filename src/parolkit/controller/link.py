@@ -58,6 +58,9 @@ class Sent:
     frame: CommandFrame
     t: float
     window: tuple[tuple[float, float], ...] | None = None
+    #: a GO TO frame's goals (:func:`~parolkit.robot.goto_goal`), computed once as it is
+    #: written (every window from an older reply spans them); None for any other frame
+    goals: tuple[float, ...] | None = None
 
 
 @quick_init
@@ -120,7 +123,8 @@ class LinkHistory:
         """``frame`` was written at ``t``; returns its number."""
         win = self.window(t)
         self._n += 1
-        self._written.append(Sent(self._n, frame, t, win))
+        goals = tuple(goto_goal(frame.positions, frame.speeds)) if int(frame.command) == _GOTO else None
+        self._written.append(Sent(self._n, frame, t, win, goals))
         if int(frame.command) == _HOME:
             self.homing = True
         self.unanswered += 1
@@ -199,39 +203,48 @@ class LinkHistory:
         frames = self.since(a.n)
         if frames is None:
             return None
-        goals: list[list[float]] = [[] for _ in range(6)]
+        # per joint, the lowest and highest goal of the GO TO frames since the reply
+        lows: list[float] | None = None
+        highs: list[float] = []
         all_goto = True
         for w in frames:
-            f = w.frame
-            code = int(f.command)
-            if code == _GOTO:
-                for j, g in enumerate(goto_goal(f.positions, f.speeds)):
-                    goals[j].append(g)
-            elif code == _HOME or (code == _JOG and any(f.speeds)):
+            gs = w.goals
+            if gs is not None:
+                if lows is None:
+                    lows, highs = list(gs), list(gs)
+                else:
+                    for j in range(6):
+                        g = gs[j]
+                        if g < lows[j]:
+                            lows[j] = g
+                        elif g > highs[j]:
+                            highs[j] = g
+                continue
+            code = int(w.frame.command)
+            if code == _HOME or (code == _JOG and any(w.frame.speeds)):
                 return None
-            else:
-                all_goto = False  # stood still from that frame on
+            all_goto = False  # stood still from that frame on
+        status = a.status
+        if lows is None:
+            return [(float(p), float(p)) for p in status.positions]
         # the time it moved for at least: since the reply was read, less the pass that the
         # newest frame may have waited for (the law runs once a pass, a step at a time)
         moved_s = t_write - a.t - FIRMWARE_PASS_MAX_S
         rise = 1.0 - math.exp(-GOTO_GAIN_PER_S * moved_s) if all_goto and moved_s > 0.0 else 0.0
         out = []
         for j in range(6):
-            p = float(a.status.positions[j])
-            gs = goals[j]
-            if not gs:
-                out.append((p, p))
-                continue
-            lo, hi = min(p, *gs), max(p, *gs)
-            v = a.status.speeds[j]
+            p = float(status.positions[j])
+            g_lo, g_hi = lows[j], highs[j]
+            lo, hi = min(p, g_lo), max(p, g_hi)
             if rise > 0.0:
                 # every goal ahead and the reply shows the joint running that way (the board
                 # follows: a disabled one ignores GO TO and reports no speed): it moved towards
                 # them for at least the time since
-                if lo == p and min(gs) > p and v > 0:
-                    lo = max(p, p + (min(gs) - p) * rise - 1.0)  # (one step: a joint steps whole)
-                elif hi == p and max(gs) < p and v < 0:
-                    hi = min(p, p + (max(gs) - p) * rise + 1.0)
+                v = status.speeds[j]
+                if g_lo > p and v > 0:
+                    lo = max(p, p + (g_lo - p) * rise - 1.0)  # (one step: a joint steps whole)
+                elif g_hi < p and v < 0:
+                    hi = min(p, p + (g_hi - p) * rise + 1.0)
             out.append((lo, hi))
         return out
 
