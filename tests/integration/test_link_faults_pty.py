@@ -80,13 +80,34 @@ class Recorder:
             return len(self.frames)
 
 
+_ENDED = ("COMPLETED", "FAILED", "CANCELLED", "INVALID")
+
+
+def _running(bench: InProcessBench, text: str, tries: int = 5) -> str:
+    """Send ``text`` until it runs undisturbed (EXECUTING, and still 0.2 s later); returns its
+    ID.  This busy process hosts the board's pty server: it can hold the replies back past a
+    short link timeout, the link is then rightly lost before the test's own fault, and a
+    command sent while it is down is refused ("board link is down", seen in a fresh clone at
+    load 11 with 7 frames): each try first waits for the link to be up again."""
+    for _ in range(tries):
+        wait_until(lambda: (bench.query("GET_STATUS") or "").endswith("|SERIAL=1"), 10, what="the board link up")
+        cid = bench.send(text)
+        wait_until(lambda cid=cid: any(s == "EXECUTING" or s in _ENDED for s in bench.acks.statuses(cid)), 10,
+                   what=f"{text} executing or ended")
+        if "EXECUTING" not in bench.acks.statuses(cid):
+            continue
+        time.sleep(0.2)
+        if bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
+            return cid
+    raise AssertionError(f"{text} never ran undisturbed in {tries} tries")
+
+
 def _jog_then_break_replies(bench: InProcessBench, rec: Recorder, **faults: object) -> tuple[str, int]:
     """A long J1 jog, then the replies go bad; returns the jog's ID and the switch index."""
     for _ in range(3):  # a jog paused or cancelled by this busy process before the fault: again
-        cid = bench.send("JOG|0|50|None|60")
-        bench.acks.wait_status(cid, "EXECUTING")
+        cid = _running(bench, "JOG|0|50|None|60")
         wait_until(lambda: bench.emu.speeds[0] > 0, 5, what="J1 jogging")
-        time.sleep(0.3)
+        time.sleep(0.1)
         if not bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
             continue
         return cid, rec.switch(direction="from_board", **faults)
@@ -128,12 +149,7 @@ def test_a_silent_board_is_lost_after_the_configured_number_of_unanswered_frames
     bench = InProcessBench(tmp_path, link_timeout_ticks=7)
     rec = Recorder(bench)
     try:
-        for _ in range(3):
-            cid = bench.send("DELAY|3")
-            bench.acks.wait_status(cid, "EXECUTING")
-            time.sleep(0.2)
-            if bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
-                break
+        cid = _running(bench, "DELAY|3")
         mark = rec.switch(silent=True)
         status, details = bench.acks.terminal(cid, 5)
         assert status == "CANCELLED" and "the board left 7 frames in a row unanswered" in details
