@@ -87,6 +87,21 @@ def count_log(page, needle: str) -> int:
     return sum(needle in line for line in log_lines(page))
 
 
+#: true once one tab panel is in the page and no panel transition runs (Quasar keeps the panel
+#: it leaves in the page until its slide ends)
+_ONE_PANEL = """() => document.querySelectorAll('.q-tab-panel').length === 1
+    && !document.querySelector('.q-tab-panels [class*="-leave-active"], .q-tab-panels [class*="-enter-active"]')"""
+
+
+def show_tab(page, testid: str, timeout: float = 15.0) -> None:
+    """Click the tab ``testid`` and wait until its panel alone is in the page: judged on the
+    page's own state, not a fixed wait (on a loaded machine the slide took longer than 500 ms,
+    and axe-core judged the program tab's editor while it was leaving)."""
+    page.get_by_test_id(testid).click()
+    wait_until(lambda: page.get_by_test_id(testid).get_attribute("aria-selected") == "true"
+               and page.evaluate(_ONE_PANEL), timeout, what=f"{testid}'s panel alone in the page", page=page)
+
+
 def wait_linked(page, timeout: float = 40.0) -> None:
     wait_until(lambda: "LINKED" in text(page, "link-chip"), timeout, what="link up", page=page)
 

@@ -18,6 +18,7 @@ from tests.browser.helpers import (
     number,
     recover,
     settled,
+    show_tab,
     text,
     wait_linked,
     wait_ready,
@@ -42,10 +43,9 @@ def test_axe_finds_no_serious_or_critical_violation_on_any_tab_or_dialog(apage, 
     page.wait_for_timeout(500)
     found = {}
     for tab in ("tab-jog", "tab-gripper", "tab-program", "tab-record"):
-        page.get_by_test_id(tab).click()
-        page.wait_for_timeout(500)
+        show_tab(page, tab)
         found[tab] = axe_violations(page, axe_js)
-    page.get_by_test_id("tab-jog").click()
+    show_tab(page, "tab-jog")
     page.get_by_test_id("help-button").click()
     page.locator(".q-dialog").first.wait_for(state="visible", timeout=15000)
     page.wait_for_timeout(400)  # the dialog's fade-in (contrast is judged on the final colours)

@@ -423,15 +423,26 @@ def test_a_query_sent_after_an_ack_never_reads_an_older_state(bench):
         s.sendto(b"ACK_HERE", dest)
 
         def until_ack(cid: str, wanted: str) -> None:
+            seen = []  # (a terminal ack other than the one wanted fails at once, saying which)
             while True:
-                parts = s.recvfrom(65535)[0].decode().split("|")
-                if parts[0] == "ACK" and parts[1] == cid and parts[2] == wanted:
-                    return
+                try:
+                    parts = s.recvfrom(65535)[0].decode().split("|")
+                except TimeoutError:
+                    raise AssertionError(f"no {wanted} ack for {cid} within 5 s; its acks: {seen}") from None
+                if parts[0] == "ACK" and parts[1] == cid:
+                    seen.append("|".join(parts[2:]))
+                    if parts[2] == wanted:
+                        return
+                    assert parts[2] not in ("COMPLETED", "FAILED", "CANCELLED", "INVALID"), \
+                        f"{cid} ended {seen[-1]!r}, not {wanted}; its acks: {seen}"
 
         def status_now() -> dict:
             s.sendto(b"GET_STATUS_JSON", dest)
             while True:
-                text = s.recvfrom(65535)[0].decode()
+                try:
+                    text = s.recvfrom(65535)[0].decode()
+                except TimeoutError:
+                    raise AssertionError("no reply to GET_STATUS_JSON within 5 s") from None
                 if text.startswith("STATUS_JSON|"):
                     return json.loads(text.split("|", 1)[1])
 
