@@ -388,6 +388,8 @@ class SecondClient:
     PING_TIMEOUT_S = 1.0
     PING_GAP_S = 0.005
     ENABLE_AFTER_S = 0.1
+    #: an ENABLE with no effect on the board's frames after this long is sent again, s
+    ENABLE_AGAIN_S = 0.1
 
     def __init__(self, port: int, control_path: str, *, id_prefix: str = "c") -> None:
         self.addr = (HOST, port)
@@ -483,7 +485,14 @@ class SecondClient:
         for t in moments:
             time.sleep(max(0.0, t - time.monotonic()))
             end = time.monotonic() + arm_wait_s
+            again = time.monotonic() + self.ENABLE_AGAIN_S
             while not self._board_armed() and time.monotonic() < end:
+                if time.monotonic() >= again:
+                    # no effect yet: the kernel may have dropped the ENABLE at the controller's
+                    # full buffer (a starved run lost 2 in 3 datagrams there); send it again,
+                    # as a client that sees nothing happen would
+                    self.send("ENABLE")
+                    again = time.monotonic() + self.ENABLE_AGAIN_S
                 time.sleep(0.005)
             _, t_send = self.send("ESTOP")
             sent.append(t_send)
