@@ -7,7 +7,8 @@ second client.
 
 One client floods 20,000 datagrams/s for 10 s (valid immediate commands, queries, garbage;
 about a third carry an ID).  The second client sends ``ESTOP`` at 20 random moments, each
-time re-ENABLEs 0.1 s later and starts a new slow MOVEJOINT, and measures PING round trips all
+time re-ENABLEs 0.1 s later (and again every 0.1 s until the board's frames show it
+before the next ESTOP) and starts a new slow MOVEJOINT, and measures PING round trips all
 the time.  Judged:
 
 * ESTOP: by the frames, not by wall time: of the frames the controller wrote to the board after
