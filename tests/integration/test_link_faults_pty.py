@@ -23,6 +23,7 @@ import os
 import signal
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -83,8 +84,13 @@ class Recorder:
 _ENDED = ("COMPLETED", "FAILED", "CANCELLED", "INVALID")
 
 
+def _loop_stats(bench: InProcessBench) -> dict:
+    reply = bench.query("GET_LOOP_STATS") or ""
+    return json.loads(reply.split("|", 1)[1]) if reply.startswith("LOOP_STATS|") else {}
+
+
 def _running(bench: InProcessBench, text: str, tries: int = 5) -> str:
-    """Send ``text`` until it runs undisturbed (EXECUTING, and still 0.2 s later); returns its
+    """Send ``text`` until it runs undisturbed (EXECUTING, and still 20 frames later); returns its
     ID.  This busy process hosts the board's pty server: it can hold the replies back past a
     short link timeout, the link is then rightly lost before the test's own fault, and a
     command sent while it is down is refused ("board link is down", seen in a fresh clone at
@@ -96,7 +102,7 @@ def _running(bench: InProcessBench, text: str, tries: int = 5) -> str:
                    what=f"{text} executing or ended")
         if "EXECUTING" not in bench.acks.statuses(cid):
             continue
-        time.sleep(0.2)
+        _frames_pass(lambda: _loop_stats(bench), 20)
         if bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
             return cid
     raise AssertionError(f"{text} never ran undisturbed in {tries} tries")
@@ -107,7 +113,7 @@ def _jog_then_break_replies(bench: InProcessBench, rec: Recorder, **faults: obje
     for _ in range(3):  # a jog paused or cancelled by this busy process before the fault: again
         cid = _running(bench, "JOG|0|50|None|60")
         wait_until(lambda: bench.emu.speeds[0] > 0, 5, what="J1 jogging")
-        time.sleep(0.1)
+        _frames_pass(lambda: _loop_stats(bench), 10)
         if not bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
             continue
         return cid, rec.switch(direction="from_board", **faults)
@@ -171,10 +177,11 @@ def _fifo_thread(pid: int) -> int | None:
     return None
 
 
-def _frames_pass(client: load.Client, n: int) -> None:
-    """Wait until the controller has written ``n`` more frames (its ticks, not the clock)."""
-    sent = client.loop_stats()["frames_sent"]
-    wait_until(lambda: client.loop_stats().get("frames_sent", 0) >= sent + n, 20, what=f"{n} more frames written")
+def _frames_pass(loop_stats: Callable[[], dict], n: int) -> None:
+    """Wait until the controller has written ``n`` more frames (its ticks, not the clock);
+    ``loop_stats``: its GET_LOOP_STATS as a dict."""
+    sent = loop_stats()["frames_sent"]
+    wait_until(lambda: loop_stats().get("frames_sent", 0) >= sent + n, 20, what=f"{n} more frames written")
 
 
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads thread policies from /proc")
@@ -202,12 +209,12 @@ def test_a_controller_stalled_for_400_ms_is_no_lost_link_and_reports_its_schedul
             == fields["SCHED"]
         for text, label in (("MOVEJOINT|60|-80|170|10|-10|170|3|None", "MoveJoint"), ("JOG|0|40|2|None", "Jog")):
             cid = client.send(text)
-            _frames_pass(client, 40)
+            _frames_pass(client.loop_stats, 40)
             for _ in range(3):
                 os.kill(ctl.proc.pid, signal.SIGSTOP)
                 time.sleep(0.4)  # the stall itself: the stopped process counts no ticks
                 os.kill(ctl.proc.pid, signal.SIGCONT)
-                _frames_pass(client, 30)
+                _frames_pass(client.loop_stats, 30)
             status, details = client.terminal(cid, 20)
             # what the stalls cost is a move that ran stretched, and says so
             assert status == "COMPLETED" and details.startswith(f"{label} finished successfully"), (text, details)
