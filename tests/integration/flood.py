@@ -334,6 +334,8 @@ class EstopResult:
     frames_before: int | None
     #: time from the send to the board's receipt of that DISABLE frame, s (None: none came)
     latency_s: float | None
+    #: IDs of the ENABLEs sent since the previous ESTOP (the one that should have armed the board)
+    enables: tuple[str, ...] = ()
 
     @property
     def armed(self) -> bool:
@@ -474,13 +476,15 @@ class SecondClient:
         return bool(frames) and frames[-1][2] != BOARD_DISABLE
 
     # ---- the ESTOP cycles
-    def estop_cycles(self, moments: list[float], *, arm_wait_s: float = 0.3) -> list[float]:
+    def estop_cycles(self, moments: list[float], *,
+                     arm_wait_s: float = 0.3) -> list[tuple[float, tuple[str, ...]]]:
         """ENABLE and a move, then ESTOP at each of ``moments`` (monotonic; once the board's last
         frame is not DISABLE, waiting at most ``arm_wait_s`` for that), each followed by ENABLE
-        and a new move ``ENABLE_AFTER_S`` later.  Returns the ESTOP send times."""
+        and a new move ``ENABLE_AFTER_S`` later.  Returns each ESTOP's send time with the IDs
+        of the ENABLEs sent before it (since the previous ESTOP)."""
         self._board_armed()  # imports the control client before the timed part
         sent = []
-        self.send("ENABLE")
+        enables = [self.send("ENABLE")[0]]
         self.move()
         for t in moments:
             time.sleep(max(0.0, t - time.monotonic()))
@@ -491,17 +495,18 @@ class SecondClient:
                     # no effect yet: the kernel may have dropped the ENABLE at the controller's
                     # full buffer (a starved run lost 2 in 3 datagrams there); send it again,
                     # as a client that sees nothing happen would
-                    self.send("ENABLE")
+                    enables.append(self.send("ENABLE")[0])
                     again = time.monotonic() + self.ENABLE_AGAIN_S
                 time.sleep(0.005)
             _, t_send = self.send("ESTOP")
-            sent.append(t_send)
+            sent.append((t_send, tuple(enables)))
             time.sleep(max(0.0, t_send + self.ENABLE_AFTER_S - time.monotonic()))
-            self.send("ENABLE")
+            enables = [self.send("ENABLE")[0]]
             self.move()
         return sent
 
-    def judge_estops(self, sent: list[float], spy_log: Path | None = None) -> list[EstopResult]:
+    def judge_estops(self, sent: list[tuple[float, tuple[str, ...]]],
+                     spy_log: Path | None = None) -> list[EstopResult]:
         """Count the frames after each send before the first DISABLE: in the board's frame log,
         or with ``spy_log`` (the controller's ``spy+`` log) in the frames as the controller
         wrote them, each DISABLE then also found in the board's log (it arrived).  The latency
@@ -510,10 +515,10 @@ class SecondClient:
         A DISABLE that an earlier, late ESTOP caused can be taken for a later one's, which then
         looks faster than it was; the verdict stays right: that earlier ESTOP was itself more
         than a re-ENABLE late (at least 0.35 s), so it fails."""
-        board = [(f[1], f[2]) for f in self.frames(min(sent) - 1.0)] if sent else []
+        board = [(f[1], f[2]) for f in self.frames(min(t for t, _ in sent) - 1.0)] if sent else []
         frames = written_frames(spy_log) if spy_log is not None and sent else board
         results = []
-        for t_send in sent:
+        for t_send, enables in sent:
             before = [f for f in frames if f[0] <= t_send]
             after = [f for f in frames if f[0] > t_send]
             idx = next((i for i, f in enumerate(after) if f[1] == BOARD_DISABLE), None)
@@ -522,10 +527,11 @@ class SecondClient:
             if t_board is None:
                 idx = None
             results.append(EstopResult(t_send, before[-1][1] if before else None, idx,
-                                       None if t_board is None else t_board - t_send))
+                                       None if t_board is None else t_board - t_send, enables))
         return results
 
-    def phase(self, start: float, duration: float, estops: int, rng: random.Random) -> tuple[PhaseResult, list[float]]:
+    def phase(self, start: float, duration: float, estops: int,
+              rng: random.Random) -> tuple[PhaseResult, list[tuple[float, tuple[str, ...]]]]:
         """PINGs from ``start`` for ``duration`` s and ``estops`` ESTOP cycles at random moments
         in between; returns the pings and the ESTOP send times (judge them later, once late
         DISABLE frames had their chance)."""
