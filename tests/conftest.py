@@ -38,6 +38,14 @@ def wait_until(predicate, timeout: float = 10.0, interval: float = 0.02, what: s
         time.sleep(interval)
 
 
+def frames_pass(loop_stats, n: int, timeout: float = 20.0) -> None:
+    """Wait until the controller has written ``n`` more frames: its ticks, not the clock (a
+    busy machine stretches the wall clock, never the ticks).  ``loop_stats``: its
+    GET_LOOP_STATS as a dict (``ControllerProcess.loop_stats`` or the like)."""
+    sent = loop_stats()["frames_sent"]
+    wait_until(lambda: loop_stats().get("frames_sent", 0) >= sent + n, timeout, what=f"{n} more frames written")
+
+
 def process_state(pid: int) -> str | None:
     """The state letter of process ``pid`` in /proc (``S`` sleeping, ``T`` stopped, ``Z``
     exited but not yet reaped, ...), None when there is no such process."""
@@ -138,6 +146,13 @@ class ControllerProcess:
 
     def query(self, text: str, timeout: float = 1.0) -> str | None:
         return udp_query(self.port, text, timeout, self.host)
+
+    def loop_stats(self) -> dict:
+        """GET_LOOP_STATS as a dict (empty when no reply came)."""
+        import json
+
+        reply = self.query("GET_LOOP_STATS") or ""
+        return json.loads(reply.split("|", 1)[1]) if reply.startswith("LOOP_STATS|") else {}
 
     def log(self) -> str:
         return self.log_path.read_text(errors="replace") if self.log_path else ""

@@ -14,7 +14,7 @@ import signal
 
 import pytest
 from tests.browser.conftest import gui_on_controller
-from tests.browser.helpers import log_text, state, wait_linked, wait_ready, wait_until
+from tests.browser.helpers import log_text, recover, state, wait_linked, wait_ready, wait_until
 from tests.conftest import child_pids, process_state
 from tests.integration.boardsim import BoardSim
 
@@ -33,13 +33,29 @@ def setup(tmp_path_factory):
         board.close()
 
 
+def _ready(page) -> None:
+    """READY before the kill.  Beside two CPU hogs board-sim (its own process) left 50 frames
+    unanswered three times in 10 s: each time the controller rightly lost the link and the
+    state stays ERROR (latched) after the link is back.  Then Enable (``recover``), as a user
+    would; any other reason not to be READY fails here."""
+    for _ in range(3):
+        try:
+            wait_ready(page, 20)
+            return
+        except AssertionError:
+            if "frames in a row unanswered" not in log_text(page):
+                raise
+        recover(page)
+    wait_ready(page, 20)
+
+
 def test_a_killed_stop_supervisor_turns_the_state_to_error_and_is_logged_until_a_new_one_took_over(browser, setup):
     controller, url = setup
     page = browser.new_page(viewport={"width": 1500, "height": 1000})
     try:
         page.goto(url)
         wait_linked(page)
-        wait_ready(page)
+        _ready(page)
         (pid,) = [k for k in child_pids(controller.proc.pid) if process_state(k) not in (None, "Z")]
         os.kill(pid, signal.SIGKILL)
         wait_until(lambda: state(page) == "ERROR", 15, what="the state chip ERROR", page=page)

@@ -549,9 +549,13 @@ def test_flood_of_5000_datagrams_per_second_keeps_the_loop_and_acks_exact(bench)
     print(f"flood: {res['sent']} datagrams sent, {received} received; loop period "
           f"p50 {stats['period_p50_ms']:.2f} ms, p99 {stats['period_p99_ms']:.2f} ms, "
           f"max {stats['period_max_ms']:.2f} ms, overruns {stats['overruns'] - before['overruns']}; "
-          f"invalid {stats['datagrams_invalid'] - before['datagrams_invalid']}")
+          f"invalid {stats['datagrams_invalid'] - before['datagrams_invalid']}; "
+          f"board link losses {stats['link_losses'] - before['link_losses']}")
     assert bench.ctl.proc.poll() is None
-    assert bench.serial() == "1"
+    # the board link is up, or comes back by itself: beside two CPU hogs a 289 ms stall of the
+    # whole machine exceeded the 3-tick link timeout right at the flood's end (a lost link is
+    # the right answer to that, and the controller reconnects once a second)
+    wait_until(lambda: bench.serial() == "1", 10, what="the board link up after the flood")
     acked = [cid for cid in res["ids"] if cid in res["acks"]]
     for cid in acked:
         st = res["acks"][cid]

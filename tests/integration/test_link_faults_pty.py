@@ -23,11 +23,10 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from tests.conftest import start_controller, wait_until
+from tests.conftest import frames_pass, start_controller, wait_until
 from tests.integration import load
 from tests.integration.test_controller_pty import Bench
 
@@ -102,7 +101,7 @@ def _running(bench: InProcessBench, text: str, tries: int = 5) -> str:
                    what=f"{text} executing or ended")
         if "EXECUTING" not in bench.acks.statuses(cid):
             continue
-        _frames_pass(lambda: _loop_stats(bench), 20)
+        frames_pass(lambda: _loop_stats(bench), 20)
         if bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
             return cid
     raise AssertionError(f"{text} never ran undisturbed in {tries} tries")
@@ -113,7 +112,7 @@ def _jog_then_break_replies(bench: InProcessBench, rec: Recorder, **faults: obje
     for _ in range(3):  # a jog paused or cancelled by this busy process before the fault: again
         cid = _running(bench, "JOG|0|50|None|60")
         wait_until(lambda: bench.emu.speeds[0] > 0, 5, what="J1 jogging")
-        _frames_pass(lambda: _loop_stats(bench), 10)
+        frames_pass(lambda: _loop_stats(bench), 10)
         if not bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
             continue
         return cid, rec.switch(direction="from_board", **faults)
@@ -177,13 +176,6 @@ def _fifo_thread(pid: int) -> int | None:
     return None
 
 
-def _frames_pass(loop_stats: Callable[[], dict], n: int) -> None:
-    """Wait until the controller has written ``n`` more frames (its ticks, not the clock);
-    ``loop_stats``: its GET_LOOP_STATS as a dict."""
-    sent = loop_stats()["frames_sent"]
-    wait_until(lambda: loop_stats().get("frames_sent", 0) >= sent + n, 20, what=f"{n} more frames written")
-
-
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads thread policies from /proc")
 def test_a_controller_stalled_for_400_ms_is_no_lost_link_and_reports_its_scheduling(tmp_path):
     board = load.BoardSim(tmp_path)
@@ -209,12 +201,12 @@ def test_a_controller_stalled_for_400_ms_is_no_lost_link_and_reports_its_schedul
             == fields["SCHED"]
         for text, label in (("MOVEJOINT|60|-80|170|10|-10|170|3|None", "MoveJoint"), ("JOG|0|40|2|None", "Jog")):
             cid = client.send(text)
-            _frames_pass(client.loop_stats, 40)
+            frames_pass(client.loop_stats, 40)
             for _ in range(3):
                 os.kill(ctl.proc.pid, signal.SIGSTOP)
                 time.sleep(0.4)  # the stall itself: the stopped process counts no ticks
                 os.kill(ctl.proc.pid, signal.SIGCONT)
-                _frames_pass(client.loop_stats, 30)
+                frames_pass(client.loop_stats, 30)
             status, details = client.terminal(cid, 20)
             # what the stalls cost is a move that ran stretched, and says so
             assert status == "COMPLETED" and details.startswith(f"{label} finished successfully"), (text, details)
