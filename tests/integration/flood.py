@@ -141,6 +141,8 @@ def flood_main(argv: list[str]) -> int:
                 return
             replies[d[:16].split(b"|", 1)[0].decode("ascii", "replace")] += 1
             last_reply[0] = time.monotonic()
+            if done.is_set():
+                return  # (replies still coming: the main thread reads the counts next)
 
     reader = threading.Thread(target=read_replies, daemon=True)
     reader.start()
@@ -170,7 +172,7 @@ def flood_main(argv: list[str]) -> int:
     while time.monotonic() - max(t1, last_reply[0]) < 0.5 and time.monotonic() - t1 < linger_s:
         time.sleep(0.05)
     done.set()
-    reader.join(1.0)
+    reader.join()  # before the counts are read: the reader adds to them until it returns
     ok = [i for i in range(n) if i not in failed]
     sent_kinds = Counter(kinds[i] for i in ok)
     print(json.dumps({

@@ -473,6 +473,7 @@ import json, random, socket, sys, threading, time
 host, port, ack_port = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 duration, rate = float(sys.argv[4]), int(sys.argv[5])
 acks = {}
+lock = threading.Lock()  # the listener adds to acks while the main thread counts them
 ack_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 ack_sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 23)
 ack_sock.bind(("127.0.0.1", ack_port))
@@ -486,7 +487,8 @@ def listen():
             continue
         p = data.decode(errors="replace").split("|", 3)
         if len(p) >= 3 and p[0] == "ACK":
-            acks.setdefault(p[1], []).append(p[2])
+            with lock:
+                acks.setdefault(p[1], []).append(p[2])
 t = threading.Thread(target=listen, daemon=True); t.start()
 rng = random.Random(7)
 garbage = [b"", b"\xff\xfe\x00", b"MOVEJOINT|1|2", b"|||||", b"GET_ANGLES|x", b"JOG|99|1|1|1",
@@ -519,16 +521,21 @@ while True:
             pass
     time.sleep(0.001)
 end = time.monotonic() + 15
-while "COMPLETED" not in acks.get("zzzzzzz1", []) and time.monotonic() < end:
+def completed():
+    with lock:
+        return "COMPLETED" in acks.get("zzzzzzz1", [])
+while not completed() and time.monotonic() < end:
     sock.sendto(b"zzzzzzz1|STOP", (host, port))
     time.sleep(0.2)
 count, quiet = -1, time.monotonic()
 while time.monotonic() - quiet < 1.5 and time.monotonic() < end + 10:
-    c = sum(len(v) for v in acks.values())
+    with lock:
+        c = sum(len(v) for v in acks.values())
     if c != count:
         count, quiet = c, time.monotonic()
     time.sleep(0.1)
 stop = True
+t.join()
 print(json.dumps({"sent": n, "ids": ids, "acks": acks}))
 """
 
