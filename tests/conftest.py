@@ -7,6 +7,7 @@ homing (``homed=False``), and waits until its board link is up.
 
 from __future__ import annotations
 
+import json
 import os
 import socket
 import subprocess
@@ -149,8 +150,6 @@ class ControllerProcess:
 
     def loop_stats(self) -> dict:
         """GET_LOOP_STATS as a dict (empty when no reply came)."""
-        import json
-
         reply = self.query("GET_LOOP_STATS") or ""
         return json.loads(reply.split("|", 1)[1]) if reply.startswith("LOOP_STATS|") else {}
 

@@ -150,13 +150,11 @@ def test_gripper_status_is_visible_while_a_program_runs(ready, browser):
         page.keyboard.insert_text("Begin()\nGripper_cal()\nGripper(20,200,600)\nDelay(0.3)\n"
                                   "Gripper(180,200,600)\nDelay(4)\nEnd()\n")
         grip = page.get_by_test_id("grip-compact")
-        seen: list[str] = []
 
         def read_grip() -> str:
             assert grip.is_visible() and inside_viewport(page, box(page, "grip-compact")), \
                 "the gripper readout is not in view while the program runs"
-            seen.append(grip.inner_text())
-            return seen[-1]
+            return grip.inner_text()
 
         def before_the_180_move() -> bool:
             status = text(page, "prog-status")

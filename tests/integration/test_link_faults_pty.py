@@ -83,11 +83,6 @@ class Recorder:
 _ENDED = ("COMPLETED", "FAILED", "CANCELLED", "INVALID")
 
 
-def _loop_stats(bench: InProcessBench) -> dict:
-    reply = bench.query("GET_LOOP_STATS") or ""
-    return json.loads(reply.split("|", 1)[1]) if reply.startswith("LOOP_STATS|") else {}
-
-
 def _running(bench: InProcessBench, text: str, tries: int = 5) -> str:
     """Send ``text`` until it runs undisturbed (EXECUTING, and still 20 frames later); returns its
     ID.  This busy process hosts the board's pty server: it can hold the replies back past a
@@ -101,7 +96,7 @@ def _running(bench: InProcessBench, text: str, tries: int = 5) -> str:
                    what=f"{text} executing or ended")
         if "EXECUTING" not in bench.acks.statuses(cid):
             continue
-        frames_pass(lambda: _loop_stats(bench), 20)
+        frames_pass(bench.loop_stats, 20)
         if bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
             return cid
     raise AssertionError(f"{text} never ran undisturbed in {tries} tries")
@@ -112,7 +107,7 @@ def _jog_then_break_replies(bench: InProcessBench, rec: Recorder, **faults: obje
     for _ in range(3):  # a jog paused or cancelled by this busy process before the fault: again
         cid = _running(bench, "JOG|0|50|None|60")
         wait_until(lambda: bench.emu.speeds[0] > 0, 5, what="J1 jogging")
-        frames_pass(lambda: _loop_stats(bench), 10)
+        frames_pass(bench.loop_stats, 10)
         if not bench.acks.statuses(cid)[-1:] == ["EXECUTING"]:
             continue
         return cid, rec.switch(direction="from_board", **faults)
@@ -144,7 +139,7 @@ def test_bad_replies_mid_jog_leave_the_board_within_bounded_travel_and_nothing_m
         for _ in range(10):
             time.sleep(0.1)
             assert bench.emu.positions == still
-        stats = json.loads(bench.query("GET_LOOP_STATS").split("|", 1)[1])
+        stats = bench.loop_stats()
         assert stats["link_losses"] >= 1 and stats["link_holds"] >= 1
     finally:
         bench.close()
