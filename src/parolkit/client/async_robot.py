@@ -55,6 +55,8 @@ from parolkit.client.core import (
     QuerySpec,
     RobotCommands,
     RobotStatus,
+    _check,
+    _opt_timeout,
     bind_address,
     check_port,
     parse_query_reply,
@@ -481,6 +483,18 @@ class AsyncRobot(RobotCommands[AsyncResult[CommandResult], AsyncResult[AsyncComm
                                              f"controller stopped answering: {exc}") from None
         self._final.pop(record.id, None)
         return record.result()
+
+    async def wait_checkpoint(self, label: str, timeout: float | None = None) -> CommandResult:
+        """Wait until the newest checkpoint ``label`` this robot queued (:meth:`checkpoint`,
+        ``wait=False``) is reached: its result; ``CommandCancelled`` / ``CommandFailed`` when the
+        queue ended before it (STOP, an E-stop), ``CommandTimeout`` after ``timeout`` s.
+        ``ParolkitValueError`` for a label this robot never queued."""
+        body = _check(wire.build_checkpoint, label)
+        record = self._acks.newest(body)
+        if record is None:
+            raise ParolkitValueError(f"no checkpoint {label!r} was queued by this robot "
+                                     f"(await robot.checkpoint({label!r}, wait=False) first)")
+        return await self._wait_terminal(record, _opt_timeout(timeout))
 
     # ---- status stream ----
     def subscribe(self, every_n: int = 1, timeout: float | None = None,

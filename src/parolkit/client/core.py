@@ -408,6 +408,9 @@ class RobotStatus:
     stream_mode: bool
     tool: str
     plan_seq: int
+    #: the speed override (%, SPEED) and whether motion is paused (PAUSE until RESUME)
+    speed_pct: float = 100.0
+    paused: bool = False
     raw: dict[str, object] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -454,7 +457,9 @@ class RobotStatus:
                 loop=LoopStats.from_dict(_sub(obj, "loop")),
                 command=ActiveCommand.from_dict(obj.get("command")),
                 queue=_i(obj, "queue"), stream_mode=bool(obj.get("stream_mode", False)),
-                tool=str(obj.get("tool", "")), plan_seq=_i(obj, "plan_seq"), raw=obj,
+                tool=str(obj.get("tool", "")), plan_seq=_i(obj, "plan_seq"),
+                speed_pct=_f(obj, "speed_pct", 100.0),
+                paused=bool(obj.get("paused", False)), raw=obj,
             )
         except KeyError as exc:
             raise ReplyError(f"status: field {exc.args[0]!r} is missing") from None
@@ -677,6 +682,8 @@ class AckRecord:
     command: str
     sent_at: float
     history: list[tuple[AckStatus, str]] = field(default_factory=list)  # [(AckStatus, details), ...]
+    #: the datagram's body as sent (without the ID)
+    body: str = ""
     first_at: float | None = None
     terminal: tuple[AckStatus, str] | None = None
 
@@ -703,7 +710,7 @@ class AckBook:
         cmd_id = wire.new_command_id()
         while cmd_id in self._records:
             cmd_id = wire.new_command_id()
-        rec = AckRecord(cmd_id, command_name(body), time.monotonic())
+        rec = AckRecord(cmd_id, command_name(body), time.monotonic(), body=body)
         self._records[cmd_id] = rec
         while len(self._records) > self._history:
             self._records.popitem(last=False)
@@ -711,6 +718,13 @@ class AckBook:
 
     def get(self, cmd_id: str) -> AckRecord | None:
         return self._records.get(cmd_id)
+
+    def newest(self, body: str) -> AckRecord | None:
+        """The record of the newest command sent with exactly ``body``, or None."""
+        for rec in reversed(list(self._records.values())):
+            if rec.body == body:
+                return rec
+        return None
 
     def on_datagram(self, text: str) -> AckRecord | None:
         """Feed a received datagram; returns the record it added an ack to, or None (not an
@@ -1288,7 +1302,40 @@ class RobotCommands(Generic[_Result, _Handle]):
                       speed)
         return self._command(body, wait, timeout)
 
+    @overload
+    def checkpoint(self, label: str, wait: Literal[True] = True,
+                   timeout: float | None = None) -> _Result: ...
+    @overload
+    def checkpoint(self, label: str, wait: Literal[False],
+                   timeout: float | None = None) -> _Handle: ...
+    @overload
+    def checkpoint(self, label: str, wait: bool = True,
+                   timeout: float | None = None) -> _Result | _Handle: ...
+
+    def checkpoint(self, label: str, wait: bool = True,
+                   timeout: float | None = None) -> _Result | _Handle:
+        """Queue a checkpoint ``label`` (1..64 characters of ``[A-Za-z0-9_.:-]``): it completes
+        when the queue reaches it, i.e. when everything sent before it has ended.  With
+        ``wait=False`` continue at once and wait later with :meth:`wait_checkpoint`."""
+        body = _check(wire.build_checkpoint, label)
+        return self._command(body, wait, timeout)
+
     # ---- immediate control ----
+    def set_speed(self, percent: float, timeout: float | None = None) -> _Result:
+        """The speed override, 1..100 % of every planned speed: the running move slows down or
+        speeds up on its own path within the acceleration limits, and every later move runs so,
+        until changed (``SPEED``)."""
+        return self._run(_check(wire.build_speed, percent), _opt_timeout(timeout))
+
+    def pause(self, timeout: float | None = None) -> _Result:
+        """The running move slows down on its own path (within the acceleration limits) and
+        holds; nothing queued starts until :meth:`resume`.  :meth:`stop` cancels it all."""
+        return self._run("PAUSE", _opt_timeout(timeout))
+
+    def resume(self, timeout: float | None = None) -> _Result:
+        """A paused move continues on the same path to the same target; the queue runs again."""
+        return self._run("RESUME", _opt_timeout(timeout))
+
     def stop(self, timeout: float | None = None) -> _Result:
         """Cancel the active command and the queue (they end CANCELLED); hold position."""
         return self._run("STOP", _opt_timeout(timeout))

@@ -50,6 +50,8 @@ from parolkit.client.core import (
     QuerySpec,
     RobotCommands,
     RobotStatus,
+    _check,
+    _opt_timeout,
     bind_address,
     check_port,
     parse_query_reply,
@@ -444,6 +446,19 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
                     continue
                 self._wait(probe_at if deadline is None else min(probe_at, deadline))
             return record.result()
+
+    def wait_checkpoint(self, label: str, timeout: float | None = None) -> CommandResult:
+        """Wait until the newest checkpoint ``label`` this robot queued (:meth:`checkpoint`,
+        ``wait=False``) is reached: its result; ``CommandCancelled`` / ``CommandFailed`` when the
+        queue ended before it (STOP, an E-stop), ``CommandTimeout`` after ``timeout`` s.
+        ``ParolkitValueError`` for a label this robot never queued."""
+        body = _check(wire.build_checkpoint, label)
+        with self._cond:
+            record = self._acks.newest(body)
+        if record is None:
+            raise ParolkitValueError(f"no checkpoint {label!r} was queued by this robot "
+                                     f"(robot.checkpoint({label!r}, wait=False) first)")
+        return self._wait_terminal(record, _opt_timeout(timeout))
 
     # ---- status stream ----
     def subscribe(self, every_n: int = 1, callback: Callable[[RobotStatus], object] | None = None,

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import secrets
 import socket
 import string
@@ -78,6 +79,7 @@ __all__ = [
     # extensions
     "enable_robot", "disable_robot", "clear_robot_error", "estop_robot",
     "speed_robot_joints", "wait_robot_input", "set_robot_tool", "set_stream_mode",
+    "set_speed_override", "pause_robot", "resume_robot", "checkpoint", "wait_checkpoint",
     # queries
     "get_robot_pose", "get_robot_pose_matrix", "get_robot_joint_angles", "get_robot_io",
     "get_electric_gripper_status", "get_robot_joint_speeds", "is_robot_stopped",
@@ -89,7 +91,8 @@ __all__ = [
     "parse_numbers", "parse_status_fields", "parse_cookie", "parse_control", "ControlInfo",
     "build_move_joint", "build_move_pose", "build_move_cart", "build_move_cart_rel_trf",
     "build_jog", "build_multijog", "build_cartjog", "build_pneumatic_gripper",
-    "build_electric_gripper", "build_delay", "build_home", "build_speed_joint", "build_move_joint_path",
+    "build_electric_gripper", "build_delay", "build_checkpoint", "build_speed", "build_home",
+    "build_speed_joint", "build_move_joint_path",
     "build_wait_input", "build_smooth_circle", "build_smooth_arc_center",
     "build_smooth_arc_param", "build_smooth_spline", "build_smooth_helix", "build_smooth_blend",
     "build_stream", "build_set_tool", "build_set_port", "build_subscribe", "build_unsubscribe",
@@ -468,6 +471,22 @@ def build_delay(duration: Any) -> str:
 def build_home() -> str:
     """``HOME``."""
     return "HOME"
+
+
+#: a checkpoint label: 1..64 characters of [A-Za-z0-9_.:-]
+_LABEL_RE = re.compile(r"^[A-Za-z0-9_.:-]{1,64}$", re.ASCII)
+
+
+def build_checkpoint(label: Any) -> str:
+    """**(ext)** ``CHECKPOINT|label``: 1..64 characters of ``[A-Za-z0-9_.:-]``."""
+    if not isinstance(label, str) or not _LABEL_RE.match(label):
+        raise ValueError(f"label must be 1..64 characters of [A-Za-z0-9_.:-], got {label!r}")
+    return _join("CHECKPOINT", label)
+
+
+def build_speed(percent: Any) -> str:
+    """**(ext)** ``SPEED|pct``: the speed override, 1..100 %."""
+    return _join("SPEED", _number(percent, "percent", 1.0, 100.0))
 
 
 def build_speed_joint(speeds_deg_s: Any, duration: Any) -> str:
@@ -1339,6 +1358,55 @@ def get_control() -> Optional[ControlInfo]:
     except ValueError as exc:
         print(f"robot_api: GET_CONTROL: {exc}", file=sys.stderr)
         return None
+
+
+def set_speed_override(percent: float, wait_for_ack: bool = False, timeout: float = 2.0,
+                       non_blocking: bool = False) -> Result:
+    """**(ext)** The speed override, 1..100 % of every planned speed: the running move slows
+    down or speeds up on its own path within the acceleration limits, and every move after it
+    runs so, until changed."""
+    return _dispatch(build_speed(percent), wait_for_ack, timeout, non_blocking)
+
+
+def pause_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False) -> Result:
+    """**(ext)** The running move slows down on its own path and holds; nothing queued starts
+    until :func:`resume_robot` (STOP cancels it all)."""
+    return _dispatch("PAUSE", wait_for_ack, timeout, non_blocking)
+
+
+def resume_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False) -> Result:
+    """**(ext)** A paused move continues on the same path to the same target; the queue runs again."""
+    return _dispatch("RESUME", wait_for_ack, timeout, non_blocking)
+
+
+#: label -> command ID of the checkpoints this process queued (newest per label)
+_checkpoints: Dict[str, str] = {}
+_checkpoints_lock = threading.Lock()
+
+
+def checkpoint(label: str) -> Optional[str]:
+    """**(ext)** Queue a checkpoint: the controller acknowledges it COMPLETED when the queue
+    reaches it (everything sent before it has ended).  Returns its command ID; wait for it with
+    :func:`wait_checkpoint` (by label or ID)."""
+    text = build_checkpoint(label)
+    _, cmd_id = send_robot_command_tracked(text)
+    if cmd_id is not None:
+        with _checkpoints_lock:
+            _checkpoints[label] = cmd_id
+    return cmd_id
+
+
+def wait_checkpoint(label: str, timeout: float = 60.0) -> CommandRecord:
+    """**(ext)** Wait up to ``timeout`` s until the checkpoint ``label`` (the newest one queued
+    with :func:`checkpoint` under that label) is reached: its record, ``status`` COMPLETED when
+    reached, FAILED / CANCELLED when the queue ended before it (a STOP, an E-stop), ``TIMEOUT``
+    when not yet.  ValueError for a label this process never queued."""
+    t = _number(timeout, "timeout", 0.0)
+    with _checkpoints_lock:
+        cmd_id = _checkpoints.get(label)
+    if cmd_id is None:
+        raise ValueError(f"no checkpoint {label!r} was queued by this process (call checkpoint({label!r}) first)")
+    return _get_tracker().wait_for_completion(cmd_id, t)
 
 
 def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,

@@ -21,7 +21,8 @@ from parolkit.robot import GOTO_FF_GAIN, GOTO_GAIN_PER_S, JOINT_NAMES, goto_goal
 
 __all__ = [
     "FrameRequest", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity", "HomeActivity",
-    "DelayActivity", "OneShotActivity", "GripperCalibrateActivity", "WaitInputActivity", "OutputActivity",
+    "DelayActivity", "CheckpointActivity", "OneShotActivity", "GripperCalibrateActivity", "WaitInputActivity",
+    "OutputActivity",
     "Samples", "WARNING_PREFIX", "speed_samples", "ticks_for",
 ]
 
@@ -65,6 +66,12 @@ class TickContext:
     #: the frames (each frame runs it exactly one period: a simulated board with a frame
     #: clock), ``tick / rate_hz``: that board's own time, which a late tick does not advance
     clock_s: float | None = None
+    #: the path speed moves should run at, a fraction of the plan's: the SPEED override
+    #: (0.01..1), 0 while paused (a trajectory ramps to it within the acceleration limits)
+    speed_scale: float = 1.0
+    #: per joint, the acceleration limit a change of the path speed keeps to (steps/s^2);
+    #: None: no limit (the change takes one tick)
+    accel_steps_s2: Sequence[float] | None = None
 
     @property
     def schedule_s(self) -> float:
@@ -184,6 +191,10 @@ class TrajectoryActivity(Activity):
         self._last_target: tuple[int, ...] | None = None
         #: ticks the box held the target back behind the plan
         self.held_ticks = 0
+        #: the path speed, a fraction of the plan's (the SPEED override, 0 while paused; see
+        #: :meth:`_ramp`), and the plan's time (s) reached at schedule time ``t0``
+        self.k = 1.0
+        self._tau = 0.0
 
     def _load(self, samples: Samples) -> None:
         positions, speeds, commands = samples
@@ -205,13 +216,14 @@ class TrajectoryActivity(Activity):
         one would be now, instead of stepping back by ``k`` ticks."""
         self.i = max(0, min(int(k), self.n - 1))
         self._offset = self.i
+        self._tau = 0.0
 
     def _elapsed_samples(self, t: float, rate_hz: float) -> float:
         """The (fractional) sample due at schedule time ``t``.  Within 1e-6 of a whole sample
         it is that sample: on a board in lockstep the times are tick x period, products that
         are not exact (0.01 x 457 - 0.01 x 456 is not 0.01), and 2.9999999 samples would play
         as sample 2, a tick behind, and end the move a tick late on some start ticks only."""
-        s = (t - self.t0) * rate_hz + self._offset
+        s = (self._tau + self.k * (t - self.t0)) * rate_hz + self._offset
         whole = round(s)
         return float(whole) if abs(s - whole) < 1e-6 else s
 
@@ -222,14 +234,51 @@ class TrajectoryActivity(Activity):
         return FrameRequest(BoardCommand.GOTO, target, tuple(int(v) for v in spd), done=done, details=details)
 
     def _at(self, s: float) -> tuple[list[int], list[int]]:
-        """Target and feed-forward at sample coordinate ``s``, linear between samples."""
+        """Target and feed-forward at sample coordinate ``s``, linear between samples (the
+        feed-forward x the path speed :attr:`k`)."""
         k = int(s)
         f = s - k
+        c = self.k
         if f <= 1e-9 or k + 1 >= self.n:
-            return self.positions[k], self.speeds[k]
+            if c == 1.0:
+                return self.positions[k], self.speeds[k]
+            return self.positions[k], [int(round(v * c)) for v in self.speeds[k]]
         p0, p1, v0, v1 = self.positions[k], self.positions[k + 1], self.speeds[k], self.speeds[k + 1]
         return ([int(round(a + f * (b - a))) for a, b in zip(p0, p1)],
-                [int(round(a + f * (b - a))) for a, b in zip(v0, v1)])
+                [int(round(c * (a + f * (b - a)))) for a, b in zip(v0, v1)])
+
+    def _ramp(self, target: float, ctx: TickContext) -> None:
+        """Move the path speed :attr:`k` towards ``target`` (the SPEED override, or 0: PAUSE)
+        from this tick on, as fast as every joint's acceleration limit allows on this part of
+        the path: a joint's acceleration is ``k^2 a + k' v`` (``v``, ``a`` the plan's speed and
+        acceleration here at full speed), so ``k'`` keeps within ``+-ctx.accel_steps_s2`` on
+        every joint that moves.  The joints stay on the planned path (joint or Cartesian) while
+        they slow down, stop or speed up again: only the time along it changes."""
+        t = ctx.schedule_s
+        period = 1.0 / ctx.rate_hz
+        # the plan's time so far, at the old speed; from here on at the new one
+        self._tau += self.k * (t - self.t0)
+        self.t0 = t
+        k = self.k
+        lo, hi = -math.inf, math.inf
+        acc = ctx.accel_steps_s2
+        if acc is not None and self._s is not None and self.n:
+            i = min(int(self._s), self.n - 1)
+            v0, v1 = self.speeds[i], self.speeds[min(i + 1, self.n - 1)]
+            for vj, wj, amax in zip(v0, v1, acc):
+                if abs(vj) < 1.0:
+                    continue
+                aj = (wj - vj) * ctx.rate_hz
+                b1, b2 = (-amax - k * k * aj) / vj, (amax - k * k * aj) / vj
+                lo, hi = max(lo, min(b1, b2)), min(hi, max(b1, b2))
+        rate = (target - k) / period
+        if lo <= hi:
+            rate = min(max(rate, lo), hi)
+        else:  # the plan itself is at a joint's limit here: the path speed holds this tick
+            rate = 0.0
+        new = k + rate * period
+        new = min(new, target) if target >= k else max(new, target)
+        self.k = min(1.0, max(0.0, new))
 
     def _fits(self, s: float, box: Sequence[tuple[float, float]]) -> bool:
         pos, ff = self._at(s)
@@ -247,6 +296,10 @@ class TrajectoryActivity(Activity):
     def _play(self, ctx: TickContext) -> FrameRequest:
         box = ctx.box
         period = 1.0 / ctx.rate_hz
+        if self._s is None:
+            self.k = ctx.speed_scale  # from rest: the first frame runs at the path speed asked
+        elif self.k != ctx.speed_scale:
+            self._ramp(ctx.speed_scale, ctx)
         if box is None:
             # where the board is is not known (no trusted reply yet, a homing): no GO TO may
             # go out; before the first frame the schedule waits, later the board stands at
@@ -255,6 +308,7 @@ class TrajectoryActivity(Activity):
                 self._start_waits += 1
                 self.t0 = ctx.schedule_s + period
                 self._offset = self.i
+                self._tau = 0.0
                 if self._start_waits > self.settle_ticks:
                     return FrameRequest(BoardCommand.IDLE, done=AckStatus.FAILED,
                                 details=f"the board's position was not known for {self.settle_ticks * period:.2f} s: "
@@ -276,6 +330,7 @@ class TrajectoryActivity(Activity):
             if first:  # the board is not yet where the plan starts: start a tick later
                 self.t0 = ctx.schedule_s + period
                 self._offset = self.i
+                self._tau = 0.0
             return self._hold(low, box)
         self._s = s
         self.i = self.n if s >= last else int(s) + 1
@@ -385,6 +440,7 @@ class SpeedActivity(TrajectoryActivity):
         self.last_update = now
         self.t0 = now if schedule_s is None else schedule_s
         self._offset = 0
+        self._tau = 0.0
         self.limit_note = ""
 
     def _build(self, ctx: TickContext) -> FrameRequest | None:
@@ -409,6 +465,7 @@ class SpeedActivity(TrajectoryActivity):
         self._s = None
         self.settle_left = self.settle_ticks
         self.t0 = ctx.schedule_s
+        self._tau = 0.0
         return None
 
     def step(self, ctx: TickContext) -> FrameRequest:
@@ -500,6 +557,21 @@ class DelayActivity(Activity):
         if self.i >= self.ticks:
             return FrameRequest(BoardCommand.IDLE, done=AckStatus.COMPLETED)
         return FrameRequest(BoardCommand.IDLE)
+
+
+class CheckpointActivity(Activity):
+    """A CHECKPOINT: COMPLETED (details ``checkpoint LABEL``) as soon as it runs, i.e. when
+    everything queued before it has ended.  Its end needs no frame (``frameless_end``): the
+    next queued command takes that tick."""
+
+    frameless_end = True
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+
+    def step(self, ctx: TickContext) -> FrameRequest:
+        self.progress = 1.0
+        return FrameRequest(BoardCommand.IDLE, done=AckStatus.COMPLETED, details=f"checkpoint {self.label}")
 
 
 class OneShotActivity(Activity):

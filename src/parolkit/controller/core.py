@@ -45,6 +45,7 @@ from typing import Any
 from parolkit._frozen import quick_init
 from parolkit.controller.activities import (
     Activity,
+    CheckpointActivity,
     DelayActivity,
     FrameRequest,
     GripperCalibrateActivity,
@@ -268,6 +269,11 @@ class ControllerCore:
         self.tool_obj: object | None = None
         self.config = config
         self.stream_mode = False
+        #: the SPEED override (1..100 % of every planned speed) and PAUSE (the running move
+        #: holds on its path, nothing queued starts until RESUME)
+        self.speed_pct = 100.0
+        self.paused = False
+        self._accel = tuple(float(a) for a in model.accel_limit_steps_s2)
         self.plan_seq = 0
         #: the link: up (a session), and whether the replies count as missing now
         self.link_up = False
@@ -490,6 +496,7 @@ class ControllerCore:
     # ================================================================== safety events
 
     def _cancel_all(self, reason: str) -> int:
+        self.paused = False  # nothing is left to resume
         act = self.jobs.activity
         if (isinstance(act, HomeActivity) and act.sent and self.safety.enabled
                 and not self.safety.estop_latched):
@@ -589,6 +596,21 @@ class ControllerCore:
         if isinstance(cmd, C.StreamMode):
             self._set_stream_mode(cmd.on)
             return AckStatus.COMPLETED, f"stream mode {'on' if cmd.on else 'off'}"
+        if isinstance(cmd, C.Speed):
+            self.speed_pct = float(cmd.percent)
+            return AckStatus.COMPLETED, f"speed override {cmd.percent:g} %"
+        if isinstance(cmd, C.Pause):
+            if self.paused:
+                return AckStatus.COMPLETED, "already paused"
+            self.paused = True
+            what = ("the running move slows down on its path and holds" if self.jobs.active is not None
+                    else "nothing runs")
+            return AckStatus.COMPLETED, f"paused: {what}; nothing queued starts until RESUME"
+        if isinstance(cmd, C.Resume):
+            if not self.paused:
+                return AckStatus.COMPLETED, "not paused: nothing to resume"
+            self.paused = False
+            return AckStatus.COMPLETED, "resumed"
         if isinstance(cmd, C.SetPort):
             if self.jobs.active is not None or self.jobs.waiting:
                 return AckStatus.FAILED, "robot is busy: STOP before switching the port"
@@ -940,6 +962,8 @@ class ControllerCore:
             self.plan_seq += 1
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
+        elif isinstance(cmd, C.Checkpoint):
+            act = CheckpointActivity(cmd.label)
         elif isinstance(cmd, C.PneumaticGripper):
             on = cmd.action == "open"  # as the original: open = output on
             self.setpoints = self.setpoints.with_output(cmd.port, on)
@@ -971,7 +995,7 @@ class ControllerCore:
     def _try_activate(self) -> None:
         """Start the next waiting job if it can run (planned, from where the robot is)."""
         jobs = self.jobs
-        while jobs.waiting:
+        while jobs.waiting and not self.paused:
             job = jobs.waiting[0]
             cmd = job.command
             if cmd.is_motion and not self.homed and not (cmd.EXECUTION is Execution.SPEED and cmd.STREAMABLE):
@@ -1040,7 +1064,8 @@ class ControllerCore:
             st = self.status
             origin = [float(p) for p in st.positions] if st is not None else None
         return TickContext(inp.tick, inp.time, self.rate_hz, self.status, self.homed, self.stream_mode,
-                           self.watchdog_s, self._limits, box, origin, self.integrity.homing_seen)
+                           self.watchdog_s, self._limits, box, origin, self.integrity.homing_seen,
+                           speed_scale=0.0 if self.paused else self.speed_pct / 100.0, accel_steps_s2=self._accel)
 
     def _run_activity(self, act: Activity, ctx: TickContext) -> FrameRequest:
         """This tick's request of the running job's activity; ends the job (its terminal ack)
@@ -1138,6 +1163,7 @@ class ControllerCore:
             # the reply that answered it: until then the snapshot would show the old state)
             state_known=not self.probe.active and self.probe.result is None,
             sent=frame if self.link_up else None, queue_view=jobs.view(), plan=self._plan_view(),
+            speed_pct=self.speed_pct, paused=self.paused,
         )
 
     # ================================================================== views for tests and tools

@@ -221,6 +221,23 @@ class InProcessController:
 
     # ------------------------------------------------------------------ ticks
 
+    def run_ticks(self, n: int) -> None:
+        """Run ``n`` ticks now (fast-forward, whatever ``paced`` says): tools and tests that
+        send datagrams at ticks of their choosing (:meth:`send`) and read what came back."""
+        with self._lock:
+            for _ in range(int(n)):
+                if self._closed:
+                    return
+                self._tick()
+
+    def take_datagrams(self) -> list[bytes]:
+        """Every datagram the controller has sent the client since the last call (acks,
+        replies), oldest first."""
+        with self._lock:
+            out = list(self._sock.outgoing)
+            self._sock.outgoing.clear()
+            return out
+
     def _until_deadline(self) -> float:
         """Seconds until the next tick's deadline (0 when fast-forwarding).  Paced: a run that
         fell more than a period behind (the client did not wait) starts again from now."""

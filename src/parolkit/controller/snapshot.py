@@ -104,7 +104,7 @@ class Snapshot:
 
     __slots__ = (
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
-        "error", "command", "queue", "stream_mode", "tool", "plan_seq", "outputs", "loop_view",
+        "error", "command", "queue", "stream_mode", "speed_pct", "paused", "tool", "plan_seq", "outputs", "loop_view",
         "server_view", "integrity", "state_known", "sent", "queue_view", "plan", "_steps_per_deg",
         "_pose_provider", "_angles", "_pose", "_matrix", "_replies",
     )
@@ -136,6 +136,8 @@ class Snapshot:
         sent: CommandFrame | None = None,
         queue_view: QueueView | None = None,
         plan: PlanView | None = None,
+        speed_pct: float = 100.0,
+        paused: bool = False,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -149,6 +151,9 @@ class Snapshot:
         self.command = command
         self.queue = queue
         self.stream_mode = stream_mode
+        #: the SPEED override (%) and whether motion is paused (PAUSE until RESUME)
+        self.speed_pct = speed_pct
+        self.paused = paused
         self.tool = tool
         self.plan_seq = plan_seq
         self.outputs = outputs
@@ -284,7 +289,7 @@ class Snapshot:
             f"|CMD={cmd}|ERROR={err}|OVERLOAD={self.overload}"
             f"|IMPLAUSIBLE={self.integrity.implausible}|UNCOMMANDED={self.integrity.uncommanded}"
             f"|SCHED={self.scheduling}|LINK_LOSSES={self.loop_view.get('link_losses', 0)}"
-            f"|SERIAL={int(self.board.connected)}"
+            f"|SPEED={self.speed_pct:g}|PAUSED={int(self.paused)}|SERIAL={int(self.board.connected)}"
         )
 
     @property
@@ -345,6 +350,8 @@ class Snapshot:
             "command": self.command.as_dict() if self.command else None,
             "queue": self.queue,
             "stream_mode": self.stream_mode,
+            "speed_pct": self.speed_pct,
+            "paused": self.paused,
             "tool": self.tool,
             "plan_seq": self.plan_seq,
             "sent": ({"command": int(self.sent.command), "steps": list(self.sent.positions),

@@ -88,6 +88,10 @@ __all__ = [
     "ClearError",
     "EStop",
     "StreamMode",
+    "Speed",
+    "Pause",
+    "Resume",
+    "Checkpoint",
     "SetPort",
     "SetTool",
     "Subscribe",
@@ -190,6 +194,8 @@ class Execution(Enum):
     GRIPPER = "gripper"
     #: wait for a digital input
     WAIT_INPUT = "wait_input"
+    #: a mark in the queue, acked COMPLETED when the queue reaches it
+    CHECKPOINT = "checkpoint"
 
 
 class AckStatus(str, Enum):
@@ -471,6 +477,37 @@ class StreamMode(Command):
 
 
 @dataclass(frozen=True)
+class Speed(Command):
+    """``SPEED|pct``: the speed override, 1..100 % of every planned speed, for the running move
+    (from the next tick, ramped within each joint's acceleration limit along the move's own
+    path) and every move after it, until changed."""
+
+    percent: float = 100.0
+    NAME: ClassVar[str] = "SPEED"
+    KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+
+
+@dataclass(frozen=True)
+class Pause(Command):
+    """``PAUSE``: the running move decelerates along its own path within each joint's
+    acceleration limit and holds there; nothing queued starts until RESUME.  From any client
+    (like STOP: it only ever slows the robot)."""
+
+    NAME: ClassVar[str] = "PAUSE"
+    KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    OPEN: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Resume(Command):
+    """``RESUME``: a paused move continues on the same path to the same target (ramped up
+    within the acceleration limits); the queue runs again."""
+
+    NAME: ClassVar[str] = "RESUME"
+    KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+
+
+@dataclass(frozen=True)
 class SetPort(Command):
     """``SET_PORT|name``: switch the serial port (device path)."""
 
@@ -628,6 +665,16 @@ class Delay(Command):
     seconds: float = 0.0
     NAME: ClassVar[str] = "DELAY"
     EXECUTION: ClassVar[Execution] = Execution.DELAY
+
+
+@dataclass(frozen=True)
+class Checkpoint(Command):
+    """``CHECKPOINT|label``: acked COMPLETED (details ``checkpoint LABEL``) when the queue
+    reaches it: everything queued before it has ended.  It takes no tick of its own."""
+
+    label: str = ""
+    NAME: ClassVar[str] = "CHECKPOINT"
+    EXECUTION: ClassVar[Execution] = Execution.CHECKPOINT
 
 
 @dataclass(frozen=True)
@@ -910,6 +957,23 @@ def _p_delay(a: Sequence[str], m: RobotModel) -> Command:
     return Delay(_ranged(a[0], "seconds", 0.0, MAX_DURATION_S, unit="s"))
 
 
+#: a checkpoint label: 1..64 characters of [A-Za-z0-9_.:-]
+_LABEL_RE = re.compile(r"^[A-Za-z0-9_.:-]{1,64}$", re.ASCII)
+
+
+def _p_checkpoint(a: Sequence[str], m: RobotModel) -> Command:
+    _nargs(a, "CHECKPOINT", 1)
+    label = a[0].strip()
+    if not _LABEL_RE.match(label):
+        raise DatagramError(f"label must be 1..64 characters of [A-Za-z0-9_.:-], got {_show(a[0])}")
+    return Checkpoint(label)
+
+
+def _p_speed(a: Sequence[str], m: RobotModel) -> Command:
+    _nargs(a, "SPEED", 1)
+    return Speed(_ranged(a[0], "speed override (%)", 1.0, 100.0, unit="%"))
+
+
 def _p_pneumatic(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "PNEUMATICGRIPPER", 2)
     action = a[0].strip().lower()
@@ -1184,6 +1248,10 @@ _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "CARTJOG": _p_cartjog,
     "HOME": _p_home,
     "DELAY": _p_delay,
+    "CHECKPOINT": _p_checkpoint,
+    "SPEED": _p_speed,
+    "PAUSE": _no_args(Pause),
+    "RESUME": _no_args(Resume),
     "PNEUMATICGRIPPER": _p_pneumatic,
     "ELECTRICGRIPPER": _p_electric,
     "SPEEDJOINT": _p_speedjoint,

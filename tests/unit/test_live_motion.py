@@ -1,0 +1,247 @@
+"""Live motion on the virtual clock (issue 24): the speed override (SPEED), pause on the path
+(PAUSE / RESUME) and checkpoints (CHECKPOINT), judged on the frames the controller writes to
+a simulated board in lockstep (one period per frame), with datagrams sent at ticks the test
+chooses (:class:`~parolkit.controller.fastforward.InProcessController`).
+
+The frames are GO TO (156) frames: a target (steps) and a feed-forward speed (steps/s); the
+path speed is read from the feed-forward and from the targets' steps per tick."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+
+from parolkit.config import load_config
+from parolkit.controller.fastforward import FRAME_LOG_HEADER, InProcessController
+from parolkit.kinematics.fk import fk
+from parolkit.protocol.frames import BoardCommand, CommandFrame, IOBits
+from parolkit.robot import PAROL6
+
+RATE = 100.0
+PERIOD = 1.0 / RATE
+ACCEL = PAROL6.accel_limit_steps_s2
+SPD = np.asarray(PAROL6.steps_per_deg, dtype=float)
+
+
+class Bench:
+    """An in-process controller, ready (homed), its frame log and the acks by command ID."""
+
+    def __init__(self) -> None:
+        self.log = io.StringIO()
+        self.sim = InProcessController(load_config(None), paced=False, frame_log=self.log)
+        self.sim.start()
+        self.acks: dict[str, list[tuple[str, str]]] = {}
+        self._n = 0
+
+    def close(self) -> None:
+        self.sim.close()
+
+    def send(self, text: str) -> str:
+        """Send ``ID|text`` now (it reaches the core at the next tick); returns the ID."""
+        self._n += 1
+        cid = f"lm{self._n:06d}"
+        self.sim.send(f"{cid}|{text}".encode())
+        self._collect()
+        return cid
+
+    def _collect(self) -> None:
+        for d in self.sim.take_datagrams():
+            parts = d.decode().split("|", 3)
+            if parts[0] == "ACK":
+                self.acks.setdefault(parts[1], []).append((parts[2], parts[3] if len(parts) > 3 else ""))
+
+    def run(self, ticks: int) -> None:
+        self.sim.run_ticks(ticks)
+        self._collect()
+
+    def terminal(self, cid: str) -> tuple[str, str] | None:
+        for status, details in self.acks.get(cid, []):
+            if status in ("COMPLETED", "FAILED", "CANCELLED", "INVALID"):
+                return status, details
+        return None
+
+    def run_until_done(self, cid: str, limit: int = 3000) -> tuple[int, tuple[str, str]]:
+        """Tick until ``cid`` has its terminal ack: (ticks run, the ack)."""
+        for k in range(limit):
+            done = self.terminal(cid)
+            if done is not None:
+                return k, done
+            self.run(1)
+        raise AssertionError(f"{cid} did not end within {limit} ticks: {self.acks.get(cid)}")
+
+    def frames(self) -> list[tuple[int, CommandFrame]]:
+        lines = self.log.getvalue().splitlines()
+        assert lines[0] + "\n" == FRAME_LOG_HEADER
+        out = []
+        for line in lines[1:]:
+            tick, data = line.split(" ")
+            out.append((int(tick), CommandFrame.decode(bytes.fromhex(data))))
+        return out
+
+    @property
+    def tick(self) -> int:
+        return self.sim.ticks
+
+
+@pytest.fixture()
+def bench():
+    b = Bench()
+    yield b
+    b.close()
+
+
+def _gotos(frames: list[tuple[int, CommandFrame]], since: int) -> list[tuple[int, CommandFrame]]:
+    return [(t, f) for t, f in frames if t >= since and f.command == BoardCommand.GOTO]
+
+
+def _assert_speed_steps_within_accel(gotos: list[tuple[int, CommandFrame]], slack: float = 1.1) -> None:
+    """From frame to frame, no joint's feed-forward speed changes by more than the acceleration
+    limit allows in one period (``slack``: the rounding of speeds and the samples' own steps)."""
+    for (t0, a), (t1, b) in zip(gotos, gotos[1:]):
+        assert t1 == t0 + 1, "a GO TO frame every tick"
+        for j in range(6):
+            dv = abs(b.speeds[j] - a.speeds[j])
+            assert dv <= ACCEL[j] * PERIOD * slack + 2, (t1, j, a.speeds[j], b.speeds[j])
+
+
+def test_speed_50_halfway_through_a_movejoint_makes_the_rest_take_twice_as_long(bench):
+    ref = Bench()
+    try:
+        cid = ref.send("MOVEJOINT|60|-80|170|10|-10|170|4|None")
+        full_ticks, done = ref.run_until_done(cid)
+        assert done[0] == "COMPLETED", done
+    finally:
+        ref.close()
+    cid = bench.send("MOVEJOINT|60|-80|170|10|-10|170|4|None")
+    start = bench.tick
+    bench.run(200)  # halfway: 2 s of the 4
+    speed = bench.send("SPEED|50")
+    bench.run(1)
+    assert bench.terminal(speed) == ("COMPLETED", "speed override 50 %")
+    rest, done = bench.run_until_done(cid)
+    assert done[0] == "COMPLETED", done
+    first_half, second_half = 201, rest + 1
+    # the rest (full_ticks - 201 at 100 %) takes twice as long, give or take the ramp (a few
+    # ticks) and the settle at the end, which is not scaled
+    assert abs(second_half - 2 * (full_ticks - first_half)) <= 30, (full_ticks, second_half)
+    gotos = _gotos(bench.frames(), start)
+    _assert_speed_steps_within_accel(gotos)
+    # it ends on the target, exactly (the board's report, not the plan's)
+    angles = bench.sim.controller.snapshot.angles_deg
+    assert np.allclose(angles, (60, -80, 170, 10, -10, 170), atol=1.5 / SPD.min())
+    # the override stays for the next move
+    assert bench.sim.controller.snapshot.speed_pct == 50.0
+
+
+def test_speed_is_refused_outside_1_to_100_naming_the_field(bench):
+    for bad in ("0", "100.5", "-3", "fast", ""):
+        cid = bench.send(f"SPEED|{bad}")
+        bench.run(1)
+        status, details = bench.terminal(cid) or ("", "")
+        assert status == "INVALID" and "speed override (%)" in details or "SPEED takes 1" in details, (bad, details)
+    assert bench.sim.controller.snapshot.speed_pct == 100.0
+
+
+def _tcp(frame: CommandFrame) -> np.ndarray:
+    """The TCP (mm) where a GO TO frame's target puts the joints."""
+    deg = np.asarray(frame.positions, dtype=float) / SPD
+    return np.asarray(fk(deg)[:3], dtype=float)
+
+
+def test_pause_mid_movecart_stops_on_the_line_holds_and_resume_ends_at_the_target(bench):
+    start_pose = bench.sim.controller.snapshot.pose
+    x, y, z, a, b, c = start_pose
+    target = (x, y + 60.0, z - 40.0, a, b, c)
+    cid = bench.send("MOVECART|" + "|".join(f"{v:.4f}" for v in target) + "|3|None")
+    t_start = bench.tick
+    bench.run(120)
+    pause = bench.send("PAUSE")
+    bench.run(1)
+    status, details = bench.terminal(pause) or ("", "")
+    assert status == "COMPLETED" and details.startswith("paused"), details
+    bench.run(150)  # it slows down and holds
+    assert bench.terminal(cid) is None  # still running: paused, not ended
+    snap = bench.sim.controller.snapshot
+    assert snap.paused and "PAUSED=1" in snap.reply_status()
+    held = _gotos(bench.frames(), bench.tick - 50)
+    assert len({f.positions for _, f in held}) == 1 and not any(any(f.speeds) for _, f in held), \
+        "paused: the same target, no feed-forward, for the last 50 ticks"
+    resume = bench.send("RESUME")
+    rest, done = bench.run_until_done(cid)
+    assert bench.terminal(resume) == ("COMPLETED", "resumed")
+    assert done[0] == "COMPLETED", done
+    gotos = _gotos(bench.frames(), t_start)
+    _assert_speed_steps_within_accel(gotos)
+    # every target on the way (the slow-down, the hold and the restart among them) is on the line
+    p0, p1 = np.asarray(start_pose[:3]), np.asarray(target[:3])
+    d = (p1 - p0) / np.linalg.norm(p1 - p0)
+    worst = 0.0
+    for _, f in gotos:
+        q = _tcp(f) - p0
+        worst = max(worst, float(np.linalg.norm(q - np.dot(q, d) * d)))
+    assert worst <= 0.05, f"a target {worst:.3f} mm off the line"
+    final = np.asarray(bench.sim.controller.snapshot.pose[:3])
+    assert np.linalg.norm(final - p1) < 0.1
+
+
+def test_a_pause_holds_the_queue_until_resume(bench):
+    first = bench.send("DELAY|0.05")
+    bench.run(2)  # the delay runs (a queued command starts at the tick after it came)
+    paused = bench.send("PAUSE")
+    move = bench.send("MOVEJOINT|0|-90|180|0|0|180|4|None")
+    bench.run(60)
+    # what runs and moves nothing (a delay, an output, a wait) runs to its end
+    assert bench.terminal(first)[0] == "COMPLETED"
+    assert bench.terminal(paused)[0] == "COMPLETED"
+    assert [s for s, _ in bench.acks[move]] == ["QUEUED"], "nothing queued starts while paused"
+    bench.send("RESUME")
+    _, done = bench.run_until_done(move)
+    assert done[0] == "COMPLETED", done
+
+
+def test_stop_while_paused_cancels_the_move_and_ends_the_pause(bench):
+    move = bench.send("MOVEJOINT|60|-80|170|10|-10|170|4|None")
+    bench.run(100)
+    bench.send("PAUSE")
+    bench.run(60)
+    bench.send("STOP")
+    bench.run(2)
+    assert bench.terminal(move)[0] == "CANCELLED"
+    assert not bench.sim.controller.snapshot.paused
+    nxt = bench.send("MOVEJOINT|0|-90|180|0|0|180|4|None")
+    _, done = bench.run_until_done(nxt)
+    assert done[0] == "COMPLETED", done
+
+
+def test_a_checkpoint_is_acked_when_the_queue_reaches_it_and_takes_no_tick(bench):
+    move = bench.send("MOVEJOINT|0|-90|180|0|0|180|4|None")
+    mark = bench.send("CHECKPOINT|after-move.1")
+    out = bench.send("PNEUMATICGRIPPER|open|1")
+    bench.run(1)
+    assert [s for s, _ in bench.acks[mark]] == ["QUEUED"]
+    _, done = bench.run_until_done(move)
+    assert done[0] == "COMPLETED", done
+    move_end = bench.tick
+    _, mark_done = bench.run_until_done(mark)
+    assert mark_done == ("COMPLETED", "checkpoint after-move.1")
+    _, out_done = bench.run_until_done(out)
+    assert out_done[0] == "COMPLETED"
+    # the output's frame follows the move's last frame at once: the checkpoint took no tick
+    frames = bench.frames()
+    first_out = next(t for t, f in frames if t >= move_end - 1 and f.io & IOBits.OUT1)
+    assert first_out <= move_end, (first_out, move_end)
+
+
+@pytest.mark.parametrize("bad, why", [
+    ("CHECKPOINT", "CHECKPOINT takes 1 arguments, got 0"),
+    ("CHECKPOINT|", "CHECKPOINT takes 1 arguments, got 0"),
+    ("CHECKPOINT|a b", "label must be 1..64 characters"),
+    ("CHECKPOINT|" + "x" * 65, "label must be 1..64 characters"),
+])
+def test_a_bad_checkpoint_label_is_refused_naming_the_rule(bench, bad, why):
+    cid = bench.send(bad)
+    bench.run(1)
+    status, details = bench.terminal(cid) or ("", "")
+    assert status == "INVALID" and why in details, details
