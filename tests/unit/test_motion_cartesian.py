@@ -139,13 +139,20 @@ def test_unreachable_pose_is_refused_naming_the_point():
     assert ei.value.time_s is not None
 
 
-def test_path_grazing_the_wrist_singularity_is_refused_naming_joint_and_time():
+def test_path_grazing_the_wrist_singularity_takes_the_in_range_wrist_branch_or_is_refused_naming_joint_and_time():
     a = np.array([90.0, -90.0, 180.0, 0.0, 10.0, 180.0])
-    b = kin.fk([90.0, -90.0, 180.0, 5.0, -10.0, 175.0])  # J4 would have to swing past its limit
+    b = kin.fk([90.0, -90.0, 180.0, 5.0, -10.0, 175.0])
+    # on the start's wrist branch J4 would swing past its limit: J4 passes J5 = 0 onto the
+    # other branch instead (issue 24, item 8), the TCP exact, and ends on the pose
+    tr = plan(CartMove(b), a)
+    assert np.abs(tr.planned_deg[-1] - [90.0, -90.0, 180.0, 5.0, -10.0, 175.0]).max() < 0.01
+    assert any("J4 on its other wrist branch" in n for n in tr.notes)
+    _assert_limits(tr)
+    # with too little time for that turn: refused naming J4, the time and J4's range
     with pytest.raises(PlanningError) as ei:
-        plan(CartMove(b), a)
+        plan(CartMove(b, duration_s=1.0), a)
     e = ei.value
-    assert e.joint == 3 and e.time_s is not None and 0 < e.time_s < 2.5
+    assert e.joint == 3 and e.time_s is not None and 0 < e.time_s <= 1.0
     assert "J4" in str(e) and "-105.5" in str(e)
 
 

@@ -548,11 +548,13 @@ def _wrap(d: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def solve_continuous(
     rot: Sequence[NDArray[np.float64]], pos: Sequence[NDArray[np.float64]], q0: tuple[float, ...],
-    branch0: Branch, pin_flip: bool,
+    branch0: Branch, pin_flip: bool, check_limits: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_] | None]:
     """Branch-continuous solutions (N, 6) rad given sample 0's solution ``q0`` and its branch.
 
-    Raises :class:`IKError` with ``.sample`` at the first sample that cannot be followed.
+    Raises :class:`IKError` with ``.sample`` at the first sample that cannot be followed (out
+    of reach; with ``check_limits``, also a joint out of its range; without it the path is
+    followed continuously whatever the ranges, unclipped, and the caller checks them).
     """
     n = rot[0].shape[0]
     back = branch0.shoulder == "back"
@@ -620,6 +622,8 @@ def solve_continuous(
         np.floor(np.diff(raw, axis=1) * -_INV_2PI + 0.5, out=k[:, 1:])
         np.cumsum(k, axis=1, out=k)
     q = raw + TWO_PI * k
+    if not check_limits:
+        return q.T, sel
     lo_c = LIM_LO_ARR[:, None]
     hi_c = LIM_HI_ARR[:, None]
     above = q > hi_c + LIMIT_TOL

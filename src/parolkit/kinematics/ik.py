@@ -685,7 +685,8 @@ def _violation_any(theta: float, j: int) -> float:
 
 
 def ik_batch(poses: object, seed_deg: object = None, tool: str | Tool | None = None,
-             config: Branch | str | None = None, *, continuous: bool | None = None) -> NDArray[np.float64]:
+             config: Branch | str | None = None, *, continuous: bool | None = None,
+             check_limits: bool = True) -> NDArray[np.float64]:
     """IK for N poses at once: ``(N, 6)`` mm/deg or ``(N, 4, 4)`` m -> ``(N, 6)`` deg.
 
     With one seed (``(6,)``, default standby) the poses are treated as a path
@@ -694,6 +695,12 @@ def ik_batch(poses: object, seed_deg: object = None, tool: str | Tool | None = N
     (no branch hop, no 360 deg wrap; the wrist follows the nearer of its two solutions unless
     ``config`` pins ``wrist_flip``).  With ``continuous=False`` or one seed per pose
     (``(N, 6)``) every pose is solved independently, nearest to its seed.
+
+    ``check_limits=False`` (continuous mode only): sample 0 is still solved within the joint
+    ranges, but the path is then followed continuously even where a joint leaves its range
+    (the angles are returned unclipped; the caller checks them).  The singular-area policy
+    uses it: near J5 = 0 the continuous wrist may swing J4 out of its range where the same
+    pose with the other wrist branch (J4 +- 180, -J5, J6 +- 180) is inside it.
 
     Raises :class:`IKError` with ``.sample`` = index of the first pose that fails.
     """
@@ -720,6 +727,8 @@ def ik_batch(poses: object, seed_deg: object = None, tool: str | Tool | None = N
         continuous = seeds.ndim == 1
     elif continuous and seeds.ndim == 2:
         raise IKError("continuous=True takes one seed (6 values), not one per pose", kind=IKFailure.BAD_INPUT)
+    if not check_limits and not continuous:
+        raise IKError("check_limits=False applies to a continuous path only (one seed)", kind=IKFailure.BAD_INPUT)
     if n == 0:
         return np.zeros((0, 6))
 
@@ -737,7 +746,7 @@ def ik_batch(poses: object, seed_deg: object = None, tool: str | Tool | None = N
             raise diagnose(r0, p0, seed0, br).with_sample(0)
         _d, q0, sh, el, fl = found[0]
         pin_flip = br is not None and br.wrist_flip is not None
-        q, _sel = _b.solve_continuous(rot, pos, q0, Branch(sh, el, fl), pin_flip)
+        q, _sel = _b.solve_continuous(rot, pos, q0, Branch(sh, el, fl), pin_flip, check_limits)
         return np.multiply(q, _RAD, order="C")
     q, ok, _b_idx = _b.solve_independent(rot, pos, seeds, br)
     if not ok.all():

@@ -4,14 +4,16 @@ singularity or a change of IK branch.
 A stage of the Cartesian pipeline (:mod:`parolkit.motion.cartesian`): the tool poses of the
 samples (mm, rotation matrices) -> ``kinematics.ik_batch`` (branch-continuous, seeded with the
 start joints) or, where that turns J4/J6 too fast near J5 = 0, the singular-area policy
-(:mod:`parolkit.motion.singular`) -> joint speeds by central differences.  A path the robot
-cannot reach, or a joint that jumps or needs an unbounded speed, becomes a
-:class:`~parolkit.motion.errors.PlanningError` naming the time, the joint and the nearest
-singularity.
+(:mod:`parolkit.motion.singular`; also where the start's wrist branch would swing J4/J6 out of
+range there, J4 then passing onto the other, in-range branch) -> joint speeds by central
+differences.  A path the robot cannot reach, or a joint that jumps or needs an unbounded
+speed, becomes a :class:`~parolkit.motion.errors.PlanningError` naming the time, the joint and
+the nearest singularity.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
@@ -28,7 +30,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "poses_from_rotations", "solve_ik", "solve_path", "deviation_error", "derivative", "check_jumps",
-    "singularity_text", "near_singularity", "refuse_singular",
+    "singularity_text", "near_singularity", "refuse_singular", "OtherBranchArea",
 ]
 
 
@@ -90,11 +92,27 @@ def solve_path(
     """Joint angles (deg) for the sampled path at times ``t`` (s): the exact IK, or where that
     turns J4/J6 faster than ``v_limits_deg_s`` near J5 = 0, the singular-area policy
     (:mod:`parolkit.motion.singular`: TCP position exact, orientation deviation measured).
-    Returns (q, the policy's result or None when the exact solution is used)."""
-    q = solve_ik(name, pos_mm, rots, seed, tool, t)
+    Returns (q, the policy's result or None when the exact solution is used).
+
+    A path passing close to J5 = 0 swings the exact wrist's J4 by up to 180 deg; continued
+    on the start's wrist branch, J4 (or J6) may leave its range where the same poses on the
+    other wrist branch (J4 +- 180, -J5, J6 +- 180) are inside it (after a jog from standby,
+    a MoveCart back down).  The exact IK is then followed beyond the ranges and the policy,
+    whose J4 takes the in-range one of the two branches, passes the singular area; a joint
+    still out of its range is refused naming the joint, its value and its range."""
+    out_of_range: PlanningError | None = None
+    try:
+        q = solve_ik(name, pos_mm, rots, seed, tool, t)
+    except PlanningError as exc:
+        beyond = _beyond_range(exc, pos_mm, rots, seed, tool, t, v_limits_deg_s)
+        if beyond is None:
+            raise
+        q, out_of_range = beyond, exc
     full = np.vstack([np.asarray(seed, dtype=float)[None, :], q])
     tt = np.concatenate(([0.0], t))
     if not singular.needs_policy(full, tt, v_limits_deg_s):
+        if out_of_range is not None:  # (not reached: _beyond_range found a fast turn)
+            raise out_of_range
         return q, None
     from parolkit import kinematics as kin
 
@@ -108,12 +126,97 @@ def solve_path(
         raise PlanningError(
             name, f"the path leaves the robot's reach at [{p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}] mm near the "
             f"wrist singularity: {exc.reason}", time_s=float(t[k])) from exc
-    return area.q_deg, area
+    if out_of_range is None:
+        return area.q_deg, area
+    other = OtherBranchArea(area.q_deg, area.deviation_deg, area.t, start_branch=_start_branch(out_of_range, model))
+    _check_range(name, other, model)
+    return other.q_deg, other
+
+
+#: The wrist joints whose range the policy's choice of wrist branch decides (J4, J6).
+_WRIST_JOINTS = (3, 5)
+
+
+def _beyond_range(
+    exc: PlanningError, pos_mm: NDArray[np.float64], rots: NDArray[np.float64], seed: NDArray[np.float64],
+    tool: str | Tool | None, t: NDArray[np.float64], v_limits_deg_s: NDArray[np.float64],
+) -> NDArray[np.float64] | None:
+    """The exact joint path followed beyond the joint ranges, when ``exc`` (the exact IK's
+    refusal) is J4 or J6 leaving its range after the exact wrist has swung J4/J6 faster than
+    they can turn near J5 = 0 (the singular area, where the policy picks the wrist branch);
+    None otherwise (``exc`` stands)."""
+    from parolkit import kinematics as kin
+
+    cause = exc.__cause__
+    if not (isinstance(cause, kin.IKError) and cause.kind is kin.IKFailure.JOINT_LIMIT
+            and cause.joint in _WRIST_JOINTS and cause.sample is not None):
+        return None
+    try:
+        q = np.asarray(kin.ik_batch(poses_from_rotations(pos_mm, rots), seed, tool=tool, check_limits=False),
+                       dtype=float)
+    except kin.IKError:
+        return None
+    k = min(int(cause.sample), len(q) - 1)
+    full = np.vstack([np.asarray(seed, dtype=float)[None, :], q[:k + 1]])
+    tt = np.concatenate(([0.0], np.asarray(t, dtype=float)[:k + 1]))
+    return q if singular.needs_policy(full, tt, v_limits_deg_s) else None
+
+
+def _start_branch(exact: PlanningError, model: RobotModel) -> str:
+    """``"J4 would be -125.2 deg (allowed -105.5 .. 105.5 deg)"``: the joint the exact IK's
+    refusal ``exact`` found out of range on the start's wrist branch."""
+    from parolkit import kinematics as kin
+
+    cause = exact.__cause__
+    if not (isinstance(cause, kin.IKError) and cause.joint is not None and cause.value is not None):
+        return exact.reason  # pragma: no cover - _beyond_range takes only such refusals
+    return f"{JOINT_NAMES[cause.joint]} would be {cause.value:.1f} deg ({_allowed(model, cause.joint)})"
+
+
+def _allowed(model: RobotModel, j: int) -> str:
+    lim = model.safe_limits_deg
+    return f"allowed {lim[j, 0]:.1f} .. {lim[j, 1]:.1f} deg"
+
+
+def _check_range(name: str, area: OtherBranchArea, model: RobotModel) -> None:
+    """Refuse the policy's joints where one is still outside its range: J4, when it cannot
+    turn to its in-range branch in time; J6, which continues from the start and may have no
+    in-range value on that branch."""
+    lim = model.safe_limits_deg
+    q = area.q_deg
+    bad = (q < lim[:, 0]) | (q > lim[:, 1])
+    if not bad.any():
+        return
+    k = int(np.argmax(bad.any(axis=1)))
+    j = int(np.argmax(bad[k]))
+    if j == 3:
+        text = (f"J4 would leave its range on either wrist branch past the wrist singularity (J5 near 0): "
+                f"on the start's, {area.start_branch}; turning to the other (J4 +- 180 deg, -J5), "
+                f"{q[k, j]:.1f} deg")
+    else:
+        text = (f"past the wrist singularity (J5 near 0) {JOINT_NAMES[j]} would be {q[k, j]:.1f} deg "
+                f"({_allowed(model, j)}) on the wrist branch that keeps J4 in range; on the start's, "
+                f"{area.start_branch}")
+    raise PlanningError(name, text, time_s=float(area.t[k]), joint=j, value=float(q[k, j]))
+
+
+@dataclass(frozen=True)
+class OtherBranchArea(singular.WristArea):
+    """The singular-area policy's result for a path whose exact IK, continued on the start's
+    wrist branch, leaves a joint range (``start_branch`` says which: ``"J4 would be
+    -125.2 deg (allowed -105.5 .. 105.5 deg)"``): J4 passes the singular area to the other branch."""
+
+    start_branch: str = ""
+
+    def note(self) -> str:
+        return f"{super().note()}; J4 on its other wrist branch past J5 = 0 (on the start's, {self.start_branch})"
 
 
 def deviation_error(name: str, area: singular.WristArea, hint: str) -> PlanningError:
     """The refusal of a path whose singular-area policy deviates from the tool orientation by more
     than :data:`~parolkit.motion.singular.MAX_DEVIATION_DEG`, or does not reach it at the end."""
+    if isinstance(area, OtherBranchArea):
+        hint = f"J4 turns to its other wrist branch (on the start's, {area.start_branch}); {hint}"
     if area.max_deviation_deg <= singular.MAX_DEVIATION_DEG:
         return PlanningError(
             name, f"near the wrist singularity (J5 = 0) J4/J6 cannot turn in time: the tool "

@@ -9,6 +9,7 @@ running one from a :class:`JogStart`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -132,7 +133,7 @@ def plan_cart_jog(
             if over == 0:
                 return at_rest(0)
             t, q, pos, rots = t[:over], q[:over], pos[:over], rots[:over]
-            area = singular.WristArea(q, area.deviation_deg[:over], t)
+            area = dataclasses.replace(area, q_deg=q, deviation_deg=area.deviation_deg[:over], t=t)
             n = over
         notes.insert(0, area.note())
     dt = 1.0 / rate_hz
