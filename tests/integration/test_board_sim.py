@@ -18,6 +18,7 @@ import serial
 from parolkit.board import BoardEmulator, PtyBoardServer
 from parolkit.client.launch import die_with_parent
 from parolkit.protocol import BoardCommand, CommandFrame, StatusFrame, StatusParser
+from parolkit.protocol.frames import TIMER_HZ
 from parolkit.transport import LinkLostError, SerialTransport
 
 STANDBY = (10240, -32000, 57905, 0, 0, 32000)
@@ -82,14 +83,15 @@ def board(tmp_path):
     assert not link.exists()
 
 
-def test_enable_home_idle_at_100hz_ends_homed_at_standby_with_timing_about_7031(board):
+def test_enable_home_idle_at_100hz_ends_homed_at_standby_with_timing_of_the_frame_interval(board):
     emu, server, pc = board
     assert pc.exchange(command=BoardCommand.ENABLE).xtr == 101
     assert pc.exchange(command=BoardCommand.HOME).xtr == 100
     homed = None
     next_t = time.monotonic()
-    timings = []
+    timings, written = [], []
     for _ in range(500):
+        written.append(time.monotonic())
         st = pc.exchange(command=BoardCommand.IDLE)
         timings.append(st.timing)
         if st.homed == 0xFF:
@@ -99,7 +101,13 @@ def test_enable_home_idle_at_100hz_ends_homed_at_standby_with_timing_about_7031(
         time.sleep(max(0.0, next_t - time.monotonic()))
     assert homed is not None, "not homed within 5 s at speedup 50"
     assert homed.positions == STANDBY and homed.xtr == 255
-    assert 6300 < statistics.median(timings[1:]) < 7800  # 10 ms = 7031 ticks
+    # the timing field is the time since the previous frame in the board's timer ticks
+    # (703,125 Hz: 10 ms = 7031).  It is judged against the intervals this process wrote the
+    # frames at, not against 10 ms: a busy machine runs this loop late, and the board reports
+    # what it got (the medians of the two agree; single frames differ by the pty's jitter)
+    intervals = [(b - a) * TIMER_HZ for a, b in zip(written, written[1:])]
+    reported, expected = statistics.median(timings[1:]), statistics.median(intervals)
+    assert 0.85 * expected < reported < 1.15 * expected, (reported, expected)
 
 
 def test_goto_frame_converges_on_its_target(board):

@@ -1839,6 +1839,8 @@ class RobotStatusDict(TypedDict):
     command: Optional[str]
     error: Optional[str]
     serial: Optional[bool]
+    speed_pct: Optional[float]
+    paused: Optional[bool]
     stopped: bool
     estop: bool
 
@@ -1850,12 +1852,13 @@ def get_robot_status() -> RobotStatusDict:
     steps/s, ``io`` [IN1, IN2, OUT1, OUT2, ESTOP], ``gripper`` (as
     :func:`get_electric_gripper_status`), ``stopped``, ``estop`` (pressed); and ``pose_matrix``
     (4 rows), ``state``, ``homed`` (6 bools), ``queue``, ``command``, ``error``, ``serial``
-    (True when the controller's board link is up).  As the original, a dict always: without
+    (True when the controller's board link is up), ``speed_pct`` (the speed override) and
+    ``paused`` (PAUSE until RESUME).  As the original, a dict always: without
     a reply (message on stderr) every value is None and ``stopped`` / ``estop`` are False.
     """
     empty = RobotStatusDict(pose=None, pose_matrix=None, angles=None, speeds=None, io=None, gripper=None,
                             state=None, homed=None, queue=None, command=None, error=None, serial=None,
-                            stopped=False, estop=False)
+                            speed_pct=None, paused=None, stopped=False, estop=False)
     payload = _query("GET_STATUS", "STATUS")
     if payload is None:
         return empty
@@ -1879,6 +1882,8 @@ def get_robot_status() -> RobotStatusDict:
             command=None if f.get("CMD") in (None, "None", "") else f["CMD"],
             error=None if f.get("ERROR") in (None, "None", "") else f["ERROR"],
             serial=f["SERIAL"].strip() == "1" if "SERIAL" in f else None,
+            speed_pct=float(f["SPEED"]) if "SPEED" in f else None,
+            paused=f["PAUSED"].strip() == "1" if "PAUSED" in f else None,
         )
     except (KeyError, ValueError) as exc:
         print(f"robot_api: malformed STATUS reply ({exc!s})", file=sys.stderr)

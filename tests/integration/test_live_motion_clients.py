@@ -1,0 +1,96 @@
+"""SPEED, PAUSE, RESUME and CHECKPOINT through the real controller process and both clients
+(issue 24), on a simulated board in lockstep with the frames: a pause is judged by the status
+the controller reports (paused, the arm at rest on its way, the move still running), not by
+the clock.  Who may send them: PAUSE any client (it only slows the robot, like STOP); SPEED
+and RESUME only the holder of the control lease."""
+
+from __future__ import annotations
+
+import pytest
+from tests.conftest import frames_pass, start_controller, wait_until
+
+from parolkit.client.errors import CommandFailed
+from parolkit.client.robot import Robot
+from parolkit.errors import ParolkitValueError
+
+TARGET = [60, -80, 170, 10, -10, 170]
+
+
+@pytest.fixture()
+def served(tmp_path):
+    ctl = start_controller(log_dir=tmp_path, lockstep=True)
+    yield ctl
+    ctl.stop()
+
+
+def _at_rest(r: Robot) -> bool:
+    st = r.status()
+    return st.paused and not any(st.speeds)
+
+
+def test_robot_pauses_a_move_on_its_way_resumes_it_and_waits_for_a_checkpoint(served):
+    with Robot(port=served.port, ack_port=0, timeout=2.0) as r:
+        move = r.move_joints(TARGET, duration=4, wait=False)
+        r.checkpoint("reached-target", wait=False)
+        frames_pass(served.loop_stats, 100)
+        assert r.pause().details.startswith("paused")
+        wait_until(lambda: _at_rest(r), 20, what="the arm at rest, paused")
+        held = r.angles()
+        frames_pass(served.loop_stats, 30)
+        assert r.angles() == held, "paused: the arm holds where it stopped"
+        assert not move.done() and held != pytest.approx(TARGET, abs=0.5), "paused on the way, the move running"
+        assert "PAUSED=1" in served.query("GET_STATUS")
+        r.set_speed(50)
+        assert r.status().speed_pct == 50.0
+        r.resume()
+        res = r.wait_checkpoint("reached-target", timeout=30)
+        assert res.ok and res.details == "checkpoint reached-target"
+        assert move.done() and move.result().ok
+        assert r.angles() == pytest.approx(TARGET, abs=0.01)
+        with pytest.raises(ParolkitValueError, match="no checkpoint 'never' was queued"):
+            r.wait_checkpoint("never")
+        with pytest.raises(ParolkitValueError, match="label must be 1..64 characters"):
+            r.checkpoint("two words")
+        with pytest.raises(ParolkitValueError, match="percent"):
+            r.set_speed(0)
+
+
+def test_robot_api_speed_pause_resume_and_checkpoints(served):
+    from parolkit.client import robot_api
+
+    before = robot_api.configure()
+    robot_api.configure(port=served.port, ack_port=served.ack_port)
+    try:
+        assert robot_api.set_speed_override(40, wait_for_ack=True)["status"] == "COMPLETED"
+        cid = robot_api.move_robot_joints(TARGET, duration=3, wait_for_ack=True, non_blocking=True)
+        robot_api.checkpoint("one")
+        assert robot_api.pause_robot(wait_for_ack=True)["status"] == "COMPLETED"
+        st = robot_api.get_robot_status()
+        assert st is not None and st["paused"] is True and st["speed_pct"] == 40.0
+        assert robot_api.resume_robot(wait_for_ack=True)["details"] == "resumed"
+        rec = robot_api.wait_checkpoint("one", timeout=30)
+        assert rec["status"] == "COMPLETED" and rec["details"] == "checkpoint one"
+        assert robot_api.check_command_status(cid)["status"] == "COMPLETED"
+        with pytest.raises(ValueError, match="no checkpoint 'other'"):
+            robot_api.wait_checkpoint("other")
+        with pytest.raises(ValueError, match="percent"):
+            robot_api.set_speed_override(101)
+    finally:
+        robot_api.configure(**{k: before[k] for k in ("host", "port", "ack_port")})
+
+
+def test_any_client_may_pause_only_the_lease_holder_may_resume_or_change_the_speed(served):
+    with Robot(port=served.port, ack_port=0, timeout=2.0) as owner, \
+            Robot(port=served.port, ack_port=0, timeout=2.0) as other:
+        owner.take_control()
+        move = owner.move_joints(TARGET, duration=4, wait=False)
+        frames_pass(served.loop_stats, 50)
+        other.pause()  # anyone may slow the robot down
+        wait_until(lambda: _at_rest(owner), 20, what="the arm at rest, paused")
+        with pytest.raises(CommandFailed, match="RESUME refused"):
+            other.resume()
+        with pytest.raises(CommandFailed, match="SPEED refused"):
+            other.set_speed(100)
+        owner.resume()
+        assert move.result(timeout=30).ok
+        owner.release_control()
