@@ -3,8 +3,9 @@ frames (every frame runs the board exactly one period: durations are counted in 
 same on a loaded machine as on an idle one).  Position-tracked moves end exactly on their
 target; a wrist move of the original commander's programs runs in its time (with a warning when
 it needs more than a joint's acceleration limit); a speed violation is refused with the
-shortest t that works.  The frames and the board's positions are read from the controller's
-status stream (``sent``: the frame written at that tick; ``steps``: the board's counters)."""
+shortest t that works (which runs stretched within the position-tracking maximum).  The frames
+and the board's positions are read from the controller's status stream (``sent``: the frame
+written at that tick; ``steps``: the board's counters)."""
 
 from __future__ import annotations
 
@@ -96,15 +97,26 @@ def test_wrist_move_of_the_original_programs_runs_in_its_time_and_a_speed_violat
     assert "above its limit 66000 steps/s^2" in details and "the move runs in the t=0.5 s given" in details
     assert _ran_in_its_time(_gotos(log, cid), 0.5)
     assert _board_steps(client) == PAROL6.standby_steps
-    # in 0.3 s J5 would exceed its speed limit: refused, nothing moves, with the minimum t
+    # in 0.3 s J5 would exceed its maximum speed: refused, nothing moves, with the minimum t
+    # accepted and the t from which it runs as given (issue 24 item 7: in between it runs
+    # stretched within the position-tracking maximum)
     cid, status, details = _run(client, f"MOVEJOINT|{_fmt(j5)}|0.3|None")
     assert status == "FAILED"
-    assert "J5 would need a speed of" in details and details.endswith("give t >= 0.48 s.")
+    assert "J5 would need a speed of" in details and details.endswith(
+        "give t >= 0.36 s (a t below 0.48 s runs stretched to 0.48 s: J5 position-tracking maximum 16714 steps/s).")
     assert not _gotos(log, cid)
     assert _board_steps(client) == PAROL6.standby_steps
-    # the shortest t the refusal names runs, in its time, at the board (in lockstep no tick is
-    # late, so the guard meets exactly the frames the planner made: 99.7 % of J5's maximum)
-    cid, status, details = _run(client, f"MOVEJOINT|{_fmt(j5)}|0.48|None")
+    # the shortest t the refusal names runs, stretched to 0.48 s, and says so
+    cid, status, details = _run(client, f"MOVEJOINT|{_fmt(j5)}|0.36|None")
     assert status == "COMPLETED", details
+    assert "warning: J5 needs 21852 steps/s to finish in the t=0.36 s given" in details
+    assert "the move runs stretched to 0.48 s" in details
     assert _ran_in_its_time(_gotos(log, cid), 0.48)
     assert _board_steps(client) == tuple(deg_to_steps(j5).tolist())
+    # and 0.48 s runs in its time, at the board (in lockstep no tick is late, so the guard meets
+    # exactly the frames the planner made: 99.7 % of J5's maximum)
+    cid, status, details = _run(client, f"MOVEJOINT|{_fmt(back)}|0.48|None")
+    assert status == "COMPLETED", details
+    assert "runs stretched" not in details
+    assert _ran_in_its_time(_gotos(log, cid), 0.48)
+    assert _board_steps(client) == PAROL6.standby_steps

@@ -172,10 +172,27 @@ def test_move_over_a_speed_limit_is_refused_with_the_minimum_t(rig):
     rig.run_until(lambda: rig.terminal("aaaa0001") is not None)
     assert rig.terminal("aaaa0001") is AckStatus.FAILED
     msg = _details(rig, "aaaa0001", AckStatus.FAILED)
-    assert "J5 would need a speed of" in msg and msg.endswith("give t >= 0.48 s.")
-    rig.submit("aaaa0002|MOVEJOINT|90|-90|180|0|59|180|0.48|None")
+    # over J5's maximum speed (22000 steps/s): the shortest t accepted, and the t from which it
+    # runs as given (within the position-tracking maximum)
+    assert "J5 would need a speed of 26222 steps/s, above its maximum speed 22000 steps/s" in msg
+    assert msg.endswith("give t >= 0.36 s (a t below 0.48 s runs stretched to 0.48 s: J5 position-tracking "
+                        "maximum 16714 steps/s).")
+    # the shortest t named runs, stretched to 0.48 s, and its acks say so
+    n0 = len(rig.frames)
+    rig.submit("aaaa0002|MOVEJOINT|90|-90|180|0|59|180|0.36|None")
     rig.run_until(lambda: rig.terminal("aaaa0002") is not None)
     assert rig.terminal("aaaa0002") is AckStatus.COMPLETED
+    done = _details(rig, "aaaa0002", AckStatus.COMPLETED)
+    assert ("MoveJoint finished successfully; warning: J5 needs 21852 steps/s to finish in the t=0.36 s given, "
+            "above its position-tracking maximum 16714 steps/s") in done
+    assert "the move runs stretched to 0.48 s" in done
+    gotos = [f for f in rig.frames[n0:] if f.command == BoardCommand.GOTO]
+    assert 48 <= len(gotos) <= 48 + 10  # 48 samples, then the board's last steps
+    assert rig.emu.positions == tuple(deg_to_steps([90, -90, 180, 0, 59, 180]).tolist())
+    rig.submit("aaaa0003|MOVEJOINT|90|-90|180|0|0|180|0.48|None")
+    rig.run_until(lambda: rig.terminal("aaaa0003") is not None)
+    assert rig.terminal("aaaa0003") is AckStatus.COMPLETED
+    assert "runs stretched" not in _details(rig, "aaaa0003", AckStatus.COMPLETED)
 
 
 def test_plan_warnings_join_any_other_detail_of_the_terminal_ack():

@@ -45,17 +45,17 @@ def _brute_force(start, target, kind, T, rate):
     return t, pos, np.rint(sp_f).astype(np.int64), None
 
 
-def _continuous_overload(start, target, kind, T, rate, *, accel: bool = False) -> float:
-    """Largest peak speed / position-tracking max speed (``accel``: peak |accel| / the joint's
-    acceleration limit) over the joints, from the profile evaluated on a dense grid (20001
-    points), not from the closed-form peaks."""
+def _continuous_overload(start, target, kind, T, rate, *, accel: bool = False, full: bool = False) -> float:
+    """Largest peak speed / position-tracking max speed (``full``: / the maximum speed;
+    ``accel``: peak |accel| / the joint's acceleration limit) over the joints, from the profile
+    evaluated on a dense grid (20001 points), not from the closed-form peaks."""
     tt = np.linspace(0.0, T, 20001)
     if kind == "poly":
         _, sd, sdd = quintic(tt, T)
     else:
         _, sd, sdd = ScalarProfile("trap", T, T / 3.0)(tt)
     dist = np.abs((target - start) * SPD)
-    vlim = PAROL6.max_tracked_speed_steps_s(rate)
+    vlim = np.asarray(PAROL6.max_speed_steps_s, dtype=float) if full else PAROL6.max_tracked_speed_steps_s(rate)
     if accel:
         return float(np.max(np.abs(sdd).max() * dist / AMAX))
     return float(np.max(np.abs(sd).max() * dist / vlim))
@@ -70,22 +70,37 @@ def test_analytic_validation_agrees_with_a_brute_force_scan(start, target, durat
     if np.abs((target - start) * SPD).max() < 0.5:
         return  # a hold, not a move (tested elsewhere)
     move = JointMove(target, duration_s=duration, profile=kind)
-    t, pos, sp, verdict = _brute_force(start, target, kind, duration, rate)
+    # over a joint's position-tracking maximum (but within its maximum speed) the move runs
+    # stretched to the shortest duration within it, rounded up to 0.01 s
+    over_track = _continuous_overload(start, target, kind, duration, rate)
+    stretch = max(validate.round_up_duration(duration * over_track), duration * over_track)
+    T = duration if over_track <= 1.0 else stretch
+    t, pos, sp, verdict = _brute_force(start, target, kind, T, rate)
     try:
         tr = plan(move, start, rate_hz=rate)
     except PlanningError as exc:
         msg = str(exc)
         if "too fast" in msg:
-            # refused from the closed-form peaks: the continuous profile does exceed a limit
-            # (the samples may straddle the peak, so the scan need not see it)
-            assert _continuous_overload(start, target, kind, duration, rate) > 1.0 - 1e-6
-        else:
+            # refused from the closed-form peaks: the continuous profile does exceed a joint's
+            # maximum speed (the samples may straddle the peak, so the scan need not see it)
+            assert _continuous_overload(start, target, kind, duration, rate, full=True) > 1.0 - 1e-6
+            assert "above its maximum speed" in msg
+        elif abs(over_track - 1.0) > 1e-6:
             # a position outside the range: exactly the scan's first offending sample
             assert msg == verdict
         return
+    assert _continuous_overload(start, target, kind, duration, rate, full=True) <= 1.0 + 1e-6
+    stretched = [n for n in tr.notes if "runs stretched" in n]
+    if abs(over_track - 1.0) <= 1e-6:
+        return  # on the edge of the position-tracking maximum (either way is right)
+    if over_track > 1.0:
+        assert len(stretched) == 1 and stretched[0].endswith(f"the move runs stretched to {stretch:.2f} s")
+        assert stretched[0].startswith("warning: J") and f"to finish in the t={duration:g} s given" in stretched[0]
+    else:
+        assert not stretched
     # accepted: the scan of the same samples finds nothing either ...
     assert verdict is None, verdict
-    assert _continuous_overload(start, target, kind, duration, rate) <= 1.0 + 1e-6
+    assert _continuous_overload(start, target, kind, T, rate) <= 1.0 + 1e-6
     # ... and the arrays are the brute-force ones (the matrix product may round differently
     # in the last ulp, which can move a sample that sits on a half step by one step)
     assert np.array_equal(tr.t, t)
@@ -97,12 +112,14 @@ def test_analytic_validation_agrees_with_a_brute_force_scan(start, target, durat
     # (and every tick's target step within what that speed covers in a tick, rounding aside)
     steps = np.abs(np.diff(np.vstack([np.rint(start * SPD), tr.positions]), axis=0))
     assert np.all(steps <= PAROL6.max_tracked_speed_steps_s(rate) / rate + 1)
-    # accelerations: a duration given runs in its time; over a joint's acceleration limit the
-    # notes carry the warning (from the closed-form peak), within it they do not
-    warned = [n for n in tr.notes if n.startswith(validate.WARNING_PREFIX)]
-    over_a = _continuous_overload(start, target, kind, duration, rate, accel=True)
+    # accelerations: a duration given runs in its time (or stretched); over a joint's
+    # acceleration limit the notes carry the warning (from the closed-form peak), within it not
+    warned = [n for n in tr.notes if n.startswith(validate.WARNING_PREFIX) and "acceleration" in n]
+    over_a = _continuous_overload(start, target, kind, T, rate, accel=True)
     if over_a > (1 + validate.ACCEL_TOLERANCE) * (1 + 1e-6):
-        assert len(warned) == 1 and "acceleration" in warned[0] and f"t={duration:g} s" in warned[0]
+        assert len(warned) == 1 and f"t={duration:g} s" in warned[0]
+        if T != duration:
+            assert f"runs in {T:.2f} s (stretched from the t={duration:g} s given)" in warned[0]
     elif over_a < (1 + validate.ACCEL_TOLERANCE) * (1 - 1e-6):
         assert not warned
         acc = np.abs(np.diff(np.vstack([np.zeros(6), tr.speeds.astype(float)]), axis=0)) * rate

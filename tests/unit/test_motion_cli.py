@@ -24,8 +24,9 @@ def test_plan_refusal_exits_1_with_the_reason(capsys):
     rc = main(["plan", "movejoint", "0", "-90", "180", "0", "0", "180", "--t", "2", "--profile", "trap"])
     err = capsys.readouterr().err
     assert rc == 1
-    # 90 deg of J1 (10240 steps) at 1.5 d / t within the position-tracking maximum 4884 steps/s
-    assert "MoveJoint refused" in err and "give t >= 3.15 s" in err
+    # 90 deg of J1 (10240 steps) at 1.5 d / t within the maximum speed 6500 steps/s; up to
+    # 3.15 s (within the position-tracking maximum 4884 steps/s) it would run stretched
+    assert "MoveJoint refused" in err and "give t >= 2.37 s (a t below 3.15 s runs stretched to 3.15 s" in err
 
 
 def test_plan_from_start_and_plot_and_csv(tmp_path, capsys):

@@ -79,16 +79,25 @@ def test_bad_acceleration_limits_are_refused_naming_the_field(changes, needle):
 def test_speed_violation_is_refused_naming_the_joint_and_the_minimum_t_which_then_works():
     target = [90, -90, 180, 0, 80, 180]  # J5 by 80 deg
     with pytest.raises(PlanningError) as ei:
-        plan(JointMove(target, duration_s=0.4), STANDBY)
+        plan(JointMove(target, duration_s=0.3), STANDBY)
     msg = str(ei.value)
-    assert ei.value.joint == 4 and "J5 would need a speed of" in msg
+    assert ei.value.joint == 4 and "J5 would need a speed of" in msg and "above its maximum speed 22000" in msg
     t_min = float(msg.split("give t >= ")[1].split(" s")[0])
+    assert t_min == math.ceil(1.875 * 80 * SPD[4] / VMAX[4] * 100) / 100
     vtrack = PAROL6.max_tracked_speed_steps_s(100)[4]
-    assert t_min == math.ceil(1.875 * 80 * SPD[4] / vtrack * 100) / 100
-    tr = plan(JointMove(target, duration_s=t_min), STANDBY)  # the t it names works
-    assert tr.duration == pytest.approx(t_min)
+    t_track = math.ceil(1.875 * 80 * SPD[4] / vtrack * 100) / 100
+    assert f"(a t below {t_track:.2f} s runs stretched to {t_track:.2f} s: J5 position-tracking maximum" in msg
+    # the t it names is accepted: stretched to the position-tracking maximum, with the warning
+    tr = plan(JointMove(target, duration_s=t_min), STANDBY)
+    assert tr.duration == pytest.approx(t_track)
+    stretch, accel = _warnings(tr)
+    assert stretch.startswith("warning: J5 needs ") and stretch.endswith(f"runs stretched to {t_track:.2f} s")
     # and it needs more than the acceleration limit, which a duration may: a warning
-    assert len(_warnings(tr)) == 1 and "J5 needs an acceleration of" in _warnings(tr)[0]
+    assert "J5 needs an acceleration of" in accel
+    assert accel.endswith(f"runs in {t_track:.2f} s (stretched from the t={t_min:g} s given)")
+    # the stretched t runs in its time
+    tr = plan(JointMove(target, duration_s=t_track), STANDBY)
+    assert tr.duration == pytest.approx(t_track) and len(_warnings(tr)) == 1
 
 
 def test_movepose_with_a_duration_over_the_acceleration_limit_runs_with_a_warning():

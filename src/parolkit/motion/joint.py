@@ -12,24 +12,31 @@ Timing rules (the seed's, see docs/motion.md):
   :meth:`RobotModel.max_tracked_speed_steps_s` (75-76 % of the maximum at 100 Hz: the board's
   GO TO loop starts every tick 1.27x faster than the stream moves, see
   :func:`parolkit.robot.goto_tracking_factor`), a speed-tracked one (123) within the maximum.
+  The seed's rule is the maximum: a move within every joint's maximum speed runs, so one that
+  needs more than the position-tracking maximum runs STRETCHED (the shortest duration within
+  it, rounded up to 0.01 s) with a ``"warning: ..."`` naming the joint, the speed it needed,
+  the position-tracking maximum and the stretched duration (:func:`validate.stretch_warning`);
+  only a move over a joint's maximum speed is refused.
 
 * ``duration_s`` given: exactly that long (rounded UP to whole ticks; the profile itself lasts
   exactly ``duration_s``), default POLY ("t overrides a and v").  If a joint would exceed its
-  SPEED limit the move is REFUSED (the message names the joint and gives the shortest
-  duration that works); if it only needs more than a joint's acceleration limit
+  maximum speed the move is REFUSED (the message names the joint and gives the shortest
+  duration accepted); between the position-tracking maximum and the maximum it runs
+  stretched, with the warning above; if it only needs more than a joint's acceleration limit
   (:attr:`RobotModel.accel_limit_steps_s2`, default 3x its maximum speed per second) it runs
   in ``duration_s`` and its notes carry a ``"warning: ..."`` naming the joint, the
   acceleration needed and the limit (the controller puts it into the move's ack and log).
 * ``speed_pct`` / ``accel_pct``: trapezoid on the leading joint (the one with the most steps
-  to go), all joints synchronised; when another joint could not follow (speed or
-  acceleration limit), the leading joint is slowed and a note says so.
+  to go), all joints synchronised; when another joint could not follow (maximum speed or
+  acceleration limit), the leading joint is slowed and a note says so; when the speed asked
+  is over a joint's position-tracking maximum, the move runs stretched with the warning.
 * neither: MoveJoint v=45 %, a=27 %; MovePose v=50 %, a=30 % (trapezoid).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import lru_cache
 from typing import TYPE_CHECKING, NoReturn
 
@@ -101,6 +108,7 @@ def build_trajectory(
     start: NDArray[np.float64], model: RobotModel, rate: float, tracking: Tracking,
     notes: Sequence[str] = (), target_deg: NDArray[np.float64] | None = None, jog: bool = False,
     check_accel: bool = True, hint: str = "", proven: bool = False, timed_s: float | None = None,
+    given_s: float | None = None,
 ) -> Trajectory:
     """Round to steps, validate (positions, speeds, accelerations) and wrap in a Trajectory.
 
@@ -112,7 +120,8 @@ def build_trajectory(
     Speeds are checked against :func:`validate.speed_limits` for ``tracking`` (position-
     tracked: the position-tracking maximum), or the maximum jog speed (``jog``).
     ``timed_s``: the move has this duration (s), given by the user: accelerations over a
-    joint's limit do not refuse it, they add :func:`validate.accel_warning` to the notes.
+    joint's limit do not refuse it, they add :func:`validate.accel_warning` to the notes;
+    ``given_s``: the duration the user gave when ``timed_s`` is that duration stretched.
     """
     name = getattr(move, "name", type(move).__name__)
     spd = validate.model_arrays(model).steps_per_deg
@@ -126,7 +135,7 @@ def build_trajectory(
         limits = None if jog else validate.speed_limits(model, rate, tracking is Tracking.POSITION)
         validate.check_speeds(name, t, sp_f, model, jog=jog, hint=hint, limits=limits)
         if timed_s is not None:
-            warning = validate.accel_warning(validate.peak_accels(sp_f, rate), model, timed_s)
+            warning = validate.accel_warning(validate.peak_accels(sp_f, rate), model, timed_s, given_s)
             if warning is not None:
                 notes = (*notes, warning)
         elif check_accel:
@@ -223,7 +232,8 @@ def _fast_timed(
     """The common case of :func:`plan_joint_target` (a duration with the POLY or TRAP
     profile, target inside the range, moving, fast enough) with the per-joint checks done on
     plain Python floats (6 values: cheaper than numpy calls).  Returns None whenever anything
-    else applies (a refusal, a hold, another profile): the general path then plans it,
+    else applies (a refusal, a hold, another profile, a move over a joint's position-tracking
+    maximum): the general path then plans it (stretched, or refused over the maximum speed),
     with its messages.  Same arithmetic, so the same decisions, as the general path."""
     T = move.duration_s
     if T is None:
@@ -260,7 +270,7 @@ def _fast_timed(
         return None  # already there: hold
     T = float(T)
     if T < tv * (1.0 - 1e-9):
-        return None  # refused by the general path, with the limiting joint
+        return None  # stretched (or refused) by the general path, naming the limiting joint
     notes: tuple[str, ...] = (
         (_DURATION_NOTE,) if move.speed_pct is not None or move.accel_pct is not None else ())
     if ka * ra > T * T * (1.0 + validate.ACCEL_TOLERANCE):  # over an acceleration limit: a warning
@@ -288,11 +298,12 @@ def plan_joint_target(
     tracking = move.tracking
     if dist.max() < 0.5:  # already there (less than half a step on every joint)
         return hold(move, start, target, model, rate, tracking)
-    if move.duration_s is not None:
+    given = None if move.duration_s is None else float(move.duration_s)
+    if given is not None:
         if move.speed_pct is not None or move.accel_pct is not None:
             notes.append(_DURATION_NOTE)
-        prof, T = _timed_profile(name, move.profile or Profile.POLY, float(move.duration_s), dist,
-                                 limits, amax, start, delta, spd)
+        prof, T = _timed_profile(name, move.profile or Profile.POLY, given, dist, limits, amax, start,
+                                 delta, spd, notes)
     else:
         v_pct = move.speed_pct if move.speed_pct is not None else default_pct[0]
         if move.accel_pct is not None:
@@ -302,8 +313,8 @@ def plan_joint_target(
         prof, T = _percent_profile(name, move.profile or Profile.TRAP, v_pct, a_pct, dist, limits,
                                    amax, start, delta, spd, model, notes)
     if isinstance(prof, ScalarProfile) and prof.kind in ("poly", "trap"):
-        if move.duration_s is not None:
-            warning = _timed_accel_warning(prof.kind, T, start.tolist(), target.tolist(), ma, model)
+        if given is not None:
+            warning = _timed_accel_warning(prof.kind, T, start.tolist(), target.tolist(), ma, model, given)
             if warning is not None:
                 notes.append(warning)
         return _monotonic_trajectory(move, prof.kind, prof.T, prof.ta, start, start.tolist(),
@@ -321,7 +332,7 @@ def plan_joint_target(
     qd[-1] = 0.0
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate, tracking=tracking,
                             notes=notes, target_deg=target, proven=proven,
-                            timed_s=None if move.duration_s is None else T)
+                            timed_s=None if given is None else T, given_s=given)
 
 
 def _monotonic_trajectory(
@@ -432,92 +443,179 @@ def _min_duration(kind: str, dist: NDArray[np.float64], vmax: NDArray[np.float64
 
 def _timed_accel_warning(
     kind: str, T: float, start: Sequence[float], target: Sequence[float], ma: validate.ModelArrays,
-    model: RobotModel,
+    model: RobotModel, given_s: float | None = None,
 ) -> str | None:
     """The warning of a synchronised poly/trap(1/3) move over ``T`` s whose peak acceleration
-    (quintic 5.7735 |d| / T^2, trapezoid 4.5 |d| / T^2) exceeds a joint's limit; None if none."""
+    (quintic 5.7735 |d| / T^2, trapezoid 4.5 |d| / T^2) exceeds a joint's limit; None if none.
+    ``given_s``: the t given, when ``T`` is that t stretched."""
     ka = POLY_PEAK_ACCEL if kind == "poly" else TRAP3_PEAK_ACCEL
     peaks = [ka * abs((b - a) * k) / (T * T) for a, b, k in zip(start, target, ma.spd_list)]
-    return validate.accel_warning(peaks, model, T)
+    return validate.accel_warning(peaks, model, T, given_s)
+
+
+def _binding_joint(vmax: NDArray[np.float64], dist: NDArray[np.float64]) -> int:
+    """The joint whose speed limit ``vmax`` (steps/s) bounds a synchronised move over ``dist``
+    (steps per joint): every joint's speed is the same fraction of its distance, so the one
+    with the largest distance / limit."""
+    return int(np.argmax(np.where(dist > 0, dist / vmax, -1.0)))
+
+
+def _least_duration(fits: Callable[[float], bool], lo: float, hi: float) -> float:
+    """The shortest duration (s, to 5 ms; the one returned fits) of a profile that does not
+    fit in ``lo`` s; ``hi``: a first guess (doubled until it fits, up to an hour)."""
+    hi = max(hi, lo * 1.01)
+    while not fits(hi) and hi < 3600.0:
+        lo, hi = hi, hi * 2.0
+    while hi - lo > 0.005:
+        mid = 0.5 * (lo + hi)
+        if fits(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi
 
 
 def _timed_profile(
     name: str, profile: Profile, T: float, dist: NDArray[np.float64], limits: validate.SpeedLimits,
     amax: NDArray[np.float64], start: NDArray[np.float64], delta: NDArray[np.float64], spd: NDArray[np.float64],
+    notes: list[str],
 ) -> tuple[ScalarProfile | ToppResult, float]:
-    """Profile lasting exactly ``T`` s, or a refusal when a joint's SPEED cannot keep up
-    (with the shortest duration that works).  The acceleration limits ``amax`` (steps/s^2)
-    shape the Ruckig and TOPP-RA profiles where the time allows; a move that needs more
-    still lasts ``T`` (the caller adds the warning)."""
+    """Profile lasting exactly ``T`` s, and its duration.
+
+    When a joint would exceed its position-tracking maximum (``limits.array``) in ``T`` s but
+    not its maximum speed (``limits.full``), the profile lasts instead the shortest duration
+    within the position-tracking maximum, rounded up to 0.01 s, and ``notes`` gets
+    :func:`validate.stretch_warning` (the seed's rule: a move within every joint's maximum
+    speed runs).  Over a joint's maximum speed it is refused, naming the shortest duration
+    accepted.  The acceleration limits ``amax`` (steps/s^2) shape the Ruckig and TOPP-RA
+    profiles where the time allows; a move that needs more still lasts ``T`` (the caller adds
+    the warning)."""
     vmax = limits.array
+    full = limits.full
+    asked = f"to finish in the t={T:g} s given"
     if profile in (Profile.POLY, Profile.TRAP):
         kind = "poly" if profile is Profile.POLY else "trap"
+
+        def scalar(d: float) -> ScalarProfile:
+            return ScalarProfile("poly", d) if kind == "poly" else ScalarProfile("trap", d, d / 3.0)
+
         tmin, j = _min_duration(kind, dist, vmax)
-        if T < tmin * (1.0 - 1e-9):
-            _refuse_too_fast(name, kind, T, tmin, j, dist, limits)
-        return (ScalarProfile("poly", T) if kind == "poly" else ScalarProfile("trap", T, T / 3.0)), T
+        if T >= tmin * (1.0 - 1e-9):
+            return scalar(T), T
+        stretched = max(validate.round_up_duration(tmin), tmin)
+        tfull, jf = _min_duration(kind, dist, full)
+        if T < tfull * (1.0 - 1e-9):
+            _refuse_too_fast(name, kind, T, tfull, jf, dist, limits, stretched, j)
+        k = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
+        notes.append(validate.stretch_warning(limits, j, k * dist[j] / T, asked, stretched))
+        return scalar(stretched), stretched
     if profile is Profile.RUCKIG:
         with np.errstate(divide="ignore"):
-            v_s = float(np.min(vmax / dist))
             a_s = float(np.min(amax / dist))
         j_s = a_s / RUCKIG_JERK_TIME_S
-        prof = ruckig_unit_profile(v_s, a_s, j_s, min_duration=T)
-        if prof.T <= T * (1.0 + 1e-6):
-            return prof, T
 
-        def soft(d: float) -> ScalarProfile:
+        def v_path(v: NDArray[np.float64]) -> float:
+            with np.errstate(divide="ignore"):
+                return float(np.min(v / dist))
+
+        def soft(d: float, v_s: float) -> ScalarProfile:
             # the acceleration and jerk limits give way to the duration (scale-free, as a
             # Cartesian path's): only the speed limit holds
             return ruckig_unit_profile(v_s, max(a_s, 16.0 / d**2), max(j_s, 256.0 / d**3), min_duration=d)
 
-        prof = soft(T)
-        if prof.T <= T * (1.0 + 1e-6):
+        def in_time(prof: ScalarProfile, d: float) -> bool:
+            return prof.T <= d * (1.0 + 1e-6)
+
+        def timed(d: float, v_s: float) -> ScalarProfile:
+            prof = ruckig_unit_profile(v_s, a_s, j_s, min_duration=d)
+            return prof if in_time(prof, d) else soft(d, v_s)
+
+        v_s = v_path(vmax)
+        prof = timed(T, v_s)
+        if in_time(prof, T):
             return prof, T
-        lo, hi = T, max(prof.T, T * 1.01)
-        while soft(hi).T > hi * (1.0 + 1e-6) and hi < 3600.0:
-            lo, hi = hi, hi * 2.0
-        while hi - lo > 0.005:
-            mid = 0.5 * (lo + hi)
-            if soft(mid).T <= mid * (1.0 + 1e-6):
-                hi = mid
-            else:
-                lo = mid
-        j = int(np.argmin(np.where(dist > 0, vmax / np.where(dist > 0, dist, 1.0), np.inf)))
+        j = _binding_joint(vmax, dist)
+        stretched = validate.round_up_duration(_least_duration(lambda d: in_time(soft(d, v_s), d), T, prof.T))
+        for _ in range(100):  # (the search's duration fits: at most a few rounding steps)
+            prof = timed(stretched, v_s)
+            if in_time(prof, stretched):
+                break
+            stretched += 0.01
+        else:
+            raise PlanningError(name, f"too fast for t={T:g} s: no jerk-limited timing found within the "
+                                      f"{limits.describe(j)} up to {stretched:.2f} s")
+        v_full = v_path(full)
+        at_full = soft(T, v_full) if limits.position_tracked else prof
+        if limits.position_tracked and in_time(at_full, T):
+            notes.append(validate.stretch_warning(limits, j, at_full.peak_speed * dist[j], asked, stretched))
+            return prof, stretched
+        jf = _binding_joint(full, dist)
+        least = _least_duration(lambda d: in_time(soft(d, v_full), d), T, at_full.T)
         raise PlanningError(
             name,
-            f"too fast for t={T:g} s: the jerk-limited profile would need {JOINT_NAMES[j]} above its "
-            f"{limits.describe(j)}; give t >= {math.ceil(hi * 100 - 1e-6) / 100:.2f} s",
-            joint=j,
+            f"too fast for t={T:g} s: the jerk-limited profile would need {JOINT_NAMES[jf]} above its "
+            f"{limits.describe_full(jf)}; {limits.stretch_hint(validate.round_up_duration(least), stretched, j)}",
+            joint=jf,
         )
     # TOPP-RA on the straight joint-space line
     from parolkit.motion.topp import toppra_parameterize
 
     path = np.vstack([start, start + delta])
-    res = toppra_parameterize(np.array([0.0, 1.0]), path, vmax / spd, amax / spd, duration=T)
-    if res is not None and res.duration <= T * (1.0 + 1e-6):
+    ends = np.array([0.0, 1.0])
+
+    def topp(v: NDArray[np.float64], d: float, soft: bool = False) -> ToppResult | None:
+        # soft: the acceleration limits give way to the duration; only the speed limits hold
+        return toppra_parameterize(ends, path, v / spd, (amax * 1e3 if soft else amax) / spd, duration=d)
+
+    def in_time_r(res: ToppResult | None, d: float) -> bool:
+        return res is not None and res.duration <= d * (1.0 + 1e-6)
+
+    def timed_r(v: NDArray[np.float64], d: float) -> ToppResult | None:
+        res = topp(v, d)
+        return res if in_time_r(res, d) else topp(v, d, soft=True)
+
+    res = timed_r(vmax, T)
+    if res is None:
+        raise PlanningError(name, f"too fast for t={T:g} s: TOPP-RA finds no feasible timing")
+    if in_time_r(res, T):
         return res, T
-    # the acceleration limits give way to the duration; only the speed limits hold
-    res = toppra_parameterize(np.array([0.0, 1.0]), path, vmax / spd, amax * 1e3 / spd, duration=T)
-    if res is None or res.duration > T * (1.0 + 1e-6):
-        need = ("no feasible timing" if res is None
-                else f"at least {res.duration:.3f} s within the joint speed limits; "
-                     f"give t >= {math.ceil(res.duration * 100 - 1e-6) / 100:.2f} s")
-        raise PlanningError(name, f"too fast for t={T:g} s: TOPP-RA finds {need}")
-    return res, T
+    j = _binding_joint(vmax, dist)
+    stretched = validate.round_up_duration(res.duration)
+    res_full = topp(full, T, soft=True) if limits.position_tracked else res
+    if res_full is None:
+        raise PlanningError(name, f"too fast for t={T:g} s: TOPP-RA finds no feasible timing")
+    if limits.position_tracked and in_time_r(res_full, T):
+        slow = timed_r(vmax, stretched)
+        if slow is None or not in_time_r(slow, stretched):  # (the optimum itself, a hair longer)
+            slow, stretched = res, res.duration
+        needed = float(np.max(np.abs(res_full.evaluate(np.linspace(0.0, T, 201))[1][:, j]))) * spd[j]
+        notes.append(validate.stretch_warning(limits, j, needed, asked, stretched))
+        return slow, stretched
+    jf = _binding_joint(full, dist)
+    raise PlanningError(
+        name,
+        f"too fast for t={T:g} s: TOPP-RA finds at least {res_full.duration:.3f} s within the joints' "
+        f"maximum speeds ({JOINT_NAMES[jf]}: {limits.describe_full(jf)}); "
+        f"{limits.stretch_hint(validate.round_up_duration(res_full.duration), stretched, j)}",
+        joint=jf,
+    )
 
 
 def _refuse_too_fast(
     name: str, kind: str, T: float, tmin: float, j: int, dist: NDArray[np.float64],
-    limits: validate.SpeedLimits,
+    limits: validate.SpeedLimits, stretched: float, j_stretched: int,
 ) -> NoReturn:
+    """Refuse a poly/trap move over ``T`` s on which joint ``j`` would exceed its maximum speed
+    (the shortest duration within it: ``tmin`` s); ``stretched``: the duration a move just
+    above ``tmin`` runs stretched to (within ``j_stretched``'s position-tracking maximum)."""
     k = POLY_PEAK_SPEED if kind == "poly" else TRAP3_PEAK_SPEED
     value = k * dist[j] / T
     t_at = T / 2.0 if kind == "poly" else T / 3.0
     raise PlanningError(
         name,
         f"too fast for t={T:g} s with the {kind} profile: {JOINT_NAMES[j]} would need a speed of "
-        f"{value:.0f} steps/s, above its {limits.describe(j)}; "
-        f"give t >= {math.ceil(tmin * 100 - 1e-6) / 100:.2f} s",
+        f"{value:.0f} steps/s, above its {limits.describe_full(j)}; "
+        f"{limits.stretch_hint(validate.round_up_duration(tmin), stretched, j_stretched)}",
         time_s=t_at, joint=j, value=value,
     )
 
@@ -530,29 +628,37 @@ def _percent_profile(
     """Leading-joint v/a profile with every joint synchronised (finishing together).
 
     The percentages map onto min..max joint speed and onto ``accel_range_steps_s2`` as in the
-    original; a position-tracked move cannot go beyond the position-tracking maximum
-    (``limits``): the leading joint is slowed to it and a note says so, as when another joint
-    could not follow.  Every joint keeps within its acceleration limit ``amax`` (steps/s^2):
-    when the mapped acceleration is more, the leading joint's is lowered and a note says so."""
+    original.  When another joint could not follow within its maximum speed, the leading joint
+    is slowed and a note says so (the seed: "the algorithm selects appropriate values").  A
+    position-tracked move cannot go beyond the position-tracking maximum (``limits.array``):
+    when the speed asked needs more, the move runs stretched within it and
+    :func:`validate.stretch_warning` says which joint, the speed, that maximum and both
+    durations.  Every joint keeps within its acceleration limit ``amax`` (steps/s^2): when the
+    mapped acceleration is more, the leading joint's is lowered and a note says so."""
     vmax = limits.array
+    full = limits.full
     lead = int(np.argmax(dist))
     v_lead = float(model.speed_from_percent(v_pct)[lead])
     a_lead = float(model.accel_from_percent(a_pct))
+    asked = f"at v={v_pct:g} %"
     if profile is Profile.TOPPRA:
         # time-optimal: every joint within its own mapped speed and the mapped acceleration
         from parolkit.motion.topp import toppra_parameterize
 
-        mapped = model.speed_from_percent(v_pct)
-        over = np.nonzero((mapped > vmax) & (dist > 0.0))[0]
-        if len(over):
-            j = int(over[0])
-            notes.append(f"joint speeds capped at the position-tracking maximum ({JOINT_NAMES[j]} "
-                         f"{mapped[j]:.0f} -> {vmax[j]:.0f} steps/s)")
-        v_joint = np.minimum(mapped, vmax) / spd
-        res = toppra_parameterize(np.array([0.0, 1.0]), np.vstack([start, start + delta]),
-                                  v_joint, np.minimum(a_lead, amax) / spd)
+        ends, path = np.array([0.0, 1.0]), np.vstack([start, start + delta])
+        mapped = np.minimum(model.speed_from_percent(v_pct), full)
+        a_joint = np.minimum(a_lead, amax) / spd
+        res = toppra_parameterize(ends, path, np.minimum(mapped, vmax) / spd, a_joint)
         if res is None:
             raise PlanningError(name, "TOPP-RA finds no feasible timing within the joint limits")
+        if np.any((mapped > vmax) & (dist > 0.0)):
+            asked_res = toppra_parameterize(ends, path, mapped / spd, a_joint)
+            if asked_res is not None and res.duration > asked_res.duration * (1.0 + 1e-6):
+                t = np.linspace(0.0, asked_res.duration, 201)
+                peaks = np.abs(asked_res.evaluate(t)[1]).max(axis=0) * spd
+                j = int(np.argmax(peaks / vmax))
+                notes.append(validate.stretch_warning(limits, j, float(peaks[j]), asked, res.duration,
+                                                      from_s=asked_res.duration))
         return res, res.duration
     d = dist[lead]
     moving = dist > 0.0
@@ -560,16 +666,16 @@ def _percent_profile(
     v_s = v_lead / d
     a_s = a_lead / d
     with np.errstate(divide="ignore", over="ignore"):  # a sub-normal distance caps at inf, as intended
+        v_caps_full = np.where(moving, full / np.where(moving, dist, 1.0), np.inf)
         v_caps = np.where(moving, vmax / np.where(moving, dist, 1.0), np.inf)
         a_caps = np.where(moving, amax / np.where(moving, dist, 1.0), np.inf)
-    jv = int(np.argmin(v_caps))
-    if v_caps[jv] < v_s * (1.0 - 1e-12):
-        which = "position-tracking speed limit" if limits.position_tracked else "speed limit"
+    jv = int(np.argmin(v_caps_full))
+    if v_caps_full[jv] < v_s * (1.0 - 1e-12):
         notes.append(
-            f"leading joint {JOINT_NAMES[lead]} slowed from {v_lead:.0f} to {v_caps[jv] * d:.0f} steps/s: "
-            f"{JOINT_NAMES[jv]} {which} {vmax[jv]:.0f} steps/s (all joints finish together)"
+            f"leading joint {JOINT_NAMES[lead]} slowed from {v_lead:.0f} to {v_caps_full[jv] * d:.0f} steps/s: "
+            f"{JOINT_NAMES[jv]} speed limit {full[jv]:.0f} steps/s (all joints finish together)"
         )
-        v_s = float(v_caps[jv])
+        v_s = float(v_caps_full[jv])
     ja = int(np.argmin(a_caps))
     if a_caps[ja] < a_s * (1.0 - 1e-12):
         notes.append(
@@ -577,19 +683,33 @@ def _percent_profile(
             f"{a_caps[ja] * d:.0f} steps/s^2: {JOINT_NAMES[ja]} acceleration limit {amax[ja]:.0f} steps/s^2"
         )
         a_s = float(a_caps[ja])
+    jt = int(np.argmin(v_caps))
+    if v_caps[jt] < v_s * (1.0 - 1e-12):  # over a position-tracking maximum: runs stretched
+        wanted = _unit_profile(profile, v_s, a_s)
+        v_s = float(v_caps[jt])
+        prof = _unit_profile(profile, v_s, a_s)
+        if prof.T > wanted.T * (1.0 + 1e-9):  # (a triangle that never reaches the cap is not)
+            notes.append(validate.stretch_warning(limits, jt, wanted.peak_speed * dist[jt], asked, prof.T,
+                                                  from_s=wanted.T))
+    else:
+        prof = _unit_profile(profile, v_s, a_s)
+    if prof.kind == "trap" and abs(prof.ta - prof.T / 2.0) < 1e-12 and 1.0 / prof.ta < 0.95 * v_s:
+        notes.append(
+            f"triangular profile: {JOINT_NAMES[lead]} peaks at {d / prof.ta:.0f} steps/s before "
+            f"reaching {v_s * d:.0f} steps/s"
+        )
+    return prof, prof.T
+
+
+def _unit_profile(profile: Profile, v_s: float, a_s: float) -> ScalarProfile:
+    """The unit profile (trap, poly or ruckig) within the path speed ``v_s`` (1/s) and
+    acceleration ``a_s`` (1/s^2)."""
     if profile is Profile.TRAP:
         T, ta = trapezoid_for_limits(1.0, v_s, a_s)
-        if abs(ta - T / 2.0) < 1e-12 and 1.0 / ta < 0.95 * v_s:
-            notes.append(
-                f"triangular profile: {JOINT_NAMES[lead]} peaks at {d / ta:.0f} steps/s before "
-                f"reaching {v_s * d:.0f} steps/s"
-            )
-        return ScalarProfile("trap", T, ta), T
+        return ScalarProfile("trap", T, ta)
     if profile is Profile.POLY:
-        T = max(POLY_PEAK_SPEED / v_s, math.sqrt(POLY_PEAK_ACCEL / a_s))
-        return ScalarProfile("poly", T), T
-    prof = ruckig_unit_profile(v_s, a_s, a_s / RUCKIG_JERK_TIME_S)
-    return prof, prof.T
+        return ScalarProfile("poly", max(POLY_PEAK_SPEED / v_s, math.sqrt(POLY_PEAK_ACCEL / a_s)))
+    return ruckig_unit_profile(v_s, a_s, a_s / RUCKIG_JERK_TIME_S)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -10,6 +10,12 @@ Moves without a duration are planned within the acceleration limit; a move WITH 
 that needs more acceleration runs in its time and carries a warning
 (:func:`accel_warning`): the seed says "If t is defined, the robot finishes the move in that
 time. t overrides a and v", and the original software enforced only the speed limit.
+
+Position-tracked plans (every frame a bounded GO TO) keep to the position-tracking maximum
+(:class:`SpeedLimits`, 75-76 % of the maximum at 100 Hz).  A joint move that needs more than
+it but no more than the joint's maximum speed is not refused: the planners stretch it to the
+shortest duration within the position-tracking maximum and add :func:`stretch_warning`
+(the seed's rule is the maximum speed; the margin is this controller's bounded frames).
 """
 
 from __future__ import annotations
@@ -28,7 +34,7 @@ if TYPE_CHECKING:
 __all__ = [
     "check_positions", "check_speeds", "check_accels", "ACCEL_TOLERANCE", "model_arrays", "speed_limits",
     "SpeedLimits", "accel_warning", "accel_excess", "WARNING_PREFIX", "min_duration_for_speed",
-    "peak_accels",
+    "peak_accels", "stretch_warning", "round_up_duration",
 ]
 
 #: Every planner warning (a note the controller puts into the move's ack and logs) starts so.
@@ -98,10 +104,31 @@ class SpeedLimits:
     def __init__(self, model: RobotModel, rate_hz: float, position_tracked: bool) -> None:
         full = np.asarray(model.max_speed_steps_s, dtype=float)
         self.position_tracked = position_tracked
+        #: what the samples may ask for (steps/s): the position-tracking maximum, or the maximum
         self.array = model.max_tracked_speed_steps_s(rate_hz) if position_tracked else full.copy()
         self.array.setflags(write=False)
+        #: each joint's maximum speed (steps/s): a move that needs more is refused; one within
+        #: it but over :attr:`array` runs stretched (with :func:`stretch_warning`)
+        self.full = full
+        self.full.setflags(write=False)
         self.list: list[float] = self.array.tolist()
         self.full_list: list[float] = full.tolist()
+
+    def describe_full(self, j: int) -> str:
+        """How a refusal names joint ``j``'s maximum speed: ``"maximum speed 6500 steps/s"``."""
+        return f"maximum speed {self.full_list[j]:.0f} steps/s"
+
+    def stretch_hint(self, least_s: float, stretched_s: float, j: int) -> str:
+        """The hint of a refusal over the maximum speed that names the shortest duration
+        accepted, ``least_s`` (s, already rounded up): ``"give t >= 0.36 s"``, and, when a
+        duration from there up to ``stretched_s`` would run stretched (position-tracked),
+        ``" (a t below 0.48 s runs stretched to 0.48 s: J5 position-tracking maximum 16714
+        steps/s)"``; ``j``: the joint that bounds the stretched duration."""
+        hint = f"give t >= {least_s:.2f} s"
+        if self.position_tracked and stretched_s > least_s + 1e-9:
+            hint += (f" (a t below {stretched_s:.2f} s runs stretched to {stretched_s:.2f} s: "
+                     f"{JOINT_NAMES[j]} position-tracking maximum {self.list[j]:.0f} steps/s)")
+        return hint
 
     def describe(self, j: int) -> str:
         """How a message names joint ``j``'s limit: ``"maximum speed 6500 steps/s"`` or, for a
@@ -247,13 +274,16 @@ def accel_excess(peaks_steps_s2: NDArray[np.float64] | list[float], model: Robot
 
 def accel_warning(
     peaks_steps_s2: NDArray[np.float64] | list[float], model: RobotModel, duration_s: float,
+    given_s: float | None = None,
 ) -> str | None:
     """The warning a move with a duration gets when it needs more acceleration than a joint's
     limit (it still runs in ``duration_s``), naming the joint, the acceleration needed and the
     limit, e.g. ``"warning: J5 needs an acceleration of 80107 steps/s^2, above its limit 66000
     steps/s^2 (1127 deg/s^2 > 928 deg/s^2): the move runs in the t=0.8 s given"``.  None when
     every joint is within its limit.  ``peaks_steps_s2``: the peak |acceleration| per joint
-    (analytic for a profile, or :func:`peak_accels` of sampled speeds)."""
+    (analytic for a profile, or :func:`peak_accels` of sampled speeds).  ``given_s``: the t
+    given when the move was stretched to ``duration_s`` (see :func:`stretch_warning`): the
+    text then ends ``"the move runs in 0.48 s (stretched from the t=0.4 s given)"``."""
     hit = accel_excess(peaks_steps_s2, model)
     if hit is None:
         return None
@@ -261,9 +291,11 @@ def accel_warning(
     ma = model_arrays(model)
     lim = ma.amax_list[j]
     k = ma.spd_list[j]
+    when = (f"in the t={duration_s:g} s given" if given_s is None or abs(given_s - duration_s) < 1e-9
+            else f"in {duration_s:.2f} s (stretched from the t={given_s:g} s given)")
     return (f"{WARNING_PREFIX}{JOINT_NAMES[j]} needs an acceleration of {a:.0f} steps/s^2, above its "
             f"limit {lim:.0f} steps/s^2 ({a / k:.0f} deg/s^2 > {lim / k:.0f} deg/s^2): the move runs "
-            f"in the t={duration_s:g} s given")
+            f"{when}")
 
 
 def peak_accels(speeds_steps_s: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
@@ -271,6 +303,33 @@ def peak_accels(speeds_steps_s: NDArray[np.float64], rate_hz: float) -> NDArray[
     (the first from rest), for :func:`accel_warning`."""
     peaks: NDArray[np.float64] = np.abs(_finite_accels(speeds_steps_s, rate_hz)).max(axis=0)
     return peaks
+
+
+def round_up_duration(duration_s: float) -> float:
+    """``duration_s`` rounded UP to 0.01 s (what refusals and stretch warnings name, so that a
+    user who gives that duration gets exactly that move); never below ``duration_s`` by more
+    than the planners' relative tolerance of 1e-9 (a float a hair over 0.01 s steps is not
+    rounded up a whole 0.01 s)."""
+    return math.ceil(duration_s * 100.0 * (1.0 - 1e-9)) / 100.0
+
+
+def stretch_warning(
+    limits: SpeedLimits, j: int, needed_steps_s: float, asked: str, stretched_s: float,
+    from_s: float | None = None,
+) -> str:
+    """The warning of a move that needs ``needed_steps_s`` on joint ``j``, within its maximum
+    speed but above the position-tracking maximum of ``limits``, and runs stretched to
+    ``stretched_s`` (s) instead of being refused (the seed's speed rule), e.g. ``"warning: J1
+    needs 5473 steps/s to finish in the t=4 s given, above its position-tracking maximum 4884
+    steps/s (75 % of its maximum speed 6500 steps/s: ...): the move runs stretched to
+    4.49 s"``.  ``asked``: what asked for that speed (``"to finish in the t=4 s given"``,
+    ``"at v=100 %"``); ``from_s``: the duration it would have had (s), when not the t given.
+    Durations are named rounded UP to 0.01 s (a stretched t already is: a move given that t
+    runs as it does)."""
+    to = round_up_duration(stretched_s)
+    span = f"from {round_up_duration(from_s):.2f} s to {to:.2f} s" if from_s is not None else f"to {to:.2f} s"
+    return (f"{WARNING_PREFIX}{JOINT_NAMES[j]} needs {needed_steps_s:.0f} steps/s {asked}, above its "
+            f"{limits.describe(j)}: the move runs stretched {span}")
 
 
 def min_duration_for_speed(duration_s: float, peak_ratio: float) -> float:
