@@ -245,3 +245,56 @@ def test_a_bad_checkpoint_label_is_refused_naming_the_rule(bench, bad, why):
     bench.run(1)
     status, details = bench.terminal(cid) or ("", "")
     assert status == "INVALID" and why in details, details
+
+
+# ---------------------------------------------------------------- RBTscript Speed(pct)
+
+
+def test_rbtscript_speed_parses_formats_and_refuses_outside_1_to_100():
+    from parolkit.script import Speed, parse
+
+    res = parse("Begin()\nSpeed(50)\nMoveJoint(60,-80,170,10,-10,170,t=4, speed)\nEnd()\n")
+    assert res.ok, res.errors
+    speed = res.program.commands[1]
+    assert isinstance(speed, Speed) and speed.percent == 50.0 and speed.to_source() == "Speed(50)"
+    for bad, why in (("Speed(0)", "Speed = 0 % is out of range (allowed 1 .. 100 %)"),
+                     ("Speed(120)", "Speed = 120 % is out of range (allowed 1 .. 100 %)"),
+                     ("Speed()", "Speed takes 1 value (the speed override, %)"),
+                     ("Speed(t=5)", "Speed takes one number, the override in % (1 .. 100)")):
+        res = parse(f"Begin()\n{bad}\nEnd()\n")
+        assert not res.ok and any(why in e.message for e in res.errors), (bad, [e.message for e in res.errors])
+
+
+def test_the_dry_run_counts_the_moves_after_speed_at_their_stretched_time():
+    from parolkit.script import dry_run, parse
+
+    text = "Begin()\nMoveJoint(60,-80,170,10,-10,170,t=4)\nSpeed(25)\nMoveJoint(90,-90,180,0,0,180,t=4)\nEnd()\n"
+    report = dry_run(parse(text).program, start_deg=(90, -90, 180, 0, 0, 180))
+    assert not report.errors, report.errors
+    rows = {r.line: r for r in report.rows}
+    assert rows[2].duration_s == pytest.approx(4.0, abs=0.02)
+    assert rows[3].duration_s == 0.0 and "speed override 25 %" in rows[3].note
+    assert rows[4].duration_s == pytest.approx(16.0, abs=0.1) and "planned 4.00 s" in rows[4].note
+
+
+def test_a_program_with_speed_runs_its_next_move_slower_at_the_board():
+    from parolkit.client.robot import Robot
+    from parolkit.script import Interpreter, parse
+
+    def run(text: str) -> int:
+        b = Bench()
+        try:
+            robot = Robot(channel=b.sim)
+            start = b.tick
+            result = Interpreter(parse(text).program, robot).run()
+            assert result.ok, result.message
+            robot.close()
+            return b.tick - start
+        finally:
+            b.close()
+
+    move = "MoveJoint(60,-80,170,10,-10,170,t=2)\n"
+    full = run("Begin()\n" + move + "End()\n")
+    half = run("Begin()\nSpeed(50)\n" + move + "End()\n")
+    # 200 ticks of motion at 100 % take 400 at 50 % (the settle at the end is not scaled)
+    assert abs((half - full) - 200) <= 5, (full, half)

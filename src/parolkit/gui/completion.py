@@ -21,6 +21,7 @@ ARGUMENTS: dict[str, str] = {
     "MoveCartRelTRF": "(dx,dy,dz,drx,dry,drz,t=1)",
     "SpeedJoint": "(v1,v2,v3,v4,v5,v6,t=1)",
     "Delay": "(1)",
+    "Speed": "(50)",
     "Output": "(1,HIGH)",
     "Input": "(1,HIGH)",
     "Gripper": "(position,speed,current_mA)",

@@ -15,7 +15,7 @@ __all__ = ["TokenKind", "Token", "tokenize", "mark_decorations", "line_decoratio
 
 #: Command names known to RBTscript (case-insensitive match for colouring).
 COMMANDS = ("Begin", "End", "Loop", "MoveJoint", "MovePose", "MoveCart", "MoveCartRelTRF",
-            "SpeedJoint", "Delay", "Output", "Input", "Gripper", "Gripper_cal", "Home")
+            "SpeedJoint", "Delay", "Speed", "Output", "Input", "Gripper", "Gripper_cal", "Home")
 _WORDS = ("HIGH", "LOW", "poly", "trap", "speed", "ruckig", "toppra", "position")
 
 
@@ -58,7 +58,10 @@ def tokenize(text: str) -> list[Token]:
             out.append(Token(TokenKind.NUMBER, m.start(), m.end()))
         else:
             w = m.group().lower()
-            k = (TokenKind.COMMAND if w in _COMMANDS_LOWER
+            # a command name only where it is called: ``speed`` inside a move is the
+            # tracking word, ``Speed(50)`` the command
+            called = text[m.end():].lstrip().startswith("(")
+            k = (TokenKind.COMMAND if w in _COMMANDS_LOWER and (called or w not in _WORDS_LOWER)
                  else TokenKind.KEYWORD if w in _WORDS_LOWER else TokenKind.UNKNOWN)
             out.append(Token(k, m.start(), m.end()))
     return out

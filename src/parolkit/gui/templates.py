@@ -28,6 +28,7 @@ TEMPLATES: tuple[Template, ...] = (
     Template("MoveCart", "MoveCart({pose},t=2)", "straight line to the current TCP pose"),
     Template("MoveCartRelTRF", "MoveCartRelTRF(0,0,10,0,0,0,t=1)", "relative move in the tool frame"),
     Template("Delay", "Delay(1)", "wait, seconds"),
+    Template("Speed", "Speed(50)", "speed override for the moves after it, %"),
     Template("Output HIGH", "Output(1,HIGH)", "set an output"),
     Template("Output LOW", "Output(1,LOW)", "clear an output"),
     Template("Gripper", "Gripper(100,60,600)", "SSG-48 position, speed, current mA"),

@@ -37,6 +37,7 @@ from parolkit.script.program import (
     ProgramError,
     ScriptError,
     Severity,
+    Speed,
     SpeedJoint,
     Tracking,
 )
@@ -50,7 +51,7 @@ __all__ = [
     "COMMAND_NAMES", "Limits", "load", "parse", "parse_file",
     "Begin", "Command", "Delay", "End", "Gripper", "GripperCalibrate", "Home", "Input", "Loop",
     "MoveCart", "MoveCartRelTRF", "MoveJoint", "MovePose", "Output", "ParseResult", "Profile",
-    "Program", "ProgramError", "ScriptError", "Severity", "SpeedJoint", "Tracking",
+    "Program", "ProgramError", "ScriptError", "Severity", "Speed", "SpeedJoint", "Tracking",
     "dry_run", "DryRunReport", "Interpreter", "InterpreterState", "format_program",
 ]
 

@@ -49,6 +49,7 @@ from parolkit.script.program import (
     Program,
     ScriptError,
     Severity,
+    Speed,
     SpeedJoint,
     format_number,
 )
@@ -373,13 +374,16 @@ def dry_run(
             message += f" (loop iteration {iteration})"
         errors.append(ScriptError(cmd.line, cmd.col, message, cmd.text, Severity.ERROR, program.source_name))
 
-    pass_starts: dict[tuple[float, ...], int] = {}  # joints a pass started from -> that pass
+    #: the speed override a Speed() line set (the controller's at 100 % when the run starts):
+    #: the moves after it take 100 / pct times their planned time (their plans are the same)
+    override = 100.0
+    pass_starts: dict[tuple[float, ...], int] = {}  # joints and override a pass started from -> that pass
     pass_times: list[float] = []  # start time of each planned pass, then the end of the last
     pass_ends: list[np.ndarray] = []  # joints at the end of each planned pass
     repeats: tuple[int, int] | None = None
     planned = 0
     for iteration in range(1, iterations + 1):
-        key = tuple(float(v) for v in state)
+        key = (*(float(v) for v in state), override)
         if key in pass_starts:  # this pass and every later one repeat passes already planned
             repeats = (iteration, pass_starts[key])
             break
@@ -402,6 +406,12 @@ def dry_run(
             if isinstance(cmd, Delay):
                 rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, cmd.seconds))
                 t += cmd.seconds
+                continue
+            if isinstance(cmd, Speed):
+                override = cmd.percent
+                rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0,
+                                      note=f"speed override {format_number(cmd.percent)} %: the moves after it "
+                                           f"take {format_number(round(100.0 / cmd.percent, 3))}x their planned time"))
                 continue
             if isinstance(cmd, Output):
                 rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0,
@@ -442,10 +452,13 @@ def dry_run(
                 continue
             segments.append((t, traj))
             state = np.asarray(traj.final_deg, dtype=float)
-            note = "; ".join(getattr(traj, "notes", ()) or ())
-            rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, traj.duration,
-                                  target_deg=tuple(float(v) for v in state), note=note))
-            t += traj.duration
+            notes = list(getattr(traj, "notes", ()) or ())
+            duration = traj.duration * 100.0 / override
+            if override != 100.0:
+                notes.append(f"at the {format_number(override)} % speed override: planned {traj.duration:.2f} s")
+            rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, duration,
+                                  target_deg=tuple(float(v) for v in state), note="; ".join(notes)))
+            t += duration
         pass_ends.append(state)
 
     total_time_s = None

@@ -54,6 +54,7 @@ from parolkit.script.program import (
     Program,
     ScriptError,
     Severity,
+    Speed,
     SpeedJoint,
 )
 
@@ -361,6 +362,8 @@ class Interpreter:
                 profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
                 wait=True, timeout=None,
             )
+        elif isinstance(cmd, Speed):
+            r.set_speed(cmd.percent, timeout=None)
         elif isinstance(cmd, SpeedJoint):
             r.speed_joint(list(cmd.move.speeds_deg_s), cmd.move.duration_s, wait=True, timeout=None)
         elif isinstance(cmd, Home):

@@ -53,6 +53,7 @@ from parolkit.script.program import (
     ProgramError,
     ScriptError,
     Severity,
+    Speed,
     SpeedJoint,
     format_number,
 )
@@ -78,6 +79,7 @@ COMMAND_NAMES = (
     "MoveCartRelTRF",
     "SpeedJoint",
     "Delay",
+    "Speed",
     "Output",
     "Input",
     "Gripper",
@@ -543,6 +545,17 @@ def _build_delay(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:
     return Delay(line=ln.line, col=col, text=ln.text, seconds=seconds)
 
 
+def _build_speed(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:
+    values, options = _split_args(ln, "Speed", args)
+    if options:
+        ln.fail(options[0].col, f"Speed takes one number, the override in % (1 .. 100), got {options[0].raw!r}")
+    _exact_count(ln, "Speed", col, values, 1, "value (the speed override, %)")
+    percent = ln.ranged(values[0], "Speed", 1.0, 100.0, "%")
+    if ln.errors:
+        raise _Reject
+    return Speed(line=ln.line, col=col, text=ln.text, percent=percent)
+
+
 def _port(ln: _Line, arg: _Arg, kind: str) -> int:
     value = ln.number(arg, f"{kind} number")
     if value not in (1.0, 2.0):
@@ -606,6 +619,7 @@ _BUILDERS: dict[str, _Builder] = {
     "home": _no_args(Home),
     "grippercal": _no_args(GripperCalibrate),
     "delay": _build_delay,
+    "speed": _build_speed,
     "output": _build_output,
     "input": _build_input,
     "gripper": _build_gripper,

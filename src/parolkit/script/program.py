@@ -39,6 +39,7 @@ __all__ = [
     "Loop",
     "Home",
     "Delay",
+    "Speed",
     "Output",
     "Input",
     "Gripper",
@@ -175,6 +176,19 @@ class Delay(Command):
 
     def arguments(self) -> list[str]:
         return [format_number(self.seconds)]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Speed(Command):
+    """``Speed(pct)``: the speed override, 1..100 % of every planned speed, from the move
+    running on (it slows down or speeds up on its own path) until the next ``Speed``; the
+    controller keeps it after the program ends."""
+
+    percent: float
+    keyword: ClassVar[str] = "Speed"
+
+    def arguments(self) -> list[str]:
+        return [format_number(self.percent)]
 
 
 @dataclass(frozen=True, kw_only=True)
