@@ -370,6 +370,16 @@ def _board_step(p0: tuple[int, ...], frame: CommandFrame, dt: float) -> list[flo
     return out
 
 
+def _disable_within(crossings: list, status: StatusFrame, n: int) -> bool:
+    """The controller wrote DISABLE among the first ``n`` frames after it read ``status`` (the
+    first read of a status frame equal to it; False when it never read one)."""
+    try:
+        after = written_after_read(crossings, lambda f: f == status)
+    except AssertionError:
+        return False
+    return any(int(f.command) == BoardCommand.DISABLE for f in after[:n])
+
+
 @pytest.mark.slow
 def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_uncommanded_motion_disables(
         board, ctl):
@@ -450,8 +460,9 @@ def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_un
     align = rec.align()
     intact = rec.intact()
     cmds = rec.sent_commands()
-    events = late = settled = 0
+    events = late = settled = pty_late = 0
     misses = []
+    crossings = read_spy_log(ctl.spy_log)
     for k in range(len(rec.exs) - 1):
         _, executed, raw, r0 = rec.exs[k]
         sent_raw = rec.ins[align[k]][1]
@@ -491,12 +502,22 @@ def test_one_percent_corruption_each_way_for_60_s_no_false_position_and_every_un
                 continue
             bound = max(bound, align[pair] + 2)
         if not any(cmds[i] == BoardCommand.DISABLE for i in range(align[k] + 1, min(bound + 1, len(cmds)))):
-            misses.append((k, int(executed.command), align[s], align[c], cmds[align[k]:bound + 3],
-                           "".join("i" if f else "x" for f in intact[k:k + 12])))
+            # counted at the board, the DISABLE came late; counted by the controller's own link
+            # record it may not have: the pty hands replies over in a kernel worker that a busy
+            # machine holds back several ticks, and the controller can act only on what it has
+            # read (tests.integration.spylog).  In time then: within 3 frames written after it
+            # read the first intact reply, or 2 after the confirming one (or the intact pair)
+            proof = pair if not intact[s - 1] else c
+            if (_disable_within(crossings, rec.exs[s][3], 3) or _disable_within(crossings, rec.exs[proof][3], 2)):
+                pty_late += 1
+            else:
+                misses.append((k, int(executed.command), align[s], align[c], cmds[align[k]:bound + 3],
+                               "".join("i" if f else "x" for f in intact[k:k + 12])))
         elif align[c] + 2 > align[s] + 3:
             late += 1
     report.append(f"uncommanded motions the board really made: {events}; DISABLE in time for "
-                  f"{events - len(misses) - settled} ({late} after lost replies delayed the confirmation); "
+                  f"{events - len(misses) - settled} ({late} after lost replies delayed the confirmation, "
+                  f"{pty_late} in time by the controller's own record of when it read the replies); "
                   f"{settled} settled by the board before two intact replies in a row could show them; "
                   f"misses (k, executed, first intact, confirming, frames sent, replies intact/x from k): "
                   f"{misses[:5]}")
