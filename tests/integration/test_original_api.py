@@ -316,7 +316,8 @@ def test_every_original_function_runs_against_the_controller_and_the_robot_does_
     # STOP once a quarter of the move has run (its progress on the controller, not a sleep)
     wait_until(lambda: (_status_json(served).get("command") or {}).get("progress", 0) >= 0.25, 10)
     stop = api.stop_robot_movement(wait_for_ack=True)
-    assert stop["status"] == "COMPLETED" and stop["details"] == "stopped"
+    # a planned move slows down on its path, then ends CANCELLED (issue 24)
+    assert stop["status"] == "COMPLETED" and stop["details"].startswith("stopping: the running move slows down")
     wait_until(lambda: (api.check_command_status(cid) or {}).get("status") == "CANCELLED", 5)
     settle(api)
     j = api.get_robot_joint_angles()

@@ -298,3 +298,46 @@ def test_a_program_with_speed_runs_its_next_move_slower_at_the_board():
     half = run("Begin()\nSpeed(50)\n" + move + "End()\n")
     # 200 ticks of motion at 100 % take 400 at 50 % (the settle at the end is not scaled)
     assert abs((half - full) - 200) <= 5, (full, half)
+
+
+def test_stop_mid_movecart_slows_down_on_the_line_and_clears_the_queue_at_once(bench):
+    start_pose = bench.sim.controller.snapshot.pose
+    x, y, z, a, b, c = start_pose
+    target = (x, y + 60.0, z - 40.0, a, b, c)
+    cid = bench.send("MOVECART|" + "|".join(f"{v:.4f}" for v in target) + "|2|None")
+    queued = bench.send("MOVEJOINT|90|-90|180|0|0|180|4|None")
+    t_start = bench.tick
+    bench.run(100)  # mid-move, at speed
+    stop = bench.send("STOP")
+    bench.run(1)
+    assert bench.terminal(stop) == ("COMPLETED", "stopping: the running move slows down on its path; "
+                                                 "the queue is cleared")
+    assert bench.terminal(queued) == ("CANCELLED", "stopped by STOP"), "the queue is cleared at once"
+    assert bench.terminal(cid) is None, "the move runs on while it slows down"
+    ticks, done = bench.run_until_done(cid, limit=100)
+    assert done == ("CANCELLED", "stopped by STOP"), done
+    assert 3 <= ticks <= 40, f"a controlled stop takes well under 0.4 s here, took {ticks} ticks"
+    gotos = _gotos(bench.frames(), t_start)
+    _assert_speed_steps_within_accel(gotos)
+    p0, p1 = np.asarray(start_pose[:3]), np.asarray(target[:3])
+    d = (p1 - p0) / np.linalg.norm(p1 - p0)
+    for _, f in gotos:
+        q = _tcp(f) - p0
+        assert np.linalg.norm(q - np.dot(q, d) * d) <= 0.05
+    last = gotos[-1][1]
+    assert not any(last.speeds), "the last frame holds (no feed-forward)"
+    bench.run(20)
+    held = _gotos(bench.frames(), bench.tick - 10)
+    assert all(f.positions == last.positions for _, f in held) or not held
+    # the robot takes the next command at once
+    nxt = bench.send("MOVEJOINT|90|-90|180|0|0|180|4|None")
+    _, done = bench.run_until_done(nxt)
+    assert done[0] == "COMPLETED", done
+
+
+def test_stop_during_a_jog_stops_within_a_frame_as_before(bench):
+    jog = bench.send("JOG|0|50|2|None")
+    bench.run(50)
+    bench.send("STOP")
+    bench.run(1)
+    assert bench.terminal(jog)[0] == "CANCELLED"

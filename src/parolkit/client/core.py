@@ -1337,7 +1337,9 @@ class RobotCommands(Generic[_Result, _Handle]):
         return self._run("RESUME", _opt_timeout(timeout))
 
     def stop(self, timeout: float | None = None) -> _Result:
-        """Cancel the active command and the queue (they end CANCELLED); hold position."""
+        """Cancel the active command and the queue (they end CANCELLED): a planned move slows
+        down on its own path within the acceleration limits first (a jog stops at once); then
+        hold position."""
         return self._run("STOP", _opt_timeout(timeout))
 
     def enable(self, timeout: float | None = None) -> _Result:

@@ -1411,7 +1411,9 @@ def wait_checkpoint(label: str, timeout: float = 60.0) -> CommandRecord:
 
 def stop_robot_movement(wait_for_ack: bool = False, timeout: float = 2.0,
                         non_blocking: bool = False) -> Result:
-    """Cancel the active command and clear the queue; the robot holds position."""
+    """Cancel the active command and clear the queue: a planned move slows down on its own path
+    within the acceleration limits and ends CANCELLED there (a jog stops at once); the robot
+    then holds position."""
     return _dispatch("STOP", wait_for_ack, timeout, non_blocking)
 
 

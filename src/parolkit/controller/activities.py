@@ -195,6 +195,9 @@ class TrajectoryActivity(Activity):
         #: :meth:`_ramp`), and the plan's time (s) reached at schedule time ``t0``
         self.k = 1.0
         self._tau = 0.0
+        #: a STOP on the path: the path speed goes to 0 (as for PAUSE), then the job ends
+        #: CANCELLED with this reason (None: no stop asked)
+        self.stop_reason: str | None = None
 
     def _load(self, samples: Samples) -> None:
         positions, speeds, commands = samples
@@ -296,10 +299,11 @@ class TrajectoryActivity(Activity):
     def _play(self, ctx: TickContext) -> FrameRequest:
         box = ctx.box
         period = 1.0 / ctx.rate_hz
+        scale = 0.0 if self.stop_reason is not None else ctx.speed_scale
         if self._s is None:
-            self.k = ctx.speed_scale  # from rest: the first frame runs at the path speed asked
-        elif self.k != ctx.speed_scale:
-            self._ramp(ctx.speed_scale, ctx)
+            self.k = scale  # from rest: the first frame runs at the path speed asked
+        elif self.k != scale:
+            self._ramp(scale, ctx)
         if box is None:
             # where the board is is not known (no trusted reply yet, a homing): no GO TO may
             # go out; before the first frame the schedule waits, later the board stands at
@@ -336,7 +340,20 @@ class TrajectoryActivity(Activity):
         self.i = self.n if s >= last else int(s) + 1
         self.progress = self.i / self.n
         pos, ff = self._at(s)
+        if self.stop_reason is not None and self.k == 0.0:
+            # stopped on the path: this frame holds there (no feed-forward), and the job ends
+            return self._ask(pos, ff, AckStatus.CANCELLED, self.stop_reason)
         return self._ask(pos, ff)
+
+    def stop_on_path(self, reason: str) -> bool:
+        """STOP: slow down along the path within the acceleration limits (as PAUSE does), then
+        end CANCELLED with ``reason`` where it stands.  False when the move is not on its way
+        (not started, or settling on its target): nothing to slow down, the caller cancels it
+        at once."""
+        if self._s is None or self.i >= self.n:
+            return False
+        self.stop_reason = reason
+        return True
 
     def step(self, ctx: TickContext) -> FrameRequest:
         if self.streamed and ctx.stream_mode and ctx.now - self.last_update > ctx.watchdog_s:

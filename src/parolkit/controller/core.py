@@ -577,6 +577,8 @@ class ControllerCore:
 
     def _immediate(self, cmd: C.Command, sub: Submission) -> tuple[AckStatus, str]:
         if isinstance(cmd, C.Stop):
+            if cmd.reason is None and self._stop_on_path("stopped by STOP"):
+                return AckStatus.COMPLETED, "stopping: the running move slows down on its path; the queue is cleared"
             self._cancel_all(cmd.reason or "stopped by STOP")
             return AckStatus.COMPLETED, "stopped"
         if isinstance(cmd, C.EStop):
@@ -596,7 +598,7 @@ class ControllerCore:
         if isinstance(cmd, C.StreamMode):
             self._set_stream_mode(cmd.on)
             return AckStatus.COMPLETED, f"stream mode {'on' if cmd.on else 'off'}"
-        if isinstance(cmd, C.Speed):
+        if isinstance(cmd, C.SpeedOverride):
             self.speed_pct = float(cmd.percent)
             return AckStatus.COMPLETED, f"speed override {cmd.percent:g} %"
         if isinstance(cmd, C.Pause):
@@ -624,6 +626,22 @@ class ControllerCore:
             self.tool_name, self.tool_obj = cmd.tool, sub.tool
             return AckStatus.COMPLETED, f"tool {cmd.tool}"
         return AckStatus.INVALID, f"{cmd.name} is not a command the loop applies"
+
+    def _stop_on_path(self, reason: str) -> bool:
+        """A client's STOP while a planned move (not a jog) is on its way: the queue is
+        cancelled now, the move slows down along its own path within the acceleration limits
+        and ends CANCELLED where it stands (:meth:`TrajectoryActivity.stop_on_path`).  False
+        when there is no such move: the caller cancels everything at once (a jog stops within
+        a frame, as the original's; a move settling on its target holds there)."""
+        a, act = self.jobs.active, self.jobs.activity
+        if (a is None or not isinstance(act, TrajectoryActivity) or isinstance(act, SpeedActivity)
+                or a.streamed or a.command.STREAMABLE or a.command.EXECUTION is not Execution.PLANNED):
+            return False
+        if not act.stop_on_path(reason):
+            return False
+        self.paused = False
+        self.jobs.cancel_waiting(reason)
+        return True
 
     def _set_stream_mode(self, on: bool) -> None:
         self.stream_mode = on

@@ -199,6 +199,19 @@ class JobQueue:
             n += 1
         return n
 
+    def cancel_waiting(self, reason: str) -> int:
+        """Cancel every waiting job and a streamed jog waiting for its plan (CANCELLED acks),
+        not the running one.  Returns how many."""
+        n = 0
+        while self.waiting:
+            self.ack(self.waiting.popleft(), AckStatus.CANCELLED, reason)
+            n += 1
+        if self.stream_cart is not None:
+            self.ack(self.stream_cart, AckStatus.CANCELLED, reason)
+            self.stream_cart = None
+            n += 1
+        return n
+
     def fail_waiting(self, reason: str) -> None:
         """Every waiting job (and a streamed jog waiting for its plan) FAILED with ``reason``."""
         while self.waiting:

@@ -88,7 +88,7 @@ __all__ = [
     "ClearError",
     "EStop",
     "StreamMode",
-    "Speed",
+    "SpeedOverride",
     "Pause",
     "Resume",
     "Checkpoint",
@@ -477,7 +477,7 @@ class StreamMode(Command):
 
 
 @dataclass(frozen=True)
-class Speed(Command):
+class SpeedOverride(Command):
     """``SPEED|pct``: the speed override, 1..100 % of every planned speed, for the running move
     (from the next tick, ramped within each joint's acceleration limit along the move's own
     path) and every move after it, until changed."""
@@ -971,7 +971,7 @@ def _p_checkpoint(a: Sequence[str], m: RobotModel) -> Command:
 
 def _p_speed(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SPEED", 1)
-    return Speed(_ranged(a[0], "speed override (%)", 1.0, 100.0, unit="%"))
+    return SpeedOverride(_ranged(a[0], "speed override (%)", 1.0, 100.0, unit="%"))
 
 
 def _p_pneumatic(a: Sequence[str], m: RobotModel) -> Command:
