@@ -16,7 +16,9 @@ Pipeline, one module per stage:
 
 Timing:
 
-* ``duration_s``: exactly that long (default POLY); a joint too fast -> refused.
+* ``duration_s``: exactly that long (default POLY); a joint over its position-tracking
+  maximum but within its maximum speed -> stretched, with a warning (the seed's speed rule);
+  over its maximum speed -> refused.
 * ``speed_pct`` (or the default :data:`DEFAULT_CART_SPEED_PCT` = 50 %): the move lasts
   path length / mapped speed (2..60 mm/s linear, 0.7..25 deg/s angular, the slower governs),
   as the original; default profile TRAP (1/3 accelerate, 1/3 cruise, 1/3 brake: the cruise

@@ -4,9 +4,12 @@ joint can follow, and the joints solved at every tick.
 A stage of the Cartesian pipeline (:mod:`parolkit.motion.cartesian`, whose docstring states
 the timing rules): a unit profile (poly / trap / ruckig) at the move's duration or path speed
 -> the tool pose of every tick -> the joints (:mod:`.ik_along_path`) -> speeds and
-accelerations checked on every sample; over a limit, the duration stretches (or, a duration
-given, the move is refused naming the shortest duration that fits).  TOPP-RA times the joint
-path itself (time-optimal within the joint limits).
+accelerations checked on every sample; over a limit, the duration stretches.  A duration given
+that needs more than a joint's position-tracking maximum but no more than its maximum speed
+stretches too, with :func:`parolkit.motion.validate.stretch_warning` (the seed's speed rule: a
+move within every joint's maximum speed runs); over a joint's maximum speed it is refused,
+naming the shortest duration accepted.  TOPP-RA times the joint path itself (time-optimal
+within the joint limits).
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ if TYPE_CHECKING:
 
     from parolkit.kinematics import Tool
     from parolkit.motion.cartesian.path_of_move import CartesianMove
+    from parolkit.motion.topp import ToppResult
     from parolkit.robot import RobotModel
 
 __all__ = [
@@ -90,6 +94,9 @@ def time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64], 
             notes.append(f"no duration or speed given: path speed {DEFAULT_CART_SPEED_PCT:g} % "
                          f"({v_lin:g} mm/s, {w_ang:g} deg/s)")
     limits = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION)
+    # each joint's maximum speed itself: a duration given that needs more than ``limits`` but
+    # no more than this runs stretched (the seed's speed rule); over it, it is refused
+    full = validate.speed_limits(model, rate_hz, False)
     vmax = limits.array
 
     def timed(prof: ScalarProfile) -> _TimedPath:
@@ -97,6 +104,8 @@ def time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64], 
         return _TimedPath(name, prof, path, start, model, tool, rate_hz, limits,
                           accel_hard=duration is None)
 
+    given = duration
+    at_given: _TimedPath | None = None  # the path at the duration given, when that is stretched
     stretch = 1.0
     wrist_bound = False  # a stretch made for the singular area's bounds
     for _attempt in range(4):
@@ -108,7 +117,12 @@ def time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64], 
         if factor > MAX_STRETCH and near_singularity(tm.q, tm.v_steps, vmax):
             refuse_singular(name, tm.t, tm.q, tm.v_steps, vmax, tool)
         if duration is not None:
-            tm.refuse(_least_duration(tm, profile, base, timed))
+            if not (limits.position_tracked and tm.within(full)):
+                tm.refuse(_refusal_hint(tm, profile, base, timed, limits, full), full)
+            # within every joint's maximum speed: stretched, as little as the tracking allows
+            at_given = at_given or tm
+            duration = max(validate.round_up_duration(duration * factor), duration + 0.01)
+            continue
         stretch *= factor * 1.02
     else:
         # stretching does not help: a kink (a sharp corner, or a singularity grazed)
@@ -122,10 +136,14 @@ def time_and_solve(move: CartesianMove, path: Path, start: NDArray[np.float64], 
                f"{singular.MAX_DEVIATION_DEG:g} deg, exact at the end)" if wrist_bound else
                f"joint speed/acceleration limits ({JOINT_NAMES[j]} the busiest)")
         notes.append(f"duration stretched from {_nominal(profile, base):.2f} s to {T:.2f} s: {why}")
+    if at_given is not None and given is not None:
+        peak = at_given.peak_steps_s
+        j = int(np.argmax(peak / vmax))
+        notes.append(validate.stretch_warning(limits, j, float(peak[j]), f"to finish in the t={given:g} s given", T))
     if tm.area is not None:
         notes.append(tm.area.note())
     if duration is not None:
-        warning = validate.accel_warning(np.max(np.abs(tm.acc), axis=0), model, duration)
+        warning = validate.accel_warning(np.max(np.abs(tm.acc), axis=0), model, duration, given)
         if warning is not None:
             notes.append(warning)
     check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
@@ -171,7 +189,8 @@ class _TimedPath:
         self.acc: NDArray[np.float64] = np.diff(np.vstack([np.zeros((1, 6)), v_steps]), axis=0) * rate_hz
         v_tick: NDArray[np.float64] = np.diff(np.vstack([start[None, :], q]), axis=0) * (rate_hz * spd)
         self.v_chk: NDArray[np.float64] = np.where(np.abs(v_tick) > np.abs(v_steps), v_tick, v_steps)
-        self.r_v = float(np.max(np.abs(self.v_chk) / vmax))
+        #: per joint, the fastest speed the path asks for (samples, tick steps, finer grid), steps/s
+        self.peak_steps_s: NDArray[np.float64] = np.abs(self.v_chk).max(axis=0)
         self.fine: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         #: how far over the singular-area orientation bound (1 = at it)
         self.r_dev = 0.0 if self.area is None else self.area.overload()
@@ -185,8 +204,18 @@ class _TimedPath:
                 self.r_dev = max(self.r_dev, area_f.overload())
             vf: NDArray[np.float64] = np.diff(np.vstack([start[None, :], qf]), axis=0) * (spd * n / T)
             self.fine = (tf, vf)
-            self.r_v = max(self.r_v, float(np.max(np.abs(vf) / vmax)))
+            self.peak_steps_s = np.maximum(self.peak_steps_s, np.abs(vf).max(axis=0))
+        self.r_v = self.overload(limits)
         self.r_a = float(np.max(np.max(np.abs(self.acc), axis=0) / (amax * (1 + validate.ACCEL_TOLERANCE))))
+
+    def overload(self, limits: validate.SpeedLimits) -> float:
+        """How far over ``limits`` the path's joint speeds are (1 = at the limit)."""
+        return float(np.max(self.peak_steps_s / limits.array))
+
+    def within(self, full: validate.SpeedLimits) -> bool:
+        """What :attr:`fits` says with ``full`` (each joint's maximum speed itself) for the speed
+        limits: a path with a duration that is within it runs, stretched if it does not fit."""
+        return self.overload(full) <= 1.0 and (self.r_a <= 1.0 or not self.accel_hard) and self.r_dev <= 1.0
 
     @property
     def fits(self) -> bool:
@@ -198,13 +227,15 @@ class _TimedPath:
         accelerations with 1 / time^2; the singular-area deviation roughly with 1 / time)."""
         return max(self.r_v, math.sqrt(self.r_a) if self.accel_hard else 1.0, self.r_dev, 1.0)
 
-    def refuse(self, hint: str) -> None:
+    def refuse(self, hint: str, limits: validate.SpeedLimits | None = None) -> None:
         """Raise the PlanningError of the first limit exceeded (joint, time, value, limit), with
-        ``hint``; return when nothing is exceeded."""
-        validate.check_speeds(self.name, self.t, self.v_chk, self.model, hint=hint, limits=self.limits)
+        ``hint``; return when nothing is exceeded.  ``limits``: the speed limits to name
+        (default the path's own)."""
+        lim = self.limits if limits is None else limits
+        validate.check_speeds(self.name, self.t, self.v_chk, self.model, hint=hint, limits=lim)
         if self.fine is not None:
             tf, vf = self.fine
-            validate.check_speeds(self.name, tf, vf, self.model, hint=hint, limits=self.limits)
+            validate.check_speeds(self.name, tf, vf, self.model, hint=hint, limits=lim)
         if self.accel_hard:
             validate.check_accels(self.name, self.t, self.v_steps, self.model, self.rate_hz, hint=hint)
         if self.r_dev > 1.0 and self.area is not None:
@@ -215,20 +246,42 @@ class _TimedPath:
 LEAST_DURATION_SEARCH_S = 600.0
 
 
-def _least_duration(tm: _TimedPath, profile: Profile, base: float,
-                    timed: Callable[[ScalarProfile], _TimedPath]) -> str:
-    """How the refusal of ``tm``'s duration says what would fit: ``"give a duration of at
-    least X s"`` with the shortest duration (to 0.01 s) at which the path fits.  Searched, not
-    scaled: a move of less than a tick does not scale like a longer one (its one sample hid
-    the path).  Grows the duration (by the overload, at most 4x a step) until it fits, then
-    halves the interval down to 0.01 s; a dozen plans of the path at most, on refusals only."""
+def _refusal_hint(tm: _TimedPath, profile: Profile, base: float, timed: Callable[[ScalarProfile], _TimedPath],
+                  limits: validate.SpeedLimits, full: validate.SpeedLimits) -> str:
+    """What the refusal of ``tm``'s duration says would do: ``"give a duration of at least X
+    s"``, the shortest duration accepted (within every joint's maximum speed, ``full``), and,
+    for a position-tracked path, ``" (a duration below Y s runs stretched to Y s, within the
+    position-tracking maxima)"``; ``"no duration up to 600 s fits"`` when none does."""
+    def accepted(trial: _TimedPath) -> bool:
+        return trial.within(full) if limits.position_tracked else trial.fits
+
+    least = _least_duration(tm, profile, base, timed, accepted)
+    if least is None:
+        return f"no duration up to {LEAST_DURATION_SEARCH_S:g} s fits"
+    hint = f"give a duration of at least {least:.2f} s"
+    if limits.position_tracked:
+        tracked = _least_duration(tm, profile, base, timed, lambda trial: trial.fits)
+        if tracked is not None and tracked > least + 1e-9:
+            hint += (f" (a duration below {tracked:.2f} s runs stretched to {tracked:.2f} s, within the "
+                     f"position-tracking maxima)")
+    return hint
+
+
+def _least_duration(tm: _TimedPath, profile: Profile, base: float, timed: Callable[[ScalarProfile], _TimedPath],
+                    fits_at: Callable[[_TimedPath], bool]) -> float | None:
+    """The shortest duration (s, to 0.01 s) at which the path of ``tm`` fits (``timed``: the
+    path at a profile; ``fits_at``: whether it fits); None when none up to
+    :data:`LEAST_DURATION_SEARCH_S` does.  Searched, not scaled: a move of less than a tick
+    does not scale like a longer one (its one sample hid the path).  Grows the duration (by
+    the overload, at most 4x a step) until it fits, then halves the interval down to 0.01 s; a
+    dozen plans of the path at most, on refusals only."""
 
     def fits(T: float) -> tuple[bool, float]:
         try:
             trial = timed(_path_profile(profile, base, T, 1.0))
         except PlanningError:
             return False, 2.0
-        return trial.fits, trial.factor
+        return fits_at(trial), trial.factor
 
     lo = tm.T
     hi = max(math.ceil(max(tm.T, 1.0 / tm.rate_hz) * 100 - 1e-6) / 100, 0.01)
@@ -238,7 +291,7 @@ def _least_duration(tm: _TimedPath, profile: Profile, base: float,
         lo = hi
         hi = math.ceil(hi * min(max(factor * 1.02, 1.1), 4.0) * 100) / 100
         if hi > LEAST_DURATION_SEARCH_S:
-            return f"no duration up to {LEAST_DURATION_SEARCH_S:g} s fits"
+            return None
         ok, factor = fits(hi)
     while hi - lo > 0.0101:
         mid = math.ceil((lo + hi) / 2 * 100 - 1e-6) / 100
@@ -248,7 +301,7 @@ def _least_duration(tm: _TimedPath, profile: Profile, base: float,
             hi = mid
         else:
             lo = mid
-    return f"give a duration of at least {hi:.2f} s"
+    return hi
 
 
 def _nominal(profile: Profile, base: float) -> float:
@@ -294,20 +347,49 @@ def _toppra_path(
     pos, rots = path.evaluate(s_grid)
     q_grid = solve_ik(name, pos, rots, start, tool, s_grid)
     spd = model.steps_per_deg
-    vmax = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION).array / spd
+    limits = validate.speed_limits(model, rate_hz, tracking is Tracking.POSITION)
+    vmax = limits.array / spd
     amax = validate.model_arrays(model).amax / spd
     # a 7th coordinate = s itself (unconstrained) recovers s(t) from the joint-space result
     aug = np.hstack([q_grid, s_grid[:, None]])
     s_vmax = 1e6 if duration is not None else 1.0 / base
-    res = toppra_parameterize(s_grid, aug, np.append(vmax, s_vmax), np.append(amax, 1e9), duration=duration)
-    if duration is not None and (res is None or res.duration > duration * (1 + 1e-6)):
-        # a duration given: the acceleration limits give way (a warning), the speed ones hold
-        res = toppra_parameterize(s_grid, aug, np.append(vmax, s_vmax), np.append(amax * 1e3, 1e9),
-                                  duration=duration)
+
+    def in_time(r: ToppResult | None, d: float) -> bool:
+        return r is not None and r.duration <= d * (1 + 1e-6)
+
+    def topp(v: NDArray[np.float64], d: float | None) -> ToppResult | None:
+        r = toppra_parameterize(s_grid, aug, np.append(v, s_vmax), np.append(amax, 1e9), duration=d)
+        if d is not None and not in_time(r, d):
+            # a duration given: the acceleration limits give way (a warning), the speed ones hold
+            r = toppra_parameterize(s_grid, aug, np.append(v, s_vmax), np.append(amax * 1e3, 1e9), duration=d)
+        return r
+
+    given = duration
+    res = topp(vmax, duration)
     if res is None:
         raise PlanningError(name, "TOPP-RA finds no feasible timing within the joint limits")
-    if duration is not None and res.duration > duration * (1 + 1e-6):
-        raise PlanningError(name, f"too fast for t={duration:g} s: TOPP-RA needs at least {res.duration:.3f} s")
+    notes: list[str] = []
+    if duration is not None and not in_time(res, duration):
+        # over a position-tracking maximum: within every joint's maximum speed the move runs
+        # stretched (the seed's speed rule); over a joint's maximum speed it is refused
+        stretched = validate.round_up_duration(res.duration)
+        at_full = topp(limits.full / spd, duration) if limits.position_tracked else res
+        if not limits.position_tracked or not in_time(at_full, duration):
+            least = "" if at_full is None else (
+                f" within the joints' maximum speeds; give t >= {validate.round_up_duration(at_full.duration):.2f} s"
+                + (f" (a t below {stretched:.2f} s runs stretched to {stretched:.2f} s, within the "
+                   f"position-tracking maxima)" if limits.position_tracked else ""))
+            need = res.duration if at_full is None else at_full.duration
+            raise PlanningError(name, f"too fast for t={duration:g} s: TOPP-RA needs at least {need:.3f} s{least}")
+        assert at_full is not None
+        slow = topp(vmax, stretched)
+        if slow is None or not in_time(slow, stretched):  # (the optimum itself, a hair longer)
+            slow, stretched = res, res.duration
+        peak = np.abs(at_full.evaluate(np.linspace(0.0, duration, 401))[1][:, :6]).max(axis=0) * spd
+        j = int(np.argmax(peak / limits.array))
+        notes.append(validate.stretch_warning(limits, j, float(peak[j]), f"to finish in the t={duration:g} s given",
+                                              stretched))
+        res, duration = slow, stretched
     T = res.duration
     t = sample_times(T, rate_hz)
     s = np.clip(res.evaluate(t)[0][:, 6], 0.0, 1.0)
@@ -319,7 +401,8 @@ def _toppra_path(
     check_jumps(name, t, np.vstack([start[None, :], q]), model, rate_hz, tool)
     return build_trajectory(move, t, q, qd, start=start, model=model, rate=rate_hz, tracking=tracking,
                             notes=[f"TOPP-RA time-optimal: {res.optimal_duration:.2f} s"
-                                   + (f", slowed uniformly to {T:.2f} s" if T > res.optimal_duration * 1.001 else "")],
-                            target_deg=q[-1], timed_s=duration,
+                                   + (f", slowed uniformly to {T:.2f} s" if T > res.optimal_duration * 1.001 else ""),
+                                   *notes],
+                            target_deg=q[-1], timed_s=duration, given_s=given,
                             hint="the time-optimal timing exceeds a limit after sampling")
 
