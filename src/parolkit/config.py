@@ -59,6 +59,7 @@ __all__ = [
     "GuiSettings",
     "ToolSettings",
     "Ros2Settings",
+    "ServoSettings",
     "Config",
     "load_config",
     "DEFAULT_CONFIG_PATHS",
@@ -316,6 +317,18 @@ class Ros2Settings:
 
 
 @dataclass(frozen=True)
+class ServoSettings:
+    """Servo streaming (SERVOJ / SERVOL): the latest target wins, an online jerk-limited
+    generator moves toward it."""
+
+    #: with no new target for this long the arm makes a controlled stop and the stream ends, s
+    timeout_s: float = 0.05
+
+    def __post_init__(self) -> None:
+        _positive(self.timeout_s, "servo.timeout_s", hi=10.0)
+
+
+@dataclass(frozen=True)
 class ToolSettings:
     """A user tool: the TCP pose in the flange frame, [x, y, z mm, A, B, C deg]."""
 
@@ -366,6 +379,7 @@ class Config:
     serial: SerialSettings = field(default_factory=SerialSettings)
     gui: GuiSettings = field(default_factory=GuiSettings)
     ros2: Ros2Settings = field(default_factory=Ros2Settings)
+    servo: ServoSettings = field(default_factory=ServoSettings)
     tools: tuple[ToolSettings, ...] = ()
     source: str | None = None
 
@@ -406,7 +420,7 @@ def _port(v: object, name: str) -> None:
 
 
 _SECTIONS = {"controller": ControllerSettings, "serial": SerialSettings, "gui": GuiSettings,
-             "ros2": Ros2Settings}
+             "ros2": Ros2Settings, "servo": ServoSettings}
 
 
 def _robot_fields() -> set[str]:

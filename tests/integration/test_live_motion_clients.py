@@ -94,3 +94,48 @@ def test_any_client_may_pause_only_the_lease_holder_may_resume_or_change_the_spe
         owner.resume()
         assert move.result(timeout=30).ok
         owner.release_control()
+
+
+def _stream_to(send, start, end, steps: int, hold_until) -> None:
+    """Stream targets from ``start`` to ``end`` (deg or pose) in ``steps`` at about 100 Hz,
+    then the last one until ``hold_until()`` (a user holding a teleop device still)."""
+    import time
+
+    for k in range(1, steps + 1):
+        send([a + (b - a) * k / steps for a, b in zip(start, end)])
+        time.sleep(0.01)
+    deadline = time.monotonic() + 20
+    while not hold_until() and time.monotonic() < deadline:
+        send(list(end))
+        time.sleep(0.01)
+
+
+def test_servo_streams_from_robot_and_robot_api_reach_their_last_target_and_stop(served):
+    from parolkit.client import robot_api
+
+    with Robot(port=served.port, ack_port=0, timeout=2.0) as r:
+        a0 = list(r.angles())
+        end = a0[:5] + [a0[5] + 10.0]
+        _stream_to(r.servo_j, a0, end, 100, lambda: abs(r.angles()[5] - end[5]) < 0.01)
+        wait_until(lambda: r.status().command is None, 10, what="the stream's end (0.05 s of silence)")
+        assert r.angles() == pytest.approx(end, abs=0.01)
+        with pytest.raises(ParolkitValueError, match="angles"):
+            r.servo_j([1, 2, 3])
+        p0 = list(r.pose())
+        goal = [p0[0], p0[1], p0[2] - 8.0, *p0[3:]]
+        _stream_to(r.servo_l, p0, goal, 50, lambda: abs(r.pose()[2] - goal[2]) < 0.02)
+        wait_until(lambda: r.status().command is None, 10, what="the stream's end")
+        assert list(r.pose())[:3] == pytest.approx(goal[:3], abs=0.05)
+
+    before = robot_api.configure()
+    robot_api.configure(port=served.port, ack_port=served.ack_port)
+    try:
+        a1 = robot_api.get_robot_joint_angles()
+        back = a1[:5] + [a1[5] - 10.0]
+        _stream_to(robot_api.servo_joints, a1, back, 100,
+                   lambda: abs(robot_api.get_robot_joint_angles()[5] - back[5]) < 0.01)
+        wait_until(lambda: robot_api.get_robot_status()["command"] is None, 10, what="the stream's end")
+        with pytest.raises(ValueError, match="frame"):
+            robot_api.servo_pose([0, 262, 250, -90, 0, -90], frame="XYZ")
+    finally:
+        robot_api.configure(**{k: before[k] for k in ("host", "port", "ack_port")})

@@ -341,3 +341,133 @@ def test_stop_during_a_jog_stops_within_a_frame_as_before(bench):
     bench.send("STOP")
     bench.run(1)
     assert bench.terminal(jog)[0] == "CANCELLED"
+
+
+# ---------------------------------------------------------------- servo streams (SERVOJ)
+
+
+def _servo(bench: Bench, deg) -> str:
+    return bench.send("SERVOJ|" + "|".join(f"{v:.5f}" for v in deg))
+
+
+def test_a_1_hz_curve_streamed_at_100_hz_with_10_percent_dropped_is_followed_within_2_ticks(bench):
+    import math
+    import random
+
+    a0 = np.asarray(bench.sim.controller.snapshot.angles_deg)
+    # each joint's amplitude: the curve's peak acceleration 30 % of the joint's limit
+    amp = 0.3 * ACCEL / (4 * math.pi**2) / np.abs(SPD)
+
+    def curve(k: int) -> np.ndarray:
+        return a0 + amp * (1 - math.cos(2 * math.pi * k * PERIOD))
+
+    rng = random.Random(7)
+    start = bench.tick
+    first = _servo(bench, curve(0))
+    board = []
+    dropped = 0
+    for k in range(1, 300):
+        if rng.random() < 0.1:
+            dropped += 1
+        else:
+            _servo(bench, curve(k))
+        bench.run(1)
+        board.append((k, np.asarray(bench.sim.controller.snapshot.status.positions, dtype=float)))
+    assert 15 <= dropped <= 45
+    assert bench.acks[first][0][0] == "EXECUTING"
+    # the lag: the shift of the curve that the board's reported positions fit best
+    amp_steps = amp * np.abs(SPD)
+    err = {}
+    for lag in range(-3, 8):
+        err[lag] = max(float(np.max(np.abs(p - curve(k - lag) * SPD) / amp_steps))
+                       for k, p in board if k >= 40 and k - lag < 300)
+    best = min(err, key=err.__getitem__)
+    assert best <= 2 and err[best] < 0.15, err
+    gotos = _gotos(bench.frames(), start)
+    _assert_speed_steps_within_accel(gotos, slack=1.0)
+    top = np.asarray(PAROL6.max_speed_steps_s, dtype=float)
+    assert all(np.all(np.abs(np.asarray(f.speeds)) <= top) for _, f in gotos)
+    # the last target held: the same target for 30 ticks, the arm on it and at rest
+    last = curve(299)
+    for _ in range(30):
+        _servo(bench, last)
+        bench.run(1)
+    st = bench.sim.controller.snapshot.status
+    assert np.allclose(st.positions, last * SPD, atol=1.0) and not any(st.speeds)
+    assert bench.terminal(first) is None, "the stream runs while targets come"
+
+
+def test_silence_ends_a_servo_stream_with_a_controlled_stop(bench):
+    a0 = np.asarray(bench.sim.controller.snapshot.angles_deg)
+    speed = np.asarray([0, 0, 0, 0, 0, 20.0])  # deg/s on J6, a ramp
+    start = bench.tick
+    first = _servo(bench, a0)
+    for k in range(1, 60):
+        _servo(bench, a0 + speed * k * PERIOD)
+        bench.run(1)
+    last_target = (a0 + speed * 59 * PERIOD) * SPD
+    moving = _gotos(bench.frames(), start)[-1][1].speeds[5]
+    assert moving > 0.8 * 20 * SPD[5], "at the ramp's speed when the targets stop"
+    ticks, done = bench.run_until_done(first, limit=100)
+    assert done == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control"), done
+    gotos = _gotos(bench.frames(), start)
+    _assert_speed_steps_within_accel(gotos, slack=1.0)
+    end = np.asarray(gotos[-1][1].positions, dtype=float)
+    assert not any(gotos[-1][1].speeds)
+    # it went on past the last target by no more than the timeout's travel and a braking distance
+    v = 20 * SPD[5]
+    assert 0 <= end[5] - last_target[5] <= v * 0.05 + v * v / (2 * ACCEL[5]) + 0.05 * v, (end[5], last_target[5])
+
+
+def test_a_queued_move_ends_a_servo_stream_smoothly_then_runs(bench):
+    a0 = np.asarray(bench.sim.controller.snapshot.angles_deg)
+    first = _servo(bench, a0)
+    for k in range(1, 40):
+        _servo(bench, a0 + np.asarray([0, 0, 0, 0, 0, 20.0]) * k * PERIOD)
+        bench.run(1)
+    move = bench.send("MOVEJOINT|90|-90|180|0|0|180|3|None")
+    bench.run(1)
+    assert bench.terminal(first) is None, "the stream stops under control first"
+    _, done = bench.run_until_done(first, limit=60)
+    assert done == ("COMPLETED", "servo stream ended by MOVEJOINT, stopped under control")
+    _, moved = bench.run_until_done(move)
+    assert moved[0] == "COMPLETED", moved
+
+
+def test_servo_is_refused_while_a_move_runs_and_out_of_range_targets_are_invalid(bench):
+    move = bench.send("MOVEJOINT|60|-80|170|10|-10|170|4|None")
+    bench.run(5)
+    busy = bench.send("SERVOJ|60|-80|170|10|-10|170")
+    bench.run(1)
+    assert bench.terminal(busy) == ("FAILED", "robot is busy (MOVEJOINT): a servo stream starts when nothing else "
+                                              "runs; wait for it or send STOP")
+    bad = bench.send("SERVOJ|400|-80|170|10|-10|170")
+    bench.run(1)
+    status, details = bench.terminal(bad)
+    assert status == "INVALID" and "J1 angle = 400 deg is out of range" in details
+    bench.run_until_done(move)
+
+
+def test_servol_follows_a_pose_target_in_the_world_and_in_the_tool_frame(bench):
+    pose = np.asarray(bench.sim.controller.snapshot.pose)
+    first = bench.send("SERVOL|" + "|".join(f"{v:.4f}" for v in pose + [0, 0, -5, 0, 0, 0]))
+    for _ in range(80):
+        bench.send("SERVOL|" + "|".join(f"{v:.4f}" for v in pose + [0, 0, -5, 0, 0, 0]))
+        bench.run(1)
+    now = np.asarray(bench.sim.controller.snapshot.pose)
+    assert np.allclose(now[:3], pose[:3] + [0, 0, -5], atol=0.05), now
+    assert bench.acks[first][0][0] == "EXECUTING"
+    bench.run_until_done(first)
+    # TRF: offsets from the TCP pose where the stream started, in its tool frame
+    start = np.asarray(bench.sim.controller.snapshot.pose)
+    trf = bench.send("SERVOL|0|0|10|0|0|0|TRF")
+    for _ in range(80):
+        bench.send("SERVOL|0|0|10|0|0|0|TRF")
+        bench.run(1)
+    from parolkit.kinematics.pose import pose_to_matrix
+
+    m = pose_to_matrix(start)
+    expected = start[:3] + 10.0 * m[:3, 2]  # 10 mm along the start pose's tool z
+    now = np.asarray(bench.sim.controller.snapshot.pose)
+    assert np.allclose(now[:3], expected, atol=0.05), (now, expected)
+    bench.run_until_done(trf)

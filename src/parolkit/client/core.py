@@ -1320,6 +1320,25 @@ class RobotCommands(Generic[_Result, _Handle]):
         body = _check(wire.build_checkpoint, label)
         return self._command(body, wait, timeout)
 
+    # ---- servo streams: fire and forget ----
+    def _send(self, text: str) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def servo_j(self, angles: Sequence[float]) -> None:
+        """Stream a servo target, joint angles in deg (``SERVOJ``): the latest wins; an online
+        jerk-limited generator moves the joints toward it within their limits from the
+        controller's next frame.  Send targets at the control rate or faster: without one for
+        ``servo.timeout_s`` (0.05 s) the arm makes a controlled stop and the stream ends.  Fire
+        and forget (no ack; a stream that cannot start, not homed or busy, shows in
+        :meth:`status`: no command runs)."""
+        self._send(_check(wire.build_servo_j, angles))
+
+    def servo_l(self, pose: Sequence[float], frame: str = "WRF") -> None:
+        """Stream a servo target pose ``[x, y, z mm, A, B, C deg]`` of the TCP (``SERVOL``), in
+        the world frame, or with ``frame="TRF"`` relative to the TCP pose where the stream
+        started (offsets in its tool frame); as :meth:`servo_j`."""
+        self._send(_check(wire.build_servo_l, pose, frame))
+
     # ---- immediate control ----
     def set_speed(self, percent: float, timeout: float | None = None) -> _Result:
         """The speed override, 1..100 % of every planned speed: the running move slows down or

@@ -80,6 +80,7 @@ __all__ = [
     "enable_robot", "disable_robot", "clear_robot_error", "estop_robot",
     "speed_robot_joints", "wait_robot_input", "set_robot_tool", "set_stream_mode",
     "set_speed_override", "pause_robot", "resume_robot", "checkpoint", "wait_checkpoint",
+    "servo_joints", "servo_pose",
     # queries
     "get_robot_pose", "get_robot_pose_matrix", "get_robot_joint_angles", "get_robot_io",
     "get_electric_gripper_status", "get_robot_joint_speeds", "is_robot_stopped",
@@ -91,7 +92,8 @@ __all__ = [
     "parse_numbers", "parse_status_fields", "parse_cookie", "parse_control", "ControlInfo",
     "build_move_joint", "build_move_pose", "build_move_cart", "build_move_cart_rel_trf",
     "build_jog", "build_multijog", "build_cartjog", "build_pneumatic_gripper",
-    "build_electric_gripper", "build_delay", "build_checkpoint", "build_speed", "build_home",
+    "build_electric_gripper", "build_delay", "build_checkpoint", "build_speed", "build_servo_j",
+    "build_servo_l", "build_home",
     "build_speed_joint", "build_move_joint_path",
     "build_wait_input", "build_smooth_circle", "build_smooth_arc_center",
     "build_smooth_arc_param", "build_smooth_spline", "build_smooth_helix", "build_smooth_blend",
@@ -482,6 +484,18 @@ def build_checkpoint(label: Any) -> str:
     if not isinstance(label, str) or not _LABEL_RE.match(label):
         raise ValueError(f"label must be 1..64 characters of [A-Za-z0-9_.:-], got {label!r}")
     return _join("CHECKPOINT", label)
+
+
+def build_servo_j(angles: Any) -> str:
+    """**(ext)** ``SERVOJ|j1|..|j6``: a servo target, joint angles in deg (the controller checks
+    the joint ranges)."""
+    return _join("SERVOJ", *_numbers(angles, 6, "angles", " (J1..J6 in deg)"))
+
+
+def build_servo_l(pose: Any, frame: Any = "WRF") -> str:
+    """**(ext)** ``SERVOL|x|y|z|A|B|C|frame``: a servo target pose (mm, deg) in the world
+    frame (WRF) or relative to the TCP pose where the stream started (TRF)."""
+    return _join("SERVOL", *_pose(pose, "pose"), _choice(frame, "frame", FRAMES))
 
 
 def build_speed(percent: Any) -> str:
@@ -1366,6 +1380,22 @@ def set_speed_override(percent: float, wait_for_ack: bool = False, timeout: floa
     down or speeds up on its own path within the acceleration limits, and every move after it
     runs so, until changed."""
     return _dispatch(build_speed(percent), wait_for_ack, timeout, non_blocking)
+
+
+def servo_joints(angles: List[float]) -> str:
+    """**(ext)** Stream a servo target (deg): the latest wins, an online jerk-limited generator
+    moves the joints toward it within their limits from the controller's next frame.  Send
+    targets at the control rate or faster; without one for 0.05 s (``servo.timeout_s``) the arm
+    makes a controlled stop and the stream ends.  Fire and forget (no acknowledgement: at
+    100-250 targets a second a lost one is replaced by the next); returns the send result."""
+    return send_robot_command(build_servo_j(angles))
+
+
+def servo_pose(pose: List[float], frame: str = "WRF") -> str:
+    """**(ext)** Stream a servo target pose [x, y, z mm, A, B, C deg] of the TCP, in the world
+    frame or (``frame="TRF"``) relative to the TCP pose where the stream started; as
+    :func:`servo_joints`."""
+    return send_robot_command(build_servo_l(pose, frame))
 
 
 def pause_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False) -> Result:

@@ -22,7 +22,7 @@ from parolkit.robot import GOTO_FF_GAIN, GOTO_GAIN_PER_S, JOINT_NAMES, goto_goal
 __all__ = [
     "FrameRequest", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity", "HomeActivity",
     "DelayActivity", "CheckpointActivity", "OneShotActivity", "GripperCalibrateActivity", "WaitInputActivity",
-    "OutputActivity",
+    "OutputActivity", "ServoActivity",
     "Samples", "WARNING_PREFIX", "speed_samples", "ticks_for",
 ]
 
@@ -495,6 +495,163 @@ class SpeedActivity(TrajectoryActivity):
         if out.done is AckStatus.COMPLETED and self.limit_note and not out.details:
             return replace(out, details=self.limit_note)
         return out
+
+
+#: how fast a servo stream closes the distance to a moving target, 1/s (its speed is followed
+#: besides)
+SERVO_GAIN_PER_S = 20.0
+
+
+class ServoActivity(Activity):
+    """A servo stream (SERVOJ / SERVOL): the latest target wins, an online jerk-limited
+    generator (ruckig) moves toward it within every joint's position-tracking speed,
+    acceleration limit and jerk, one tick at a time, and each tick's frame is a GO TO frame
+    (a bounded commitment) to where the generator is one period on.
+
+    A target takes effect in the frame of the tick that takes it in (:meth:`set_target`); its
+    speed is estimated from the one before (so a streamed curve is followed, not chased from
+    rest to rest; a dropped target only makes the estimate span two periods).  With no target
+    for ``timeout_ticks``, or :meth:`finish` (a queued command, STOP), or a pause, the generator
+    brings the joints to rest at the acceleration limit (ruckig's velocity interface, target 0):
+    a controlled stop; the job ends there (a pause holds instead, and the stream goes on after
+    RESUME).  Targets are kept inside the joint limits; the generator aims at rest at a target
+    that is at a limit."""
+
+    moves = True
+
+    def __init__(self, target_steps: Sequence[float], tick: int, *, rate_hz: float, max_speed_steps_s: Sequence[float],
+                 max_accel_steps_s2: Sequence[float], jerk_time_s: float, timeout_ticks: int,
+                 limits_steps: Sequence[tuple[float, float]]) -> None:
+        from ruckig import ControlInterface, InputParameter, OutputParameter, Ruckig, RuckigError, Synchronization
+
+        self._interface = ControlInterface
+        self._error = RuckigError
+        self.rate_hz = rate_hz
+        self.period = 1.0 / rate_hz
+        self._otg = Ruckig(6, self.period)
+        self._in = InputParameter(6)
+        self._out = OutputParameter(6)
+        self.vmax = [float(v) for v in max_speed_steps_s]
+        self.amax = [float(a) for a in max_accel_steps_s2]
+        self._in.max_acceleration = self.amax
+        self._in.max_jerk = [a / jerk_time_s for a in self.amax]
+        # every joint on its own (a servo target is followed joint by joint, not as a
+        # synchronised move: the slowest joint must not slow the others down)
+        self._in.synchronization = Synchronization.No
+        self.timeout_ticks = timeout_ticks
+        self.limits = [(float(lo), float(hi)) for lo, hi in limits_steps]
+        self.target = self._inside(target_steps)
+        self.target_tick = tick
+        self.target_v = [0.0] * 6
+        self.target_a = [0.0] * 6
+        self.targets = 1
+        #: the generator's state (steps, steps/s, steps/s^2); None before the first frame
+        self._p: list[float] | None = None
+        self._v = [0.0] * 6
+        self._a = [0.0] * 6
+        #: (status, details) the job ends with once at rest (finish); None: streaming
+        self.ending: tuple[AckStatus, str] | None = None
+        #: ticks the guard's box held the generator back (late replies)
+        self.held_ticks = 0
+        #: SERVOL in TRF: the TCP pose (4x4, m) the stream's offsets are relative to
+        self.anchor: object | None = None
+
+    def _inside(self, target: Sequence[float]) -> list[float]:
+        return [min(max(float(t), lo), hi) for t, (lo, hi) in zip(target, self.limits)]
+
+    def set_target(self, target_steps: Sequence[float], tick: int) -> None:
+        """A new target (steps), taken in at tick ``tick``: the latest wins.  Its speed is
+        estimated from the previous target's (within the speed limits; 0 at a joint limit)."""
+        target = self._inside(target_steps)
+        if tick > self.target_tick:
+            dt = (tick - self.target_tick) * self.period
+            v = [max(-vm, min(vm, (t - o) / dt)) for t, o, vm in zip(target, self.target, self.vmax)]
+            self.target_a = [max(-am, min(am, (a - b) / dt)) for a, b, am in zip(v, self.target_v, self.amax)]
+            self.target_v = v
+        for j, (lo, hi) in enumerate(self.limits):
+            if target[j] <= lo or target[j] >= hi:
+                self.target_v[j] = self.target_a[j] = 0.0
+        self.target, self.target_tick = target, tick
+        self.targets += 1
+
+    def finish(self, status: AckStatus, details: str) -> None:
+        """End the stream with a controlled stop (then ``status`` / ``details``)."""
+        if self.ending is None:
+            self.ending = (status, details)
+
+    def _update(self) -> bool:
+        """One step of the generator; False when it cannot take this input."""
+        try:
+            return int(self._otg.update(self._in, self._out)) >= 0
+        except self._error:
+            return False
+
+    def step(self, ctx: TickContext) -> FrameRequest:
+        box = ctx.box
+        if self._p is None:
+            if ctx.origin is None or box is None:
+                self.target_tick = ctx.tick  # nothing known yet: the silence counts from the start
+                return FrameRequest(BoardCommand.IDLE)
+            self._p = [float(x) for x in ctx.origin]
+        silent = ctx.tick - self.target_tick > self.timeout_ticks
+        if silent and self.ending is None:
+            self.ending = (AckStatus.COMPLETED, f"servo stream ended: no target for "
+                                                f"{self.timeout_ticks / self.rate_hz:g} s, stopped under control")
+        scale = ctx.speed_scale
+        stopping = self.ending is not None or scale <= 0.0
+        inp, out = self._in, self._out
+        inp.current_position, inp.current_velocity, inp.current_acceleration = self._p, self._v, self._a
+        inp.max_velocity = [max(v * scale, 1.0) for v in self.vmax]
+        if stopping:
+            inp.control_interface = self._interface.Velocity
+            inp.target_velocity = [0.0] * 6
+            inp.target_acceleration = [0.0] * 6
+        else:
+            # where the streamed curve will be when this frame's period ends (the target is
+            # where it was when it came): extrapolated with the target's own speed
+            ahead = (ctx.tick - self.target_tick + 1) * self.period
+            goal = self._inside([t + v * ahead for t, v in zip(self.target, self.target_v)])
+            if not any(self.target_v):
+                # a target at rest: reach it exactly, at rest
+                inp.control_interface = self._interface.Position
+                inp.target_position = goal
+                inp.target_velocity = [0.0] * 6
+            else:
+                # a moving target: follow its speed, and close the distance to it with a
+                # proportional term (a time-optimal "arrive there at that speed" would back up
+                # to gather speed; this never does), jerk-limited by the generator
+                inp.control_interface = self._interface.Velocity
+                inp.target_velocity = [max(-vm, min(vm, v + SERVO_GAIN_PER_S * (g - p)))
+                                       for v, g, p, vm in zip(self.target_v, goal, self._p, inp.max_velocity)]
+            inp.target_acceleration = [0.0] * 6
+        if not self._update():
+            # the target's speed cannot be reached there within the limits: aim at the
+            # target at rest; failing that, slow down (the generator never leaves its limits)
+            inp.target_velocity = [0.0] * 6
+            if not self._update():
+                inp.control_interface = self._interface.Velocity
+                self._update()
+        p, v, a = list(out.new_position), list(out.new_velocity), list(out.new_acceleration)
+        pos = tuple(int(round(x)) for x in p)
+        ff = tuple(int(round(x)) for x in v)
+        if box is not None and not _in_box(pos, ff, box):
+            frame = _towards(goto_goal(pos, ff), box)
+            self.held_ticks += 1
+            if frame is None:
+                return FrameRequest(BoardCommand.IDLE)
+            pos, ff = frame
+            p, v, a = [float(x) for x in goto_goal(pos, ff)], [0.0] * 6, [0.0] * 6
+            ff = _ZERO6
+        self._p, self._v, self._a = p, v, a
+        self.progress = 0.0
+        if stopping and all(abs(x) < 1.0 for x in v):
+            if self.ending is None:  # paused: hold here, the stream goes on after RESUME
+                self.target_tick = ctx.tick
+                return FrameRequest(BoardCommand.GOTO, pos, _ZERO6)
+            status, details = self.ending
+            self.progress = 1.0
+            return FrameRequest(BoardCommand.GOTO, pos, _ZERO6, done=status, details=details)
+        return FrameRequest(BoardCommand.GOTO, pos, ff)
 
 
 class HomeActivity(Activity):

@@ -135,6 +135,7 @@ class Controller:
             link_hold_frames=cs.link_hold_frames, homing_timeout_s=max(10.0, 180.0 / self._homing_speedup()),
             homing_speedup=self._homing_speedup(), unhomed_jog_travel_deg=cs.unhomed_jog_travel_deg,
             pose_provider=self._pose_provider, config=self.config,
+            servo_timeout_s=self.config.servo.timeout_s,
         )
         self.stream = StatusStream(sock)
         self.server = UdpServer(sock, model=self.config.robot, inbox=self.inbox, outbox=self.outbox,

@@ -52,6 +52,7 @@ from parolkit.controller.activities import (
     HomeActivity,
     OneShotActivity,
     OutputActivity,
+    ServoActivity,
     SpeedActivity,
     TickContext,
     TrajectoryActivity,
@@ -74,6 +75,8 @@ from parolkit.controller.planning import PlanRequest, PlanResult, needs_plan
 from parolkit.controller.safety import SafetyState
 from parolkit.controller.setpoints import Setpoints
 from parolkit.controller.snapshot import BoardInfo, CommandInfo, PlanView, PoseProvider, RobotState, Snapshot
+from parolkit.errors import ParolkitError
+from parolkit.moves import Frame
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import AckStatus, Execution
 from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperCommandBits, GripperMode, StatusFrame
@@ -100,6 +103,9 @@ GRIPPER_CALIBRATE_TIMEOUT_S = 5.0
 PLAN_AHEAD = 4
 #: a HOME whose board shows no homing within this time FAILS (a disabled board ignores it), s
 HOME_START_TIMEOUT_S = 0.5
+#: a servo stream's generator reaches its full acceleration in this long (its jerk limit is the
+#: acceleration limit / this), s
+SERVO_JERK_TIME_S = 0.05
 #: default travel of one jog press (JOG / MULTIJOG, or one held streamed jog) before homing, deg
 UNHOMED_JOG_TRAVEL_DEG = 20.0
 #: plans asked for ahead by the server whose command has not arrived yet, kept at most
@@ -228,6 +234,7 @@ class ControllerCore:
         board: BoardInfo | None = None,
         tool_name: str = "default",
         config: object | None = None,
+        servo_timeout_s: float = 0.05,
     ) -> None:
         if not unhomed_jog_travel_deg > 0.0:
             raise ValueError(f"unhomed_jog_travel_deg must be > 0 deg, got {unhomed_jog_travel_deg!r}")
@@ -274,6 +281,13 @@ class ControllerCore:
         self.speed_pct = 100.0
         self.paused = False
         self._accel = tuple(float(a) for a in model.accel_limit_steps_s2)
+        #: servo streams: silence that ends one (s), the speeds they keep to (the position-
+        #: tracking maxima: every frame a bounded commitment), the joint ranges (steps)
+        self.servo_timeout_s = float(servo_timeout_s)
+        self._servo_vmax = tuple(float(v) for v in model.max_tracked_speed_steps_s(self.rate_hz))
+        self._servo_anchor: object | None = None
+        self._safe_steps = tuple((min(lo * s, hi * s), max(lo * s, hi * s))
+                                 for (lo, hi), s in zip(self._safe_deg, self._spd))
         self.plan_seq = 0
         #: the link: up (a session), and whether the replies count as missing now
         self.link_up = False
@@ -569,6 +583,9 @@ class ControllerCore:
             # that command cancels it, as if it had been applied in arrival order
             self.jobs.ack(job, AckStatus.CANCELLED, f"{self._safety_name} received after it")
             return
+        if isinstance(cmd, (C.ServoJ, C.ServoL)):
+            self._servo(job, cmd)
+            return
         if cmd.KIND is not C.CommandKind.IMMEDIATE:
             self._submit(job)
             return
@@ -627,6 +644,66 @@ class ControllerCore:
             return AckStatus.COMPLETED, f"tool {cmd.tool}"
         return AckStatus.INVALID, f"{cmd.name} is not a command the loop applies"
 
+    # ================================================================== servo streams
+
+    def _servo(self, job: Job, cmd: C.ServoJ | C.ServoL) -> None:
+        """A servo target: it updates the running stream (COMPLETED ``target taken``), or
+        starts one when nothing else runs (EXECUTING; the job ends when the stream does), or is
+        refused (FAILED with the reason: not homed, busy, out of reach)."""
+        jobs = self.jobs
+        why = self._refusal(cmd)
+        if why is None and (not self.homed or self.measured_deg is None):
+            why = "robot is not homed: send HOME first"
+        if why is not None:
+            jobs.ack(job, AckStatus.FAILED, why)
+            return
+        act = jobs.activity
+        stream = act if isinstance(act, ServoActivity) and act.ending is None else None
+        if stream is None and (jobs.active is not None or jobs.waiting or jobs.stream_cart is not None):
+            busy = jobs.active.name if jobs.active is not None else "a queued command"
+            jobs.ack(job, AckStatus.FAILED, f"robot is busy ({busy}): a servo stream starts when nothing else "
+                                            "runs; wait for it or send STOP")
+            return
+        try:
+            target = self._servo_target(cmd, stream)
+        except ParolkitError as exc:
+            jobs.ack(job, AckStatus.FAILED, f"{cmd.name}: {exc}")
+            return
+        if stream is not None:
+            stream.set_target(target, self._tick)
+            jobs.ack(job, AckStatus.COMPLETED, "target taken")
+            return
+        servo = ServoActivity(target, self._tick, rate_hz=self.rate_hz, max_speed_steps_s=self._servo_vmax,
+                              max_accel_steps_s2=self._accel, jerk_time_s=SERVO_JERK_TIME_S,
+                              timeout_ticks=ticks_for(self.servo_timeout_s, self.rate_hz),
+                              limits_steps=self._safe_steps)
+        if isinstance(cmd, C.ServoL) and cmd.frame is Frame.TRF:
+            servo.anchor = self._servo_anchor
+        jobs.start(job, servo, f"servo stream started (a controlled stop after "
+                               f"{self.servo_timeout_s:g} s without a target)")
+
+    def _servo_target(self, cmd: C.ServoJ | C.ServoL, stream: ServoActivity | None) -> list[float]:
+        """The target of ``cmd`` in steps (SERVOL: the joints nearest the stream's target, or
+        the measured ones, that put the TCP at the pose)."""
+        if isinstance(cmd, C.ServoJ):
+            return [d * s for d, s in zip(cmd.target_deg, self._spd)]
+        from parolkit.kinematics.fk import fk_matrix
+        from parolkit.kinematics.ik import ik
+        from parolkit.kinematics.pose import pose_to_matrix
+
+        assert self.measured_deg is not None
+        seed = ([t / s for t, s in zip(stream.target, self._spd)] if stream is not None else list(self.measured_deg))
+        tool = self.tool_obj if self.tool_obj is not None else self.tool_name
+        pose: object = list(cmd.pose)
+        if cmd.frame is Frame.TRF:
+            anchor = getattr(stream, "anchor", None) if stream is not None else None
+            if anchor is None:  # the stream starts here: offsets from the TCP pose now
+                anchor = fk_matrix(self.measured_deg, tool)  # type: ignore[arg-type]
+            self._servo_anchor = anchor
+            pose = anchor @ pose_to_matrix(cmd.pose)
+        deg = ik(pose, seed, tool)  # type: ignore[arg-type]
+        return [d * s for d, s in zip(deg, self._spd)]
+
     def _stop_on_path(self, reason: str) -> bool:
         """A client's STOP while a planned move (not a jog) is on its way: the queue is
         cancelled now, the move slows down along its own path within the acceleration limits
@@ -634,6 +711,11 @@ class ControllerCore:
         when there is no such move: the caller cancels everything at once (a jog stops within
         a frame, as the original's; a move settling on its target holds there)."""
         a, act = self.jobs.active, self.jobs.activity
+        if isinstance(act, ServoActivity):
+            act.finish(AckStatus.CANCELLED, reason)  # a controlled stop, then the stream ends
+            self.paused = False
+            self.jobs.cancel_waiting(reason)
+            return True
         if (a is None or not isinstance(act, TrajectoryActivity) or isinstance(act, SpeedActivity)
                 or a.streamed or a.command.STREAMABLE or a.command.EXECUTION is not Execution.PLANNED):
             return False
@@ -669,6 +751,9 @@ class ControllerCore:
         if why is not None:
             jobs.ack(job, AckStatus.FAILED, why)
             return
+        if isinstance(jobs.activity, ServoActivity):
+            # a queued command ends a servo stream: a controlled stop, then it runs
+            jobs.activity.finish(AckStatus.COMPLETED, f"servo stream ended by {cmd.name}, stopped under control")
         if self.stream_mode and cmd.STREAMABLE and not jobs.waiting and (jobs.active is None or jobs.active.streamed):
             job.streamed = True
             if jobs.active is not None and jobs.active.streamed and jobs.activity is not None:

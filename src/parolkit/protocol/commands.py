@@ -89,6 +89,8 @@ __all__ = [
     "EStop",
     "StreamMode",
     "SpeedOverride",
+    "ServoJ",
+    "ServoL",
     "Pause",
     "Resume",
     "Checkpoint",
@@ -485,6 +487,40 @@ class SpeedOverride(Command):
     percent: float = 100.0
     NAME: ClassVar[str] = "SPEED"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+
+
+@dataclass(frozen=True)
+class ServoJ(Command):
+    """``SERVOJ|j1|..|j6`` (deg): a servo target.  The latest target wins: an online
+    jerk-limited generator moves every joint toward it within its speed and acceleration
+    limits, from the next frame on.  The first target starts a stream (when nothing else runs;
+    its ack is EXECUTING, then COMPLETED when the stream ends); later ones update it (acked
+    COMPLETED at once).  No target for ``servo.timeout_s`` (0.05 s): a controlled stop."""
+
+    target_deg: tuple[float, ...] = ()
+    NAME: ClassVar[str] = "SERVOJ"
+    KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+
+    @property
+    def is_motion(self) -> bool:
+        return True
+
+
+@dataclass(frozen=True)
+class ServoL(Command):
+    """``SERVOL|x|y|z|A|B|C[|WRF|TRF]`` (mm / deg): a servo target pose of the TCP, in the
+    world frame (WRF, the default) or relative to the TCP pose where the stream started
+    (TRF: the offset in that pose's tool frame); solved to joints nearest the stream's, then
+    as SERVOJ."""
+
+    pose: tuple[float, ...] = ()
+    frame: Frame = Frame.WRF
+    NAME: ClassVar[str] = "SERVOL"
+    KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+
+    @property
+    def is_motion(self) -> bool:
+        return True
 
 
 @dataclass(frozen=True)
@@ -969,6 +1005,17 @@ def _p_checkpoint(a: Sequence[str], m: RobotModel) -> Command:
     return Checkpoint(label)
 
 
+def _p_servoj(a: Sequence[str], m: RobotModel) -> Command:
+    _nargs(a, "SERVOJ", 6)
+    return ServoJ(_joint_angles(a, m))
+
+
+def _p_servol(a: Sequence[str], m: RobotModel) -> Command:
+    _nargs(a, "SERVOL", 6, 7)
+    frame = _choice(a[6], "frame", Frame) if len(a) == 7 else Frame.WRF
+    return ServoL(_pose_args(a, "pose"), frame)
+
+
 def _p_speed(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SPEED", 1)
     return SpeedOverride(_ranged(a[0], "speed override (%)", 1.0, 100.0, unit="%"))
@@ -1250,6 +1297,8 @@ _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "DELAY": _p_delay,
     "CHECKPOINT": _p_checkpoint,
     "SPEED": _p_speed,
+    "SERVOJ": _p_servoj,
+    "SERVOL": _p_servol,
     "PAUSE": _no_args(Pause),
     "RESUME": _no_args(Resume),
     "PNEUMATICGRIPPER": _p_pneumatic,
