@@ -471,3 +471,11 @@ def test_servol_follows_a_pose_target_in_the_world_and_in_the_tool_frame(bench):
     now = np.asarray(bench.sim.controller.snapshot.pose)
     assert np.allclose(now[:3], expected, atol=0.05), (now, expected)
     bench.run_until_done(trf)
+
+
+def test_a_jog_above_the_tracking_maximum_says_it_runs_stretched_naming_the_joint(bench):
+    jog = bench.send("JOG|5|100|0.5|None")  # J6 at 100 %: its maximum speed
+    _, done = bench.run_until_done(jog)
+    executing = [d for s, d in bench.acks[jog] if s == "EXECUTING"][0]
+    assert "warning: J6 at " in executing and "above its position-tracking maximum 16714 steps/s" in executing
+    assert done[0] == "COMPLETED" and "the same distance runs stretched" in done[1], done

@@ -929,6 +929,18 @@ class ControllerCore:
             return tuple(speeds), cmd.move.duration_s, err
         return (), 0, f"{cmd.name} is not a speed command"
 
+    def _speed_stretch(self, speeds: Sequence[int], secs: float) -> str | None:
+        """The warning of a speed move (JOG, MULTIJOG, SPEEDJOINT) above a joint's position-
+        tracking maximum (within its maximum: the seed's speed rule runs it, stretched), naming
+        the joint that limits it most; None when it is within every one."""
+        ratios = [abs(v) / m for v, m in zip(speeds, self._servo_vmax)]
+        j = max(range(6), key=ratios.__getitem__)
+        if ratios[j] <= 1.0:
+            return None
+        return (f"warning: {JOINT_NAMES[j]} at {abs(speeds[j])} steps/s is above its position-tracking maximum "
+                f"{self._servo_vmax[j]:.0f} steps/s (the bounded GO TO frames cannot follow faster): the same "
+                f"distance runs stretched, about {secs:.2f} s -> {secs * ratios[j]:.2f} s")
+
     def _speed_joint_range(self, speeds_deg_s: Sequence[float], secs: float) -> str | None:
         """SPEEDJOINT from the measured joints: the refusal when a joint would leave its range
         within ``secs`` (s) at ``speeds_deg_s`` (deg/s), in the words of the planner's (the
@@ -1054,6 +1066,9 @@ class ControllerCore:
             if err is not None:
                 self.jobs.ack(job, AckStatus.FAILED, err)
                 return
+            stretch = self._speed_stretch(speeds, secs)
+            if stretch is not None:
+                job.notes = (*job.notes, stretch)
             act = SpeedActivity(speeds, secs, rate_hz=self.rate_hz, settle_ticks=settle, streamed=job.streamed,
                                 started=now, schedule_start=now)
         elif ex is Execution.PLANNED:
