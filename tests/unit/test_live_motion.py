@@ -479,3 +479,32 @@ def test_a_jog_above_the_tracking_maximum_says_it_runs_stretched_naming_the_join
     executing = [d for s, d in bench.acks[jog] if s == "EXECUTING"][0]
     assert "warning: J6 at " in executing and "above its position-tracking maximum 16714 steps/s" in executing
     assert done[0] == "COMPLETED" and "the same distance runs stretched" in done[1], done
+
+
+# ---------------------------------------------------------------- programs on ticks
+
+
+def test_a_programs_output_and_delay_lines_each_take_exactly_their_ticks_at_the_board(bench):
+    from parolkit.client.robot import Robot
+    from parolkit.script import Interpreter, parse
+
+    program = ("Begin()\nOutput(1,HIGH)\nDelay(0.01)\nOutput(1,LOW)\nDelay(0.01)\nOutput(1,HIGH)\n"
+               "Output(2,HIGH)\nDelay(1.5)\nOutput(1,LOW)\nEnd()\n")
+    robot = Robot(channel=bench.sim)
+    start = bench.tick
+    result = Interpreter(parse(program).program, robot).run()
+    robot.close()
+    assert result.ok, result.message
+    changes, last = [], None
+    for tick, frame in bench.frames():
+        if tick < start:
+            continue
+        io = (bool(frame.io & IOBits.OUT1), bool(frame.io & IOBits.OUT2))
+        if io != last:
+            changes.append((tick, io))
+            last = io
+    t0 = changes[0][0]
+    # Output one tick, Delay(0.01) one tick, ..., Delay(1.5) exactly 150 ticks (the lines queue
+    # ahead of execution: none waits for a round trip)
+    assert [(t - t0, io) for t, io in changes] == [
+        (0, (True, False)), (2, (False, False)), (4, (True, False)), (5, (True, True)), (156, (False, True))]

@@ -777,10 +777,16 @@ class ControllerCore:
             else:
                 self._stream_replace(job)
             return
-        if jobs.admit(job) and job.ahead is not None:
+        if not jobs.admit(job):
+            return
+        if job.ahead is not None:
             early = self._early.pop(job.ahead, None)
             if early is not None:
                 self._take_plan(early)
+        # what needs no plan (a delay, an output, ...) may start in this very tick, and a move's
+        # plan is asked for now: a command queued behind a running one starts the tick that one
+        # ends (a program's lines run back to back: issue 24, "programs on ticks")
+        self._request_plans()
 
     # ================================================================== planning
 

@@ -14,12 +14,21 @@ Before the first command the program is checked (a dry run planned from the robo
 joints with the controller's tool).  With any error nothing is sent to the controller and the
 run ends FAILED with every error in ``result.errors``.
 
-Commands run one after another; each waits for the controller's COMPLETED acknowledgement,
-so ``current_line`` is the line the robot is executing.  ``Gripper()`` and ``Gripper_cal()``
-do not wait (as in the original: follow them with a Delay).  Control from any thread:
+Programs run on ticks: while a line runs, the next one is already queued at the controller
+(sent when the running one started), so it starts in the tick the running one ends: an
+``Output`` takes one tick at the board, ``Delay(x)`` exactly x, and no line waits for a round
+trip.  ``current_line`` is the line the robot is executing (announced when it starts); a line
+that fails ends the run FAILED, and the line queued behind it is cancelled (STOP).
+``Speed()`` acts at once, so it waits for the running line to end.  ``Gripper()`` and
+``Gripper_cal()`` do not wait for the jaws (as in the original: follow them with a Delay).
+Control from any thread:
 
-* :meth:`pause` / :meth:`resume`: pause BETWEEN commands (a move in progress finishes);
-* :meth:`step`: run exactly one more command, then pause (``step=True`` starts paused);
+* :meth:`pause` / :meth:`resume`: pause BETWEEN lines: no line is sent while paused, and the
+  PAUSED state comes once the lines already at the controller have ended (the running one
+  and the one queued behind it); the commander's Pause holds the robot at once with the
+  controller's PAUSE instead;
+* :meth:`step`: run exactly one more line, then pause (``step=True`` starts paused); while
+  stepping nothing is queued ahead;
 * :meth:`stop`: sends STOP (cancels the active move and the queue) and ends the run.
 
 ``on_line(progress)`` is called before each command and ``on_state(state)`` on every state
@@ -34,7 +43,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from parolkit.script.program import (
     Begin,
@@ -144,6 +153,20 @@ class _Stopped(Exception):
     """Internal: the run was stopped."""
 
 
+class _LineFailed(Exception):
+    """Internal: a line the controller ran (or refused) did not complete."""
+
+    def __init__(self, cmd: Command, exc: Exception) -> None:
+        super().__init__(str(exc))
+        self.cmd = cmd
+        self.exc = exc
+
+
+#: a command sent with ``wait=False``: ``result(timeout)`` waits for its end (raising when it
+#: did not complete)
+_Handle = Any
+
+
 class Interpreter:
     """Executes a :class:`Program` on a robot (``parolkit.Robot`` or anything with its methods).
 
@@ -182,7 +205,10 @@ class Interpreter:
         self._stop_requested = False
         self._current_line: int | None = None
         self._current_index: int | None = None
+        #: the loop pass being sent to the controller, and the pass of the line running now
+        #: (one line may be queued ahead of the one that runs: the next pass's first)
         self._iteration = 0
+        self._running_iteration = 0
         self._started = 0
         self._thread: threading.Thread | None = None
         self._result: RunResult | None = None
@@ -212,7 +238,7 @@ class Interpreter:
     @property
     def iteration(self) -> int:
         """Current loop pass, 1-based (0 before the start)."""
-        return self._iteration
+        return self._running_iteration
 
     @property
     def result(self) -> RunResult | None:
@@ -240,7 +266,8 @@ class Interpreter:
     # ---- control (any thread) -----------------------------------------------------------
 
     def pause(self) -> None:
-        """Pause before the next command (a command in progress finishes)."""
+        """Pause before the next line not yet sent (the lines already at the controller, the
+        running one and the one queued behind it, finish)."""
         with self._cond:
             self._paused = True
             self._cond.notify_all()
@@ -317,10 +344,21 @@ class Interpreter:
     def _error(self, cmd: Command, message: str) -> ScriptError:
         return ScriptError(cmd.line, cmd.col, message, cmd.text, Severity.ERROR, self.program.source_name)
 
-    def _gate(self) -> None:
-        """Block while paused (unless a step token is available); raise when stopped."""
+    def _gate(self, cmd: Command, index: int, drain: Callable[[], int]) -> int:
+        """Block while paused (unless a step token is available); raise when stopped.  Before it
+        says PAUSED it lets the line still at the controller end (``drain``: how many lines
+        that ended, 0 or 1), so a pause comes between lines; returns that count."""
         announced = False
+        drained: int | None = None
         while True:
+            with self._cond:
+                if self._stop_requested:
+                    raise _Stopped
+                if not self._paused:
+                    break
+            if drained is None:  # the line still at the controller ends first (it may block)
+                drained = drain()
+                continue
             with self._cond:
                 if self._stop_requested:
                     raise _Stopped
@@ -332,52 +370,109 @@ class Interpreter:
                 if announced:
                     self._cond.wait(0.5)
                     continue
+                self._current_line, self._current_index = cmd.line, index
             self._set_state(InterpreterState.PAUSED)
             announced = True
         with self._cond:
             self._started += 1
         self._set_state(InterpreterState.RUNNING)
+        return drained or 0
 
-    def _execute(self, cmd: Command) -> None:
+    def _ahead(self, cmd: Command) -> bool:
+        """``cmd`` may be queued behind the line that runs: not when single-stepping (each
+        step is one line, run to its end), not ``Speed()`` (it acts at once, on what runs)."""
+        with self._cond:
+            stepping = self._paused
+        return not stepping and not isinstance(cmd, Speed)
+
+    def _announce(self, cmd: Command, index: int, executed: int, planned_total: float | None,
+                  planned_pass: float) -> None:
+        """``cmd`` runs now: the current line, and ``on_line``."""
+        with self._cond:
+            self._current_line, self._current_index = cmd.line, index
+            self._running_iteration = self._iteration
+        if self.on_line is not None:
+            self._notify(self.on_line, Progress(
+                cmd.line, index, self._running_iteration, cmd.to_source(),
+                time.monotonic() - self._t0, planned_total, planned_pass, executed))
+
+    def _run_line(self, cmd: Command, *, wait: bool) -> _Handle | None:
+        """:meth:`_execute`, its failure as :class:`_LineFailed` (or :class:`_Stopped`)."""
+        try:
+            return self._execute(cmd, wait=wait)
+        except Exception as exc:
+            if self._stop_requested:
+                raise _Stopped from None
+            raise _LineFailed(cmd, exc) from None
+
+    def _await(self, pending: tuple[Command, _Handle] | None) -> int:
+        """Wait for the line sent ahead to end: 1 when it completed, 0 for none; raises
+        :class:`_LineFailed` when it did not complete."""
+        if pending is None:
+            return 0
+        cmd, handle = pending
+        if handle is None:
+            return 1
+        try:
+            handle.result(timeout=None)
+        except Exception as exc:
+            if self._stop_requested:
+                raise _Stopped from None
+            raise _LineFailed(cmd, exc) from None
+        return 1
+
+    def _cancel_queued(self) -> None:
+        """A line failed with the next one already queued at the controller: STOP cancels it."""
+        try:
+            self.robot.stop()
+        except Exception:  # the failure is what the run reports
+            _log.exception("STOP after a failed line failed")
+
+    def _execute(self, cmd: Command, wait: bool = True) -> _Handle | None:
+        """Send ``cmd``: ``wait=True`` returns once the controller reported it COMPLETED
+        (raises when it did not); ``wait=False`` returns its handle once the controller took
+        it (queued behind what runs).  ``Speed()`` acts at once either way (None)."""
         from parolkit.script.dryrun import effective_timing
 
         r = self.robot
+        if isinstance(cmd, Speed):
+            r.set_speed(cmd.percent, timeout=None)
+            return None
         if isinstance(cmd, Delay):
-            r.delay(cmd.seconds, wait=True, timeout=None)
-        elif isinstance(cmd, (MoveJoint, MovePose)):
+            return r.delay(cmd.seconds, wait=wait, timeout=None)
+        if isinstance(cmd, (MoveJoint, MovePose)):
             tm = effective_timing(cmd)
             fn = r.move_joints if isinstance(cmd, MoveJoint) else r.move_pose
             values = cmd.move.target_deg if isinstance(cmd, MoveJoint) else cmd.move.pose
-            fn(
+            return fn(
                 list(values), duration=tm.duration_s, speed=tm.speed_pct, accel=tm.accel_pct,
                 profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
-                wait=True, timeout=None,
+                wait=wait, timeout=None,
             )
-        elif isinstance(cmd, (MoveCart, MoveCartRelTRF)):
+        if isinstance(cmd, (MoveCart, MoveCartRelTRF)):
             tm = effective_timing(cmd)
             line_fn = r.move_cart if isinstance(cmd, MoveCart) else r.move_cart_rel_trf
             values = cmd.move.pose if isinstance(cmd, MoveCart) else cmd.move.delta
-            line_fn(
+            return line_fn(
                 list(values), duration=tm.duration_s, speed=tm.speed_pct,
                 profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
-                wait=True, timeout=None,
+                wait=wait, timeout=None,
             )
-        elif isinstance(cmd, Speed):
-            r.set_speed(cmd.percent, timeout=None)
-        elif isinstance(cmd, SpeedJoint):
-            r.speed_joint(list(cmd.move.speeds_deg_s), cmd.move.duration_s, wait=True, timeout=None)
-        elif isinstance(cmd, Home):
-            r.home(wait=True, timeout=None)
-        elif isinstance(cmd, Output):
-            r.set_output(cmd.port, cmd.state, wait=True, timeout=None)
-        elif isinstance(cmd, Input):
-            r.wait_input(cmd.port, cmd.state, input_timeout=cmd.timeout_s, wait=True, timeout=None)
-        elif isinstance(cmd, Gripper):
-            r.gripper_move(cmd.position, cmd.speed, cmd.current_ma, wait=False)
-        elif isinstance(cmd, GripperCalibrate):
-            r.gripper_calibrate(wait=False)
-        else:  # pragma: no cover - every command class is handled above
-            raise TypeError(f"no executor for {type(cmd).__name__}")
+        if isinstance(cmd, SpeedJoint):
+            return r.speed_joint(list(cmd.move.speeds_deg_s), cmd.move.duration_s, wait=wait, timeout=None)
+        if isinstance(cmd, Home):
+            return r.home(wait=wait, timeout=None)
+        if isinstance(cmd, Output):
+            return r.set_output(cmd.port, cmd.state, wait=wait, timeout=None)
+        if isinstance(cmd, Input):
+            return r.wait_input(cmd.port, cmd.state, input_timeout=cmd.timeout_s, wait=wait, timeout=None)
+        if isinstance(cmd, Gripper):
+            # as in the original, the program does not wait for the jaws (the controller's
+            # command ends once the setpoints are sent): queued, never waited for here
+            return r.gripper_move(cmd.position, cmd.speed, cmd.current_ma, wait=False)
+        if isinstance(cmd, GripperCalibrate):
+            return r.gripper_calibrate(wait=False)
+        raise TypeError(f"no executor for {type(cmd).__name__}")  # pragma: no cover
 
     def _final_deg(self) -> tuple[float, ...] | None:
         try:
@@ -421,43 +516,64 @@ class Interpreter:
             self._t0 = time.monotonic()  # times are measured from the first command on
             self._set_state(InterpreterState.PAUSED if self._paused else InterpreterState.RUNNING)
             self._iteration = 1
-            while True:
-                for index, cmd in enumerate(commands):
-                    with self._cond:
-                        self._current_line = cmd.line
-                        self._current_index = index
-                    if isinstance(cmd, Loop):
-                        if self.loops is not None and self._iteration >= self.loops:
-                            return self._finish(InterpreterState.FINISHED, executed, (), warnings)
-                        break
-                    self._gate()
-                    if self.on_line is not None:
-                        self._notify(self.on_line, Progress(
-                            cmd.line, index, self._iteration, cmd.to_source(),
-                            time.monotonic() - self._t0, planned_total, planned_pass, executed))
-                    if isinstance(cmd, End):
-                        executed += 1
-                        return self._finish(InterpreterState.FINISHED, executed, (), warnings)
-                    if isinstance(cmd, Begin):
-                        executed += 1
-                        continue
-                    try:
-                        self._execute(cmd)
-                    except Exception as exc:
+            # programs on ticks: the line after the running one is already queued at the
+            # controller (sent when the running one started), so it starts the tick that one
+            # ends; the gate before each line is passed before it is sent
+            pending: tuple[Command, _Handle] | None = None
+            try:
+                while True:
+                    for index, cmd in enumerate(commands):
+                        if isinstance(cmd, Loop):
+                            if self.loops is not None and self._iteration >= self.loops:
+                                executed += self._await(pending)
+                                return self._finish(InterpreterState.FINISHED, executed, (), warnings)
+                            break
+
+                        def drain(pending: tuple[Command, _Handle] | None = pending) -> int:
+                            return self._await(pending)
+
+                        drained = self._gate(cmd, index, drain)
+                        if drained:
+                            executed += drained
+                            pending = None
+                        if isinstance(cmd, (Begin, End)) or not self._ahead(cmd):
+                            executed += self._await(pending)
+                            pending = None
+                            self._announce(cmd, index, executed, planned_total, planned_pass)
+                            if isinstance(cmd, End):
+                                executed += 1
+                                return self._finish(InterpreterState.FINISHED, executed, (), warnings)
+                            if not isinstance(cmd, Begin):
+                                self._run_line(cmd, wait=True)
+                            executed += 1
+                            if self._stop_requested:
+                                raise _Stopped
+                            continue
+                        handle = self._run_line(cmd, wait=False)
+                        try:
+                            executed += self._await(pending)
+                        except _LineFailed:
+                            self._cancel_queued()  # the line sent behind the failed one
+                            raise
+                        pending = (cmd, handle)
+                        self._announce(cmd, index, executed, planned_total, planned_pass)
                         if self._stop_requested:
-                            raise _Stopped from None
-                        reason = getattr(exc, "reason", None) or str(exc)
-                        status = getattr(exc, "status", None)
-                        what = f"{cmd.keyword} {status.lower()}" if isinstance(status, str) else f"{cmd.keyword} failed"
-                        err = self._error(cmd, f"{what}: {reason}")
-                        return self._finish(InterpreterState.FAILED, executed, (err,), warnings)
-                    executed += 1
-                    if self._stop_requested:
-                        raise _Stopped
-                else:
-                    # no Loop(): the program ends after its last line
-                    return self._finish(InterpreterState.FINISHED, executed, (), warnings)
-                self._iteration += 1
+                            raise _Stopped
+                    else:
+                        # no Loop(): the program ends after its last line
+                        executed += self._await(pending)
+                        return self._finish(InterpreterState.FINISHED, executed, (), warnings)
+                    self._iteration += 1
+            except _LineFailed as failed:
+                if self._stop_requested:
+                    raise _Stopped from None
+                cause = failed.exc
+                reason = getattr(cause, "reason", None) or str(cause)
+                status = getattr(cause, "status", None)
+                kw = failed.cmd.keyword
+                what = f"{kw} {status.lower()}" if isinstance(status, str) else f"{kw} failed"
+                err = self._error(failed.cmd, f"{what}: {reason}")
+                return self._finish(InterpreterState.FAILED, executed, (err,), warnings)
         except _Stopped:
             return self._finish(InterpreterState.STOPPED, executed, (), warnings)
 
@@ -466,7 +582,7 @@ class Interpreter:
         result = RunResult(
             state=state,
             commands_executed=executed,
-            iterations=max(self._iteration, 1 if executed else 0),
+            iterations=max(self._running_iteration, 1 if executed else 0),
             elapsed_s=time.monotonic() - self._t0,
             errors=tuple(errors),
             warnings=tuple(warnings),
