@@ -508,3 +508,24 @@ def test_a_programs_output_and_delay_lines_each_take_exactly_their_ticks_at_the_
     # ahead of execution: none waits for a round trip)
     assert [(t - t0, io) for t, io in changes] == [
         (0, (True, False)), (2, (False, False)), (4, (True, False)), (5, (True, True)), (156, (False, True))]
+
+
+def test_pause_queue_lets_the_running_command_end_and_holds_the_next(bench):
+    move = bench.send("MOVEJOINT|60|-80|170|10|-10|170|2|None")
+    nxt = bench.send("MOVEJOINT|90|-90|180|0|0|180|2|None")
+    bench.run(50)
+    held = bench.send("PAUSE|QUEUE")
+    bench.run(1)
+    assert bench.terminal(held) == ("COMPLETED", "queue held: the running command goes on to its end; "
+                                                 "nothing queued starts until RESUME")
+    _, done = bench.run_until_done(move)
+    assert done[0] == "COMPLETED", "the running move was not slowed: it ends as planned"
+    bench.run(50)
+    assert [s for s, _ in bench.acks[nxt]] == ["QUEUED"]
+    assert bench.sim.controller.snapshot.as_dict()["queue_held"] is True
+    bench.send("RESUME")
+    _, done = bench.run_until_done(nxt)
+    assert done[0] == "COMPLETED"
+    bad = bench.send("PAUSE|NOW")
+    bench.run(1)
+    assert bench.terminal(bad)[0] == "INVALID" and "PAUSE takes nothing or QUEUE" in bench.terminal(bad)[1]

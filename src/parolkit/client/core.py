@@ -1346,10 +1346,12 @@ class RobotCommands(Generic[_Result, _Handle]):
         until changed (``SPEED``)."""
         return self._run(_check(wire.build_speed, percent), _opt_timeout(timeout))
 
-    def pause(self, timeout: float | None = None) -> _Result:
+    def pause(self, timeout: float | None = None, *, queue_only: bool = False) -> _Result:
         """The running move slows down on its own path (within the acceleration limits) and
-        holds; nothing queued starts until :meth:`resume`.  :meth:`stop` cancels it all."""
-        return self._run("PAUSE", _opt_timeout(timeout))
+        holds; nothing queued starts until :meth:`resume`.  :meth:`stop` cancels it all.
+        ``queue_only``: the running command goes on to its end, only the queue waits
+        (``PAUSE|QUEUE``)."""
+        return self._run("PAUSE|QUEUE" if _flag(queue_only, "queue_only") else "PAUSE", _opt_timeout(timeout))
 
     def resume(self, timeout: float | None = None) -> _Result:
         """A paused move continues on the same path to the same target; the queue runs again."""

@@ -1398,10 +1398,12 @@ def servo_pose(pose: List[float], frame: str = "WRF") -> str:
     return send_robot_command(build_servo_l(pose, frame))
 
 
-def pause_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False) -> Result:
+def pause_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False,
+                queue_only: bool = False) -> Result:
     """**(ext)** The running move slows down on its own path and holds; nothing queued starts
-    until :func:`resume_robot` (STOP cancels it all)."""
-    return _dispatch("PAUSE", wait_for_ack, timeout, non_blocking)
+    until :func:`resume_robot` (STOP cancels it all).  ``queue_only``: the running command goes
+    on to its end, only the queue waits (``PAUSE|QUEUE``)."""
+    return _dispatch("PAUSE|QUEUE" if queue_only else "PAUSE", wait_for_ack, timeout, non_blocking)
 
 
 def resume_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False) -> Result:

@@ -280,6 +280,8 @@ class ControllerCore:
         #: holds on its path, nothing queued starts until RESUME)
         self.speed_pct = 100.0
         self.paused = False
+        #: PAUSE|QUEUE: the running command goes on, nothing queued starts until RESUME
+        self.queue_held = False
         self._accel = tuple(float(a) for a in model.accel_limit_steps_s2)
         #: servo streams: silence that ends one (s), the speeds they keep to (the position-
         #: tracking maxima: every frame a bounded commitment), the joint ranges (steps)
@@ -510,7 +512,7 @@ class ControllerCore:
     # ================================================================== safety events
 
     def _cancel_all(self, reason: str) -> int:
-        self.paused = False  # nothing is left to resume
+        self.paused = self.queue_held = False  # nothing is left to resume
         act = self.jobs.activity
         if (isinstance(act, HomeActivity) and act.sent and self.safety.enabled
                 and not self.safety.estop_latched):
@@ -618,6 +620,10 @@ class ControllerCore:
         if isinstance(cmd, C.SpeedOverride):
             self.speed_pct = float(cmd.percent)
             return AckStatus.COMPLETED, f"speed override {cmd.percent:g} %"
+        if isinstance(cmd, C.Pause) and cmd.queue_only:
+            self.queue_held = True
+            return AckStatus.COMPLETED, "queue held: the running command goes on to its end; nothing queued " \
+                                        "starts until RESUME"
         if isinstance(cmd, C.Pause):
             if self.paused:
                 return AckStatus.COMPLETED, "already paused"
@@ -626,9 +632,9 @@ class ControllerCore:
                     else "nothing runs")
             return AckStatus.COMPLETED, f"paused: {what}; nothing queued starts until RESUME"
         if isinstance(cmd, C.Resume):
-            if not self.paused:
+            if not (self.paused or self.queue_held):
                 return AckStatus.COMPLETED, "not paused: nothing to resume"
-            self.paused = False
+            self.paused = self.queue_held = False
             return AckStatus.COMPLETED, "resumed"
         if isinstance(cmd, C.SetPort):
             if self.jobs.active is not None or self.jobs.waiting:
@@ -1119,7 +1125,7 @@ class ControllerCore:
     def _try_activate(self) -> None:
         """Start the next waiting job if it can run (planned, from where the robot is)."""
         jobs = self.jobs
-        while jobs.waiting and not self.paused:
+        while jobs.waiting and not (self.paused or self.queue_held):
             job = jobs.waiting[0]
             cmd = job.command
             if cmd.is_motion and not self.homed and not (cmd.EXECUTION is Execution.SPEED and cmd.STREAMABLE):
@@ -1287,7 +1293,7 @@ class ControllerCore:
             # the reply that answered it: until then the snapshot would show the old state)
             state_known=not self.probe.active and self.probe.result is None,
             sent=frame if self.link_up else None, queue_view=jobs.view(), plan=self._plan_view(),
-            speed_pct=self.speed_pct, paused=self.paused,
+            speed_pct=self.speed_pct, paused=self.paused, queue_held=self.queue_held,
         )
 
     # ================================================================== views for tests and tools

@@ -104,7 +104,8 @@ class Snapshot:
 
     __slots__ = (
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
-        "error", "command", "queue", "stream_mode", "speed_pct", "paused", "tool", "plan_seq", "outputs", "loop_view",
+        "error", "command", "queue", "stream_mode", "speed_pct", "paused", "queue_held", "tool", "plan_seq",
+        "outputs", "loop_view",
         "server_view", "integrity", "state_known", "sent", "queue_view", "plan", "_steps_per_deg",
         "_pose_provider", "_angles", "_pose", "_matrix", "_replies",
     )
@@ -138,6 +139,7 @@ class Snapshot:
         plan: PlanView | None = None,
         speed_pct: float = 100.0,
         paused: bool = False,
+        queue_held: bool = False,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -154,6 +156,8 @@ class Snapshot:
         #: the SPEED override (%) and whether motion is paused (PAUSE until RESUME)
         self.speed_pct = speed_pct
         self.paused = paused
+        #: PAUSE|QUEUE: nothing queued starts until RESUME (the running command goes on)
+        self.queue_held = queue_held
         self.tool = tool
         self.plan_seq = plan_seq
         self.outputs = outputs
@@ -352,6 +356,7 @@ class Snapshot:
             "stream_mode": self.stream_mode,
             "speed_pct": self.speed_pct,
             "paused": self.paused,
+            "queue_held": self.queue_held,
             "tool": self.tool,
             "plan_seq": self.plan_seq,
             "sent": ({"command": int(self.sent.command), "steps": list(self.sent.positions),

@@ -526,9 +526,12 @@ class ServoL(Command):
 @dataclass(frozen=True)
 class Pause(Command):
     """``PAUSE``: the running move decelerates along its own path within each joint's
-    acceleration limit and holds there; nothing queued starts until RESUME.  From any client
-    (like STOP: it only ever slows the robot)."""
+    acceleration limit and holds there; nothing queued starts until RESUME.  ``PAUSE|QUEUE``
+    (``queue_only``): the running command goes on to its end, nothing queued starts until
+    RESUME (a program paused between two lines).  From any client (like STOP: it only ever
+    slows the robot)."""
 
+    queue_only: bool = False
     NAME: ClassVar[str] = "PAUSE"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
     OPEN: ClassVar[bool] = True
@@ -1005,6 +1008,13 @@ def _p_checkpoint(a: Sequence[str], m: RobotModel) -> Command:
     return Checkpoint(label)
 
 
+def _p_pause(a: Sequence[str], m: RobotModel) -> Command:
+    _nargs(a, "PAUSE", 0, 1)
+    if a and a[0].strip().upper() != "QUEUE":
+        raise DatagramError(f"PAUSE takes nothing or QUEUE, got {_show(a[0])}")
+    return Pause(queue_only=bool(a))
+
+
 def _p_servoj(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SERVOJ", 6)
     return ServoJ(_joint_angles(a, m))
@@ -1299,7 +1309,7 @@ _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "SPEED": _p_speed,
     "SERVOJ": _p_servoj,
     "SERVOL": _p_servol,
-    "PAUSE": _no_args(Pause),
+    "PAUSE": _p_pause,
     "RESUME": _no_args(Resume),
     "PNEUMATICGRIPPER": _p_pneumatic,
     "ELECTRICGRIPPER": _p_electric,

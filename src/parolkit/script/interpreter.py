@@ -23,10 +23,9 @@ that fails ends the run FAILED, and the line queued behind it is cancelled (STOP
 ``Gripper_cal()`` do not wait for the jaws (as in the original: follow them with a Delay).
 Control from any thread:
 
-* :meth:`pause` / :meth:`resume`: pause BETWEEN lines: no line is sent while paused, and the
-  PAUSED state comes once the lines already at the controller have ended (the running one
-  and the one queued behind it); the commander's Pause holds the robot at once with the
-  controller's PAUSE instead;
+* :meth:`pause` / :meth:`resume`: pause BETWEEN lines: the running line ends, the one queued
+  behind it is held at the controller (``PAUSE|QUEUE``) and nothing more is sent until
+  :meth:`resume` (which releases it);
 * :meth:`step`: run exactly one more line, then pause (``step=True`` starts paused); while
   stepping nothing is queued ahead;
 * :meth:`stop`: sends STOP (cancels the active move and the queue) and ends the run.
@@ -202,6 +201,10 @@ class Interpreter:
         self._state = InterpreterState.IDLE
         self._paused = bool(step)
         self._step_tokens = 0
+        #: a line waits at the controller behind the running one; the controller holds it
+        #: (PAUSE|QUEUE, sent by :meth:`pause`)
+        self._queued_ahead = False
+        self._held = False
         self._stop_requested = False
         self._current_line: int | None = None
         self._current_index: int | None = None
@@ -266,25 +269,51 @@ class Interpreter:
     # ---- control (any thread) -----------------------------------------------------------
 
     def pause(self) -> None:
-        """Pause before the next line not yet sent (the lines already at the controller, the
-        running one and the one queued behind it, finish)."""
+        """Pause after the line that runs now: the line queued behind it at the controller is
+        held there (``PAUSE|QUEUE``) until :meth:`resume` or :meth:`step`."""
         with self._cond:
             self._paused = True
+            hold = self._queued_ahead and not self._held
+            self._held = self._held or hold
             self._cond.notify_all()
+        if hold:
+            self._hold_queue()
 
     def resume(self) -> None:
         """Continue after :meth:`pause` or single-stepping."""
         with self._cond:
             self._paused = False
             self._step_tokens = 0
+            release, self._held = self._held, False
             self._cond.notify_all()
+        if release:
+            self._release_queue()
 
     def step(self) -> None:
-        """Run exactly one more command, then pause (also from a running program)."""
+        """Run exactly one more line, then pause (also from a running program: the line queued
+        behind the running one is that one more line)."""
         with self._cond:
             self._paused = True
-            self._step_tokens += 1
+            release = self._held
+            if release:  # the line held at the controller is the step
+                self._held = False
+            elif not self._queued_ahead:
+                self._step_tokens += 1
             self._cond.notify_all()
+        if release:
+            self._release_queue()
+
+    def _hold_queue(self) -> None:
+        try:
+            self.robot.pause(queue_only=True)
+        except Exception:  # the run loop reports what happened to the line
+            _log.exception("holding the queue for a pause failed")
+
+    def _release_queue(self) -> None:
+        try:
+            self.robot.resume()
+        except Exception:
+            _log.exception("releasing the held queue failed")
 
     def stop(self) -> None:
         """Stop the program: send STOP to the controller (cancels the move in progress and the
@@ -293,6 +322,7 @@ class Interpreter:
             if self._state.done:
                 return
             self._stop_requested = True
+            self._held = False  # STOP ends the controller's hold too
             running = self._state in (InterpreterState.RUNNING, InterpreterState.PAUSED)
             self._cond.notify_all()
         if running:
@@ -345,18 +375,20 @@ class Interpreter:
         return ScriptError(cmd.line, cmd.col, message, cmd.text, Severity.ERROR, self.program.source_name)
 
     def _gate(self, cmd: Command, index: int, drain: Callable[[], int]) -> int:
-        """Block while paused (unless a step token is available); raise when stopped.  Before it
-        says PAUSED it lets the line still at the controller end (``drain``: how many lines
-        that ended, 0 or 1), so a pause comes between lines; returns that count."""
-        announced = False
+        """Block while paused (unless a step token is available); raise when stopped.  Before
+        it says PAUSED the line still at the controller ends (``drain``: how many lines ended,
+        0 or 1), unless the controller holds it (:meth:`pause`): then PAUSED at once, that line
+        next; returns how many lines ``drain`` saw end."""
         drained: int | None = None
+        announced: bool | None = None  # PAUSED said, while held (True) / after the drain (False)
         while True:
             with self._cond:
                 if self._stop_requested:
                     raise _Stopped
                 if not self._paused:
                     break
-            if drained is None:  # the line still at the controller ends first (it may block)
+                held = self._held
+            if not held and drained is None:  # the line at the controller ends first (may block)
                 drained = drain()
                 continue
             with self._cond:
@@ -364,15 +396,17 @@ class Interpreter:
                     raise _Stopped
                 if not self._paused:
                     break
-                if self._step_tokens > 0:
+                if drained is not None and self._step_tokens > 0:
                     self._step_tokens -= 1
                     break
-                if announced:
+                held = self._held
+                if announced is held:
                     self._cond.wait(0.5)
                     continue
-                self._current_line, self._current_index = cmd.line, index
+                if not held:  # (held: the held line, announced already, is the next to run)
+                    self._current_line, self._current_index = cmd.line, index
             self._set_state(InterpreterState.PAUSED)
-            announced = True
+            announced = held
         with self._cond:
             self._started += 1
         self._set_state(InterpreterState.RUNNING)
@@ -550,11 +584,21 @@ class Interpreter:
                                 raise _Stopped
                             continue
                         handle = self._run_line(cmd, wait=False)
+                        with self._cond:
+                            self._queued_ahead = pending is not None
+                            # a pause that came after the gate: this line must wait too
+                            hold = self._queued_ahead and self._paused and not self._held
+                            self._held = self._held or hold
+                        if hold:
+                            self._hold_queue()
                         try:
                             executed += self._await(pending)
                         except _LineFailed:
                             self._cancel_queued()  # the line sent behind the failed one
                             raise
+                        finally:
+                            with self._cond:
+                                self._queued_ahead = False
                         pending = (cmd, handle)
                         self._announce(cmd, index, executed, planned_total, planned_pass)
                         if self._stop_requested:
