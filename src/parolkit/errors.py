@@ -49,9 +49,10 @@ package is drawn here, under its real base class, and that no two share a name):
         +-- AckPortBusyError              parolkit.client.robot_api: the acknowledgement port is taken
                                           (robot_api is standard library only: not a ParolkitError)
 
-Two private exceptions never leave their module (control flow, not errors):
-``parolkit.script.parser._Reject`` (stop building a line whose errors are recorded) and
-``parolkit.script.interpreter._Stopped`` (the run was stopped).
+Three private exceptions never leave their module (control flow, not errors):
+``parolkit.script.parser._Reject`` (stop building a line whose errors are recorded),
+``parolkit.script.interpreter._Stopped`` (the run was stopped) and
+``parolkit.script.interpreter._LineFailed`` (a line did not complete: the run ends FAILED).
 
 Where to catch what: a script driving the robot catches :class:`RobotError` (or one of its
 subclasses); code calling planning, kinematics or parsing functions directly catches

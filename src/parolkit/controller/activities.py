@@ -719,7 +719,12 @@ class HomeActivity(Activity):
 
 
 class DelayActivity(Activity):
-    """Hold still for a number of ticks."""
+    """Hold still for a number of ticks: its frames are exactly ``ticks`` frames, and it ends
+    (COMPLETED) in the tick after the last, without a frame of its own (``frameless_end``: the
+    next queued command takes that tick).  So the ack comes once the whole time has passed,
+    and what follows starts exactly ``ticks`` periods after the delay's first frame."""
+
+    frameless_end = True
 
     def __init__(self, ticks: int) -> None:
         self.ticks = max(0, int(ticks))
@@ -728,7 +733,7 @@ class DelayActivity(Activity):
     def step(self, ctx: TickContext) -> FrameRequest:
         self.i += 1
         self.progress = min(1.0, self.i / max(1, self.ticks))
-        if self.i >= self.ticks:
+        if self.i > self.ticks:
             return FrameRequest(BoardCommand.IDLE, done=AckStatus.COMPLETED)
         return FrameRequest(BoardCommand.IDLE)
 

@@ -617,7 +617,7 @@ class ControllerCore:
         if isinstance(cmd, C.StreamMode):
             self._set_stream_mode(cmd.on)
             return AckStatus.COMPLETED, f"stream mode {'on' if cmd.on else 'off'}"
-        if isinstance(cmd, C.SpeedOverride):
+        if isinstance(cmd, C.SpeedCommand):
             self.speed_pct = float(cmd.percent)
             return AckStatus.COMPLETED, f"speed override {cmd.percent:g} %"
         if isinstance(cmd, C.Pause) and cmd.queue_only:

@@ -88,7 +88,7 @@ __all__ = [
     "ClearError",
     "EStop",
     "StreamMode",
-    "SpeedOverride",
+    "SpeedCommand",
     "ServoJ",
     "ServoL",
     "Pause",
@@ -479,7 +479,7 @@ class StreamMode(Command):
 
 
 @dataclass(frozen=True)
-class SpeedOverride(Command):
+class SpeedCommand(Command):
     """``SPEED|pct``: the speed override, 1..100 % of every planned speed, for the running move
     (from the next tick, ramped within each joint's acceleration limit along the move's own
     path) and every move after it, until changed."""
@@ -1028,7 +1028,7 @@ def _p_servol(a: Sequence[str], m: RobotModel) -> Command:
 
 def _p_speed(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SPEED", 1)
-    return SpeedOverride(_ranged(a[0], "speed override (%)", 1.0, 100.0, unit="%"))
+    return SpeedCommand(_ranged(a[0], "speed override (%)", 1.0, 100.0, unit="%"))
 
 
 def _p_pneumatic(a: Sequence[str], m: RobotModel) -> Command:
