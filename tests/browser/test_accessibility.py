@@ -73,9 +73,14 @@ def test_every_control_is_named_and_the_page_says_its_language(apage):
             .filter(b => !(b.getAttribute('aria-label') || b.innerText.replace(/\\s+/g, ' ').trim()))
             .map(b => b.outerHTML.slice(0, 120))""")
         assert unnamed == [], f"unnamed controls on {tab}: {unnamed}"
-    for testid in ("help-button", "prog-run", "prog-pause", "prog-step", "prog-stop"):
+    for testid in ("help-button", "prog-run", "prog-pause", "prog-step", "prog-stop", "override-slider",
+                   "btn-resume"):
         label = page.locator(f"[data-testid='{testid}']").get_attribute("aria-label")
         assert label, f"{testid} has no accessible name"
+    # the buttons say what they do (issue 24: Pause holds the arm on its path)
+    assert page.get_by_test_id("prog-pause").get_attribute("aria-label") == \
+        "Pause: the arm slows down on its path and holds"
+    assert page.get_by_test_id("override-slider").get_attribute("aria-label") == "speed override, percent"
     page.get_by_test_id("tab-jog").click()
 
 

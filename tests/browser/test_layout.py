@@ -158,7 +158,7 @@ def test_gripper_status_is_visible_while_a_program_runs(ready, browser):
 
         def before_the_180_move() -> bool:
             status = text(page, "prog-status")
-            if "paused" in status and "line 4" in status:  # Delay(0.3) ran, Gripper(180) not yet
+            if "paused before line 5" in status:  # Delay(0.3) ran, Gripper(180) not yet
                 return True
             if "paused" in status or not re.search(r"running|paus", status):
                 page.get_by_test_id("prog-step").click()  # stopped between lines, or not begun

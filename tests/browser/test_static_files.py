@@ -19,7 +19,8 @@ pytestmark = [pytest.mark.browser]
 GUI = Path(parolkit.gui.__file__).resolve().parent
 STATIC_DIR = GUI / "static"  # parolkit.gui.app.STATIC_DIR, without importing NiceGUI here
 STATIC_URL = "/parolkit-static"  # parolkit.gui.app.STATIC_URL
-COMPONENTS = ("header", "view3d", "jog_panel", "io_panel", "program_panel", "telemetry", "help_dialog")
+COMPONENTS = ("header", "view3d", "jog_panel", "io_panel", "program_panel", "telemetry", "help_dialog",
+              "speed_override")
 
 
 def test_the_page_is_split_into_component_modules_without_css_or_js_in_python():

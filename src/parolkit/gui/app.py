@@ -29,6 +29,7 @@ from parolkit.gui.components.io_panel import IoGripperPanel
 from parolkit.gui.components.jog_panel import JogPanel
 from parolkit.gui.components.program_panel import ProgramPanel
 from parolkit.gui.components.recordings_panel import RecordingsPanel
+from parolkit.gui.components.speed_override import SpeedOverride
 from parolkit.gui.components.telemetry import LiveCharts, Readouts
 from parolkit.gui.components.view3d import SCENE_FPS, ArmView
 from parolkit.gui.jog import KEYMAP, key_action
@@ -81,6 +82,9 @@ class CommanderPage:
                 self.view = ArmView(self.link)
                 self.readouts = Readouts(commander.log)
             with ui.element("div").classes("pk-col"):
+                # above the tabs: beside the jog speed and the program's Run / Pause, whichever
+                # tab is open
+                self.override = SpeedOverride(commander)
                 self._build_tabs()
                 self.charts = LiveCharts(self.link)
         self.program.on_preview = self.view.show_preview
@@ -116,6 +120,7 @@ class CommanderPage:
         st = self.link.status
         up = self.link.link_up
         self.header.update(st, up)
+        self.override.update(st, up)
         self.readouts.update(st, up)
         self.io.set_online(up)
         self.program.set_online(up)

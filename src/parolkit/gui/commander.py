@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import asyncio
 import threading
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from parolkit.client.core import RobotState
+from parolkit.client.core import CommandResult, RobotState
 from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError
 from parolkit.gui.eventlog import EventLog, Level
@@ -26,15 +27,22 @@ from parolkit.gui.recordings import RecordingSession, RecordingsFolder, TeachPro
 from parolkit.gui.templates import SEED_EXAMPLES
 
 if TYPE_CHECKING:
+    from parolkit.client.core import RobotStatus
     from parolkit.client.robot import Robot
     from parolkit.gui.own_controller import OwnController
     from parolkit.script.interpreter import Interpreter, InterpreterState
 
 __all__ = ["ACTIVE_STATES", "Commander", "ProgramRunner"]
 
-#: the runner's states while a program runs: "pausing" is Pause pressed while a line (a move,
-#: a Delay) still runs: the program pauses after it
+#: the runner's states while a program runs: "pausing" is Pause pressed (PAUSE sent) while the
+#: arm still slows down on its path; "paused" the arm holding on its path (the controller
+#: paused) or the program waiting between lines (after a Step)
 ACTIVE_STATES = ("running", "pausing", "paused")
+#: the arm counts as at rest (a pause has taken hold) below this joint speed, deg/s
+AT_REST_DEG_S = 0.2
+#: after the controller acknowledged our RESUME, a status still saying "paused" is taken for
+#: one sent before it for this long, s
+RESUME_GRACE_S = 0.5
 
 
 class Commander:
@@ -74,6 +82,8 @@ class Commander:
         self.program = ProgramRunner(self)
         self.control = ControlWatch(link.robot, link.send, local_host=local_host_for(link.host),
                                     runner_port=self.program.port, secret=secret)
+        # the controller's pause (ours or another client's) becomes the program's state
+        link.add_listener(self.program.follow)
         #: connected pages (browser tabs); when the last one goes the lease is given back
         self.pages = 0
 
@@ -136,6 +146,46 @@ class Commander:
         self.program.stop()
         self.command("STOP", "Stop")
 
+    async def set_speed(self, percent: float) -> bool:
+        """The speed override slider: ``SPEED|pct`` (1..100 %), which only the holder of the
+        control lease may send: through the program runner's client while a program runs (it
+        holds the lease then), else through the link (taking the lease as every motion command
+        does).  Waits for the controller's answer; True when it took the new override.  A
+        refusal (another client controls the robot) is logged with the controller's reason."""
+        pct = float(percent)
+        if not 1.0 <= pct <= 100.0:
+            self.log.error(f"speed override {pct:g} % not sent: it must be 1..100 %")
+            return False
+        if not self.link.link_up:
+            self.log.error("speed override not sent: no link to the controller")
+            return False
+        runner = self.program.robot
+        if runner is not None and self.program.running:
+            try:
+                result = await asyncio.to_thread(runner.set_speed, pct, 2.0)
+            except ParolkitError as exc:
+                self.log.error(f"speed override {pct:g} % (through the program's client): {exc}")
+                return False
+            self.log.info(f"SPEED completed (through the program's client): {result.details}")
+            return True
+        try:
+            self.control.ensure()
+            handle = self.link.submit(f"SPEED|{pct:g}", label="SPEED")
+        except (RobotError, OSError) as exc:
+            self.log.error(f"speed override {pct:g} %: {exc}")
+            return False
+        answer = await handle.result(timeout=2.0, raise_on_error=False)  # the link logs the ack
+        return isinstance(answer, CommandResult) and answer.ok
+
+    async def resume(self) -> None:
+        """The header's Resume (shown while the controller is paused): the program's Run when
+        a program of ours runs, else ``RESUME`` through the link (only the lease holder may
+        send it: another client's control is refused with the controller's reason)."""
+        if self.program.active:
+            await self.program.resume()
+        else:
+            self.command("RESUME", "RESUME")
+
     def command(self, text: str, label: str | None = None) -> None:
         """Send ``text``; logs "sent" only when there is a link to the controller (STOP and
         E-STOP are sent anyway: a controller that only lost its status stream still acts)."""
@@ -187,11 +237,21 @@ class ProgramRunner:
         self.errors: list[Any] = []
         self.thread: threading.Thread | None = None
         self.current_line: int | None = None
-        #: idle (never run), running, pausing (Pause pressed: the line running finishes
-        #: first), paused, finished, stopped, error
+        #: idle (never run), running, pausing (Pause pressed: the arm slows down on its path),
+        #: paused (it holds on its path, or the program waits between lines after a Step),
+        #: finished, stopped, error
         self.state = "idle"
-        #: guards the state between the page (pause, stop) and the interpreter's thread
+        #: guards the state between the page (pause, stop), the link's status listener and the
+        #: interpreter's thread
         self._lock = threading.Lock()
+        #: the interpreter is paused by us (Pause, Step or a Step-mode start): no new line starts
+        #: until Run
+        self._user_paused = False
+        #: PAUSE sent since the last RESUME (Run and Step send RESUME then)
+        self._pause_sent = False
+        #: our RESUME is on its way (True), or was acknowledged at this monotonic time: a
+        #: status saying "paused" until then is an old one
+        self._resuming: bool | float = False
         self.message = ""
         #: the text and program name of the program running (or run last): the page shows it
         self.text = ""
@@ -221,14 +281,61 @@ class ProgramRunner:
         self.version += 1
 
     def _on_state(self, state: InterpreterState) -> None:
-        """Interpreter callback (its thread): "paused" only once the interpreter has paused
-        (between lines), "running" again when it runs the next line (Run, Step)."""
+        """Interpreter callback (its thread): "paused" once the interpreter has paused between
+        lines (after a Step), "running" when it runs the next line, unless Pause or Step was
+        pressed meanwhile (:meth:`pause`, :meth:`step` set the state themselves)."""
         word = {"paused": "paused", "running": "running"}.get(state.value)
         with self._lock:
-            if word is None or self._stopping or self.state not in ACTIVE_STATES or self.state == word:
+            if word is None or self._stopping or self.state not in ACTIVE_STATES:
                 return
+            if word == "paused":  # between lines: the line it waits before (on_line says nothing)
+                line = self.interpreter.current_line if self.interpreter is not None else None
+                if line is not None and line != self.current_line:
+                    self.current_line = line
+                    self.version += 1
+            if self.state == word or (word == "running" and self._user_paused):
+                return  # (paused by Pause or Step: the interpreter still passes the gate it was at)
             self.state = word
             self.version += 1
+
+    def _controller_paused(self) -> bool:
+        st = self.commander.link.status
+        return st is not None and st.paused
+
+    @property
+    def paused_by_us(self) -> bool:
+        """The program was paused with our Pause (or Step), not by another client's PAUSE."""
+        return self._user_paused
+
+    def follow(self, st: RobotStatus) -> None:
+        """Status listener (the event loop): the controller's pause is the program's.  Paused
+        (ours or another client's ``PAUSE``) while the program runs: "pausing" while the arm
+        still slows down on its path, "paused" once it is at rest; "running" again when the
+        controller runs on and the interpreter is not paused by us (another client's pause
+        ended)."""
+        if not self.active:
+            return
+        at_rest = max((abs(v) for v in st.speeds_deg_s), default=0.0) < AT_REST_DEG_S
+        with self._lock:
+            if self._stopping or self.state not in ACTIVE_STATES:
+                return
+            new = self.state
+            if st.paused:
+                resuming = self._resuming
+                if resuming is True or (resuming is not False and time.monotonic() - resuming < RESUME_GRACE_S):
+                    return  # a status from before our RESUME took effect
+                self._resuming = False
+                if new == "running":
+                    new = "pausing"  # another client's PAUSE, or ours before Pause was seen here
+                if new == "pausing" and at_rest:
+                    new = "paused"
+            else:
+                self._resuming = False
+                if new != "running" and not self._user_paused:
+                    new = "running"
+            if new != self.state:
+                self.state = new
+                self.version += 1
 
     async def start(self, text: str, *, step: bool = False, name: str = "") -> list[Any]:
         """Parse ``text`` (the program ``name``) and run it; returns the parse errors (nothing
@@ -243,13 +350,10 @@ class ProgramRunner:
         from parolkit.script import parse
 
         if self.active:
-            if step and self.interpreter is not None:
-                self.interpreter.step()
-            elif self.interpreter is not None and self.state in ("pausing", "paused"):
-                with self._lock:
-                    self.interpreter.resume()
-                    self.state = "running"  # a pause still pending is called off
-                    self.version += 1
+            if step:
+                await self.step()
+            elif self.state in ("pausing", "paused") or self._controller_paused():
+                await self.resume()
             return []
         thread = self.thread
         if thread is not None and thread.is_alive():  # the last run ended and closes its client
@@ -296,6 +400,7 @@ class ProgramRunner:
         self.interpreter = Interpreter(program, robot, on_line=self._on_line, on_state=self._on_state, step=step)
         self.errors = []
         self.state = "running"
+        self._user_paused, self._pause_sent, self._resuming = step, False, False
         self.message = ""
         self.text, self.name = text, name
         self._stopping = False
@@ -364,21 +469,98 @@ class ProgramRunner:
         "finished" then, and the editor takes typing again."""
         return self.running and self.state in ACTIVE_STATES
 
-    def pause(self) -> None:
-        """Pause after the line that runs now (the interpreter pauses between lines: a move
-        in progress finishes): "pausing" until the interpreter has paused (:meth:`_on_state`)."""
-        if self.active and self.interpreter is not None and self.state == "running":
-            with self._lock:
-                self.interpreter.pause()
-                self.state = "pausing"
-                self.version += 1
-            line = self.current_line
-            self.commander.log.info(f"pause: the program pauses after line {line}" if line is not None
-                                    else "pause: the program pauses before its next line")
-        elif self.state in ("pausing", "paused"):
-            self.commander.log.info(f"pause: the program is already {self.state}")
-        else:
+    async def pause(self) -> None:
+        """The Program tab's Pause: ``PAUSE`` to the controller (open to every client), so the
+        running move slows down on its own path within the acceleration limits and holds there
+        (a running Delay, Output or wait runs to its end; nothing queued starts), and the
+        interpreter is paused, so no new line starts.  "pausing" while the arm still slows
+        down, "paused" once the controller reports it paused and the arm at rest
+        (:meth:`follow`).  Run resumes (:meth:`resume`), Step runs on (:meth:`step`), Stop
+        ends it all (STOP ends the controller's pause too)."""
+        interpreter = self.interpreter
+        if not self.active or interpreter is None:
             self.commander.log.info("pause: no program is running")
+            return
+        if self._user_paused and self.state in ("pausing", "paused"):
+            self.commander.log.info(f"pause: the program is already {self.state}")
+            return
+        try:
+            self.commander.link.send("PAUSE", label="PAUSE")
+        except (RobotError, OSError) as exc:
+            self.commander.log.error(f"pause: PAUSE not sent: {exc}")
+        with self._lock:
+            self._user_paused = self._pause_sent = True
+            self._resuming = False
+            if self.state == "running":
+                self.state = "pausing"
+            self.version += 1
+        line = self.current_line
+        self.commander.log.info(f"pause: the arm slows down on its path and holds at line {line}"
+                                if line is not None else "pause: the program pauses before its first line")
+        await asyncio.to_thread(interpreter.pause)  # it may ask the controller (PAUSE|QUEUE)
+
+    async def resume(self) -> None:
+        """Run while paused: the interpreter runs on and ``RESUME`` (through the runner's
+        client, which holds the control lease) lets the arm continue on the same path to the
+        same target."""
+        interpreter = self.interpreter
+        if not self.active or interpreter is None:
+            self.commander.log.info("resume: no program is running")
+            return
+        with self._lock:
+            self._user_paused = False
+            self._resuming = True
+            self.state = "running"
+            self.version += 1
+        await asyncio.to_thread(interpreter.resume)
+        if await self._resume_controller("resume"):
+            self.commander.log.info("resume: the program runs on (the arm continues on its path)")
+
+    async def step(self) -> None:
+        """Step while a program runs: run one more line, then pause between lines (the
+        interpreter's :meth:`~parolkit.script.Interpreter.step`).  Paused on the path, the
+        controller is resumed too: the arm finishes the line it paused in, the next line
+        runs, and the program pauses before the one after it (the line queued behind the
+        paused one is that one more line)."""
+        interpreter = self.interpreter
+        if not self.active or interpreter is None:
+            return
+        with self._lock:
+            self._user_paused = True
+            release = self._pause_sent or self._controller_paused()
+            if release:
+                self._resuming = True
+            self.state = "running"
+            self.version += 1
+        await asyncio.to_thread(interpreter.step)
+        if not release:
+            self.commander.log.info("step: one more line runs, then the program pauses")
+        elif await self._resume_controller("step"):
+            self.commander.log.info("step: the arm finishes the line it paused in, one more line runs, "
+                                    "then the program pauses")
+
+    async def _resume_controller(self, what: str) -> bool:
+        """``RESUME`` through the runner's client when we paused the controller or it is paused
+        (another client's PAUSE); a refusal (another client took control) is logged and the
+        state follows the controller again."""
+        robot = self.robot
+        if robot is None or not (self._pause_sent or self._controller_paused()):
+            with self._lock:
+                self._resuming = False
+            return True
+        try:
+            await asyncio.to_thread(robot.resume, 2.0)
+        except ParolkitError as exc:
+            with self._lock:
+                self._resuming = False
+                self.version += 1
+            self.commander.log.error(f"{what}: RESUME failed: {exc}")
+            return False
+        with self._lock:
+            self._pause_sent = False
+            if self._resuming is True:
+                self._resuming = time.monotonic()
+        return True
 
     def stop(self, reason: str = "stopped") -> None:
         if self.starting and not self.active and not self._start_cancelled:
@@ -391,6 +573,7 @@ class ProgramRunner:
             with self._lock:
                 self._stopping = True
                 self.state = "stopped"
+                self._user_paused = self._pause_sent = self._resuming = False
             self.interpreter.stop()  # its state callbacks take the lock: not held here
             self.message = reason
             self.commander.log.add(f"program {reason}", Level.WARNING)

@@ -18,7 +18,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from parolkit.client.async_robot import AsyncRobot, AsyncStatusSubscription
+from parolkit.client.async_robot import AsyncCommandHandle, AsyncRobot, AsyncStatusSubscription
 from parolkit.client.core import AckRecord, AckStatus, PlanInfo, RobotState, RobotStatus
 from parolkit.client.errors import ControllerUnreachable, ReplyError, RobotError
 from parolkit.gui.eventlog import EventLog, Level, level_of_ack
@@ -262,11 +262,16 @@ class ControllerLink:
         Its terminal ack is logged, labelled ``label`` (default: the command word); with
         ``quiet`` only FAILED / INVALID acks are logged.  Raises
         :class:`~parolkit.client.errors.RobotError` when the link is not started."""
+        return self.submit(text, label=label, quiet=quiet).id
+
+    def submit(self, text: str, *, label: str | None = None, quiet: bool = False) -> AsyncCommandHandle:
+        """:meth:`send`, returning the command's handle (``await handle.result(...)`` waits
+        for its terminal ack, ``handle.done()`` says whether it came)."""
         handle = self.robot.send_nowait(text)
         self._labels[handle.id] = label or text.split("|", 1)[0]
         if quiet:
             self._quiet.add(handle.id)
-        return handle.id
+        return handle
 
 
 async def _cancel_all(tasks: list[asyncio.Task[None]], limit_s: float = 2.0) -> None:

@@ -129,8 +129,11 @@ def format_gripper(g: GripperState) -> str:
 def state_badge(status: RobotStatus | None, link_up: bool, program: str | None = None) -> tuple[str, str]:
     """(text, colour) for the state badge; colour is a Quasar colour: 'positive', 'warning',
     'negative', 'info' or 'grey-8'.  ``program``: the program runner's state while a program
-    runs ("running", "pausing", "paused"), else None: PROGRAM RUNNING / PROGRAM PAUSED then,
-    through its moves, Delay and Output lines alike (only a fault or DISABLED says more)."""
+    runs ("running", "pausing", "paused"), else None: PROGRAM RUNNING / PROGRAM PAUSING (Pause
+    pressed, the controller paused, the arm still slowing down on its path) / PROGRAM PAUSED
+    then, through its moves, Delay and Output lines alike (only a fault or DISABLED says more).
+    With no program of ours, PAUSED while the controller is paused (another client's PAUSE:
+    nothing moves on until RESUME)."""
     if not link_up or status is None:
         return "NO LINK", "grey-8"
     if status.estop_latched or status.estop_pressed or status.state is RobotState.ESTOP:
@@ -143,8 +146,12 @@ def state_badge(status: RobotStatus | None, link_up: bool, program: str | None =
         return "DISABLED", "warning"
     if program == "paused":
         return "PROGRAM PAUSED", "warning"
+    if program == "pausing" and status.paused:
+        return "PROGRAM PAUSING", "warning"
     if program is not None:
         return "PROGRAM RUNNING", "info"
+    if status.paused:
+        return "PAUSED", "warning"
     if status.state is RobotState.HOMING:
         return "HOMING", "warning"
     if not status.all_homed:

@@ -1,7 +1,8 @@
 """The commander page's components (NiceGUI), one module each.
 
-:mod:`.header` (the always-visible header: state, safety buttons, E-STOP, the compact gripper
-readout), :mod:`.view3d` (the 3D view), :mod:`.jog_panel` (joint and Cartesian jogging),
+:mod:`.header` (the always-visible header: state, safety buttons, Resume while paused, E-STOP,
+the compact gripper readout), :mod:`.speed_override` (the speed override slider above the
+tabs), :mod:`.view3d` (the 3D view), :mod:`.jog_panel` (joint and Cartesian jogging),
 :mod:`.io_panel` (outputs and the SSG-48 gripper), :mod:`.program_panel` (the RBTscript
 editor and runner), :mod:`.recordings_panel` (record the robot, the recordings list, teach
 from a recording), :mod:`.telemetry` (readouts, log and live charts) and :mod:`.help_dialog`

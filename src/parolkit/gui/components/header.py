@@ -1,6 +1,7 @@
 """The header (NiceGUI): always visible (a fixed Quasar header), it holds what must never
-scroll away: link and robot state, who controls the robot, the compact gripper readout, REC
-while a recording runs, Home / Enable / Disable / Clear error / Stop, help and the E-STOP button
+scroll away: link and robot state (PAUSED while the controller is paused), who controls the
+robot, the compact gripper readout, REC while a recording runs, Home / Enable / Disable / Clear
+error / Resume (while paused) / Stop, help and the E-STOP button
 (in a layer of its own above every dialog, menu and tooltip, over its slot in the header row).
 
 On a narrow screen (phones, <= 760 px) the stylesheet moves E-STOP onto the first row and
@@ -10,6 +11,7 @@ shows the buttons as icons; every button keeps its accessible name (``aria-label
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 from nicegui import ui
 
@@ -21,7 +23,7 @@ from parolkit.gui.status import gripper_summary, state_badge
 __all__ = ["Header"]
 
 
-def _action(label: str, icon: str, testid: str, props: str, on_click: Callable[[], None],
+def _action(label: str, icon: str, testid: str, props: str, on_click: Callable[[], Any],
             tooltip: str) -> ui.button:
     """A header button: text and icon, its accessible name = its label."""
     b = ui.button(label, icon=icon, on_click=on_click) \
@@ -70,6 +72,14 @@ class Header:
                                 lambda: c.command("DISABLE", "Disable"), "disable the motors"),
                         _action("Clear error", "healing", "btn-clear", "outline dense color=grey-4",
                                 lambda: c.command("CLEAR_ERROR", "Clear error"), "clear the board's error")]
+                        # while the controller is paused (our program's Pause or another
+                        # client's PAUSE): RESUME, which only the holder of the control lease may send
+                        self.resume_btn = _action("Resume", "play_arrow", "btn-resume",
+                                                  "unelevated dense color=positive", c.resume,
+                                                  "the paused motion continues on its path (RESUME; "
+                                                  "refused while another client controls the robot)")
+                        self.resume_btn.set_visibility(False)
+                        self._resume_shown = False
                         _action("Stop", "stop", "btn-stop", "outline dense color=orange",
                                 c.stop, "stop motion and cancel the queue (Space)")
                         ui.button(icon="help_outline", on_click=on_help) \
@@ -144,6 +154,10 @@ class Header:
         self.control_badge.update()
         self._update_recording()
         self._update_banner(link_up)
+        paused = link_up and st is not None and st.paused
+        if paused != self._resume_shown:
+            self._resume_shown = paused
+            self.resume_btn.set_visibility(paused)
         runner = self.c.program
         text, colour = state_badge(st, link_up, runner.state if runner.active else None)
         latched = st is not None and (st.estop_latched or st.estop_pressed)

@@ -2,6 +2,12 @@
 Stop with the executing line highlighted, Check (parse + dry run: errors at their line and
 the planned joint positions and speeds), Insert (templates with the current joints / pose),
 Examples (the seed programs) and the programs folder's file row.
+
+Pause is the controller's PAUSE: the running move slows down on its own path and holds there,
+and no new line starts; Run resumes it (RESUME) on the same path to the same target; Step
+while paused lets the arm finish the line it paused in and run the next one, then pauses
+between lines; Stop ends it all (STOP also ends the controller's pause).  See
+:class:`~parolkit.gui.commander.ProgramRunner`.
 """
 
 from __future__ import annotations
@@ -21,12 +27,29 @@ from parolkit.gui.programs_panel import ProgramsPanel
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.robot import PAROL6
 
-__all__ = ["ProgramPanel", "DIAG_DELAY_S"]
+__all__ = ["ProgramPanel", "DIAG_DELAY_S", "PAUSE_LABEL", "program_status"]
 
 #: the parser's diagnostics are shown this long after the last keystroke, s
 DIAG_DELAY_S = 0.4
 #: how long Check and Run wait for the page's editor text before using the server's copy, s
 PAGE_TEXT_TIMEOUT_S = 3.0
+#: the Pause button's name (aria-label and tooltip): what it does
+PAUSE_LABEL = "Pause: the arm slows down on its path and holds"
+
+
+def program_status(state: str, line: int | None, held: bool, by_us: bool) -> str:
+    """The status line of a running program: ``state`` the runner's ("running", "pausing",
+    "paused"), ``line`` the executing line, ``held`` the controller reports itself paused,
+    ``by_us`` our Pause or Step paused the program (not another client's PAUSE)."""
+    at = f"line {line}" if line is not None else "line —"
+    if state == "pausing":
+        return f"⏸ pausing: the arm slows down on its path · {at}"
+    if state == "paused" and held:
+        who = "" if by_us else " (PAUSE from another client)"
+        return f"⏸ paused on the path at {at}{who} · Run resumes"
+    if state == "paused":
+        return f"⏸ paused before {at} · Run resumes, Step runs one line"
+    return f"▶ running · {at}"
 
 
 def _tool(icon: str, label: str, testid: str, props: str, on_click: Any) -> ui.button:
@@ -42,7 +65,7 @@ class ProgramPanel:
     def __init__(self, commander: Commander) -> None:
         self.c = commander
         self.link = commander.link
-        self._prog_version = -1
+        self._prog_version: tuple[int, bool] | None = None
         self._doc_version = -1
         self._revealed: int | None = None
         self._locked = False
@@ -57,8 +80,8 @@ class ProgramPanel:
         with ui.row().classes("w-full items-center gap-2"):
             self._run_btn = _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
                                   lambda: self.run_program(step=False))
-            # the interpreter pauses between lines: the move in progress finishes first
-            _tool("pause", "Pause after this move", "prog-pause", "unelevated color=warning", self.c.program.pause)
+            # the controller's PAUSE: the move in progress slows down on its path and holds
+            _tool("pause", PAUSE_LABEL, "prog-pause", "unelevated color=warning", self.c.program.pause)
             self._step_btn = _tool("skip_next", "Step one line", "prog-step", "unelevated color=info",
                                    lambda: self.run_program(step=True))
             _tool("stop", "Stop the program", "prog-stop", "unelevated color=negative", self.stop_program)
@@ -318,13 +341,16 @@ class ProgramPanel:
             self._reveal_at = None
             self._reveal()
         runner = self.c.program
-        if runner.version == self._prog_version:
+        st = self.link.status
+        held = st is not None and st.paused and self.link.link_up
+        key = (runner.version, held)
+        if key == self._prog_version:
             return
-        self._prog_version = runner.version
+        self._prog_version = key
         if runner.state in ACTIVE_STATES:
             where = f" · {runner.name}" if runner.name else ""
-            what = {"pausing": "▶ running · pause after this move", "paused": "⏸ paused"}.get(runner.state, "▶ running")
-            self.prog_status.set_text(f"{what} · line {runner.current_line or '—'}{where}")
+            self.prog_status.set_text(program_status(runner.state, runner.current_line, held,
+                                                     runner.paused_by_us) + where)
             self.prog_status.classes(replace="text-sm pk-mono text-amber-300")
         elif runner.state == "error":
             if runner.errors:

@@ -32,7 +32,9 @@
   const keyName = (e) => (e.key === " " ? " " : String(e.key || "").toLowerCase());
   const typing = (t) =>
     !!t && (t.isContentEditable || ["INPUT", "TEXTAREA", "SELECT"].includes(t.tagName));
-  const adjusting = (t) => !!t && typeof t.getAttribute === "function" && t.getAttribute("role") === "slider";
+  // a slider being adjusted with the keyboard: Quasar puts the focus on the slider's track,
+  // inside the element with role=slider (the arrows adjust it and must not jog as well)
+  const adjusting = (t) => t instanceof Element && t.closest("[role=slider]") !== null;
   const overlayOpen = () => document.querySelector(OVERLAYS) !== null;
   // the server's word on "something moves" (parolkit.gui.app: Commander.moving)
   const moving = () => {
