@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+from tests.integration.status_log import StatusLog
 
 from conftest import start_controller, wait_until
 from parolkit.client.robot import Robot
@@ -51,18 +52,18 @@ def test_home_input_and_speedjoint_run_in_order(robot):
 def test_output_sets_the_named_output_high_then_low(robot):
     """Output(2, ...) works (the original always rejected it); HIGH means the output is on."""
     prog = program("Begin()\nOutput(2, HIGH)\nOutput(1, HIGH)\nOutput(2, LOW)\nOutput(1, LOW)\nEnd()")
-    observed: dict[int, tuple[bool, bool]] = {}
-
-    def on_line(p):  # the IO state after the previous line completed
-        io = robot.io()
-        observed[p.line] = (io.out1, io.out2)
-
-    result = Interpreter(prog, robot, on_line=on_line).run()
-    assert result.ok, result.message
-    assert observed[3] == (False, True)
-    assert observed[4] == (True, True)
-    assert observed[5] == (True, False)
-    assert observed[6] == (False, False)
+    # the outputs the board reported, tick by tick (the lines run back to back, one tick each:
+    # reading the IO between lines would race the next line, already queued at the controller)
+    log = StatusLog(robot)
+    try:
+        result = Interpreter(prog, robot).run()
+        assert result.ok, result.message
+        wait_until(lambda: log.snapshot() and log.snapshot()[-1].seq > 0, 5)
+        states = [(st.io.out1, st.io.out2) for st in log.snapshot()]
+    finally:
+        log.close()
+    seen = [s for i, s in enumerate(states) if i == 0 or s != states[i - 1]]
+    assert seen == [(False, False), (False, True), (True, True), (True, False), (False, False)], seen
 
 
 def test_speedjoint_moves_the_joint_by_speed_times_duration(robot):

@@ -583,6 +583,8 @@ class Interpreter:
                             if self._stop_requested:
                                 raise _Stopped
                             continue
+                        if pending is None:  # nothing runs: it starts at once (the current line now)
+                            self._announce(cmd, index, executed, planned_total, planned_pass)
                         handle = self._run_line(cmd, wait=False)
                         with self._cond:
                             self._queued_ahead = pending is not None
@@ -599,8 +601,9 @@ class Interpreter:
                         finally:
                             with self._cond:
                                 self._queued_ahead = False
+                        if pending is not None:  # it starts now, the one before it has ended
+                            self._announce(cmd, index, executed, planned_total, planned_pass)
                         pending = (cmd, handle)
-                        self._announce(cmd, index, executed, planned_total, planned_pass)
                         if self._stop_requested:
                             raise _Stopped
                     else:
