@@ -411,6 +411,8 @@ class RobotStatus:
     #: the speed override (%, SPEED) and whether motion is paused (PAUSE until RESUME)
     speed_pct: float = 100.0
     paused: bool = False
+    #: PAUSE|QUEUE: nothing queued starts until RESUME (what runs goes on)
+    queue_held: bool = False
     raw: dict[str, object] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -459,7 +461,7 @@ class RobotStatus:
                 queue=_i(obj, "queue"), stream_mode=bool(obj.get("stream_mode", False)),
                 tool=str(obj.get("tool", "")), plan_seq=_i(obj, "plan_seq"),
                 speed_pct=_f(obj, "speed_pct", 100.0),
-                paused=bool(obj.get("paused", False)), raw=obj,
+                paused=bool(obj.get("paused", False)), queue_held=bool(obj.get("queue_held", False)), raw=obj,
             )
         except KeyError as exc:
             raise ReplyError(f"status: field {exc.args[0]!r} is missing") from None

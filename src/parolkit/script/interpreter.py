@@ -205,6 +205,8 @@ class Interpreter:
         #: (PAUSE|QUEUE, sent by :meth:`pause`)
         self._queued_ahead = False
         self._held = False
+        #: a line has passed its gate and waits for the running one to end (not yet announced)
+        self._line_waiting = False
         self._stop_requested = False
         self._current_line: int | None = None
         self._current_index: int | None = None
@@ -297,7 +299,8 @@ class Interpreter:
             release = self._held
             if release:  # the line held at the controller is the step
                 self._held = False
-            elif not self._queued_ahead:
+            elif not (self._queued_ahead or self._line_waiting):
+                # (a line already past its gate, queued or waiting to be sent, is the step)
                 self._step_tokens += 1
             self._cond.notify_all()
         if release:
@@ -409,6 +412,7 @@ class Interpreter:
             announced = held
         with self._cond:
             self._started += 1
+            self._line_waiting = True
         self._set_state(InterpreterState.RUNNING)
         return drained or 0
 
@@ -425,6 +429,7 @@ class Interpreter:
         with self._cond:
             self._current_line, self._current_index = cmd.line, index
             self._running_iteration = self._iteration
+            self._line_waiting = False
         if self.on_line is not None:
             self._notify(self.on_line, Progress(
                 cmd.line, index, self._running_iteration, cmd.to_source(),
