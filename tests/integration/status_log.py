@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import socket
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 from parolkit.client.core import RobotStatus
 from parolkit.client.robot import Robot
@@ -42,6 +45,23 @@ class StatusLog:
 
     def close(self) -> None:
         self.sub.close()
+
+
+@contextmanager
+def client_and_status_log(ctl: Any) -> Iterator[tuple[Any, StatusLog]]:
+    """A raw UDP client of the controller ``ctl`` (``tests.integration.test_controller_sim``'s
+    ``Client``) and the log of its every status, closed afterwards."""
+    from tests.integration.test_controller_sim import Client
+
+    client = Client(ctl)
+    robot = Robot(ctl.host, ctl.port, ack_port=0, timeout=2.0)
+    log = StatusLog(robot)
+    try:
+        yield client, log
+    finally:
+        log.close()
+        robot.close()
+        client.close()
 
 
 @dataclass(frozen=True)

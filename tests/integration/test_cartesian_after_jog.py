@@ -11,11 +11,10 @@ import math
 import numpy as np
 import pytest
 from tests.conftest import wait_until
-from tests.integration.status_log import StatusLog
+from tests.integration.status_log import StatusLog, client_and_status_log
 from tests.integration.test_controller_sim import Client
 
 from parolkit import kinematics as kin
-from parolkit.client.robot import Robot
 from parolkit.robot import PAROL6
 
 SPD = np.asarray(PAROL6.steps_per_deg, dtype=float)
@@ -25,14 +24,8 @@ TARGET = [0.0, 262.57, 250.0, -90.0, 0.0, -90.0]
 
 @pytest.fixture
 def bench(controller_factory):
-    ctl = controller_factory(lockstep=True)
-    client = Client(ctl)
-    robot = Robot(ctl.host, ctl.port, ack_port=0, timeout=2.0)
-    log = StatusLog(robot)
-    yield client, log
-    log.close()
-    robot.close()
-    client.close()
+    with client_and_status_log(controller_factory(lockstep=True)) as pair:
+        yield pair
 
 
 def _run(client: Client, text: str) -> tuple[str, str, str]:

@@ -12,10 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from tests.conftest import wait_until
-from tests.integration.status_log import StatusLog
+from tests.integration.status_log import StatusLog, client_and_status_log
 from tests.integration.test_controller_sim import Client
 
-from parolkit.client.robot import Robot
 from parolkit.protocol.frames import BoardCommand
 from parolkit.robot import PAROL6, deg_to_steps
 
@@ -24,14 +23,8 @@ RATE = 100.0  # the controller's default rate (frames/s)
 
 @pytest.fixture
 def bench(controller_factory):
-    ctl = controller_factory(lockstep=True)
-    client = Client(ctl)
-    robot = Robot(ctl.host, ctl.port, ack_port=0, timeout=2.0)
-    log = StatusLog(robot)
-    yield client, log
-    log.close()
-    robot.close()
-    client.close()
+    with client_and_status_log(controller_factory(lockstep=True)) as pair:
+        yield pair
 
 
 def _fmt(values) -> str:

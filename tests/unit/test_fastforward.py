@@ -18,7 +18,7 @@ from parolkit.cli import main
 from parolkit.client.errors import CommandFailed
 from parolkit.client.robot import Robot
 from parolkit.config import load_config
-from parolkit.controller.fastforward import FRAME_LOG_HEADER, InProcessController
+from parolkit.controller.fastforward import InProcessController, parse_frame_log
 from parolkit.protocol.frames import BoardCommand, CommandFrame, IOBits
 from parolkit.script.interpreter import Interpreter, InterpreterState
 from parolkit.script.parser import parse
@@ -27,13 +27,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def _frames(log: str) -> list[tuple[int, CommandFrame]]:
-    lines = log.splitlines()
-    assert lines[0] + "\n" == FRAME_LOG_HEADER
-    out = []
-    for line in lines[1:]:
-        tick, data = line.split(" ")
-        out.append((int(tick), CommandFrame.decode(bytes.fromhex(data))))
-    return out
+    return parse_frame_log(log)
 
 
 @pytest.fixture()
@@ -188,3 +182,13 @@ def test_run_sim_fast_prints_the_speed_and_ends_like_a_paced_run(tmp_path):
     assert "fast-forward: " in out.stdout and "x real time" in out.stdout
     frames = _frames((tmp_path / "f.log").read_text())
     assert any(f.io & IOBits.OUT1 for _, f in frames)
+
+
+def test_a_frame_log_that_is_not_one_is_refused_naming_the_line():
+    with pytest.raises(ValueError, match="not a parolkit frame log"):
+        parse_frame_log("12 aabb\n")
+    from parolkit.controller.fastforward import FRAME_LOG_HEADER
+
+    with pytest.raises(ValueError, match="frame log line 3"):
+        parse_frame_log(FRAME_LOG_HEADER + "0 " + CommandFrame().encode().hex() + "\n7 zz\n")
+    assert parse_frame_log(FRAME_LOG_HEADER + "5 " + CommandFrame().encode().hex() + "\n")[0][0] == 5

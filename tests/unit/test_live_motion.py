@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from parolkit.config import load_config
-from parolkit.controller.fastforward import FRAME_LOG_HEADER, InProcessController
+from parolkit.controller.fastforward import InProcessController, parse_frame_log
 from parolkit.kinematics.fk import fk
 from parolkit.protocol.frames import BoardCommand, CommandFrame, IOBits
 from parolkit.robot import PAROL6
@@ -72,13 +72,7 @@ class Bench:
         raise AssertionError(f"{cid} did not end within {limit} ticks: {self.acks.get(cid)}")
 
     def frames(self) -> list[tuple[int, CommandFrame]]:
-        lines = self.log.getvalue().splitlines()
-        assert lines[0] + "\n" == FRAME_LOG_HEADER
-        out = []
-        for line in lines[1:]:
-            tick, data = line.split(" ")
-            out.append((int(tick), CommandFrame.decode(bytes.fromhex(data))))
-        return out
+        return parse_frame_log(self.log.getvalue())
 
     @property
     def tick(self) -> int:
@@ -150,6 +144,24 @@ def _tcp(frame: CommandFrame) -> np.ndarray:
     return np.asarray(fk(deg)[:3], dtype=float)
 
 
+def _farthest_off_line(gotos: list[tuple[int, CommandFrame]], a, b) -> float:
+    """How far (mm) the farthest of the frames' TCP targets lies from the line through ``a``
+    and ``b`` (mm)."""
+    p0, p1 = np.asarray(a[:3], dtype=float), np.asarray(b[:3], dtype=float)
+    d = (p1 - p0) / np.linalg.norm(p1 - p0)
+    worst = 0.0
+    for _, f in gotos:
+        q = _tcp(f) - p0
+        worst = max(worst, float(np.linalg.norm(q - np.dot(q, d) * d)))
+    return worst
+
+
+def _completes(bench: Bench, text: str) -> None:
+    """Send ``text`` and tick until it ends: it must be COMPLETED."""
+    _, done = bench.run_until_done(bench.send(text))
+    assert done[0] == "COMPLETED", (text, done)
+
+
 def test_pause_mid_movecart_stops_on_the_line_holds_and_resume_ends_at_the_target(bench):
     start_pose = bench.sim.controller.snapshot.pose
     x, y, z, a, b, c = start_pose
@@ -175,13 +187,9 @@ def test_pause_mid_movecart_stops_on_the_line_holds_and_resume_ends_at_the_targe
     gotos = _gotos(bench.frames(), t_start)
     _assert_speed_steps_within_accel(gotos)
     # every target on the way (the slow-down, the hold and the restart among them) is on the line
-    p0, p1 = np.asarray(start_pose[:3]), np.asarray(target[:3])
-    d = (p1 - p0) / np.linalg.norm(p1 - p0)
-    worst = 0.0
-    for _, f in gotos:
-        q = _tcp(f) - p0
-        worst = max(worst, float(np.linalg.norm(q - np.dot(q, d) * d)))
+    worst = _farthest_off_line(gotos, start_pose, target)
     assert worst <= 0.05, f"a target {worst:.3f} mm off the line"
+    p1 = np.asarray(target[:3])
     final = np.asarray(bench.sim.controller.snapshot.pose[:3])
     assert np.linalg.norm(final - p1) < 0.1
 
@@ -210,9 +218,7 @@ def test_stop_while_paused_cancels_the_move_and_ends_the_pause(bench):
     bench.run(2)
     assert bench.terminal(move)[0] == "CANCELLED"
     assert not bench.sim.controller.snapshot.paused
-    nxt = bench.send("MOVEJOINT|0|-90|180|0|0|180|4|None")
-    _, done = bench.run_until_done(nxt)
-    assert done[0] == "COMPLETED", done
+    _completes(bench, "MOVEJOINT|0|-90|180|0|0|180|4|None")
 
 
 def test_a_checkpoint_is_acked_when_the_queue_reaches_it_and_takes_no_tick(bench):
@@ -319,20 +325,13 @@ def test_stop_mid_movecart_slows_down_on_the_line_and_clears_the_queue_at_once(b
     assert 3 <= ticks <= 40, f"a controlled stop takes well under 0.4 s here, took {ticks} ticks"
     gotos = _gotos(bench.frames(), t_start)
     _assert_speed_steps_within_accel(gotos)
-    p0, p1 = np.asarray(start_pose[:3]), np.asarray(target[:3])
-    d = (p1 - p0) / np.linalg.norm(p1 - p0)
-    for _, f in gotos:
-        q = _tcp(f) - p0
-        assert np.linalg.norm(q - np.dot(q, d) * d) <= 0.05
+    assert _farthest_off_line(gotos, start_pose, target) <= 0.05
     last = gotos[-1][1]
     assert not any(last.speeds), "the last frame holds (no feed-forward)"
     bench.run(20)
     held = _gotos(bench.frames(), bench.tick - 10)
     assert all(f.positions == last.positions for _, f in held) or not held
-    # the robot takes the next command at once
-    nxt = bench.send("MOVEJOINT|90|-90|180|0|0|180|4|None")
-    _, done = bench.run_until_done(nxt)
-    assert done[0] == "COMPLETED", done
+    _completes(bench, "MOVEJOINT|90|-90|180|0|0|180|4|None")  # the robot takes the next command at once
 
 
 def test_stop_during_a_jog_stops_within_a_frame_as_before(bench):

@@ -32,15 +32,33 @@ from parolkit.config import Config
 from parolkit.controller.app import Controller
 from parolkit.controller.driver import Driver
 from parolkit.controller.snapshot import RobotState
+from parolkit.protocol.frames import CommandFrame
 from parolkit.transport.base import Transport
 from parolkit.transport.url import parse_transport_url
 
-__all__ = ["InProcessController", "FrameLogTransport", "FRAME_LOG_HEADER", "READY_TIMEOUT_S"]
+__all__ = ["InProcessController", "FrameLogTransport", "FRAME_LOG_HEADER", "READY_TIMEOUT_S", "parse_frame_log"]
 
 #: the first line of a frame log
 FRAME_LOG_HEADER = "# parolkit frame log: one line per frame written to the board: TICK HEX-BYTES\n"
 #: board seconds the simulated board may take to home and settle before the first command
 READY_TIMEOUT_S = 300.0
+
+
+def parse_frame_log(text: str) -> list[tuple[int, CommandFrame]]:
+    """The frames of a frame log (:class:`FrameLogTransport`): ``(tick, frame)`` in order.
+    ValueError naming the line for one that is not ``TICK HEX`` of a command frame, or a text
+    without the header."""
+    lines = text.splitlines()
+    if not lines or lines[0] + "\n" != FRAME_LOG_HEADER:
+        raise ValueError("not a parolkit frame log: its first line must be " + FRAME_LOG_HEADER.strip())
+    out = []
+    for n, line in enumerate(lines[1:], start=2):
+        try:
+            tick, data = line.split(" ")
+            out.append((int(tick), CommandFrame.decode(bytes.fromhex(data))))
+        except ValueError as exc:
+            raise ValueError(f"frame log line {n}: {exc} ({line[:60]!r})") from None
+    return out
 
 
 class FrameLogTransport(Transport):

@@ -190,14 +190,7 @@ class JobQueue:
         if self.active is not None:
             self.end_active(AckStatus.CANCELLED, reason)
             n += 1
-        while self.waiting:
-            self.ack(self.waiting.popleft(), AckStatus.CANCELLED, reason)
-            n += 1
-        if self.stream_cart is not None:
-            self.ack(self.stream_cart, AckStatus.CANCELLED, reason)
-            self.stream_cart = None
-            n += 1
-        return n
+        return n + self.cancel_waiting(reason)
 
     def cancel_waiting(self, reason: str) -> int:
         """Cancel every waiting job and a streamed jog waiting for its plan (CANCELLED acks),
