@@ -58,7 +58,11 @@ def test_output_sets_the_named_output_high_then_low(robot):
     try:
         result = Interpreter(prog, robot).run()
         assert result.ok, result.message
-        wait_until(lambda: log.snapshot() and log.snapshot()[-1].seq > 0, 5)
+        # the last Output completed when the controller's status showed it; its status datagram
+        # reaches the log a moment later
+        wait_until(lambda: (log.snapshot() or [None])[-1] is not None
+                   and not (log.snapshot()[-1].io.out1 or log.snapshot()[-1].io.out2), 5,
+                   what="the last status with both outputs off")
         states = [(st.io.out1, st.io.out2) for st in log.snapshot()]
     finally:
         log.close()
