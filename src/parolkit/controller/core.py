@@ -287,7 +287,6 @@ class ControllerCore:
         #: tracking maxima: every frame a bounded commitment), the joint ranges (steps)
         self.servo_timeout_s = float(servo_timeout_s)
         self._servo_vmax = tuple(float(v) for v in model.max_tracked_speed_steps_s(self.rate_hz))
-        self._servo_anchor: object | None = None
         self._safe_steps = tuple((min(lo * s, hi * s), max(lo * s, hi * s))
                                  for (lo, hi), s in zip(self._safe_deg, self._spd))
         self.plan_seq = 0
@@ -671,11 +670,13 @@ class ControllerCore:
                                             "runs; wait for it or send STOP")
             return
         try:
-            target = self._servo_target(cmd, stream)
+            target, anchor = self._servo_target(cmd, stream)
         except ParolkitError as exc:
             jobs.ack(job, AckStatus.FAILED, f"{cmd.name}: {exc}")
             return
         if stream is not None:
+            if stream.anchor is None:  # the stream's first TRF target: its offsets are from here
+                stream.anchor = anchor
             stream.set_target(target, self._tick)
             jobs.ack(job, AckStatus.COMPLETED, "target taken")
             return
@@ -683,16 +684,17 @@ class ControllerCore:
                               max_accel_steps_s2=self._accel, jerk_time_s=SERVO_JERK_TIME_S,
                               timeout_ticks=ticks_for(self.servo_timeout_s, self.rate_hz),
                               limits_steps=self._safe_steps)
-        if isinstance(cmd, C.ServoL) and cmd.frame is Frame.TRF:
-            servo.anchor = self._servo_anchor
+        servo.anchor = anchor
         jobs.start(job, servo, f"servo stream started (a controlled stop after "
                                f"{self.servo_timeout_s:g} s without a target)")
 
-    def _servo_target(self, cmd: C.ServoJ | C.ServoL, stream: ServoActivity | None) -> list[float]:
+    def _servo_target(self, cmd: C.ServoJ | C.ServoL,
+                      stream: ServoActivity | None) -> tuple[list[float], object | None]:
         """The target of ``cmd`` in steps (SERVOL: the joints nearest the stream's target, or
-        the measured ones, that put the TCP at the pose)."""
+        the measured ones, that put the TCP at the pose), and the TCP pose a TRF target is
+        relative to (the stream's, else the pose now; None for the other forms)."""
         if isinstance(cmd, C.ServoJ):
-            return [d * s for d, s in zip(cmd.target_deg, self._spd)]
+            return [d * s for d, s in zip(cmd.target_deg, self._spd)], None
         from parolkit.kinematics.fk import fk_matrix
         from parolkit.kinematics.ik import ik
         from parolkit.kinematics.pose import pose_to_matrix
@@ -701,14 +703,14 @@ class ControllerCore:
         seed = ([t / s for t, s in zip(stream.target, self._spd)] if stream is not None else list(self.measured_deg))
         tool = self.tool_obj if self.tool_obj is not None else self.tool_name
         pose: object = list(cmd.pose)
+        anchor = None
         if cmd.frame is Frame.TRF:
-            anchor = getattr(stream, "anchor", None) if stream is not None else None
+            anchor = stream.anchor if stream is not None else None
             if anchor is None:  # the stream starts here: offsets from the TCP pose now
                 anchor = fk_matrix(self.measured_deg, tool)  # type: ignore[arg-type]
-            self._servo_anchor = anchor
-            pose = anchor @ pose_to_matrix(cmd.pose)
+            pose = anchor @ pose_to_matrix(cmd.pose)  # type: ignore[operator]
         deg = ik(pose, seed, tool)  # type: ignore[arg-type]
-        return [d * s for d, s in zip(deg, self._spd)]
+        return [d * s for d, s in zip(deg, self._spd)], anchor
 
     def _stop_on_path(self, reason: str) -> bool:
         """A client's STOP while a planned move (not a jog) is on its way: the queue is
