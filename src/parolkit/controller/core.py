@@ -404,8 +404,10 @@ class ControllerCore:
         """The time the integrity check judges the board's motion by: the PC's clock (``wall``,
         monotonic s) on a real link; on a board in lockstep with the frames its own time, the
         link record's ``t`` (each frame one period): a PC stalled longer than the board timer's
-        wrap must not read as board time that passed."""
-        return t if self.lockstep else wall
+        wrap must not read as board time that passed.  On a simulated board with a virtual
+        clock (``sim://?clock=virtual``) that clock, ``t``, for the same reason: the board's
+        time is the one its owner advances, not the time the PC took."""
+        return t if self.lockstep or self._virtual else wall
 
     def _read(self, batch: ReplyBatch) -> None:
         """Judge every status frame of ``batch`` (see :meth:`LinkHistory.answered`)."""

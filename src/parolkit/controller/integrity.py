@@ -154,6 +154,9 @@ class _Deviation:
     message: str
     #: the joints (0..5) it concerns
     joints: tuple[int, ...]
+    #: where the frames written put every joint (steps), when one frame says (the commanded
+    #: check); None: only a range is known (the hull)
+    expected: tuple[float, ...] | None = None
 
 
 @dataclass(slots=True)
@@ -168,6 +171,10 @@ class _Reply:
     #: frames written before it was read (it answers one of the newest of them)
     n: int = 0
     truth: bool = False
+    #: the newest frame it can answer: ``n``, or more when replies may have been lost since
+    #: the replies were last matched to the frames (a lost reply shifts the count: the next
+    #: late reply answers a newer frame than the one it is counted for)
+    hi: int = 0
 
 
 def _goto(p0: float, pss: float, dt: float, decay: float | None = None) -> float:
@@ -217,8 +224,10 @@ class BoardProbe:
         self._i = 0
         self._wait = 0
         self._sign = 1
-        self._written: list[float | None] = [None, None, None]
-        self._prev: tuple[StatusFrame, float, int] | None = None
+        #: when each of the probe's three frames was written: (monotonic s, its number or None)
+        self._written: list[tuple[float, int | None] | None] = [None, None, None]
+        #: the previous frame read: (it, when, its xtr, read after the +-1 JOG was written)
+        self._prev: tuple[StatusFrame, float, int, bool] | None = None
         #: a JOG frame other than the probe's two was written after its +-1 JOG in this attempt
         #: (see :meth:`sent`)
         self._jog_after = False
@@ -273,15 +282,17 @@ class BoardProbe:
                 return self.frame(status, limits)
         return _IDLE, _ZERO6
 
-    def sent(self, frame: CommandFrame, t: float) -> None:
-        """A frame was written at ``t`` (monotonic s)."""
+    def sent(self, frame: CommandFrame, t: float, n: int | None = None) -> None:
+        """A frame was written at ``t`` (monotonic s); ``n``: its number (frames written in the
+        session), which orders it against the frames read when their times are equal (a board
+        on a virtual clock: the frame written and its reply read in the same instant)."""
         if not self.active or self._i == 0:
             return
         k = self._i - 1
         if k <= 2 and self._written[k] is None:
             code, speeds = self._sequence(k)
             if int(frame.command) == code and tuple(frame.speeds) == speeds:
-                self._written[k] = t
+                self._written[k] = (t, n)
             else:  # the guard replaced it (E-stop, ...): this attempt says nothing
                 self._i = 3
                 self._wait = self.wait_ticks
@@ -293,22 +304,33 @@ class BoardProbe:
             # so this attempt can no longer say "disabled"
             self._jog_after = True
 
-    def observe(self, f: StatusFrame, t: float, adjacent: bool) -> None:
-        """A status frame read at ``t``; ``adjacent``: nothing was lost since the previous one."""
+    @staticmethod
+    def _after(written: tuple[float, int | None] | None, t: float, n: int | None) -> bool:
+        """Whether a frame read at ``t`` after ``n`` frames were written was read after the
+        frame ``written`` (by number when both are known, else by time)."""
+        if written is None:
+            return False
+        wt, wn = written
+        return n >= wn if n is not None and wn is not None else t > wt
+
+    def observe(self, f: StatusFrame, t: float, adjacent: bool, n: int | None = None) -> None:
+        """A status frame read at ``t``; ``adjacent``: nothing was lost since the previous one;
+        ``n``: the number of frames written before it was read (see :meth:`sent`)."""
         if not self.active or self.result is not None:
             return
-        prev, self._prev = self._prev, (f, t, f.xtr)
         tb, tc = self._written[1], self._written[2]
-        if tb is not None and t > tb and tuple(f.speeds) == (self._sign, 0, 0, 0, 0, 0):
+        after_b = self._after(tb, t, n)
+        prev, self._prev = self._prev, (f, t, f.xtr, after_b)
+        if after_b and tuple(f.speeds) == (self._sign, 0, 0, 0, 0, 0):
             self._finish(True, "")
             return
         if (tc is not None and tb is not None and prev is not None and adjacent and f.xtr == _JOG
                 and not self._jog_after
-                and prev[2] == _JOG and prev[1] > tb and t > tc and not any(f.speeds)
+                and prev[2] == _JOG and prev[3] and self._after(tc, t, n) and not any(f.speeds)
                 and f.timing >= TIMER_HZ // 1000):
             log.info("board probe: replies echoing 123 twice at rest (%.1f ms and %.1f ms after the "
-                     "+-1 JOG was written; board interval %d ticks): disabled", (prev[1] - tb) * 1e3,
-                     (t - tb) * 1e3, f.timing)
+                     "+-1 JOG was written; board interval %d ticks): disabled", (prev[1] - tb[0]) * 1e3,
+                     (t - tb[0]) * 1e3, f.timing)
             self._finish(False, "the board was found disabled: send ENABLE")
 
     def _finish(self, enabled: bool, reason: str) -> None:
@@ -350,7 +372,7 @@ class StatusIntegrity:
         #: the newest frames written: (number, monotonic s, frame); numbers count from 1
         self._sent: deque[tuple[int, float, CommandFrame]] = deque(maxlen=64)
         #: :meth:`_candidates` by ``n`` since the last frame written (asked several times a reply)
-        self._cands: dict[int, tuple[CommandFrame, ...]] = {}
+        self._cands: dict[tuple[int, int], tuple[CommandFrame, ...]] = {}
         self._n = 0
         self.reset()
 
@@ -369,6 +391,12 @@ class StatusIntegrity:
         self._suspect: tuple[_Reply, _Deviation, int] | None = None
         self._sent.clear()
         self._cands.clear()
+        #: the parser's dropped-byte count at the previous reply, and whether replies may have
+        #: been lost since a reply was last matched to the newest frame written
+        self._dropped_seen: int | None = None
+        self._lost_possible = False
+        #: the newest replies read (the evidence a fault's log line shows)
+        self._recent: deque[_Reply] = deque(maxlen=8)
         #: HOME was written (its frame number) and no aborting code since; None: none asked
         self._home_t: int | None = None
         #: frame number of a 101/102/103 that aborted a homing (None: none pending)
@@ -437,7 +465,7 @@ class StatusIntegrity:
                 self._home_t = None
                 self._unasked = False
         if self.probe is not None:
-            self.probe.sent(frame, t)
+            self.probe.sent(frame, t, self._n)
 
     # ------------------------------------------------------------------ frames read
 
@@ -456,14 +484,20 @@ class StatusIntegrity:
         the board answers in order, so the k-th of them answers the k-th frame left unanswered;
         the loop knows how many were).  True when ``f`` is the truth (the snapshot may show it)."""
         n = self._n if answers is None else max(0, min(self._n, answers))
-        rx = _Reply(f, t, dropped, self._structural(f), n)
+        if self._dropped_seen is not None and dropped != self._dropped_seen:
+            self._lost_possible = True  # bytes were dropped: a whole reply may be among them
+        self._dropped_seen = dropped
+        if n >= self._n:
+            self._lost_possible = False  # it answers the newest frame: counted right again
+        rx = _Reply(f, t, dropped, self._structural(f), n, hi=self._n if self._lost_possible else n)
+        self._recent.append(rx)
         prev, self._prev = self._prev, rx
         # adjacent: the board answered nothing in between (the parser dropped no bytes).  The
         # previous frame may have failed its structural check (a corrupted speed or IO byte):
         # a link from it checks its positions against this frame's own account all the same
         adjacent = prev is not None and rx.ok and prev.dropped == dropped
         if self.probe is not None and rx.ok:
-            self.probe.observe(f, t, adjacent)
+            self.probe.observe(f, t, adjacent, self._n)
         if self._home_t is not None and not self._home_seen and self._n - self._home_t > 1.0 / self.period:
             self._home_t = None  # the board never started the homing asked for (disabled?)
         if self._abort_n is not None and rx.ok and (
@@ -491,7 +525,7 @@ class StatusIntegrity:
         pending = self._suspect
         if pending is not None:
             sus, sdev, left = pending
-            if linked and prev is sus and self._link_tells(ref, prev, rx, dt, sdev.joints):
+            if linked and prev is sus and self._link_tells(ref, prev, rx, dt, sdev.joints, sdev.expected):
                 # the next frame follows from it: the board really went there.  Not the truth
                 # yet: nothing commanded says where the joints are, and a frame linked only by
                 # the board's own account of a fast motion may carry a corrupted low byte (a
@@ -500,8 +534,11 @@ class StatusIntegrity:
                 self._fault(sdev.message)
                 self.implausible += 1
                 return False
-            if ref is not None and self._outside_hull(ref, rx, sdev.joints):
-                # a second frame shows the same joints beyond anything commanded
+            if ref is not None and not (adjacent and prev is sus) and self._outside_hull(ref, rx, sdev.joints):
+                # a second frame shows the same joints beyond anything commanded, a reply lost
+                # in between (the next frame right after the suspect that does not link to it
+                # contradicts it: one of the two is corrupted, and two corrupted bytes beyond the
+                # hull, a tick apart, say nothing; the frames after decide)
                 self._suspect = None
                 self._fault(sdev.message)
                 self.implausible += 1
@@ -537,10 +574,11 @@ class StatusIntegrity:
         return False
 
     def _link_tells(self, ref: _Reply | None, a: _Reply, b: _Reply, dt: float | None,
-                    joints: Sequence[int]) -> bool:
+                    joints: Sequence[int], expected: Sequence[float] | None = None) -> bool:
         """Whether ``b``'s link to ``a`` tells ``a``'s ``joints`` from where the commands put
         the board: ``b`` would not also follow from ``a`` with those joints moved to the nearest
-        point of the commanded hull.  The GO TO law closes 99 % of any gap in 90 ms, and a
+        point of the commanded hull (or, inside it, to ``expected``: where the frame written
+        put them).  The GO TO law closes 99 % of any gap in 90 ms, and a
         board fed in bursts (a pty on a busy machine) sees that much time between two frames
         now and then: a true frame then follows from any position, a corrupted one included,
         and its link confirms nothing.  (A corrupted frame may still become a suspect so, by
@@ -557,6 +595,12 @@ class StatusIntegrity:
             if math.ceil(lo) > math.floor(hi):
                 return True
             pos[j] = min(max(pos[j], math.ceil(lo)), math.floor(hi))
+        if pos == list(a.f.positions) and expected is not None:
+            # within the hull: would ``b`` also follow from where the frame written put those
+            # joints?  (A long interval's link forgives a few steps: 7 steps of a corrupted byte
+            # decay to 1.6 in 30 ms, within the link's allowance, and confirmed nothing)
+            for j in joints:
+                pos[j] = round(expected[j])
         if pos == list(a.f.positions):
             return True
         return not self._link(replace(a.f, positions=tuple(pos)), b.f, dt, a.n)
@@ -750,10 +794,12 @@ class StatusIntegrity:
 
     # ------------------------------------------------------------------ the commanded check
 
-    def _candidates(self, n: int) -> tuple[CommandFrame, ...]:
+    def _candidates(self, n: int, hi: int | None = None) -> tuple[CommandFrame, ...]:
         """The frames one of which a status frame read after frame number ``n`` was written
-        answered (the newest few of those)."""
-        known = self._cands.get(n)
+        answered (the newest few of those), and the ones up to ``hi`` when replies may have been
+        lost before it (:attr:`_Reply.hi`)."""
+        top = n if hi is None else max(n, hi)
+        known = self._cands.get((n, top))
         if known is not None:
             return known
         out: list[CommandFrame] = []
@@ -761,10 +807,10 @@ class StatusIntegrity:
         for k, _, fr in reversed(self._sent):  # newest first: a few steps, not the whole deque
             if k <= low:
                 break
-            if k <= n:
+            if k <= top:
                 out.append(fr)
         out.reverse()
-        known = self._cands[n] = tuple(out)
+        known = self._cands[(n, top)] = tuple(out)
         return known
 
     def _predict(self, p0: Sequence[int], frame: CommandFrame, dt: float) -> tuple[list[float], list[float]]:
@@ -803,7 +849,7 @@ class StatusIntegrity:
         no frame written yet)."""
         if self._home_t is not None or self._unasked:
             return True, None  # a homing was asked for (or is reported): positions unknown
-        cands = self._candidates(a.n)
+        cands = self._candidates(a.n, a.hi)
         if not cands:
             return True, None
         p1s = b.f.positions
@@ -855,7 +901,7 @@ class StatusIntegrity:
                 parts.append(f"{name} stood still where {want:.0f} steps were commanded (is the board disabled?)")
             else:
                 parts.append(f"{name} moved {moved} steps where {want:.0f} were commanded")
-        return _Deviation("; ".join(parts), tuple(joints))
+        return _Deviation("; ".join(parts), tuple(joints), tuple(pred))
 
     def _hull(self, ref: _Reply, b: _Reply) -> list[tuple[float, float]] | None:
         """Per joint, the range the frames written since ``ref`` could take it to by the time
@@ -866,7 +912,7 @@ class StatusIntegrity:
         first = ref.n - self.candidates + 1
         if not self._sent or self._sent[0][0] > first:
             return None  # the frames written since then are no longer all known
-        frames = [fr for (k, _, fr) in self._sent if first <= k <= b.n]
+        frames = [fr for (k, _, fr) in self._sent if first <= k <= max(b.n, b.hi)]
         if not frames or any(int(fr.command) == _HOME for fr in frames):
             return None
         # how long those frames ran: ticks, or the time it took if ticks came late
@@ -921,6 +967,25 @@ class StatusIntegrity:
         self.last_fault = message
         self._pending_fault = message
         log.error("uncommanded motion: %s", message)
+        log.info("uncommanded motion, the evidence:\n%s", self._evidence())
+
+    def _evidence(self) -> str:
+        """The newest replies and the frames written since the oldest of them could answer,
+        one per line (positions and speeds in steps), for the log of a fault."""
+        lines = []
+        ref = self._ref
+        if ref is not None:
+            lines.append(f"  reference: answers {ref.n} read {ref.t:.4f} positions {ref.f.positions}")
+        for r in self._recent:
+            lines.append(f"  read {r.t:.4f} answers {r.n}..{max(r.n, r.hi)} dropped {r.dropped} ok {r.ok} "
+                         f"truth {r.truth} positions {r.f.positions} speeds {r.f.speeds} timing {r.f.timing} "
+                         f"xtr {r.f.xtr}")
+        first = min((r.n for r in self._recent), default=self._n) - self.candidates
+        for k, t, fr in self._sent:
+            if k > first:
+                lines.append(f"  wrote {k} at {t:.4f} command {int(fr.command)} positions {fr.positions} "
+                             f"speeds {fr.speeds}")
+        return "\n".join(lines)
 
     def take_fault(self) -> str | None:
         """The uncommanded motion found since the last call (its message), once; None: none.
