@@ -39,6 +39,7 @@ from parolkit.errors import ParolkitValueError
 
 __all__ = [
     "MAX_DURATION_S",
+    "MAX_BLEND",
     "Profile",
     "Tracking",
     "Frame",
@@ -285,6 +286,21 @@ def _opt_pct(value: float | None, name: str, *, allow_zero: bool = True) -> floa
     return v
 
 
+#: The largest blend radius (``blend``): mm on a Cartesian move, deg on a joint-space one.
+MAX_BLEND = 100.0
+
+
+def _opt_blend(value: float | None, unit: str) -> float | None:
+    """A move's blend radius: None or 0 (no blending: the move ends at rest) or a number in
+    (0, :data:`MAX_BLEND`] ``unit``."""
+    if value is None:
+        return None
+    v = _num(value, "blend")
+    if not 0.0 <= v <= MAX_BLEND:
+        raise ParolkitValueError(f"blend must be in 0..{MAX_BLEND:g} {unit}, got {value!r}")
+    return v or None
+
+
 def _pose(values: Iterable[float], name: str) -> tuple[float, ...]:
     return _vec(values, 6, name)
 
@@ -406,6 +422,8 @@ class JointMove:
 
     ``duration_s`` (s) overrides ``speed_pct``/``accel_pct`` (percent of the leading joint's
     speed and of the acceleration range).  With neither: v=45 %, a=27 %, trapezoid.
+    ``blend`` (deg, 0..100): round the corner into the next queued joint-space move, starting
+    that far (joint-space distance) before the target; None or 0: stop at the target.
     """
 
     target_deg: Sequence[float]
@@ -414,6 +432,7 @@ class JointMove:
     accel_pct: float | None = None
     profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
     tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
+    blend: float | None = None
 
     name = "MoveJoint"
 
@@ -422,13 +441,15 @@ class JointMove:
         object.__setattr__(self, "target_deg", _vec(self.target_deg, 6, "target_deg"))
         _timing(self)
         object.__setattr__(self, "accel_pct", _opt_pct(self.accel_pct, "accel_pct"))
+        object.__setattr__(self, "blend", _opt_blend(self.blend, "deg"))
 
 
 @_move
 class PoseMove:
     """MovePose: IK once at ``pose`` [x, y, z mm, A, B, C deg], then a joint-space move.
 
-    Same timing rules as :class:`JointMove`; defaults v=50 %, a=30 %.
+    Same timing rules as :class:`JointMove`; defaults v=50 %, a=30 %.  ``blend`` (deg) as
+    :class:`JointMove`'s.
     """
 
     pose: Sequence[float]
@@ -437,6 +458,7 @@ class PoseMove:
     accel_pct: float | None = None
     profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
     tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
+    blend: float | None = None
 
     name = "MovePose"
 
@@ -445,6 +467,7 @@ class PoseMove:
         object.__setattr__(self, "pose", _pose(self.pose, "pose"))
         _timing(self)
         object.__setattr__(self, "accel_pct", _opt_pct(self.accel_pct, "accel_pct"))
+        object.__setattr__(self, "blend", _opt_blend(self.blend, "deg"))
 
 
 @_move
@@ -452,7 +475,9 @@ class CartMove:
     """MoveCart: straight line to ``pose`` (WRF, mm/deg), orientation by SLERP, IK along it.
 
     ``speed_pct`` maps to 2..60 mm/s and 0.7..25 deg/s (the slower governs); without
-    ``duration_s`` and ``speed_pct`` the default is 50 % (see docs/motion.md).
+    ``duration_s`` and ``speed_pct`` the default is 50 % (see docs/motion.md).  ``blend`` (mm,
+    0..100): round the corner into the next queued MoveCart, starting that far before the
+    target, so the arm does not stop there; None or 0: stop at the target.
     """
 
     pose: Sequence[float]
@@ -460,6 +485,7 @@ class CartMove:
     speed_pct: float | None = None
     profile: WordField[Profile | str | None, Profile | None] = WordField(Profile.parse, default=None)
     tracking: WordField[Tracking | str, Tracking] = WordField(Tracking.parse, default=Tracking.POSITION)
+    blend: float | None = None
 
     name = "MoveCart"
 
@@ -467,6 +493,7 @@ class CartMove:
     def __post_init__(self) -> None:
         object.__setattr__(self, "pose", _pose(self.pose, "pose"))
         _timing(self)
+        object.__setattr__(self, "blend", _opt_blend(self.blend, "mm"))
 
 
 @_move
