@@ -17,6 +17,8 @@ import threading
 import time
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from tests.conftest import free_udp_port
 
 from parolkit.client import robot_api
@@ -219,6 +221,10 @@ BUILDS = [
                                         accel_percentage=30, profile="trap", tracking="speed"), "MoveJoint"),
     (lambda: robot_api.build_move_pose([7, 250, 200, -100, 0, -90], duration=5.5), "MovePose"),
     (lambda: robot_api.build_move_cart([7, 250, 150, -100, 0, -90], speed_percentage=50), "MoveCart"),
+    (lambda: robot_api.build_move_cart([7, 250, 150, -100, 0, -90], speed_percentage=50, blend=10), "MoveCart"),
+    (lambda: robot_api.build_move_joint([90, -90, 160, 12, 12, 180], speed_percentage=50, accel_percentage=30,
+                                        profile="trap", tracking="speed", blend=5.5), "MoveJoint"),
+    (lambda: robot_api.build_move_pose([7, 250, 200, -100, 0, -90], duration=2, blend=100), "MovePose"),
     (lambda: robot_api.build_move_cart_rel_trf([-80, 0, 0, 0, 0, 0], duration=2, profile="poly"),
      "MoveCartRelTRF"),
     (lambda: robot_api.build_jog(3, 50, duration=1.0), "Jog"),
@@ -314,6 +320,8 @@ def test_move_joint_path_arguments_are_checked_naming_the_argument(call, needle)
 def test_extension_fields_are_only_appended_when_given():
     assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], speed_percentage=50) == \
         "MOVECART|1|2|3|4|5|6|NONE|50.0"
+    assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], speed_percentage=50, blend=0) == \
+        "MOVECART|1|2|3|4|5|6|NONE|50.0"  # 0: no blending
     assert robot_api.build_move_cart([1, 2, 3, 4, 5, 6], duration=2, tracking="speed") == \
         "MOVECART|1|2|3|4|5|6|2|NONE|None|speed"
     assert robot_api.build_move_joint([0] * 6, duration=1, accel_percentage=40) == \
@@ -330,6 +338,13 @@ def test_extension_fields_are_only_appended_when_given():
     (lambda: robot_api.move_robot_joints([0, 0, float("nan"), 0, 0, 0], duration=1), "angles[2] must be a finite"),
     (lambda: robot_api.move_robot_pose([0] * 6, duration=-1), "duration must be > 0"),
     (lambda: robot_api.move_robot_cartesian([0] * 5, speed_percentage=50), "pose must have 6 values"),
+    (lambda: robot_api.move_robot_cartesian([0] * 6, speed_percentage=50, blend=200),
+     "blend must be in 0..100 mm, got 200"),
+    (lambda: robot_api.move_robot_cartesian([0] * 6, speed_percentage=50, blend=-1), "blend must be in 0..100 mm"),
+    (lambda: robot_api.move_robot_joints([0] * 6, duration=1, blend=100.5), "blend must be in 0..100 deg, got 100.5"),
+    (lambda: robot_api.move_robot_joints([0] * 6, duration=1, blend="abc"), "blend must be a number, got 'abc'"),
+    (lambda: robot_api.move_robot_pose([0] * 6, duration=1, blend=float("nan")), "blend must be a finite number"),
+    (lambda: robot_api.move_robot_pose([0] * 6, duration=1, blend=True), "blend must be a number, got True"),
     (lambda: robot_api.jog_robot_joint(12, 50, duration=1), "joint_index must be in 0..11"),
     (lambda: robot_api.jog_robot_joint(1, 50), "duration"),
     (lambda: robot_api.jog_multiple_joints([0, 6], [10, 10], 1), "J1 is given in both directions"),
@@ -506,7 +521,9 @@ def test_original_signatures_and_defaults_are_kept():
 
     sig = inspect.signature(robot_api.move_robot_joints)
     assert list(sig.parameters) == ["joint_angles", "duration", "speed_percentage", "wait_for_ack",
-                                    "timeout", "non_blocking"]
+                                    "timeout", "non_blocking", "blend"]
+    # the (ext) blend comes after the original's parameters, keyword-only
+    assert sig.parameters["blend"].kind is inspect.Parameter.KEYWORD_ONLY
     assert sig.parameters["timeout"].default == 2.0
     g = inspect.signature(robot_api.control_electric_gripper).parameters
     assert (g["position"].default, g["speed"].default, g["current"].default) == (255, 150, 500)
@@ -553,6 +570,93 @@ def test_robot_move_waits_for_completed_and_sends_extension_fields(robot, fake):
                             tracking="position")
     assert res.status is AckStatus.COMPLETED and res.command == "MOVEJOINT"
     assert fake.wait_for("MOVEJOINT")[0] == f"{res.id}|MOVEJOINT|90|-90|180|0|0|180|None|40|20|ruckig|position"
+
+
+# ---- (ext) blend: the last field r=<radius> of MOVEJOINT / MOVEPOSE / MOVECART ---------------
+
+
+def test_robot_api_sends_the_blend_radius_as_the_last_field_r(api, fake):
+    api.move_robot_cartesian([0, 250, 200, 180, 0, 0], speed_percentage=50, blend=10)
+    assert fake.wait_for("MOVECART") == ["MOVECART|0|250|200|180|0|0|NONE|50.0|r=10"]
+    api.move_robot_joints([90, -90, 180, 0, 0, 180], duration=2, blend=5.5)
+    assert fake.wait_for("MOVEJOINT") == ["MOVEJOINT|90|-90|180|0|0|180|2|None|r=5.5"]
+    res = api.move_robot_pose([0, 250, 200, 180, 0, 0], speed_percentage=40, wait_for_ack=True, blend=10)
+    assert res["status"] == "COMPLETED"
+    assert fake.wait_for("MOVEPOSE") == [f"{res['command_id']}|MOVEPOSE|0|250|200|180|0|0|None|40|r=10"]
+
+
+def test_robot_sends_the_blend_radius_after_the_extension_fields(robot, fake):
+    res = robot.move_cart([0, 250, 200, 180, 0, 0], speed=50, blend=10)
+    assert fake.wait_for("MOVECART") == [f"{res.id}|MOVECART|0|250|200|180|0|0|NONE|50.0|r=10"]
+    res = robot.move_joints([90, -90, 180, 0, 0, 180], speed=40, accel=20, profile="trap", blend=5)
+    assert fake.wait_for("MOVEJOINT") == [f"{res.id}|MOVEJOINT|90|-90|180|0|0|180|None|40|20|trap|None|r=5"]
+    h = robot.move_pose([0, 250, 200, 180, 0, 0], duration=1.5, wait=False, blend=2.5)
+    assert fake.wait_for("MOVEPOSE") == [f"{h.id}|MOVEPOSE|0|250|200|180|0|0|1.5|None|r=2.5"]
+    assert h.result(timeout=2).ok
+
+
+@pytest.mark.parametrize("call,needle", [
+    (lambda r: r.move_cart([0, 250, 200, 180, 0, 0], speed=50, blend=100.5), "blend must be in 0..100 mm, got 100.5"),
+    (lambda r: r.move_cart([0, 250, 200, 180, 0, 0], speed=50, blend=-1), "blend must be in 0..100 mm, got -1"),
+    (lambda r: r.move_joints([90, -90, 180, 0, 0, 180], duration=1, blend=200), "blend must be in 0..100 deg"),
+    (lambda r: r.move_pose([0, 250, 200, 180, 0, 0], duration=1, blend=float("inf")), "blend must be a finite"),
+    (lambda r: r.move_pose([0, 250, 200, 180, 0, 0], duration=1, wait=False, blend="ten"),
+     "blend must be a number, got 'ten'"),
+])
+def test_robot_refuses_a_bad_blend_radius_before_anything_is_sent(robot, fake, call, needle):
+    with pytest.raises(ParolkitValueError) as info:
+        call(robot)
+    assert needle in str(info.value)
+    time.sleep(0.05)
+    assert fake.received == ["ACK_HERE"]  # only the registration sent at creation
+
+
+def test_async_robot_sends_the_blend_radius_too(fake):
+    async def main():
+        async with AsyncRobot(port=fake.port, ack_port=fake.ack_port, timeout=1.0) as r:
+            res = await r.move_cart([0, 250, 200, 180, 0, 0], duration=2, blend=10)
+            assert res.ok
+            assert fake.wait_for("MOVECART") == [f"{res.id}|MOVECART|0|250|200|180|0|0|2|NONE|r=10"]
+            with pytest.raises(ParolkitValueError, match="blend must be in 0..100 deg"):
+                r.move_joints([90, -90, 180, 0, 0, 180], duration=1, blend=101)
+
+    asyncio.run(main())
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    kind=st.sampled_from(["MOVEJOINT", "MOVEPOSE", "MOVECART"]),
+    offsets=st.lists(st.floats(-3, 3, allow_nan=False).map(lambda v: round(v, 3)), min_size=6, max_size=6),
+    by_duration=st.booleans(),
+    timing=st.floats(0.1, 100, allow_nan=False),
+    ext=st.booleans(),
+    blend=st.one_of(st.none(), st.integers(0, 100), st.floats(0, 100, allow_nan=False)),
+)
+def test_blended_move_text_to_command_to_text_round_trips(kind, offsets, by_duration, timing, ext, blend):
+    """A builder's datagram parses to the move with that blend; the datagram built again from
+    the parsed move's own fields parses to the same command."""
+    from parolkit.protocol.commands import parse_datagram
+
+    base = [90, -90, 180, 0, 0, 180] if kind == "MOVEJOINT" else [0, 250, 200, 180, 0, 0]
+    values = [b + o for b, o in zip(base, offsets)]
+    d, s = (timing, None) if by_duration else (None, timing)
+    profile, tracking = ("trap", "speed") if ext else (None, None)
+    build = {"MOVEJOINT": robot_api.build_move_joint, "MOVEPOSE": robot_api.build_move_pose}.get(kind)
+
+    def text_of(target, d, s, profile, tracking, blend):
+        if build is None:
+            return robot_api.build_move_cart(target, d, s, profile, tracking, blend)
+        return build(target, d, s, None, profile, tracking, blend)
+
+    text = text_of(values, d, s, profile, tracking, blend)
+    assert text.endswith(f"|r={robot_api.format_value(blend)}") == bool(blend)
+    cmd = parse_datagram(text).command
+    m = cmd.move
+    assert m.blend == (float(blend) if blend else None)
+    target = m.target_deg if kind == "MOVEJOINT" else m.pose
+    again = text_of(list(target), m.duration_s, m.speed_pct, m.profile and m.profile.value,
+                    m.tracking.value if ext else None, m.blend)
+    assert parse_datagram(again).command == cmd
 
 
 def test_robot_move_joint_path_sends_one_movejointpath_and_waits_for_completed(robot, fake):

@@ -53,6 +53,9 @@ def drive(robot: Robot, really: bool) -> None:
     assert_type(robot.move_pose(ABOVE, speed=50, profile="trap"), CommandResult)
     assert_type(robot.move_cart(ABOVE, duration=1.0, wait=True, timeout=5.0), CommandResult)
     assert_type(robot.move_cart_rel_trf([0.0, 0.0, -10.0, 0.0, 0.0, 0.0], speed=20), CommandResult)
+    assert_type(robot.move_cart(ABOVE, speed=50, blend=10.0, wait=False), CommandHandle)
+    assert_type(robot.move_joints(STANDBY, speed=50, blend=5), CommandResult)
+    assert_type(robot.move_pose(ABOVE, None, 50, None, None, None, True, None, blend=2.5), CommandResult)
     assert_type(robot.move_joint_path([STANDBY, STANDBY], [1.0, 2.0]), CommandResult)
 
     moving = robot.move_joints(STANDBY, duration=2.0, wait=False)
@@ -166,6 +169,7 @@ async def drive_async(robot: AsyncRobot, really: bool) -> None:
     assert_type(await robot.enable(), CommandResult)
     assert_type(await robot.move_joints(STANDBY, duration=2.0), CommandResult)
     handle = await robot.move_pose(ABOVE, duration=2.0, wait=False)
+    assert_type(await robot.move_cart(ABOVE, duration=2.0, blend=10.0), CommandResult)
     assert_type(handle, AsyncCommandHandle)
     assert_type(handle.status(), AckStatus | None)
     assert_type(await handle.result(), CommandResult)
@@ -250,6 +254,8 @@ REFUSED = [
     ("robot.status().state = 'IDLE'", 'Property "state" defined in "RobotStatus" is read-only'),
     ("robot.control()['owner']", 'TypedDict "ControlInfo" has no key "owner"'),
     ("robot.set_output(1, 2)", 'No overload variant of "set_output" of "RobotCommands" matches argument types'),
+    ("robot.move_cart(ABOVE, speed=50, blend='10')",
+     'No overload variant of "move_cart" of "RobotCommands" matches argument types'),
     ("x: float = arobot.pose().x", '"Coroutine[object, None, Pose]" has no attribute "x"'),
     ("robot_api.get_robot_status()['speed']", 'TypedDict "RobotStatusDict" has no key "speed"'),
     ("robot_api.move_robot_joints(STANDBY)['status']",

@@ -21,6 +21,9 @@ VALID = [
     ("MOVEPOSE|7|250|200|-100|0|-90|5.5|None", C.MovePose),
     ("MOVECART|7|250|150|-100|0|-90|None|50", C.MoveCart),
     ("MOVECARTRELTRF|0|0|-10|0|0|0|1|None|poly|position", C.MoveCartRelTRF),
+    ("MOVECART|0|250|200|180|0|0|None|50|r=10", C.MoveCart),
+    ("MOVEJOINT|90|-90|180|0|0|180|None|50|r=5", C.MoveJoint),
+    ("MOVEPOSE|0|250|200|180|0|0|2|None|30|trap|speed|r=5", C.MovePose),
     ("JOG|7|50|1|None", C.Jog),
     ("JOG|0|50|None|10", C.Jog),
     ("MULTIJOG|0,7,2|50,40,30|1.5", C.MultiJog),
@@ -109,7 +112,7 @@ def test_jog_index_rule_maps_6_to_11_to_negative_directions():
 
 
 def test_blend_segments_are_split_on_empty_fields():
-    c = parse(VALID[22][0]).command
+    c = parse(next(t for t, cls in VALID if cls is C.SmoothBlend)).command
     assert [type(s) for s in c.move.segments] == [moves.LineSegment, moves.ArcCenterMove]
     assert c.move.duration_s == pytest.approx(2.0)  # None = sum of segment durations
     assert c.move.speed_pct is None and c.move.frame is moves.Frame.WRF
@@ -188,6 +191,24 @@ INVALID = [
      "MOVEJOINTPATH: velocities_deg_s[0][5] must be 0 deg/s (the path ends at rest on its last point), got 1.0"),
     ("MOVEPOSE|7|250|200|-100|0|-90|None|150", "speed% = 150 % is out of range (0, 100] %"),
     ("MOVECART|20000|250|200|-100|0|-90|1|None", "x = 20000 mm is out of range"),
+    ("MOVECART|0|250|200|180|0|0|None|50|r=abc",
+     "MOVECART: r (blend radius, 0..100 mm) must be a decimal number, got 'abc'"),
+    ("MOVECART|0|250|200|180|0|0|None|50|r=-1", "MOVECART: r (blend radius) = -1 mm is out of range [0, 100] mm"),
+    ("MOVECART|0|250|200|180|0|0|None|50|r=200", "r (blend radius) = 200 mm is out of range [0, 100] mm"),
+    ("MOVECART|0|250|200|180|0|0|None|50|r=", "r= (blend radius) needs a number in 0..100 mm, got nothing"),
+    ("MOVECART|0|250|200|180|0|0|None|50|r= ", "r= (blend radius) needs a number in 0..100 mm, got nothing"),
+    ("MOVECART|0|250|200|180|0|0|None|50|r=nan", "r (blend radius, 0..100 mm) must be a decimal number, got 'nan'"),
+    ("MOVECART|0|250|200|180|0|0|None|50|r=inf", "r (blend radius, 0..100 mm) must be a decimal number, got 'inf'"),
+    ("MOVEJOINT|90|-90|180|0|0|180|None|50|r=100.5",
+     "MOVEJOINT: r (blend radius) = 100.5 deg is out of range [0, 100] deg"),
+    ("MOVEPOSE|0|250|200|180|0|0|None|50|r=-0.1", "MOVEPOSE: r (blend radius) = -0.1 deg is out of range [0, 100] deg"),
+    ("MOVECART|0|250|200|180|0|0|None|r=5|50", "r= (blend radius) must be the last field, but it is field 8 of 9"),
+    ("MOVEJOINT|90|-90|180|0|0|180|None|50|r=5|trap",
+     "r= (blend radius) must be the last field, but it is field 9 of 10"),
+    ("MOVECART|0|250|200|180|0|0|None|50|r=5|r=6", "r= (blend radius) is given 2 times (fields 9 and 10)"),
+    ("MOVEJOINT|90|-90|180|0|0|180|None|50|30|trap|speed|x|r=5", "MOVEJOINT takes 8..11 arguments before r=, got 12"),
+    ("MOVECART|0|250|200|180|0|0|r=5", "MOVECART takes 8..10 arguments before r=, got 6"),
+    ("MOVECARTRELTRF|0|0|10|0|0|0|None|50|r=5", "MOVECARTRELTRF takes no r= (blend radius): only MOVEJOINT, MOVEPOSE"),
     ("JOG|12|50|1|None", "joint_index = 12 is out of range 0..11"),
     ("JOG|1|50|None|None", "neither was given"),
     ("MULTIJOG|0,6|50,50|1", "J1 is given both + and -"),
@@ -224,6 +245,26 @@ def test_invalid_datagrams_name_the_field_and_the_allowed_range(text, needle):
     assert needle in str(ei.value)
 
 
+def test_the_blend_radius_is_the_moves_blend_in_edge_units_and_0_means_none():
+    assert parse("MOVECART|0|250|200|180|0|0|None|50|r=10").command.move.blend == 10.0  # mm
+    m = parse("MOVEJOINT|90|-90|180|0|0|180|None|50|30|trap|speed|r=5").command.move
+    assert (m.speed_pct, m.accel_pct, m.profile, m.tracking, m.blend) == (
+        50, 30, moves.Profile.TRAP, moves.Tracking.SPEED, 5.0)  # deg, after every extension field
+    assert parse("MOVEPOSE|0|250|200|180|0|0|2|None|r=100").command.move.blend == 100.0
+    assert parse("movecart|0|250|200|180|0|0|None|50|R = 2.5|").command.move.blend == 2.5  # any case, trailing |
+    for zero in ("r=0", "r=0.0", "r=-0"):
+        assert parse(f"MOVECART|0|250|200|180|0|0|None|50|{zero}").command.move.blend is None
+    # without r= nothing changes: the same command as before
+    plain = parse("MOVECART|0|250|200|180|0|0|None|50").command
+    assert plain.move.blend is None and parse("MOVECART|0|250|200|180|0|0|None|50|r=0").command == plain
+
+
+def test_a_bad_blend_radius_with_an_id_carries_the_id_for_the_ack():
+    with pytest.raises(DatagramError) as ei:
+        parse("abcd1234|MOVECART|0|250|200|180|0|0|None|50|r=200")
+    assert (ei.value.command_id, ei.value.name) == ("abcd1234", "MOVECART")
+
+
 def test_invalid_datagram_with_an_id_carries_the_id_for_the_ack():
     with pytest.raises(DatagramError) as ei:
         parse("abcd1234|MOVEJOINT|190|-90|160|12|12|180|1|None")
@@ -247,7 +288,8 @@ def test_format_floats_prints_no_negative_zero():
     assert C.format_floats([-0.00001, 1.23456], 4) == "0.0000,1.2346"
 
 
-_fields = st.sampled_from(list(C.COMMAND_NAMES) + ["1a2b3c4d", "None", "", "nan", "1e999", "-5", "0,1,2"])
+_fields = st.sampled_from(list(C.COMMAND_NAMES) + ["1a2b3c4d", "None", "", "nan", "1e999", "-5", "0,1,2",
+                                                  "r=5", "r=", "R=1e999", "r=nan"])
 
 
 @settings(max_examples=150, deadline=None)

@@ -73,3 +73,13 @@ def test_completion_covers_every_command_of_the_parsers_table_and_its_inserts_pa
     assert set(calls) == set(COMMAND_NAMES)
     # the argument-free inserts are whole, valid commands
     assert parse("Begin()\n" + calls["Delay"] + "\n" + calls["Output"] + "\nEnd()\n").ok
+
+
+def test_completion_offers_every_option_of_the_move_commands():
+    from parolkit.gui.completion import COMPLETIONS
+    from parolkit.script import parse
+
+    words = {c.label for c in COMPLETIONS if not c.call}
+    assert {"t=", "v=", "a=", "r="} <= words
+    for key in ("t=", "v=", "a=", "r="):  # each one is an option the parser takes on a move
+        assert parse(f"MoveJoint(90, -90, 180, 0, 0, 180, {key}5)").ok, key

@@ -124,6 +124,40 @@ def test_cartesian_moves_take_duration_speed_profile_and_tracking():
     assert m.move.speed_pct == 30 and m.move.tracking is Tracking.SPEED
 
 
+def test_blend_radius_r_is_the_moves_blend_in_mm_or_deg():
+    m = only("MoveCart(0, 250, 200, 180, 0, 0, v=50, r=10)")
+    assert isinstance(m, MoveCart) and (m.move.speed_pct, m.move.blend) == (50, 10.0)  # mm
+    m = only("MoveJoint(90, -90, 180, 0, 0, 180, r=5)")
+    assert isinstance(m, MoveJoint) and m.move.blend == 5.0  # deg
+    m = only("MovePose(0, 250, 200, 180, 0, 0, t=2, R=2.5, trap, speed)")  # any order among the options, any case
+    assert isinstance(m, MovePose) and (m.move.duration_s, m.move.blend, m.move.profile) == (2, 2.5, Profile.TRAP)
+    assert only("MoveJoint(90, -90, 180, 0, 0, 180, r=100)").move.blend == 100.0
+    # r=0 is no blending, as on the wire; without r= the move stops at its target
+    assert only("MoveCart(0, 250, 200, 180, 0, 0, v=50, r=0)").move.blend is None
+    assert only("MoveCart(0, 250, 200, 180, 0, 0, v=50)").move.blend is None
+    # the canonical form keeps it (after t=, before the profile word)
+    assert only("MovePose(0, 250, 200, 180, 0, 0, trap, r=2.50, t=2)").to_source() == \
+        "MovePose(0, 250, 200, 180, 0, 0, t=2, r=2.5, trap)"
+
+
+@pytest.mark.parametrize("line, col, message", [
+    ("MoveCart(0, 250, 200, 180, 0, 0, v=50, r=200)", 42, "r = 200 mm is out of range (allowed 0 .. 100 mm)"),
+    ("MoveJoint(90, -90, 180, 0, 0, 180, r=-1)", 38, "r = -1 deg is out of range (allowed 0 .. 100 deg)"),
+    ("MovePose(0, 250, 200, 180, 0, 0, r=100.5)", 36, "r = 100.5 deg is out of range (allowed 0 .. 100 deg)"),
+    ("MoveJoint(90, -90, 180, 0, 0, 180, r=abc)", 38, "r must be a number, got 'abc'"),
+    ("MoveJoint(90, -90, 180, 0, 0, 180, r=nan)", 38, "r must be a number, got 'nan'"),
+    ("MoveJoint(90, -90, 180, 0, 0, 180, r=)", 38, "missing value after 'r='"),
+    ("MoveCart(0, 250, 200, 180, 0, 0, r=5, v=50, r=6)", 45, "MoveCart: r= is given twice (first at column 34)"),
+    ("MoveCartRelTRF(0, 0, 10, 0, 0, 0, r=5)", 35,
+     "MoveCartRelTRF has no option r=: allowed t=, v=, a profile (poly, trap, ruckig, toppra) and speed "
+     "(MoveCartRelTRF does not blend: r= is for MoveJoint, MovePose and MoveCart)"),
+    ("MoveJoint(90, -90, 180, 0, 0, 180, blend)", 36,
+     "MoveJoint: unknown option 'blend': expected t=, v=, a=, r=, poly, trap, ruckig, toppra or speed"),
+])
+def test_a_bad_blend_radius_is_an_error_at_its_line_and_column(line, col, message):
+    assert errors_of(f"Begin()\n{line}\nEnd()") == [(2, col, message)]
+
+
 def test_io_gripper_delay_home_speedjoint():
     assert only("Delay(1.5)") == Delay(seconds=1.5, line=1, col=1)
     o = only("Output(2, LOW)")
@@ -286,7 +320,7 @@ def test_unreadable_and_non_utf8_files_are_reported(tmp_path):
 
 _ALPHABET = st.sampled_from(
     list("()=,.#/-+ \t\n\r\"'0123456789eE;xX_")
-    + ["MoveJoint", "MoveCart", "Delay", "Output", "HIGH", "t=", "v=", "Begin()", "End()", "Loop()", "//"]
+    + ["MoveJoint", "MoveCart", "Delay", "Output", "HIGH", "t=", "v=", "r=", "Begin()", "End()", "Loop()", "//"]
 )
 
 

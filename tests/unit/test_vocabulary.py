@@ -57,6 +57,10 @@ def test_robot_api_path_point_limit_is_the_moves():
     assert robot_api.MAX_PATH_POINTS == moves.MAX_PATH_POINTS
 
 
+def test_robot_api_blend_limit_is_the_moves():
+    assert robot_api.MAX_BLEND == moves.MAX_BLEND
+
+
 def test_robot_api_terminal_statuses_are_the_protocols_terminal_acks():
     assert robot_api.TERMINAL_STATUSES == {s.value for s in protocol.AckStatus if s.terminal}
 
@@ -115,6 +119,9 @@ def test_a_datagram_and_a_program_line_carry_equal_moves():
     datagram = protocol.parse_datagram("MOVEJOINT|90|-90|180|0|0|180|None|50|30|trap|speed").command
     line = parse("MoveJoint(90, -90, 180, 0, 0, 180, v=50, a=30, trap, speed)").unwrap().commands[0]
     assert datagram.move == line.move
+    datagram = protocol.parse_datagram("MOVECART|0|250|200|180|0|0|None|50|r=10").command
+    line = parse("MoveCart(0, 250, 200, 180, 0, 0, v=50, r=10)").unwrap().commands[0]
+    assert datagram.move == line.move and line.move.blend == 10.0
 
 
 def test_the_vocabulary_imports_no_numpy_and_protocol_parsing_no_motion():

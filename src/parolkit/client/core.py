@@ -829,73 +829,81 @@ class RobotCommands(Generic[_Result, _Handle]):
     def move_joints(self, angles: Sequence[float], duration: float | None = None,
                     speed: float | None = None, accel: float | None = None,
                     profile: str | None = None, tracking: str | None = None,
-                    wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+                    wait: Literal[True] = True, timeout: float | None = None, *,
+                    blend: float | None = None) -> _Result: ...
     @overload
     def move_joints(self, angles: Sequence[float], duration: float | None = None,
                     speed: float | None = None, accel: float | None = None,
                     profile: str | None = None, tracking: str | None = None, *,
-                    wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+                    wait: Literal[False], timeout: float | None = None,
+                    blend: float | None = None) -> _Handle: ...
     @overload
     def move_joints(self, angles: Sequence[float], duration: float | None = None,
                     speed: float | None = None, accel: float | None = None,
                     profile: str | None = None, tracking: str | None = None, wait: bool = True,
-                    timeout: float | None = None) -> _Result | _Handle: ...
+                    timeout: float | None = None, *, blend: float | None = None) -> _Result | _Handle: ...
 
     def move_joints(self, angles: Sequence[float], duration: float | None = None,
                     speed: float | None = None, accel: float | None = None,
                     profile: str | None = None, tracking: str | None = None, wait: bool = True,
-                    timeout: float | None = None) -> _Result | _Handle:
+                    timeout: float | None = None, *, blend: float | None = None) -> _Result | _Handle:
         """Joint-space move to ``angles`` (deg) in ``duration`` s or at ``speed`` % (one of the
-        two); ``accel`` %, ``profile`` poly|trap|ruckig|toppra, ``tracking`` position|speed."""
-        body = _check(wire.build_move_joint, angles, duration, speed, accel, profile, tracking)
+        two); ``accel`` %, ``profile`` poly|trap|ruckig|toppra, ``tracking`` position|speed;
+        ``blend`` (deg, 0..100): round the corner into the next queued joint-space move within
+        that distance, so the arm does not stop at ``angles`` (None or 0: it stops there)."""
+        body = _check(wire.build_move_joint, angles, duration, speed, accel, profile, tracking, blend)
         return self._command(body, wait, timeout)
 
     @overload
     def move_pose(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, accel: float | None = None,
                   profile: str | None = None, tracking: str | None = None,
-                  wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+                  wait: Literal[True] = True, timeout: float | None = None, *,
+                  blend: float | None = None) -> _Result: ...
     @overload
     def move_pose(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, accel: float | None = None,
                   profile: str | None = None, tracking: str | None = None, *, wait: Literal[False],
-                  timeout: float | None = None) -> _Handle: ...
+                  timeout: float | None = None, blend: float | None = None) -> _Handle: ...
     @overload
     def move_pose(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, accel: float | None = None,
                   profile: str | None = None, tracking: str | None = None, wait: bool = True,
-                  timeout: float | None = None) -> _Result | _Handle: ...
+                  timeout: float | None = None, *, blend: float | None = None) -> _Result | _Handle: ...
 
     def move_pose(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, accel: float | None = None,
                   profile: str | None = None, tracking: str | None = None, wait: bool = True,
-                  timeout: float | None = None) -> _Result | _Handle:
-        """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK along a joint-space path."""
-        body = _check(wire.build_move_pose, pose, duration, speed, accel, profile, tracking)
+                  timeout: float | None = None, *, blend: float | None = None) -> _Result | _Handle:
+        """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK along a joint-space path;
+        ``blend`` (deg, 0..100) as :meth:`move_joints`'s."""
+        body = _check(wire.build_move_pose, pose, duration, speed, accel, profile, tracking, blend)
         return self._command(body, wait, timeout)
 
     @overload
     def move_cart(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, profile: str | None = None,
                   tracking: str | None = None, wait: Literal[True] = True,
-                  timeout: float | None = None) -> _Result: ...
+                  timeout: float | None = None, *, blend: float | None = None) -> _Result: ...
     @overload
     def move_cart(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, profile: str | None = None,
                   tracking: str | None = None, *, wait: Literal[False],
-                  timeout: float | None = None) -> _Handle: ...
+                  timeout: float | None = None, blend: float | None = None) -> _Handle: ...
     @overload
     def move_cart(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, profile: str | None = None,
                   tracking: str | None = None, wait: bool = True,
-                  timeout: float | None = None) -> _Result | _Handle: ...
+                  timeout: float | None = None, *, blend: float | None = None) -> _Result | _Handle: ...
 
     def move_cart(self, pose: Sequence[float], duration: float | None = None,
                   speed: float | None = None, profile: str | None = None,
                   tracking: str | None = None, wait: bool = True,
-                  timeout: float | None = None) -> _Result | _Handle:
-        """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg)."""
-        body = _check(wire.build_move_cart, pose, duration, speed, profile, tracking)
+                  timeout: float | None = None, *, blend: float | None = None) -> _Result | _Handle:
+        """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg); ``blend`` (mm, 0..100):
+        round the corner into the next queued straight-line move within that distance of
+        ``pose``, so the arm does not stop there (None or 0: it stops there)."""
+        body = _check(wire.build_move_cart, pose, duration, speed, profile, tracking, blend)
         return self._command(body, wait, timeout)
 
     @overload

@@ -30,6 +30,10 @@ Every motion/action function has the original keyword arguments ``wait_for_ack=F
 
 Every datagram is the one the original client sent for the same call (``MOVECART|...|NONE|50.0``,
 six fields per spline waypoint, ``SMOOTH_BLEND|...|DEFAULT``, frames and axes as written).
+**(ext)** :func:`move_robot_joints`, :func:`move_robot_pose` and :func:`move_robot_cartesian`
+also take the keyword-only ``blend`` (deg, deg, mm; 0..100): the corner into the next queued
+move is rounded within that radius and the arm does not stop there (sent as a last field
+``|r=10``).
 
 Acknowledgements arrive on UDP :data:`ACK_PORT` (5002): one shared
 :class:`LazyCommandTracker` binds it on first use (nothing runs before).  If another program
@@ -100,7 +104,7 @@ __all__ = [
     "build_stream", "build_set_tool", "build_set_port", "build_subscribe", "build_unsubscribe",
     "build_control", "take_control", "release_control", "get_control",
     "CARTESIAN_AXES", "FRAMES", "PLANES", "PROFILES", "TRACKING_MODES", "TIMING_MODES",
-    "SEGMENT_TYPES", "MAX_PATH_POINTS",
+    "SEGMENT_TYPES", "MAX_PATH_POINTS", "MAX_BLEND",
 ]
 
 #: Controller address.
@@ -134,6 +138,9 @@ TIMING_MODES = ("DURATION", "SPEED")
 SEGMENT_TYPES = ("LINE", "CIRCLE", "ARC", "SPLINE")
 #: Most points one MOVEJOINTPATH carries (``parolkit.moves.MAX_PATH_POINTS``).
 MAX_PATH_POINTS = 200
+#: The largest blend radius ``blend`` (the ``r=`` field): mm on MOVECART, deg on MOVEJOINT and
+#: MOVEPOSE (``parolkit.moves.MAX_BLEND``).
+MAX_BLEND = 100.0
 
 #: Gripper ranges accepted by the SSG-48 as the controller drives it.
 GRIPPER_POSITION_RANGE = (0, 255)
@@ -283,6 +290,16 @@ def _one_timing(duration: Any, speed_percentage: Any) -> Tuple[Optional[float], 
     return d, s
 
 
+def _blend(value: Any, unit: str) -> Optional[float]:
+    """A move's blend radius in 0..MAX_BLEND ``unit``; None for None or 0 (no blending)."""
+    if value is None:
+        return None
+    r = _number(value, "blend")
+    if not 0 <= r <= MAX_BLEND:
+        raise ValueError(f"blend must be in 0..{MAX_BLEND:g} {unit}, got {value!r}")
+    return r or None
+
+
 def _opt_choice(value: Any, name: str, choices: Sequence[str]) -> Optional[str]:
     if value is None:
         return None
@@ -339,9 +356,14 @@ def _timing_fields(duration: Any, speed_percentage: Any) -> str:
 # =============================================================================================
 
 
+def _blend_field(blend: Optional[float]) -> List[str]:
+    """The optional last field ``r=<radius>`` of a blended move (none without blending)."""
+    return [] if blend is None else [f"r={format_value(blend)}"]
+
+
 def _move_fields(values: List[float], duration: Any, speed_percentage: Any,
                  accel_percentage: Any = None, profile: Any = None, tracking: Any = None,
-                 *, with_accel: bool = True) -> str:
+                 *, with_accel: bool = True, blend: Optional[float] = None) -> str:
     d, s = _one_timing(duration, speed_percentage)
     parts: List[Union[float, str, None]] = [*values, d, s]
     accel_percentage = _zero_is_none(accel_percentage)
@@ -351,26 +373,35 @@ def _move_fields(values: List[float], duration: Any, speed_percentage: Any,
     ext = [a, p, t] if with_accel else [p, t]
     if any(x is not None for x in ext):
         parts += ext
-    return _join(*parts)
+    return _join(*parts, *_blend_field(blend))
 
 
 def build_move_joint(angles: Any, duration: Any = None, speed_percentage: Any = None,
-                     accel_percentage: Any = None, profile: Any = None, tracking: Any = None) -> str:
-    """``MOVEJOINT|j1..j6|duration|speed%[|accel%|profile|tracking]`` (deg, s, %)."""
+                     accel_percentage: Any = None, profile: Any = None, tracking: Any = None,
+                     blend: Any = None) -> str:
+    """``MOVEJOINT|j1..j6|duration|speed%[|accel%|profile|tracking][|r=blend]`` (deg, s, %;
+    ``blend`` in deg, 0..100: round the corner into the next queued joint-space move)."""
     a = _numbers(angles, 6, "angles", " (J1..J6 in deg)")
-    return "MOVEJOINT|" + _move_fields(a, duration, speed_percentage, accel_percentage, profile, tracking)
+    r = _blend(blend, "deg")
+    return "MOVEJOINT|" + _move_fields(a, duration, speed_percentage, accel_percentage, profile, tracking,
+                                       blend=r)
 
 
 def build_move_pose(pose: Any, duration: Any = None, speed_percentage: Any = None,
-                    accel_percentage: Any = None, profile: Any = None, tracking: Any = None) -> str:
-    """``MOVEPOSE|x|y|z|A|B|C|duration|speed%[|accel%|profile|tracking]`` (mm, deg)."""
+                    accel_percentage: Any = None, profile: Any = None, tracking: Any = None,
+                    blend: Any = None) -> str:
+    """``MOVEPOSE|x|y|z|A|B|C|duration|speed%[|accel%|profile|tracking][|r=blend]`` (mm, deg;
+    ``blend`` in deg, 0..100, as MOVEJOINT's)."""
     p = _pose(pose, "pose")
-    return "MOVEPOSE|" + _move_fields(p, duration, speed_percentage, accel_percentage, profile, tracking)
+    r = _blend(blend, "deg")
+    return "MOVEPOSE|" + _move_fields(p, duration, speed_percentage, accel_percentage, profile, tracking,
+                                      blend=r)
 
 
 def build_move_cart(pose: Any, duration: Any = None, speed_percentage: Any = None,
-                    profile: Any = None, tracking: Any = None) -> str:
-    """``MOVECART|x|y|z|A|B|C|duration|speed%[|profile|tracking]`` straight line (mm, deg).
+                    profile: Any = None, tracking: Any = None, blend: Any = None) -> str:
+    """``MOVECART|x|y|z|A|B|C|duration|speed%[|profile|tracking][|r=blend]`` straight line (mm,
+    deg; ``blend`` in mm, 0..100: round the corner into the next queued MOVECART).
 
     As the original client: the field not given is ``NONE`` and the speed is written as a
     float (``MOVECART|...|NONE|50.0``)."""
@@ -381,9 +412,10 @@ def build_move_cart(pose: Any, duration: Any = None, speed_percentage: Any = Non
               _float_text(s) if s is not None else "NONE"]
     pr = _opt_choice(profile, "profile", PROFILES)
     t = _opt_choice(tracking, "tracking", TRACKING_MODES)
+    r = _blend(blend, "mm")
     if pr is not None or t is not None:
         parts += [format_value(pr), format_value(t)]
-    return "MOVECART|" + "|".join(parts)
+    return "MOVECART|" + "|".join(parts + _blend_field(r))
 
 
 def build_move_cart_rel_trf(delta: Any, duration: Any = None, speed_percentage: Any = None,
@@ -1262,26 +1294,33 @@ def get_tracking_stats() -> TrackingStats:
 
 def move_robot_joints(joint_angles: List[float], duration: Optional[float] = None,
                       speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                      timeout: float = 2.0, non_blocking: bool = False) -> Result:
+                      timeout: float = 2.0, non_blocking: bool = False, *,
+                      blend: Optional[float] = None) -> Result:
     """Joint-space move to ``joint_angles`` (J1..J6, deg) in ``duration`` s or at
-    ``speed_percentage``."""
-    return _dispatch(build_move_joint(joint_angles, duration, speed_percentage), wait_for_ack, timeout,
-                     non_blocking)
+    ``speed_percentage``.  **(ext)** ``blend`` (deg, 0..100): round the corner into the next
+    queued joint-space move within that distance, so the arm does not stop at the target."""
+    return _dispatch(build_move_joint(joint_angles, duration, speed_percentage, blend=blend), wait_for_ack,
+                     timeout, non_blocking)
 
 
 def move_robot_pose(pose: List[float], duration: Optional[float] = None,
                     speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                    timeout: float = 2.0, non_blocking: bool = False) -> Result:
-    """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK, joint-space path."""
-    return _dispatch(build_move_pose(pose, duration, speed_percentage), wait_for_ack, timeout,
+                    timeout: float = 2.0, non_blocking: bool = False, *,
+                    blend: Optional[float] = None) -> Result:
+    """Move to ``pose`` [x, y, z, A, B, C] (mm, deg) via IK, joint-space path.  **(ext)**
+    ``blend`` (deg, 0..100) as :func:`move_robot_joints`'s."""
+    return _dispatch(build_move_pose(pose, duration, speed_percentage, blend=blend), wait_for_ack, timeout,
                      non_blocking)
 
 
 def move_robot_cartesian(pose: List[float], duration: Optional[float] = None,
                          speed_percentage: Optional[float] = None, wait_for_ack: bool = False,
-                         timeout: float = 2.0, non_blocking: bool = False) -> Result:
-    """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg)."""
-    return _dispatch(build_move_cart(pose, duration, speed_percentage), wait_for_ack, timeout,
+                         timeout: float = 2.0, non_blocking: bool = False, *,
+                         blend: Optional[float] = None) -> Result:
+    """Straight-line move to ``pose`` [x, y, z, A, B, C] (mm, deg).  **(ext)** ``blend`` (mm,
+    0..100): round the corner into the next queued straight-line move within that distance of
+    the target, so the arm does not stop there."""
+    return _dispatch(build_move_cart(pose, duration, speed_percentage, blend=blend), wait_for_ack, timeout,
                      non_blocking)
 
 

@@ -32,6 +32,7 @@ ARGUMENTS: dict[str, str] = {
 #: words inside a call: keyword arguments, profiles, levels
 _WORDS: tuple[tuple[str, str], ...] = (
     ("t=", "duration, s"), ("v=", "speed, % of the maximum"), ("a=", "acceleration, % of the maximum"),
+    ("r=", "blend radius into the next move: mm (MoveCart), deg (MoveJoint, MovePose)"),
     ("trap", "trapezoidal profile"), ("poly", "polynomial profile"), ("HIGH", "level high"), ("LOW", "level low"),
 )
 

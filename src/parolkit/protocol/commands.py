@@ -36,6 +36,7 @@ from typing import Any, ClassVar, TypeVar
 
 from parolkit.errors import ParolkitValueError
 from parolkit.moves import (
+    MAX_BLEND,
     MAX_DURATION_S,
     MAX_PATH_POINTS,
     MIN_DURATION_S,
@@ -887,10 +888,51 @@ def _move_tail(
     return duration, speed, accel, profile, tracking or Tracking.POSITION
 
 
+def _is_blend_field(text: str) -> bool:
+    """True for an ``r=<radius>`` field (the key in any case, spaces around it allowed)."""
+    key, eq, _ = text.partition("=")
+    return bool(eq) and key.strip().upper() == "R"
+
+
+def _blend_tail(args: Sequence[str], name: str, lo: int, hi: int, unit: str) -> tuple[Sequence[str], float | None]:
+    """Split a move's optional LAST field ``r=<radius>`` (the blend radius, 0..MAX_BLEND
+    ``unit``; 0 means no blending) off its fields and check how many fields are left:
+    (the fields before it, the radius or None)."""
+    at = [i for i, f in enumerate(args) if _is_blend_field(f)]
+    if len(at) > 1:
+        raise DatagramError(f"r= (blend radius) is given {len(at)} times (fields {at[0] + 1} and {at[1] + 1}): "
+                            "give it once, as the last field")
+    if not at:
+        _nargs(args, name, lo, hi)
+        return args, None
+    i = at[0]
+    if i != len(args) - 1:
+        raise DatagramError(f"r= (blend radius) must be the last field, but it is field {i + 1} of {len(args)}: "
+                            f"{name}|...|duration|speed%[|...]|r=<0..{MAX_BLEND:g} {unit}>")
+    rest = args[:i]
+    if not lo <= len(rest) <= hi:
+        raise DatagramError(f"{name} takes {lo}..{hi} arguments before r=, got {len(rest)}")
+    text = args[i].partition("=")[2]
+    rng = f"0..{MAX_BLEND:g} {unit}"
+    if not text.strip():
+        raise DatagramError(f"r= (blend radius) needs a number in {rng}, got nothing (0 means no blending)")
+    v = _number(text, f"r (blend radius, {rng})")
+    if not 0.0 <= v <= MAX_BLEND:
+        raise DatagramError(f"r (blend radius) = {v:g} {unit} is out of range [0, {MAX_BLEND:g}] {unit} "
+                            "(0 means no blending)")
+    return rest, v or None
+
+
+def _no_blend(args: Sequence[str], name: str) -> None:
+    """A move that does not blend refuses an ``r=`` field naming the moves that do."""
+    if any(_is_blend_field(f) for f in args):
+        raise DatagramError(f"{name} takes no r= (blend radius): only MOVEJOINT, MOVEPOSE and MOVECART blend")
+
+
 def _p_movejoint(a: Sequence[str], m: RobotModel) -> Command:
-    _nargs(a, "MOVEJOINT", 8, 11)
+    a, blend = _blend_tail(a, "MOVEJOINT", 8, 11, "deg")
     duration, speed, accel, profile, tracking = _move_tail(a[6:], with_accel=True)
-    return MoveJoint(JointMove(_joint_angles(a, m), duration, speed, accel, profile, tracking))
+    return MoveJoint(JointMove(_joint_angles(a, m), duration, speed, accel, profile, tracking, blend=blend))
 
 
 #: MOVEJOINTPATH fields per point: time|j1..j6, or time|j1..j6|v1..v6 with velocities
@@ -921,18 +963,19 @@ def _p_movejointpath(a: Sequence[str], m: RobotModel) -> Command:
 
 
 def _p_movepose(a: Sequence[str], m: RobotModel) -> Command:
-    _nargs(a, "MOVEPOSE", 8, 11)
+    a, blend = _blend_tail(a, "MOVEPOSE", 8, 11, "deg")
     duration, speed, accel, profile, tracking = _move_tail(a[6:], with_accel=True)
-    return MovePose(PoseMove(_pose_args(a, "pose"), duration, speed, accel, profile, tracking))
+    return MovePose(PoseMove(_pose_args(a, "pose"), duration, speed, accel, profile, tracking, blend=blend))
 
 
 def _p_movecart(a: Sequence[str], m: RobotModel) -> Command:
-    _nargs(a, "MOVECART", 8, 10)
+    a, blend = _blend_tail(a, "MOVECART", 8, 10, "mm")
     duration, speed, _, profile, tracking = _move_tail(a[6:], with_accel=False)
-    return MoveCart(CartMove(_pose_args(a, "pose"), duration, speed, profile, tracking))
+    return MoveCart(CartMove(_pose_args(a, "pose"), duration, speed, profile, tracking, blend=blend))
 
 
 def _p_movecartrel(a: Sequence[str], m: RobotModel) -> Command:
+    _no_blend(a, "MOVECARTRELTRF")
     _nargs(a, "MOVECARTRELTRF", 8, 10)
     duration, speed, _, profile, tracking = _move_tail(a[6:], with_accel=False)
     return MoveCartRelTRF(CartRelTRFMove(_pose_args(a, "delta"), duration, speed, profile, tracking))

@@ -2,7 +2,7 @@
 
 Canonical form: one command per line in the original spelling (``MoveJoint``,
 ``Gripper_cal``), arguments separated by ``", "``, numbers in their shortest exact form
-(``90.0`` -> ``90``), options in the order ``v= a= t= profile speed``, ``HIGH``/``LOW`` for
+(``90.0`` -> ``90``), options in the order ``v= a= t= r= profile speed``, ``HIGH``/``LOW`` for
 levels, no indentation, comments kept (two spaces before a trailing comment), at most one
 blank line in a row and none at the start or end, a final newline.
 

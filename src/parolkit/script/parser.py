@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from parolkit.errors import ParolkitValueError
-from parolkit.moves import CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
+from parolkit.moves import MAX_BLEND, CartMove, CartRelTRFMove, JointMove, PoseMove, Profile, SpeedJointMove, Tracking
 from parolkit.number_syntax import parse_number
 from parolkit.script.program import (
     Begin,
@@ -250,6 +250,9 @@ def _syntax_error(exc: LarkError, text: str) -> tuple[int, str]:
             return col, f"expected '(' after the command name, got {value!r}"
         if tok.type == "NUMBER" and "NAME" in expected and "NUMBER" not in expected:
             return col, f"a line must start with a command name, got {value!r}"
+        key = re.search(r"([A-Za-z_]\w*)\s*=\s*$", text[: col - 1])
+        if key and tok.type in ("COMMA", "RPAR"):
+            return col, f"missing value after '{key.group(1)}='"
         if tok.type == "COMMA" and "NUMBER" in expected:
             return col, "missing value: two ',' in a row (or ',' right after '(')"
         if tok.type == "RPAR" and "NUMBER" in expected:
@@ -401,8 +404,9 @@ _PROFILE_WORDS = {p.value: p for p in Profile}
 
 
 def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, allow_va: bool,
-                  allow_a: bool) -> _Builder:
-    """Builder for the four moves: 6 values, then v=/a=/t=, a profile word and ``speed``."""
+                  allow_a: bool, blend_unit: str | None) -> _Builder:
+    """Builder for the four moves: 6 values, then v=/a=/t=, r= (the blend radius in
+    ``blend_unit``; None: the move does not blend), a profile word and ``speed``."""
 
     def build(ln: _Line, name: str, col: int, args: list[_Arg]) -> Command:
         kw = cls.keyword
@@ -427,9 +431,11 @@ def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, a
         speed: float | None = None
         accel: float | None = None
         duration: float | None = None
+        blend: float | None = None
         profile: Profile | None = None
         tracking = Tracking.POSITION
-        allowed_kw = ["t"] + (["v"] if allow_va else []) + (["a"] if allow_a else [])
+        allowed_kw = (["t"] + (["v"] if allow_va else []) + (["a"] if allow_a else [])
+                      + (["r"] if blend_unit is not None else []))
         for opt in options:
             if opt.kind == "keyword":
                 key = opt.key.lower()
@@ -444,6 +450,8 @@ def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, a
                     hint = ""
                     if key == "a" and not allow_a:
                         hint = f" ({kw} takes no acceleration; give t= for the duration)"
+                    elif key == "r" and blend_unit is None:
+                        hint = f" ({kw} does not blend: r= is for MoveJoint, MovePose and MoveCart)"
                     ln.fail(opt.col, f"{kw} has no option {opt.key}=: allowed {words}, a profile "
                                      f"({', '.join(_PROFILE_WORDS)}) and speed{hint}")
             else:
@@ -470,6 +478,9 @@ def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, a
                 speed = _unless_zero(ln, target.keyword_value, "v", 100.0, "%")
             elif slot == "a":
                 accel = _unless_zero(ln, target.keyword_value, "a", 100.0, "%")
+            elif slot == "r" and blend_unit is not None:
+                # 0 is "no blending" (the move stops at its target), as on the wire
+                blend = ln.ranged(target.keyword_value, "r", 0.0, MAX_BLEND, blend_unit) or None
             elif slot == "profile":
                 w = target.word
                 if w not in _PROFILE_WORDS:
@@ -485,13 +496,14 @@ def _move_builder(cls: type[Command], values_what: str, *, joint_values: bool, a
         line, text = ln.line, ln.text
         six = tuple(nums)
         if cls is MoveJoint:
-            return MoveJoint(move=JointMove(six, duration, speed, accel, profile, tracking),
+            return MoveJoint(move=JointMove(six, duration, speed, accel, profile, tracking, blend=blend),
                              line=line, col=col, text=text)
         if cls is MovePose:
-            return MovePose(move=PoseMove(six, duration, speed, accel, profile, tracking),
+            return MovePose(move=PoseMove(six, duration, speed, accel, profile, tracking, blend=blend),
                             line=line, col=col, text=text)
         if cls is MoveCart:
-            return MoveCart(move=CartMove(six, duration, speed, profile, tracking), line=line, col=col, text=text)
+            return MoveCart(move=CartMove(six, duration, speed, profile, tracking, blend=blend),
+                            line=line, col=col, text=text)
         return MoveCartRelTRF(move=CartRelTRFMove(six, duration, speed, profile, tracking),
                               line=line, col=col, text=text)
 
@@ -624,15 +636,19 @@ _BUILDERS: dict[str, _Builder] = {
     "input": _build_input,
     "gripper": _build_gripper,
     "speedjoint": _build_speed_joint,
-    "movejoint": _move_builder(MoveJoint, "joint values (j1..j6, deg)", joint_values=True, allow_va=True, allow_a=True),
+    "movejoint": _move_builder(MoveJoint, "joint values (j1..j6, deg)", joint_values=True, allow_va=True,
+                               allow_a=True, blend_unit="deg"),
     "movepose": _move_builder(
-        MovePose, "pose values (x, y, z mm, A, B, C deg)", joint_values=False, allow_va=True, allow_a=True
+        MovePose, "pose values (x, y, z mm, A, B, C deg)", joint_values=False, allow_va=True, allow_a=True,
+        blend_unit="deg",
     ),
     "movecart": _move_builder(
-        MoveCart, "pose values (x, y, z mm, A, B, C deg)", joint_values=False, allow_va=True, allow_a=False
+        MoveCart, "pose values (x, y, z mm, A, B, C deg)", joint_values=False, allow_va=True, allow_a=False,
+        blend_unit="mm",
     ),
     "movecartreltrf": _move_builder(
-        MoveCartRelTRF, "values (dx, dy, dz mm, dA, dB, dC deg)", joint_values=False, allow_va=True, allow_a=False
+        MoveCartRelTRF, "values (dx, dy, dz mm, dA, dB, dC deg)", joint_values=False, allow_va=True, allow_a=False,
+        blend_unit=None,
     ),
 }
 _CANONICAL = {_norm(n): n for n in COMMAND_NAMES}

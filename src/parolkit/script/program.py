@@ -246,8 +246,8 @@ class GripperCalibrate(Command):
 
 
 def _move_options(move: JointMove | PoseMove | CartMove | CartRelTRFMove) -> list[str]:
-    """The options of a move statement in canonical order: ``v=``, ``a=``, ``t=``, the profile
-    word and ``speed`` (SPEED tracking); unset options are left out."""
+    """The options of a move statement in canonical order: ``v=``, ``a=``, ``t=``, ``r=`` (the
+    blend radius), the profile word and ``speed`` (SPEED tracking); unset options are left out."""
     out = []
     if move.speed_pct is not None:
         out.append(f"v={format_number(move.speed_pct)}")
@@ -256,6 +256,9 @@ def _move_options(move: JointMove | PoseMove | CartMove | CartRelTRFMove) -> lis
         out.append(f"a={format_number(accel)}")
     if move.duration_s is not None:
         out.append(f"t={format_number(move.duration_s)}")
+    blend = move.blend if isinstance(move, (JointMove, PoseMove, CartMove)) else None
+    if blend is not None:
+        out.append(f"r={format_number(blend)}")
     if isinstance(move.profile, Profile):
         out.append(move.profile.value)
     if move.tracking is Tracking.SPEED:
@@ -269,7 +272,9 @@ class MoveJoint(Command):
 
     ``move``'s ``duration_s`` (s, ``t=``) overrides ``speed_pct``/``accel_pct`` (``v=``/``a=``,
     0-100 % of the leading joint's range); ``profile`` None means the language's default;
-    ``tracking`` SPEED is the trailing word ``speed``.
+    ``tracking`` SPEED is the trailing word ``speed``; ``blend`` (``r=``, deg, 0-100) rounds the
+    corner into the next move of the program (a MoveJoint or MovePose) instead of stopping at
+    the target.
     """
 
     move: JointMove
@@ -282,7 +287,8 @@ class MoveJoint(Command):
 
 @dataclass(frozen=True, kw_only=True)
 class MovePose(Command):
-    """``MovePose(x, y, z, A, B, C, ...)``: IK once, joint-space path to ``move.pose`` (mm, deg)."""
+    """``MovePose(x, y, z, A, B, C, ...)``: IK once, joint-space path to ``move.pose`` (mm, deg);
+    options as :class:`MoveJoint`'s (``r=`` in deg)."""
 
     move: PoseMove
     keyword: ClassVar[str] = "MovePose"
@@ -294,7 +300,8 @@ class MovePose(Command):
 
 @dataclass(frozen=True, kw_only=True)
 class MoveCart(Command):
-    """``MoveCart(x, y, z, A, B, C, ...)``: straight line to ``move.pose`` (mm, deg, WRF)."""
+    """``MoveCart(x, y, z, A, B, C, ...)``: straight line to ``move.pose`` (mm, deg, WRF);
+    ``r=`` (``move.blend``, mm, 0-100) rounds the corner into the next MoveCart of the program."""
 
     move: CartMove
     keyword: ClassVar[str] = "MoveCart"
