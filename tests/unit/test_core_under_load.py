@@ -121,6 +121,12 @@ def test_late_ticks_and_late_replies_never_overspeed_fault_or_lose_a_move(moves,
 @example(seed=13373098, timing=[(1.0, 0.0)] * 32 + [(5.0, 0.0)] + [(1.0, 0.0)] * 5)
 # J6 shown 7 steps off after a 30 ms interval: the next reply's link forgives that much
 @example(seed=3073977, timing=[(1.0, 0.0)] * 2 + [(3.0, 0.0)] * 2 + [(1.0, 0.0)] * 17)
+# two replies in a row with J6's middle byte corrupted alike (-21504 steps in 20 ms): no board
+# gets there that fast
+@example(seed=42779, timing=[(1.0, 0.0)] * 20)
+# after a 50 ms interval two replies in a row with J1's low byte corrupted (109 and 131 steps off,
+# at rest both times) link to each other: a third reply must show it too
+@example(seed=4523, timing=[(1.0, 0.0)] * 3 + [(5.0, 0.0)] + [(1.0, 0.0)] * 16)
 @given(seed=st.integers(0, 2**31 - 1), timing=st.lists(st.tuples(_dt, _delay), min_size=20, max_size=400))
 def test_corrupted_late_replies_never_read_as_uncommanded_motion(seed, timing):
     """1 % of the reply bytes corrupted while the replies come late and bunched (a busy PC):

@@ -88,6 +88,10 @@ _IDLE = int(BoardCommand.IDLE)
 HOMING_SEARCH_STEPS_S = (2050, 2550, 2550, 5550, 5050, 9550)
 #: the constant speeds of the homing's segments (searches, back-offs, approaches), steps/s
 _HOMING_SEGMENT_SPEEDS = frozenset({750, 2050, 2550, 4050, 5050, 5550, 8050, 9550})
+#: a link between two frames further apart than this many periods forgives a few steps (the
+#: GO TO law closes most of any gap): what it alone shows beyond the commanded hull waits for
+#: a third frame
+_LONG_LINK_PERIODS = 2.5
 #: the ``timing`` field wraps after 65536 board timer ticks (93.2 ms)
 _TIMING_WRAP_S = 65536 / TIMER_HZ
 _ZERO6 = (0, 0, 0, 0, 0, 0)
@@ -525,6 +529,10 @@ class StatusIntegrity:
         pending = self._suspect
         if pending is not None:
             sus, sdev, left = pending
+            if ref is not None and not self._reachable(ref, sus, sdev.joints):
+                pending, self._suspect = None, None  # (see _reachable)
+        if pending is not None:
+            sus, sdev, left = pending
             if linked and prev is sus and self._link_tells(ref, prev, rx, dt, sdev.joints, sdev.expected):
                 # the next frame follows from it: the board really went there.  Not the truth
                 # yet: nothing commanded says where the joints are, and a frame linked only by
@@ -532,6 +540,8 @@ class StatusIntegrity:
                 # racing J3 was shown 5 steps off); the next frame that links to it is
                 self._suspect = None
                 self._fault(sdev.message)
+                if sdev.expected is None:  # (beyond the hull after lost frames: see below)
+                    return self._provisional(rx)
                 self.implausible += 1
                 return False
             if ref is not None and not (adjacent and prev is sus) and self._outside_hull(ref, rx, sdev.joints):
@@ -553,8 +563,16 @@ class StatusIntegrity:
             if ref is not prev and prev is not self._suspect_reply():
                 gap = self._gap_deviation(ref, prev)
                 if gap is not None and self._link_tells(ref, prev, rx, dt, gap.joints):
+                    # prev and rx agree: two frames show it.  Over a long interval a third must
+                    # too: two replies in a row with the same joint's byte corrupted then link now
+                    # and then (50 ms: J1 shown 109 and 131 steps off, at rest both times)
+                    beyond = self._gap_deviation(ref, rx) if dt > _LONG_LINK_PERIODS * self.period else None
+                    if beyond is not None:
+                        self._suspect = (rx, beyond, 2)
+                        self.implausible += 1
+                        return False
                     self._suspect = None
-                    self._fault(gap.message)  # prev and rx agree: two frames show it
+                    self._fault(gap.message)
                     return self._provisional(rx)
             tight, dev = self._commanded(prev, rx, dt)
             if dev is None:
@@ -954,7 +972,19 @@ class StatusIntegrity:
                 joints.append(j)
                 what = "while idle" if idle else "beyond anything commanded"
                 parts.append(f"{JOINT_NAMES[j]} moved {p1 - ref.f.positions[j]} steps {what}")
+        if joints and not self._reachable(ref, b, joints):
+            return None  # no board gets there in that time: corrupted bytes (two alike)
         return _Deviation("; ".join(parts), tuple(joints)) if joints else None
+
+    def _reachable(self, ref: _Reply, b: _Reply, joints: Sequence[int]) -> bool:
+        """Whether a board could have taken ``joints`` from where ``ref`` shows them to where
+        ``b`` does in the time between the two (at the firmware's speed clamp, the fastest any
+        command runs a stepper, plus a tick either side).  A position no board can reach in
+        that time is a corrupted byte however many frames show it: two replies in a row with
+        the same byte corrupted alike happen (1 % corruption: about once in 10^6 pairs)."""
+        span = abs(b.t - ref.t) + 2.0 * self.period
+        reach = BOARD_SPEED_CLAMP * span + self.tol.steps + self.tol.margin + self.tol.gap
+        return all(abs(b.f.positions[j] - ref.f.positions[j]) <= reach for j in joints)
 
     # ------------------------------------------------------------------ faults
 
