@@ -40,6 +40,8 @@ from parolkit.errors import ParolkitValueError
 __all__ = [
     "MAX_DURATION_S",
     "MAX_BLEND",
+    "MAX_BLEND_CHAIN",
+    "blend_kind",
     "Profile",
     "Tracking",
     "Frame",
@@ -288,6 +290,20 @@ def _opt_pct(value: float | None, name: str, *, allow_zero: bool = True) -> floa
 
 #: The largest blend radius (``blend``): mm on a Cartesian move, deg on a joint-space one.
 MAX_BLEND = 100.0
+
+
+#: The most moves one blended chain holds (a longer run of blended moves is split there).
+MAX_BLEND_CHAIN = 100
+
+
+def blend_kind(move: object) -> str | None:
+    """Which blended chains ``move`` can join: ``"cart"`` (:class:`CartMove`), ``"joint"``
+    (:class:`JointMove`, :class:`PoseMove`), None (it cannot be blended)."""
+    if isinstance(move, CartMove):
+        return "cart"
+    if isinstance(move, (JointMove, PoseMove)):
+        return "joint"
+    return None
 
 
 def _opt_blend(value: float | None, unit: str) -> float | None:

@@ -203,3 +203,37 @@ def test_a_failing_callback_is_logged_and_does_not_end_the_run(robot, caplog):
     assert result.state is InterpreterState.FINISHED
     assert result.commands_executed == 3
     assert "GUI went away" in caplog.text
+
+
+def test_movecart_lines_with_r_run_as_one_blended_motion_through_every_corner(robot):
+    """Issue 24, item 4, from a program: MoveCart lines with r= are sent ahead while they blend,
+    the controller plays them as one motion: the TCP does not stop at the corners, passes each
+    within r, and every line is announced in order as the arm reaches it."""
+    from parolkit.kinematics import fk
+
+    start = [90.0, -90.0, 180.0, 0.0, 30.0, 180.0]
+    p = fk(start)
+    corners = [(p[0] + (15 if i % 2 == 0 else -15), p[1] + 4 * (i + 1), p[2]) for i in range(8)]
+    lines = [f"MoveJoint({', '.join(f'{v:g}' for v in start)}, t=1)"]
+    lines += [f"MoveCart({x:.3f}, {y:.3f}, {z:.3f}, {p[3]:.3f}, {p[4]:.3f}, {p[5]:.3f}, v=60"
+              + (", r=10)" if i < 7 else ")") for i, (x, y, z) in enumerate(corners)]
+    prog = program("\n".join(lines) + "\n")
+    seen: list[int] = []
+    log = StatusLog(robot)
+    try:
+        result = Interpreter(prog, robot, on_line=lambda pr: seen.append(pr.line)).run()
+        assert result.state is InterpreterState.FINISHED, result.message
+        assert seen == list(range(1, 10))
+        wait_until(lambda: not log.snapshot()[-1].moving, 5, what="the last status at rest")
+        moving = [s for s in log.snapshot() if s.command is not None and s.command.name == "MOVECART"]
+    finally:
+        log.close()
+    tcp = np.array([s.pose[:3] for s in moving])
+    seqs = [s.seq for s in moving]
+    assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "a status every tick"
+    # from the first corner to the last, the TCP never stands still for a tick
+    near = [int(np.argmin(np.linalg.norm(tcp - np.asarray(c), axis=1))) for c in corners]
+    step = np.linalg.norm(np.diff(tcp[near[0]:near[-2] + 1], axis=0), axis=1)
+    assert step.min() > 0.005, step.min()
+    for c in corners[:-1]:
+        assert np.min(np.linalg.norm(tcp - np.asarray(c), axis=1)) <= 10.0 + 1.0

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import OrderedDict
+from collections import OrderedDict, deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
@@ -76,7 +76,7 @@ from parolkit.controller.safety import SafetyState
 from parolkit.controller.setpoints import Setpoints
 from parolkit.controller.snapshot import BoardInfo, CommandInfo, PlanView, PoseProvider, RobotState, Snapshot
 from parolkit.errors import ParolkitError
-from parolkit.moves import Frame
+from parolkit.moves import MAX_BLEND_CHAIN, Frame, blend_kind
 from parolkit.protocol import commands as C
 from parolkit.protocol.commands import AckStatus, Execution
 from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperCommandBits, GripperMode, StatusFrame
@@ -101,6 +101,9 @@ OUTPUT_REPORT_TIMEOUT_S = 0.5
 GRIPPER_CALIBRATE_TIMEOUT_S = 5.0
 #: how many queued jobs are planned ahead
 PLAN_AHEAD = 4
+#: keys of the plans asked for blended chains (and for a job after a chain it headed grew)
+#: count from here: above every job number, so an earlier request's answer is dropped
+_CHAIN_KEY_BASE = 1 << 40
 #: a HOME whose board shows no homing within this time FAILS (a disabled board ignores it), s
 HOME_START_TIMEOUT_S = 0.5
 #: a servo stream's generator reaches its full acceleration in this long (its jerk limit is the
@@ -302,6 +305,12 @@ class ControllerCore:
         self.last_frame: CommandFrame | None = None
         self.port_request: str | None = None
         self._plan_requests: list[PlanRequest] = []
+        #: the blended chain that runs (issue 24): its activity, the number of the job that
+        #: headed it, the sample marks of the jobs not yet handed over; the count of chain keys
+        self._chain_act: Activity | None = None
+        self._chain_head: int | None = None
+        self._marks: deque[int] = deque()
+        self._chain_keys = 0
         #: plans asked for ahead that arrived before their command (key -> result)
         self._early: OrderedDict[int, PlanResult] = OrderedDict()
         #: receive number of the newest safety command applied (see :meth:`_apply`)
@@ -806,12 +815,49 @@ class ControllerCore:
             return a.final_deg
         return self.measured_deg if self.homed else None
 
-    def _request(self, job: Job, start: tuple[float, ...], jog_start: object = None) -> None:
-        if job.planning is not None:
+    def _request(self, job: Job, start: tuple[float, ...], jog_start: object = None,
+                 chain: Sequence[Job] = ()) -> None:
+        ids = tuple(f.seq for f in chain)
+        if job.planning is not None and job.chain_asked == ids:
             return
-        job.planning = job.seq
-        self._plan_requests.append(PlanRequest(job.seq, job.command, start, self.tool_name, self.tool_obj,
-                                               self.rate_hz, self.model, jog_start, self.config))
+        if ids or job.chain_asked:
+            # a blended chain (or one that grew): a key of its own, so that the answer to an
+            # earlier request (the move alone, a shorter chain) is dropped when it comes
+            self._chain_keys += 1
+            key = _CHAIN_KEY_BASE + self._chain_keys
+            job.planned = False
+        else:
+            key = job.seq
+        job.planning, job.chain_asked = key, ids
+        self._plan_requests.append(PlanRequest(key, job.command, start, self.tool_name, self.tool_obj,
+                                               self.rate_hz, self.model, jog_start, self.config,
+                                               tuple(f.command for f in chain)))
+
+    def _blend_followers(self, waiting: Sequence[Job], idx: int) -> list[Job]:
+        """The waiting jobs after ``waiting[idx]`` that its plan blends into (issue 24): the
+        consecutive moves of its kind (MoveCart; MoveJoint / MovePose) and tracking, as long as
+        the one before each has a blend radius; at most :data:`MAX_BLEND_CHAIN` in all."""
+        head = waiting[idx]
+        move = getattr(head.command, "move", None)
+        kind = blend_kind(move)
+        out: list[Job] = []
+        if kind is None:
+            return out
+        cur = move
+        for job in list(waiting)[idx + 1: idx + MAX_BLEND_CHAIN]:
+            nxt = getattr(job.command, "move", None)
+            if (not getattr(cur, "blend", None) or blend_kind(nxt) != kind
+                    or getattr(nxt, "tracking", None) != getattr(move, "tracking", None)):
+                break
+            out.append(job)
+            cur = nxt
+        return out
+
+    def _riding(self, job: Job) -> bool:
+        """``job`` is played by the running activity: a follower of the blended chain that
+        runs."""
+        return (job.rider_of is not None and self._chain_act is not None
+                and self.jobs.activity is self._chain_act and job.rider_of == self._chain_head)
 
     def _request_plans(self) -> None:
         """Ask for the plans the next jobs need: a streamed Cartesian jog first, then the first
@@ -825,7 +871,21 @@ class ControllerCore:
                 self._request(sc, start, jog_start)
             return
         prev = self._chain_start()
-        for job in list(jobs.waiting)[:PLAN_AHEAD]:
+        waiting = list(jobs.waiting)
+        skip = 0
+        count = 0
+        for idx, job in enumerate(waiting):
+            if skip:
+                skip -= 1
+                continue
+            if self._riding(job):
+                continue  # played by the blended chain that runs (prev: where it ends)
+            if count >= PLAN_AHEAD:
+                return
+            count += 1
+            if job.rider_of is not None:
+                # its chain no longer runs (it failed or was replaced): planned on its own
+                job.rider_of, job.planned = None, False
             ex = job.command.EXECUTION
             if ex is Execution.HOME:
                 job.planned = True
@@ -839,14 +899,22 @@ class ControllerCore:
             if ex is not Execution.PLANNED:
                 job.planned, job.final_deg = True, prev
                 continue
-            if job.ahead is not None or job.planning is not None:
+            followers = self._blend_followers(waiting, idx)
+            ids = tuple(f.seq for f in followers)
+            if job.planning is not None and job.chain_asked == ids:
                 return  # its plan is on its way
-            if job.planned and job.start_deg == prev:
+            if job.ahead is not None and not ids:
+                return  # the plan the server asked for ahead is on its way
+            if job.planned and job.planning is None and job.start_deg == prev and job.chain == ids:
                 prev = job.final_deg if job.plan_error is None else prev
+                if job.plan_error is None:
+                    for f in followers:
+                        f.ride(job)
+                    skip = len(followers)
                 continue
             if prev is None:
                 return
-            self._request(job, prev)
+            self._request(job, prev, chain=followers)
             return
 
     def _stream_start(self, job: Job) -> tuple[tuple[float, ...], object]:
@@ -896,7 +964,10 @@ class ControllerCore:
         for i, job in enumerate(jobs.waiting):
             if job.planning == r.key:
                 job.planning = None
+                job.chain = job.chain_asked
+                job.marks = r.marks
             elif job.ahead == r.key:
+                job.chain, job.marks = (), ()
                 job.ahead = None
                 if r.tool_name != self.tool_name or i != 0 or jobs.active is not None or r.command is not job.command:
                     return True  # the plan assumed another start or tool: planned as usual
@@ -907,6 +978,11 @@ class ControllerCore:
             else:
                 assert r.samples is not None and r.final_deg is not None
                 job.set_plan(r.start_deg, r.trajectory, r.samples, r.final_deg, r.notes)
+                if job.chain:
+                    # the jobs it blends into are played by this plan from now on
+                    for f in jobs.waiting:
+                        if f.seq in job.chain:
+                            f.ride(job)
             return True
         return False
 
@@ -1094,6 +1170,10 @@ class ControllerCore:
             act = TrajectoryActivity(job.samples, settle_ticks=settle, streamed=job.streamed, started=now,
                                      schedule_start=now)
             self.plan_seq += 1
+            if job.chain:
+                # a blended chain: the jobs planned with it follow as the arm passes their marks
+                self._chain_act, self._chain_head = act, job.seq
+                self._marks = deque(job.marks)
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
         elif isinstance(cmd, C.Checkpoint):
@@ -1132,6 +1212,10 @@ class ControllerCore:
         while jobs.waiting and not (self.paused or self.queue_held):
             job = jobs.waiting[0]
             cmd = job.command
+            if job.rider_of is not None:
+                # the chain that was to play it ended early: planned again, on its own
+                job.rider_of, job.planned = None, False
+                return
             if cmd.is_motion and not self.homed and not (cmd.EXECUTION is Execution.SPEED and cmd.STREAMABLE):
                 # before homing only jogs (JOG, MULTIJOG) move the robot
                 jobs.waiting.popleft()
@@ -1209,9 +1293,30 @@ class ControllerCore:
         except Exception as exc:
             log.exception("activity of %s failed", self.jobs.active.name if self.jobs.active else "?")
             req = FrameRequest(BoardCommand.IDLE, done=AckStatus.FAILED, details=f"internal error: {exc}")
+        if act is self._chain_act:
+            self._hand_over(act, req)
         if req.done is not None:
             self.jobs.end_active(req.done, req.details)
         return req
+
+    def _hand_over(self, act: Activity, req: FrameRequest) -> None:
+        """A blended chain plays on: each job of it is done once the sample nearest its target
+        is played (COMPLETED, and the next one EXECUTING); all of them when the chain completes.
+        A chain that ends otherwise (stopped, failed) leaves the rest waiting: STOP cancels
+        them, else each is planned again on its own."""
+        jobs = self.jobs
+        marks = self._marks
+        done = req.done is AckStatus.COMPLETED
+        while marks and (done or (isinstance(act, TrajectoryActivity) and act.i > marks[0])):
+            nxt = jobs.waiting[0] if jobs.waiting else None
+            if nxt is None or nxt.rider_of != self._chain_head:
+                marks.clear()
+                break
+            marks.popleft()
+            jobs.hand_over(nxt, "passed its target, blended into the next move")
+        if req.done is not None:
+            self._chain_act, self._chain_head = None, None
+            marks.clear()
 
     def _compose(self, req: FrameRequest) -> CommandFrame:
         st = self.status

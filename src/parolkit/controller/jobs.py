@@ -56,6 +56,14 @@ class Job:
     #: orientation and joint speeds there), so the update continues it; None otherwise
     jog_start: object | None = None
     terminal: AckStatus | None = None
+    #: blending (issue 24): the numbers of the queued jobs this one's plan blends into, as
+    #: asked (``chain_asked``) and as planned (``chain``); ``marks``: for it and each of them
+    #: but the last, the sample after which it is done; ``rider_of``: the number of the job
+    #: whose plan plays this one (a follower of a blended chain)
+    chain_asked: tuple[int, ...] = ()
+    chain: tuple[int, ...] = ()
+    marks: tuple[int, ...] = ()
+    rider_of: int | None = None
 
     @property
     def name(self) -> str:
@@ -97,6 +105,13 @@ class Job:
 
     def set_plan_error(self, start: tuple[float, ...], error: str) -> None:
         self.start_deg, self.final_deg, self.planned, self.plan_error = start, start, True, error
+
+    def ride(self, head: Job) -> None:
+        """This job is played by ``head``'s blended plan: planned, ending where it ends."""
+        self.rider_of = head.seq
+        self.trajectory, self.samples = head.trajectory, head.samples
+        self.start_deg, self.final_deg = head.start_deg, head.final_deg
+        self.planned, self.plan_error = True, None
 
 
 @quick_init
@@ -172,6 +187,18 @@ class JobQueue:
         """``job`` runs from now on (EXECUTING)."""
         self.active, self.activity = job, activity
         self.ack(job, AckStatus.EXECUTING, details)
+
+    def hand_over(self, job: Job, details: str = "") -> None:
+        """The running job is done where ``job`` (the next waiting one, planned with it and
+        played by the same activity: a blended chain) goes on: COMPLETED for it, EXECUTING for
+        ``job``; the activity runs on."""
+        assert self.waiting and self.waiting[0] is job
+        self.waiting.popleft()
+        old = self.active
+        self.active = job
+        if old is not None:
+            self.ack(old, AckStatus.COMPLETED, details)
+        self.ack(job, AckStatus.EXECUTING, "blended: the arm did not stop")
 
     def end_active(self, status: AckStatus, details: str = "") -> Job | None:
         """The running job ends with ``status`` (its activity's warnings join its acks)."""

@@ -53,6 +53,9 @@ class PlanRequest:
     jog_start: object | None = None
     #: the configuration whose ``[tools.NAME]`` a ``tool`` of None is resolved by name from
     config: object | None = field(default=None, repr=False, compare=False)
+    #: the queued commands ``command`` blends into (issue 24): planned with it as one
+    #: trajectory (:func:`parolkit.motion.blending.plan_blended`); () for a move on its own
+    chain: tuple[C.Command, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -71,6 +74,9 @@ class PlanResult:
     notes: tuple[str, ...] = ()
     error: str | None = None
     seconds: float = 0.0
+    #: a blended chain's plan: for its first command and each of the request's ``chain`` but
+    #: the last, the sample after which that command is done
+    marks: tuple[int, ...] = ()
 
 
 _motion: ModuleType | None = None
@@ -96,14 +102,21 @@ def plan(req: PlanRequest) -> PlanResult:
         if tool is None:
             tools = importlib.import_module("parolkit.kinematics.tools")
             tool = tools.get_tool(req.tool_name, req.config)
-        traj = _motion_module().plan(move, req.start_deg, model=req.model, tool=tool, rate_hz=req.rate_hz,
-                                     jog_start=req.jog_start)
+        marks: tuple[int, ...] = ()
+        if req.chain:
+            blending = importlib.import_module("parolkit.motion.blending")
+            moves = [move, *(c.move for c in req.chain)]  # type: ignore[attr-defined]
+            bp = blending.plan_blended(moves, req.start_deg, model=req.model, tool=tool, rate_hz=req.rate_hz)
+            traj, marks = bp.trajectory, bp.marks
+        else:
+            traj = _motion_module().plan(move, req.start_deg, model=req.model, tool=tool, rate_hz=req.rate_hz,
+                                         jog_start=req.jog_start)
         if len(traj) == 0:
             return PlanResult(**base, error="the move plans to zero samples")
         samples: Samples = (traj.positions.tolist(), traj.speeds.tolist(), traj.commands.tolist())
         final: Sequence[float] = traj.final_deg
         return PlanResult(**base, trajectory=traj, samples=samples, final_deg=tuple(float(v) for v in final),
-                          notes=tuple(getattr(traj, "notes", ())))
+                          notes=tuple(getattr(traj, "notes", ())), marks=marks)
     except Exception as exc:  # PlanningError, IKError, value errors: all become FAILED
         msg = str(exc) or type(exc).__name__
         log.info("planning %s failed: %s", req.command.name, msg)

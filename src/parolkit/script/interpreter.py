@@ -40,10 +40,12 @@ import enum
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, TypeVar
 
+from parolkit.moves import MAX_BLEND_CHAIN
 from parolkit.script.program import (
     Begin,
     Command,
@@ -77,6 +79,12 @@ __all__ = ["InterpreterState", "Progress", "RunResult", "Interpreter"]
 _log = logging.getLogger(__name__)
 
 _T = TypeVar("_T")
+
+
+def _blends(cmd: Command) -> bool:
+    """A move with a blend radius (``r=``): the line after it is sent at once, so that the
+    controller has it queued to blend into."""
+    return isinstance(cmd, (MoveJoint, MovePose, MoveCart)) and bool(cmd.move.blend)
 
 
 def _word(value: enum.Enum | str | None) -> str | None:
@@ -486,14 +494,19 @@ class Interpreter:
             return fn(
                 list(values), duration=tm.duration_s, speed=tm.speed_pct, accel=tm.accel_pct,
                 profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
-                wait=wait, timeout=None,
+                wait=wait, timeout=None, blend=cmd.move.blend,
             )
-        if isinstance(cmd, (MoveCart, MoveCartRelTRF)):
+        if isinstance(cmd, MoveCart):
             tm = effective_timing(cmd)
-            line_fn = r.move_cart if isinstance(cmd, MoveCart) else r.move_cart_rel_trf
-            values = cmd.move.pose if isinstance(cmd, MoveCart) else cmd.move.delta
-            return line_fn(
-                list(values), duration=tm.duration_s, speed=tm.speed_pct,
+            return r.move_cart(
+                list(cmd.move.pose), duration=tm.duration_s, speed=tm.speed_pct,
+                profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
+                wait=wait, timeout=None, blend=cmd.move.blend,
+            )
+        if isinstance(cmd, MoveCartRelTRF):
+            tm = effective_timing(cmd)
+            return r.move_cart_rel_trf(
+                list(cmd.move.delta), duration=tm.duration_s, speed=tm.speed_pct,
                 profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
                 wait=wait, timeout=None,
             )
@@ -557,27 +570,36 @@ class Interpreter:
             self._iteration = 1
             # programs on ticks: the line after the running one is already queued at the
             # controller (sent when the running one started), so it starts the tick that one
-            # ends; the gate before each line is passed before it is sent
-            pending: tuple[Command, _Handle] | None = None
+            # ends; the gate before each line is passed before it is sent.  After a move with a
+            # blend radius the next line is sent at once too (and so on while they blend): the
+            # controller plans a blended chain from the moves it has queued
+            pend: deque[tuple[Command, _Handle, int]] = deque()
+
+            def drain() -> int:
+                """Wait for every line sent to end, in order, each announced as it starts."""
+                done = 0
+                while pend:
+                    c0, h0, _ = pend[0]
+                    done += self._await((c0, h0))
+                    pend.popleft()
+                    if pend:
+                        self._announce(pend[0][0], pend[0][2], executed + done, planned_total, planned_pass)
+                return done
+
             try:
                 while True:
                     for index, cmd in enumerate(commands):
                         if isinstance(cmd, Loop):
                             if self.loops is not None and self._iteration >= self.loops:
-                                executed += self._await(pending)
+                                executed += drain()
                                 return self._finish(InterpreterState.FINISHED, executed, (), warnings)
                             break
-
-                        def drain(pending: tuple[Command, _Handle] | None = pending) -> int:
-                            return self._await(pending)
 
                         drained = self._gate(cmd, index, drain)
                         if drained:
                             executed += drained
-                            pending = None
                         if isinstance(cmd, (Begin, End)) or not self._ahead(cmd):
-                            executed += self._await(pending)
-                            pending = None
+                            executed += drain()
                             self._announce(cmd, index, executed, planned_total, planned_pass)
                             if isinstance(cmd, End):
                                 executed += 1
@@ -588,32 +610,36 @@ class Interpreter:
                             if self._stop_requested:
                                 raise _Stopped
                             continue
-                        if pending is None:  # nothing runs: it starts at once (the current line now)
+                        if not pend:  # nothing runs: it starts at once (the current line now)
                             self._announce(cmd, index, executed, planned_total, planned_pass)
                         handle = self._run_line(cmd, wait=False)
                         with self._cond:
-                            self._queued_ahead = pending is not None
+                            self._queued_ahead = bool(pend)
                             # a pause that came after the gate: this line must wait too
                             hold = self._queued_ahead and self._paused and not self._held
                             self._held = self._held or hold
+                        pend.append((cmd, handle, index))
                         if hold:
                             self._hold_queue()
+                        elif _blends(cmd) and len(pend) < MAX_BLEND_CHAIN:
+                            continue  # the next line goes out now too: this move blends into it
                         try:
-                            executed += self._await(pending)
+                            while len(pend) > 1:  # the lines before this one end, in order
+                                c0, h0, _ = pend[0]
+                                executed += self._await((c0, h0))
+                                pend.popleft()
+                                self._announce(pend[0][0], pend[0][2], executed, planned_total, planned_pass)
                         except _LineFailed:
-                            self._cancel_queued()  # the line sent behind the failed one
+                            self._cancel_queued()  # the lines sent behind the failed one
                             raise
                         finally:
                             with self._cond:
                                 self._queued_ahead = False
-                        if pending is not None:  # it starts now, the one before it has ended
-                            self._announce(cmd, index, executed, planned_total, planned_pass)
-                        pending = (cmd, handle)
                         if self._stop_requested:
                             raise _Stopped
                     else:
                         # no Loop(): the program ends after its last line
-                        executed += self._await(pending)
+                        executed += drain()
                         return self._finish(InterpreterState.FINISHED, executed, (), warnings)
                     self._iteration += 1
             except _LineFailed as failed:

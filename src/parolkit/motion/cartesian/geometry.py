@@ -359,12 +359,17 @@ def frame_axes(rot: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[n
     return rot[:, 0].copy(), rot[:, 1].copy(), rot[:, 2].copy()
 
 
-def blend_corners(segments: Sequence[Segment], radius: float) -> list[Segment]:
+def blend_corners(segments: Sequence[Segment], radius: float | Sequence[float]) -> list[Segment]:
     """Round every corner between consecutive segments: cut ``radius`` mm (at most 45 % of
     each neighbour) before and after the corner and join with a G1 cubic Bezier.  Corners whose
-    tangents already agree (< 0.5 deg) are left alone."""
+    tangents already agree (< 0.5 deg) are left alone.  ``radius``: one for every corner, or
+    one per corner (the corner after segment ``i`` is ``radius[i]``; 0: left sharp)."""
     segs = list(segments)
-    if radius <= 0 or len(segs) < 2:
+    radii = [float(radius)] * max(0, len(segs) - 1) if isinstance(radius, (int, float)) else list(radius)
+    if len(radii) != max(0, len(segs) - 1):
+        raise ValueError(f"blend_corners: {len(segs)} segments have {max(0, len(segs) - 1)} corners, "
+                         f"got {len(radii)} radii")
+    if not any(r > 0 for r in radii) or len(segs) < 2:
         return segs
     out: list[Segment] = []
     # fractions to trim at the start/end of every segment
@@ -375,7 +380,9 @@ def blend_corners(segments: Sequence[Segment], radius: float) -> list[Segment]:
         ta, tb = a.tangent(1.0), b.tangent(0.0)
         if float(np.dot(ta, tb)) > math.cos(math.radians(0.5)) or a.length <= 0 or b.length <= 0:
             continue
-        r = min(radius, 0.45 * a.length, 0.45 * b.length)
+        if radii[i] <= 0:
+            continue
+        r = min(radii[i], 0.45 * a.length, 0.45 * b.length)
         cut1[i] = r / a.length
         cut0[i + 1] = r / b.length
     trimmed = [_Trimmed(s, c0, 1.0 - c1) if (c0 or c1) else s for s, c0, c1 in zip(segs, cut0, cut1)]
