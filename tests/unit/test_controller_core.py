@@ -65,15 +65,20 @@ class Rig:
     def close(self) -> None:
         self.transport.close()
 
+    def step(self) -> None:
+        """One tick of the driver at :attr:`now`, its output recorded; the caller moves the
+        clock and the board on."""
+        out = self.loop.tick(self.now)
+        self.outputs.append(out)
+        self._record(out.acks)
+        if out.frame is not None:
+            self.frames.append(out.frame)
+        self.loop.tick_count += 1
+
     def tick(self, n: int = 1, dt: float = 1.0 / RATE) -> None:
         """``n`` ticks, each ``dt`` s of board time after the one before."""
         for _ in range(n):
-            out = self.loop.tick(self.now)
-            self.outputs.append(out)
-            self._record(out.acks)
-            if out.frame is not None:
-                self.frames.append(out.frame)
-            self.loop.tick_count += 1
+            self.step()
             self.now += dt
             if self.emu.plugged and not self.lockstep:
                 self.emu.advance(dt)

@@ -37,6 +37,7 @@ change, from the interpreter's thread; keep them short (the GUI posts them to it
 from __future__ import annotations
 
 import enum
+import functools
 import logging
 import threading
 import time
@@ -496,17 +497,13 @@ class Interpreter:
                 profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
                 wait=wait, timeout=None, blend=cmd.move.blend,
             )
-        if isinstance(cmd, MoveCart):
+        if isinstance(cmd, (MoveCart, MoveCartRelTRF)):
             tm = effective_timing(cmd)
-            return r.move_cart(
-                list(cmd.move.pose), duration=tm.duration_s, speed=tm.speed_pct,
-                profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
-                wait=wait, timeout=None, blend=cmd.move.blend,
-            )
-        if isinstance(cmd, MoveCartRelTRF):
-            tm = effective_timing(cmd)
-            return r.move_cart_rel_trf(
-                list(cmd.move.delta), duration=tm.duration_s, speed=tm.speed_pct,
+            line_fn = (functools.partial(r.move_cart, blend=cmd.move.blend) if isinstance(cmd, MoveCart)
+                       else r.move_cart_rel_trf)  # (a relative move does not blend)
+            values = cmd.move.pose if isinstance(cmd, MoveCart) else cmd.move.delta
+            return line_fn(
+                list(values), duration=tm.duration_s, speed=tm.speed_pct,
                 profile=_word(cmd.move.profile), tracking=_word(cmd.move.tracking),
                 wait=wait, timeout=None,
             )
