@@ -110,11 +110,31 @@ def test_too_fast_is_refused_naming_the_joint_the_segment_the_value_the_limit_an
     assert (err.joint, err.point) == (0, 0) and abs(err.value or 0) > 4884
 
 
-def test_a_given_velocity_over_the_limit_is_refused_at_its_point() -> None:
-    err = _refusal(_move(OFFSETS[:2], [2.0, 4.0], [[50, 0, 0, 0, 0, 0], [0] * 6]))
-    assert "too fast at point 0 (t=2.000 s): J1 speed 5689 steps/s exceeds" in str(err)
+def test_a_given_velocity_over_a_joints_maximum_speed_is_refused_at_its_point() -> None:
+    err = _refusal(_move(OFFSETS[:2], [2.0, 4.0], [[60, 0, 0, 0, 0, 0], [0] * 6]))
+    assert "too fast at point 0 (t=2.000 s): J1 speed 6827 steps/s exceeds" in str(err)
     assert "multiply the times (and the velocities divided) by at least" in str(err)
     assert (err.joint, err.point) == (0, 0)
+
+
+def test_a_path_within_the_maximum_speed_but_over_the_tracking_maximum_runs_stretched_with_a_warning() -> None:
+    """The seed's speed rule (issue 24, item 7): a given velocity of 5689 steps/s on J1 (of
+    6500, above the position-tracking maximum 4884) runs: every time and velocity scaled by one
+    factor, the points kept, a warning naming the joint, the speed and the stretched time."""
+    move = _move(OFFSETS[:2], [2.0, 4.0], [[50, 0, 0, 0, 0, 0], [0] * 6])
+    traj = plan(move, START, rate_hz=RATE)
+    warning = traj.notes[-1]
+    assert warning.startswith("warning: J1 needs 5689 steps/s to pass the points at the times given, above its "
+                              "position-tracking maximum 4884 steps/s"), warning
+    assert "the move runs stretched from 4.00 s to" in warning
+    factor = traj.duration / 4.0
+    assert 5689 / 4884 <= factor < 5689 / 4884 * 1.02
+    limit = 4884
+    assert np.abs(traj.speeds[:, 0]).max() <= limit
+    times = traj.move.times_s  # the stretched times: each the given one x the same factor
+    assert np.allclose(np.asarray(times) / np.asarray(move.times_s), times[-1] / 4.0)
+    for k, p in enumerate(OFFSETS[:2]):  # the points, at their stretched ticks
+        assert np.array_equal(traj.positions[round(times[k] * RATE) - 1], np.rint((START + np.asarray(p)) * SPD))
 
 
 def test_too_abrupt_is_refused_naming_the_acceleration_and_its_limit() -> None:

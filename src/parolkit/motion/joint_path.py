@@ -21,10 +21,13 @@ falls exactly on its tick.
 Checks (the same helpers as every other planner, on every sample): the points inside the joint
 ranges, every sample inside the joint limits (a spline can overshoot between points), every
 feed-forward speed within the position-tracking maximum, every acceleration (finite differences
-from rest) within the joint's limit.  The times are the user's, but unlike a single move's
-duration they cannot be stretched into something safe by the board: a path over a limit is
-REFUSED (not warned), naming the joint, the segment or point, the value, the limit and by how
-much to slow the path down.
+from rest) within the joint's limit.  A path whose speeds are within every joint's maximum
+speed but above the position-tracking maximum runs STRETCHED (the seed's speed rule, issue 24):
+every time and given velocity scaled by one factor (the points and the path's shape kept; the
+accelerations fall with the square), with a warning naming the joint, the speed and the
+stretched time.  Over a joint's maximum speed, over an acceleration limit or out of range, a
+path is REFUSED, naming the joint, the segment or point, the value, the limit and by how much
+to slow the path down.
 """
 
 from __future__ import annotations
@@ -107,12 +110,62 @@ def hermite(
     return q, qd
 
 
+#: A path over the position-tracking maximum is re-timed this many times at most (each a little
+#: slower: the points' ticks are rounded) before its refusal stands.
+_STRETCH_TRIES = 6
+
+
 def plan_joint_path(move: JointPathMove, start: NDArray[np.float64], model: RobotModel, rate: float) -> Trajectory:
-    """MoveJointPath from ``start`` (deg): see the module docstring."""
-    name = move.name
+    """MoveJointPath from ``start`` (deg): see the module docstring.  A path whose speeds are
+    within every joint's maximum speed but above the position-tracking maximum runs stretched:
+    every time (and given velocity) scaled by the same factor, the points and the path's shape
+    kept, with a warning in its notes (the seed's speed rule: such a move runs, it is not
+    refused)."""
+    try:
+        return _plan(move, start, model, rate)
+    except PlanningError as exc:
+        refusal = exc
+    limits = validate.speed_limits(model, rate, position_tracked=True)
+    peak = _peak_speeds(move, start, model, rate)
+    if refusal.joint is None or not str(refusal.reason).startswith("too fast") or np.any(peak > limits.full):
+        raise refusal
+    j = int(np.argmax(peak / limits.array))
+    factor = float(np.max(peak / limits.array))
+    for _ in range(_STRETCH_TRIES):
+        factor *= 1.002
+        vel = move.velocities_deg_s
+        stretched = JointPathMove(move.points_deg, tuple(t * factor for t in move.times_s),
+                                  None if vel is None else tuple(tuple(v / factor for v in p) for p in vel))
+        try:
+            traj = _plan(stretched, start, model, rate)
+        except PlanningError as exc:
+            if not str(exc.reason).startswith("too fast"):
+                raise
+            continue
+        warning = validate.stretch_warning(limits, j, float(peak[j]), "to pass the points at the times given",
+                                           stretched.times_s[-1], from_s=move.times_s[-1])
+        return Trajectory._trusted(traj.t, traj.positions, traj.speeds, traj.commands, traj.rate_hz, traj.move,
+                                   (*traj.notes, warning), traj.start_deg, traj.model, traj.planned_deg)
+    raise refusal
+
+
+def _peak_speeds(move: JointPathMove, start: NDArray[np.float64], model: RobotModel,
+                 rate: float) -> NDArray[np.float64]:
+    """Each joint's fastest speed (steps/s) on the path as timed, the velocities given at the
+    points included."""
+    spd = validate.model_arrays(model).steps_per_deg
+    _, _, qd, _, _ = _samples(move, start, rate)
+    peak: NDArray[np.float64] = np.abs(qd * spd).max(axis=0)
+    if move.velocities_deg_s is not None:
+        peak = np.maximum(peak, np.abs(np.asarray(move.velocities_deg_s, dtype=float) * spd).max(axis=0))
+    return peak
+
+
+def _samples(move: JointPathMove, start: NDArray[np.float64], rate: float) -> tuple[
+        NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """The path's samples: times, positions and speeds (deg, deg/s), the segment of each
+    sample and the points' ticks (0 first: the start)."""
     points = np.asarray(move.points_deg, dtype=float)
-    for k, p in enumerate(points):
-        check_target(name, p, model, what=f"point {k} (t={move.times_s[k]:.3f} s):", point=k)
     ticks = np.array([0, *point_ticks(move, rate)])
     knots = np.vstack([start[None, :], points])  # deg, knot 0 = the start
     knot_s = ticks / rate
@@ -125,7 +178,19 @@ def plan_joint_path(move: JointPathMove, start: NDArray[np.float64], model: Robo
     s = (tick - ticks[seg]) / (ticks[seg + 1] - ticks[seg])
     q, qd = hermite(s, knot_s[seg + 1] - knot_s[seg], knots[seg], knots[seg + 1], vel[seg], vel[seg + 1])
     t: NDArray[np.float64] = tick / rate
-    _check_samples(move, t, q, qd, seg, ticks, model, rate, vel if given else None)
+    return t, q, qd, seg, ticks
+
+
+def _plan(move: JointPathMove, start: NDArray[np.float64], model: RobotModel, rate: float) -> Trajectory:
+    name = move.name
+    points = np.asarray(move.points_deg, dtype=float)
+    for k, p in enumerate(points):
+        check_target(name, p, model, what=f"point {k} (t={move.times_s[k]:.3f} s):", point=k)
+    given = move.velocities_deg_s is not None
+    t, q, qd, seg, ticks = _samples(move, start, rate)
+    n_samples = int(ticks[-1])
+    vel = (np.vstack([np.zeros((1, 6)), np.asarray(move.velocities_deg_s, dtype=float)]) if given else None)
+    _check_samples(move, t, q, qd, seg, ticks, model, rate, vel)
     notes = (f"{len(points)} point(s) over {t[-1]:.3f} s ({n_samples} ticks), velocities at the points "
              + ("as given" if given else "of a C2 cubic spline (at rest at both ends)"),)
     # every sample was checked above (positions, speeds, accelerations, with messages naming the
