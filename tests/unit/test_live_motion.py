@@ -528,3 +528,35 @@ def test_pause_queue_lets_the_running_command_end_and_holds_the_next(bench):
     bad = bench.send("PAUSE|NOW")
     bench.run(1)
     assert bench.terminal(bad)[0] == "INVALID" and "PAUSE takes nothing or QUEUE" in bench.terminal(bad)[1]
+
+
+def test_servol_from_the_standby_pose_passes_the_wrist_singularity_with_the_tcp_on_its_targets(bench):
+    """Issue 24, item 1: at the standby pose J5 = 0, where the exact solution's J4 is undefined
+    and jumps by 90 deg between nearby poses.  SERVOL follows the Cartesian jog's singular-area
+    policy: J4 (and J6 the other way) turn within their limits while the TCP stays on the
+    targets; once J4 has turned the orientation is exact.  (Before: J4 chased the jump, the TCP
+    ran 40 mm off and the guard ended the stream at J4's limit.)"""
+    from parolkit.kinematics.pose import pose_to_matrix
+
+    snap = bench.sim.controller.snapshot
+    assert abs(snap.angles_deg[4]) < 1e-6  # on the singularity
+    pose = np.asarray(snap.pose)
+    first = None
+    worst = 0.0
+    for k in range(1, 301):
+        tgt = pose + np.array([20.0 * min(k, 100) / 100, 0, 0, 0, 0, 0])  # 20 mm along X in 1 s, then held
+        cid = bench.send("SERVOL|" + "|".join(f"{v:.4f}" for v in tgt))
+        first = first or cid
+        bench.run(1)
+        if k > 5:  # the TCP a tick behind its target: within the 0.2 mm the target moves per tick and then some
+            now = np.asarray(bench.sim.controller.snapshot.pose)
+            worst = max(worst, float(np.linalg.norm(now[:3] - tgt[:3])))
+    assert worst < 2.0, worst
+    assert bench.acks[first][0][0] == "EXECUTING" and bench.terminal(first) is None  # still streaming
+    end = np.asarray(bench.sim.controller.snapshot.pose)
+    assert np.allclose(end[:3], tgt[:3], atol=0.05), end
+    rot_end, rot_tgt = pose_to_matrix(list(end))[:3, :3], pose_to_matrix(list(tgt))[:3, :3]
+    angle = np.degrees(np.arccos(np.clip((np.trace(rot_end.T @ rot_tgt) - 1) / 2, -1, 1)))
+    assert angle < 0.05, angle  # J4 has turned: the orientation is exact again
+    bench.run(20)
+    assert bench.terminal(first)[0] == "COMPLETED"

@@ -539,6 +539,10 @@ class ServoActivity(Activity):
         # synchronised move: the slowest joint must not slow the others down)
         self._in.synchronization = Synchronization.No
         self.timeout_ticks = timeout_ticks
+        #: SERVOL in the wrist's singular area: when J4's target last turned (core time, s)
+        #: and how fast it turns (deg/s)
+        self.wrist_t: float | None = None
+        self.wrist_v = 0.0
         self.limits = [(float(lo), float(hi)) for lo, hi in limits_steps]
         self.target = self._inside(target_steps)
         self.target_tick = tick

@@ -101,6 +101,9 @@ OUTPUT_REPORT_TIMEOUT_S = 0.5
 GRIPPER_CALIBRATE_TIMEOUT_S = 5.0
 #: how many queued jobs are planned ahead
 PLAN_AHEAD = 4
+#: |J5| (deg) below which a SERVOL target follows the wrist's singular-area policy
+#: (:data:`parolkit.motion.singular.WRIST_AREA_DEG`, imported with the kinematics when needed)
+_WRIST_AREA_DEG = 15.0
 #: keys of the plans asked for blended chains (and for a job after a chain it headed grew)
 #: count from here: above every job number, so an earlier request's answer is dropped
 _CHAIN_KEY_BASE = 1 << 40
@@ -720,8 +723,56 @@ class ControllerCore:
             if anchor is None:  # the stream starts here: offsets from the TCP pose now
                 anchor = fk_matrix(self.measured_deg, tool)  # type: ignore[arg-type]
             pose = anchor @ pose_to_matrix(cmd.pose)  # type: ignore[operator]
-        deg = ik(pose, seed, tool)  # type: ignore[arg-type]
+        exact = ik(pose, seed, tool)  # type: ignore[arg-type]
+        deg = self._servo_wrist(pose, [float(v) for v in exact], seed, stream, tool)
         return [d * s for d, s in zip(deg, self._spd)], anchor
+
+    def _servo_wrist(self, pose: object, exact: list[float], seed: Sequence[float], stream: ServoActivity | None,
+                     tool: object) -> list[float]:
+        """A SERVOL target in the wrist's singular area (|J5| of the exact solution below
+        :data:`parolkit.motion.singular.WRIST_AREA_DEG`; the standby pose has J5 = 0): the
+        Cartesian jog's policy, target by target.  There the exact solution's J4 is undefined
+        or jumps by up to 90 deg between two nearby poses: J4 turns toward it (or its twin
+        J4 +- 180, the same wrist) within J4's and J6's speed and acceleration limits (J6
+        turns the other way), braking to arrive at rest, from target to target (it holds while
+        |J5| < LOCK_DEG: the tilt's direction is noise), and the other joints put the TCP
+        exactly at the target position, its orientation as close as that J4 allows (the
+        deviation is at most the exact |J5|; it vanishes once J4 has turned)."""
+        if abs(exact[4]) >= _WRIST_AREA_DEG:
+            if stream is not None:
+                stream.wrist_t, stream.wrist_v = self._now, 0.0
+            return exact
+        import numpy as np
+
+        from parolkit.kinematics.pose import pose_to_matrix
+        from parolkit.kinematics.wrist import solve_with_j4
+        from parolkit.motion import singular
+
+        j4 = float(seed[3])
+        lo, hi = (float(v) for v in self.model.safe_limits_deg[3])
+        want = exact[3] if abs(exact[4]) >= singular.LOCK_DEG else j4
+        want = min((a for a in (want, want - 180.0, want + 180.0) if lo <= a <= hi), key=lambda a: abs(a - j4),
+                   default=want)
+        since = self._now - stream.wrist_t if stream is not None and stream.wrist_t is not None else self.period
+        dt = min(max(since, 0.0), 0.1)
+        v0 = stream.wrist_v if stream is not None else 0.0
+        # J4's turn (J6 the other way): within the slower of the two, deg/s and deg/s^2
+        vmax = min(self._servo_vmax[3] / self._spd[3], self._servo_vmax[5] / self._spd[5]) * singular.SPEED_SHARE
+        amax = min(self._accel[3] / self._spd[3], self._accel[5] / self._spd[5]) * singular.ACCEL_SHARE
+        d = want - j4
+        v_want = math.copysign(min(vmax, math.sqrt(2.0 * amax * abs(d))), d)  # brakes to arrive at rest
+        v = v0 + min(max(v_want - v0, -amax * dt), amax * dt)
+        q4 = j4 + v * dt
+        if (want - q4) * d <= 0.0:  # arrived (or would pass it)
+            q4, v = want, 0.0
+        if stream is not None:
+            stream.wrist_t, stream.wrist_v = self._now, v
+        if abs(q4 - exact[3]) < 1e-9:
+            return exact
+        m = np.asarray(pose if not isinstance(pose, list) else pose_to_matrix(pose), dtype=float)
+        sol = solve_with_j4(m[None, :3, 3] * 1e3, m[None, :3, :3], np.array([q4]), np.array([exact]),
+                            tool)  # type: ignore[arg-type]
+        return [float(v) for v in sol.q_deg[0]]
 
     def _stop_on_path(self, reason: str) -> bool:
         """A client's STOP while a planned move (not a jog) is on its way: the queue is
