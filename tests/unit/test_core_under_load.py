@@ -122,6 +122,9 @@ def test_late_ticks_and_late_replies_never_overspeed_fault_or_lose_a_move(moves,
 # after a 50 ms interval two replies in a row with J1's low byte corrupted (109 and 131 steps off,
 # at rest both times) link to each other: a third reply must show it too
 @example(seed=4523, timing=[(1.0, 0.0)] * 3 + [(5.0, 0.0)] + [(1.0, 0.0)] * 16)
+# a suspect (J1 22 steps off after 50 ms) "confirmed" beyond the hull by a later reply whose J1 is
+# garbage (6825984 steps): a confirmation must lie where the board can have gone from the suspect
+@example(seed=43026, timing=[(1.0, 0.0)] * 38 + [(5.0, 0.0)])
 @given(seed=st.integers(0, 2**31 - 1), timing=st.lists(st.tuples(_dt, _delay), min_size=20, max_size=400))
 def test_corrupted_late_replies_never_read_as_uncommanded_motion(seed, timing):
     """1 % of the reply bytes corrupted while the replies come late and bunched (a busy PC):

@@ -544,11 +544,13 @@ class StatusIntegrity:
                     return self._provisional(rx)
                 self.implausible += 1
                 return False
-            if ref is not None and not (adjacent and prev is sus) and self._outside_hull(ref, rx, sdev.joints):
+            if (ref is not None and not (adjacent and prev is sus) and self._outside_hull(ref, rx, sdev.joints)
+                    and self._reachable(sus, rx, sdev.joints)):
                 # a second frame shows the same joints beyond anything commanded, a reply lost
                 # in between (the next frame right after the suspect that does not link to it
                 # contradicts it: one of the two is corrupted, and two corrupted bytes beyond the
-                # hull, a tick apart, say nothing; the frames after decide)
+                # hull, a tick apart, say nothing; the frames after decide), where the board can
+                # have gone from the suspect (a frame with a garbage byte lies beyond every hull)
                 self._suspect = None
                 self._fault(sdev.message)
                 self.implausible += 1
