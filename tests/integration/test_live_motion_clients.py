@@ -96,18 +96,27 @@ def test_any_client_may_pause_only_the_lease_holder_may_resume_or_change_the_spe
         owner.release_control()
 
 
-def _stream_to(send, start, end, steps: int, hold_until) -> None:
-    """Stream targets from ``start`` to ``end`` (deg or pose) in ``steps`` at about 100 Hz,
+def _stream_to(port: int, send, start, end, steps: int, hold_until) -> None:
+    """Stream targets from ``start`` to ``end`` (deg or pose) in ``steps``, one per status the
+    controller publishes (one per tick: paced by its ticks, not by this process's sleeps),
     then the last one until ``hold_until()`` (a user holding a teleop device still)."""
-    import time
+    import threading
 
-    for k in range(1, steps + 1):
-        send([a + (b - a) * k / steps for a, b in zip(start, end)])
-        time.sleep(0.01)
-    deadline = time.monotonic() + 20
-    while not hold_until() and time.monotonic() < deadline:
-        send(list(end))
-        time.sleep(0.01)
+    ticks = threading.Semaphore(0)
+    with Robot(port=port, ack_port=0, timeout=2.0) as watcher:
+        sub = watcher.subscribe(1, callback=lambda _st: ticks.release())
+        try:
+            for k in range(1, steps + 1):
+                assert ticks.acquire(timeout=10), "no status from the controller"
+                send([a + (b - a) * k / steps for a, b in zip(start, end)])
+            for _ in range(2000):  # 20 s of ticks at most
+                if hold_until():
+                    return
+                assert ticks.acquire(timeout=10), "no status from the controller"
+                send(list(end))
+            raise AssertionError("the stream's last target was not reached in 2000 ticks")
+        finally:
+            sub.close()
 
 
 def test_servo_streams_from_robot_and_robot_api_reach_their_last_target_and_stop(served):
@@ -116,14 +125,14 @@ def test_servo_streams_from_robot_and_robot_api_reach_their_last_target_and_stop
     with Robot(port=served.port, ack_port=0, timeout=2.0) as r:
         a0 = list(r.angles())
         end = a0[:5] + [a0[5] + 10.0]
-        _stream_to(r.servo_j, a0, end, 100, lambda: abs(r.angles()[5] - end[5]) < 0.01)
+        _stream_to(served.port, r.servo_j, a0, end, 100, lambda: abs(r.angles()[5] - end[5]) < 0.01)
         wait_until(lambda: r.status().command is None, 10, what="the stream's end (0.05 s of silence)")
         assert r.angles() == pytest.approx(end, abs=0.01)
         with pytest.raises(ParolkitValueError, match="angles"):
             r.servo_j([1, 2, 3])
         p0 = list(r.pose())
         goal = [p0[0], p0[1], p0[2] - 8.0, *p0[3:]]
-        _stream_to(r.servo_l, p0, goal, 50, lambda: abs(r.pose()[2] - goal[2]) < 0.02)
+        _stream_to(served.port, r.servo_l, p0, goal, 50, lambda: abs(r.pose()[2] - goal[2]) < 0.02)
         wait_until(lambda: r.status().command is None, 10, what="the stream's end")
         assert list(r.pose())[:3] == pytest.approx(goal[:3], abs=0.05)
 
@@ -132,7 +141,7 @@ def test_servo_streams_from_robot_and_robot_api_reach_their_last_target_and_stop
     try:
         a1 = robot_api.get_robot_joint_angles()
         back = a1[:5] + [a1[5] - 10.0]
-        _stream_to(robot_api.servo_joints, a1, back, 100,
+        _stream_to(served.port, robot_api.servo_joints, a1, back, 100,
                    lambda: abs(robot_api.get_robot_joint_angles()[5] - back[5]) < 0.01)
         wait_until(lambda: robot_api.get_robot_status()["command"] is None, 10, what="the stream's end")
         with pytest.raises(ValueError, match="frame"):
