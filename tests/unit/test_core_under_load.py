@@ -125,6 +125,12 @@ def test_late_ticks_and_late_replies_never_overspeed_fault_or_lose_a_move(moves,
 # a suspect (J1 22 steps off after 50 ms) "confirmed" beyond the hull by a later reply whose J1 is
 # garbage (6825984 steps): a confirmation must lie where the board can have gone from the suspect
 @example(seed=43026, timing=[(1.0, 0.0)] * 38 + [(5.0, 0.0)])
+# a reply beyond the hull (J1 108 steps off) "linked" by the next one only through that one's
+# corrupted timing field (50 ms), which is back within the hull: no excursion shown twice
+@example(seed=126332, timing=[(1.0, 0.0)] * 21 + [(2.0, 0.0), (0.5, 0.0), (1.5, 0.0), (5.0, 0.0), (5.0, 0.0),
+                                                (5.0, 0.04), (5.0, 0.04), (5.0, 0.0), (5.0, 0.0), (1.0, 0.0),
+                                                (1.0, 0.0), (1.0, 0.002), (1.0, 0.015)] + [(1.0, 0.0)] * 19
+         + [(1.0, 0.04)])
 @given(seed=st.integers(0, 2**31 - 1), timing=st.lists(st.tuples(_dt, _delay), min_size=20, max_size=400))
 def test_corrupted_late_replies_never_read_as_uncommanded_motion(seed, timing):
     """1 % of the reply bytes corrupted while the replies come late and bunched (a busy PC):

@@ -568,14 +568,21 @@ class StatusIntegrity:
                     # prev and rx agree: two frames show it.  Over a long interval a third must
                     # too: two replies in a row with the same joint's byte corrupted then link now
                     # and then (50 ms: J1 shown 109 and 131 steps off, at rest both times)
-                    beyond = self._gap_deviation(ref, rx) if dt > _LONG_LINK_PERIODS * self.period else None
+                    # (rx's own timing field may be the corrupted byte that makes it long)
+                    if dt <= _LONG_LINK_PERIODS * self.period:
+                        self._suspect = None
+                        self._fault(gap.message)
+                        return self._provisional(rx)
+                    beyond = self._gap_deviation(ref, rx)
                     if beyond is not None:
                         self._suspect = (rx, beyond, 2)
                         self.implausible += 1
                         return False
-                    self._suspect = None
-                    self._fault(gap.message)
-                    return self._provisional(rx)
+                    # rx is back within the hull: the two do not show one excursion, and prev
+                    # (a corrupted frame, likely) says nothing about what rx should be: the
+                    # next frame is judged from rx
+                    self.implausible += 1
+                    return False
             tight, dev = self._commanded(prev, rx, dt)
             if dev is None:
                 if tight:
