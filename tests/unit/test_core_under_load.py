@@ -109,7 +109,12 @@ def test_late_ticks_and_late_replies_never_overspeed_fault_or_lose_a_move(moves,
         rig.close()
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# derandomized: the same 40 examples every run.  What is left is a documented limit (docs/
+# protocol.md): two replies in a row with the same position byte corrupted to values that agree
+# with each other read as motion, about twice in 10^7 pairs of replies at 1 % corruption, so a
+# random 40 (12,000 pairs) would fail about one run in 400.  Hunted with 6,000 random examples
+# at a time while these checks were written (each find is pinned below).
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True)
 # found by Hypothesis: replies 15 ms late for one tick, then a tick 1.5 periods long
 @example(seed=307325, timing=[(1.0, 0.0)] * 16 + [(1.0, 0.015), (1.5, 0.0), (1.0, 0.0), (1.0, 0.0)])
 # two replies in a row with J6's low byte corrupted, both beyond the hull: they contradict each other
