@@ -26,9 +26,9 @@ starts late moves the target further along the plan, the one right after it less
 tick more than a period late skips the missed deadlines.  The servo stream's generator steps
 one period per tick whatever the clock did.  The checks below hold either way.)
 
-Known gap, pinned by a strict xfail: a blended chain sent to an IDLE controller runs its first
-move on its own (the server's plan ahead for that move wins over the core's chain plan); the
-blending test therefore queues its chain behind the MoveJoint that brings the arm to its start.
+A blended chain sent to an IDLE controller blends its first move too (the server's plan ahead
+for that move, made before the chain was queued, is dropped for the chain's plan: it once won
+and the first move stopped at its target).
 """
 
 from __future__ import annotations
@@ -319,10 +319,6 @@ def test_twenty_blended_movecarts_over_a_pty_hand_over_in_order_and_the_tcp_neve
           f"controller overruns {bench.loop_stats()['overruns']}")
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the server's plan ahead for a move reaching an idle robot (ControllerApp.plan_ahead) comes back "
-    "before the core's chain plan, and ControllerCore._take_plan takes it for the head (chain ()), which "
-    "then runs on its own: the first move of the chain stops at its target"))
 def test_a_blended_chain_sent_to_an_idle_controller_blends_its_first_move_too(bench):
     """Three blended MoveCarts sent in one burst to an idle controller (the datagrams reach it
     in one tick: all three QUEUED together): the first should hand over to the second as the

@@ -1018,10 +1018,13 @@ class ControllerCore:
                 job.chain = job.chain_asked
                 job.marks = r.marks
             elif job.ahead == r.key:
-                job.chain, job.marks = (), ()
                 job.ahead = None
-                if r.tool_name != self.tool_name or i != 0 or jobs.active is not None or r.command is not job.command:
-                    return True  # the plan assumed another start or tool: planned as usual
+                if (r.tool_name != self.tool_name or i != 0 or jobs.active is not None or r.command is not job.command
+                        or job.chain_asked):
+                    # the plan assumed another start or tool, or the move blends into the ones
+                    # queued after it (the plan of the chain is on its way): planned as usual
+                    return True
+                job.chain, job.marks = (), ()
             else:
                 continue
             if r.error is not None:
