@@ -11,6 +11,7 @@ guard allows (:attr:`TickContext.box`): every frame a bounded commitment.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
@@ -500,6 +501,9 @@ class SpeedActivity(TrajectoryActivity):
 #: how fast a servo stream closes the distance to a moving target, 1/s (its speed is followed
 #: besides)
 SERVO_GAIN_PER_S = 20.0
+#: A servo target's speed is estimated over the targets of this many ticks (40 ms at 100 Hz):
+#: datagrams that arrive a tick late, two in the next tick, do not read as a stop and a jump
+SERVO_SPEED_WINDOW_TICKS = 4
 
 
 class ServoActivity(Activity):
@@ -548,6 +552,8 @@ class ServoActivity(Activity):
         self.target_tick = tick
         self.target_v = [0.0] * 6
         self.target_a = [0.0] * 6
+        #: the latest targets and their ticks (the speed estimate's window)
+        self._history: deque[tuple[int, list[float]]] = deque([(tick, self.target)], maxlen=16)
         self.targets = 1
         #: the generator's state (steps, steps/s, steps/s^2); None before the first frame
         self._p: list[float] | None = None
@@ -565,13 +571,23 @@ class ServoActivity(Activity):
 
     def set_target(self, target_steps: Sequence[float], tick: int) -> None:
         """A new target (steps), taken in at tick ``tick``: the latest wins.  Its speed is
-        estimated from the previous target's (within the speed limits; 0 at a joint limit)."""
+        estimated over the targets of the last :data:`SERVO_SPEED_WINDOW_TICKS` ticks (within
+        the speed limits; 0 at a joint limit): a datagram one tick late (two targets in the
+        next tick) then reads as 3/4 of the speed for a tick, not half of it and then nothing,
+        and the generator does not brake and back up for it."""
         target = self._inside(target_steps)
-        if tick > self.target_tick:
-            dt = (tick - self.target_tick) * self.period
-            v = [max(-vm, min(vm, (t - o) / dt)) for t, o, vm in zip(target, self.target, self.vmax)]
-            self.target_a = [max(-am, min(am, (a - b) / dt)) for a, b, am in zip(v, self.target_v, self.amax)]
+        hist = self._history
+        base = next(((tk, x) for tk, x in hist if 0 < tick - tk <= SERVO_SPEED_WINDOW_TICKS), None)
+        if base is None and hist and tick > hist[-1][0]:
+            base = hist[-1]  # (a pause in the stream longer than the window: the last one)
+        if base is not None:
+            dt = (tick - base[0]) * self.period
+            v = [max(-vm, min(vm, (t - o) / dt)) for t, o, vm in zip(target, base[1], self.vmax)]
+            if tick > self.target_tick:
+                step = (tick - self.target_tick) * self.period
+                self.target_a = [max(-am, min(am, (a - b) / step)) for a, b, am in zip(v, self.target_v, self.amax)]
             self.target_v = v
+        hist.append((tick, target))
         for j, (lo, hi) in enumerate(self.limits):
             if target[j] <= lo or target[j] >= hi:
                 self.target_v[j] = self.target_a[j] = 0.0
