@@ -418,6 +418,31 @@ def test_silence_ends_a_servo_stream_with_a_controlled_stop(bench):
     assert 0 <= end[5] - last_target[5] <= v * 0.05 + v * v / (2 * ACCEL[5]) + 0.05 * v, (end[5], last_target[5])
 
 
+def test_a_target_during_the_silences_slow_down_resumes_the_stream(bench):
+    """A client whose datagrams were held up longer than servo.timeout_s (a busy machine): the
+    stream has begun its controlled stop when the next target comes.  That target is taken by
+    the same stream (not refused as "busy"), which goes on to it; only a silence that lasts
+    until the arm is at rest ends the stream."""
+    a0 = np.asarray(bench.sim.controller.snapshot.angles_deg)
+    speed = np.asarray([0, 0, 0, 0, 0, 20.0])
+    first = _servo(bench, a0)
+    for k in range(1, 40):
+        _servo(bench, a0 + speed * k * PERIOD)
+        bench.run(1)
+    bench.run(8)  # silent for 0.08 s: the slow-down has begun
+    assert bench.terminal(first) is None
+    goal = a0 + np.asarray([0, 0, 0, 0, 0, 2.0])
+    late = _servo(bench, goal)
+    for _ in range(60):
+        _servo(bench, goal)
+        bench.run(1)
+    assert bench.terminal(late) == ("COMPLETED", "target taken"), bench.acks[late]
+    assert bench.terminal(first) is None, "the same stream goes on"
+    assert np.allclose(bench.sim.controller.snapshot.angles_deg, goal, atol=0.01)
+    ticks, done = bench.run_until_done(first, limit=100)
+    assert done[0] == "COMPLETED" and "no target for 0.05 s" in done[1]
+
+
 def test_a_queued_move_ends_a_servo_stream_smoothly_then_runs(bench):
     a0 = np.asarray(bench.sim.controller.snapshot.angles_deg)
     first = _servo(bench, a0)

@@ -561,6 +561,8 @@ class ServoActivity(Activity):
         self._a = [0.0] * 6
         #: (status, details) the job ends with once at rest (finish); None: streaming
         self.ending: tuple[AckStatus, str] | None = None
+        #: the ending is the silence's (a new target resumes the stream: :meth:`resume`)
+        self._silenced = False
         #: ticks the guard's box held the generator back (late replies)
         self.held_ticks = 0
         #: SERVOL in TRF: the TCP pose (4x4, m) the stream's offsets are relative to
@@ -598,6 +600,17 @@ class ServoActivity(Activity):
         """End the stream with a controlled stop (then ``status`` / ``details``)."""
         if self.ending is None:
             self.ending = (status, details)
+            self._silenced = False
+
+    def resume(self) -> bool:
+        """A target came while the stream slows down for a silence (not yet at rest: a
+        client's datagrams held up for more than ``servo.timeout_s``): the stream goes on from
+        where the slow-down got to.  False when it ends for another reason (STOP, a queued
+        command): then it ends."""
+        if self.ending is None or not self._silenced:
+            return False
+        self.ending, self._silenced = None, False
+        return True
 
     def _update(self) -> bool:
         """One step of the generator; False when it cannot take this input."""
@@ -617,6 +630,7 @@ class ServoActivity(Activity):
         if silent and self.ending is None:
             self.ending = (AckStatus.COMPLETED, f"servo stream ended: no target for "
                                                 f"{self.timeout_ticks / self.rate_hz:g} s, stopped under control")
+            self._silenced = True
         scale = ctx.speed_scale
         stopping = self.ending is not None or scale <= 0.0
         inp, out = self._in, self._out

@@ -677,6 +677,8 @@ class ControllerCore:
             jobs.ack(job, AckStatus.FAILED, why)
             return
         act = jobs.activity
+        if isinstance(act, ServoActivity) and act.ending is not None:
+            act.resume()  # a target during the silence's slow-down: the stream goes on
         stream = act if isinstance(act, ServoActivity) and act.ending is None else None
         if stream is None and (jobs.active is not None or jobs.waiting or jobs.stream_cart is not None):
             busy = jobs.active.name if jobs.active is not None else "a queued command"

@@ -91,7 +91,7 @@ _HOMING_SEGMENT_SPEEDS = frozenset({750, 2050, 2550, 4050, 5050, 5550, 8050, 955
 #: a link between two frames further apart than this many periods forgives a few steps (the
 #: GO TO law closes most of any gap): what it alone shows beyond the commanded hull waits for
 #: a third frame
-_LONG_LINK_PERIODS = 2.5
+LONG_LINK_PERIODS = 2.5
 #: the ``timing`` field wraps after 65536 board timer ticks (93.2 ms)
 _TIMING_WRAP_S = 65536 / TIMER_HZ
 _ZERO6 = (0, 0, 0, 0, 0, 0)
@@ -569,7 +569,7 @@ class StatusIntegrity:
                     # too: two replies in a row with the same joint's byte corrupted then link now
                     # and then (50 ms: J1 shown 109 and 131 steps off, at rest both times)
                     # (rx's own timing field may be the corrupted byte that makes it long)
-                    if dt <= _LONG_LINK_PERIODS * self.period:
+                    if dt <= LONG_LINK_PERIODS * self.period:
                         self._suspect = None
                         self._fault(gap.message)
                         return self._provisional(rx)
