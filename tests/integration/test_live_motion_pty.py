@@ -445,15 +445,23 @@ def _stream(bench: MotionBench, targets: list[np.ndarray]) -> tuple[list[str], s
 
 
 def _one_stream(bench: MotionBench, ids: list[str]) -> tuple[str, str]:
-    """The first SERVOJ started the stream, every other one was taken by it; its terminal ack."""
-    status, details = bench.acks.terminal(ids[0], 20)
-    for c in ids[1:]:
-        bench.acks.terminal(c, 5)
+    """Every SERVOJ was taken: the first started the stream, the others updated it, or started
+    a new one after the stream before had come to rest in a silence (the sender held up longer
+    than the slow-down takes, beside CPU hogs: the stream ends then, as it must, and the next
+    target starts another); none was refused.  Returns the last stream's terminal ack."""
+    started = "servo stream started (a controlled stop after 0.05 s without a target)"
+    for c in ids:
+        bench.acks.terminal(c, 20)
     acks = bench.acks.acks
-    assert acks[ids[0]][0] == ("EXECUTING", "servo stream started (a controlled stop after 0.05 s without a target)")
-    bad = [(k, acks[c]) for k, c in enumerate(ids[1:], 1) if acks[c] != [("COMPLETED", "target taken")]]
-    assert not bad, f"targets not taken by the one stream: {bad[:5]}"
-    return status, details
+    assert acks[ids[0]][0] == ("EXECUTING", started)
+    heads = [c for c in ids if acks[c][0] == ("EXECUTING", started)]
+    bad = [(k, acks[c]) for k, c in enumerate(ids) if c not in heads and acks[c] != [("COMPLETED", "target taken")]]
+    assert not bad, f"targets refused or not taken: {bad[:5]}"
+    for c in heads[:-1]:  # an earlier stream ended only by a silence, at rest
+        assert acks[c][-1] == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control"), acks[c]
+    if len(heads) > 1:
+        print(f"\nservo: the sender was held up past the stream's stop {len(heads) - 1} time(s): {len(heads)} streams")
+    return bench.acks.terminal(heads[-1], 20)
 
 
 def _min_jerk(x: float) -> float:
