@@ -19,9 +19,9 @@ What is judged, and on what:
   order the datagrams came: the controller sends a hand-over's COMPLETED and the next move's
   EXECUTING in the same tick, in that order).
 
-The wall clock is used only to pace the SERVOJ datagrams as a client would (a sender process of
-their own, raised like the controller) and as generous timeouts of the waits; nothing is judged
-on it.  (The controller ticks on the wall clock and plays a planned move by it: a tick that
+The wall clock is used only as generous timeouts of the waits; nothing is judged on it (the
+SERVOJ datagrams go one per status the controller publishes, from a sender process of their own,
+raised like the controller).  (The controller ticks on the wall clock and plays a planned move by it: a tick that
 starts late moves the target further along the plan, the one right after it less far, and a
 tick more than a period late skips the missed deadlines.  The servo stream's generator steps
 one period per tick whatever the clock did.  The checks below hold either way.)
@@ -414,28 +414,39 @@ def test_pause_mid_movecart_over_a_pty_slows_on_the_line_holds_and_resume_ends_o
 
 
 #: the SERVOJ client: its own process, raised like the controller (SCHED_FIFO where the OS
-#: allows it, below the controller's 10; else nice -10) once it is up, so its datagrams leave
-#: on their 10 ms pace whatever else runs (beside two CPU hogs a sender at normal priority sent
-#: them in bunches: the follower then chased its targets, see the test's docstring)
+#: allows it, below the controller's 10; else nice -10) once it is up, sending one target per
+#: status the controller publishes (one per tick: paced by the controller's ticks, as
+#: test_live_motion_clients paces its streams, not by this process's clock; beside two CPU hogs
+#: a sender at normal priority sent them in bunches: the follower then chased its targets, see
+#: the test's docstring)
 _SENDER = r"""
-import socket, sys, time
+import socket, sys, threading
+from parolkit.client.robot import Robot
 from parolkit.controller.scheduling import raise_priority
 host, port = sys.argv[1], int(sys.argv[2])
 lines = sys.stdin.read().splitlines()
 print(raise_priority(5), flush=True)
 sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-t0 = time.monotonic() + 0.02
-for k, line in enumerate(lines):
-    left = t0 + k * 0.01 - time.monotonic()
-    if left > 0:
-        time.sleep(left)
-    sock.sendto(line.encode(), (host, port))
+ticks = threading.Semaphore(0)
+with Robot(host, port, ack_port=0, timeout=2.0) as watcher:
+    sub = watcher.subscribe(1, callback=lambda _st: ticks.release())
+    try:
+        if not ticks.acquire(timeout=10):
+            sys.exit("no status from the controller")
+        while ticks.acquire(blocking=False):
+            pass  # the statuses before the stream starts
+        for line in lines:
+            if not ticks.acquire(timeout=10):
+                sys.exit("no status from the controller")
+            sock.sendto(line.encode(), (host, port))
+    finally:
+        sub.close()
 """
 
 
 def _stream(bench: MotionBench, targets: list[np.ndarray]) -> tuple[list[str], str]:
-    """SERVOJ datagrams, one per 10 ms (by the sender's clock: nothing is judged on it); their
-    IDs and the sender's scheduling."""
+    """SERVOJ datagrams, one per controller tick (one per status it publishes); their IDs and
+    the sender's scheduling."""
     ids = [bench.new_id() for _ in targets]
     lines = [f"{cid}|SERVOJ|" + "|".join(f"{v:.5f}" for v in q) for cid, q in zip(ids, targets)]
     out = subprocess.run([sys.executable, "-c", _SENDER, bench.ctl.host, str(bench.ctl.port)],
@@ -470,7 +481,7 @@ def _min_jerk(x: float) -> float:
 
 
 def test_a_servoj_stream_over_a_pty_is_followed_to_its_last_target_and_ends_with_a_controlled_stop(bench):
-    """SERVOJ targets, one every 10 ms: J6 +10 deg on a minimum-jerk curve over 100 targets, the
+    """SERVOJ targets, one a tick: J6 +10 deg on a minimum-jerk curve over 100 targets, the
     last one held for 20 more (a client that wants the arm to stop there holds it), then
     silence.  The frames: J6 alone moves, forward to the last target (the overshoot as the
     follower settles is bounded by the stream's top speed x the 0.05 s silence), the last frame's
