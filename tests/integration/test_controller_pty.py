@@ -54,8 +54,12 @@ class AckListener:
             parts = data.decode(errors="replace").split("|", 3)
             if len(parts) >= 3 and parts[0] == "ACK":
                 with self._cv:
-                    self.acks[parts[1]].append((parts[2], parts[3] if len(parts) > 3 else ""))
+                    self._record(parts[1], parts[2], parts[3] if len(parts) > 3 else "")
                     self._cv.notify_all()
+
+    def _record(self, cid: str, status: str, details: str) -> None:
+        """Keep one ack (called with the lock held, as it is read)."""
+        self.acks[cid].append((status, details))
 
     def statuses(self, cid: str) -> list[str]:
         with self._cv:

@@ -69,22 +69,9 @@ class TimedAckListener(AckListener):
         self.log: list[tuple[float, str, str, str]] = []
         super().__init__(port)
 
-    def _run(self) -> None:
-        while not self._stop:
-            try:
-                data, _ = self.sock.recvfrom(65535)
-            except TimeoutError:
-                continue
-            except OSError:
-                return
-            t = time.monotonic()
-            parts = data.decode(errors="replace").split("|", 3)
-            if len(parts) >= 3 and parts[0] == "ACK":
-                details = parts[3] if len(parts) > 3 else ""
-                with self._cv:
-                    self.acks[parts[1]].append((parts[2], details))
-                    self.log.append((t, parts[1], parts[2], details))
-                    self._cv.notify_all()
+    def _record(self, cid: str, status: str, details: str) -> None:
+        super()._record(cid, status, details)
+        self.log.append((time.monotonic(), cid, status, details))
 
     def index(self, cid: str, status: str) -> int:
         """Where the first ``status`` ack of ``cid`` is in :attr:`log`."""
