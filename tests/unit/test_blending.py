@@ -4,13 +4,10 @@ frames a simulated board in lockstep received (one period per frame)."""
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
 import pytest
+from tests.unit.test_live_motion import Bench as LiveMotionBench
 
-from parolkit.config import load_config
-from parolkit.controller.fastforward import InProcessController, parse_frame_log
 from parolkit.errors import ParolkitValueError
 from parolkit.kinematics import fk, fk_batch
 from parolkit.motion.blending import plan_blended
@@ -85,46 +82,24 @@ def test_a_chain_of_mixed_kinds_or_one_move_is_refused_and_an_unreachable_pose_i
 # ------------------------------------------------------------------------------ the controller
 
 
-class Bench:
-    """An in-process controller (homed) on a simulated board in lockstep, its frame log and the
-    acks by command ID, in the order they came."""
+class Bench(LiveMotionBench):
+    """:class:`tests.unit.test_live_motion.Bench` (an in-process controller, homed, on a
+    simulated board in lockstep, and its frame log) that also keeps every ack with the tick it
+    came in, in the order they came."""
 
     def __init__(self) -> None:
-        self.log = io.StringIO()
-        self.sim = InProcessController(load_config(None), paced=False, frame_log=self.log)
-        self.sim.start()
-        self.acks: list[tuple[str, str, str, int]] = []
-        self._n = 0
+        self.order: list[tuple[str, str, str, int]] = []
+        super().__init__()
 
-    def close(self) -> None:
-        self.sim.close()
-
-    def send(self, text: str) -> str:
-        self._n += 1
-        cid = f"bl{self._n:06d}"
-        self.sim.send(f"{cid}|{text}".encode())
-        return cid
-
-    def run(self, ticks: int) -> None:
-        for _ in range(ticks):
-            self.sim.run_ticks(1)
-            for d in self.sim.take_datagrams():
-                parts = d.decode().split("|", 3)
-                if parts[0] == "ACK":
-                    self.acks.append((parts[1], parts[2], parts[3] if len(parts) > 3 else "", self.sim.ticks))
+    def _ack(self, cid: str, status: str, details: str) -> None:
+        super()._ack(cid, status, details)
+        self.order.append((cid, status, details, self.sim.ticks))
 
     def statuses(self, cid: str) -> list[str]:
-        return [s for c, s, _, _ in self.acks if c == cid]
+        return [st for st, _ in self.acks.get(cid, [])]
 
     def tick_of(self, cid: str, status: str) -> int:
-        return next(t for c, s, _, t in self.acks if c == cid and s == status)
-
-    def run_until(self, cid: str, limit: int = 6000) -> None:
-        for _ in range(limit):
-            if any(s in ("COMPLETED", "FAILED", "CANCELLED", "INVALID") for s in self.statuses(cid)):
-                return
-            self.run(1)
-        raise AssertionError(f"{cid} did not end: {self.acks[-5:]}")
+        return next(t for c, st, _, t in self.order if c == cid and st == status)
 
 
 @pytest.fixture()
@@ -139,20 +114,17 @@ def _cart(pose, r: float | None) -> str:
 
 
 def test_twenty_blended_movecarts_run_as_one_motion_each_completing_as_the_arm_passes_its_corner(bench):
-    bench.send("MOVEJOINT|90|-90|180|0|30|180|1|None")
-    bench.run(1)
-    first = bench.acks[-1][0]
-    bench.run_until(first)
+    bench.run_until_done(bench.send("MOVEJOINT|90|-90|180|0|30|180|1|None"))
     moves = _zigzag(fk(START))
     ids = [bench.send(_cart(m.pose, m.blend)) for m in moves]
-    bench.run_until(ids[-1])
-    assert [bench.statuses(c)[-1] for c in ids] == ["COMPLETED"] * 20, bench.acks[-3:]
+    bench.run_until_done(ids[-1], limit=6000)
+    assert [bench.statuses(c)[-1] for c in ids] == ["COMPLETED"] * 20, bench.order[-3:]
     done = [bench.tick_of(c, "COMPLETED") for c in ids]
     starts = [bench.tick_of(c, "EXECUTING") for c in ids]
     assert done == sorted(done) and all(s == d for s, d in zip(starts[1:], done[:-1]))  # handed over
     # the arm, from the frames the board received: never at rest between the first and the
     # last corner, every corner passed within 10 mm
-    frames = [(t, f) for t, f in parse_frame_log(bench.log.getvalue())
+    frames = [(t, f) for t, f in bench.frames()
               if f.command == BoardCommand.GOTO and starts[0] <= t <= done[-1]]
     q = np.array([f.positions for _, f in frames], dtype=float) / SPD
     tcp = _tcp(q)
@@ -166,14 +138,12 @@ def test_twenty_blended_movecarts_run_as_one_motion_each_completing_as_the_arm_p
 
 def test_stop_in_a_blended_chain_stops_on_its_path_and_cancels_the_moves_not_yet_reached(bench):
     moves = _zigzag(fk(START), n=6)
-    bench.send("MOVEJOINT|90|-90|180|0|30|180|1|None")
-    bench.run(1)
-    bench.run_until(bench.acks[-1][0])
+    bench.run_until_done(bench.send("MOVEJOINT|90|-90|180|0|30|180|1|None"))
     ids = [bench.send(_cart(m.pose, m.blend)) for m in moves]
     bench.run(1)
     while bench.statuses(ids[2])[-1] != "EXECUTING":
         bench.run(1)
     bench.send("STOP")
-    bench.run_until(ids[2])
+    bench.run_until_done(ids[2])
     assert bench.statuses(ids[0])[-1] == bench.statuses(ids[1])[-1] == "COMPLETED"
     assert [bench.statuses(c)[-1] for c in ids[2:]] == ["CANCELLED"] * 4

@@ -50,7 +50,10 @@ class Bench:
         for d in self.sim.take_datagrams():
             parts = d.decode().split("|", 3)
             if parts[0] == "ACK":
-                self.acks.setdefault(parts[1], []).append((parts[2], parts[3] if len(parts) > 3 else ""))
+                self._ack(parts[1], parts[2], parts[3] if len(parts) > 3 else "")
+
+    def _ack(self, cid: str, status: str, details: str) -> None:
+        self.acks.setdefault(cid, []).append((status, details))
 
     def run(self, ticks: int) -> None:
         self.sim.run_ticks(ticks)
