@@ -172,7 +172,7 @@ def _plan_cartesian(chain: BlendChain, start: NDArray[np.float64], model: RobotM
         raise PlanningError(chain.name, "every target is where the chain starts: nothing to blend")
     path = Path(blend_corners(segs, radii))
     traj = time_and_solve(chain, path, start, model, tool, rate)  # type: ignore[arg-type]
-    traj = _with_notes(traj, chain)
+    traj = traj.with_notes((*chain.notes, *traj.notes), move=chain)
     q = traj.planned_deg if traj.planned_deg is not None else traj.positions_deg()
     tcp = np.asarray(kin.fk_batch(q, tool), dtype=float)[:, :3]
     marks = _marks(tcp, corners[:-1], [float(m.blend or 0.0) for m in chain.moves[:-1]], tol=1.0)
@@ -300,10 +300,3 @@ def _marks(samples: NDArray[np.float64], corners: Sequence[NDArray[np.float64]],
         i = min(n - 1, i + j)
         out.append(i)
     return tuple(out)
-
-
-def _with_notes(traj: Trajectory, chain: BlendChain) -> Trajectory:
-    if not chain.notes:
-        return traj
-    return Trajectory._trusted(traj.t, traj.positions, traj.speeds, traj.commands, traj.rate_hz, chain,
-                               (*chain.notes, *traj.notes), traj.start_deg, traj.model, traj.planned_deg)

@@ -144,8 +144,7 @@ def plan_joint_path(move: JointPathMove, start: NDArray[np.float64], model: Robo
             continue
         warning = validate.stretch_warning(limits, j, float(peak[j]), "to pass the points at the times given",
                                            stretched.times_s[-1], from_s=move.times_s[-1])
-        return Trajectory._trusted(traj.t, traj.positions, traj.speeds, traj.commands, traj.rate_hz, traj.move,
-                                   (*traj.notes, warning), traj.start_deg, traj.model, traj.planned_deg)
+        return traj.with_notes((*traj.notes, warning))
     raise refusal
 
 

@@ -98,6 +98,13 @@ class Trajectory:
         )
         return obj
 
+    def with_notes(self, notes: Sequence[str], move: object = None) -> Trajectory:
+        """The same samples with ``notes`` (and ``move``, when given) instead of its own: a
+        planner that wraps another one's trajectory (a stretched or blended move) says so."""
+        return Trajectory._trusted(self.t, self.positions, self.speeds, self.commands, self.rate_hz,
+                                   self.move if move is None else move, tuple(notes), self.start_deg, self.model,
+                                   self.planned_deg)
+
     def __repr__(self) -> str:
         return (f"Trajectory({self.name}, {len(self)} samples at {self.rate_hz:g} Hz, "
                 f"{self.duration:.3f} s, notes={list(self.notes)!r})")
