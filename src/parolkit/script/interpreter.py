@@ -388,9 +388,9 @@ class Interpreter:
 
     def _gate(self, cmd: Command, index: int, drain: Callable[[], int]) -> int:
         """Block while paused (unless a step token is available); raise when stopped.  Before
-        it says PAUSED the line still at the controller ends (``drain``: how many lines ended,
-        0 or 1), unless the controller holds it (:meth:`pause`): then PAUSED at once, that line
-        next; returns how many lines ``drain`` saw end."""
+        it says PAUSED the lines still at the controller end (``drain``: how many lines ended;
+        more than one after blended moves), unless the controller holds them (:meth:`pause`):
+        then PAUSED at once, the held line next; returns how many lines ``drain`` saw end."""
         drained: int | None = None
         announced: bool | None = None  # PAUSED said, while held (True) / after the drain (False)
         while True:
@@ -572,15 +572,20 @@ class Interpreter:
             # controller plans a blended chain from the moves it has queued
             pend: deque[tuple[Command, _Handle, int]] = deque()
 
-            def drain() -> int:
-                """Wait for every line sent to end, in order, each announced as it starts."""
+            def drain(keep: int = 0) -> int:
+                """Wait for the lines sent to end, in order, until ``keep`` are left, each next one
+                announced as it starts; counted in ``executed`` as each ends (a failure reports
+                the lines before it).  Returns how many ended."""
+                nonlocal executed
                 done = 0
-                while pend:
+                while len(pend) > keep:
                     c0, h0, _ = pend[0]
-                    done += self._await((c0, h0))
+                    ended = self._await((c0, h0))
+                    executed += ended
+                    done += ended
                     pend.popleft()
                     if pend:
-                        self._announce(pend[0][0], pend[0][2], executed + done, planned_total, planned_pass)
+                        self._announce(pend[0][0], pend[0][2], executed, planned_total, planned_pass)
                 return done
 
             try:
@@ -588,15 +593,13 @@ class Interpreter:
                     for index, cmd in enumerate(commands):
                         if isinstance(cmd, Loop):
                             if self.loops is not None and self._iteration >= self.loops:
-                                executed += drain()
+                                drain()
                                 return self._finish(InterpreterState.FINISHED, executed, (), warnings)
                             break
 
-                        drained = self._gate(cmd, index, drain)
-                        if drained:
-                            executed += drained
+                        self._gate(cmd, index, drain)  # (the lines it drains are counted as they end)
                         if isinstance(cmd, (Begin, End)) or not self._ahead(cmd):
-                            executed += drain()
+                            drain()
                             self._announce(cmd, index, executed, planned_total, planned_pass)
                             if isinstance(cmd, End):
                                 executed += 1
@@ -621,11 +624,7 @@ class Interpreter:
                         elif _blends(cmd) and len(pend) < MAX_BLEND_CHAIN:
                             continue  # the next line goes out now too: this move blends into it
                         try:
-                            while len(pend) > 1:  # the lines before this one end, in order
-                                c0, h0, _ = pend[0]
-                                executed += self._await((c0, h0))
-                                pend.popleft()
-                                self._announce(pend[0][0], pend[0][2], executed, planned_total, planned_pass)
+                            drain(keep=1)  # the lines before this one end, in order
                         except _LineFailed:
                             self._cancel_queued()  # the lines sent behind the failed one
                             raise
@@ -636,7 +635,7 @@ class Interpreter:
                             raise _Stopped
                     else:
                         # no Loop(): the program ends after its last line
-                        executed += drain()
+                        drain()
                         return self._finish(InterpreterState.FINISHED, executed, (), warnings)
                     self._iteration += 1
             except _LineFailed as failed:
