@@ -522,7 +522,7 @@ def test_a_programs_output_and_delay_lines_each_take_exactly_their_ticks_at_the_
     result = Interpreter(parse(program).program, robot).run()
     robot.close()
     assert result.ok, result.message
-    changes, last = [], None
+    changes, last = [], (False, False)
     for tick, frame in bench.frames():
         if tick < start:
             continue
@@ -556,6 +556,73 @@ def test_pause_queue_lets_the_running_command_end_and_holds_the_next(bench):
     bad = bench.send("PAUSE|NOW")
     bench.run(1)
     assert bench.terminal(bad)[0] == "INVALID" and "PAUSE takes nothing or QUEUE" in bench.terminal(bad)[1]
+
+
+def test_resume_one_lets_one_held_command_start_and_the_queue_stays_held(bench):
+    """RESUME|ONE (a program stepped one line with the lines after it queued ahead): each lets
+    exactly one more queued command start, in order, and the queue stays held; a credit given
+    with nothing queued is used by the next command to come; RESUME releases the rest and
+    forgets unused credits; RESUME|anything-else is INVALID naming the rule.  (From a PAUSE on
+    the path: test_resume_one_from_a_pause_on_the_path_ends_the_move_then_runs_one_more.)"""
+    held = bench.send("PAUSE|QUEUE")
+    outs = [bench.send(f"PNEUMATICGRIPPER|{'open' if k % 2 == 0 else 'close'}|1") for k in range(3)]
+    bench.run(20)
+    assert all([s for s, _ in bench.acks[c]] == ["QUEUED"] for c in outs), [bench.acks[c] for c in outs]
+    assert bench.terminal(held)[0] == "COMPLETED"
+    one = bench.send("RESUME|ONE")
+    bench.run(20)
+    assert bench.terminal(one) == ("COMPLETED", "one more command starts; the queue stays held")
+    assert bench.terminal(outs[0])[0] == "COMPLETED"
+    assert [s for s, _ in bench.acks[outs[1]]] == ["QUEUED"] and [s for s, _ in bench.acks[outs[2]]] == ["QUEUED"]
+    assert bench.sim.controller.snapshot.as_dict()["queue_held"] is True
+    bench.send("RESUME|ONE")
+    bench.run(20)
+    assert bench.terminal(outs[1])[0] == "COMPLETED" and bench.terminal(outs[2]) is None
+    bench.send("RESUME")
+    bench.run(5)
+    assert bench.terminal(outs[2])[0] == "COMPLETED"
+    # a credit with nothing queued: the next command to come starts, the one after it waits
+    bench.send("PAUSE|QUEUE")
+    bench.send("RESUME|ONE")
+    bench.run(5)
+    first, second = bench.send("DELAY|0.05"), bench.send("DELAY|0.05")
+    bench.run(30)
+    assert bench.terminal(first)[0] == "COMPLETED" and bench.terminal(second) is None
+    # RESUME forgets unused credits: after it and a new hold, nothing starts
+    bench.send("RESUME|ONE")
+    bench.send("RESUME")
+    bench.run(30)
+    assert bench.terminal(second)[0] == "COMPLETED"
+    bench.send("PAUSE|QUEUE")
+    bench.run(1)
+    third = bench.send("DELAY|0.05")
+    bench.run(30)
+    assert [s for s, _ in bench.acks[third]] == ["QUEUED"]
+    bad = bench.send("RESUME|TWO")
+    bench.run(1)
+    assert bench.terminal(bad)[0] == "INVALID" and "RESUME takes nothing or ONE" in bench.terminal(bad)[1]
+
+
+def test_resume_one_from_a_pause_on_the_path_ends_the_move_then_runs_one_more(bench):
+    """A program paused on the path and stepped: the paused move goes on to its target, the
+    next queued command runs, the one after it is held."""
+    move = bench.send("MOVEJOINT|60|-80|170|10|-10|170|1|None")
+    out, delay = bench.send("PNEUMATICGRIPPER|open|1"), bench.send("DELAY|0.05")
+    bench.run(40)
+    bench.send("PAUSE")
+    bench.run(150)
+    assert bench.terminal(move) is None and bench.sim.controller.snapshot.paused
+    one = bench.send("RESUME|ONE")
+    bench.run(1)
+    assert bench.terminal(one) == ("COMPLETED", "the paused move goes on; one more command starts; the queue "
+                                                "stays held")
+    _, done = bench.run_until_done(move)
+    assert done[0] == "COMPLETED"
+    bench.run(30)
+    assert bench.terminal(out)[0] == "COMPLETED" and [s for s, _ in bench.acks[delay]] == ["QUEUED"]
+    bench.send("RESUME")
+    _, done = bench.run_until_done(delay)
+    assert done[0] == "COMPLETED"
 
 
 def test_servol_from_the_standby_pose_passes_the_wrist_singularity_with_the_tcp_on_its_targets(bench):

@@ -1363,9 +1363,11 @@ class RobotCommands(Generic[_Result, _Handle]):
         (``PAUSE|QUEUE``)."""
         return self._run("PAUSE|QUEUE" if _flag(queue_only, "queue_only") else "PAUSE", _opt_timeout(timeout))
 
-    def resume(self, timeout: float | None = None) -> _Result:
-        """A paused move continues on the same path to the same target; the queue runs again."""
-        return self._run("RESUME", _opt_timeout(timeout))
+    def resume(self, timeout: float | None = None, *, one: bool = False) -> _Result:
+        """A paused move continues on the same path to the same target; the queue runs again.
+        ``one`` (``RESUME|ONE``): the move goes on, but the queue is held (as by
+        ``pause(queue_only=True)``) and lets one more command start."""
+        return self._run("RESUME|ONE" if _flag(one, "one") else "RESUME", _opt_timeout(timeout))
 
     def stop(self, timeout: float | None = None) -> _Result:
         """Cancel the active command and the queue (they end CANCELLED): a planned move slows

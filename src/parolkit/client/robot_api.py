@@ -1445,9 +1445,12 @@ def pause_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: 
     return _dispatch("PAUSE|QUEUE" if queue_only else "PAUSE", wait_for_ack, timeout, non_blocking)
 
 
-def resume_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False) -> Result:
-    """**(ext)** A paused move continues on the same path to the same target; the queue runs again."""
-    return _dispatch("RESUME", wait_for_ack, timeout, non_blocking)
+def resume_robot(wait_for_ack: bool = False, timeout: float = 2.0, non_blocking: bool = False,
+                 one: bool = False) -> Result:
+    """**(ext)** A paused move continues on the same path to the same target; the queue runs again.
+    ``one`` (``RESUME|ONE``): the move goes on, but the queue is held (as by
+    ``pause_robot(queue_only=True)``) and lets one more command start."""
+    return _dispatch("RESUME|ONE" if one else "RESUME", wait_for_ack, timeout, non_blocking)
 
 
 #: label -> command ID of the checkpoints this process queued (newest per label)

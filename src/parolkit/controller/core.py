@@ -286,8 +286,10 @@ class ControllerCore:
         #: holds on its path, nothing queued starts until RESUME)
         self.speed_pct = 100.0
         self.paused = False
-        #: PAUSE|QUEUE: the running command goes on, nothing queued starts until RESUME
+        #: PAUSE|QUEUE: the running command goes on, nothing queued starts until RESUME;
+        #: RESUME|ONE lets one more start each (the count not used yet; the queue stays held)
         self.queue_held = False
+        self.queue_steps = 0
         self._accel = tuple(float(a) for a in model.accel_limit_steps_s2)
         #: servo streams: silence that ends one (s), the speeds they keep to (the position-
         #: tracking maxima: every frame a bounded commitment), the joint ranges (steps)
@@ -526,6 +528,7 @@ class ControllerCore:
 
     def _cancel_all(self, reason: str) -> int:
         self.paused = self.queue_held = False  # nothing is left to resume
+        self.queue_steps = 0
         act = self.jobs.activity
         if (isinstance(act, HomeActivity) and act.sent and self.safety.enabled
                 and not self.safety.estop_latched):
@@ -644,10 +647,18 @@ class ControllerCore:
             what = ("the running move slows down on its path and holds" if self.jobs.active is not None
                     else "nothing runs")
             return AckStatus.COMPLETED, f"paused: {what}; nothing queued starts until RESUME"
+        if isinstance(cmd, C.Resume) and cmd.one:
+            moving = self.paused
+            self.paused = False
+            self.queue_held = True
+            self.queue_steps += 1
+            return AckStatus.COMPLETED, ("the paused move goes on; " if moving else "") + \
+                "one more command starts; the queue stays held"
         if isinstance(cmd, C.Resume):
             if not (self.paused or self.queue_held):
                 return AckStatus.COMPLETED, "not paused: nothing to resume"
             self.paused = self.queue_held = False
+            self.queue_steps = 0
             return AckStatus.COMPLETED, "resumed"
         if isinstance(cmd, C.SetPort):
             if self.jobs.active is not None or self.jobs.waiting:
@@ -1265,7 +1276,7 @@ class ControllerCore:
     def _try_activate(self) -> None:
         """Start the next waiting job if it can run (planned, from where the robot is)."""
         jobs = self.jobs
-        while jobs.waiting and not (self.paused or self.queue_held):
+        while jobs.waiting and not (self.paused or (self.queue_held and not self.queue_steps)):
             job = jobs.waiting[0]
             cmd = job.command
             if job.rider_of is not None:
@@ -1291,6 +1302,8 @@ class ControllerCore:
                     job.planned = False  # plan again from where the robot is
                     return
             jobs.waiting.popleft()
+            if self.queue_held:
+                self.queue_steps -= 1  # (RESUME|ONE)
             self._activate(job)
             if jobs.active is not None:
                 return

@@ -541,8 +541,11 @@ class Pause(Command):
 @dataclass(frozen=True)
 class Resume(Command):
     """``RESUME``: a paused move continues on the same path to the same target (ramped up
-    within the acceleration limits); the queue runs again."""
+    within the acceleration limits); the queue runs again.  ``RESUME|ONE`` (``one``): a paused
+    move goes on as for RESUME, but the queue is held (as by ``PAUSE|QUEUE``) and lets one more
+    command start (a program stepped one line with the lines after it queued ahead)."""
 
+    one: bool = False
     NAME: ClassVar[str] = "RESUME"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
 
@@ -1058,6 +1061,13 @@ def _p_pause(a: Sequence[str], m: RobotModel) -> Command:
     return Pause(queue_only=bool(a))
 
 
+def _p_resume(a: Sequence[str], m: RobotModel) -> Command:
+    _nargs(a, "RESUME", 0, 1)
+    if a and a[0].strip().upper() != "ONE":
+        raise DatagramError(f"RESUME takes nothing or ONE, got {_show(a[0])}")
+    return Resume(one=bool(a))
+
+
 def _p_servoj(a: Sequence[str], m: RobotModel) -> Command:
     _nargs(a, "SERVOJ", 6)
     return ServoJ(_joint_angles(a, m))
@@ -1353,7 +1363,7 @@ _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "SERVOJ": _p_servoj,
     "SERVOL": _p_servol,
     "PAUSE": _p_pause,
-    "RESUME": _no_args(Resume),
+    "RESUME": _p_resume,
     "PNEUMATICGRIPPER": _p_pneumatic,
     "ELECTRICGRIPPER": _p_electric,
     "SPEEDJOINT": _p_speedjoint,
