@@ -709,6 +709,26 @@ def test_robot_without_any_ack_raises_command_timeout_naming_the_ports(fake):
         assert f"port {r.ack_port}" in str(info.value)
 
 
+def test_pipelined_commands_return_before_any_ack_and_a_missing_ack_shows_at_the_result(robot, fake):
+    """Robot.pipelined (the RBTscript interpreter's lines ahead): wait=False returns once the
+    datagram is sent, in order; the ack comes to the handle later; a command never acked
+    raises CommandTimeout (naming the ports) at its result(), within the Robot's timeout, not
+    at the send; outside the block wait=False waits for the first ack again."""
+    fake.acks["DELAY"] = []  # no ack at all: acks come by hand
+    with robot.pipelined():  # (waiting for a first ack that never comes would raise)
+        handles = [robot.delay(0.01, wait=False) for _ in range(5)]
+    assert all(h.status() is None for h in handles)
+    assert [m.split("|", 1)[0] for m in fake.received_so_far()][-5:] == [h.id for h in handles]
+    for h in handles[:4]:
+        fake.ack(h.id, "COMPLETED")
+    assert all(h.result(timeout=2).ok for h in handles[:4])
+    with pytest.raises(CommandTimeout) as info:
+        handles[4].result(timeout=5)
+    assert "no acknowledgement within 1 s" in str(info.value) and f"port {robot.ack_port}" in str(info.value)
+    with pytest.raises(CommandTimeout, match="no acknowledgement"):
+        robot.delay(0.01, wait=False)  # not pipelined: the send waits for the first ack
+
+
 def test_robot_explicit_timeout_on_a_long_command(robot, fake):
     fake.acks["DELAY"] = [("QUEUED", ""), ("EXECUTING", "")]
     with pytest.raises(CommandTimeout, match="last status: EXECUTING"):

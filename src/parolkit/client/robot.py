@@ -31,6 +31,7 @@ classes of :mod:`parolkit.client.errors`.  Here a command returns its :class:`Co
 
 from __future__ import annotations
 
+import contextlib
 import queue
 import socket
 import threading
@@ -257,6 +258,8 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
         self.timeout = float(timeout)
         self._addr = (host, self.port)
         self._cond = threading.Condition()
+        #: per thread: :meth:`pipelined`
+        self._local = threading.local()
         self._acks = AckBook()
         self._replies: queue.Queue[str] = queue.Queue()
         self._query_lock = threading.Lock()
@@ -380,23 +383,45 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
     def _accepted(self, body: str, timeout: float | None) -> AckRecord:
         """Send ``body`` with a fresh ID and wait for its first ack (``CommandTimeout`` without
         one within the Robot's timeout)."""
-        with self._cond:
-            record, text = self._acks.new(body)
-        self._send(text)
+        record = self._sent(body)
         limit = self.timeout if timeout is None else min(timeout, self.timeout)
         deadline = time.monotonic() + limit
         with self._cond:
             while record.first_at is None:
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    raise CommandTimeout(
-                        record.id, record.command, "TIMEOUT",
-                        f"no acknowledgement within {limit:g} s: is the controller running at "
-                        f"{self.host}:{self.port}, and does it send acks to this client's port "
-                        f"{self.ack_port}? (a controller that acks only its --ack-port needs "
-                        "Robot(ack_port=<that port>))")
+                if time.monotonic() >= deadline:
+                    raise self._no_ack(record, limit)
                 self._wait(deadline)
         return record
+
+    def _sent(self, body: str) -> AckRecord:
+        """Send ``body`` with a fresh ID; its record."""
+        with self._cond:
+            record, text = self._acks.new(body)
+        self._send(text)
+        return record
+
+    def _no_ack(self, record: AckRecord, limit: float) -> CommandTimeout:
+        return CommandTimeout(
+            record.id, record.command, "TIMEOUT",
+            f"no acknowledgement within {limit:g} s: is the controller running at "
+            f"{self.host}:{self.port}, and does it send acks to this client's port "
+            f"{self.ack_port}? (a controller that acks only its --ack-port needs "
+            "Robot(ack_port=<that port>))")
+
+    @contextlib.contextmanager
+    def pipelined(self) -> Iterator[None]:
+        """Within it, a command this thread sends with ``wait=False`` returns its handle as
+        soon as it is sent, without waiting for the controller's first ack (which comes with
+        the controller's next tick): for a sender that queues short commands back to back,
+        such as the RBTscript interpreter's lines ahead.  A refusal or a lost datagram shows
+        at the handle's ``result()`` (``CommandTimeout`` when no ack came within the Robot's
+        timeout), not at the send."""
+        before = getattr(self._local, "pipelined", False)
+        self._local.pipelined = True
+        try:
+            yield
+        finally:
+            self._local.pipelined = before
 
     def _wait(self, deadline: float) -> None:
         """(holding ``_cond``) Wait for the next datagram until ``deadline`` (monotonic s)."""
@@ -413,6 +438,8 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
         return self._wait_terminal(self._accepted(body, timeout), timeout)
 
     def _start(self, body: str, timeout: float | None) -> CommandHandle:
+        if getattr(self._local, "pipelined", False):
+            return CommandHandle(self, self._sent(body))
         record = self._accepted(body, timeout)
         with self._cond:
             if record.terminal is not None:
@@ -426,6 +453,10 @@ class Robot(RobotCommands[CommandResult, CommandHandle]):
         with self._cond:
             while record.terminal is None:
                 now = time.monotonic()
+                if record.first_at is None and now >= record.sent_at + self.timeout:
+                    raise self._no_ack(record, self.timeout)  # (sent pipelined: never acked)
+                if record.first_at is None:
+                    probe_at = min(probe_at, record.sent_at + self.timeout)
                 if deadline is not None and now >= deadline:
                     latest = record.latest[0].value if record.latest else "none"
                     raise CommandTimeout(record.id, record.command, "TIMEOUT",
