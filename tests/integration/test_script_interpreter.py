@@ -170,6 +170,39 @@ def test_pause_lets_the_move_in_progress_finish_then_waits(robot):
     np.testing.assert_allclose(robot.angles(), B, atol=0.05)
 
 
+def test_a_step_while_lines_are_queued_ahead_runs_exactly_one_of_them(robot):
+    """The lines after the running one are queued at the controller ahead of execution; a
+    pause holds them there (PAUSE|QUEUE) and each step lets exactly one start (RESUME|ONE):
+    the arm goes to that line's target and stays, the others wait; resume runs the rest."""
+    robot.move_joints(STANDBY, duration=1.0)
+    moves = [A, B, A, B, A]
+    prog = program("Begin()\n" + "".join(f"MoveJoint({', '.join(map(str, q))}, t=0.8)\n" for q in moves) + "End()")
+    interp = Interpreter(prog, robot)
+    interp.start()
+    wait_until(lambda: interp.current_line == 2 and robot.status().queue == 4,
+               what="the first move running, the other four queued ahead")
+    interp.pause()
+    wait_until(lambda: interp.state is InterpreterState.PAUSED, what="PAUSED")
+    assert interp.current_line == 3
+    np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # the running move finished
+    time.sleep(0.3)
+    np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # the held ones do not run
+    assert robot.status().queue == 4
+    for line, q, left in ((3, B, 3), (4, A, 2)):
+        interp.step()
+        wait_until(lambda line=line: interp.current_line == line + 1, what=f"line {line} stepped")
+        wait_until(lambda left=left: robot.status().queue == left and robot.status().command is None,
+                   what=f"{left} lines still held, nothing running")
+        np.testing.assert_allclose(robot.angles(), q, atol=0.05)
+        assert interp.state is InterpreterState.PAUSED
+    time.sleep(0.3)
+    np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # still one line per step
+    interp.resume()
+    result = interp.wait(20)
+    assert result.state is InterpreterState.FINISHED and result.commands_executed == 7, result
+    np.testing.assert_allclose(result.final_deg, A, atol=0.05)
+
+
 def test_endless_loop_runs_until_stopped(robot):
     passes: list[int] = []
     prog = program("Begin()\nDelay(0.05)\nLoop()")

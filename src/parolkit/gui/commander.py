@@ -520,8 +520,9 @@ class ProgramRunner:
         """Step while a program runs: run one more line, then pause between lines (the
         interpreter's :meth:`~parolkit.script.Interpreter.step`).  Paused on the path, the
         controller is resumed too: the arm finishes the line it paused in, the next line
-        runs, and the program pauses before the one after it (the line queued behind the
-        paused one is that one more line)."""
+        runs, and the program pauses before the one after it (the first line queued behind the
+        paused one is that one more line; with lines held at the controller the interpreter's
+        ``RESUME|ONE`` resumes the arm too, and a RESUME would release them all)."""
         interpreter = self.interpreter
         if not self.active or interpreter is None:
             return
@@ -532,24 +533,26 @@ class ProgramRunner:
                 self._resuming = True
             self.state = "running"
             self.version += 1
-        await asyncio.to_thread(interpreter.step)
+        resumed = await asyncio.to_thread(interpreter.step)
         if not release:
             self.commander.log.info("step: one more line runs, then the program pauses")
-        elif await self._resume_controller("step"):
+        elif await self._resume_controller("step", send=not resumed):
             self.commander.log.info("step: the arm finishes the line it paused in, one more line runs, "
                                     "then the program pauses")
 
-    async def _resume_controller(self, what: str) -> bool:
+    async def _resume_controller(self, what: str, send: bool = True) -> bool:
         """``RESUME`` through the runner's client when we paused the controller or it is paused
         (another client's PAUSE); a refusal (another client took control) is logged and the
-        state follows the controller again."""
+        state follows the controller again.  ``send`` False: the interpreter resumed it
+        (``RESUME|ONE``); only the bookkeeping."""
         robot = self.robot
         if robot is None or not (self._pause_sent or self._controller_paused()):
             with self._lock:
                 self._resuming = False
             return True
         try:
-            await asyncio.to_thread(robot.resume, 2.0)
+            if send:
+                await asyncio.to_thread(robot.resume, 2.0)
         except ParolkitError as exc:
             with self._lock:
                 self._resuming = False

@@ -14,20 +14,22 @@ Before the first command the program is checked (a dry run planned from the robo
 joints with the controller's tool).  With any error nothing is sent to the controller and the
 run ends FAILED with every error in ``result.errors``.
 
-Programs run on ticks: while a line runs, the next one is already queued at the controller
-(sent when the running one started), so it starts in the tick the running one ends: an
+Programs run on ticks: while a line runs, the next ones (up to :data:`LINES_AHEAD`) are
+already queued at the controller, so each starts in the tick the one before it ends: an
 ``Output`` takes one tick at the board, ``Delay(x)`` exactly x, and no line waits for a round
-trip.  ``current_line`` is the line the robot is executing (announced when it starts); a line
+trip (nor for this process, on a busy machine: a line of one tick has the ticks of the lines
+queued before it to be sent in).  ``current_line`` is the line the robot is executing (announced when it starts); a line
 that fails ends the run FAILED, and the line queued behind it is cancelled (STOP).
 ``Speed()`` acts at once, so it waits for the running line to end.  ``Gripper()`` and
 ``Gripper_cal()`` do not wait for the jaws (as in the original: follow them with a Delay).
 Control from any thread:
 
-* :meth:`pause` / :meth:`resume`: pause BETWEEN lines: the running line ends, the one queued
-  behind it is held at the controller (``PAUSE|QUEUE``) and nothing more is sent until
-  :meth:`resume` (which releases it);
-* :meth:`step`: run exactly one more line, then pause (``step=True`` starts paused); while
-  stepping nothing is queued ahead;
+* :meth:`pause` / :meth:`resume`: pause BETWEEN lines: the running line ends, the ones queued
+  behind it are held at the controller (``PAUSE|QUEUE``) and nothing more is sent until
+  :meth:`resume` (which releases them);
+* :meth:`step`: run exactly one more line, then pause (``step=True`` starts paused): the
+  controller lets one held line start (``RESUME|ONE``), or the next line is sent; while
+  stepping nothing more is queued ahead;
 * :meth:`stop`: sends STOP (cancels the active move and the queue) and ends the run.
 
 ``on_line(progress)`` is called before each command and ``on_state(state)`` on every state
@@ -170,6 +172,23 @@ class _LineFailed(Exception):
         self.exc = exc
 
 
+#: how many lines may be queued at the controller behind the running one: each line takes at
+#: least a tick, so the next line to send has that many ticks to reach the controller before
+#: the queue runs dry (a round trip, this process held up on a busy machine); well inside the
+#: controller's per-client inbox (32) and queue (256).  A pause holds them at the controller
+#: (they do not run); a STOP or a failed line cancels them.
+LINES_AHEAD = 16
+
+def _started(handle: Any) -> bool:
+    """Whether the controller said the line ``handle`` stands for has started (an ack past
+    QUEUED: EXECUTING, or its end).  A line without a handle (it acted at once) has."""
+    if handle is None:
+        return True
+    status = getattr(handle, "status", None)
+    latest = status() if callable(status) else None
+    return latest is not None and str(getattr(latest, "value", latest)) != "QUEUED"
+
+
 #: a command sent with ``wait=False``: ``result(timeout)`` waits for its end (raising when it
 #: did not complete)
 _Handle = Any
@@ -210,17 +229,22 @@ class Interpreter:
         self._state = InterpreterState.IDLE
         self._paused = bool(step)
         self._step_tokens = 0
-        #: a line waits at the controller behind the running one; the controller holds it
-        #: (PAUSE|QUEUE, sent by :meth:`pause`)
+        #: lines wait at the controller behind the running one; the controller holds them
+        #: (PAUSE|QUEUE, sent by :meth:`pause`; set once the controller acked it)
         self._queued_ahead = False
         self._held = False
+        self._hold_sent = threading.Event()
+        self._hold_sent.set()
+        #: the lines sent and not seen to end, the running one first: (command, handle, index,
+        #: loop pass); changed by the run loop under ``_cond``
+        self._pend: deque[tuple[Command, _Handle, int, int]] = deque()
         #: a line has passed its gate and waits for the running one to end (not yet announced)
         self._line_waiting = False
         self._stop_requested = False
         self._current_line: int | None = None
         self._current_index: int | None = None
         #: the loop pass being sent to the controller, and the pass of the line running now
-        #: (one line may be queued ahead of the one that runs: the next pass's first)
+        #: (lines may be queued ahead of the one that runs: the next pass's first ones)
         self._iteration = 0
         self._running_iteration = 0
         self._started = 0
@@ -280,15 +304,23 @@ class Interpreter:
     # ---- control (any thread) -----------------------------------------------------------
 
     def pause(self) -> None:
-        """Pause after the line that runs now: the line queued behind it at the controller is
-        held there (``PAUSE|QUEUE``) until :meth:`resume` or :meth:`step`."""
+        """Pause after the line that runs now: the lines queued behind it at the controller
+        are held there (``PAUSE|QUEUE``) until :meth:`resume` or :meth:`step`."""
         with self._cond:
             self._paused = True
-            hold = self._queued_ahead and not self._held
-            self._held = self._held or hold
+            hold = self._begin_hold()
             self._cond.notify_all()
         if hold:
             self._hold_queue()
+
+    def _begin_hold(self) -> bool:
+        """(under ``_cond``) Whether the caller must send PAUSE|QUEUE now: lines are queued
+        ahead and not held yet."""
+        hold = self._queued_ahead and not self._held
+        if hold:
+            self._held = True
+            self._hold_sent.clear()
+        return hold
 
     def resume(self) -> None:
         """Continue after :meth:`pause` or single-stepping."""
@@ -300,26 +332,42 @@ class Interpreter:
         if release:
             self._release_queue()
 
-    def step(self) -> None:
-        """Run exactly one more line, then pause (also from a running program: the line queued
-        behind the running one is that one more line)."""
+    def step(self) -> bool:
+        """Run exactly one more line, then pause (also from a running program: the first line
+        queued behind the running one is that one more line, the others stay held).  True when
+        lines were held at the controller and it was told to let one start (``RESUME|ONE``,
+        which also lets a move paused on its path go on: the caller must not send RESUME, which
+        would release them all)."""
         with self._cond:
             self._paused = True
-            release = self._held
-            if release:  # the line held at the controller is the step
-                self._held = False
-            elif not (self._queued_ahead or self._line_waiting):
-                # (a line already past its gate, queued or waiting to be sent, is the step)
-                self._step_tokens += 1
+            hold = self._begin_hold()
+            one = self._held
+            if not one and not self._line_waiting:
+                self._step_tokens += 1  # the run loop sends one more line (else: the one past its gate)
             self._cond.notify_all()
-        if release:
-            self._release_queue()
+        if hold:
+            self._hold_queue()
+        if one:
+            # the controller lets one more line start (RESUME|ONE): the first held one, or,
+            # when none is held, the next the run loop sends (a step token)
+            self._hold_sent.wait()  # (the hold's ack: which lines started is known)
+            with self._cond:
+                if all(_started(h) for _, h, _, _ in self._pend):
+                    self._step_tokens += 1
+                self._cond.notify_all()
+            try:
+                self.robot.resume(one=True)
+            except Exception:
+                _log.exception("letting one held line start failed")
+        return one
 
     def _hold_queue(self) -> None:
         try:
             self.robot.pause(queue_only=True)
         except Exception:  # the run loop reports what happened to the line
             _log.exception("holding the queue for a pause failed")
+        finally:
+            self._hold_sent.set()
 
     def _release_queue(self) -> None:
         try:
@@ -386,13 +434,18 @@ class Interpreter:
     def _error(self, cmd: Command, message: str) -> ScriptError:
         return ScriptError(cmd.line, cmd.col, message, cmd.text, Severity.ERROR, self.program.source_name)
 
-    def _gate(self, cmd: Command, index: int, drain: Callable[[], int]) -> int:
+    def _gate(self, cmd: Command | None, index: int, drain: Callable[[int], int], settle: Callable[[], int],
+              held_next: Callable[[], tuple[int, int] | None]) -> int:
         """Block while paused (unless a step token is available); raise when stopped.  Before
-        it says PAUSED the lines still at the controller end (``drain``: how many lines ended;
-        more than one after blended moves), unless the controller holds them (:meth:`pause`):
-        then PAUSED at once, the held line next; returns how many lines ``drain`` saw end."""
-        drained: int | None = None
-        announced: bool | None = None  # PAUSED said, while held (True) / after the drain (False)
+        it says PAUSED the lines still running at the controller end: all of them (``drain``)
+        unless the controller holds the ones queued (:meth:`pause`); then the ones that have
+        started (``settle``: before the hold, or let start by a step's ``RESUME|ONE``), and
+        PAUSED with the first held line next (``held_next``: its source line and index, None
+        when none is held), watching for a step to start it.  A step token sends the next line
+        when none is held.  ``cmd`` None: the run waits for the lines it sent (held ones among
+        them), not before a line to send.  Returns how many lines were seen to end."""
+        drained = 0
+        drained_all = False
         while True:
             with self._cond:
                 if self._stop_requested:
@@ -400,30 +453,43 @@ class Interpreter:
                 if not self._paused:
                     break
                 held = self._held
-            if not held and drained is None:  # the line at the controller ends first (may block)
-                drained = drain()
+            if held:
+                self._hold_sent.wait()  # its ack: every line that started before it is known
+                drained += settle()
+            elif not drained_all:  # the lines at the controller end first (may block)
+                drained += drain(0)
+                drained_all = True
                 continue
             with self._cond:
                 if self._stop_requested:
                     raise _Stopped
                 if not self._paused:
                     break
-                if drained is not None and self._step_tokens > 0:
-                    self._step_tokens -= 1
-                    break
-                held = self._held
-                if announced is held:
-                    self._cond.wait(0.5)
+                if held != self._held:
+                    continue  # released (resume) or held (a step) meanwhile
+                nxt = held_next() if held else None
+                if nxt is None:
+                    if cmd is None:
+                        break  # nothing of ours is held: the run goes on waiting for its lines
+                    if self._step_tokens > 0 and (held or drained_all):
+                        self._step_tokens -= 1
+                        break  # the next line is sent (held: a step's RESUME|ONE lets it start)
+                    line, at = cmd.line, index
+                else:
+                    line, at = nxt
+                changed = (self._current_line, self._current_index) != (line, at)
+                self._current_line, self._current_index = line, at
+                if self._state is InterpreterState.PAUSED and not changed:
+                    # held lines: watch for one a step lets start (its ack), else wait
+                    self._cond.wait(0.02 if nxt is not None else 0.5)
                     continue
-                if not held:  # (held: the held line, announced already, is the next to run)
-                    self._current_line, self._current_index = cmd.line, index
             self._set_state(InterpreterState.PAUSED)
-            announced = held
-        with self._cond:
-            self._started += 1
-            self._line_waiting = True
+        if cmd is not None:
+            with self._cond:
+                self._started += 1
+                self._line_waiting = True
         self._set_state(InterpreterState.RUNNING)
-        return drained or 0
+        return drained
 
     def _ahead(self, cmd: Command) -> bool:
         """``cmd`` may be queued behind the line that runs: not when single-stepping (each
@@ -433,11 +499,12 @@ class Interpreter:
         return not stepping and not isinstance(cmd, Speed)
 
     def _announce(self, cmd: Command, index: int, executed: int, planned_total: float | None,
-                  planned_pass: float) -> None:
-        """``cmd`` runs now: the current line, and ``on_line``."""
+                  planned_pass: float, iteration: int | None = None) -> None:
+        """``cmd`` (of loop pass ``iteration``, default the one being sent) runs now: the
+        current line, and ``on_line``."""
         with self._cond:
             self._current_line, self._current_index = cmd.line, index
-            self._running_iteration = self._iteration
+            self._running_iteration = self._iteration if iteration is None else iteration
             self._line_waiting = False
         if self.on_line is not None:
             self._notify(self.on_line, Progress(
@@ -445,8 +512,15 @@ class Interpreter:
                 time.monotonic() - self._t0, planned_total, planned_pass, executed))
 
     def _run_line(self, cmd: Command, *, wait: bool) -> _Handle | None:
-        """:meth:`_execute`, its failure as :class:`_LineFailed` (or :class:`_Stopped`)."""
+        """:meth:`_execute`, its failure as :class:`_LineFailed` (or :class:`_Stopped`).  A line
+        sent ahead (``wait=False``) goes out without waiting for the controller's first ack
+        where the robot can (``Robot.pipelined``): that ack comes with the controller's next
+        tick, and lines of one tick each must be sent faster than one a tick."""
+        pipelined = getattr(self.robot, "pipelined", None)
         try:
+            if not wait and pipelined is not None:
+                with pipelined():
+                    return self._execute(cmd, wait=wait)
             return self._execute(cmd, wait=wait)
         except Exception as exc:
             if self._stop_requested:
@@ -570,23 +644,78 @@ class Interpreter:
             # ends; the gate before each line is passed before it is sent.  After a move with a
             # blend radius the next line is sent at once too (and so on while they blend): the
             # controller plans a blended chain from the moves it has queued
-            pend: deque[tuple[Command, _Handle, int]] = deque()
+            pend = self._pend
+
+            def pop_first() -> None:
+                nonlocal executed
+                c0, h0, _, _ = pend[0]
+                try:
+                    ended = self._await((c0, h0))
+                except _LineFailed:
+                    if len(pend) > 1:
+                        self._cancel_queued()  # the lines sent behind the failed one
+                    raise
+                executed += ended
+                with self._cond:
+                    pend.popleft()
+                    self._queued_ahead = len(pend) > 1
+                if pend:
+                    self._announce(pend[0][0], pend[0][2], executed, planned_total, planned_pass, pend[0][3])
+
+            primed = False
+
+            def prime(nxt: Command | None) -> None:
+                """Lines about to be sent ahead to a controller where none of ours runs: hold its
+                queue while they go out (released before anything waits for them), so they run
+                back to back even when this process is held up between two sends; the start
+                waits for the sends instead (a round trip).  Not for one line alone."""
+                nonlocal primed
+                if primed or nxt is None or isinstance(nxt, (Begin, End, Loop)) or not self._ahead(nxt):
+                    return
+                try:
+                    self.robot.pause(queue_only=True)
+                    primed = True
+                except Exception:  # the lines then start as they come
+                    _log.exception("holding the queue while the first lines are sent failed")
+
+            def unprime() -> None:
+                nonlocal primed
+                if not primed:
+                    return
+                primed = False
+                with self._cond:  # (a pause() meanwhile keeps the hold: it is the user's now)
+                    if not self._held:
+                        self._release_queue()
 
             def drain(keep: int = 0) -> int:
                 """Wait for the lines sent to end, in order, until ``keep`` are left, each next one
-                announced as it starts; counted in ``executed`` as each ends (a failure reports
-                the lines before it).  Returns how many ended."""
-                nonlocal executed
-                done = 0
+                announced as it starts (while paused with them held: :meth:`_gate`); counted in
+                ``executed`` as each ends (a failure reports the lines before it and cancels the
+                ones queued behind it).  Returns how many ended."""
+                if len(pend) > keep:
+                    unprime()
+                before = executed
                 while len(pend) > keep:
-                    c0, h0, _ = pend[0]
-                    ended = self._await((c0, h0))
-                    executed += ended
-                    done += ended
-                    pend.popleft()
-                    if pend:
-                        self._announce(pend[0][0], pend[0][2], executed, planned_total, planned_pass)
-                return done
+                    with self._cond:
+                        held = self._paused and self._held
+                    if held and not _started(pend[0][1]):
+                        # paused with our lines held at the controller: PAUSED here (steps,
+                        # resume), not a wait for a line that does not start
+                        self._gate(None, -1, drain, settle, held_next)
+                        continue
+                    pop_first()
+                return executed - before
+
+            def settle() -> int:
+                """Wait for the lines sent that have started (acked EXECUTING, or ended) to end,
+                in order: the lines a held queue let start before the hold."""
+                before = executed
+                while pend and _started(pend[0][1]):
+                    pop_first()
+                return executed - before
+
+            def held_next() -> tuple[int, int] | None:
+                return (pend[0][0].line, pend[0][2]) if pend else None
 
             try:
                 while True:
@@ -597,7 +726,8 @@ class Interpreter:
                                 return self._finish(InterpreterState.FINISHED, executed, (), warnings)
                             break
 
-                        self._gate(cmd, index, drain)  # (the lines it drains are counted as they end)
+                        # (the lines it drains are counted as they end)
+                        self._gate(cmd, index, drain, settle, held_next)
                         if isinstance(cmd, (Begin, End)) or not self._ahead(cmd):
                             drain()
                             self._announce(cmd, index, executed, planned_total, planned_pass)
@@ -611,26 +741,22 @@ class Interpreter:
                                 raise _Stopped
                             continue
                         if not pend:  # nothing runs: it starts at once (the current line now)
+                            prime(commands[index + 1] if index + 1 < len(commands) else None)
                             self._announce(cmd, index, executed, planned_total, planned_pass)
                         handle = self._run_line(cmd, wait=False)
                         with self._cond:
                             self._queued_ahead = bool(pend)
                             # a pause that came after the gate: this line must wait too
-                            hold = self._queued_ahead and self._paused and not self._held
-                            self._held = self._held or hold
-                        pend.append((cmd, handle, index))
+                            hold = self._paused and self._begin_hold()
+                        with self._cond:
+                            pend.append((cmd, handle, index, self._iteration))
                         if hold:
                             self._hold_queue()
                         elif _blends(cmd) and len(pend) < MAX_BLEND_CHAIN:
                             continue  # the next line goes out now too: this move blends into it
-                        try:
-                            drain(keep=1)  # the lines before this one end, in order
-                        except _LineFailed:
-                            self._cancel_queued()  # the lines sent behind the failed one
-                            raise
-                        finally:
-                            with self._cond:
-                                self._queued_ahead = False
+                        # the lines before this one end, in order, while LINES_AHEAD wait behind
+                        # the one that runs
+                        drain(keep=LINES_AHEAD + 1)
                         if self._stop_requested:
                             raise _Stopped
                     else:
