@@ -1,5 +1,6 @@
-"""Live motion (issue 24) over a real pseudo-terminal: blending, PAUSE / RESUME on a MoveCart and
-a SERVOJ stream, judged on the frames the board received and on the acks.
+"""Live motion (issue 24) over a real pseudo-terminal: blending, PAUSE / RESUME on a MoveCart,
+SPEED|50 halfway through a MoveJoint, a SERVOJ stream and a program's Output / Delay lines,
+judged on the frames the board received and on the acks.
 
 Real parts only: ``parolkit board-sim`` in its own process on a real pty with its exchange log on
 (every command frame as it arrived, in order, all 56 bytes: ``docs/board-emulator.md``; the
@@ -86,13 +87,15 @@ class TimedAckListener(AckListener):
 class ExchangeLog:
     """board-sim's exchange log, read as it grows: the command frames the board received
     (``ins``: ``(n, t, frame)``, ``n`` counting from 1 in the order they arrived, ``t`` the
-    board's monotonic receive time)."""
+    board's monotonic receive time) and where the board was when it took each in (``board``:
+    ``n`` -> the positions of the status frame it answered frame ``n`` with, steps)."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
         self._offset = 0
         self._rest = b""
         self.ins: list[tuple[int, float, CommandFrame]] = []
+        self.board: dict[int, tuple[int, ...]] = {}
 
     def update(self) -> ExchangeLog:
         with open(self.path, "rb") as f:
@@ -107,6 +110,8 @@ class ExchangeLog:
             e = json.loads(line)
             if e["k"] == "in":
                 self.ins.append((e["n"], e["t"], CommandFrame.decode(bytes.fromhex(e["raw"]))))
+            elif e["k"] == "ex":
+                self.board[e["n"]] = tuple(e["reply"]["p"])
         return self
 
     def idle_mark(self) -> int:
@@ -550,3 +555,125 @@ def test_a_servoj_stream_over_a_pty_is_followed_to_its_last_target_and_ends_with
           f"{len(v6) - 1 - k} frames{', monotone' if np.all(np.diff(v6[k:]) <= 0) else ', NOT monotone'} "
           f"(the stream's lowest {v6.min():.0f}, highest {v6.max():.0f} steps/s); {past:.0f} steps past the last "
           f"target; controller overruns {bench.loop_stats()['overruns']}")
+
+
+# ------------------------------------------------------------------------------ SPEED
+
+
+def _progress(frames: list[tuple[int, CommandFrame]], start: np.ndarray, goal: np.ndarray, j: int) -> np.ndarray:
+    """How far along a MoveJoint each frame's target is, 0..1, by joint ``j`` (the joints of
+    a MoveJoint move in step: one is as good as another)."""
+    p = np.array([f.positions[j] for _, f in frames], dtype=float)
+    return (p - start[j]) / (goal[j] - start[j])
+
+
+def test_speed_50_halfway_through_a_movejoint_over_a_pty_makes_the_rest_take_twice_as_long(bench):
+    """A MoveJoint t=4 (J1 -30 deg, J5 -40 deg and the others 10 deg) at 100 %, back to the
+    start, then again with ``SPEED|50`` sent once 200 of its frames have reached the board.
+    The frames of the second run: as the first up to where the override takes hold (found in
+    the frames: the first whose feed-forward falls below the first run's at the same point of
+    the path); from there each point of the path is passed at half the first run's speed
+    (after a ramp inside the acceleration limit), so the rest of the path takes twice as long,
+    and twice the frames it took at 100 % (within the ramp and the settle at the end, which is
+    not scaled; counted when no tick came more than a period late, which skips a deadline);
+    no joint's feed-forward changes by more than the acceleration limit allows in a period;
+    the last frame's target is the goal, at rest.  The override stays for what follows."""
+    _ok(bench, START_MOVE)
+    goal = np.asarray((60.0, -80.0, 170.0, 10.0, -10.0, 170.0))
+    start_steps, goal_steps = np.asarray(START) * SPD, goal * SPD
+    move = "MOVEJOINT|" + "|".join(f"{v:g}" for v in goal) + "|4|None"
+    J = 4  # J5: the longest way in steps
+
+    overruns = bench.loop_stats()["overruns"]
+    n0 = bench.exchange.idle_mark()
+    _ok(bench, move)
+    ref = bench.exchange.gotos(n0)
+    _contiguous(ref)
+    _ok(bench, START_MOVE)
+
+    n1 = bench.exchange.idle_mark()
+    cid = bench.send(move)
+    wait_until(lambda: len(bench.exchange.gotos(n1)) >= 200, 20, what="200 GO TO frames of the MoveJoint")
+    speed = bench.send("SPEED|50")
+    assert bench.acks.terminal(speed, 10) == ("COMPLETED", "speed override 50 %")
+    status, details = bench.acks.terminal(cid, 30)
+    assert status == "COMPLETED", (status, details)
+    frames = bench.exchange.gotos(n1)
+    _contiguous(frames)
+    _assert_speed_steps_within_accel(frames)
+
+    # each frame's feed-forward against the first run's at the same point of the path
+    s_all = _progress(ref, start_steps, goal_steps, J)
+    v_all = np.array([f.speeds[J] for _, f in ref], dtype=float)
+    keep = np.concatenate(([True], np.diff(s_all) > 1e-6))  # strictly along the path
+    s_ref, v_ref = s_all[keep], v_all[keep]
+    s = _progress(frames, start_steps, goal_steps, J)
+    v = np.array([f.speeds[J] for _, f in frames], dtype=float)
+    expected = np.interp(s, s_ref, v_ref)
+    peak = float(np.abs(v_ref).max())
+    drop = np.nonzero(np.abs(v) < np.abs(expected) - 0.03 * peak)[0]
+    assert len(drop), "the feed-forward never fell below the first run's: the override did not take hold"
+    k = int(drop[0])
+    assert k >= 190, f"the override took hold at frame {k}, before SPEED was sent (after 200 frames)"
+    # the rest of the path: the frames it took at 100 % from the same point, and now
+    ref_rest = len(ref) - int(np.argmax(s_all >= s[k]))
+    rest = len(frames) - k
+    # (a tick more than a period late skips its deadline: the move catches up with the clock
+    # and has a frame fewer; then the counts are printed, the speeds below say the same)
+    late = bench.loop_stats()["overruns"] - overruns
+    if not late:
+        assert abs(rest - 2 * ref_rest) <= 30, (f"the rest took {rest} frames where it took {ref_rest} at 100 %",
+                                                len(ref), len(frames), k)
+    # after the ramp (the speed ratio falls from 1 to 0.5 inside the acceleration limit) and
+    # before the end (the last 10 % of the path: the plan's own slow-down, then the settle),
+    # each point of the path is passed at half the first run's speed
+    ramp = k + int(np.ceil(peak / (ACCEL[J] * PERIOD))) + 2
+    on = [i for i in range(ramp, len(frames)) if s[i] < 0.9]
+    assert len(on) > 50, (ramp, len(frames))
+    err = np.abs(v[on] - 0.5 * expected[on]) / peak
+    assert err.max() <= 0.05, f"frame {on[int(err.argmax())]}: feed-forward {v[on][int(err.argmax())]:.0f} " \
+                              f"where half the first run's is {0.5 * expected[on][int(err.argmax())]:.0f} steps/s"
+    # it ends on the goal, at rest, and the override stays
+    assert np.all(np.abs(np.asarray(frames[-1][1].positions) - goal_steps) <= 1.0), frames[-1][1].positions
+    assert not any(frames[-1][1].speeds)
+    assert bench.status()["speed_pct"] == 50.0
+    print(f"\nspeed: {len(ref)} GO TO frames at 100 %; SPEED|50 took hold at frame {k} ({s[k]:.2f} of the way); "
+          f"the rest {rest} frames (at 100 %: {ref_rest}); ratio {rest / ref_rest:.2f}; "
+          f"largest deviation from half speed {err.max():.3f} of the peak; "
+          f"{late} ticks more than a period late{' (frame counts not judged)' if late else ''}")
+
+
+# ------------------------------------------------------------------------------ a program's lines
+
+
+def test_a_programs_output_and_delay_lines_each_take_exactly_their_ticks_at_the_pty(bench):
+    """An RBTscript program run by the interpreter (its lines over UDP to the controller, sent
+    ahead of execution): at the board, counted in frames (one a tick), ``Output`` takes one,
+    ``Delay(0.01)`` one and ``Delay(1.5)`` 150: the outputs change exactly at those frames."""
+    from parolkit.client.robot import Robot
+    from parolkit.protocol.frames import IOBits
+    from parolkit.script import Interpreter, parse
+
+    program = ("Begin()\nOutput(1,HIGH)\nDelay(0.01)\nOutput(1,LOW)\nDelay(0.01)\nOutput(1,HIGH)\n"
+               "Output(2,HIGH)\nDelay(1.5)\nOutput(1,LOW)\nEnd()\n")
+    n0 = bench.exchange.idle_mark()
+    with Robot(bench.ctl.host, bench.ctl.port, ack_port=0, timeout=5.0) as robot:
+        result = Interpreter(parse(program).program, robot).run()
+    assert result.ok, result.message
+    def outs(frame: CommandFrame) -> tuple[bool, bool]:
+        return bool(frame.io & IOBits.OUT1), bool(frame.io & IOBits.OUT2)
+
+    ins = bench.exchange.update().ins
+    last = next(outs(f) for n, _, f in ins if n == n0)
+    assert last == (False, False), last
+    changes = []
+    for n, _, frame in ins:
+        if n <= n0:
+            continue
+        io = outs(frame)
+        if io != last:
+            changes.append((n, io))
+            last = io
+    t0 = changes[0][0]
+    assert [(n - t0, io) for n, io in changes] == [
+        (0, (True, False)), (2, (False, False)), (4, (True, False)), (5, (True, True)), (156, (False, True))]
