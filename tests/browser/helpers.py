@@ -84,7 +84,54 @@ def log_lines(page) -> list[str]:
 
 
 def count_log(page, needle: str) -> int:
+    """How many of the lines the page shows now contain ``needle``.  Only the newest 80 entries
+    are shown: once the log is full, each new entry pushes the oldest off, so two counts are
+    not comparable (the count can stay the same when the entry looked for was added): count
+    what came after a point in time with :func:`log_mark` and :func:`count_since`."""
     return sum(needle in line for line in log_lines(page))
+
+
+def log_mark(page) -> list[str]:
+    """The event log as the page shows it now: the point :func:`log_since` counts from."""
+    return log_lines(page)
+
+
+def log_since(page, mark: list[str]) -> list[str]:
+    """The log lines that came after ``mark`` (:func:`log_mark`), oldest first.  The log shown
+    now continues the mark: its first lines are the mark's last ones (all of them until the
+    page's 80 entries are full, fewer after: the oldest drop off), the lines after them are
+    the new ones.  Each line carries its time to the millisecond, so the overlap is the
+    mark's.  Fails if so many entries came that none of the mark's is shown any more."""
+    now = log_lines(page)
+    for new in range(len(now) + 1):
+        kept = len(now) - new
+        if kept <= len(mark) and now[:kept] == mark[len(mark) - kept:]:
+            if kept == 0 and mark and now:
+                raise AssertionError(f"the log scrolled past the mark: {len(now)} new lines or more\n"
+                                     + log_text(page))
+            return now[kept:]
+    raise AssertionError("unreachable: no new line at all matches when the log shows nothing")
+
+
+def count_since(page, mark: list[str], needle: str) -> int:
+    """How many log lines that came after ``mark`` (:func:`log_mark`) contain ``needle``."""
+    return sum(needle in line for line in log_since(page, mark))
+
+
+def moving_attr(page) -> str | None:
+    """The server's word on "something moves" (the robot, a program, a held jog): the
+    data-moving attribute ("1" or "0") that commander.js reads at each key."""
+    return page.locator(".pk-motion").get_attribute("data-moving")
+
+
+def at_rest(page, testid: str, timeout: float = 60.0) -> float:
+    """The readout ``testid`` once the robot is at rest, judged on what the server says: the
+    state READY and nothing moving (data-moving 0); the readouts and the state come from the
+    same status.  (:func:`settled` judges it on the readout holding still for 0.4 s, which a
+    starved page can also do while the robot moves.)"""
+    wait_until(lambda: state(page) == "READY" and moving_attr(page) == "0", timeout,
+               what=f"the robot at rest (for {testid})", page=page)
+    return number(page, testid)
 
 
 #: true once one tab panel is in the page and no panel transition runs (Quasar keeps the panel
