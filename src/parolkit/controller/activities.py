@@ -673,9 +673,10 @@ class ServoActivity(Activity):
             self.held_ticks += 1
             if frame is None:
                 return FrameRequest(BoardCommand.IDLE)
+            # (the box's point: whole steps plus the feed-forward's hundredths; without those
+            # the goal lay up to half a step outside and the guard refused it)
             pos, ff = frame
             p, v, a = [float(x) for x in goto_goal(pos, ff)], [0.0] * 6, [0.0] * 6
-            ff = _ZERO6
         self._p, self._v, self._a = p, v, a
         self.progress = 0.0
         if stopping and all(abs(x) < 1.0 for x in v):
