@@ -125,6 +125,31 @@ def _boundary(ok: Callable[[float], bool], *, good: float, bad: float, steps: in
     return good
 
 
+def _slope_now(ts: Sequence[float], xs: Sequence[float]) -> float:
+    """The rate of change of ``xs`` at time 0 (the newest sample's), by least squares: a
+    parabola through four samples or more (a curving stream's speed now, not its mean over the
+    window), else a line; exactly 0 for samples that are all the same (a held target)."""
+    n = len(ts)
+    if max(xs) - min(xs) < 1e-9:
+        return 0.0
+    if n >= 4:
+        # x = c + v t + w t^2: the normal equations, solved by Cramer's rule
+        s1, s2, s3, s4 = (sum(t ** k for t in ts) for k in (1, 2, 3, 4))
+        y0, y1, y2 = sum(xs), sum(x * t for x, t in zip(xs, ts)), sum(x * t * t for x, t in zip(xs, ts))
+        m = ((n, s1, s2), (s1, s2, s3), (s2, s3, s4))
+        det = _det3(m)
+        if abs(det) > 1e-18:
+            return _det3(((n, y0, s2), (s1, y1, s3), (s2, y2, s4))) / det
+    tm = sum(ts) / n
+    xm = sum(xs) / n
+    return sum((t - tm) * (x - xm) for t, x in zip(ts, xs)) / sum((t - tm) ** 2 for t in ts)
+
+
+def _det3(m: Sequence[Sequence[float]]) -> float:
+    return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+
+
 def _in_box(pos: Sequence[int], ff: Sequence[int], box: Sequence[tuple[float, float]]) -> bool:
     for g, (lo, hi) in zip(goto_goal(pos, ff), box):
         if not lo <= g <= hi:
@@ -501,9 +526,9 @@ class SpeedActivity(TrajectoryActivity):
 #: how fast a servo stream closes the distance to a moving target, 1/s (its speed is followed
 #: besides)
 SERVO_GAIN_PER_S = 20.0
-#: A servo target's speed is estimated over the targets of this many ticks (40 ms at 100 Hz):
-#: datagrams that arrive a tick late, two in the next tick, do not read as a stop and a jump
-SERVO_SPEED_WINDOW_TICKS = 4
+#: A servo target's speed is a least-squares fit over the targets of this many ticks (100 ms at
+#: 100 Hz): datagrams that arrive a tick late, two in the next tick, move it by a fraction
+SERVO_SPEED_WINDOW_TICKS = 10
 
 
 class ServoActivity(Activity):
@@ -513,8 +538,8 @@ class ServoActivity(Activity):
     (a bounded commitment) to where the generator is one period on.
 
     A target takes effect in the frame of the tick that takes it in (:meth:`set_target`); its
-    speed is estimated from the one before (so a streamed curve is followed, not chased from
-    rest to rest; a dropped target only makes the estimate span two periods).  With no target
+    speed is estimated from the ones before it (so a streamed curve is followed, not chased
+    from rest to rest; a dropped or late target moves the estimate by a fraction).  With no target
     for ``timeout_ticks``, or :meth:`finish` (a queued command, STOP), or a pause, the generator
     brings the joints to rest at the acceleration limit (ruckig's velocity interface, target 0):
     a controlled stop; the job ends there (a pause holds instead, and the stream goes on after
@@ -539,6 +564,7 @@ class ServoActivity(Activity):
         self.amax = [float(a) for a in max_accel_steps_s2]
         self._in.max_acceleration = self.amax
         self._in.max_jerk = [a / jerk_time_s for a in self.amax]
+        self._jerk_time = float(jerk_time_s)
         # every joint on its own (a servo target is followed joint by joint, not as a
         # synchronised move: the slowest joint must not slow the others down)
         self._in.synchronization = Synchronization.No
@@ -573,18 +599,29 @@ class ServoActivity(Activity):
 
     def set_target(self, target_steps: Sequence[float], tick: int) -> None:
         """A new target (steps), taken in at tick ``tick``: the latest wins.  Its speed is
-        estimated over the targets of the last :data:`SERVO_SPEED_WINDOW_TICKS` ticks (within
-        the speed limits; 0 at a joint limit): a datagram one tick late (two targets in the
-        next tick) then reads as 3/4 of the speed for a tick, not half of it and then nothing,
-        and the generator does not brake and back up for it."""
+        fitted to the targets of the last :data:`SERVO_SPEED_WINDOW_TICKS` ticks (:func:`_slope_now`;
+        within the speed limits; 0 at a joint limit): a datagram one tick late (two targets in
+        the next tick) moves it by a fraction, and the generator does not brake and back up for
+        it."""
         target = self._inside(target_steps)
         hist = self._history
-        base = next(((tk, x) for tk, x in hist if 0 < tick - tk <= SERVO_SPEED_WINDOW_TICKS), None)
-        if base is None and hist and tick > hist[-1][0]:
+        # the window's targets, the latest of each tick, and this one: their least-squares
+        # slope (one target that came a tick late or early moves it by a fraction, not by a
+        # quarter of the speed)
+        last: dict[int, list[float]] = {tk: x for tk, x in hist if 0 < tick - tk <= SERVO_SPEED_WINDOW_TICKS}
+        base = None
+        if not last and hist and tick > hist[-1][0]:
             base = hist[-1]  # (a pause in the stream longer than the window: the last one)
+        elif last:
+            base = (min(last), last[min(last)])
         if base is not None:
-            dt = (tick - base[0]) * self.period
-            v = [max(-vm, min(vm, (t - o) / dt)) for t, o, vm in zip(target, base[1], self.vmax)]
+            last[tick] = target
+            pts = sorted(last.items()) if len(last) > 1 else [base, (tick, target)]
+            ts = [(tk - tick) * self.period for tk, _ in pts]
+            v = [max(-vm, min(vm, _slope_now(ts, [x[j] for _, x in pts]))) for j, vm in enumerate(self.vmax)]
+            # a joint whose target came again unchanged is held there (a client holding its
+            # device still): at rest now, not once the whole window has the same target
+            v = [0.0 if abs(t - o) < 1e-9 else x for t, o, x in zip(target, hist[-1][1], v)]
             if tick > self.target_tick:
                 step = (tick - self.target_tick) * self.period
                 self.target_a = [max(-am, min(am, (a - b) / step)) for a, b, am in zip(v, self.target_v, self.amax)]
@@ -611,6 +648,28 @@ class ServoActivity(Activity):
             return False
         self.ending, self._silenced = None, False
         return True
+
+    def _constant_accel(self, want: Sequence[float]) -> tuple[list[float], list[float], list[float]]:
+        """One period from the generator's state toward speeds ``want`` at the acceleration limit."""
+        assert self._p is not None
+        dt = self.period
+        p, v, a = [], [], []
+        for x0, v0, w, am, vm in zip(self._p, self._v, want, self.amax, self.vmax):
+            v1 = v0 + max(-am * dt, min(am * dt, max(-vm, min(vm, w)) - v0))
+            p.append(x0 + 0.5 * (v0 + v1) * dt)
+            v.append(v1)
+            a.append((v1 - v0) / dt)
+        return p, v, a
+
+    def _closing(self, gap: float, amax: float) -> float:
+        """The speed (steps/s, relative to the target's) that closes ``gap`` (steps): the
+        proportional term, no faster than the gap can still be braked away at half the
+        acceleration limit with the jerk limit's ramp (a stream held back, by the guard for
+        late replies or by a pause, catches up without running past the curve)."""
+        a = 0.5 * amax
+        tj = self._jerk_time
+        brake = -a * tj + math.sqrt((a * tj) ** 2 + 2.0 * a * abs(gap))
+        return math.copysign(min(SERVO_GAIN_PER_S * abs(gap), brake), gap)
 
     def _update(self) -> bool:
         """One step of the generator; False when it cannot take this input."""
@@ -655,17 +714,26 @@ class ServoActivity(Activity):
                 # proportional term (a time-optimal "arrive there at that speed" would back up
                 # to gather speed; this never does), jerk-limited by the generator
                 inp.control_interface = self._interface.Velocity
-                inp.target_velocity = [max(-vm, min(vm, v + SERVO_GAIN_PER_S * (g - p)))
-                                       for v, g, p, vm in zip(self.target_v, goal, self._p, inp.max_velocity)]
+                inp.target_velocity = [max(-vm, min(vm, v + self._closing(g - p, am)))
+                                       for v, g, p, vm, am in zip(self.target_v, goal, self._p, inp.max_velocity,
+                                                                  self.amax)]
             inp.target_acceleration = [0.0] * 6
-        if not self._update():
+        if self._update():
+            p, v, a = list(out.new_position), list(out.new_velocity), list(out.new_acceleration)
+        else:
             # the target's speed cannot be reached there within the limits: aim at the
             # target at rest; failing that, slow down (the generator never leaves its limits)
             inp.target_velocity = [0.0] * 6
             if not self._update():
                 inp.control_interface = self._interface.Velocity
-                self._update()
-        p, v, a = list(out.new_position), list(out.new_velocity), list(out.new_acceleration)
+            if self._update():
+                p, v, a = list(out.new_position), list(out.new_velocity), list(out.new_acceleration)
+            else:
+                # the generator refused even that (ruckig's velocity interface fails on some
+                # states: "error in step 1"); its output is last tick's, which repeated froze
+                # the stream with its feed-forward.  Change the speed toward the one asked at
+                # the acceleration limit instead (jerk unlimited for this tick)
+                p, v, a = self._constant_accel(list(inp.target_velocity or [0.0] * 6))
         pos = tuple(int(round(x)) for x in p)
         ff = tuple(int(round(x)) for x in v)
         if box is not None and not _in_box(pos, ff, box):
