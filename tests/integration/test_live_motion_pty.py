@@ -677,3 +677,139 @@ def test_a_programs_output_and_delay_lines_each_take_exactly_their_ticks_at_the_
     t0 = changes[0][0]
     assert [(n - t0, io) for n, io in changes] == [
         (0, (True, False)), (2, (False, False)), (4, (True, False)), (5, (True, True)), (156, (False, True))]
+
+
+# ------------------------------------------------------------------------------ a streamed curve
+
+
+#: the curve's client: its own process, raised like _SENDER, sampling the curve at the
+#: controller's time: for each status (its ``seq``: the ticks the controller has run) it sends
+#: the curve's target for that tick, skipping the ticks it was told to drop and any it was held
+#: up past (it sends for the newest status it has).  After the curve it holds the last target
+#: for ``hold`` more ticks, then goes silent.  Prints JSON: the first status's seq (k = 0), the
+#: tick that took the first target in (the first status showing the stream's ID, minus one:
+#: ``seq`` is the tick number plus one), the ks it sent and the ones it was held up past.
+_CURVE = r"""
+import json, math, queue, socket, sys
+from parolkit.client.robot import Robot
+from parolkit.controller.scheduling import raise_priority
+host, port = sys.argv[1], int(sys.argv[2])
+spec = json.loads(sys.stdin.read())
+a0, amp, n, hold, drop = spec["a0"], spec["amp"], spec["n"], spec["hold"], set(spec["drop"])
+raise_priority(5)
+sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+seqs = queue.Queue()
+def target(k):
+    k = min(k, n - 1)
+    return [a + d * (1 - math.cos(2 * math.pi * k / 100.0)) for a, d in zip(a0, amp)]
+sent, skipped, took = [], [], None
+with Robot(host, port, ack_port=0, timeout=2.0) as watcher:
+    sub = watcher.subscribe(1, callback=lambda st: seqs.put((st.seq, st.command.id if st.command else None)))
+    try:
+        seqs.get(timeout=10)
+        while not seqs.empty():
+            seqs.get_nowait()  # the statuses before the stream
+        seq0, last = None, -1
+        while True:
+            seq, cid = seqs.get(timeout=10)
+            while not seqs.empty():  # held up: the newest status counts
+                if took is None and cid == "sv000000":
+                    took = seq - 1
+                seq, cid = seqs.get_nowait()
+            if took is None and cid == "sv000000":
+                took = seq - 1
+            if seq0 is None:
+                seq0 = seq
+            k = seq - seq0
+            if k >= n + hold:
+                break
+            skipped += [j for j in range(last + 1, k) if j not in drop and j < n + hold]
+            last = k
+            if k in drop:
+                continue
+            sock.sendto((f"sv{k:06d}|SERVOJ|" + "|".join(f"{v:.5f}" for v in target(k))).encode(), (host, port))
+            sent.append(k)
+        while took is None:
+            seq, cid = seqs.get(timeout=10)
+            if cid == "sv000000":
+                took = seq - 1
+    finally:
+        sub.close()
+print(json.dumps({"seq0": seq0, "took": took, "sent": sent, "skipped": skipped}))
+"""
+
+
+def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_ticks_over_a_pty(bench):
+    """SERVOJ at the controller's rate (one target a tick, sampled at the tick the controller
+    has reached), a 1 Hz curve on every joint (peak acceleration 30 % of the joint's limit),
+    10 % of the targets dropped (a fixed random set), then the last target held for 30 ticks,
+    then silence.  Judged on the frames the board received, each at its tick (frames are one a
+    tick: the first GO TO is the tick that took the first target in): the curve shifted by the
+    lag that fits the frames' targets best (each where the board is a period later) is at most
+    2 ticks late and off by less than 30 % of the amplitude (8 % on a quiet machine); no
+    joint's feed-forward is over its maximum speed or changes by more than its acceleration
+    limit allows in a period; the last target is held (the frames end on it, at
+    rest); the silence ends the stream COMPLETED with a controlled stop.  A sender held up past
+    a tick skips that tick's target (as a real-time client would): those count as dropped
+    too, and the frames right after one are not judged."""
+    import random
+
+    a0 = np.asarray(bench.status()["angles"], dtype=float)
+    amp = 0.3 * ACCEL / (4 * np.pi ** 2) / np.abs(SPD)  # deg: peak acceleration 30 % of the limit
+    n, hold = 300, 30
+    rng = random.Random(7)
+    drop = [k for k in range(1, n) if rng.random() < 0.1]
+    n0 = bench.exchange.idle_mark()
+    spec = json.dumps({"a0": a0.tolist(), "amp": amp.tolist(), "n": n, "hold": hold, "drop": drop})
+    out = subprocess.run([sys.executable, "-c", _CURVE, bench.ctl.host, str(bench.ctl.port)],
+                         input=spec, capture_output=True, text=True, timeout=60, cwd=REPO_ROOT)
+    assert out.returncode == 0, out.stderr
+    run = json.loads(out.stdout.strip().splitlines()[-1])
+    seq0, took, skipped = run["seq0"], run["took"], set(run["skipped"])
+    status, details = bench.acks.terminal("sv000000", 20)
+    assert (status, details) == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control"), \
+        (status, details, f"sender held up past {len(skipped)} ticks")
+
+    def curve(k: float) -> np.ndarray:
+        k = min(k, n - 1)
+        return a0 + amp * (1 - np.cos(2 * np.pi * k / 100.0))
+
+    frames = bench.exchange.gotos(n0)
+    # every frame is one tick (idle ones too): frame number m went out at tick took + m - first
+    ticks = [took + m - frames[0][0] for m, _ in frames]
+    runs = np.split(np.arange(len(frames)), np.nonzero(np.diff([m for m, _ in frames]) != 1)[0] + 1)
+    pos = np.array([f.positions for _, f in frames], dtype=float)
+    amp_steps = amp * np.abs(SPD)
+    # judged: from 40 ticks in (the stream has its speed estimate) to the end of the curve,
+    # not within 10 ticks after a tick the sender was held up past.  The board takes a
+    # frame's period to reach its target (position tracking): a frame sent at tick t is where
+    # the board is at t + 1, so the curve is compared there
+    judged = [i for i, t in enumerate(ticks) if 40 <= t - seq0 < n
+              and not any(t - seq0 - 10 <= j <= t - seq0 for j in skipped)]
+    assert len(judged) > 150, (len(judged), len(skipped))
+    err = {}
+    for lag in range(-3, 8):
+        err[lag] = max(float(np.max(np.abs(pos[i] - curve(ticks[i] + 1 - seq0 - lag) * SPD) / amp_steps))
+                       for i in judged)
+    best = min(err, key=err.__getitem__)
+    # (the curve's own fit is 0.08 of the amplitude; datagrams that reach the controller a tick
+    # late on a busy machine, beside two CPU hogs, moved it to 0.18 once: the lockstep test
+    # with 20 % of the targets a tick late sees up to 0.26, tests/unit/test_live_motion.py)
+    assert best <= 2 and err[best] < 0.3, ({k: round(v, 3) for k, v in err.items()}, seq0, took, frames[0][0],
+                                           sorted(skipped), len(runs), len(frames))
+    for r in runs:  # (a sender held up past the silence ends the stream; the next target starts another)
+        _assert_speed_steps_within_accel([frames[i] for i in r], slack=1.0)
+    # (report only) where the board said it was when each frame came: a board-sim process
+    # held up on a busy machine answers a backlog of frames from one place
+    where = np.array([bench.exchange.board.get(m, f.positions) for m, f in frames], dtype=float)
+    board_err = max(float(np.max(np.abs(where[i] - curve(ticks[i] - seq0 - best) * SPD) / amp_steps)) for i in judged)
+    top = np.asarray(PAROL6.max_speed_steps_s, dtype=float)
+    assert all(np.all(np.abs(np.asarray(f.speeds)) <= top) for _, f in frames)
+    # the last target held: the frames end on it, at rest
+    last = curve(n - 1) * SPD
+    assert np.all(np.abs(pos[-1] - last) <= 1.0), pos[-1] - last
+    assert not any(frames[-1][1].speeds)
+    print(f"\nservo curve: {len(run['sent'])} targets sent, {len(drop)} dropped on purpose, sender held up past "
+          f"{len(skipped)} ticks; {len(frames)} GO TO frames from tick {took} (first status seq {seq0}); "
+          f"lag {best} ticks, off by {err[best]:.3f} of the amplitude there; {len(runs)} stream(s); the board's "
+          f"answers off by {board_err:.3f} of the amplitude at that lag")
