@@ -120,32 +120,35 @@ def test_goto_frame_converges_on_its_target(board):
 
 
 def test_jog_runs_at_the_given_speed(board):
-    """Judged on the board's own clock: the timing field of each reply is the board time since
-    the frame before (timer ticks), so the positions two replies apart must differ by speed x
-    the sum of those intervals, however late a busy machine ran this process.  Frames go back to
-    back until the board says half a second has passed (no pacing by this process's clock).
-    The field is 16 bits (93 ms): an interval longer than that (this process descheduled) is
-    unwrapped with the interval this process measured, which is within a few ms of it."""
+    """Judged on the board's own clock: each exchange's board time (the emulator's clock as it
+    answers the frame, read by an exchange listener under the board's lock), so the positions
+    of two replies must differ by speed x the board time between them, however late a busy
+    machine ran this process or the board's loop.  Frames go back to back until the board's
+    clock says half a second has passed (no pacing by this process's clock).  (The reply's
+    16-bit timing field wraps after 93 ms: unwrapping it with this process's clock guessed a
+    whole wrap wrong once beside two CPU hogs, 407 steps for 500.)"""
     emu, server, pc = board
     speeds = (1000, -2000, 3000, 0, 500, -4000)
+    seen: list[tuple[float, tuple[int, ...]]] = []
+    emu.add_exchange_listener(lambda frame, reply: seen.append((emu.time_s, tuple(reply.positions))))
     first = pc.exchange(command=BoardCommand.JOG, speeds=speeds)
     for _ in range(1000):  # the reply shows the telemetry of the last loop pass: once one ran
         first = pc.exchange(command=BoardCommand.JOG, speeds=speeds)
         if first.speeds == speeds:
             break
     assert first.speeds == speeds
-    board_s = 0.0
-    last = first
-    t_prev = time.monotonic()
+    t_first, at = seen[-1]  # (the exchange this reply answered: the last one the board took)
+    assert at == tuple(first.positions)
     frames = 0
-    while board_s < 0.5:
+    while True:
         last = pc.exchange(command=BoardCommand.JOG, speeds=speeds)
-        t = time.monotonic()
-        wraps = max(0, round(((t - t_prev) * TIMER_HZ - last.timing) / 65536))
-        board_s += (last.timing + 65536 * wraps) / TIMER_HZ
-        t_prev = t
+        t_last, at = seen[-1]
+        assert at == tuple(last.positions)
         frames += 1
         assert frames < 100_000, "the board's clock did not advance"
+        if t_last - t_first >= 0.5:
+            break
+    board_s = t_last - t_first
     for p0, p1, v in zip(first.positions, last.positions, speeds):
         assert p1 - p0 == pytest.approx(v * board_s, abs=0.002 * abs(v) + 2), (p1 - p0, v * board_s)
 
