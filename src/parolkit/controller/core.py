@@ -308,7 +308,13 @@ class ControllerCore:
         self.homed = False
         self.measured_deg: tuple[float, ...] | None = None
         self.last_frame: CommandFrame | None = None
+        #: SET_PORT: the port the driver is to open, output by this tick's update
         self.port_request: str | None = None
+        #: a SET_PORT under way: the port and its job (EXECUTING until the board there answers
+        #: and its state is known, then COMPLETED: a move sent after that ack runs there); and
+        #: whether this link session is the one the driver opened on that port
+        self._switch: tuple[str, Job] | None = None
+        self._switch_on = False
         self._plan_requests: list[PlanRequest] = []
         #: the blended chain that runs (issue 24): its activity, the number of the job that
         #: headed it, the sample marks of the jobs not yet handed over; the count of chain keys
@@ -369,10 +375,19 @@ class ControllerCore:
             frame, result = None, TickResult.NO_LINK
         self._request_plans()
         port, self.port_request = self.port_request, None
+        sw = self._switch
+        if sw is not None and port is None and self.link_up and not self._switch_on:
+            # the link came up again on the old port (its reconnect was under way when
+            # SET_PORT came): it ends too
+            port = sw[0]
         if port is not None and self.link_up and result is TickResult.FRAME:
-            # SET_PORT: this link ends here (its motion was refused: the robot is idle)
-            self._lose(f"switching to port {port}")
+            self._leave_link(port)
             result = TickResult.LINK_LOST
+        elif sw is not None and self._switch_on and self._state_known():
+            self._switch = None
+            why = self.safety.refusal(motion=True)
+            self.jobs.ack(sw[1], AckStatus.COMPLETED,
+                          f"switched to {sw[0]}: the board answers" + (f"; {why}" if why else ""))
         requests, self._plan_requests = tuple(self._plan_requests), []
         return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame) if inp.snapshot else None,
                           requests, port, result)
@@ -392,6 +407,7 @@ class ControllerCore:
 
     def _link_event(self, ev: LinkEvent) -> None:
         if ev.kind is LinkEventKind.UP:
+            self._switch_on = self._switch is not None and ev.port == self._switch[0]
             # a new session: nothing is known of the board (it may have been power cycled,
             # or another controller may have used it)
             self.link.reset()
@@ -478,6 +494,42 @@ class ControllerCore:
             frame = self._guarded(stop, inp.time)
         self._lose(reason)
         return frame
+
+    def _leave_link(self, port: str) -> None:
+        """SET_PORT: this link session ends here, on purpose (no error latched, no link loss
+        counted).  Nothing runs: SET_PORT is refused while anything does, and so is every
+        command after it until it is COMPLETED (the cancel is for completeness)."""
+        self.link_up = False
+        self.holding = False
+        log.warning("board link to %s closed: switching to port %s", self.board.port, port)
+        self._cancel_all(f"the board link is switching to port {port}")
+
+    def _state_known(self) -> bool:
+        """The link is up, a true status frame was read and the start-up probe's answer (if
+        it asked) has been taken in: what the snapshot shows is this board's."""
+        return (self.link_up and self.status is not None and not self.probe.active
+                and self.probe.result is None)
+
+    def _set_port(self, job: Job, cmd: C.SetPort) -> None:
+        """SET_PORT: EXECUTING at once; the link is left at the end of this update (the driver
+        opens the new port), COMPLETED once the board there answers and its state is known
+        (see :attr:`_switch`).  A newer SET_PORT supersedes one under way (CANCELLED)."""
+        jobs = self.jobs
+        if jobs.busy:
+            jobs.ack(job, AckStatus.FAILED, "robot is busy: STOP before switching the port")
+            return
+        old = self._switch
+        if old is not None:
+            jobs.ack(old[1], AckStatus.CANCELLED, f"superseded by SET_PORT to {cmd.port}")
+        self._switch, self._switch_on = (cmd.port, job), False
+        self.port_request = cmd.port
+        jobs.ack(job, AckStatus.EXECUTING, f"switching to {cmd.port}: COMPLETED once the board there answers")
+
+    def cancel_port_switch(self, reason: str) -> None:
+        """A SET_PORT under way ends CANCELLED with ``reason`` (the controller shuts down)."""
+        sw, self._switch = self._switch, None
+        if sw is not None:
+            self.jobs.ack(sw[1], AckStatus.CANCELLED, reason)
 
     def _lose(self, reason: str) -> None:
         self.link_up = False
@@ -604,6 +656,9 @@ class ControllerCore:
         if isinstance(cmd, (C.ServoJ, C.ServoL)):
             self._servo(job, cmd)
             return
+        if isinstance(cmd, C.SetPort):
+            self._set_port(job, cmd)
+            return
         if cmd.KIND is not C.CommandKind.IMMEDIATE:
             self._submit(job)
             return
@@ -660,11 +715,6 @@ class ControllerCore:
             self.paused = self.queue_held = False
             self.queue_steps = 0
             return AckStatus.COMPLETED, "resumed"
-        if isinstance(cmd, C.SetPort):
-            if self.jobs.active is not None or self.jobs.waiting:
-                return AckStatus.FAILED, "robot is busy: STOP before switching the port"
-            self.port_request = cmd.port
-            return AckStatus.COMPLETED, f"switching to {cmd.port}"
         if isinstance(cmd, C.SetTool):
             if sub.tool is None:
                 return AckStatus.INVALID, f"SET_TOOL: tool {cmd.tool!r} was not resolved"
@@ -820,6 +870,9 @@ class ControllerCore:
         why = s.refusal(motion=False)
         if why is not None:
             return why
+        if self._switch is not None:
+            # (until then the link is down, or up on a board whose state is not known yet)
+            return f"the board link is switching to {self._switch[0]}: send it once SET_PORT is COMPLETED"
         if not self.link_up:
             return f"board link is down ({s.error or 'reconnecting'})"
         if cmd.is_motion or cmd.EXECUTION is Execution.HOME:
@@ -1411,6 +1464,7 @@ class ControllerCore:
         if written is not None and self.link_up:
             self._written(written)
         self._cancel_all("controller shutting down")
+        self.cancel_port_switch("controller shutting down")
         out = []
         stop = self.stop_request(self.last_frame)
         if stop is not None:

@@ -136,6 +136,9 @@ class Driver:
         self._events_lock = threading.Lock()
         self.link_up = False
         self._virtual = bool(getattr(transport, "virtual_clock", False))
+        #: the port SET_PORT asked for, once the transport is the one opened for it (its link
+        #: events say so: the core completes the SET_PORT on that link, not on the old one)
+        self._switched_port: str | None = None
         if transport.is_open:
             self._link_up(transport)
         self._stop = threading.Event()
@@ -185,7 +188,8 @@ class Driver:
             log.warning("closing the board link: %s", exc)
 
     def take_acks(self) -> list[Any]:
-        """The acks the shutdown produced (the commands it cancelled)."""
+        """The acks the shutdown produced (the commands it cancelled, a SET_PORT under way)."""
+        self.core.cancel_port_switch("controller shutting down")
         return self.core.jobs.take_acks()
 
     # ------------------------------------------------------------------ the link
@@ -197,7 +201,7 @@ class Driver:
         self._written = None
         self.link_up = True
         self._event(LinkEvent(LinkEventKind.UP, description=transport.description, virtual_clock=self._virtual,
-                              simulated=bool(getattr(transport, "simulated", False))))
+                              simulated=bool(getattr(transport, "simulated", False)), port=self._switched_port))
 
     def _event(self, ev: LinkEvent) -> None:
         with self._events_lock:
@@ -280,6 +284,7 @@ class Driver:
                 except Exception:
                     pass
                 self.transport = new
+                self._switched_port = port
             else:
                 self.transport.reconnect()
             with self._supervise_lock:

@@ -73,13 +73,15 @@ class LinkEventKind(Enum):
 @dataclass(frozen=True, slots=True)
 class LinkEvent:
     """The board link came up (``description`` of the board; ``virtual_clock``: a simulated
-    board whose time stands still between ticks; ``simulated``) or was lost (``reason``)."""
+    board whose time stands still between ticks; ``simulated``; ``port``: the port SET_PORT
+    asked for, when this is the link the driver opened for it) or was lost (``reason``)."""
 
     kind: LinkEventKind
     reason: str = ""
     description: str = ""
     virtual_clock: bool = False
     simulated: bool = False
+    port: str | None = None
 
 
 class SupervisorEventKind(Enum):
