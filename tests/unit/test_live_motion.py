@@ -28,9 +28,10 @@ SPD = np.asarray(PAROL6.steps_per_deg, dtype=float)
 class Bench:
     """An in-process controller, ready (homed), its frame log and the acks by command ID."""
 
-    def __init__(self) -> None:
+    def __init__(self, rate_hz: float = RATE) -> None:
         self.log = io.StringIO()
-        self.sim = InProcessController(load_config(None), paced=False, frame_log=self.log)
+        config = load_config(None, {"controller": {"rate_hz": rate_hz}}, search_default_paths=False)
+        self.sim = InProcessController(config, paced=False, frame_log=self.log)
         self.sim.start()
         self.acks: dict[str, list[tuple[str, str]]] = {}
         self._n = 0
@@ -442,6 +443,45 @@ def test_a_curve_whose_targets_come_a_tick_late_at_random_is_followed_without_ri
         assert all(np.all(np.abs(np.asarray(f.speeds)) <= top) for _, f in gotos)
     finally:
         bench.close()
+
+
+def test_250_targets_a_second_at_250_hz_are_each_taken_into_the_next_frame():
+    """A controller at 250 Hz and a SERVOJ target every tick for 2 s (J6 on a minimum-jerk
+    ramp of 30 deg, then held): every target taken (none refused or dropped), a GO TO frame
+    every tick, and each frame goes toward the target of its own tick: the frames fit the
+    targets' ramp best at most one tick late, within the speed and acceleration limits; the
+    last target is reached, at rest."""
+    b = Bench(rate_hz=250.0)
+    try:
+        period = 1.0 / 250.0
+        a0 = np.asarray(b.sim.controller.snapshot.angles_deg)
+
+        def target(k: int) -> np.ndarray:
+            x = min(k / 400.0, 1.0)
+            return a0 + np.asarray([0, 0, 0, 0, 0, 30.0 * x ** 3 * (10 - 15 * x + 6 * x * x)])
+
+        start = b.tick
+        ids = []
+        for k in range(500):
+            ids.append(_servo(b, target(k)))
+            b.run(1)
+        assert b.acks[ids[0]][0][0] == "EXECUTING"
+        assert all(b.acks[c] == [("COMPLETED", "target taken")] for c in ids[1:]), \
+            [(k, b.acks[c]) for k, c in enumerate(ids) if b.acks.get(c) != [("COMPLETED", "target taken")]][:3]
+        gotos = _gotos(b.frames(), start)
+        t0 = gotos[0][0]
+        assert [t - t0 for t, _ in gotos[:500]] == list(range(500)), "a GO TO frame every tick"
+        j6 = np.array([f.positions[5] for _, f in gotos[:500]], dtype=float) / SPD[5]
+        err = {lag: float(np.max(np.abs(j6[20:400] - np.array([target(k - lag)[5] for k in range(20, 400)]))))
+               for lag in range(-2, 5)}
+        best = min(err, key=err.__getitem__)
+        assert best <= 1 and err[best] < 0.05, {k: round(v, 4) for k, v in err.items()}
+        for (_, a), (_, c) in zip(gotos, gotos[1:]):
+            assert abs(c.speeds[5] - a.speeds[5]) <= ACCEL[5] * period * 1.0 + 2
+        assert np.max(np.abs([f.speeds[5] for _, f in gotos])) <= PAROL6.max_speed_steps_s[5]
+        assert abs(gotos[499][1].positions[5] - target(499)[5] * SPD[5]) <= 1.0 and not any(gotos[499][1].speeds)
+    finally:
+        b.close()
 
 
 def test_silence_ends_a_servo_stream_with_a_controlled_stop(bench):
