@@ -402,10 +402,13 @@ def test_pause_mid_movecart_over_a_pty_slows_on_the_line_holds_and_resume_ends_o
     ramp = speed[top: i + 1]
     assert np.all(np.diff(ramp) <= 0.05), [round(float(s), 2) for s in ramp]
     assert ramp[-1] == 0.0
-    # the move ends on its target: the last frame's target, at rest
+    # the move ends on its target: the last frame's target, at rest, and the board there within
+    # a step (its own report)
     last = frames[-1][1]
     assert not any(last.speeds)
     assert np.linalg.norm(tcp[-1] - target[:3]) < 0.05, tcp[-1] - target[:3]
+    board = np.asarray(bench.sim.status()["positions"], dtype=float)
+    assert np.all(np.abs(board - np.asarray(last.positions)) <= 1.0), (board, last.positions)
     print(f"\npause: {len(frames)} GO TO frames; held {length} frames from frame {i}, {along:.2f} mm along; "
           f"slowed from {ramp[0]:.2f} mm/s in {len(ramp) - 1} frames; farthest off the line {off.max():.4f} mm")
 
