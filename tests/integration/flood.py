@@ -361,13 +361,17 @@ class EstopResult:
 def written_frames(spy_log: Path) -> list[tuple[float, int]]:
     """The frames the controller wrote, from its ``spy+`` log: (monotonic s as ``write`` was
     called, command code), in order."""
-    out = []
-    for line in spy_log.read_text(errors="replace").splitlines():
-        parts = line.split(" ")
-        if len(parts) > 3 and parts[2] == "PC>BOARD" and parts[3] == "CommandFrame":
-            name = next((p[8:] for p in parts[4:] if p.startswith("command=")), "")
-            out.append((float(parts[1]), BOARD_COMMANDS[name] if name in BOARD_COMMANDS else int(name)))
-    return out
+    frames = (_spy_frame(line) for line in spy_log.read_text(errors="replace").splitlines())
+    return [f for f in frames if f is not None]
+
+
+def _spy_frame(line: str) -> tuple[float, int] | None:
+    """A ``spy+`` log line's frame written: (time, command code); None for other lines."""
+    parts = line.split(" ")
+    if len(parts) > 3 and parts[2] == "PC>BOARD" and parts[3] == "CommandFrame":
+        name = next((p[8:] for p in parts[4:] if p.startswith("command=")), "")
+        return float(parts[1]), BOARD_COMMANDS[name] if name in BOARD_COMMANDS else int(name)
+    return None
 
 
 @dataclass
@@ -395,9 +399,15 @@ class SecondClient:
     #: an ENABLE with no effect on the board's frames after this long is sent again, s
     ENABLE_AGAIN_S = 0.1
 
-    def __init__(self, port: int, control_path: str, *, id_prefix: str = "c") -> None:
+    def __init__(self, port: int, control_path: str, *, id_prefix: str = "c",
+                 spy_log: Path | None = None) -> None:
         self.addr = (HOST, port)
         self.control_path = control_path
+        #: the controller's ``spy+`` log: armed is judged on the frames it wrote (as the ESTOPs
+        #: are), read as it grows; None: on the frames the board received
+        self.spy_log = spy_log
+        self._spy_offset = 0
+        self._spy_last: int | None = None
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind((HOST, 0))
         self._prefix = id_prefix
@@ -473,6 +483,20 @@ class SecondClient:
             query = f"frames since={since:.6f} after={got['frames'][-1][0]}"
 
     def _board_armed(self) -> bool:
+        """The last frame is not DISABLE: the last one the controller wrote (``spy_log``: what
+        the ESTOPs are judged on; the board gets it later, by the pty's worker, 50-2,600 ms
+        later beside two CPU hogs under the flood), else the last one the board received."""
+        if self.spy_log is not None:
+            with open(self.spy_log, "rb") as f:
+                f.seek(self._spy_offset)
+                data = f.read()
+            end = data.rfind(b"\n") + 1
+            self._spy_offset += end
+            for line in data[:end].decode(errors="replace").splitlines():
+                frame = _spy_frame(line)
+                if frame is not None:
+                    self._spy_last = frame[1]
+            return self._spy_last is not None and self._spy_last != BOARD_DISABLE
         reply = send_control(self.control_path, "frames last=1", timeout_s=1.0)
         frames = json.loads(reply[3:])["frames"] if reply.startswith("ok ") else []
         return bool(frames) and frames[-1][2] != BOARD_DISABLE
@@ -642,7 +666,7 @@ def run_flood(ctl_port: int, ack_recorder: AckRecorder, control_path: str, *, ra
     the frames it wrote, else the board's frame log)."""
     rng = random.Random(seed)
     drops_before = udp_drops(ctl_port) or 0
-    client = SecondClient(ctl_port, control_path)
+    client = SecondClient(ctl_port, control_path, spy_log=spy_log)
     flooder = None
     try:
         reference, ref_sent = client.phase(time.monotonic() + 0.2, reference_s, reference_estops, rng)

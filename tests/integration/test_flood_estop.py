@@ -7,8 +7,10 @@ second client.
 
 One client floods 20,000 datagrams/s for 10 s (valid immediate commands, queries, garbage;
 about a third carry an ID).  The second client sends ``ESTOP`` at 20 random moments, each
-time re-ENABLEs 0.1 s later (and again every 0.1 s until the board's frames show it
-before the next ESTOP) and starts a new slow MOVEJOINT, and measures PING round trips all
+time re-ENABLEs 0.1 s later (and again every 0.1 s until the frames the controller writes
+show it before the next ESTOP: its ``spy+`` log, what the ESTOPs are judged on; beside two CPU
+hogs under the flood the board received them up to 2.6 s later, and an ESTOP that waited 0.3 s
+for the board's view went out unarmed) and starts a new slow MOVEJOINT, and measures PING round trips all
 the time.  Judged:
 
 * ESTOP: by the frames, not by wall time: of the frames the controller wrote to the board after
