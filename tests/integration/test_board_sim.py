@@ -90,9 +90,9 @@ def test_enable_home_idle_at_100hz_ends_homed_at_standby_with_timing_of_the_fram
     assert pc.exchange(command=BoardCommand.HOME).xtr == 100
     homed = None
     next_t = time.monotonic()
-    timings, written = [], []
+    timings, board_t = [], []
+    emu.add_exchange_listener(lambda frame, reply: board_t.append(emu.time_s))
     for _ in range(500):
-        written.append(time.monotonic())
         st = pc.exchange(command=BoardCommand.IDLE)
         timings.append(st.timing)
         if st.homed == 0xFF:
@@ -103,12 +103,15 @@ def test_enable_home_idle_at_100hz_ends_homed_at_standby_with_timing_of_the_fram
     assert homed is not None, "not homed within 5 s at speedup 50"
     assert homed.positions == STANDBY and homed.xtr == 255
     # the timing field is the time since the previous frame in the board's timer ticks
-    # (703,125 Hz: 10 ms = 7031).  It is judged against the intervals this process wrote the
-    # frames at, not against 10 ms: a busy machine runs this loop late, and the board reports
-    # what it got (the medians of the two agree; single frames differ by the pty's jitter)
-    intervals = [(b - a) * TIMER_HZ for a, b in zip(written, written[1:])]
-    reported, expected = statistics.median(timings[1:]), statistics.median(intervals)
-    assert 0.85 * expected < reported < 1.15 * expected, (reported, expected)
+    # (703,125 Hz: 10 ms = 7031), judged against the board's own clock at each exchange (an
+    # exchange listener), not against 10 ms nor this process's clock: a busy machine runs this
+    # loop late and the pty hands frames over late, and the board reports when it got them
+    # (once, beside two CPU hogs, 7031 where this process had written them 8.5 ms apart)
+    assert len(board_t) == len(timings), (len(board_t), len(timings))
+    intervals = [(b - a) * TIMER_HZ for a, b in zip(board_t, board_t[1:])]
+    off = [abs(t - i) for t, i in zip(timings[1:], intervals) if i < 65536]
+    assert len(off) >= len(intervals) // 2 and statistics.median(off) <= 0.02 * TIMER_HZ / 100, \
+        (statistics.median(off), timings[1:6], [round(i) for i in intervals[:5]])
 
 
 def test_goto_frame_converges_on_its_target(board):
