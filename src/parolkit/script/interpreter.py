@@ -18,8 +18,9 @@ Programs run on ticks: while a line runs, the next ones (up to :data:`LINES_AHEA
 already queued at the controller, so each starts in the tick the one before it ends: an
 ``Output`` takes one tick at the board, ``Delay(x)`` exactly x, and no line waits for a round
 trip (nor for this process, on a busy machine: a line of one tick has the ticks of the lines
-queued before it to be sent in).  ``current_line`` is the line the robot is executing (announced when it starts); a line
-that fails ends the run FAILED, and the line queued behind it is cancelled (STOP).
+queued before it to be sent in; the first lines of a burst go out while the controller holds
+its queue).  ``current_line`` is the line the robot is executing (announced when it starts); a
+line that fails ends the run FAILED, and the lines queued behind it are cancelled (STOP).
 ``Speed()`` acts at once, so it waits for the running line to end.  ``Gripper()`` and
 ``Gripper_cal()`` do not wait for the jaws (as in the original: follow them with a Delay).
 Control from any thread:
