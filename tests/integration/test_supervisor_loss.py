@@ -207,8 +207,19 @@ def test_a_frozen_supervisor_is_replaced_and_the_new_one_stops_a_killed_controll
         wait_until(lambda: b.speeds()[5] != 0, 10, interval=0.005, what="the jog to start")
         os.kill(old, signal.SIGSTOP)
         what = f"the stop supervisor (pid {old}) answered none of the last "
-        wait_until(lambda: (b.status().get("errors", {}).get("message") or "").startswith(what), 10,
-                   what="the frozen supervisor reported lost")
+        seen: list[str] = []
+
+        def lost() -> bool:
+            message = b.status().get("errors", {}).get("message") or ""
+            if not seen or seen[-1] != message:
+                seen.append(message)
+            return message.startswith(what)
+
+        try:
+            wait_until(lost, 10, what="the frozen supervisor reported lost")
+        except AssertionError as exc:  # (once beside two CPU hogs: say what the controller said)
+            raise AssertionError(f"{exc}; the error messages seen, in order: {seen}; "
+                                 f"loop: {b.status().get('loop')}") from None
         from parolkit.controller.supervisor import SILENT_FRAMES_MAX  # (not at the top: main lacks it)
 
         assert b.status()["errors"]["message"].startswith(f"{what}{SILENT_FRAMES_MAX + 1} frames (stopped or hung)")
