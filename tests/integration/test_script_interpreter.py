@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from tests.integration.status_log import StatusLog
 
-from conftest import start_controller, wait_until
+from conftest import frames_pass, start_controller, wait_until
 from parolkit.client.robot import Robot
 from parolkit.script import Interpreter, InterpreterState, parse
 
@@ -175,6 +175,10 @@ def test_a_step_while_lines_are_queued_ahead_runs_exactly_one_of_them(robot):
     pause holds them there (PAUSE|QUEUE) and each step lets exactly one start (RESUME|ONE):
     the arm goes to that line's target and stays, the others wait; resume runs the rest."""
     robot.move_joints(STANDBY, duration=1.0)
+
+    def ticks() -> dict:  # (30 frames written: 0.3 s of the controller's time, whatever the clock)
+        return {"frames_sent": robot.loop_stats().frames_sent}
+
     moves = [A, B, A, B, A]
     prog = program("Begin()\n" + "".join(f"MoveJoint({', '.join(map(str, q))}, t=0.8)\n" for q in moves) + "End()")
     interp = Interpreter(prog, robot)
@@ -185,7 +189,7 @@ def test_a_step_while_lines_are_queued_ahead_runs_exactly_one_of_them(robot):
     wait_until(lambda: interp.state is InterpreterState.PAUSED, what="PAUSED")
     assert interp.current_line == 3
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # the running move finished
-    time.sleep(0.3)
+    frames_pass(ticks, 30)
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # the held ones do not run
     assert robot.status().queue == 4
     for line, q, left in ((3, B, 3), (4, A, 2)):
@@ -195,7 +199,7 @@ def test_a_step_while_lines_are_queued_ahead_runs_exactly_one_of_them(robot):
                    what=f"{left} lines still held, nothing running")
         np.testing.assert_allclose(robot.angles(), q, atol=0.05)
         assert interp.state is InterpreterState.PAUSED
-    time.sleep(0.3)
+    frames_pass(ticks, 30)
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # still one line per step
     interp.resume()
     result = interp.wait(20)
