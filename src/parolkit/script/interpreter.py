@@ -230,9 +230,8 @@ class Interpreter:
         self._state = InterpreterState.IDLE
         self._paused = bool(step)
         self._step_tokens = 0
-        #: lines wait at the controller behind the running one; the controller holds them
-        #: (PAUSE|QUEUE, sent by :meth:`pause`; set once the controller acked it)
-        self._queued_ahead = False
+        #: the controller holds the lines queued behind the running one (PAUSE|QUEUE, sent by
+        #: :meth:`pause`); ``_hold_sent`` is set once it acked that
         self._held = False
         self._hold_sent = threading.Event()
         self._hold_sent.set()
@@ -313,6 +312,11 @@ class Interpreter:
             self._cond.notify_all()
         if hold:
             self._hold_queue()
+
+    @property
+    def _queued_ahead(self) -> bool:
+        """(under ``_cond``) Lines wait at the controller behind the running one."""
+        return len(self._pend) > 1
 
     def _begin_hold(self) -> bool:
         """(under ``_cond``) Whether the caller must send PAUSE|QUEUE now: lines are queued
@@ -659,7 +663,6 @@ class Interpreter:
                 executed += ended
                 with self._cond:
                     pend.popleft()
-                    self._queued_ahead = len(pend) > 1
                 if pend:
                     self._announce(pend[0][0], pend[0][2], executed, planned_total, planned_pass, pend[0][3])
 
@@ -746,11 +749,9 @@ class Interpreter:
                             self._announce(cmd, index, executed, planned_total, planned_pass)
                         handle = self._run_line(cmd, wait=False)
                         with self._cond:
-                            self._queued_ahead = bool(pend)
+                            pend.append((cmd, handle, index, self._iteration))
                             # a pause that came after the gate: this line must wait too
                             hold = self._paused and self._begin_hold()
-                        with self._cond:
-                            pend.append((cmd, handle, index, self._iteration))
                         if hold:
                             self._hold_queue()
                         elif _blends(cmd) and len(pend) < MAX_BLEND_CHAIN:
