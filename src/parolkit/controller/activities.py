@@ -609,14 +609,11 @@ class ServoActivity(Activity):
         # slope (one target that came a tick late or early moves it by a fraction, not by a
         # quarter of the speed)
         last: dict[int, list[float]] = {tk: x for tk, x in hist if 0 < tick - tk <= SERVO_SPEED_WINDOW_TICKS}
-        base = None
         if not last and hist and tick > hist[-1][0]:
-            base = hist[-1]  # (a pause in the stream longer than the window: the last one)
-        elif last:
-            base = (min(last), last[min(last)])
-        if base is not None:
+            last = {hist[-1][0]: hist[-1][1]}  # (a pause in the stream longer than the window: the last one)
+        if last:
             last[tick] = target
-            pts = sorted(last.items()) if len(last) > 1 else [base, (tick, target)]
+            pts = sorted(last.items())
             ts = [(tk - tick) * self.period for tk, _ in pts]
             v = [max(-vm, min(vm, _slope_now(ts, [x[j] for _, x in pts]))) for j, vm in enumerate(self.vmax)]
             # a joint whose target came again unchanged is held there (a client holding its
