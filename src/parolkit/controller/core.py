@@ -287,7 +287,7 @@ class ControllerCore:
         self.speed_pct = 100.0
         self.paused = False
         #: PAUSE|QUEUE: the running command goes on, nothing queued starts until RESUME;
-        #: RESUME|ONE lets one more start each (the count not used yet; the queue stays held)
+        #: ``queue_steps``: how many more may start meanwhile (one per RESUME|ONE)
         self.queue_held = False
         self.queue_steps = 0
         self._accel = tuple(float(a) for a in model.accel_limit_steps_s2)
@@ -1464,7 +1464,6 @@ class ControllerCore:
         if written is not None and self.link_up:
             self._written(written)
         self._cancel_all("controller shutting down")
-        self.cancel_port_switch("controller shutting down")
         out = []
         stop = self.stop_request(self.last_frame)
         if stop is not None:
