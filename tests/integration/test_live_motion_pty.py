@@ -198,6 +198,20 @@ def _ok(bench: MotionBench, text: str, timeout: float = 30.0) -> None:
     assert status == "COMPLETED", (text, status, details)
 
 
+def _completes(bench: MotionBench, cid: str, timeout: float = 30.0) -> None:
+    """The command ``cid`` (sent already) ends COMPLETED."""
+    status, details = bench.acks.terminal(cid, timeout)
+    assert status == "COMPLETED", (cid, status, details)
+
+
+def _motion(bench: MotionBench, after: int) -> list[tuple[int, CommandFrame]]:
+    """The GO TO frames the board received after frame number ``after``: one motion's, one a
+    tick (no other frame between them)."""
+    frames = bench.exchange.gotos(after)
+    _contiguous(frames)
+    return frames
+
+
 def _pose_text(pose) -> str:
     return "|".join(f"{v:.4f}" for v in pose)
 
@@ -383,11 +397,9 @@ def test_pause_mid_movecart_over_a_pty_slows_on_the_line_holds_and_resume_ends_o
     assert "PAUSED=1" in bench.query("GET_STATUS")
     resume = bench.send("RESUME")
     assert bench.acks.terminal(resume, 10) == ("COMPLETED", "resumed")
-    status, details = bench.acks.terminal(cid, 30)
-    assert status == "COMPLETED", (status, details)
+    _completes(bench, cid)
 
-    frames = bench.exchange.gotos(n0)
-    _contiguous(frames)
+    frames = _motion(bench, n0)
     tcp = _tcp(frames)
     off = _line_distance(tcp, p0[:3], target[:3])
     assert off.max() <= 0.05, f"frame {int(off.argmax())}: the TCP {off.max():.3f} mm off the line"
@@ -508,8 +520,7 @@ def test_a_servoj_stream_over_a_pty_is_followed_to_its_last_target_and_ends_with
     ended = _one_stream(bench, ids)
     assert ended == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control")
 
-    frames = bench.exchange.gotos(n0)
-    _contiguous(frames)
+    frames = _motion(bench, n0)
     pos = np.array([f.positions for _, f in frames], dtype=float)
     ff = np.array([f.speeds for _, f in frames], dtype=float)
     start_steps, last_steps = a0 * SPD, targets[-1] * SPD
@@ -546,8 +557,7 @@ def test_a_servoj_stream_over_a_pty_is_followed_to_its_last_target_and_ends_with
     n1 = bench.exchange.idle_mark()
     ended = _one_stream(bench, _stream(bench, ramp)[0])
     assert ended == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control")
-    frames = bench.exchange.gotos(n1)
-    _contiguous(frames)
+    frames = _motion(bench, n1)
     _assert_speed_steps_within_accel(frames)
     v6 = -np.array([f.speeds[5] for _, f in frames], dtype=float)  # J6 runs backwards
     assert not any(frames[-1][1].speeds), "the last frame holds"
@@ -598,8 +608,7 @@ def test_speed_50_halfway_through_a_movejoint_over_a_pty_makes_the_rest_take_twi
     overruns = bench.loop_stats()["overruns"]
     n0 = bench.exchange.idle_mark()
     _ok(bench, move)
-    ref = bench.exchange.gotos(n0)
-    _contiguous(ref)
+    ref = _motion(bench, n0)
     _ok(bench, START_MOVE)
 
     n1 = bench.exchange.idle_mark()
@@ -607,10 +616,8 @@ def test_speed_50_halfway_through_a_movejoint_over_a_pty_makes_the_rest_take_twi
     wait_until(lambda: len(bench.exchange.gotos(n1)) >= 200, 20, what="200 GO TO frames of the MoveJoint")
     speed = bench.send("SPEED|50")
     assert bench.acks.terminal(speed, 10) == ("COMPLETED", "speed override 50 %")
-    status, details = bench.acks.terminal(cid, 30)
-    assert status == "COMPLETED", (status, details)
-    frames = bench.exchange.gotos(n1)
-    _contiguous(frames)
+    _completes(bench, cid)
+    frames = _motion(bench, n1)
     _assert_speed_steps_within_accel(frames)
 
     # each frame's feed-forward against the first run's at the same point of the path
