@@ -9,6 +9,8 @@ path speed is read from the feed-forward and from the targets' steps per tick.""
 from __future__ import annotations
 
 import io
+import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -353,17 +355,22 @@ def _servo(bench: Bench, deg) -> str:
     return bench.send("SERVOJ|" + "|".join(f"{v:.5f}" for v in deg))
 
 
-def test_a_1_hz_curve_streamed_at_100_hz_with_10_percent_dropped_is_followed_within_2_ticks(bench):
-    import math
-    import random
-
-    a0 = np.asarray(bench.sim.controller.snapshot.angles_deg)
-    # each joint's amplitude: the curve's peak acceleration 30 % of the joint's limit
+def _one_hz_curve(a0: np.ndarray) -> tuple[np.ndarray, Callable[[int], np.ndarray]]:
+    """The 1 Hz curve the servo tests stream from ``a0`` (deg), one target a period, 300 of
+    them (held at the last): each joint's amplitude (deg: the curve's peak acceleration 30 % of
+    the joint's limit) and the target for period ``k``."""
     amp = 0.3 * ACCEL / (4 * math.pi**2) / np.abs(SPD)
 
     def curve(k: int) -> np.ndarray:
-        return a0 + amp * (1 - math.cos(2 * math.pi * k * PERIOD))
+        return a0 + amp * (1 - math.cos(2 * math.pi * min(k, 299) * PERIOD))
 
+    return amp, curve
+
+
+def test_a_1_hz_curve_streamed_at_100_hz_with_10_percent_dropped_is_followed_within_2_ticks(bench):
+    import random
+
+    amp, curve = _one_hz_curve(np.asarray(bench.sim.controller.snapshot.angles_deg))
     rng = random.Random(7)
     start = bench.tick
     first = _servo(bench, curve(0))
@@ -408,17 +415,11 @@ def test_a_curve_whose_targets_come_a_tick_late_at_random_is_followed_without_ri
     frames stay within half the amplitude of the curve (a two-point estimate rang up to four
     times the amplitude, and a generator step ruckig refused froze the stream on its last
     frame), within the speed and acceleration limits."""
-    import math
     import random
 
     bench = Bench()
     try:
-        a0 = np.asarray(bench.sim.controller.snapshot.angles_deg)
-        amp = 0.3 * ACCEL / (4 * math.pi**2) / np.abs(SPD)
-
-        def curve(k: int) -> np.ndarray:
-            return a0 + amp * (1 - math.cos(2 * math.pi * min(k, 299) * PERIOD))
-
+        amp, curve = _one_hz_curve(np.asarray(bench.sim.controller.snapshot.angles_deg))
         drops = random.Random(7)
         late = random.Random(seed)
         due: dict[int, list[int]] = {}
