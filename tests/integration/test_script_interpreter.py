@@ -95,6 +95,11 @@ def test_input_timeout_fails_at_its_line_and_stops_the_program(robot):
     np.testing.assert_allclose(robot.angles(), STANDBY, atol=0.05)  # line 3 never ran
 
 
+def _ticks(robot):
+    """The controller's frame count for :func:`conftest.frames_pass` (its ticks, not the clock)."""
+    return lambda: {"frames_sent": robot.loop_stats().frames_sent}
+
+
 def test_stop_during_a_move_sends_stop_and_leaves_the_robot_short_of_the_target(robot):
     robot.move_joints(STANDBY, duration=1.0)
     target = [40.0, -90.0, 180.0, 0.0, 0.0, 180.0]
@@ -102,11 +107,11 @@ def test_stop_during_a_move_sends_stop_and_leaves_the_robot_short_of_the_target(
     interp = Interpreter(prog, robot)
     interp.start()
     wait_until(lambda: interp.current_line == 2 and interp.state is InterpreterState.RUNNING)
-    time.sleep(1.0)
-    t0 = time.monotonic()
+    frames_pass(_ticks(robot), 100)  # 1 s of the 6 s move, in the controller's ticks
+    sent = robot.loop_stats().frames_sent
     interp.stop()
     result = interp.wait(10)
-    assert time.monotonic() - t0 < 3.0
+    assert robot.loop_stats().frames_sent - sent < 300  # stopped within 3 s of the controller's time
     assert result.state is InterpreterState.STOPPED
     assert interp.current_line is None
     wait_until(lambda: max(abs(s) for s in robot.speeds()) == 0, what="the robot standing still")
@@ -134,7 +139,7 @@ def test_single_step_runs_one_command_per_step_and_pauses_between(robot):
     interp.step()  # the first move
     wait_until(lambda: interp.state is InterpreterState.PAUSED and interp.current_line == 3)
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)
-    time.sleep(0.3)
+    frames_pass(_ticks(robot), 30)
     assert interp.current_line == 3 and interp.state is InterpreterState.PAUSED  # stays paused
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)
     interp.resume()
@@ -163,7 +168,7 @@ def test_pause_lets_the_move_in_progress_finish_then_waits(robot):
     assert paused.wait(10)
     assert interp.current_line == 3
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # the move finished
-    time.sleep(0.3)
+    frames_pass(_ticks(robot), 30)
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # line 3 does not run while paused
     interp.resume()
     assert interp.wait(10).state is InterpreterState.FINISHED
@@ -176,9 +181,6 @@ def test_a_step_while_lines_are_queued_ahead_runs_exactly_one_of_them(robot):
     the arm goes to that line's target and stays, the others wait; resume runs the rest."""
     robot.move_joints(STANDBY, duration=1.0)
 
-    def ticks() -> dict:  # (30 frames written: 0.3 s of the controller's time, whatever the clock)
-        return {"frames_sent": robot.loop_stats().frames_sent}
-
     moves = [A, B, A, B, A]
     prog = program("Begin()\n" + "".join(f"MoveJoint({', '.join(map(str, q))}, t=0.8)\n" for q in moves) + "End()")
     interp = Interpreter(prog, robot)
@@ -189,7 +191,7 @@ def test_a_step_while_lines_are_queued_ahead_runs_exactly_one_of_them(robot):
     wait_until(lambda: interp.state is InterpreterState.PAUSED, what="PAUSED")
     assert interp.current_line == 3
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # the running move finished
-    frames_pass(ticks, 30)
+    frames_pass(_ticks(robot), 30)
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # the held ones do not run
     assert robot.status().queue == 4
     for line, q, left in ((3, B, 3), (4, A, 2)):
@@ -199,7 +201,7 @@ def test_a_step_while_lines_are_queued_ahead_runs_exactly_one_of_them(robot):
                    what=f"{left} lines still held, nothing running")
         np.testing.assert_allclose(robot.angles(), q, atol=0.05)
         assert interp.state is InterpreterState.PAUSED
-    frames_pass(ticks, 30)
+    frames_pass(_ticks(robot), 30)
     np.testing.assert_allclose(robot.angles(), A, atol=0.05)  # still one line per step
     interp.resume()
     result = interp.wait(20)
