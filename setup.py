@@ -22,6 +22,8 @@ setup(
                   extra_compile_args=_ARGS, optional=True),
         Extension("parolkit.board._cgoto", ["src/parolkit/board/_cgoto.c"],
                   extra_compile_args=_ARGS, optional=True),
+        Extension("parolkit.collision._ccollide", ["src/parolkit/collision/_ccollide.c"],
+                  extra_compile_args=_ARGS, optional=True),
         Extension("parolkit.motion._csamples", ["src/parolkit/motion/_csamples.c"],
                   include_dirs=[numpy.get_include()],
                   extra_compile_args=_ARGS + _VECTORISE, optional=True),

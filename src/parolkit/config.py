@@ -26,6 +26,18 @@ Example ``parolkit.toml``::
 
     [tools.pen]           # a user tool: pose of the TCP in the flange frame, mm / deg
     pose = [0, 0, 120, 0, 0, 0]
+    shape = { kind = "capsule", radius = 8 }   # optional: its body, flange -> TCP (mm)
+
+    [[zones]]             # keep-out zones, base frame, mm / deg (docs/collision.md)
+    name = "monitor"
+    kind = "box"          # or "plane", "cylinder"
+    center = [300, -250, 200]
+    size = [400, 60, 300]
+    margin = 10
+
+    [[zones]]             # the table plane (z = 0) is on by default: off, or redefined by name
+    name = "table"
+    enabled = false
 
 Unknown sections or keys are an error that names them (a typo never silently does nothing);
 so is a value outside its range (every key, its default and its range: docs/config.md).
@@ -50,6 +62,7 @@ from typing import TYPE_CHECKING, Any
 from parolkit.errors import ParolkitValueError
 
 if TYPE_CHECKING:  # importing this module stays numpy-free; the model loads with Config()
+    from parolkit.collision.shapes import ToolShape, Zone
     from parolkit.robot import RobotModel
     from parolkit.transport.url import TransportURL
 
@@ -61,6 +74,7 @@ __all__ = [
     "Ros2Settings",
     "ServoSettings",
     "Config",
+    "default_zones",
     "load_config",
     "DEFAULT_CONFIG_PATHS",
     "find_config_file",
@@ -330,10 +344,14 @@ class ServoSettings:
 
 @dataclass(frozen=True)
 class ToolSettings:
-    """A user tool: the TCP pose in the flange frame, [x, y, z mm, A, B, C deg]."""
+    """A user tool: the TCP pose in the flange frame, [x, y, z mm, A, B, C deg], and
+    optionally its body for the collision checks (:class:`parolkit.collision.ToolShape`, a
+    capsule; ``[tools.NAME] shape = { kind = "capsule", radius = R }``, by default from the
+    flange to the TCP)."""
 
     name: str
     pose: tuple[float, ...]
+    shape: ToolShape | None = None
 
     def __post_init__(self) -> None:
         if len(self.pose) != 6 or not all(
@@ -349,6 +367,20 @@ class ToolSettings:
                 raise ParolkitValueError(f"tools.{self.name}.pose: {axis} = {v:g} {unit} is out of range "
                                          f"[{-hi:g}, {hi:g}] {unit}")
         object.__setattr__(self, "pose", tuple(float(v) for v in self.pose))
+        if self.shape is not None:
+            from parolkit.collision.shapes import ToolShape
+
+            if not isinstance(self.shape, ToolShape) or self.shape.name != self.name:
+                raise ParolkitValueError(f"tools.{self.name}.shape must be a ToolShape named {self.name!r}, "
+                                         f"got {self.shape!r}")
+
+
+def default_zones() -> tuple[Zone, ...]:
+    """The zones in force without a config: the table plane under the base
+    (:data:`parolkit.collision.TABLE_ZONE`)."""
+    from parolkit.collision.shapes import TABLE_ZONE
+
+    return (TABLE_ZONE,)
 
 
 def _stock_robot() -> RobotModel:
@@ -381,6 +413,9 @@ class Config:
     ros2: Ros2Settings = field(default_factory=Ros2Settings)
     servo: ServoSettings = field(default_factory=ServoSettings)
     tools: tuple[ToolSettings, ...] = ()
+    #: keep-out zones in force (enabled ones only), base frame: ``[[zones]]``; the table plane
+    #: under the base by default (docs/collision.md)
+    zones: tuple[Zone, ...] = field(default_factory=default_zones)
     source: str | None = None
 
     def __post_init__(self) -> None:
@@ -439,16 +474,27 @@ def _apply(cfg: Config, data: Mapping[str, Any], origin: str) -> Config:
                 raise ParolkitValueError(f"{origin}: [tools] must be a table of tables")
             tools = {t.name: t for t in cfg.tools}
             for name, spec in values.items():
-                if not isinstance(spec, Mapping) or set(spec) != {"pose"}:
-                    raise ParolkitValueError(f"{origin}: tools.{name} needs exactly one key: pose")
+                if not isinstance(spec, Mapping) or "pose" not in spec or not set(spec) <= {"pose", "shape"}:
+                    got = f", got {', '.join(sorted(spec))}" if isinstance(spec, Mapping) else ""
+                    raise ParolkitValueError(f"{origin}: tools.{name} needs exactly one key: pose "
+                                             f"(and may have a shape){got}")
                 if not isinstance(spec["pose"], (list, tuple)):
                     raise ParolkitValueError(f"{origin}: tools.{name}.pose must be 6 finite numbers (mm, deg), "
                                              f"got {spec['pose']!r}")
                 try:
-                    tools[name] = ToolSettings(name=name, pose=tuple(spec["pose"]))
+                    tool = ToolSettings(name=name, pose=tuple(spec["pose"]))
+                    if "shape" in spec:
+                        from parolkit.collision.shapes import tool_shape_from_mapping
+
+                        shape = tool_shape_from_mapping(name, spec["shape"], tool.pose[:3])
+                        tool = dataclasses.replace(tool, shape=shape)
+                    tools[name] = tool
                 except ParolkitValueError as exc:
                     raise ParolkitValueError(f"{origin}: {exc}") from None
             changes["tools"] = tuple(tools.values())
+            continue
+        if section == "zones":
+            changes["zones"] = _zones(cfg.zones, values, origin)
             continue
         if section == "robot":
             target, allowed = cfg.robot, _robot_fields()
@@ -456,7 +502,8 @@ def _apply(cfg: Config, data: Mapping[str, Any], origin: str) -> Config:
             target, allowed = getattr(cfg, section), {f.name for f in dataclasses.fields(_SECTIONS[section])}
         else:
             raise ParolkitValueError(
-                f"{origin}: unknown section [{section}] (known: robot, controller, serial, gui, ros2, tools)"
+                f"{origin}: unknown section [{section}] (known: robot, controller, serial, gui, ros2, servo, tools, "
+                f"zones)"
             )
         if not isinstance(values, Mapping):
             raise ParolkitValueError(f"{origin}: [{section}] must be a table")
@@ -477,6 +524,46 @@ def _apply(cfg: Config, data: Mapping[str, Any], origin: str) -> Config:
             except (TypeError, ValueError) as exc:
                 raise ParolkitValueError(f"{origin}: [{section}]: {exc}") from None
     return dataclasses.replace(cfg, **changes)
+
+
+def _zones(current: tuple[Zone, ...], entries: object, origin: str) -> tuple[Zone, ...]:
+    """``[[zones]]``: each table defines a zone; one with the name of a zone already in force
+    (the default table, or one from the file under command-line overrides) replaces it; one
+    with only ``name`` and ``enabled = false`` switches that zone off."""
+    from parolkit.collision.shapes import zone_from_mapping
+
+    if not isinstance(entries, (list, tuple)):
+        raise ParolkitValueError(f"{origin}: zones must be a list of tables: write each zone as [[zones]] "
+                                 f"(name = ..., kind = ...), got {entries!r}")
+    zones = {z.name: z for z in current}
+    seen: set[str] = set()
+    for k, spec in enumerate(entries, start=1):
+        where = f"{origin}: [[zones]] #{k}"
+        try:
+            if isinstance(spec, Mapping) and set(spec) <= {"name", "enabled"} and "enabled" in spec:
+                name = spec.get("name")
+                if spec["enabled"] is not False:
+                    raise ParolkitValueError(f"zones.{name}: a zone needs kind and its shape's keys "
+                                             f"(only enabled = false may stand alone, to switch a zone off)")
+                if name not in zones:
+                    known = ", ".join(repr(n) for n in zones) or "none"
+                    raise ParolkitValueError(f"zones.{name}: enabled = false names no zone in force (known: {known})")
+                zone = None
+            else:
+                zone = zone_from_mapping(spec, where)
+                name = zone.name
+        except ParolkitValueError as exc:
+            msg = str(exc)
+            raise ParolkitValueError(msg if msg.startswith(origin) else f"{origin}: {msg}") from None
+        if name in seen:
+            raise ParolkitValueError(f"{origin}: zones.{name}: two [[zones]] tables have this name "
+                                     f"(#{k} is the second)")
+        seen.add(str(name))
+        if zone is None or not zone.enabled:
+            zones.pop(str(name), None)
+        else:
+            zones[zone.name] = zone
+    return tuple(zones.values())
 
 
 def load_config(
