@@ -5,6 +5,8 @@ exclusion), the tool's shape and held objects attached to the flange."""
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -189,3 +191,18 @@ def test_a_model_with_its_own_envelope_and_self_margin():
         ArmEnvelope(j2_radius=0.0)
     with pytest.raises(ParolkitValueError, match=r"self_margin must be a number in \[0, 100\] mm"):
         CollisionModel(self_margin=-1)
+
+
+def test_docs_list_the_computed_pairs():
+    """docs/collision.md's pair table is the computed one (checked or excluded, the clearance
+    range over the samples, the share in contact)."""
+    doc = Path(__file__).resolve().parents[2] / "docs" / "collision.md"
+    row = re.compile(r"^\| (.+?) vs (.+?) \| (checked|excluded)[^|]* \| (-?[\d.]+) \.\. (-?[\d.]+) \| ([\d.]+) % \|$")
+    rows = [m.groups() for line in doc.read_text(encoding="utf-8").splitlines() if (m := row.match(line))]
+    table = default_model().pair_table()
+    assert len(rows) == len(table.pairs)
+    for (a, b, status, lo, hi, pct), p in zip(rows, table.pairs):
+        assert (a, b) == (p.a, p.b)
+        assert (status == "checked") == p.checked, (a, b)
+        assert float(lo) == pytest.approx(p.min_mm, abs=0.05) and float(hi) == pytest.approx(p.max_mm, abs=0.05)
+        assert float(pct) == pytest.approx(100 * p.contact_fraction, abs=0.005 if "." in pct else 0.5)

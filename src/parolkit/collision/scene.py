@@ -384,8 +384,8 @@ def _scene(zones: Iterable[Zone], tool: ToolShape | ToolSettings | None, held: S
     hit = _CACHE.get("last")
     if hit is not None:
         k = hit[0]
-        if k[0] is m and k[1] == m.version and k[3] is tool and (k[2] is zones_t or k[2] == zones_t) \
-                and (k[4] is held_t or k[4] == held_t):
+        if k[0] is m and k[1] == m.version and (k[3] is tool or k[3] == tool) \
+                and (k[2] is zones_t or k[2] == zones_t) and (k[4] is held_t or k[4] == held_t):
             return hit[1]
     scene = Scene(m, zones_t, tool, held_t)
     _CACHE["last"] = (key, scene)
