@@ -191,6 +191,15 @@ def test_a_model_with_its_own_envelope_and_self_margin():
         ArmEnvelope(j2_radius=0.0)
     with pytest.raises(ParolkitValueError, match=r"self_margin must be a number in \[0, 100\] mm"):
         CollisionModel(self_margin=-1)
+    with pytest.raises(ParolkitValueError, match=r"height \(200 mm\) must be below the J2 axis \(110.5 mm\)"):
+        CollisionModel(envelope=ArmEnvelope(base_size=(100, 100, 200)))
+
+
+def test_a_kinematics_tool_without_a_shape_is_refused_not_ignored():
+    from parolkit.kinematics import get_tool
+
+    with pytest.raises(ParolkitValueError, match=r"tool must be a ToolShape, a config tool \(ToolSettings\) or None"):
+        Scene(tool=get_tool("default"))  # type: ignore[arg-type]
 
 
 def test_docs_list_the_computed_pairs():

@@ -28,31 +28,8 @@ and the benchmark figures.
 
 from __future__ import annotations
 
-from parolkit.collision.model import (
-    PAIR_SAMPLE_SEED,
-    PAIR_SAMPLES,
-    ArmEnvelope,
-    Body,
-    BodyRole,
-    CollisionModel,
-    HeldObject,
-    PairInfo,
-    PairTable,
-    default_model,
-)
-from parolkit.collision.scene import (
-    Pair,
-    PairDistance,
-    PairKind,
-    PathStatus,
-    PathVerdict,
-    Scene,
-    Verdict,
-    check,
-    check_path,
-    check_swept,
-    kernel_name,
-)
+import importlib
+
 from parolkit.collision.shapes import (
     TABLE_ZONE,
     BoxZone,
@@ -65,6 +42,35 @@ from parolkit.collision.shapes import (
     Zone,
 )
 
+#: (not ``typing.TYPE_CHECKING``: the config imports the zones on the controller's start-up path)
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ loads them lazily
+    from parolkit.collision.model import (
+        PAIR_SAMPLE_SEED,
+        PAIR_SAMPLES,
+        ArmEnvelope,
+        Body,
+        BodyRole,
+        CollisionModel,
+        HeldObject,
+        PairInfo,
+        PairTable,
+        default_model,
+    )
+    from parolkit.collision.scene import (
+        Pair,
+        PairDistance,
+        PairKind,
+        PathStatus,
+        PathVerdict,
+        Scene,
+        Verdict,
+        check,
+        check_path,
+        check_swept,
+        kernel_name,
+    )
+
 __all__ = [
     "CollisionModel", "ArmEnvelope", "Body", "BodyRole", "HeldObject", "PairInfo", "PairTable", "default_model",
     "PAIR_SAMPLES", "PAIR_SAMPLE_SEED",
@@ -72,3 +78,21 @@ __all__ = [
     "check", "check_swept", "check_path", "kernel_name",
     "BoxZone", "PlaneZone", "CylinderZone", "Zone", "TABLE_ZONE", "ToolShape", "Capsule", "Sphere", "HeldShape",
 ]
+
+#: name -> the module that defines it (loaded when first asked for: the zone types above are
+#: all the config needs, and they cost no numpy)
+_LAZY = {name: "parolkit.collision.model" for name in (
+    "PAIR_SAMPLE_SEED", "PAIR_SAMPLES", "ArmEnvelope", "Body", "BodyRole", "CollisionModel", "HeldObject",
+    "PairInfo", "PairTable", "default_model")}
+_LAZY.update({name: "parolkit.collision.scene" for name in (
+    "Pair", "PairDistance", "PairKind", "PathStatus", "PathVerdict", "Scene", "Verdict", "check", "check_path",
+    "check_swept", "kernel_name")})
+
+
+def __getattr__(name: str) -> object:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'parolkit.collision' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value

@@ -200,6 +200,9 @@ def _arm_bodies(robot: RobotModel, env: ArmEnvelope) -> tuple[Body, ...]:
     zaxis = [f[k][:3, 2] for k in range(7)]
     d1 = robot.dh[0].d
     base_h = env.base_size[2] * 1e-3
+    if not base_h < d1:
+        raise ParolkitValueError(f"ArmEnvelope.base_size: the base's height ({env.base_size[2]:g} mm) must be below "
+                                 f"the J2 axis ({d1 * 1e3:g} mm): the J1 link stands on the base")
 
     def local(k: int, world: NDArray[np.float64]) -> tuple[float, float, float]:
         return _mm(f[k][:3, :3].T @ (world - origin[k]))
@@ -225,11 +228,17 @@ def tool_body(tool: ToolShape | ToolSettings | None) -> Body | None:
     """The tool's body (None: no tool geometry), from a :class:`ToolShape` or a config tool."""
     if tool is None:
         return None
-    shape = tool if isinstance(tool, ToolShape) else getattr(tool, "shape", None)
+    if isinstance(tool, ToolShape):
+        shape: ToolShape | None = tool
+    else:
+        from parolkit.config import ToolSettings
+
+        if not isinstance(tool, ToolSettings):
+            raise ParolkitValueError(f"tool must be a ToolShape, a config tool (ToolSettings) or None, got {tool!r} "
+                                     f"(a kinematics Tool has no shape: give its config entry a shape)")
+        shape = tool.shape
     if shape is None:
         return None
-    if not isinstance(shape, ToolShape):
-        raise ParolkitValueError(f"tool must be a ToolShape or a config tool (ToolSettings), got {tool!r}")
     return Body(f"tool '{shape.name}'", BodyRole.TOOL, 6, shape.start, shape.end, shape.radius)
 
 
