@@ -122,9 +122,10 @@ _EARLY_PLANS = 16
 @dataclass(frozen=True)
 class ReplyBatch:
     """Status frames the driver read in one go: at ``t`` on the link record's clock (``wall``:
-    monotonic s), ``after_write``: while waiting for the reply to the frame just written (the
-    last of them answers it), else at the start of a tick (late: the oldest unanswered frames);
-    ``dropped``: the stream parser's count of bytes dropped so far, after the last of them."""
+    monotonic s), ``after_write``: while waiting for the reply to the frame just written, else
+    at the start of a tick (either way they answer the oldest frames still unanswered, in order:
+    :meth:`LinkHistory.answered_range`); ``dropped``: the stream parser's count of bytes dropped
+    so far, after the last of them."""
 
     frames: tuple[StatusFrame, ...]
     t: float
@@ -440,14 +441,15 @@ class ControllerCore:
         return t if self.lockstep or self._virtual else wall
 
     def _read(self, batch: ReplyBatch) -> None:
-        """Judge every status frame of ``batch`` (see :meth:`LinkHistory.answered`)."""
+        """Judge every status frame of ``batch`` (see :meth:`LinkHistory.answered_range`)."""
         count = len(batch.frames)
         for i, f in enumerate(batch.frames):
             self.counters.frames_received += 1
-            answers = self.link.answered(count, i, after_write=batch.after_write)
+            answers, newest = self.link.answered_range(count, i, after_write=batch.after_write)
             earliest = self.link.earliest(f)
             self.holding = False
-            if self.integrity.accept(f, self._board_time(batch.t, batch.wall), batch.dropped, answers):
+            if self.integrity.accept(f, self._board_time(batch.t, batch.wall), batch.dropped, answers,
+                                     newest=newest):
                 self.status = f
                 self.last_status = f
                 self.link.trust(earliest, f, batch.t)

@@ -22,17 +22,19 @@ between: the parser dropped no bytes between them):
     switch or set to the standby count at the end; the homed bits only rise.
 
 * **Commanded** (the board against the controller): the second frame's positions are compared
-  with what the frames the controller wrote (the last few before the first one was read: one
-  of them is the one the board answered) produce from the first frame's.  A frame that links
-  AND matches within the board's own precision is the truth (:meth:`StatusIntegrity.accept`
-  returns True); anything else is *implausible*: counted, never the truth (the snapshot keeps
-  the last true frame).  The first frame of a link session is neither: nothing is there to
-  judge it against (a perfect link counts 0); the next frame is checked from it, and the
-  truth starts where two frames agree.  A corrupted position byte breaks one check or the
-  other unless it changes a *moving* joint by no more than the stepper's own sub-step jitter
-  (a step, two at speed; a joint at rest is exact: see :class:`Tolerances`).  Two adjacent
-  frames that link re-establish the truth after a gap (checked against the hull of everything
-  the frames written since could reach).
+  with what the frames the controller wrote produce from the first frame's: every frame the
+  first one can answer (the board answers every frame it takes in, in order, so a reply answers
+  the oldest frame still unanswered, a newer one only when replies were lost: a reply read
+  right after a frame was written may still answer an older one, the board having taken its
+  backlog in late), and a few before it.  A frame that links AND matches within the board's own
+  precision is the truth (:meth:`StatusIntegrity.accept` returns True); anything else is
+  *implausible*: counted, never the truth (the snapshot keeps the last true frame).  The first
+  frame of a link session is neither: nothing is there to judge it against (a perfect link
+  counts 0); the next frame is checked from it, and the truth starts where two frames agree.  A
+  corrupted position byte breaks one check or the other unless it changes a *moving* joint by
+  no more than the stepper's own sub-step jitter (a step, two at speed; a joint at rest is
+  exact: see :class:`Tolerances`).  Two adjacent frames that link re-establish the truth after a
+  gap (checked against the hull of everything the frames written since could reach).
 
 * **Uncommanded motion**: a frame that links to a true one but lies beyond what was commanded
   (wider than the precision above, by what a reply byte that slipped through the link could
@@ -172,12 +174,14 @@ class _Reply:
     t: float
     dropped: int
     ok: bool
-    #: frames written before it was read (it answers one of the newest of them)
+    #: the oldest frame it can answer (the board answers in order: the oldest one still
+    #: unanswered when no reply was lost), or, without that count, the frames written before it
+    #: was read (it answers one of the newest of them)
     n: int = 0
     truth: bool = False
-    #: the newest frame it can answer: ``n``, or more when replies may have been lost since
-    #: the replies were last matched to the frames (a lost reply shifts the count: the next
-    #: late reply answers a newer frame than the one it is counted for)
+    #: the newest frame it can answer: ``n``, or more when replies may have been lost (a lost
+    #: reply shifts the count: the next reply answers a newer frame than the one it is counted
+    #: for); at most the newest frame written less one for each reply read after it
     hi: int = 0
 
 
@@ -401,6 +405,9 @@ class StatusIntegrity:
         self._lost_possible = False
         #: the newest replies read (the evidence a fault's log line shows)
         self._recent: deque[_Reply] = deque(maxlen=8)
+        #: the oldest frame the next reply can answer, as the replies' own motion showed it (see
+        #: :meth:`_narrow`): a reply counted too old after replies were lost is judged from here
+        self._floor = 0
         #: HOME was written (its frame number) and no aborting code since; None: none asked
         self._home_t: int | None = None
         #: frame number of a 101/102/103 that aborted a homing (None: none pending)
@@ -481,21 +488,37 @@ class StatusIntegrity:
             return False
         return all(-BOARD_SPEED_CLAMP <= v <= BOARD_SPEED_CLAMP for v in f.speeds)
 
-    def accept(self, f: StatusFrame, t: float, dropped: int, answers: int | None = None) -> bool:
+    def accept(self, f: StatusFrame, t: float, dropped: int, answers: int | None = None, *,
+               newest: int | None = None) -> bool:
         """``f`` read at ``t`` (monotonic s); ``dropped``: the parser's dropped-byte count right
-        after ``f`` was parsed; ``answers``: the number of the newest frame it can answer when
-        that is not the newest frame written (replies the OS delivered late, several at once:
-        the board answers in order, so the k-th of them answers the k-th frame left unanswered;
-        the loop knows how many were).  True when ``f`` is the truth (the snapshot may show it)."""
+        after ``f`` was parsed; ``answers``: the number of the frame it answers when that is not
+        the newest frame written (the board answers in order, so the k-th reply read since the
+        replies caught up answers the k-th frame left unanswered, however late and bunched they
+        came: :meth:`~parolkit.controller.link.LinkHistory.answered_range`), the oldest it can
+        answer when replies may have been lost; ``newest``: then the newest frame it can answer
+        (the frame written last less the replies read after it).  It is judged against every
+        frame in between.  True when ``f`` is the truth (the snapshot may show it)."""
         n = self._n if answers is None else max(0, min(self._n, answers))
         if self._dropped_seen is not None and dropped != self._dropped_seen:
             self._lost_possible = True  # bytes were dropped: a whole reply may be among them
         self._dropped_seen = dropped
-        if n >= self._n:
-            self._lost_possible = False  # it answers the newest frame: counted right again
-        rx = _Reply(f, t, dropped, self._structural(f), n, hi=self._n if self._lost_possible else n)
+        if newest is not None:
+            hi = max(0, min(self._n, newest))
+            # the replies' own motion may have shown that the count lags (replies lost): it
+            # answers one at or after the floor, never one after ``hi``
+            n = max(n, min(self._floor, hi))
+            hi = max(n, hi)
+        else:
+            if n >= self._n:
+                self._lost_possible = False  # it answers the newest frame: counted right again
+            hi = self._n if self._lost_possible else n
+        self._floor = max(self._floor, n + 1)
+        rx = _Reply(f, t, dropped, self._structural(f), n, hi=hi)
         self._recent.append(rx)
         prev, self._prev = self._prev, rx
+        if prev is not None and newest is not None and prev.hi >= hi:
+            # it answered an older frame than this one does (in order)
+            prev.hi = max(prev.n, hi - 1)
         # adjacent: the board answered nothing in between (the parser dropped no bytes).  The
         # previous frame may have failed its structural check (a corrupted speed or IO byte):
         # a link from it checks its positions against this frame's own account all the same
@@ -524,7 +547,7 @@ class StatusIntegrity:
             if fault is not None:
                 self._fault(fault)
         dt = self._dt(prev, rx) if adjacent else None
-        linked = dt is not None and self._link(prev.f, f, dt, prev.n)
+        linked = dt is not None and self._link(prev.f, f, dt, prev.n, prev.hi)
         ref = self._ref
         pending = self._suspect
         if pending is not None:
@@ -630,13 +653,13 @@ class StatusIntegrity:
                 pos[j] = round(expected[j])
         if pos == list(a.f.positions):
             return True
-        return not self._link(replace(a.f, positions=tuple(pos)), b.f, dt, a.n)
+        return not self._link(replace(a.f, positions=tuple(pos)), b.f, dt, a.n, a.hi)
 
     def _suspect_reply(self) -> _Reply | None:
         return self._suspect[0] if self._suspect is not None else None
 
-    def _idle_codes_only(self, n: int) -> bool:
-        cands = self._candidates(n)
+    def _idle_codes_only(self, n: int, hi: int | None = None) -> bool:
+        cands = self._candidates(n, hi)
         return bool(cands) and all(int(fr.command) not in (_JOG, _GOTO, _HOME) for fr in cands)
 
     def _raw_checks(self, a: _Reply, b: _Reply) -> str | None:
@@ -652,8 +675,8 @@ class StatusIntegrity:
             return None
         if self._unasked:
             return None
-        idle = self._idle_codes_only(a.n) and self._idle_codes_only(b.n)
-        if a.f.xtr == _HOME and not any(int(fr.command) == _HOME for fr in self._candidates(a.n)) and (
+        idle = self._idle_codes_only(a.n, a.hi) and self._idle_codes_only(b.n, b.hi)
+        if a.f.xtr == _HOME and not any(int(fr.command) == _HOME for fr in self._candidates(a.n, a.hi)) and (
                 (b.f.homed & a.f.homed) != a.f.homed or (idle and any(b.f.speeds))):
             self._unasked = True
             self._homed_known = b.f.homed
@@ -740,15 +763,16 @@ class StatusIntegrity:
 
     # ------------------------------------------------------------------ the link check
 
-    def mode(self, f: StatusFrame, n: int | None = None) -> LinkMode:
+    def mode(self, f: StatusFrame, n: int | None = None, hi: int | None = None) -> LinkMode:
         """What the board does after ``f`` until the next frame it answers (``n``: frames
-        written before ``f`` was read).  ``f.xtr`` echoes the command it answered; when that
-        is none of the commands just written (a corrupted echo, or a corrupted command the
-        board executed), the newest command written counts: a corrupted echo then still links,
-        and a board that ran something else does not (its motion shows up as uncommanded)."""
+        written before ``f`` was read, or the oldest frame it can answer and ``hi`` the newest).
+        ``f.xtr`` echoes the command it answered; when that is none of the commands just written
+        (a corrupted echo, or a corrupted command the board executed), the newest command
+        written counts: a corrupted echo then still links, and a board that ran something else
+        does not (its motion shows up as uncommanded)."""
         code = f.xtr
         if n is not None:
-            cands = self._candidates(n)
+            cands = self._candidates(n, hi)
             if cands and all(int(fr.command) != code for fr in cands):
                 code = int(cands[-1].command)
         if code == _HOME:
@@ -761,8 +785,9 @@ class StatusIntegrity:
             return LinkMode.HOMING
         return LinkMode.NONE
 
-    def _link(self, a: StatusFrame, b: StatusFrame, dt: float, n: int | None = None) -> bool:
-        mode = self.mode(a, n)
+    def _link(self, a: StatusFrame, b: StatusFrame, dt: float, n: int | None = None,
+              hi: int | None = None) -> bool:
+        mode = self.mode(a, n, hi)
         if mode is LinkMode.HOMING:
             return self._link_homing(a, b, dt)
         if b.homed != a.homed:
@@ -873,7 +898,8 @@ class StatusIntegrity:
         """Compare ``b``'s positions with what the frames written could produce from ``a``'s:
         (they match within the board's own precision, the deviation when they are beyond
         it and the margins).  (True, None) when nothing can be compared (a homing asked for,
-        no frame written yet)."""
+        no frame written yet).  Every frame ``a`` can answer is tried (the board ran the one it
+        answered, or the newest it took in in the same pass, until it answered ``b``)."""
         if self._home_t is not None or self._unasked:
             return True, None  # a homing was asked for (or is reported): positions unknown
         cands = self._candidates(a.n, a.hi)
@@ -881,23 +907,20 @@ class StatusIntegrity:
             return True, None
         p1s = b.f.positions
         tried = []
-        for fr in reversed(cands):  # usually the newest one was answered
+        top = max(a.n, a.hi)
+        for i in range(len(cands) - 1, -1, -1):  # usually the newest one was answered
+            fr = cands[i]
             pred, allow = self._predict(a.f.positions, fr, dt)
             res = [abs(p1 - q) for p1, q in zip(p1s, pred)]
             if all(r <= al for r, al in zip(res, allow)):
+                self._narrow(a, b, dt, top - (len(cands) - 1 - i))
                 return True, None
             tried.append((fr, pred, allow, res))
         # a corrupted position that slipped through the link checks before and after it is off
         # by at most twice their allowance: the uncommanded check allows that much more (and a
         # margin), so a reply byte can never look like uncommanded motion.  (HOMING here: xtr
         # 100 without a HOME written; a homing that follows is judged by _raw_checks.)
-        mode = self.mode(a.f, a.n)
-        if mode is LinkMode.HOMING:
-            hide = [2.0 * (self.homing_speedup * v * dt + 64) for v in self._vhome]
-        elif mode is LinkMode.NONE:
-            hide = [0.0] * 6
-        else:
-            hide = [2.0 * al for al in self._link_model(mode, a.f, b.f, dt)[1]]
+        hide = self._hide(a, b, dt)
         best: tuple[float, CommandFrame, list[float], list[float]] | None = None
         for fr, pred, allow, res in tried:
             loose = [al + h + self.tol.margin for al, h in zip(allow, hide)]
@@ -909,6 +932,49 @@ class StatusIntegrity:
         if excess <= 0.0:
             return False, None
         return False, self._describe(a.f, b.f, fr, pred, loose)
+
+    def _hide(self, a: _Reply, b: _Reply, dt: float) -> list[float]:
+        """Per joint, how far a corrupted position that passed the link checks before and after
+        it can be off (twice their allowance), for the frames from ``a`` to ``b``."""
+        mode = self.mode(a.f, a.n, a.hi)
+        if mode is LinkMode.HOMING:
+            return [2.0 * (self.homing_speedup * v * dt + 64) for v in self._vhome]
+        if mode is LinkMode.NONE:
+            return [0.0] * 6
+        return [2.0 * al for al in self._link_model(mode, a.f, b.f, dt)[1]]
+
+    def _narrow(self, a: _Reply, b: _Reply, dt: float, k: int) -> None:
+        """``b`` follows from ``a`` under frame number ``k`` (and under none of the newer ones
+        ``a`` can answer).  When ``a`` may answer several frames (replies lost on the way, a
+        frame the board never took in: the count of replies lags behind the frames answered for
+        good), the board's motion between the two tells which: the board ran the frame ``a``
+        answered (or a newer one it took in in the same pass), and that frame moves the joints
+        as ``b`` shows.  A frame from ``a.n`` on that would move them beyond even the uncommanded
+        check's margins (where a corrupted byte cannot hide) was not the one: the oldest one
+        left is the oldest ``a`` can answer, and ``b`` and the replies after it answer newer
+        ones (:attr:`_floor`).  Only ever the oldest is moved on, never past the newest
+        (``hi``): a reply is still judged against every frame it can answer."""
+        if k <= a.n or dt <= 0.0:
+            return
+        frames = self._candidates(a.n, k - 1)
+        first = k - len(frames)
+        hide: list[float] | None = None
+        oldest = k
+        for i in range(len(frames) - 1, -1, -1):
+            number = first + i
+            if number < a.n:
+                break
+            pred, allow = self._predict(a.f.positions, frames[i], dt)
+            if hide is None:
+                hide = self._hide(a, b, dt)
+            if all(abs(p1 - q) <= al + h + self.tol.margin
+                   for p1, q, al, h in zip(b.f.positions, pred, allow, hide)):
+                oldest = number
+        if oldest > a.n:
+            a.n = oldest
+            # (never past the newest frame ``b`` can answer: that bound is sure)
+            b.n = min(max(b.n, oldest + 1), max(b.hi, b.n))
+            self._floor = max(self._floor, b.n + 1)
 
     def _describe(self, a: StatusFrame, b: StatusFrame, fr: CommandFrame, pred: list[float],
                   allow: list[float]) -> _Deviation:
@@ -972,7 +1038,7 @@ class StatusIntegrity:
         hull = self._hull(ref, b)
         if hull is None:
             return None
-        idle = self._idle_codes_only(b.n) and self._idle_codes_only(ref.n)
+        idle = self._idle_codes_only(b.n, b.hi) and self._idle_codes_only(ref.n, ref.hi)
         parts = []
         joints = []
         for j, (lo, hi) in enumerate(hull):

@@ -87,8 +87,8 @@ class LinkHistory:
         self._n = 0
         #: frames written since the last structurally valid reply arrived
         self.unanswered = 0
-        #: frames written whose replies have not arrived yet, oldest first (which frame a late
-        #: reply answers: the board answers in order)
+        #: frames written whose replies have not arrived yet (which frame the next reply answers:
+        #: the board answers in order; see :meth:`answered_range`)
         self._backlog = 0
         #: the oldest frame a reply read from now on can answer (replies come in order, one
         #: per frame the board accepted; some may be lost)
@@ -131,21 +131,35 @@ class LinkHistory:
         self._backlog += 1
         return self._n
 
-    def answered(self, count: int, index: int, *, after_write: bool) -> int:
-        """The number of the frame that the ``index``-th (from 0) of ``count`` replies read
-        together answers.  ``after_write``: read while waiting for the reply to the frame just
-        written (the last of them answers it, the ones before it the frames before); else read
-        later, at the start of a tick: the oldest frame still unanswered (the board answers in
-        order; replies the operating system held back arrive several at once)."""
-        if after_write:
-            n = self._n - (count - 1 - index)
-        else:
-            n = self._n - self._backlog + 1
-        self._backlog = max(0, self._backlog - 1)
+    def answered_range(self, count: int, index: int, *, after_write: bool = False) -> tuple[int, int]:
+        """The frames that the ``index``-th (from 0) of ``count`` replies read together can
+        answer: ``(lo, hi)``, numbers of frames written.
+
+        The board answers every frame it accepts with one reply, in order, as it takes the frame
+        in (the stock firmware drains its serial input once a pass: after a stall it answers its
+        whole backlog at once, oldest first).  So the replies read answer the oldest frames still
+        unanswered, one each: ``lo``, the oldest frame it can answer, counts them.  Replies can be
+        lost (bytes dropped on the way back, a frame the board never accepted): then it answers a
+        newer frame than counted, at most the newest written less one for each reply read after
+        it in this batch, ``hi``.  ``lo`` never runs ahead of the frame answered and ``hi`` never
+        behind it.  ``after_write`` (read in the reply wait of the frame just written, else at the
+        start of a tick) changes nothing: a reply read right after a frame was written may still
+        answer an older one (the board stalled and took its backlog in late; seen: the replies to
+        frames 69-71 read in frame 74's reply wait, taken as the answers to 72-74, and the next
+        true reply judged against frames it could not have answered)."""
+        n = self._n
+        hi = n - (count - 1 - index)
+        lo = n - self._backlog + 1
+        if lo > hi:  # more replies than frames left to answer (none this session could): the newest
+            lo = hi
+        self._backlog = max(0, n - lo)
         self.unanswered = 0  # any structurally valid reply proves the board answered
-        if after_write and index == count - 1:
-            self._backlog = 0  # the rest were lost
-        return max(0, min(self._n, n))
+        return max(0, min(n, lo)), max(0, min(n, hi))
+
+    def answered(self, count: int, index: int, *, after_write: bool = False) -> int:
+        """The oldest frame that the ``index``-th of ``count`` replies read together can answer
+        (:meth:`answered_range`'s ``lo``: the one it answers when no reply was lost)."""
+        return self.answered_range(count, index, after_write=after_write)[0]
 
     def earliest(self, status: StatusFrame) -> int:
         """The oldest frame that the reply ``status`` (the next one read) can answer, by the
