@@ -21,6 +21,10 @@ and margins in millimetres; angles of zones and poses in degrees; everything in 
   config; :data:`TABLE_ZONE` is on by default).
 * Queries: :func:`check` -> :class:`Verdict`; :func:`check_swept` and :func:`check_path` ->
   :class:`PathVerdict`; :class:`Scene` is the compiled form they use (keep one per setup).
+* A planned move: :func:`check_trajectory` (samples in degrees at a rate, swept) ->
+  :class:`TrajectoryVerdict` with the time into the move and :func:`collision_message`'s
+  one line ("J5 link vs zone 'monitor' at 1.23 s into the move (2.1 mm inside its 10 mm
+  margin)"), what the dry run and the controller's plan admission report.
 
 docs/collision.md has the model's sizes, the pair list, the zone syntax, the sweep's guarantee
 and the benchmark figures.
@@ -70,12 +74,14 @@ if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ l
         check_swept,
         kernel_name,
     )
+    from parolkit.collision.trajectory import TrajectoryVerdict, check_trajectory, collision_message
 
 __all__ = [
     "CollisionModel", "ArmEnvelope", "Body", "BodyRole", "HeldObject", "PairInfo", "PairTable", "default_model",
     "PAIR_SAMPLES", "PAIR_SAMPLE_SEED",
     "Scene", "Verdict", "PathVerdict", "PathStatus", "Pair", "PairDistance", "PairKind",
     "check", "check_swept", "check_path", "kernel_name",
+    "check_trajectory", "collision_message", "TrajectoryVerdict",
     "BoxZone", "PlaneZone", "CylinderZone", "Zone", "TABLE_ZONE", "ToolShape", "Capsule", "Sphere", "HeldShape",
 ]
 
@@ -87,6 +93,8 @@ _LAZY = {name: "parolkit.collision.model" for name in (
 _LAZY.update({name: "parolkit.collision.scene" for name in (
     "Pair", "PairDistance", "PairKind", "PathStatus", "PathVerdict", "Scene", "Verdict", "check", "check_path",
     "check_swept", "kernel_name")})
+_LAZY.update({name: "parolkit.collision.trajectory" for name in (
+    "TrajectoryVerdict", "check_trajectory", "collision_message")})
 
 
 def __getattr__(name: str) -> object:
