@@ -764,9 +764,10 @@ def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_tick
     then silence.  Judged on the frames the board received, each at its tick (frames are one a
     tick: the first GO TO is the tick that took the first target in): the curve shifted by the
     lag that fits the frames' targets best (each where the board is a period later) is at most
-    2 ticks late and off by less than 30 % of the amplitude (8 % on a quiet machine); no
-    joint's feed-forward is over its maximum speed or changes by more than its acceleration
-    limit allows in a period (but into a frame the guard held back for late replies); the last
+    2 ticks late and off by less than 30 % of the amplitude (5.6 % on a quiet machine, at lag
+    0); no joint's feed-forward is over its maximum speed or changes by more than its
+    acceleration limit allows in a period (but into a frame the guard's box put on its nearest
+    point in hundredths of a step: a box narrower than a step, late replies); the last
     target is held (the frames end on it, at rest); the silence ends the stream COMPLETED with
     a controlled stop.  A sender held up past a tick skips that tick's target (as a real-time
     client would): those count as dropped too, and the frames right after one are not judged."""
@@ -810,15 +811,21 @@ def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_tick
         err[lag] = max(float(np.max(np.abs(pos[i] - curve(ticks[i] + 1 - seq0 - lag) * SPD) / amp_steps))
                        for i in judged)
     best = min(err, key=err.__getitem__)
-    # (the curve's own fit is 0.08 of the amplitude; datagrams that reach the controller a tick
-    # late on a busy machine, beside two CPU hogs, moved it to 0.18 once: the lockstep test
-    # with 20 % of the targets a tick late sees up to 0.26, tests/unit/test_live_motion.py)
+    # (the curve's own fit is 0.056 of the amplitude at lag 0; 0.08 a tick early before issue
+    # 23's follower.  Datagrams that reach the controller a tick late on a busy machine moved
+    # it to 0.18 once: the lockstep test with 40 % of the targets a tick late sees up to 0.32.
+    # Beside two CPU hogs and other test runs the old follower was 0.6 to 1.1 off at lags 0 to
+    # -3 after the controller took no target for 12 ticks while the sender skipped one (the
+    # silence's slow-down, then a restart that overshot); the guard's box holding it back for
+    # late replies did the same in the lockstep test.  It now runs back onto the curve within
+    # the limits (tests/unit/test_live_motion.py), but targets that stop coming still cost
+    # what the curve moved meanwhile, and this judge knows of the sender's own delays only)
     assert best <= 2 and err[best] < 0.3, ({k: round(v, 3) for k, v in err.items()}, seq0, took, frames[0][0],
                                            sorted(skipped), len(runs), len(frames))
-    # within the acceleration limit from frame to frame; except into a frame the guard's box held
-    # back (replies late on a busy machine: the frame is the box's nearest point, at rest but for
-    # the hundredths of a step its feed-forward carries, |ff| <= 50): the bounded commitment
-    # comes before the acceleration limit there (printed)
+    # within the acceleration limit from frame to frame, also where the guard's box holds the
+    # frames back (late replies: the follower's speed changes within the limit while the goal
+    # is put inside the box); except into a frame on the point of a box narrower than a step,
+    # in hundredths of a step (|ff| <= 50): the bounded commitment comes first there (printed)
     holds = []
     for r in runs:  # (a sender held up past the silence ends the stream; the next target starts another)
         seq = [frames[i] for i in r]

@@ -145,6 +145,33 @@ def _slope_now(ts: Sequence[float], xs: Sequence[float]) -> float:
     return sum((t - tm) * (x - xm) for t, x in zip(ts, xs)) / sum((t - tm) ** 2 for t in ts)
 
 
+def _accel_weights(ts: Sequence[float]) -> list[float]:
+    """Weights ``w`` such that ``sum(w[i] * xs[i])`` is how fast the rate of change of samples
+    ``xs`` taken at times ``ts`` changes at time 0 (the newest sample's), by least squares: a
+    cubic through six samples or more (the acceleration now: a parabola's is its mean over the
+    window, half a window late on a curve whose acceleration changes), a parabola through four
+    or five; all 0 for fewer (no acceleration).  The same for every joint: solved once."""
+    n = len(ts)
+    if n < 4:
+        return [0.0] * n
+    m = 4 if n >= 6 else 3
+    # x = c0 + c1 t + c2 t^2 (+ c3 t^3): c2 = z . (X^T x) with A z = e2, A = X^T X (symmetric),
+    # so the weights are X z; A z = e2 by Gaussian elimination with partial pivoting
+    a = [[sum(t ** (i + k) for t in ts) for k in range(m)] + [1.0 if i == 2 else 0.0] for i in range(m)]
+    for c in range(m):
+        piv = max(range(c, m), key=lambda r: abs(a[r][c]))
+        if abs(a[piv][c]) < 1e-300:
+            return [0.0] * n
+        a[c], a[piv] = a[piv], a[c]
+        for r in range(c + 1, m):
+            f = a[r][c] / a[c][c]
+            a[r] = [x - f * y for x, y in zip(a[r], a[c])]
+    z = [0.0] * m
+    for i in reversed(range(m)):
+        z[i] = (a[i][m] - sum(a[i][k] * z[k] for k in range(i + 1, m))) / a[i][i]
+    return [2.0 * sum(zk * t ** k for k, zk in enumerate(z)) for t in ts]
+
+
 def _det3(m: Sequence[Sequence[float]]) -> float:
     return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
@@ -526,6 +553,17 @@ class SpeedActivity(TrajectoryActivity):
 #: how fast a servo stream closes the distance to a moving target, 1/s (its speed is followed
 #: besides)
 SERVO_GAIN_PER_S = 20.0
+#: the share of a joint's speed and acceleration limits a streamed curve's own speed and
+#: acceleration are taken to use at most (the rest is the follower's, to run back onto the
+#: curve after it fell behind)
+_CURVE_SHARE = 0.9
+#: the servo follower's generator (ruckig) computes in this many steps: in steps, "error in
+#: step 1" came for about one in seven random states relative to a curve, in hundreds of
+#: steps none in 3,000
+_UNIT = 100.0
+#: a joint that runs back onto the curve is on it again once no further from it than this many
+#: steps plus a tick's travel at the curve's speed (and able to stop relative to it within that)
+_ON_CURVE_STEPS = 5.0
 #: A servo target's speed is a least-squares fit over the targets of this many ticks (100 ms at
 #: 100 Hz): datagrams that arrive a tick late, two in the next tick, move it by a fraction
 SERVO_SPEED_WINDOW_TICKS = 10
@@ -539,12 +577,15 @@ class ServoActivity(Activity):
 
     A target takes effect in the frame of the tick that takes it in (:meth:`set_target`); its
     speed is estimated from the ones before it (so a streamed curve is followed, not chased
-    from rest to rest; a dropped or late target moves the estimate by a fraction).  With no target
-    for ``timeout_ticks``, or :meth:`finish` (a queued command, STOP), or a pause, the generator
-    brings the joints to rest at the acceleration limit (ruckig's velocity interface, target 0):
-    a controlled stop; the job ends there (a pause holds instead, and the stream goes on after
-    RESUME).  Targets are kept inside the joint limits; the generator aims at rest at a target
-    that is at a limit."""
+    from rest to rest; a dropped or late target moves the estimate by a fraction).  When the
+    guard's box holds the frame back (late replies), the speed changes only as the box and
+    the acceleration limit allow (:meth:`_held_back`), and once the box opens (or targets come
+    again after a silence or a pause) the generator runs back onto the curve as fast as the
+    limits allow (:meth:`_follow`).  With no target for ``timeout_ticks``, or :meth:`finish` (a
+    queued command, STOP), or a pause, the generator brings the joints to rest at the
+    acceleration limit (ruckig's velocity interface, target 0): a controlled stop; the job
+    ends there (a pause holds instead, and the stream goes on after RESUME).  Targets are
+    kept inside the joint limits; the generator aims at rest at a target that is at a limit."""
 
     moves = True
 
@@ -562,8 +603,6 @@ class ServoActivity(Activity):
         self._out = OutputParameter(6)
         self.vmax = [float(v) for v in max_speed_steps_s]
         self.amax = [float(a) for a in max_accel_steps_s2]
-        self._in.max_acceleration = self.amax
-        self._in.max_jerk = [a / jerk_time_s for a in self.amax]
         self._jerk_time = float(jerk_time_s)
         # every joint on its own (a servo target is followed joint by joint, not as a
         # synchronised move: the slowest joint must not slow the others down)
@@ -589,8 +628,13 @@ class ServoActivity(Activity):
         self.ending: tuple[AckStatus, str] | None = None
         #: the ending is the silence's (a new target resumes the stream: :meth:`resume`)
         self._silenced = False
-        #: ticks the guard's box held the generator back (late replies)
+        #: ticks the guard's box held the generator back (late replies), and those of them that
+        #: stopped a joint harder than its acceleration limit allows (the box comes first)
         self.held_ticks = 0
+        self.box_stops = 0
+        #: per joint: running back onto the curve (after the box held it back, a silence or a
+        #: pause) until on it again, time-optimally; else following it with a proportional term
+        self._rejoin = [True] * 6
         #: SERVOL in TRF: the TCP pose (4x4, m) the stream's offsets are relative to
         self.anchor: object | None = None
 
@@ -602,7 +646,8 @@ class ServoActivity(Activity):
         fitted to the targets of the last :data:`SERVO_SPEED_WINDOW_TICKS` ticks (:func:`_slope_now`;
         within the speed limits; 0 at a joint limit): a datagram one tick late (two targets in
         the next tick) moves it by a fraction, and the generator does not brake and back up for
-        it."""
+        it.  So is its acceleration (:func:`_accel_weights`), which only running back onto the curve
+        uses (:meth:`_follow`)."""
         target = self._inside(target_steps)
         hist = self._history
         # the window's targets, the latest of each tick, and this one: their least-squares
@@ -618,11 +663,11 @@ class ServoActivity(Activity):
             v = [max(-vm, min(vm, _slope_now(ts, [x[j] for _, x in pts]))) for j, vm in enumerate(self.vmax)]
             # a joint whose target came again unchanged is held there (a client holding its
             # device still): at rest now, not once the whole window has the same target
-            v = [0.0 if abs(t - o) < 1e-9 else x for t, o, x in zip(target, hist[-1][1], v)]
-            if tick > self.target_tick:
-                step = (tick - self.target_tick) * self.period
-                self.target_a = [max(-am, min(am, (a - b) / step)) for a, b, am in zip(v, self.target_v, self.amax)]
-            self.target_v = v
+            still = [abs(t - o) < 1e-9 for t, o in zip(target, hist[-1][1])]
+            self.target_v = [0.0 if h else x for h, x in zip(still, v)]
+            w = _accel_weights(ts)
+            self.target_a = [0.0 if h else max(-am, min(am, sum(wi * x[j] for wi, (_, x) in zip(w, pts))))
+                             for j, (h, am) in enumerate(zip(still, self.amax))]
         hist.append((tick, target))
         for j, (lo, hi) in enumerate(self.limits):
             if target[j] <= lo or target[j] >= hi:
@@ -646,12 +691,13 @@ class ServoActivity(Activity):
         self.ending, self._silenced = None, False
         return True
 
-    def _constant_accel(self, want: Sequence[float]) -> tuple[list[float], list[float], list[float]]:
+    def _constant_accel(self, want: Sequence[float],
+                        vmax: Sequence[float]) -> tuple[list[float], list[float], list[float]]:
         """One period from the generator's state toward speeds ``want`` at the acceleration limit."""
         assert self._p is not None
         dt = self.period
         p, v, a = [], [], []
-        for x0, v0, w, am, vm in zip(self._p, self._v, want, self.amax, self.vmax):
+        for x0, v0, w, am, vm in zip(self._p, self._v, want, self.amax, vmax):
             v1 = v0 + max(-am * dt, min(am * dt, max(-vm, min(vm, w)) - v0))
             p.append(x0 + 0.5 * (v0 + v1) * dt)
             v.append(v1)
@@ -661,8 +707,7 @@ class ServoActivity(Activity):
     def _closing(self, gap: float, amax: float) -> float:
         """The speed (steps/s, relative to the target's) that closes ``gap`` (steps): the
         proportional term, no faster than the gap can still be braked away at half the
-        acceleration limit with the jerk limit's ramp (a stream held back, by the guard for
-        late replies or by a pause, catches up without running past the curve)."""
+        acceleration limit with the jerk limit's ramp."""
         a = 0.5 * amax
         tj = self._jerk_time
         brake = -a * tj + math.sqrt((a * tj) ** 2 + 2.0 * a * abs(gap))
@@ -674,6 +719,155 @@ class ServoActivity(Activity):
             return int(self._otg.update(self._in, self._out)) >= 0
         except self._error:
             return False
+
+    def _generate(self, frame: Sequence[tuple[float, float, float]], vmax: Sequence[float],
+                  modes: Sequence[object], speeds: Sequence[float]) -> tuple[list[float], list[float], list[float]]:
+        """One step of the generator in a frame that moves with a curve (per joint: where it is
+        at the start of this period, its speed and its acceleration, taken as constant): the
+        generator's state relative to it, limited to what the joint's speed and acceleration
+        limits leave beside the curve's own, toward 0 per joint in ``modes`` (ruckig's position
+        interface: on the curve, at its speed) or toward the relative speed in ``speeds``
+        (velocity interface); the state one period on, back in the joint's own terms.  (Ruckig
+        computes in hundreds of steps: see :data:`_UNIT`.)"""
+        assert self._p is not None
+        inp, out, u, dt = self._in, self._out, _UNIT, self.period
+        inp.per_dof_control_interface = list(modes)
+        inp.max_velocity = [(vm - w) / u for vm, (_, w, _) in zip(vmax, frame)]
+        inp.min_velocity = [(-vm - w) / u for vm, (_, w, _) in zip(vmax, frame)]
+        inp.max_acceleration = [(am - b) / u for am, (_, _, b) in zip(self.amax, frame)]
+        inp.min_acceleration = [(-am - b) / u for am, (_, _, b) in zip(self.amax, frame)]
+        inp.max_jerk = [am / self._jerk_time / u for am in self.amax]
+        inp.current_position = [(p - x) / u for p, (x, _, _) in zip(self._p, frame)]
+        inp.current_velocity = [(v - w) / u for v, (_, w, _) in zip(self._v, frame)]
+        inp.current_acceleration = [(a - b) / u for a, (_, _, b) in zip(self._a, frame)]
+        inp.target_position = [0.0] * 6
+        inp.target_velocity = [max(lo, min(hi, x / u)) for x, lo, hi in zip(speeds, inp.min_velocity, inp.max_velocity)]
+        inp.target_acceleration = [0.0] * 6
+        if not self._update():
+            # refused (ruckig's velocity interface failed on some states, "error in step 1";
+            # its output is last tick's, which repeated froze the stream with its
+            # feed-forward): change the speed toward the curve's at the acceleration limit
+            # instead (jerk unlimited for this tick)
+            return self._constant_accel([w + x for (_, w, _), x in zip(frame, speeds)], vmax)
+        p, v, a = [], [], []
+        for (x, w, b), vm, dp, dv, da in zip(frame, vmax, out.new_position, out.new_velocity, out.new_acceleration):
+            p.append(x + w * dt + 0.5 * b * dt * dt + dp * u)
+            v.append(max(-vm, min(vm, w + b * dt + dv * u)))
+            a.append(b + da * u)
+        return p, v, a
+
+    def _slow_down(self, vmax: Sequence[float]) -> tuple[list[float], list[float], list[float]]:
+        """One period of the controlled stop: toward rest at the acceleration limit (in a frame
+        at rest), and then back onto the curve once targets come again (:meth:`_follow`)."""
+        self._rejoin = [True] * 6
+        return self._generate([(0.0, 0.0, 0.0)] * 6, vmax, [self._interface.Velocity] * 6, [0.0] * 6)
+
+    def _follow(self, tick: int, vmax: Sequence[float]) -> tuple[list[float], list[float], list[float]]:
+        """One period of following the streamed curve: the latest target moved on by its speed
+        to this tick.  A target at rest is reached exactly, at rest (ruckig's position
+        interface).  A moving one is followed at its speed, and the distance to it closed
+        with a proportional term (no faster than it can be braked away): a target that came a
+        tick late or was dropped moves the frames by a fraction.  A joint that fell behind
+        (the guard's box held it back, or it slowed down for a silence or a pause) runs back
+        onto the curve time-optimally instead: relative to the curve moving on at its speed and
+        acceleration, to on it at its speed, within what the joint's limits leave beside the
+        curve's own; once there (within a tick's travel at the curve's speed) it follows as
+        before.  So it keeps what speed it has and joins the curve within the limits, without
+        starting from rest or running past it."""
+        assert self._p is not None
+        dt = self.period
+        off = (tick - self.target_tick) * dt
+        moving = any(self.target_v)
+        frame, modes, speeds = [], [], []
+        position, velocity = self._interface.Position, self._interface.Velocity
+        for j in range(6):
+            vm, am = vmax[j] * _CURVE_SHARE, self.amax[j] * _CURVE_SHARE
+            lo, hi = self.limits[j]
+            w = max(-vm, min(vm, self.target_v[j]))
+            x = self.target[j] + w * off
+            if not moving or not lo < x < hi:  # (a target at rest, or at a joint limit: at rest there)
+                frame.append((min(max(x, lo), hi), 0.0, 0.0))
+                modes.append(position)
+                speeds.append(0.0)
+                continue
+            if self._rejoin[j]:
+                b = max(-am, min(am, self.target_a[j]))
+                xr = min(max(x + 0.5 * b * off * off, lo), hi)
+                wr = max(-vm, min(vm, w + b * off))
+                # on the curve again: within a tick's travel at its speed, and able to stop
+                # relative to it within that too
+                far = abs(self._p[j] - xr) + (self._v[j] - wr) ** 2 / (2.0 * self.amax[j])
+                self._rejoin[j] = far > dt * abs(wr) + _ON_CURVE_STEPS
+                if self._rejoin[j]:
+                    frame.append((xr, wr, b))
+                    modes.append(position)
+                    speeds.append(0.0)
+                    continue
+            # the distance to the curve closed with the proportional term, relative to its
+            # speed (the frame moves on with the curve over the period)
+            frame.append((x, w, 0.0))
+            modes.append(velocity)
+            speeds.append(self._closing(x - self._p[j], self.amax[j]))
+        return self._generate(frame, vmax, modes, speeds)
+
+    def _held_back(self, p: Sequence[float], v: Sequence[float], a: Sequence[float], box: Sequence[tuple[float, float]]
+                   ) -> tuple[list[float], list[float], list[float], tuple[int, ...], tuple[int, ...]] | None:
+        """The generator's state ``p``, ``v``, ``a`` held back into the guard's box (late
+        replies: where the board may be is uncertain), and its frame (targets, feed-forwards).
+        Per joint whose goal lies outside: the speed nearest the generator's that keeps the
+        goal inside, changed from the last frame's by no more than the acceleration limit
+        allows (so a joint the box holds back a little keeps most of its speed, and one it
+        holds back longer slows down within the limit, not to rest at once); where that is not
+        enough the goal is put on the box's nearest point (the box comes first) and the speed
+        kept as it is, for when the box opens again.  Those joints then run back onto the
+        curve (:meth:`_follow`).  None when the box is empty on a joint (hold still instead)."""
+        assert self._p is not None
+        dt, c = self.period, _FF_STEP
+        p1, v1, a1 = list(p), list(v), list(a)
+        pos, ff = [], []
+        stopped = False
+        for j, (lo, hi) in enumerate(box):
+            if lo > hi:
+                return None
+            x, w = p1[j], v1[j]
+            t, f = int(round(x)), int(round(w))
+            if lo <= t + f * c <= hi:
+                pos.append(t)
+                ff.append(f)
+                continue
+            self._rejoin[j] = True
+            x0, w0, am = self._p[j], self._v[j], self.amax[j]
+            # the goal after a speed u this period, x0 + (w0 + u) dt / 2 + u c, rises with u
+            base, k = x0 + 0.5 * w0 * dt, 0.5 * dt + c
+            u = min(max(w, (lo + 0.5 - base) / k), (hi - 0.5 - base) / k)
+            u = min(max(u, w0 - am * dt, -self.vmax[j]), w0 + am * dt, self.vmax[j])
+            x = base + 0.5 * u * dt
+            f = int(round(u))
+            if not lo <= x + u * c <= hi:
+                # stopped harder than the acceleration limit allows: the goal on the box
+                stopped = True
+                x = min(max(x + u * c, lo), hi) - u * c
+            # whole steps: the nearest that keep the goal inside (the feed-forward carries the
+            # rest); in a box narrower than a step, the box's point in hundredths
+            t = int(round(x))
+            if t + f * c > hi:
+                t = int(math.floor(hi - f * c))
+            elif t + f * c < lo:
+                t = int(math.ceil(lo - f * c))
+            if not lo <= t + f * c <= hi:
+                one = _towards([x + u * c], [(lo, hi)])
+                assert one is not None
+                t, f = one[0][0], one[1][0]
+                stopped = True
+            # (the state: the frame's goal at speed u; no acceleration carried on: the box's
+            # braking is not the generator's, and the jerk limit would take its time to undo it)
+            p1[j], v1[j], a1[j] = t + f * c - u * c, u, 0.0
+            pos.append(t)
+            ff.append(f)
+        self.held_ticks += 1
+        if stopped:
+            self.box_stops += 1
+        return p1, v1, a1, tuple(pos), tuple(ff)
 
     def step(self, ctx: TickContext) -> FrameRequest:
         box = ctx.box
@@ -689,59 +883,15 @@ class ServoActivity(Activity):
             self._silenced = True
         scale = ctx.speed_scale
         stopping = self.ending is not None or scale <= 0.0
-        inp, out = self._in, self._out
-        inp.current_position, inp.current_velocity, inp.current_acceleration = self._p, self._v, self._a
-        inp.max_velocity = [max(v * scale, 1.0) for v in self.vmax]
-        if stopping:
-            inp.control_interface = self._interface.Velocity
-            inp.target_velocity = [0.0] * 6
-            inp.target_acceleration = [0.0] * 6
-        else:
-            # where the streamed curve will be when this frame's period ends (the target is
-            # where it was when it came): extrapolated with the target's own speed
-            ahead = (ctx.tick - self.target_tick + 1) * self.period
-            goal = self._inside([t + v * ahead for t, v in zip(self.target, self.target_v)])
-            if not any(self.target_v):
-                # a target at rest: reach it exactly, at rest
-                inp.control_interface = self._interface.Position
-                inp.target_position = goal
-                inp.target_velocity = [0.0] * 6
-            else:
-                # a moving target: follow its speed, and close the distance to it with a
-                # proportional term (a time-optimal "arrive there at that speed" would back up
-                # to gather speed; this never does), jerk-limited by the generator
-                inp.control_interface = self._interface.Velocity
-                inp.target_velocity = [max(-vm, min(vm, v + self._closing(g - p, am)))
-                                       for v, g, p, vm, am in zip(self.target_v, goal, self._p, inp.max_velocity,
-                                                                  self.amax)]
-            inp.target_acceleration = [0.0] * 6
-        if self._update():
-            p, v, a = list(out.new_position), list(out.new_velocity), list(out.new_acceleration)
-        else:
-            # the target's speed cannot be reached there within the limits: aim at the
-            # target at rest; failing that, slow down (the generator never leaves its limits)
-            inp.target_velocity = [0.0] * 6
-            if not self._update():
-                inp.control_interface = self._interface.Velocity
-            if self._update():
-                p, v, a = list(out.new_position), list(out.new_velocity), list(out.new_acceleration)
-            else:
-                # the generator refused even that (ruckig's velocity interface fails on some
-                # states: "error in step 1"); its output is last tick's, which repeated froze
-                # the stream with its feed-forward.  Change the speed toward the one asked at
-                # the acceleration limit instead (jerk unlimited for this tick)
-                p, v, a = self._constant_accel(list(inp.target_velocity or [0.0] * 6))
+        vmax = [max(v * scale, 1.0) for v in self.vmax]
+        p, v, a = self._slow_down(vmax) if stopping else self._follow(ctx.tick, vmax)
         pos = tuple(int(round(x)) for x in p)
         ff = tuple(int(round(x)) for x in v)
         if box is not None and not _in_box(pos, ff, box):
-            frame = _towards(goto_goal(pos, ff), box)
-            self.held_ticks += 1
-            if frame is None:
+            held = self._held_back(p, v, a, box)
+            if held is None:
                 return FrameRequest(BoardCommand.IDLE)
-            # (the box's point: whole steps plus the feed-forward's hundredths; without those
-            # the goal lay up to half a step outside and the guard refused it)
-            pos, ff = frame
-            p, v, a = [float(x) for x in goto_goal(pos, ff)], [0.0] * 6, [0.0] * 6
+            p, v, a, pos, ff = held
         self._p, self._v, self._a = p, v, a
         self.progress = 0.0
         if stopping and all(abs(x) < 1.0 for x in v):
