@@ -11,15 +11,20 @@ necessarily the answer to that frame.
 
 from __future__ import annotations
 
+import ast
+from pathlib import Path
+
+import pytest
 from tests.unit.test_controller_core import RATE, Rig
 from tests.unit.test_integrity import LinkFault
 
+from parolkit.controller import integrity
 from parolkit.controller.core import ControllerCore, ReplyBatch, TickInput, Written
 from parolkit.controller.link import LinkHistory
 from parolkit.controller.messages import LinkEvent, LinkEventKind
 from parolkit.protocol.commands import AckStatus
 from parolkit.protocol.frames import BoardCommand, CommandFrame, StatusFrame
-from parolkit.robot import PAROL6
+from parolkit.robot import PAROL6, goto_goal
 
 _GOTO = int(BoardCommand.GOTO)
 #: the joints the logged move left alone (J1 moved)
@@ -198,3 +203,17 @@ def test_after_a_reply_lost_without_a_trace_the_count_is_set_right_by_the_motion
         assert integ.uncommanded == 1 and "J1 moved" in (r.core.error or "")
     finally:
         r.close()
+
+
+def test_the_integrity_check_takes_the_go_to_law_from_robot_py():
+    """The GO TO law's constants (its gain, 50/s, and the feed-forward's weight, 1/2, so the goal
+    lies v_ff / 100 ahead of the target) are robot.py's alone: integrity.py writes none of its
+    own, and its model of a GO TO frame settles exactly where robot.goto_goal says."""
+    source = Path(integrity.__file__).read_text()
+    literals = {node.value for node in ast.walk(ast.parse(source))
+                if isinstance(node, ast.Constant) and type(node.value) in (int, float)}
+    assert not literals & {50, 100, 0.02}, sorted(literals & {50, 100, 0.02})
+    integ = integrity.StatusIntegrity(PAROL6, RATE)
+    frame = _goto(9936, 1855)
+    pred, _ = integ._predict((9836, *_REST), frame, 1.0)  # a second: settled on the goal
+    assert pred == pytest.approx(goto_goal(frame.positions, frame.speeds), abs=1e-6)

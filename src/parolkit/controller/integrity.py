@@ -15,8 +15,9 @@ between: the parser dropped no bytes between them):
 
   - IDLE / ENABLE / DISABLE / CLEAR_ERROR / unknown codes: no step at all, speeds 0;
   - JOG (123): ``p1 = p0 + v1 * dt`` to within a step (exactly, for a speed of 0);
-  - GO TO (156): the firmware's P loop ``v = 50 * (p_ss - p)`` (``p_ss = target + v_ff/100``):
-    ``p1 - p_ss = (p0 - p_ss) * exp(-50 dt)`` with ``p_ss`` read from ``p1`` and ``v1``;
+  - GO TO (156): the firmware's P loop ``v = K * (p_ss - p)`` (``p_ss = target + v_ff x
+    GOTO_FF_GAIN / K``, ``K`` = ``GOTO_GAIN_PER_S``: 50/s, 1/100 s; the law's constants are
+    robot.py's): ``p1 - p_ss = (p0 - p_ss) * exp(-K dt)`` with ``p_ss`` read from ``p1`` and ``v1``;
   - HOMING (a HOME written, then any idle frame while it runs): each joint moves at most its
     fastest homing speed (times the board's homing speed-up), or its counter is zeroed at the
     switch or set to the standby count at the end; the homed bits only rise.
@@ -71,7 +72,7 @@ from typing import Any
 from parolkit._frozen import quick_init
 from parolkit.protocol.frames import TIMER_HZ, BoardCommand, CommandFrame, StatusFrame
 from parolkit.robot import FIRMWARE_SPEED_CLAMP_STEPS_S as BOARD_SPEED_CLAMP
-from parolkit.robot import JOINT_NAMES, RobotModel
+from parolkit.robot import GOTO_FF_GAIN, GOTO_GAIN_PER_S, JOINT_NAMES, RobotModel
 
 __all__ = ["StatusIntegrity", "BoardProbe", "Tolerances", "IntegrityView", "LinkMode",
            "HOMING_SEARCH_STEPS_S"]
@@ -96,6 +97,10 @@ _HOMING_SEGMENT_SPEEDS = frozenset({750, 2050, 2550, 4050, 5050, 5550, 8050, 955
 LONG_LINK_PERIODS = 2.5
 #: the ``timing`` field wraps after 65536 board timer ticks (93.2 ms)
 _TIMING_WRAP_S = 65536 / TIMER_HZ
+#: the GO TO law (robot.py): ``v = K (goal - x)`` with ``goal = target + v_ff x FF_LEAD``
+#: (:func:`~parolkit.robot.goto_goal`), so a speed ``v`` means the goal lies ``v / K`` ahead
+_K = GOTO_GAIN_PER_S
+_FF_LEAD_S = GOTO_FF_GAIN / GOTO_GAIN_PER_S
 _ZERO6 = (0, 0, 0, 0, 0, 0)
 
 
@@ -186,11 +191,12 @@ class _Reply:
 
 
 def _goto(p0: float, pss: float, dt: float, decay: float | None = None) -> float:
-    """Where the firmware's P loop ``v = 50 * (pss - p)`` (clamped to 50,000 steps/s) takes a
-    joint from ``p0`` in ``dt`` s (continuous approximation of its loop passes).  ``decay``:
-    ``exp(-50 dt)`` when the caller has it."""
+    """Where the firmware's P loop ``v = K * (pss - p)`` (``K`` = :data:`~parolkit.robot.
+    GOTO_GAIN_PER_S`, clamped to the firmware's speed clamp) takes a joint from ``p0`` in ``dt``
+    s (continuous approximation of its loop passes).  ``decay``: ``exp(-K dt)`` when the caller
+    has it."""
     e0 = p0 - pss
-    lin = abs(e0) - BOARD_SPEED_CLAMP / 50.0
+    lin = abs(e0) - BOARD_SPEED_CLAMP / _K
     if lin <= 0.0 and decay is not None:
         return pss + e0 * decay
     if lin > 0.0:
@@ -198,8 +204,8 @@ def _goto(p0: float, pss: float, dt: float, decay: float | None = None) -> float
         if dt <= tl:
             return p0 - math.copysign(BOARD_SPEED_CLAMP * dt, e0)
         dt -= tl
-        e0 = math.copysign(BOARD_SPEED_CLAMP / 50.0, e0)
-    return pss + e0 * math.exp(-50.0 * dt)
+        e0 = math.copysign(BOARD_SPEED_CLAMP / _K, e0)
+    return pss + e0 * math.exp(-_K * dt)
 
 
 class BoardProbe:
@@ -809,7 +815,7 @@ class StatusIntegrity:
                 pred.append(p0 + v * dt)
                 allow.append(tol.steps + abs(v) * tol.timing_s if v else 0.0)  # speed 0: not a step
             return pred, allow
-        e = math.exp(-50.0 * dt)
+        e = math.exp(-_K * dt)
         for p0, p1, v in zip(a.positions, b.positions, b.speeds):
             if abs(v) >= BOARD_SPEED_CLAMP:
                 # clamped: the target is unknown; it raced toward it (rare: a corrupted target)
@@ -818,7 +824,7 @@ class StatusIntegrity:
                 continue
             # p_ss from the reported speed; the last pass stepped after that speed was set
             last = 0.5 * v * tol.pass_s
-            q = _goto(p0, p1 + v / 50.0 - last, dt, e)
+            q = _goto(p0, p1 + v / _K - last, dt, e)
             pred.append(q)
             allow.append(tol.steps + (1.0 - e) * (abs(last) + 1.0) + tol.model * abs(q - p0)
                          + abs(v) * tol.timing_s)
@@ -878,9 +884,9 @@ class StatusIntegrity:
                 pred.append(p + vc * dt)
                 allow.append(tol.steps + abs(vc) * tol.timing_s if vc else 0.0)
         elif code == _GOTO:
-            e = math.exp(-50.0 * dt)
+            e = math.exp(-_K * dt)
             for p, tgt, vff in zip(p0, frame.positions, frame.speeds):
-                pss = tgt + vff / 100.0
+                pss = tgt + vff * _FF_LEAD_S
                 if pss == p:  # on target, no feed-forward: the P loop asks for speed 0
                     pred.append(float(p))
                     allow.append(0.0)
@@ -888,7 +894,7 @@ class StatusIntegrity:
                 q = _goto(p, pss, dt, e)
                 pred.append(q)
                 allow.append(tol.steps + tol.model * abs(q - p)
-                             + min(BOARD_SPEED_CLAMP, 50.0 * abs(pss - q)) * tol.timing_s)
+                             + min(BOARD_SPEED_CLAMP, _K * abs(pss - q)) * tol.timing_s)
         else:  # IDLE, ENABLE, DISABLE, CLEAR_ERROR, unknown: not a step
             pred = [float(p) for p in p0]
             allow = [0.0] * 6
@@ -1020,7 +1026,7 @@ class StatusIntegrity:
                 if code == _JOG:
                     vlo, vhi = min(vlo, fr.speeds[j]), max(vhi, fr.speeds[j])
                 elif code == _GOTO:
-                    pss = fr.positions[j] + fr.speeds[j] / 100.0
+                    pss = fr.positions[j] + fr.speeds[j] * _FF_LEAD_S
                     lo, hi = min(lo, pss), max(hi, pss)
             slack = self.tol.steps + self.tol.margin + self.tol.gap
             out.append((lo + vlo * span - slack, hi + vhi * span + slack))
