@@ -3,9 +3,17 @@
 ::
 
     parolkit run PROGRAM [--sim [--fast] [--frame-log FILE]] [--host H --port P [--ack-port A]] [--dry-run]
-                         [--plot out.png] [--step] [--loops N] [--from J1 .. J6] [--config FILE] [--quiet]
-    parolkit check PROGRAM... [--no-plan] [--table] [--loops N] [--from J1 .. J6] [--strict]
+                         [--plot out.png] [--step] [--loops N] [--from J1 .. J6] [--tool NAME] [--config FILE]
+                         [--quiet]
+    parolkit check PROGRAM... [--no-plan] [--table] [--loops N] [--from J1 .. J6] [--tool NAME] [--strict]
+                              [--config FILE]
     parolkit fmt PROGRAM... [--check] [--stdout]
+
+The dry run (``check``, ``run --dry-run``) checks every move for collisions with the config's
+keep-out zones (``[[zones]]``; the table plane by default), the arm's own links and the tool's
+body (``[tools.NAME] shape`` of ``--tool NAME``); a collision is an error at its line naming
+the pair and the time into the move.  The config is ``--config FILE``, else the default file
+(``./parolkit.toml``, then ``~/.config/parolkit/parolkit.toml``), else the defaults.
 
 ``run --sim`` runs the controller in this process on a simulated board in lockstep with its
 frames (:class:`parolkit.controller.fastforward.InProcessController`): each command reaches
@@ -28,7 +36,8 @@ from typing import TYPE_CHECKING, TextIO
 
 if TYPE_CHECKING:
     from parolkit.client.robot import Robot
-    from parolkit.config import Config
+    from parolkit.config import Config, ToolSettings
+    from parolkit.kinematics.tools import Tool
     from parolkit.script.interpreter import Interpreter, Progress
     from parolkit.script.parser import Limits
     from parolkit.script.program import Program, ScriptError
@@ -45,7 +54,8 @@ _DESCRIPTIONS = {
     "check": (
         "check RBTscript programs without running them",
         "Parse and dry-run programs (from the standby pose unless --from is given): syntax, "
-        "argument counts and ranges, reachability and path validity. Exit 1 on any error.",
+        "argument counts and ranges, reachability, path validity and collisions (the arm with "
+        "itself, its tool and the config's keep-out zones, the table by default). Exit 1 on any error.",
     ),
     "fmt": (
         "format RBTscript programs",
@@ -114,7 +124,13 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--from", dest="start", nargs=6, type=float, metavar="J", default=None,
                    help="start joint angles (deg) for a dry run; default the standby pose "
                         "90 -90 180 0 0 180")
-    p.add_argument("--config", default=None, help="parolkit.toml to use")
+    p.add_argument("--tool", default=None, metavar="NAME",
+                   help="the tool the dry run plans and checks with: a [tools.NAME] of the config (its "
+                        "shape is checked for collisions) or a built-in (default, flange); default: the "
+                        "default tool. A run on a robot uses the controller's tool")
+    p.add_argument("--config", default=None, metavar="FILE",
+                   help="parolkit.toml to use (robot limits, tools, [[zones]]); default ./parolkit.toml, "
+                        "then ~/.config/parolkit/parolkit.toml")
 
 
 def _positive_int(text: str) -> int:
@@ -131,6 +147,17 @@ def _config(args: argparse.Namespace) -> Config:
     from parolkit.config import load_config
 
     return load_config(args.config)
+
+
+def _tool(args: argparse.Namespace, cfg: Config) -> tuple[Tool | None, ToolSettings | None]:
+    """``--tool NAME``: the kinematics tool the dry run plans with and the config entry whose
+    shape it checks (None, None without --tool).  An unknown name raises ParolkitValueError."""
+    if args.tool is None:
+        return None, None
+    from parolkit.kinematics.tools import get_tool
+
+    tool = get_tool(args.tool, cfg)
+    return tool, next((t for t in cfg.tools if t.name == args.tool), None)
 
 
 def _limits(cfg: Config) -> Limits:
@@ -156,6 +183,7 @@ def check_main(args: argparse.Namespace) -> int:
 
     try:
         cfg = _config(args)
+        tool, tool_shape = _tool(args, cfg)
     except ParolkitError as exc:
         print(f"parolkit check: {exc}", file=sys.stderr)
         return 2
@@ -177,8 +205,8 @@ def check_main(args: argparse.Namespace) -> int:
         if not args.no_plan:
             from parolkit.script.dryrun import dry_run
 
-            report = dry_run(program, args.start, loops=args.loops, model=cfg.robot,
-                             rate_hz=cfg.controller.rate_hz)
+            report = dry_run(program, args.start, loops=args.loops, model=cfg.robot, tool=tool,
+                             rate_hz=cfg.controller.rate_hz, zones=cfg.zones, tool_shape=tool_shape)
             errors, warnings = report.errors, report.warnings
         diags = sorted(errors + warnings, key=lambda d: (d.line, d.col))
         _print_diagnostics(diags, sys.stdout)
@@ -295,8 +323,9 @@ class _ProgressPrinter:
 def _dry_run_main(args: argparse.Namespace, program: Program, cfg: Config) -> int:
     from parolkit.script.dryrun import dry_run
 
-    report = dry_run(program, args.start, loops=args.loops, model=cfg.robot,
-                     rate_hz=cfg.controller.rate_hz)
+    tool, tool_shape = _tool(args, cfg)
+    report = dry_run(program, args.start, loops=args.loops, model=cfg.robot, tool=tool,
+                     rate_hz=cfg.controller.rate_hz, zones=cfg.zones, tool_shape=tool_shape)
     _print_diagnostics(sorted(report.errors + report.warnings, key=lambda d: (d.line, d.col)))
     print(report.table())
     if args.plot:
@@ -339,6 +368,9 @@ def _step_console(interp: Interpreter, done: threading.Event) -> None:
 
 def _sim_flag_error(args: argparse.Namespace) -> str | None:
     """What is wrong with --fast / --frame-log on this command line (None: nothing)."""
+    if args.tool is not None and not args.dry_run:
+        return ("--tool applies to --dry-run (the tool it plans and checks with); a run uses the "
+                "controller's tool (SET_TOOL|NAME, Robot.set_tool)")
     for flag, given in (("--fast", args.fast), ("--frame-log", args.frame_log is not None)):
         if given and not args.sim:
             return (f"{flag} needs --sim: it runs the simulated board in this process, in lockstep "

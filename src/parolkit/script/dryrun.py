@@ -6,6 +6,16 @@ one before ended; ``Home()`` ends in the standby pose).  A target that cannot be
 path that leaves the joint limits, passes a singularity or needs more than a joint's maximum
 speed is reported as an error at the program line, before anything moves.
 
+Every planned move is also checked for collisions (:func:`parolkit.collision.check_trajectory`:
+its samples and every pose between them) with the keep-out zones (the config's ``[[zones]]``;
+the table plane under the base by default), the arm's own links and the tool's body
+(``[tools.NAME] shape``).  A collision is an error at the line, naming the pair and the time
+into the move (as the move will run, at the speed override a ``Speed()`` line set):
+``MoveJoint would collide: J5 link vs zone 'monitor' at 0.84 s into the move (enters its 10 mm
+margin; deepest 26.0 mm overlap at 1.31 s)``.  The run goes on from the move's planned end, so
+every line that collides is reported at once (a move that starts where a colliding one ended,
+inside a zone, is reported at 0.00 s).
+
 For ``Loop()`` programs the default is two iterations, so that the path from the end of the
 program back to its first move is checked too; pass ``loops`` to plan a given number.  Any
 number costs at most a few passes: planning depends only on the joints a pass starts from, so
@@ -54,7 +64,9 @@ from parolkit.script.program import (
     format_number,
 )
 
-if TYPE_CHECKING:  # parolkit.motion and the kinematics are imported when the first move is planned
+if TYPE_CHECKING:  # parolkit.motion, the kinematics and the collision check: when the first move is planned
+    from parolkit.collision import Scene, ToolShape, Zone
+    from parolkit.config import ToolSettings
     from parolkit.kinematics.tools import Tool
     from parolkit.motion import Trajectory
 
@@ -318,6 +330,30 @@ def _planning_message(cmd: Command, state: np.ndarray, exc: Exception) -> str:
     return f"{head}: {str(exc).rstrip('.')}"
 
 
+def _collision_scene(zones: Iterable[Zone] | None, tool_shape: ToolShape | ToolSettings | None) -> Scene:
+    """The compiled collision scene a dry run checks every move in (built once per run)."""
+    from parolkit.collision import Scene
+    from parolkit.config import default_zones
+
+    return Scene(zones=default_zones() if zones is None else zones, tool=tool_shape)
+
+
+def _collision(scene: Scene, traj: Trajectory, start: np.ndarray, override: float) -> str:
+    """The collision message of a planned move ("" when it is clear), its time into the move
+    as it will run: at the speed override a Speed() line set."""
+    from parolkit.collision import check_trajectory, collision_message
+
+    if not len(traj):
+        return ""
+    verdict = check_trajectory(traj.positions_deg(), traj.rate_hz, scene, start_deg=start)
+    if verdict.clear or verdict.pair is None:
+        return ""
+    scale = 100.0 / override
+    deepest_s = None if verdict.deepest_time_s is None else verdict.deepest_time_s * scale
+    return collision_message(verdict.pair, None if verdict.time_s is None else verdict.time_s * scale,
+                             verdict.deepest, deepest_s)
+
+
 def repeated_passes(iterations: int, repeats: tuple[int, int], pass_times: Sequence[float]) -> tuple[float, int]:
     """Pass ``k`` of ``iterations`` starts from the joints pass ``p`` started from
     (``repeats = (k, p)``), so passes k, k+1, ... go round passes p..k-1 again and again.
@@ -339,13 +375,21 @@ def dry_run(
     model: RobotModel | None = None,
     tool: str | Tool | None = None,
     rate_hz: float = 100.0,
+    zones: Iterable[Zone] | None = None,
+    tool_shape: ToolShape | ToolSettings | None = None,
 ) -> DryRunReport:
     """Plan every command of ``program`` and return a :class:`DryRunReport`.
 
     ``start_deg``: joints (deg) before the program (default: the standby pose);
     ``loops``: iterations for a Loop() program (default 2; ignored for End() programs);
-    ``model``/``tool``/``rate_hz``: as for :func:`parolkit.motion.plan`.
-    Never raises for a planning problem: each one is an error at its program line.
+    ``model``/``tool``/``rate_hz``: as for :func:`parolkit.motion.plan`;
+    ``zones``: the keep-out zones every move is checked against (``Config.zones``; None: the
+    default ones, the table plane under the base; ``()``: none, only self-collision);
+    ``tool_shape``: the tool's body (its :class:`parolkit.collision.ToolShape` or config entry;
+    None: the tool has no shape).
+    Never raises for a planning problem or a collision: each one is an error at its program
+    line.  (A bad ``zones`` list, e.g. two zones of one name, raises ParolkitValueError when
+    the first move is checked.)
     """
     from parolkit.motion import plan
 
@@ -358,6 +402,7 @@ def dry_run(
         raise ValueError(f"loops must be a whole number >= 1, got {loops!r}")
     iterations = (int(loops) if loops is not None else default_loops(program)) if program.loops else 1
 
+    scene: Scene | None = None  # compiled when the first move is checked
     rows: list[DryRunRow] = []
     errors: list[ScriptError] = []
     warnings: list[ScriptError] = list(program.warnings)
@@ -451,13 +496,20 @@ def dry_run(
                 rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, 0.0, failed=True, note="refused"))
                 continue
             segments.append((t, traj))
-            state = np.asarray(traj.final_deg, dtype=float)
             notes = list(getattr(traj, "notes", ()) or ())
+            if scene is None:
+                scene = _collision_scene(zones, tool_shape)
+            collision = _collision(scene, traj, state, override)
+            if collision:
+                add_error(cmd, f"{cmd.keyword} would collide: {collision}", iteration)
+                notes.insert(0, "collides")
+            state = np.asarray(traj.final_deg, dtype=float)
             duration = traj.duration * 100.0 / override
             if override != 100.0:
                 notes.append(f"at the {format_number(override)} % speed override: planned {traj.duration:.2f} s")
             rows.append(DryRunRow(cmd.line, cmd.col, text, iteration, t, duration,
-                                  target_deg=tuple(float(v) for v in state), note="; ".join(notes)))
+                                  target_deg=tuple(float(v) for v in state), note="; ".join(notes),
+                                  failed=bool(collision)))
             t += duration
         pass_ends.append(state)
 
