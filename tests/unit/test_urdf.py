@@ -2,7 +2,10 @@
 
 The URDF is read back with xml.etree and its chain composed with numpy from the URDF
 semantics alone (origin = Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll), then a rotation of q about
-the joint axis), independently of the DH code that wrote it.
+the joint axis), independently of the DH code that wrote it.  The collision shapes
+(``<collision>``: the base box, each capsule as a cylinder and two spheres, the tool's) placed
+by that chain are parolkit's collision model placed by parolkit's FK, to 1e-9 mm; roboticstoolbox
+(a dev extra) reading the same file places them the same way.
 """
 
 from __future__ import annotations
@@ -145,3 +148,189 @@ def test_ros2_command_rejects_a_bad_connect_address_precisely(capsys) -> None:  
     with pytest.raises(SystemExit):
         main(["ros2", "--connect", "localhost:99999"])
     assert "--connect port must be an integer 1..65535, got '99999'" in capsys.readouterr().err
+
+
+# ---- collision shapes: the collision model's, in the right links ----------------------------------
+
+
+def _origin_matrix(el: ET.Element) -> np.ndarray:
+    origin = el.find("origin")
+    xyz = _floats(origin.get("xyz")) if origin is not None else [0.0] * 3
+    roll, pitch, yaw = _floats(origin.get("rpy")) if origin is not None else [0.0] * 3
+    o = np.eye(4)
+    o[:3, :3] = _rz(yaw) @ _ry(pitch) @ _rx(roll)
+    o[:3, 3] = xyz
+    return o
+
+
+def _urdf_collisions(chain: UrdfChain, q: dict[str, float]) -> dict[str, tuple[str, np.ndarray, dict[str, float]]]:
+    """Every ``<collision>`` by name: (geometry tag, world pose placed by the URDF chain, its
+    attributes in mm: radius, length, or the box's size as x, y, z)."""
+    out = {}
+    for link in chain.root.findall("link"):
+        for el in link.findall("collision"):
+            pose = chain.transform(link.get("name"), q) @ _origin_matrix(el)  # type: ignore[arg-type]
+            geom = el.find("geometry")
+            assert geom is not None and len(geom) == 1
+            shape = geom[0]
+            if shape.tag == "box":
+                attrs = dict(zip("xyz", (v * 1e3 for v in _floats(shape.get("size")))))
+            else:
+                attrs = {k: float(v) * 1e3 for k, v in shape.attrib.items()}
+            name = el.get("name")
+            assert name is not None and name not in out
+            out[name] = (shape.tag, pose, attrs)
+    return out
+
+
+def _check_shapes_match(found: dict, bodies: tuple, q_deg: np.ndarray) -> float:
+    """Assert that the URDF shapes placed at ``q_deg`` are the bodies placed by parolkit's FK
+    (1e-9 mm); the largest difference (mm)."""
+    frames = fk_frames(q_deg, tool="flange")  # base, DH frames 1..5, the flange (frame 6)
+    worst = 0.0
+    for body in bodies:
+        f = frames[body.frame]
+        start = (f[:3, :3] @ np.array(body.start) * 1e-3 + f[:3, 3]) * 1e3  # mm, world
+        end = (f[:3, :3] @ np.array(body.end) * 1e-3 + f[:3, 3]) * 1e3
+        if body.size is not None:  # the base box: centre, axes and edges
+            tag, pose, attrs = found[body.name]
+            assert tag == "box"
+            np.testing.assert_allclose(pose[:3, 3] * 1e3, start, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(pose[:3, :3], f[:3, :3], rtol=0, atol=1e-12)
+            assert (attrs["x"], attrs["y"], attrs["z"]) == pytest.approx(body.size, abs=1e-9)
+            continue
+        tag, pose, attrs = found[body.name]
+        assert tag == "cylinder" and attrs["radius"] == pytest.approx(body.radius, abs=1e-9)
+        half = pose[:3, 2] * attrs["length"] / 2  # the cylinder's own z axis, mm
+        ends = (pose[:3, 3] * 1e3 - half, pose[:3, 3] * 1e3 + half)
+        for got, want in ((ends[0], start), (ends[1], end)):
+            worst = max(worst, float(np.abs(got - want).max()))
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+        for suffix, want in ((" start", start), (" end", end)):
+            tag, pose, attrs = found[body.name + suffix]
+            assert tag == "sphere" and attrs["radius"] == pytest.approx(body.radius, abs=1e-9)
+            worst = max(worst, float(np.abs(pose[:3, 3] * 1e3 - want).max()))
+            np.testing.assert_allclose(pose[:3, 3] * 1e3, want, rtol=0, atol=1e-9)
+    return worst
+
+
+def test_urdf_collision_shapes_are_the_collision_model_placed_by_parolkits_fk(chain: UrdfChain) -> None:
+    from parolkit.collision import default_model
+
+    bodies = default_model().bodies
+    rng = np.random.default_rng(25)
+    lim = PAROL6.safe_limits_deg
+    worst = 0.0
+    for q_deg in [np.zeros(6), np.array(PAROL6.standby_deg), *rng.uniform(lim[:, 0], lim[:, 1], size=(300, 6))]:
+        found = _urdf_collisions(chain, dict(zip(ROS_JOINT_NAMES, np.radians(q_deg))))
+        # the base as a box, each of the six link capsules as a cylinder and two spheres, nothing else
+        assert len(found) == 1 + 3 * (len(bodies) - 1)
+        worst = max(worst, _check_shapes_match(found, bodies, q_deg))
+    assert worst < 1e-9
+
+
+def test_urdf_places_each_collision_body_on_the_link_that_moves_with_its_dh_frame(chain: UrdfChain) -> None:
+    from parolkit.collision import default_model
+
+    where = {el.get("name"): link.get("name") for link in chain.root.findall("link")
+             for el in link.findall("collision")}
+    for body in default_model().bodies:
+        want = "base_link" if body.frame == 0 else ("flange" if body.frame == 6 else f"L{body.frame}")
+        assert where[body.name] == want, body.name
+    # the fixed transform DH frame i -> link Li is the rest of DH row i: Tz(d) Tx(a) Rx(alpha)
+    from parolkit.ros2.urdf import dh_frame_in_link
+
+    q = np.radians([10.0, -70.0, 150.0, 20.0, -30.0, 40.0])
+    frames = fk_frames(np.degrees(q), tool="flange")
+    for i in range(1, 7):
+        link = chain.transform(ROS_JOINT_NAMES[i - 1] if i < 6 else "flange", dict(zip(ROS_JOINT_NAMES, q)))
+        np.testing.assert_allclose(link @ dh_frame_in_link(PAROL6, i), frames[i], rtol=0, atol=1e-12)
+
+
+def test_urdf_keeps_the_visuals_next_to_the_collision_shapes(chain: UrdfChain) -> None:
+    for link in chain.root.findall("link"):
+        visuals = link.findall("visual")
+        if link.get("name") in ("base_link", "L1", "L2", "L3", "L4"):
+            assert visuals, link.get("name")
+        for v in visuals:  # the display cylinders, unchanged: 20 mm radius, grey
+            assert v.find("geometry/cylinder").get("radius") == "0.02"  # type: ignore[union-attr]
+            assert v.find("material").get("name") == "parol_grey"  # type: ignore[union-attr]
+
+
+def test_urdf_carries_the_tools_shape_on_the_flange(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from parolkit.collision import default_model
+    from parolkit.collision.model import tool_body
+    from parolkit.config import load_config
+
+    cfg_file = tmp_path / "parolkit.toml"
+    cfg_file.write_text("[tools.gripper]\npose = [0, 0, 90, 0, 0, 0]\n"
+                        "shape = { radius = 30, start = [0, 10, 20], end = [5, 0, 110] }\n"
+                        "[tools.pen]\npose = [0, 0, 120, 0, 0, 0]\n")
+    cfg = load_config(cfg_file)
+    text = make_urdf(cfg.robot, "gripper", config=cfg)
+    assert main(["urdf", "--tool", "gripper", "--config", str(cfg_file), "-o", str(tmp_path / "g.urdf")]) == 0
+    assert (tmp_path / "g.urdf").read_text() == text
+    tool_chain = UrdfChain(text)
+    flange_link = tool_chain.root.find("link[@name='flange']")
+    assert flange_link is not None
+    flange = [el.get("name") for el in flange_link.findall("collision")]
+    assert flange == ["J6 link", "J6 link start", "J6 link end", "tool 'gripper'", "tool 'gripper' start",
+                      "tool 'gripper' end"]
+    body = tool_body(cfg.tools[0])
+    assert body is not None
+    rng = np.random.default_rng(6)
+    lim = PAROL6.safe_limits_deg
+    for q_deg in rng.uniform(lim[:, 0], lim[:, 1], size=(50, 6)):
+        found = _urdf_collisions(tool_chain, dict(zip(ROS_JOINT_NAMES, np.radians(q_deg))))
+        _check_shapes_match(found, (*default_model().bodies, body), q_deg)
+    # a tool without a shape, or the default tool: no tool body
+    for tool in ("pen", None, "flange"):
+        names = [el.get("name") for el in ET.fromstring(make_urdf(cfg.robot, tool, config=cfg)).iter("collision")]
+        assert not any(n.startswith("tool") for n in names), tool  # type: ignore[union-attr]
+
+
+def test_urdf_collision_shapes_match_roboticstoolbox_reading_the_same_urdf(  # type: ignore[no-untyped-def]
+        tmp_path) -> None:
+    """A cross-check with another URDF reader: roboticstoolbox (a dev extra) parses the file,
+    its FK places each link and the shapes on it; the same places as parolkit's model."""
+    rtb = pytest.importorskip("roboticstoolbox")
+    urdf_robot = pytest.importorskip("roboticstoolbox.models.URDF.URDFRobot")
+    import spatialgeometry as sg
+
+    from parolkit.collision import default_model
+
+    path = tmp_path / "parol6.urdf"
+    path.write_text(make_urdf())
+    elinks, name, _ = urdf_robot.URDF_read(str(path))
+    robot = rtb.Robot(elinks, name=name)
+    bodies = {b.name: b for b in default_model().bodies}
+    shapes = {link.name: list(link.collision) for link in robot.links}
+    xml_names = {link.get("name"): [el.get("name") for el in link.findall("collision")]
+                 for link in ET.fromstring(path.read_text()).findall("link")}
+    assert {k: len(v) for k, v in shapes.items()} == {k: len(v) for k, v in xml_names.items()}
+    rng = np.random.default_rng(9)
+    lim = PAROL6.safe_limits_deg
+    for q_deg in rng.uniform(lim[:, 0], lim[:, 1], size=(50, 6)):
+        frames = fk_frames(q_deg, tool="flange")
+        q = np.radians(q_deg)
+        for link_name, link_shapes in shapes.items():
+            if not link_shapes:
+                continue
+            link_pose = robot.fkine(q, end=link_name).A
+            for shape, shape_name in zip(link_shapes, xml_names[link_name]):
+                pose = link_pose @ shape.T  # the shape's own pose in its link
+                body = bodies[shape_name.removesuffix(" start").removesuffix(" end")]
+                f = frames[body.frame]
+                start = f[:3, :3] @ np.array(body.start) * 1e-3 + f[:3, 3]
+                end = f[:3, :3] @ np.array(body.end) * 1e-3 + f[:3, 3]
+                if isinstance(shape, sg.Cuboid):
+                    np.testing.assert_allclose(pose[:3, 3], start, rtol=0, atol=1e-12)
+                elif isinstance(shape, sg.Cylinder):
+                    half = pose[:3, 2] * shape.length / 2
+                    np.testing.assert_allclose(pose[:3, 3] - half, start, rtol=0, atol=1e-12)
+                    np.testing.assert_allclose(pose[:3, 3] + half, end, rtol=0, atol=1e-12)
+                    assert shape.radius == pytest.approx(body.radius * 1e-3, abs=1e-15)
+                else:
+                    assert isinstance(shape, sg.Sphere)
+                    want = start if shape_name.endswith(" start") else end
+                    np.testing.assert_allclose(pose[:3, 3], want, rtol=0, atol=1e-12)

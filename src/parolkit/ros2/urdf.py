@@ -19,6 +19,15 @@ it is written as 0 with a comment saying so.
 
 Visual geometry is simple (cylinders along each link's DH offsets) and has no mass data: the
 model is for display (RViz) and planning (MoveIt), not for dynamics simulation.
+
+Collision geometry is parolkit's own collision model (:class:`parolkit.collision.CollisionModel`,
+docs/collision.md), so ROS tools check the same shapes as the controller: the base box as a
+``<box>`` on ``base_link``; each link capsule (and the tool's, ``[tools.NAME] shape``) as a
+``<cylinder>`` along its axis plus a ``<sphere>`` at each end (URDF has no capsule; the three
+together are exactly the capsule).  A body of DH frame ``i`` (1..5) sits on link ``Li`` through
+the fixed rest of DH row ``i``, ``Tz(d_i) Tx(a_i) Rx(alpha_i)`` (link ``Li`` is DH frame ``i-1``
+turned by ``Rz(q_i)``); the flange's bodies (the J6 link, the tool) sit on link ``flange``,
+which is DH frame 6 itself.  Held objects are not in the URDF (they come and go at run time).
 """
 
 from __future__ import annotations
@@ -29,11 +38,13 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from numpy.typing import NDArray
 
-from parolkit.config import Config
+from parolkit.collision.model import Body, CollisionModel, tool_body
+from parolkit.config import Config, ToolSettings
 from parolkit.kinematics.tools import Tool, get_tool
-from parolkit.robot import NUM_JOINTS, PAROL6, RobotModel
+from parolkit.robot import NUM_JOINTS, PAROL6, DHRow, RobotModel
 
-__all__ = ["ROS_JOINT_NAMES", "BASE_LINK", "TCP_LINK", "make_urdf", "rot_to_rpy"]
+__all__ = ["ROS_JOINT_NAMES", "BASE_LINK", "FLANGE_LINK", "TCP_LINK", "make_urdf", "rot_to_rpy",
+           "collision_link", "dh_frame_in_link"]
 
 #: Joint names as the community PAROL6 MoveIt configuration spells them.
 ROS_JOINT_NAMES = tuple(f"L{i + 1}" for i in range(NUM_JOINTS))
@@ -66,11 +77,86 @@ def _origin(xyz: tuple[float, float, float], rpy: tuple[float, float, float]) ->
             f'rpy="{" ".join(_num(v) for v in rpy)}"/>')
 
 
-def _link(name: str, visuals: list[str]) -> str:
-    if not visuals:
+def _link(name: str, visuals: list[str], collisions: list[str] | None = None) -> str:
+    elements = visuals + (collisions or [])
+    if not elements:
         return f"  <link name={quoteattr(name)}/>"
-    body = "\n".join(visuals)
+    body = "\n".join(elements)
     return f"  <link name={quoteattr(name)}>\n{body}\n  </link>"
+
+
+def collision_link(frame: int) -> str:
+    """The URDF link a collision body of DH frame ``frame`` (0 base .. 6 flange) sits on."""
+    if frame == 0:
+        return BASE_LINK
+    if 1 <= frame < NUM_JOINTS:
+        return ROS_JOINT_NAMES[frame - 1]
+    if frame == NUM_JOINTS:
+        return FLANGE_LINK
+    raise ValueError(f"frame must be 0..{NUM_JOINTS}, got {frame!r}")
+
+
+def dh_frame_in_link(model: RobotModel, frame: int) -> NDArray[np.float64]:
+    """The 4x4 pose (metres) of DH frame ``frame`` in its link :func:`collision_link` (frame):
+    the identity for the base (0) and the flange (6); for 1..5 the rest of DH row ``frame``
+    after its joint's turn, ``Tz(d) Tx(a) Rx(alpha)``."""
+    if frame in (0, NUM_JOINTS):
+        return np.eye(4)
+    row: DHRow = model.dh[frame - 1]
+    ca, sa = math.cos(row.alpha), math.sin(row.alpha)
+    return np.array([[1.0, 0.0, 0.0, row.a],
+                     [0.0, ca, -sa, 0.0],
+                     [0.0, sa, ca, row.d],
+                     [0.0, 0.0, 0.0, 1.0]])
+
+
+def _collision(name: str, xyz: tuple[float, float, float], rpy: tuple[float, float, float], geometry: str) -> str:
+    return (f"    <collision name={quoteattr(name)}>\n      {_origin(xyz, rpy)}\n"
+            f"      <geometry>{geometry}</geometry>\n    </collision>")
+
+
+def _point(m: NDArray[np.float64], p_mm: tuple[float, float, float]) -> NDArray[np.float64]:
+    """``p_mm`` (mm, in a DH frame) in its link, metres; rounding dust below 1e-15 m (1e-12
+    mm, what the FK's exact right angles leave) written as 0, so an axis along z reads as z."""
+    out: NDArray[np.float64] = m[:3, :3] @ (np.asarray(p_mm, dtype=np.float64) / 1000.0) + m[:3, 3]
+    out[np.abs(out) < 1e-15] = 0.0
+    return out
+
+
+def _xyz(v: NDArray[np.float64]) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _body_collisions(model: RobotModel, body: Body) -> list[str]:
+    """``<collision>`` elements of one body in its link's frame (metres): a box, or a capsule as
+    a cylinder along its axis and a sphere at each end (one sphere for a zero-length axis)."""
+    m = dh_frame_in_link(model, body.frame)
+    if body.size is not None:
+        size = " ".join(_num(v / 1000.0) for v in body.size)
+        return [_collision(body.name, _xyz(_point(m, body.start)), (0.0, 0.0, 0.0), f'<box size="{size}"/>')]
+    a, b = _point(m, body.start), _point(m, body.end)
+    radius = f'radius="{_num(body.radius / 1000.0)}"'
+    axis = b - a
+    length = float(np.linalg.norm(axis))
+    if length < 1e-12:
+        return [_collision(body.name, _xyz(a), (0.0, 0.0, 0.0), f"<sphere {radius}/>")]
+    # the cylinder's z along the axis: Rz(yaw) Ry(pitch) turns z to (cos y sin p, sin y sin p, cos p)
+    pitch = math.atan2(math.hypot(float(axis[0]), float(axis[1])), float(axis[2]))
+    yaw = math.atan2(float(axis[1]), float(axis[0]))
+    return [
+        _collision(body.name, _xyz((a + b) / 2), (0.0, pitch, yaw),
+                   f'<cylinder {radius} length="{_num(length)}"/>'),
+        _collision(f"{body.name} start", _xyz(a), (0.0, 0.0, 0.0), f"<sphere {radius}/>"),
+        _collision(f"{body.name} end", _xyz(b), (0.0, 0.0, 0.0), f"<sphere {radius}/>"),
+    ]
+
+
+def _tool_settings(tool: str | Tool | None, config: Config | None) -> ToolSettings | None:
+    """The config entry of ``tool`` (by name), whose shape is the tool's body; None if none."""
+    name = tool if isinstance(tool, str) else (tool.name if isinstance(tool, Tool) else None)
+    if name is None or config is None:
+        return None
+    return next((t for t in config.tools if t.name == name), None)
 
 
 def _cylinder(length: float, along: str, z_offset: float = 0.0) -> str | None:
@@ -88,10 +174,18 @@ def _cylinder(length: float, along: str, z_offset: float = 0.0) -> str | None:
 
 
 def make_urdf(model: RobotModel = PAROL6, tool: str | Tool | None = None, name: str = "parol6",
-              config: Config | None = None) -> str:
+              config: Config | None = None, collision_model: CollisionModel | None = None) -> str:
     """The URDF document (XML text) of ``model`` with ``tool`` at link ``tcp`` (a name is
-    looked up in ``config.tools``, then the built-in tools)."""
+    looked up in ``config.tools``, then the built-in tools), and the collision shapes of
+    ``collision_model`` (default: the stock envelope on ``model``) plus the tool's body when
+    its config entry has a ``shape`` (module docstring)."""
     dh = model.dh
+    cm = collision_model if collision_model is not None else CollisionModel(model)
+    settings = _tool_settings(tool, config)
+    tb = tool_body(settings)
+    collisions: dict[str, list[str]] = {}
+    for body in (*cm.bodies, *((tb,) if tb is not None else ())):
+        collisions.setdefault(collision_link(body.frame), []).extend(_body_collisions(model, body))
     limits_rad = np.radians(model.safe_limits_deg)
     vel_rad_s = np.radians(model.max_speed_deg_s)
     out = [
@@ -99,7 +193,7 @@ def make_urdf(model: RobotModel = PAROL6, tool: str | Tool | None = None, name: 
         "<!-- Generated by `parolkit urdf` from parolkit.robot (DH table, limits, speeds). Do not edit. -->",
         f"<robot name={quoteattr(name)}>",
         '  <material name="parol_grey"><color rgba="0.75 0.75 0.78 1"/></material>',
-        _link(BASE_LINK, [v for v in (_cylinder(dh[0].d, "z"),) if v]),
+        _link(BASE_LINK, [v for v in (_cylinder(dh[0].d, "z"),) if v], collisions.get(BASE_LINK)),
     ]
     parent = BASE_LINK
     for i, jname in enumerate(ROS_JOINT_NAMES):
@@ -122,14 +216,14 @@ def make_urdf(model: RobotModel = PAROL6, tool: str | Tool | None = None, name: 
         visuals = [v for v in (_cylinder(d, "z"), _cylinder(a, "x", d)) if v]
         if i == 0:
             visuals = [v for v in (_cylinder(a, "x", d),) if v]  # the column is drawn on base_link
-        out.append(_link(jname, visuals))
+        out.append(_link(jname, visuals, collisions.get(jname)))
         parent = jname
     # flange: the rest of row 6 without its tool point (d and a), as fk_frames' frame 6
     out.append(
         f'  <joint name="flange_joint" type="fixed">\n    <parent link={quoteattr(parent)}/>\n'
         f"    <child link={quoteattr(FLANGE_LINK)}/>\n"
         f"    {_origin((0.0, 0.0, 0.0), (dh[-1].alpha, 0.0, 0.0))}\n  </joint>")
-    out.append(_link(FLANGE_LINK, []))
+    out.append(_link(FLANGE_LINK, [], collisions.get(FLANGE_LINK)))
     t = get_tool(tool, config).matrix
     out.append(
         f'  <joint name="tcp_joint" type="fixed">\n    <parent link={quoteattr(FLANGE_LINK)}/>\n'
