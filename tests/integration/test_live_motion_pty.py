@@ -34,6 +34,7 @@ and the first move stopped at its target).
 
 from __future__ import annotations
 
+import bisect
 import json
 import subprocess
 import sys
@@ -720,9 +721,13 @@ seqs = queue.Queue()
 def target(k):
     k = min(k, n - 1)
     return [a + d * (1 - math.cos(2 * math.pi * k / 100.0)) for a, d in zip(a0, amp)]
-sent, skipped, took = [], [], None
+sent, skipped, took, taken = [], [], None, []
+def seen(st):
+    if st.command is not None and st.command.target:
+        taken.append((st.seq, int(st.command.target[2:])))  # the newest target taken at that tick
+    seqs.put((st.seq, st.command.id if st.command else None))
 with Robot(host, port, ack_port=0, timeout=2.0) as watcher:
-    sub = watcher.subscribe(1, callback=lambda st: seqs.put((st.seq, st.command.id if st.command else None)))
+    sub = watcher.subscribe(1, callback=seen)
     try:
         seqs.get(timeout=10)
         while not seqs.empty():
@@ -753,8 +758,30 @@ with Robot(host, port, ack_port=0, timeout=2.0) as watcher:
                 took = seq - 1
     finally:
         sub.close()
-print(json.dumps({"seq0": seq0, "took": took, "sent": sent, "skipped": skipped}))
+print(json.dumps({"seq0": seq0, "took": took, "sent": sent, "skipped": skipped, "taken": taken}))
 """
+
+
+def _controller_late(taken: list, sent: list, seq0: int) -> set[int]:
+    """The ticks (from ``seq0``) not to judge because the controller took its targets late:
+    ``taken`` is (tick, newest target taken) from its status; target k is sent at tick k and
+    taken at k + 1, a tick later at worst when judged.  A tick whose newest target is older than
+    the newest one sent two ticks before starts a late stretch (the controller's server held up
+    on a busy machine); the stretch and as long again plus 10 ticks after it are left out (what
+    the curve moved meanwhile is caught up within the acceleration limits: that long)."""
+    sent_sorted = sorted(sent)
+    behind = []
+    for tick, k in taken:
+        r = tick - seq0
+        i = bisect.bisect_right(sent_sorted, r - 2)
+        if i and k < sent_sorted[i - 1]:
+            behind.append(r)
+    late: set[int] = set()
+    for run in np.split(np.array(sorted(set(behind)), dtype=int),
+                        np.nonzero(np.diff(sorted(set(behind))) != 1)[0] + 1) if behind else ():
+        start, end = int(run[0]), int(run[-1])
+        late.update(range(start, end + (end - start + 1) + 11))
+    return late
 
 
 def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_ticks_over_a_pty(bench):
@@ -770,7 +797,9 @@ def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_tick
     point in hundredths of a step: a box narrower than a step, late replies); the last
     target is held (the frames end on it, at rest); the silence ends the stream COMPLETED with
     a controlled stop.  A sender held up past a tick skips that tick's target (as a real-time
-    client would): those count as dropped too, and the frames right after one are not judged."""
+    client would): those count as dropped too, and the frames right after one are not judged;
+    likewise the ticks where the controller's status shows it took its targets late (its
+    server held up: :func:`_controller_late`)."""
     import random
 
     a0 = np.asarray(bench.status()["angles"], dtype=float)
@@ -785,6 +814,7 @@ def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_tick
     assert out.returncode == 0, out.stderr
     run = json.loads(out.stdout.strip().splitlines()[-1])
     seq0, took, skipped = run["seq0"], run["took"], set(run["skipped"])
+    late = _controller_late(run["taken"], run["sent"], seq0)
     status, details = bench.acks.terminal("sv000000", 20)
     assert (status, details) == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control"), \
         (status, details, f"sender held up past {len(skipped)} ticks")
@@ -803,9 +833,9 @@ def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_tick
     # not within 10 ticks after a tick the sender was held up past.  The board takes a
     # frame's period to reach its target (position tracking): a frame sent at tick t is where
     # the board is at t + 1, so the curve is compared there
-    judged = [i for i, t in enumerate(ticks) if 40 <= t - seq0 < n
+    judged = [i for i, t in enumerate(ticks) if 40 <= t - seq0 < n and t - seq0 not in late
               and not any(t - seq0 - 10 <= j <= t - seq0 for j in skipped)]
-    assert len(judged) > 150, (len(judged), len(skipped))
+    assert len(judged) > 150, (len(judged), len(skipped), len(late))
     err = {}
     for lag in range(-3, 8):
         err[lag] = max(float(np.max(np.abs(pos[i] - curve(ticks[i] + 1 - seq0 - lag) * SPD) / amp_steps))
@@ -821,7 +851,7 @@ def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_tick
     # the limits (tests/unit/test_live_motion.py), but targets that stop coming still cost
     # what the curve moved meanwhile, and this judge knows of the sender's own delays only)
     assert best <= 2 and err[best] < 0.3, ({k: round(v, 3) for k, v in err.items()}, seq0, took, frames[0][0],
-                                           sorted(skipped), len(runs), len(frames))
+                                           sorted(skipped), sorted(late), len(runs), len(frames))
     # within the acceleration limit from frame to frame, also where the guard's box holds the
     # frames back (late replies: the follower's speed changes within the limit while the goal
     # is put inside the box); except into a frame on the point of a box narrower than a step,
@@ -846,6 +876,7 @@ def test_a_1_hz_curve_streamed_with_10_percent_dropped_is_followed_within_2_tick
     assert np.all(np.abs(pos[-1] - last) <= 1.0), pos[-1] - last
     assert not any(frames[-1][1].speeds)
     print(f"\nservo curve: {len(run['sent'])} targets sent, {len(drop)} dropped on purpose, sender held up past "
-          f"{len(skipped)} ticks; {len(frames)} GO TO frames from tick {took} (first status seq {seq0}); "
+          f"{len(skipped)} ticks, the controller's targets late at {len(late)} ticks ({len(run['taken'])} statuses "
+          f"seen); {len(frames)} GO TO frames from tick {took} (first status seq {seq0}); "
           f"lag {best} ticks, off by {err[best]:.3f} of the amplitude there; {len(runs)} stream(s); the board's "
           f"answers off by {board_err:.3f} of the amplitude at that lag; frames the guard held back at once: {holds}")

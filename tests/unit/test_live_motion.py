@@ -528,10 +528,10 @@ def test_a_curve_the_guards_box_holds_back_for_late_replies_is_rejoined_within_t
 
 def test_250_targets_a_second_at_250_hz_are_each_taken_into_the_next_frame():
     """A controller at 250 Hz and a SERVOJ target every tick for 2 s (J6 on a minimum-jerk
-    ramp of 30 deg, then held): every target taken (none refused or dropped), a GO TO frame
-    every tick, and each frame goes toward the target of its own tick: the frames fit the
-    targets' ramp best at most one tick late, within the speed and acceleration limits; the
-    last target is reached, at rest."""
+    ramp of 30 deg, then held): every target taken (none refused or dropped; the status names
+    it at the tick that took it), a GO TO frame every tick, and each frame goes toward the
+    target of its own tick: the frames fit the targets' ramp best at most one tick late, within
+    the speed and acceleration limits; the last target is reached, at rest."""
     b = Bench(rate_hz=250.0)
     try:
         period = 1.0 / 250.0
@@ -542,10 +542,12 @@ def test_250_targets_a_second_at_250_hz_are_each_taken_into_the_next_frame():
             return a0 + np.asarray([0, 0, 0, 0, 0, 30.0 * x ** 3 * (10 - 15 * x + 6 * x * x)])
 
         start = b.tick
-        ids = []
+        ids, shown = [], []
         for k in range(500):
             ids.append(_servo(b, target(k)))
             b.run(1)
+            shown.append(b.sim.controller.snapshot.command.target_id)  # the status: the target taken
+        assert shown == ids, "each tick's status names the target that tick took"
         assert b.acks[ids[0]][0][0] == "EXECUTING"
         assert all(b.acks[c] == [("COMPLETED", "target taken")] for c in ids[1:]), \
             [(k, b.acks[c]) for k, c in enumerate(ids) if b.acks.get(c) != [("COMPLETED", "target taken")]][:3]

@@ -350,11 +350,14 @@ class ErrorInfo:
 
 @dataclass(frozen=True)
 class ActiveCommand:
-    """The command being executed: ``progress`` 0..1 where the controller reports it."""
+    """The command being executed: ``progress`` 0..1 where the controller reports it; for a
+    servo stream, ``target``: the ID of the newest target the controller has taken (which of a
+    client's targets it follows at that tick; None for other commands)."""
 
     id: str | None
     name: str
     progress: float | None = None
+    target: str | None = None
 
     @classmethod
     def from_dict(cls, d: object) -> ActiveCommand | None:
@@ -364,7 +367,7 @@ class ActiveCommand:
         obj = _object(d, "command")
         p = obj.get("progress")
         return cls(id=_opt_str(obj, "id"), name=str(obj.get("name", "")),
-                   progress=None if p is None else _number(p, "progress"))
+                   progress=None if p is None else _number(p, "progress"), target=_opt_str(obj, "target"))
 
 
 def _gripper_from_dict(d: Mapping[str, object]) -> GripperState:

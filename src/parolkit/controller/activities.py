@@ -637,6 +637,8 @@ class ServoActivity(Activity):
         self._rejoin = [True] * 6
         #: SERVOL in TRF: the TCP pose (4x4, m) the stream's offsets are relative to
         self.anchor: object | None = None
+        #: the ID of the newest target taken (the status shows it: which target is followed)
+        self.target_id: str | None = None
 
     def _inside(self, target: Sequence[float]) -> list[float]:
         return [min(max(float(t), lo), hi) for t, (lo, hi) in zip(target, self.limits)]

@@ -757,6 +757,7 @@ class ControllerCore:
             if stream.anchor is None:  # the stream's first TRF target: its offsets are from here
                 stream.anchor = anchor
             stream.set_target(target, self._tick)
+            stream.target_id = job.command_id
             jobs.ack(job, AckStatus.COMPLETED, "target taken")
             return
         servo = ServoActivity(target, self._tick, rate_hz=self.rate_hz, max_speed_steps_s=self._servo_vmax,
@@ -764,6 +765,7 @@ class ControllerCore:
                               timeout_ticks=ticks_for(self.servo_timeout_s, self.rate_hz),
                               limits_steps=self._safe_steps)
         servo.anchor = anchor
+        servo.target_id = job.command_id
         jobs.start(job, servo, f"servo stream started (a controlled stop after "
                                f"{self.servo_timeout_s:g} s without a target)")
 
@@ -1507,7 +1509,9 @@ class ControllerCore:
     def _snapshot(self, inp: TickInput, frame: CommandFrame | None) -> Snapshot:
         jobs = self.jobs
         a, act = jobs.active, jobs.activity
-        info = CommandInfo(a.command_id, a.name, act.progress if act else 0.0) if a is not None else None
+        info = (CommandInfo(a.command_id, a.name, act.progress if act else 0.0,
+                            act.target_id if isinstance(act, ServoActivity) else None)
+                if a is not None else None)
         s = self.safety
         loop = dict(inp.loop_stats)
         loop.update(self.counters.as_dict())

@@ -45,14 +45,19 @@ class RobotState(str, Enum):
 @quick_init
 @dataclass(frozen=True)
 class CommandInfo:
-    """The active command: ID (or None), name, progress 0..1."""
+    """The active command: ID (or None), name, progress 0..1; a servo stream's newest target
+    taken (its ID, or None: not a stream, or a target sent without one)."""
 
     command_id: str | None
     name: str
     progress: float
+    target_id: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        return {"id": self.command_id, "name": self.name, "progress": round(self.progress, 4)}
+        d: dict[str, Any] = {"id": self.command_id, "name": self.name, "progress": round(self.progress, 4)}
+        if self.target_id is not None:
+            d["target"] = self.target_id
+        return d
 
 
 @quick_init
