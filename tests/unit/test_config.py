@@ -119,9 +119,12 @@ def _documented() -> dict[str, str]:
 
 
 def test_every_config_key_is_documented_with_its_range():
+    from parolkit.collision.shapes import _TOOL_SHAPE_KEYS, _ZONE_KEYS
     from parolkit.config import _SECTIONS, _robot_fields
 
-    keys = {f"robot.{k}" for k in _robot_fields()} | {"tools.NAME.pose"}
+    keys = {f"robot.{k}" for k in _robot_fields()} | {"tools.NAME.pose", "tools.NAME.shape"}
+    keys |= {f"tools.NAME.shape.{k}" for k in _TOOL_SHAPE_KEYS}
+    keys |= {f"zones.{k}" for kind_keys in _ZONE_KEYS.values() for k in kind_keys}  # [[zones]]: every kind's keys
     for section, cls in _SECTIONS.items():
         keys |= {f"{section}.{f.name}" for f in dataclasses.fields(cls)}
     documented = _documented()
@@ -159,18 +162,85 @@ def _bad_values(key: str, allowed: str) -> list[object]:
 
 
 def _toml(value: object) -> str:
+    if isinstance(value, str):
+        return '"' + value + '"'
     return repr(value).replace("(", "[").replace(")", "]")
+
+
+#: a valid zone of each kind, in TOML, and which kind holds each key of a [[zones]] table
+_ZONE_TOML = {
+    "box": {"name": "z", "kind": "box", "center": [0, 300, 500], "size": [10, 10, 10]},
+    "plane": {"name": "z", "kind": "plane", "point": [0, 0, -100], "normal": [0, 0, 1]},
+    "cylinder": {"name": "z", "kind": "cylinder", "center": [0, 300, 500], "axis": [0, 0, 1], "radius": 10,
+                 "height": 10},
+}
+_ZONE_KEY_KIND = {"point": "plane", "normal": "plane", "axis": "cylinder", "radius": "cylinder",
+                  "height": "cylinder"}
+
+
+def _bad_files(key: str, allowed: str) -> list[str] | None:
+    """TOML files with a value of a ``[[zones]]`` or ``tools.NAME.shape`` key just outside its
+    documented range (the rest valid); None for the other keys."""
+    section, _, name = key.partition(".")
+    outside = _outside(allowed) or []
+    if section == "zones":
+        base = _ZONE_TOML[_ZONE_KEY_KIND.get(name, "box")]
+        if name == "name":  # 1..64 characters: none, and one too many
+            values: list[object] = ["a" * n for n in outside]
+        elif name == "kind":
+            values = ["sphere"]
+        elif name == "enabled":
+            values = ["yes"]
+        elif "a direction" in allowed:
+            values = [[0, 0, 0]]
+        elif "[x, y, z]" in allowed or "[roll, pitch, yaw]" in allowed:
+            values = [[v, 1, 1] for v in outside]
+        else:
+            values = list(outside)
+        return ["[[zones]]\n" + "".join(f"{k} = {_toml(value if k == name else v)}\n"
+                                         for k, v in {**base, name: None}.items()) for value in values]
+    if key.startswith("tools.NAME.shape"):
+        sub = key.removeprefix("tools.NAME.shape").lstrip(".")
+        if not sub:
+            shapes = ["5"]
+        elif sub == "kind":
+            shapes = ['{ kind = "cone", radius = 5 }']
+        elif sub == "radius":
+            shapes = [f"{{ radius = {v} }}" for v in outside] + ["{ kind = \"capsule\" }"]
+        else:
+            shapes = [f"{{ radius = 5, {sub} = {_toml([v, 0, 0])} }}" for v in outside]
+        return [f"[tools.pen]\npose = [0, 0, 100, 0, 0, 0]\nshape = {shape}\n" for shape in shapes]
+    return None
+
+
+def test_the_valid_zones_and_tool_shape_the_range_test_starts_from_load(tmp_path):
+    f = tmp_path / "parolkit.toml"
+    for zone in _ZONE_TOML.values():
+        f.write_text("[[zones]]\n" + "".join(f"{k} = {_toml(v)}\n" for k, v in zone.items()))
+        assert [z.name for z in load_config(f).zones] == ["table", "z"]
+    f.write_text("[tools.pen]\npose = [0, 0, 100, 0, 0, 0]\nshape = { radius = 5, start = [1, 0, 0] }\n")
+    shape = load_config(f).tools[0].shape
+    assert shape is not None and shape.radius == 5 and shape.start == (1, 0, 0) and shape.end == (0, 0, 100)
 
 
 @pytest.mark.parametrize("key", sorted(_documented()))
 def test_values_beyond_each_documented_range_are_refused_naming_the_key(tmp_path, key):
     allowed = _documented()[key]
+    f = tmp_path / "parolkit.toml"
+    files = _bad_files(key, allowed)
+    if files is not None:
+        assert files, key
+        for text in files:
+            f.write_text(text)
+            with pytest.raises(ParolkitValueError) as info:
+                load_config(f)
+            assert key.rpartition(".")[2] in str(info.value) and str(f) in str(info.value), (text, str(info.value))
+        return
     bad = _bad_values(key, allowed)
     if not bad:
         assert not re.search(r"\d\.\.\d|[(\[]-?\d", allowed) or "characters" in allowed, (key, allowed)
         return
     section, _, name = key.partition(".")
-    f = tmp_path / "parolkit.toml"
     for value in bad:
         if section == "tools":
             f.write_text(f"[tools.pen]\npose = {_toml(value)}\n")
