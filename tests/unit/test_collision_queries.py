@@ -273,3 +273,34 @@ def test_the_module_functions_reuse_the_scene_until_the_held_objects_change():
     v = check(STANDBY, zones, model=model)
     assert scene_mod._CACHE["last"][1] is not first and v.clear
     assert any(p.a == "held 'object'" for p in scene_mod._CACHE["last"][1].pairs)
+
+
+def test_path_raw_is_check_path_for_a_few_poses_in_a_hurry():
+    sc = Scene(zones=(TABLE_ZONE, PlaneZone("near", point=(0, 240, 0), normal=(0, -1, 0), margin=10)))
+    q0 = np.radians([90.0, -100.0, 180.0, 0.0, 0.0, 180.0])
+    q1 = np.radians([90.0, -80.0, 180.0, 0.0, 0.0, 180.0])
+    full = sc.check_path(np.stack([q0, q1]))
+    status, index, frac, k, d = sc.path_raw(list(q0) + list(q1))
+    assert (status, index, k) == (list(PathStatus).index(full.status), full.index, sc.pairs.index(full.pair.pair))
+    assert frac == pytest.approx(full.fraction) and d == pytest.approx(full.pair.distance_mm)
+    assert sc.path_raw(list(q0) + list(q0))[0] == 0
+
+
+def test_with_margins_lowers_only_the_pairs_named_and_reports_true_clearances():
+    near = PlaneZone("near", point=(0, 240, 0), normal=(0, -1, 0), margin=10)
+    sc = Scene(zones=(near,))
+    q = np.radians((90.0, -90.0, 180.0, 0.0, 0.0, 180.0))
+    v = sc.check(q)
+    assert not v.clear and str(v.worst.pair) == "J6 link vs zone 'near'"
+    k = sc.pairs.index(v.worst.pair)
+    status, index, frac, kk, dist = sc.path_raw(list(q) + list(q))
+    assert (status, index, frac, kk) == (1, 0, 0.0, k) and dist == pytest.approx(v.worst.distance_mm)
+    relaxed = sc.with_margins({k: v.worst.distance_mm - 1.0})
+    assert relaxed.kernel_margins_mm[k] == pytest.approx(v.worst.distance_mm - 1.0)
+    assert sc.kernel_margins_mm[k] == sc.pairs[k].margin_mm == 10.0  # the scene itself unchanged
+    assert relaxed.path_raw(list(q) + list(q))[0] == 0 and relaxed.check_swept(q, q).clear
+    # 2 mm further in: violated again, the distance reported the true clearance
+    q2 = np.radians([90.0, -88.5, 180.0, 0.0, 0.0, 180.0])
+    w = relaxed.check_swept(q, q2)
+    assert not w.clear and w.pair.pair == sc.pairs[k] and w.pair.distance_mm <= v.worst.distance_mm - 1.0 + 0.01
+    assert sc.with_margins({k: 1.0}) is sc.with_margins({k: 1.0})  # kept: asked for tick after tick
