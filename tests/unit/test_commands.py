@@ -55,6 +55,10 @@ VALID = [
     ("SET_TOOL|flange", C.SetTool),
     ("SUBSCRIBE|6000|5", C.Subscribe),
     ("UNSUBSCRIBE|6000", C.Unsubscribe),
+    ("ATTACH|ball|SPHERE|0,0,170|25", C.Attach),
+    ("ATTACH|rod|capsule|0,30,10|0,30,170|8", C.Attach),
+    ("DETACH|ball", C.Detach),
+    ("DETACH", C.Detach),
 ]
 
 
@@ -235,6 +239,23 @@ INVALID = [
     ("GET_ANGLES|1", "GET_ANGLES takes no arguments, got 1"),
     ("FROBNICATE|1", "unknown command 'FROBNICATE'"),
     ("", "empty datagram"),
+    ("ATTACH|ball|SPHERE|0,0,170|0", "ATTACH: radius = 0 mm is out of range (0, 500] mm"),
+    ("ATTACH|ball|SPHERE|0,0,170|501", "ATTACH: radius = 501 mm is out of range (0, 500] mm"),
+    ("ATTACH|ball|SPHERE|0,1200,170|5", "ATTACH: center: y = 1200 mm is out of range [-1000, 1000] mm"),
+    ("ATTACH|ball|SPHERE|0,170|5", "ATTACH: center must be 3 comma-separated numbers, got 2"),
+    ("ATTACH|ball|SPHERE|0,nan,170|5", "ATTACH: center[1] must be a decimal number, got 'nan'"),
+    ("ATTACH|rod|CAPSULE|0,0,0|0,0,-1001|5", "ATTACH: end: z = -1001 mm is out of range [-1000, 1000] mm"),
+    ("ATTACH|rod|CAPSULE|-1000,0,0|1000,0,1000|5",
+     "ATTACH: the capsule's length (start to end) = 2236.07 mm is out of range [0, 2000] mm"),
+    ("ATTACH|box|BOX|0,0,0|5", "ATTACH: shape must be one of SPHERE|CAPSULE, got 'BOX'"),
+    ("ATTACH|ball|SPHERE|0,0,170", "ATTACH: a SPHERE takes NAME|SPHERE|x,y,z|radius (4 fields), got 3"),
+    ("ATTACH|rod|CAPSULE|0,0,0|5", "ATTACH: a CAPSULE takes NAME|CAPSULE|x1,y1,z1|x2,y2,z2|radius (5 fields), got 4"),
+    ("ATTACH|ball", "ATTACH takes NAME|SPHERE|x,y,z|radius or NAME|CAPSULE|x1,y1,z1|x2,y2,z2|radius, got 1 field"),
+    ("ATTACH|_ball|SPHERE|0,0,170|5", "ATTACH: object name must be 1..64 characters: letters, digits, spaces"),
+    ("ATTACH|" + "b" * 65 + "|SPHERE|0,0,170|5", "ATTACH: object name must be 1..64 characters"),
+    ("DETACH|a|b", "DETACH takes 0..1 arguments, got 2"),
+    ("DETACH|#1", "DETACH: object name must be 1..64 characters"),
+    ("GET_ZONES|1", "GET_ZONES takes no arguments, got 1"),
 ]
 
 
@@ -382,3 +403,26 @@ def test_ack_details_name_the_command_and_carry_the_warnings():
     assert job.ack_details(C.AckStatus.CANCELLED, "STOP received") == "STOP received"
     jog = Job(2, parse("CARTJOG|WRF|X+|50|1").command, "abcd1234", None)
     assert jog.ack_details(C.AckStatus.COMPLETED, "") == "CartJog finished successfully"
+
+
+def test_attach_and_detach_carry_the_shape_in_flange_frame_mm_and_queue_in_order_with_moves():
+    a = parse("ATTACH| rod |Capsule|0,30,10|0,30,170|8").command
+    assert a == C.Attach("rod", "capsule", (0.0, 30.0, 10.0), (0.0, 30.0, 170.0), 8.0)
+    s = parse("ATTACH|ball|sphere|1,2,3|4.5").command
+    assert (s.shape, s.start_mm, s.end_mm, s.radius_mm) == ("sphere", (1.0, 2.0, 3.0), (1.0, 2.0, 3.0), 4.5)
+    assert parse("DETACH").command == C.Detach(None) and parse("detach|ball").command == C.Detach("ball")
+    for cmd in (a, s, C.Detach(None)):
+        # queued (in order with the moves), not motion, only for the lease holder, checked by nothing
+        assert cmd.KIND is C.CommandKind.QUEUED and cmd.EXECUTION is C.Execution.HELD
+        assert not cmd.is_motion and not cmd.OPEN and cmd.COLLISION is C.CollisionCheck.NONE
+
+
+def test_every_command_that_moves_declares_how_its_motion_is_checked_for_collisions():
+    """Planned moves are checked whole before they run; jogs and servo streams every tick;
+    HOME (the board homes by itself) and what moves nothing are not."""
+    classes = [c for c in vars(C).values() if isinstance(c, type) and issubclass(c, C.Command) and c.NAME]
+    for cls in classes:
+        want = (C.CollisionCheck.TICK if cls.STREAMABLE or cls.EXECUTION is C.Execution.SPEED
+                or cls in (C.ServoJ, C.ServoL)
+                else C.CollisionCheck.PLAN if cls.EXECUTION is C.Execution.PLANNED else C.CollisionCheck.NONE)
+        assert cls.COLLISION is want, cls.__name__

@@ -73,6 +73,7 @@ __all__ = [
     "DatagramError",
     "CommandKind",
     "Execution",
+    "CollisionCheck",
     "AckStatus",
     "Profile",
     "Tracking",
@@ -95,6 +96,8 @@ __all__ = [
     "Pause",
     "Resume",
     "Checkpoint",
+    "Attach",
+    "Detach",
     "SetPort",
     "SetTool",
     "Subscribe",
@@ -199,6 +202,21 @@ class Execution(Enum):
     WAIT_INPUT = "wait_input"
     #: a mark in the queue, acked COMPLETED when the queue reaches it
     CHECKPOINT = "checkpoint"
+    #: attach or detach an object held at the flange: the collision world changes in order
+    #: with the moves queued before and after it
+    HELD = "held"
+
+
+class CollisionCheck(Enum):
+    """How the controller checks a command's motion against its collision world (declared on
+    each command class as ``COLLISION``; docs/collision.md, "What is checked where")."""
+
+    #: it moves nothing the controller can check (not motion; HOME: the board homes by itself)
+    NONE = "none"
+    #: its planned trajectory is checked whole, swept, before it is admitted
+    PLAN = "plan"
+    #: every tick: a controlled stop from the next tick must end clear (jogs, servo streams)
+    TICK = "tick"
 
 
 class AckStatus(str, Enum):
@@ -380,6 +398,8 @@ class Command:
     SAFETY: ClassVar[bool] = False
     #: in stream mode the newest one replaces the running one instead of queueing (jogs)
     STREAMABLE: ClassVar[bool] = False
+    #: how its motion is checked for collisions
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.NONE
 
     @property
     def name(self) -> str:
@@ -393,7 +413,7 @@ class Command:
 
 QUERY_NAMES = (
     "GET_POSE", "GET_ANGLES", "GET_IO", "GET_GRIPPER", "GET_SPEEDS", "PING", "GET_STATUS",
-    "GET_STATUS_JSON", "GET_LOOP_STATS", "GET_PLAN", "GET_TOOL", "GET_QUEUE", "GET_CONTROL",
+    "GET_STATUS_JSON", "GET_LOOP_STATS", "GET_PLAN", "GET_TOOL", "GET_QUEUE", "GET_CONTROL", "GET_ZONES",
 )
 
 
@@ -501,6 +521,7 @@ class ServoJ(Command):
     target_deg: tuple[float, ...] = ()
     NAME: ClassVar[str] = "SERVOJ"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.TICK
 
     @property
     def is_motion(self) -> bool:
@@ -518,6 +539,7 @@ class ServoL(Command):
     frame: Frame = Frame.WRF
     NAME: ClassVar[str] = "SERVOL"
     KIND: ClassVar[CommandKind] = CommandKind.IMMEDIATE
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.TICK
 
     @property
     def is_motion(self) -> bool:
@@ -622,6 +644,7 @@ class MoveJoint(_Motion):
     move: JointMove
     NAME: ClassVar[str] = "MOVEJOINT"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -633,6 +656,7 @@ class MoveJointPath(_Motion):
     move: JointPathMove
     NAME: ClassVar[str] = "MOVEJOINTPATH"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -642,6 +666,7 @@ class MovePose(_Motion):
     move: PoseMove
     NAME: ClassVar[str] = "MOVEPOSE"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -651,6 +676,7 @@ class MoveCart(_Motion):
     move: CartMove
     NAME: ClassVar[str] = "MOVECART"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -660,6 +686,7 @@ class MoveCartRelTRF(_Motion):
     move: CartRelTRFMove
     NAME: ClassVar[str] = "MOVECARTRELTRF"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -670,6 +697,7 @@ class Jog(_Motion):
     NAME: ClassVar[str] = "JOG"
     STREAMABLE: ClassVar[bool] = True
     EXECUTION: ClassVar[Execution] = Execution.SPEED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.TICK
 
 
 @dataclass(frozen=True)
@@ -680,6 +708,7 @@ class MultiJog(_Motion):
     NAME: ClassVar[str] = "MULTIJOG"
     STREAMABLE: ClassVar[bool] = True
     EXECUTION: ClassVar[Execution] = Execution.SPEED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.TICK
 
 
 @dataclass(frozen=True)
@@ -691,6 +720,7 @@ class CartJogCommand(_Motion):
     NAME: ClassVar[str] = "CARTJOG"
     STREAMABLE: ClassVar[bool] = True
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.TICK
 
 
 @dataclass(frozen=True)
@@ -718,6 +748,32 @@ class Checkpoint(Command):
     label: str = ""
     NAME: ClassVar[str] = "CHECKPOINT"
     EXECUTION: ClassVar[Execution] = Execution.CHECKPOINT
+
+
+@dataclass(frozen=True)
+class Attach(Command):
+    """``ATTACH|NAME|SPHERE|x,y,z|radius`` / ``ATTACH|NAME|CAPSULE|x1,y1,z1|x2,y2,z2|radius``:
+    an object held at the flange from when the queue reaches it, checked for collisions as the
+    tool is.  Points in mm, flange frame (``end_mm`` equals ``start_mm`` for a sphere, the
+    centre); ``radius_mm`` mm.  An object of the same name is replaced."""
+
+    object_name: str = ""
+    shape: str = "sphere"
+    start_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    end_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    radius_mm: float = 1.0
+    NAME: ClassVar[str] = "ATTACH"
+    EXECUTION: ClassVar[Execution] = Execution.HELD
+
+
+@dataclass(frozen=True)
+class Detach(Command):
+    """``DETACH|NAME`` (one held object) or ``DETACH`` (``object_name`` None: all of them),
+    when the queue reaches it."""
+
+    object_name: str | None = None
+    NAME: ClassVar[str] = "DETACH"
+    EXECUTION: ClassVar[Execution] = Execution.HELD
 
 
 @dataclass(frozen=True)
@@ -749,6 +805,7 @@ class SpeedJoint(_Motion):
     move: SpeedJointMove
     NAME: ClassVar[str] = "SPEEDJOINT"
     EXECUTION: ClassVar[Execution] = Execution.SPEED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.TICK
 
 
 @dataclass(frozen=True)
@@ -769,6 +826,7 @@ class SmoothCircle(_Motion):
     move: CircleMove
     NAME: ClassVar[str] = "SMOOTH_CIRCLE"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -778,6 +836,7 @@ class SmoothArcCenter(_Motion):
     move: ArcCenterMove
     NAME: ClassVar[str] = "SMOOTH_ARC_CENTER"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -787,6 +846,7 @@ class SmoothArcParam(_Motion):
     move: ArcParamMove
     NAME: ClassVar[str] = "SMOOTH_ARC_PARAM"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -796,6 +856,7 @@ class SmoothSpline(_Motion):
     move: SplineMove
     NAME: ClassVar[str] = "SMOOTH_SPLINE"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -805,6 +866,7 @@ class SmoothHelix(_Motion):
     move: HelixMove
     NAME: ClassVar[str] = "SMOOTH_HELIX"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 #: SMOOTH_BLEND segment words and the segment each becomes (in the blend's frame).
@@ -820,6 +882,7 @@ class SmoothBlend(_Motion):
     move: BlendMove
     NAME: ClassVar[str] = "SMOOTH_BLEND"
     EXECUTION: ClassVar[Execution] = Execution.PLANNED
+    COLLISION: ClassVar[CollisionCheck] = CollisionCheck.PLAN
 
 
 @dataclass(frozen=True)
@@ -1052,6 +1115,63 @@ def _p_checkpoint(a: Sequence[str], m: RobotModel) -> Command:
     if not _LABEL_RE.match(label):
         raise DatagramError(f"label must be 1..64 characters of [A-Za-z0-9_.:-], got {_show(a[0])}")
     return Checkpoint(label)
+
+
+#: the shapes ATTACH takes, and their fields after NAME|SHAPE
+_HELD_FIELDS = {"SPHERE": ("x,y,z", "radius"), "CAPSULE": ("x1,y1,z1", "x2,y2,z2", "radius")}
+
+
+def _flange_point(text: str, fname: str) -> tuple[float, float, float]:
+    """A point of the flange frame, ``x,y,z`` mm, each within +-MAX_TOOL_POINT_MM."""
+    from parolkit.collision.shapes import MAX_TOOL_POINT_MM
+
+    v = _numbers(text, fname, 3)
+    for axis, c in zip("xyz", v):
+        if abs(c) > MAX_TOOL_POINT_MM:
+            raise DatagramError(f"{fname}: {axis} = {c:g} mm is out of range "
+                                f"[{-MAX_TOOL_POINT_MM:g}, {MAX_TOOL_POINT_MM:g}] mm")
+    return (v[0], v[1], v[2])
+
+
+def _p_attach(a: Sequence[str], m: RobotModel) -> Command:
+    from parolkit.collision.shapes import MAX_SHAPE_LENGTH_MM, MAX_SHAPE_RADIUS_MM, _check_name
+
+    if len(a) < 2:
+        raise DatagramError("ATTACH takes NAME|SPHERE|x,y,z|radius or NAME|CAPSULE|x1,y1,z1|x2,y2,z2|radius, "
+                            f"got {len(a)} field{'s' if len(a) != 1 else ''}")
+    try:
+        name = _check_name(a[0].strip(), "object")
+    except ParolkitValueError as exc:
+        raise DatagramError(str(exc)) from None
+    kind = a[1].strip().upper()
+    fields = _HELD_FIELDS.get(kind)
+    if fields is None:
+        raise DatagramError(f"shape must be one of {'|'.join(_HELD_FIELDS)}, got {_show(a[1])}")
+    if len(a) != 2 + len(fields):
+        raise DatagramError(f"a {kind} takes NAME|{kind}|{'|'.join(fields)} ({2 + len(fields)} fields), "
+                            f"got {len(a)}")
+    radius = _ranged(a[-1], "radius", 0.0, MAX_SHAPE_RADIUS_MM, lo_open=True, unit="mm")
+    if kind == "SPHERE":
+        c = _flange_point(a[2], "center")
+        return Attach(name, "sphere", c, c, radius)
+    p, q = _flange_point(a[2], "start"), _flange_point(a[3], "end")
+    length = sum((u - v) ** 2 for u, v in zip(p, q)) ** 0.5
+    if length > MAX_SHAPE_LENGTH_MM:
+        raise DatagramError(f"the capsule's length (start to end) = {length:g} mm is out of range "
+                            f"[0, {MAX_SHAPE_LENGTH_MM:g}] mm")
+    return Attach(name, "capsule", p, q, radius)
+
+
+def _p_detach(a: Sequence[str], m: RobotModel) -> Command:
+    from parolkit.collision.shapes import _check_name
+
+    _nargs(a, "DETACH", 0, 1)
+    if not a:
+        return Detach(None)
+    try:
+        return Detach(_check_name(a[0].strip(), "object"))
+    except ParolkitValueError as exc:
+        raise DatagramError(str(exc)) from None
 
 
 def _p_pause(a: Sequence[str], m: RobotModel) -> Command:
@@ -1359,6 +1479,8 @@ _PARSERS: dict[str, Callable[[Sequence[str], RobotModel], Command]] = {
     "HOME": _p_home,
     "DELAY": _p_delay,
     "CHECKPOINT": _p_checkpoint,
+    "ATTACH": _p_attach,
+    "DETACH": _p_detach,
     "SPEED": _p_speed,
     "SERVOJ": _p_servoj,
     "SERVOL": _p_servol,
