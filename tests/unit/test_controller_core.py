@@ -29,11 +29,12 @@ RATE = 100.0
 
 class Rig:
     """One controller core and its driver: ticks are driven by the test; the board advances
-    1/RATE per tick; plans are made inline (in the tick that asks, taken in by the next)."""
+    1/RATE per tick; plans are made inline (in the tick that asks, taken in by the next).
+    ``zones`` / ``config``: the core's collision zones and configuration (default: the table)."""
 
     def __init__(self, *, homed: bool = True, queue_size: int = 16, board_disabled: bool = False,
                  wrap=None, lockstep: bool = False, link_timeout_ticks: int = 3, link_hold_frames: int = 2,
-                 **emu_kw) -> None:
+                 zones=None, config=None, **emu_kw) -> None:
         self.emu = BoardEmulator(clock="virtual", start_homed=homed, homing_speedup=200, **emu_kw)
         if board_disabled:  # left so by a previous controller
             self.emu.process_frame(CommandFrame(command=BoardCommand.DISABLE))
@@ -48,7 +49,7 @@ class Rig:
         self.outputs: list[TickOutput] = []
         self.ex = self.core = ControllerCore(model=PAROL6, rate_hz=RATE, queue_size=queue_size, watchdog_s=0.02,
                                              homing_speedup=200, link_timeout_ticks=link_timeout_ticks,
-                                             link_hold_frames=link_hold_frames)
+                                             link_hold_frames=link_hold_frames, zones=zones, config=config)
         self.loop = Driver(self.core, self.transport, reply_wait_fraction=0.0, plan_inline=True)
         self.guard = self.core.guard
         self.frames: list[CommandFrame] = []
@@ -879,7 +880,8 @@ def _plan_ahead(rig, command) -> int:
     driver makes it inline; its result reaches the core with the next tick, by its key)."""
     snap = rig.outputs[-1].snapshot
     key = next(_AHEAD)
-    rig.loop.plan_ahead(PlanRequest(key, command, tuple(snap.angles_deg), snap.tool, None, RATE, PAROL6))
+    rig.loop.plan_ahead(PlanRequest(key, command, tuple(snap.angles_deg), snap.tool, None, RATE, PAROL6,
+                                    world=snap.collision.world))
     return key
 
 

@@ -23,7 +23,7 @@ from parolkit.robot import GOTO_FF_GAIN, GOTO_GAIN_PER_S, JOINT_NAMES, goto_goal
 __all__ = [
     "FrameRequest", "TickContext", "Activity", "TrajectoryActivity", "SpeedActivity", "HomeActivity",
     "DelayActivity", "CheckpointActivity", "OneShotActivity", "GripperCalibrateActivity", "WaitInputActivity",
-    "OutputActivity", "ServoActivity",
+    "OutputActivity", "ServoActivity", "GuardStopActivity", "DoneActivity",
     "Samples", "WARNING_PREFIX", "speed_samples", "ticks_for",
 ]
 
@@ -265,6 +265,20 @@ class TrajectoryActivity(Activity):
     def commanded(self) -> tuple[int, ...] | None:
         """Position (steps) of the last target sent to the board; None before the first."""
         return self._last_target
+
+    def wait_start(self, ctx: TickContext) -> None:
+        """Not started yet and held back this tick (its collision check is not ready): its
+        first sample is due a tick later, so it starts from rest when it may."""
+        if self._s is None:
+            self.t0 = ctx.schedule_s + 1.0 / ctx.rate_hz
+            self._offset = self.i
+            self._tau = 0.0
+
+    @property
+    def sample_position(self) -> float | None:
+        """Where in the samples the last frame's target was (fractional sample coordinate);
+        None before the first frame."""
+        return self._s
 
     def skip(self, k: int) -> None:
         """Start ``k`` samples in (at most at the last one): a streamed jog planned from
@@ -643,6 +657,12 @@ class ServoActivity(Activity):
     def _inside(self, target: Sequence[float]) -> list[float]:
         return [min(max(float(t), lo), hi) for t, (lo, hi) in zip(target, self.limits)]
 
+    @property
+    def motion_state(self) -> tuple[list[float], list[float]] | None:
+        """The generator's position (steps) and speed (steps/s) after the last frame; None
+        before the first."""
+        return None if self._p is None else (self._p, self._v)
+
     def set_target(self, target_steps: Sequence[float], tick: int) -> None:
         """A new target (steps), taken in at tick ``tick``: the latest wins.  Its speed is
         fitted to the targets of the last :data:`SERVO_SPEED_WINDOW_TICKS` ticks (:func:`_slope_now`;
@@ -904,6 +924,42 @@ class ServoActivity(Activity):
             self.progress = 1.0
             return FrameRequest(BoardCommand.GOTO, pos, _ZERO6, done=status, details=details)
         return FrameRequest(BoardCommand.GOTO, pos, ff)
+
+
+class GuardStopActivity(TrajectoryActivity):
+    """The stop the collision check chose for a jog or a servo stream (the controller's
+    :mod:`~parolkit.controller.world`): its samples played as a trajectory (every frame a
+    bounded commitment, settled on its last target), at their own speed whatever the speed
+    override or a pause (it is a stop); the job then ends with ``status`` and ``details`` (the
+    pair and why)."""
+
+    def __init__(self, samples: Samples, *, settle_ticks: int, started: float, status: AckStatus,
+                 details: str) -> None:
+        super().__init__(samples, settle_ticks=settle_ticks, started=started, schedule_start=started)
+        self.outcome = (status, details)
+
+    def step(self, ctx: TickContext) -> FrameRequest:
+        out = super().step(replace(ctx, speed_scale=1.0))
+        if out.done is AckStatus.COMPLETED:
+            return replace(out, done=self.outcome[0], details=self.outcome[1])
+        if out.done is not None:
+            return replace(out, done=self.outcome[0], details=f"{self.outcome[1]}; {out.details}")
+        return out
+
+
+class DoneActivity(Activity):
+    """A command whose work was done when it started (ATTACH, DETACH): COMPLETED with
+    ``details`` in the tick it runs, without a frame of its own (``frameless_end``: the next
+    queued command takes that tick)."""
+
+    frameless_end = True
+
+    def __init__(self, details: str) -> None:
+        self.details = details
+
+    def step(self, ctx: TickContext) -> FrameRequest:
+        self.progress = 1.0
+        return FrameRequest(BoardCommand.IDLE, done=AckStatus.COMPLETED, details=self.details)
 
 
 class HomeActivity(Activity):

@@ -236,7 +236,7 @@ class Controller:
             self._ahead_keys -= 1
             key = self._ahead_keys
         loop.plan_ahead(PlanRequest(key, command, tuple(s.angles_deg), s.tool, tool, self.rate_hz,
-                                    self.config.robot))
+                                    self.config.robot, world=s.collision.world, speed_pct=s.speed_pct))
         return key
 
     def _pose_provider(self, angles: Sequence[float], tool_name: str) -> tuple[tuple[float, ...], tuple[float, ...]]:

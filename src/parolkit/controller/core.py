@@ -47,8 +47,10 @@ from parolkit.controller.activities import (
     Activity,
     CheckpointActivity,
     DelayActivity,
+    DoneActivity,
     FrameRequest,
     GripperCalibrateActivity,
+    GuardStopActivity,
     HomeActivity,
     OneShotActivity,
     OutputActivity,
@@ -75,10 +77,22 @@ from parolkit.controller.planning import PlanRequest, PlanResult, needs_plan
 from parolkit.controller.safety import SafetyState
 from parolkit.controller.setpoints import Setpoints
 from parolkit.controller.snapshot import BoardInfo, CommandInfo, PlanView, PoseProvider, RobotState, Snapshot
+from parolkit.controller.world import (
+    MAX_HELD,
+    CollisionView,
+    CollisionWorld,
+    SceneRequest,
+    SceneResult,
+    StopPlan,
+    held_item,
+    joint_stop,
+    path_stop,
+    stop_check,
+)
 from parolkit.errors import ParolkitError
 from parolkit.moves import MAX_BLEND_CHAIN, Frame, blend_kind
 from parolkit.protocol import commands as C
-from parolkit.protocol.commands import AckStatus, Execution
+from parolkit.protocol.commands import AckStatus, CollisionCheck, Execution
 from parolkit.protocol.frames import BoardCommand, CommandFrame, GripperCommandBits, GripperMode, StatusFrame
 from parolkit.robot import JOINT_NAMES, RobotModel, goto_goal
 
@@ -165,6 +179,8 @@ class TickInput:
     #: the driver's and the UDP server's counters, shown in the status as they are
     loop_stats: Mapping[str, Any] = field(default_factory=dict)
     server_stats: Mapping[str, Any] = field(default_factory=dict)
+    #: the collision scenes the driver built since (answers to :attr:`TickOutput.scene_requests`)
+    scenes: tuple[SceneResult, ...] = ()
     #: safety commands that arrived while this tick's frame was being made: apply them and
     #: give the frame to write instead (same tick, nothing read again)
     recompose: bool = False
@@ -198,6 +214,8 @@ class TickOutput:
     plan_requests: tuple[PlanRequest, ...] = ()
     port_request: str | None = None
     result: TickResult = TickResult.FRAME
+    #: collision scenes to build (off the tick: :func:`parolkit.controller.world.build_scene`)
+    scene_requests: tuple[SceneRequest, ...] = ()
 
 
 @dataclass
@@ -242,6 +260,7 @@ class ControllerCore:
         tool_name: str = "default",
         config: object | None = None,
         servo_timeout_s: float = 0.05,
+        zones: Sequence[object] | None = None,
     ) -> None:
         if not unhomed_jog_travel_deg > 0.0:
             raise ValueError(f"unhomed_jog_travel_deg must be > 0 deg, got {unhomed_jog_travel_deg!r}")
@@ -335,6 +354,34 @@ class ControllerCore:
         self._now = 0.0
         self._tick = 0
         self._start_wall: float | None = None
+        # ---- the collision world (docs/collision.md): the zones (``zones``, else the config's,
+        # else the table), the tool's shape, the held objects; its compiled scene comes from
+        # the driver (never built here)
+        if zones is None:
+            zones = getattr(config, "zones", None)
+        if zones is None:
+            from parolkit.config import default_zones
+
+            zones = default_zones()
+        self.world = CollisionWorld(tuple(zones), self._tool_shape(tool_name))  # type: ignore[arg-type]
+        #: changes whenever the world does (the status's collision.seq: GET_ZONES again)
+        self.world_seq = 0
+        #: the scene of :attr:`world` once the driver built it (None: not yet)
+        self.scene: Any = None
+        #: scenes and errors the driver answered, by world (a few kept: ATTACH / DETACH back and forth)
+        self._scenes: OrderedDict[CollisionWorld, SceneResult] = OrderedDict()
+        self._scenes_asked: set[CollisionWorld] = set()
+        self._scene_requests: list[SceneRequest] = []
+        #: the controlled stop checked with the last guarded frame (it begins at the next
+        #: tick), and the one of the frame before this tick's (what a refused frame plays)
+        self._stop_plan: StopPlan | None = None
+        self._prev_stop: StopPlan | None = None
+        #: pairs found within their margin where a guarded motion started: the clearance
+        #: they had then (mm), which the motion may not go below
+        self._floors: dict[int, float] = {}
+        self._rad_per_step = tuple(math.pi / 180.0 / s for s in self._spd)
+        #: ticks spent in the per-tick stop check, and how long (s): the loop statistics' figures
+        self.guard_checks = 0
 
     # ================================================================== the update
 
@@ -353,6 +400,7 @@ class ControllerCore:
         for sev in inp.supervisor:
             self._supervisor_event(sev)
         self._take_plans(inp.plans)
+        self._take_scenes(inp.scenes)
         self._take_probe_answer()
         # the commands first: their senders saw the status of the previous tick; what the
         # replies read now show is newer (a fault they reveal is shown even when an ENABLE
@@ -368,6 +416,9 @@ class ControllerCore:
             if lost is not None:
                 lost_frame = self._lose_link(lost, inp, may_write=True)
                 result = TickResult.LINK_LOST
+        # the stop checked with the last frame written begins at this tick (if this tick's
+        # frame is refused, it is played); this tick's frame checks a new one
+        self._prev_stop, self._stop_plan = self._stop_plan, None
         if result is TickResult.LINK_LOST:
             frame = lost_frame
         elif self.link_up:
@@ -375,6 +426,7 @@ class ControllerCore:
         else:
             frame, result = None, TickResult.NO_LINK
         self._request_plans()
+        self._ask_scene()
         port, self.port_request = self.port_request, None
         sw = self._switch
         if sw is not None and port is None and self.link_up and not self._switch_on:
@@ -390,19 +442,23 @@ class ControllerCore:
             self.jobs.ack(sw[1], AckStatus.COMPLETED,
                           f"switched to {sw[0]}: the board answers" + (f"; {why}" if why else ""))
         requests, self._plan_requests = tuple(self._plan_requests), []
+        scenes, self._scene_requests = tuple(self._scene_requests), []
         return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame) if inp.snapshot else None,
-                          requests, port, result)
+                          requests, port, result, scenes)
 
     def _recompose(self, inp: TickInput) -> TickOutput:
         """Safety commands that came while this tick's frame was made: applied, and this tick's
         frame made again (the first was never written)."""
         for sub in inp.submissions:
             self._apply_safe(sub)
+        self._stop_plan = None  # (the first frame's, never written)
         frame = self._frame(inp) if self.link_up else None
         result = TickResult.FRAME if frame is not None else TickResult.NO_LINK
         requests, self._plan_requests = tuple(self._plan_requests), []
+        self._ask_scene()
+        scenes, self._scene_requests = tuple(self._scene_requests), []
         return TickOutput(frame, tuple(self.jobs.take_acks()), self._snapshot(inp, frame) if inp.snapshot else None,
-                          requests, None, result)
+                          requests, None, result, scenes)
 
     # ================================================================== the link
 
@@ -723,6 +779,7 @@ class ControllerCore:
             if self.jobs.active is not None or self.jobs.waiting:
                 return AckStatus.FAILED, "robot is busy: the tool can change only when idle"
             self.tool_name, self.tool_obj = cmd.tool, sub.tool
+            self._set_world(self.world.with_tool(self._tool_shape(cmd.tool)))
             return AckStatus.COMPLETED, f"tool {cmd.tool}"
         return AckStatus.INVALID, f"{cmd.name} is not a command the loop applies"
 
@@ -740,6 +797,10 @@ class ControllerCore:
             jobs.ack(job, AckStatus.FAILED, why)
             return
         act = jobs.activity
+        if isinstance(act, GuardStopActivity):
+            jobs.ack(job, AckStatus.FAILED, f"{cmd.name} refused: the arm is stopping short of a collision "
+                                            f"({act.outcome[1]})")
+            return
         if isinstance(act, ServoActivity) and act.ending is not None:
             act.resume()  # a target during the silence's slow-down: the stream goes on
         stream = act if isinstance(act, ServoActivity) and act.ending is None else None
@@ -937,7 +998,7 @@ class ControllerCore:
         return self.measured_deg if self.homed else None
 
     def _request(self, job: Job, start: tuple[float, ...], jog_start: object = None,
-                 chain: Sequence[Job] = ()) -> None:
+                 chain: Sequence[Job] = (), world: CollisionWorld | None = None) -> None:
         ids = tuple(f.seq for f in chain)
         if job.planning is not None and job.chain_asked == ids:
             return
@@ -952,7 +1013,8 @@ class ControllerCore:
         job.planning, job.chain_asked = key, ids
         self._plan_requests.append(PlanRequest(key, job.command, start, self.tool_name, self.tool_obj,
                                                self.rate_hz, self.model, jog_start, self.config,
-                                               tuple(f.command for f in chain)))
+                                               tuple(f.command for f in chain),
+                                               self.world if world is None else world, self.speed_pct))
 
     def _blend_followers(self, waiting: Sequence[Job], idx: int) -> list[Job]:
         """The waiting jobs after ``waiting[idx]`` that its plan blends into (issue 24): the
@@ -992,6 +1054,9 @@ class ControllerCore:
                 self._request(sc, start, jog_start)
             return
         prev = self._chain_start()
+        # the collision world each job will run in: the one in force, as changed by the
+        # ATTACH / DETACH queued before it
+        world = self.world
         waiting = list(jobs.waiting)
         skip = 0
         count = 0
@@ -1008,6 +1073,8 @@ class ControllerCore:
                 # its chain no longer runs (it failed or was replaced): planned on its own
                 job.rider_of, job.planned = None, False
             ex = job.command.EXECUTION
+            if ex is Execution.HELD:
+                world = self._held_world(world, job.command)[0] or world
             if ex is Execution.HOME:
                 job.planned = True
                 prev = tuple(float(v) for v in self.model.standby_deg)
@@ -1026,7 +1093,8 @@ class ControllerCore:
                 return  # its plan is on its way
             if job.ahead is not None and not ids:
                 return  # the plan the server asked for ahead is on its way
-            if job.planned and job.planning is None and job.start_deg == prev and job.chain == ids:
+            if (job.planned and job.planning is None and job.start_deg == prev and job.chain == ids
+                    and job.world == world):
                 prev = job.final_deg if job.plan_error is None else prev
                 if job.plan_error is None:
                     for f in followers:
@@ -1035,7 +1103,7 @@ class ControllerCore:
                 continue
             if prev is None:
                 return
-            self._request(job, prev, chain=followers)
+            self._request(job, prev, chain=followers, world=world)
             return
 
     def _stream_start(self, job: Job) -> tuple[tuple[float, ...], object]:
@@ -1090,13 +1158,14 @@ class ControllerCore:
             elif job.ahead == r.key:
                 job.ahead = None
                 if (r.tool_name != self.tool_name or i != 0 or jobs.active is not None or r.command is not job.command
-                        or job.chain_asked):
+                        or job.chain_asked or r.world != self.world):
                     # the plan assumed another start or tool, or the move blends into the ones
                     # queued after it (the plan of the chain is on its way): planned as usual
                     return True
                 job.chain, job.marks = (), ()
             else:
                 continue
+            job.world = r.world
             if r.error is not None:
                 job.set_plan_error(r.start_deg, r.error)
             else:
@@ -1109,6 +1178,159 @@ class ControllerCore:
                             f.ride(job)
             return True
         return False
+
+    # ================================================================== the collision world
+
+    def _tool_shape(self, name: str) -> Any:
+        """The body of the tool ``name`` (``[tools.NAME] shape`` of the config), None when it
+        has none (the built-in tools)."""
+        for t in getattr(self.config, "tools", None) or ():
+            if getattr(t, "name", None) == name:
+                return getattr(t, "shape", None)
+        return None
+
+    def _set_world(self, world: CollisionWorld) -> None:
+        """The world changes (SET_TOOL, ATTACH, DETACH): its scene is asked for (or taken from
+        the ones kept); a guarded motion's floors start again."""
+        if world == self.world:
+            return
+        self.world = world
+        self.world_seq += 1
+        self._floors.clear()
+        kept = self._scenes.get(world)
+        self.scene = kept.scene if kept is not None else None
+
+    def _held_world(self, world: CollisionWorld, cmd: C.Command) -> tuple[CollisionWorld | None, str]:
+        """The world after ATTACH / DETACH ``cmd`` and its ack's words; (None, why) when it
+        cannot be done."""
+        names = ", ".join(repr(h.name) for h in world.held)
+        if isinstance(cmd, C.Attach):
+            item = held_item(cmd)
+            again = any(h.name == item.name for h in world.held)
+            if not again and len(world.held) >= MAX_HELD:
+                return None, (f"ATTACH: at most {MAX_HELD} objects may be held ({names}): DETACH one first")
+            what = "in place of the one of that name: " if again else ""
+            return world.with_held(item), f"attached {item.name!r}: {what}{item.describe()} in the flange frame"
+        if isinstance(cmd, C.Detach):
+            name = cmd.object_name
+            if name is None:
+                gone = [h.name for h in world.held]
+                if not gone:
+                    return world, "nothing was held"
+                if len(gone) == 1:
+                    return world.without(None), f"detached {gone[0]!r}"
+                return world.without(None), f"detached {len(gone)} objects: {names}"
+            if not any(h.name == name for h in world.held):
+                held = f"held: {names}" if names else "nothing is held"
+                return None, f"DETACH: no held object named {name!r} ({held})"
+            return world.without(name), f"detached {name!r}"
+        return world, ""
+
+    def _take_scenes(self, results: Sequence[SceneResult]) -> None:
+        """Scenes the driver built: kept (a few), and the current world's swapped in."""
+        if not results:
+            return
+        for r in results:
+            self._scenes_asked.discard(r.world)
+            self._scenes[r.world] = r
+            self._scenes.move_to_end(r.world)
+            while len(self._scenes) > 8:
+                self._scenes.popitem(last=False)
+            if r.error is not None:
+                log.error("%s", r.error)
+        kept = self._scenes.get(self.world)
+        if kept is not None:
+            self.scene = kept.scene
+
+    def _ask_scene(self) -> None:
+        """Ask the driver for the current world's scene when it is neither here nor asked for."""
+        w = self.world
+        if self.scene is None and w not in self._scenes and w not in self._scenes_asked:
+            self._scenes_asked.add(w)
+            self._scene_requests.append(SceneRequest(w))
+
+    def _scene_ready(self) -> bool:
+        return self.scene is not None
+
+    def _scene_error(self) -> str | None:
+        kept = self._scenes.get(self.world)
+        return kept.error if kept is not None else None
+
+    def _checked_every_tick(self) -> bool:
+        """The running job's motion is checked every tick (jogs, servo streams) and its
+        activity is its own (not the stop the check chose).  Not before homing: the joints'
+        positions are not known then (a jog press is limited to ``unhomed_jog_travel_deg``)."""
+        a, act = self.jobs.active, self.jobs.activity
+        return (a is not None and self.homed and a.command.COLLISION is CollisionCheck.TICK
+                and not isinstance(act, GuardStopActivity))
+
+    def _hold_request(self) -> FrameRequest:
+        """A frame that holds the arm where the last frame took it (nothing new commanded)."""
+        return self.stop_request(self.last_frame) or FrameRequest(BoardCommand.IDLE)
+
+    def _guard_words(self) -> str:
+        a = self.jobs.active
+        if a is None:
+            return "motion"
+        if isinstance(a.command, (C.ServoJ, C.ServoL)):
+            return "servo stream"
+        return "jog" if a.command.STREAMABLE else a.label
+
+    def _stop_after(self, act: Activity) -> StopPlan | None:
+        """The controlled stop of ``act`` beginning at the next tick (its last frame just
+        made): along its path for a path-following jog, joint by joint for a servo stream."""
+        if isinstance(act, TrajectoryActivity):
+            s = act.sample_position
+            if s is None or not act.n:
+                return None
+            return path_stop(act.positions, act.speeds, s, act.k, self._accel, self.rate_hz,
+                             straight=isinstance(act, SpeedActivity))
+        if isinstance(act, ServoActivity):
+            st = act.motion_state
+            return None if st is None else joint_stop(st[0], st[1], self._accel, self.rate_hz)
+        return None
+
+    def _guard_frame(self, act: Activity, req: FrameRequest, ctx: TickContext) -> FrameRequest:
+        """The per-tick collision check of a jog or servo stream's frame ``req`` (docs/collision.md,
+        "Jogs and servo streams"): if the controlled stop beginning at the next tick, from this
+        frame's goal, would bring a pair within its margin, the frame does not go: the stop
+        checked with the last frame (it begins now) is played instead and the job ends FAILED
+        naming the pair; with no such stop (the motion starts here) the job is refused and the
+        arm holds."""
+        if req.command != BoardCommand.GOTO or req.positions is None or ctx.origin is None:
+            return req
+        stop = self._stop_after(act)
+        if stop is None:
+            return req
+        goal = goto_goal(req.positions, req.speeds)
+        self.guard_checks += 1
+        verdict = stop_check(self.scene, ctx.origin, goal, stop, self._rad_per_step, self._floors)
+        if verdict is None:
+            self._stop_plan = stop
+            return req
+        what = self._guard_words()
+        prev = self._prev_stop
+        if prev is None:
+            why = f"{what} refused: {verdict.words()}: moving on would bring it within the margin"
+            log.warning("%s", why)
+            return replace(self._hold_request(), done=AckStatus.FAILED, details=why)
+        why = f"{what} stopped: {verdict.words()}: a controlled stop from here would end within the margin"
+        log.warning("%s", why)
+        stop_act = GuardStopActivity(prev.samples(), settle_ticks=max(3, int(SETTLE_TIMEOUT_S * self.rate_hz)),
+                                     started=self._now, status=AckStatus.FAILED, details=why)
+        self.jobs.activity = stop_act
+        if act is self._chain_act:
+            self._chain_act = None
+        return stop_act.step(ctx)
+
+    def _collision_view(self) -> CollisionView:
+        waiting = None
+        if self._checked_every_tick() and not self._scene_ready():
+            a = self.jobs.active
+            err = self._scene_error()
+            waiting = err or (f"{a.name if a else 'motion'} waits for the collision check of the current world "
+                              "(being built)")
+        return CollisionView(self.world, self.world_seq, self._scene_ready(), waiting)
 
     # ================================================================== running jobs
 
@@ -1235,6 +1457,11 @@ class ControllerCore:
             jobs.ack(job, AckStatus.FAILED, "robot is not homed: send HOME first")
             return
         old, old_act = jobs.active, jobs.activity
+        if isinstance(old_act, GuardStopActivity):
+            # the running jog is stopping short of a collision: that stop is not cut short
+            jobs.ack(job, AckStatus.FAILED, f"jog refused: the arm is stopping short of a collision "
+                                            f"({old_act.outcome[1]})")
+            return
         if old is not None and isinstance(old_act, SpeedActivity) and cmd.EXECUTION is Execution.SPEED:
             speeds, secs, err = self._speed_plan(cmd)
             note = ""
@@ -1298,6 +1525,13 @@ class ControllerCore:
                 # a blended chain: the jobs planned with it follow as the arm passes their marks
                 self._chain_act, self._chain_head = act, job.seq
                 self._marks = deque(job.marks)
+        elif ex is Execution.HELD:
+            world, why = self._held_world(self.world, cmd)
+            if world is None:
+                self.jobs.ack(job, AckStatus.FAILED, why)
+                return
+            self._set_world(world)
+            act = DoneActivity(why)
         elif isinstance(cmd, C.Delay):
             act = DelayActivity(int(round(cmd.seconds * self.rate_hz)))
         elif isinstance(cmd, C.Checkpoint):
@@ -1355,8 +1589,8 @@ class ControllerCore:
                 meas = self.measured_deg
                 if meas is None or job.start_deg is None or any(
                     abs(a - b) > START_TOLERANCE_DEG for a, b in zip(meas, job.start_deg)
-                ):
-                    job.planned = False  # plan again from where the robot is
+                ) or job.world != self.world:
+                    job.planned = False  # plan (and check) again from where the robot is, in this world
                     return
             jobs.waiting.popleft()
             if self.queue_held:
@@ -1413,9 +1647,23 @@ class ControllerCore:
 
     def _run_activity(self, act: Activity, ctx: TickContext) -> FrameRequest:
         """This tick's request of the running job's activity; ends the job (its terminal ack)
-        when the request says so."""
+        when the request says so.  A jog's or servo stream's frame passes the collision check
+        first (:meth:`_guard_frame`); until the check of the current world is ready it waits,
+        holding the arm."""
+        guarded = self._checked_every_tick()
+        if guarded and not self._scene_ready():
+            err = self._scene_error()
+            req = self._hold_request()
+            if isinstance(act, TrajectoryActivity):
+                act.wait_start(ctx)
+            if err is not None:
+                req = replace(req, done=AckStatus.FAILED, details=err)
+                self.jobs.end_active(req.done, req.details)  # type: ignore[arg-type]
+            return req
         try:
             req = act.step(ctx)
+            if guarded and req.done is None:
+                req = self._guard_frame(act, req, ctx)
         except Exception as exc:
             log.exception("activity of %s failed", self.jobs.active.name if self.jobs.active else "?")
             req = FrameRequest(BoardCommand.IDLE, done=AckStatus.FAILED, details=f"internal error: {exc}")
@@ -1531,6 +1779,7 @@ class ControllerCore:
             state_known=not self.probe.active and self.probe.result is None,
             sent=frame if self.link_up else None, queue_view=jobs.view(), plan=self._plan_view(),
             speed_pct=self.speed_pct, paused=self.paused, queue_held=self.queue_held,
+            collision=self._collision_view(),
         )
 
     # ================================================================== views for tests and tools

@@ -53,6 +53,7 @@ from parolkit.controller.scheduling import raise_priority
 from parolkit.controller.snapshot import Snapshot
 from parolkit.controller.stats import LoopMetrics, LoopStatsView
 from parolkit.controller.supervisor import STOPPED_PERIODS, StopSupervisor
+from parolkit.controller.world import SceneRequest, SceneResult, build_scene
 from parolkit.protocol.frames import CommandFrame
 from parolkit.protocol.stream import StatusParser
 from parolkit.transport.base import LinkLostError, Transport, TransportError
@@ -128,6 +129,7 @@ class Driver:
         self.plan_inline = plan_inline
         self._pool: ThreadPoolExecutor | None = None
         self._plans_done: list[PlanResult] = []
+        self._scenes_done: list[SceneResult] = []
         self._plans_lock = threading.Lock()
         #: what the next tick input carries: the frame written, replies read since, link events
         self._written: Written | None = None
@@ -326,6 +328,38 @@ class Driver:
         with self._plans_lock:
             self._plans_done.append(r)
 
+    def _build_scenes(self, requests: tuple[SceneRequest, ...]) -> None:
+        """Collision scenes the core asked for (:func:`parolkit.controller.world.build_scene`,
+        cached by world): in the planner's worker, or inline; the answers reach the next tick."""
+        for req in requests:
+            if self.plan_inline:
+                self._scenes_done.append(self._run_scene(req))
+                continue
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(1, thread_name_prefix="parolkit-planner",
+                                                initializer=self._helper_priority)
+            self._pool.submit(self._run_scene, req).add_done_callback(self._scene_done)
+
+    @staticmethod
+    def _run_scene(req: SceneRequest) -> SceneResult:
+        t0 = time.perf_counter()
+        r = build_scene(req)
+        return replace(r, seconds=time.perf_counter() - t0)
+
+    def _scene_done(self, fut: Future[SceneResult]) -> None:
+        try:
+            r = fut.result()
+        except Exception:  # (build_scene catches every error itself)
+            log.exception("a scene task failed")
+            return
+        with self._plans_lock:
+            self._scenes_done.append(r)
+
+    def _take_scenes(self) -> tuple[SceneResult, ...]:
+        with self._plans_lock:
+            done, self._scenes_done = self._scenes_done, []
+        return tuple(done)
+
     def plan_ahead(self, req: PlanRequest) -> None:
         """(any thread) Start planning ``req`` now: the UDP server's plan ahead of the tick for
         a motion command that reached an idle robot (its result reaches the core by its key)."""
@@ -385,7 +419,7 @@ class Driver:
         subs = self.inbox.take_safety()
         subs += self.inbox.take()
         return TickInput(self.tick_count, t, time.monotonic(), written=written, replies=batches,
-                         submissions=tuple(subs), plans=self._take_plans(), links=events,
+                         submissions=tuple(subs), plans=self._take_plans(), scenes=self._take_scenes(), links=events,
                          supervisor=self._supervisor_events(now), loop_stats=self.loop_view(),
                          server_stats=self.server_view() if self.server_view is not None else {},
                          snapshot=not self.lazy_snapshots)
@@ -422,8 +456,10 @@ class Driver:
                                 snapshot=inp.snapshot)
                 again = self.core.update(inp)
                 out = replace(again, acks=out.acks + again.acks,
-                              plan_requests=out.plan_requests + again.plan_requests)
+                              plan_requests=out.plan_requests + again.plan_requests,
+                              scene_requests=out.scene_requests + again.scene_requests)
         self._plan(out.plan_requests)
+        self._build_scenes(out.scene_requests)
         if out.port_request is not None:
             self.port_request = out.port_request
             self._next_reconnect = 0.0

@@ -64,6 +64,9 @@ class Job:
     chain: tuple[int, ...] = ()
     marks: tuple[int, ...] = ()
     rider_of: int | None = None
+    #: the collision world its plan was checked in (``parolkit.controller.world.CollisionWorld``;
+    #: None: not planned): it runs only in that world, else it is planned again
+    world: object | None = None
 
     @property
     def name(self) -> str:

@@ -20,6 +20,7 @@ from types import ModuleType
 from typing import Any
 
 from parolkit.controller.activities import Samples
+from parolkit.controller.world import CollisionWorld, check_plan
 from parolkit.protocol import commands as C
 from parolkit.robot import RobotModel
 
@@ -56,6 +57,11 @@ class PlanRequest:
     #: the queued commands ``command`` blends into (issue 24): planned with it as one
     #: trajectory (:func:`parolkit.motion.blending.plan_blended`); () for a move on its own
     chain: tuple[C.Command, ...] = ()
+    #: the collision world the move will run in (its plan is checked there before it is
+    #: admitted, when its command says so: ``COLLISION`` PLAN); None: not checked
+    world: CollisionWorld | None = None
+    #: the speed override (%) in force: the times of a refusal's words are at it
+    speed_pct: float = 100.0
 
 
 @dataclass(frozen=True)
@@ -77,6 +83,8 @@ class PlanResult:
     #: a blended chain's plan: for its first command and each of the request's ``chain`` but
     #: the last, the sample after which that command is done
     marks: tuple[int, ...] = ()
+    #: the collision world it was checked in (the request's)
+    world: CollisionWorld | None = None
 
 
 _motion: ModuleType | None = None
@@ -93,7 +101,7 @@ def plan(req: PlanRequest) -> PlanResult:
     """Plan ``req``; every planning error (refusals, IK failures, bad values) becomes the
     result's ``error`` with the planner's words."""
     base: dict[str, Any] = {"key": req.key, "command": req.command, "start_deg": req.start_deg,
-                            "tool_name": req.tool_name}
+                            "tool_name": req.tool_name, "world": req.world}
     try:
         if not needs_plan(req.command):
             raise TypeError(f"{req.command.name} is not a planned motion command")
@@ -113,6 +121,11 @@ def plan(req: PlanRequest) -> PlanResult:
                                          jog_start=req.jog_start)
         if len(traj) == 0:
             return PlanResult(**base, error="the move plans to zero samples")
+        if req.world is not None and req.command.COLLISION is C.CollisionCheck.PLAN:
+            # admitted only when no pose of it (samples and between them) is within a margin
+            collision = check_plan(req.world, traj.positions_deg(), traj.rate_hz, req.start_deg, req.speed_pct)
+            if collision is not None:
+                return PlanResult(**base, error=f"would collide: {collision}")
         samples: Samples = (traj.positions.tolist(), traj.speeds.tolist(), traj.commands.tolist())
         final: Sequence[float] = traj.final_deg
         return PlanResult(**base, trajectory=traj, samples=samples, final_deg=tuple(float(v) for v in final),

@@ -19,6 +19,7 @@ from typing import Any
 from parolkit._frozen import quick_init
 from parolkit.controller.integrity import IntegrityView
 from parolkit.controller.jobs import QueueView
+from parolkit.controller.world import CollisionView
 from parolkit.protocol.commands import dumps, format_floats
 from parolkit.protocol.frames import CommandFrame, IOBits, StatusFrame
 
@@ -111,7 +112,7 @@ class Snapshot:
         "seq", "time", "state", "enabled", "estop_pressed", "estop_latched", "status", "board",
         "error", "command", "queue", "stream_mode", "speed_pct", "paused", "queue_held", "tool", "plan_seq",
         "outputs", "loop_view",
-        "server_view", "integrity", "state_known", "sent", "queue_view", "plan", "_steps_per_deg",
+        "server_view", "integrity", "state_known", "sent", "queue_view", "plan", "collision", "_steps_per_deg",
         "_pose_provider", "_angles", "_pose", "_matrix", "_replies",
     )
 
@@ -145,6 +146,7 @@ class Snapshot:
         speed_pct: float = 100.0,
         paused: bool = False,
         queue_held: bool = False,
+        collision: CollisionView | None = None,
     ) -> None:
         self.seq = seq
         self.time = time
@@ -180,6 +182,8 @@ class Snapshot:
         self.sent = sent
         self.queue_view = queue_view if queue_view is not None else QueueView()
         self.plan = plan if plan is not None else PlanView()
+        #: the collision world in force and whether its check is ready (GET_ZONES)
+        self.collision = collision if collision is not None else CollisionView()
         self._steps_per_deg = steps_per_deg
         self._pose_provider = pose_provider
         self._angles: tuple[float, ...] | None = None
@@ -364,6 +368,7 @@ class Snapshot:
             "queue_held": self.queue_held,
             "tool": self.tool,
             "plan_seq": self.plan_seq,
+            "collision": self.collision.status_dict(),
             "sent": ({"command": int(self.sent.command), "steps": list(self.sent.positions),
                       "speeds": list(self.sent.speeds)} if self.sent is not None else None),
         }
@@ -387,6 +392,10 @@ class Snapshot:
         return "QUEUE|" + dumps({"active": act, "queued": [{"id": cid(e), "name": e.name, "mine": e.client == viewer}
                                                            for e in q.waiting]})
 
+    def reply_zones(self) -> str:
+        """GET_ZONES: the collision world in force (docs/protocol.md, "The collision world")."""
+        return "ZONES|" + dumps(self.collision.zones_dict(self.tool))
+
     def reply_loop_stats(self, extra: Mapping[str, Any] | None = None) -> str:
         """GET_LOOP_STATS: the loop statistics (and ``extra``, the server's own)."""
         out = dict(self.loop_view)
@@ -399,5 +408,5 @@ class Snapshot:
 SNAPSHOT_QUERIES = {
     "PING": "reply_ping", "GET_ANGLES": "reply_angles", "GET_POSE": "reply_pose", "GET_IO": "reply_io",
     "GET_GRIPPER": "reply_gripper", "GET_SPEEDS": "reply_speeds", "GET_STATUS": "reply_status",
-    "GET_STATUS_JSON": "reply_status_json",
+    "GET_STATUS_JSON": "reply_status_json", "GET_ZONES": "reply_zones",
 }
