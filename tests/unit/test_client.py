@@ -1275,3 +1275,87 @@ def test_enum_words_are_sent_as_their_values(api, fake):
     api.smooth_circle([0, 250, 200], 30, Plane.XZ, Frame.WRF, duration=4)
     assert fake.wait_for("CARTJOG") == ["CARTJOG|TRF|RZ-|30|0.5"]
     assert fake.wait_for("SMOOTH_CIRCLE") == ["SMOOTH_CIRCLE|0,250,200|30|XZ|WRF|CURRENT|DURATION|4|0"]
+
+
+# ============================================================================================
+# the collision world: attach / detach / zones (ext; not in robot_api: the stock API has none)
+# ============================================================================================
+
+ZONES_REPLY = ('ZONES|{"seq": 3, "ready": true, "units": "mm, deg", "zones": ['
+               '{"name": "table", "kind": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "margin": 0}, '
+               '{"name": "monitor", "kind": "box", "center": [300, -250, 200], "size": [400, 60, 300], '
+               '"rpy": [0, 0, 30], "margin": 10}, '
+               '{"name": "post", "kind": "cylinder", "center": [200, 200, 150], "axis": [0, 0, 1], "radius": 20, '
+               '"height": 300, "margin": 5}], '
+               '"tool": {"name": "pen", "shape": {"kind": "capsule", "start": [0, 0, 0], "end": [0, 0, 120], '
+               '"radius": 8}}, '
+               '"held": [{"name": "ball", "kind": "sphere", "center": [0, 0, 170], "radius": 25}, '
+               '{"name": "rod", "kind": "capsule", "start": [0, 30, 10], "end": [0, 30, 170], "radius": 8}], '
+               '"self_margin": 0}')
+
+
+def test_attach_and_detach_send_the_datagrams_the_controller_parses_to_the_same_shapes(robot, fake):
+    from parolkit.protocol import commands as C
+    from parolkit.protocol.commands import parse_datagram
+
+    r1 = robot.attach_sphere("ball", (0, 0, 170), 25)
+    r2 = robot.attach_capsule("rod", [0, 30, 10], [0, 30, 170.5], 8)
+    r3 = robot.detach("ball")
+    r4 = robot.detach()
+    assert all(r.ok for r in (r1, r2, r3, r4))
+    sent = {m.split("|", 1)[0]: m.split("|", 1)[1] for m in fake.received_so_far() if "|" in m}
+    assert sent[r1.id] == "ATTACH|ball|SPHERE|0.0,0.0,170.0|25.0"
+    assert sent[r2.id] == "ATTACH|rod|CAPSULE|0.0,30.0,10.0|0.0,30.0,170.5|8.0"
+    assert sent[r3.id] == "DETACH|ball" and sent[r4.id] == "DETACH"
+    assert parse_datagram(sent[r1.id]).command == C.Attach("ball", "sphere", (0, 0, 170), (0, 0, 170), 25)
+    assert parse_datagram(sent[r2.id]).command == C.Attach("rod", "capsule", (0, 30, 10), (0, 30, 170.5), 8)
+
+
+@pytest.mark.parametrize("call,needle", [
+    (lambda r: r.attach_sphere("ball", (0, 0), 25), "center must have 3 values (x, y, z in mm, flange frame), got 2"),
+    (lambda r: r.attach_sphere("ball", (0, 1001, 0), 25), "center: y = 1001 mm is out of range [-1000, 1000] mm"),
+    (lambda r: r.attach_sphere("ball", (0, 0, 0), 0), "radius = 0 mm is out of range (0, 500] mm"),
+    (lambda r: r.attach_sphere("ball", (0, 0, float("nan")), 5), "center[2] must be a finite number"),
+    (lambda r: r.attach_capsule("rod", (0, 0, 0), "x", 5), "end must be a list of 3 numbers"),
+    (lambda r: r.attach_sphere("a|b", (0, 0, 0), 5), "name must be 1..64 characters"),
+    (lambda r: r.detach(""), "name must be 1..64 characters"),
+])
+def test_attach_refuses_a_bad_field_before_anything_is_sent(robot, fake, call, needle):
+    with pytest.raises(ParolkitValueError) as info:
+        call(robot)
+    assert needle in str(info.value)
+    assert fake.received_so_far() == ["ACK_HERE"]
+
+
+def test_zones_answers_the_collision_world_typed(robot, fake):
+    fake.replies["GET_ZONES"] = ZONES_REPLY
+    z = robot.zones()
+    assert (z.seq, z.ready, z.tool, z.self_margin) == (3, True, "pen", 0.0)
+    assert [(q.name, q.kind, q.margin) for q in z.zones] == [("table", "plane", 0.0), ("monitor", "box", 10.0),
+                                                              ("post", "cylinder", 5.0)]
+    assert z.zones[0].normal == (0, 0, 1) and z.zones[1].size == (400, 60, 300) and z.zones[1].rpy == (0, 0, 30)
+    assert z.zones[2].radius == 20 and z.zones[2].height == 300 and z.zones[2].axis == (0, 0, 1)
+    assert z.tool_shape is not None and z.tool_shape.end == (0, 0, 120) and z.tool_shape.radius == 8
+    assert z.held[0].kind == "sphere" and z.held[0].center == (0, 0, 170) and z.held[0].radius == 25
+    assert z.held[1].start == (0, 30, 10) and z.held[1].end == (0, 30, 170)
+
+
+def test_async_robot_attaches_detaches_and_reads_the_zones_too(fake):
+    fake.replies["GET_ZONES"] = ZONES_REPLY
+
+    async def main():
+        async with AsyncRobot(port=fake.port, ack_port=fake.ack_port, timeout=1.0) as r:
+            res = await r.attach_capsule("rod", (0, 30, 10), (0, 30, 170), 8)
+            want = f"{res.id}|ATTACH|rod|CAPSULE|0.0,30.0,10.0|0.0,30.0,170.0|8.0"
+            assert res.ok and fake.wait_for("ATTACH") == [want]
+            res = await r.detach("rod")
+            assert res.ok
+            assert (await r.zones()).held[1].name == "rod"
+
+    asyncio.run(main())
+
+
+def test_a_malformed_zones_reply_is_a_reply_error_naming_the_field(robot, fake):
+    fake.replies["GET_ZONES"] = 'ZONES|{"seq": 1, "tool": {"name": "x", "shape": null}, "zones": [{"kind": "cone"}]}'
+    with pytest.raises(ReplyError, match="ZONES: zone kind must be box, plane or cylinder, got 'cone'"):
+        robot.zones()

@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ l
         ControlInfo,
         ErrorInfo,
         GripperState,
+        HeldInfo,
         IOState,
         LoopStats,
         PlanInfo,
@@ -33,6 +34,9 @@ if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ l
         RobotState,
         RobotStatus,
         ToolInfo,
+        ToolShapeInfo,
+        ZoneInfo,
+        ZonesInfo,
     )
     from parolkit.client.errors import (
         CommandCancelled,
@@ -52,7 +56,7 @@ __all__ = [
     "CommandInvalid", "CommandCancelled", "CommandTimeout", "ControllerUnreachable", "ReplyError",
     "CommandResult", "AckStatus", "AsyncResult", "RobotStatus", "RobotState", "Pose", "IOState",
     "GripperState", "ErrorInfo", "BoardInfo", "LoopStats", "ActiveCommand", "PlanInfo", "QueueInfo",
-    "ToolInfo", "ControlInfo", "DatagramChannel",
+    "ToolInfo", "ControlInfo", "DatagramChannel", "ZonesInfo", "ZoneInfo", "HeldInfo", "ToolShapeInfo",
 ]
 
 _WHERE = {
@@ -87,6 +91,10 @@ _WHERE = {
     "QueueInfo": "parolkit.client.core",
     "ToolInfo": "parolkit.client.core",
     "ControlInfo": "parolkit.client.core",
+    "ZonesInfo": "parolkit.client.core",
+    "ZoneInfo": "parolkit.client.core",
+    "HeldInfo": "parolkit.client.core",
+    "ToolShapeInfo": "parolkit.client.core",
 }
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Coroutine, Mapping, Sequence
@@ -53,6 +54,10 @@ __all__ = [
     "PlanInfo",
     "QueueInfo",
     "ToolInfo",
+    "ZoneInfo",
+    "HeldInfo",
+    "ToolShapeInfo",
+    "ZonesInfo",
     "ControlInfo",
     "AckRecord",
     "AckBook",
@@ -530,6 +535,115 @@ class ToolInfo:
     pose: tuple[float, ...]
 
 
+def _point(value: object, name: str) -> tuple[float, float, float]:
+    v = _vector(value, name, 3)
+    return (v[0], v[1], v[2])
+
+
+@dataclass(frozen=True)
+class ZoneInfo:
+    """A keep-out zone (GET_ZONES), base frame, mm / deg: ``kind`` "box" (``center``, ``size``
+    edge lengths, ``rpy``), "plane" (``point``, ``normal`` out of the forbidden side) or
+    "cylinder" (``center`` of its axis, ``axis``, ``radius``, ``height``); ``margin`` mm.
+    The fields a kind does not have are None."""
+
+    name: str
+    kind: str
+    margin: float
+    center: tuple[float, float, float] | None = None
+    size: tuple[float, float, float] | None = None
+    rpy: tuple[float, float, float] | None = None
+    point: tuple[float, float, float] | None = None
+    normal: tuple[float, float, float] | None = None
+    axis: tuple[float, float, float] | None = None
+    radius: float | None = None
+    height: float | None = None
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, object]) -> ZoneInfo:
+        kind = str(d.get("kind", ""))
+        keys = {"box": ("center", "size", "rpy"), "plane": ("point", "normal"),
+                "cylinder": ("center", "axis")}.get(kind)
+        if keys is None:
+            raise ReplyError(f"zone kind must be box, plane or cylinder, got {kind!r}")
+        vals: dict[str, object] = {k: _point(d.get(k), k) for k in keys}
+        if kind == "cylinder":
+            vals["radius"], vals["height"] = _number(d.get("radius"), "radius"), _number(d.get("height"), "height")
+        return cls(name=str(d.get("name", "")), kind=kind, margin=_number(d.get("margin"), "margin"),
+                   **vals)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class HeldInfo:
+    """An object held at the flange (ATTACH), flange frame, mm: ``kind`` "sphere" (``start``
+    = ``end`` = its centre) or "capsule" (its axis from ``start`` to ``end``); ``radius`` mm."""
+
+    name: str
+    kind: str
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    radius: float
+
+    @property
+    def center(self) -> tuple[float, float, float]:
+        """A sphere's centre; a capsule's midpoint."""
+        return (0.5 * (self.start[0] + self.end[0]), 0.5 * (self.start[1] + self.end[1]),
+                0.5 * (self.start[2] + self.end[2]))
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, object]) -> HeldInfo:
+        kind = str(d.get("kind", ""))
+        if kind == "sphere":
+            c = _point(d.get("center"), "center")
+            return cls(str(d.get("name", "")), kind, c, c, _number(d.get("radius"), "radius"))
+        if kind == "capsule":
+            return cls(str(d.get("name", "")), kind, _point(d.get("start"), "start"), _point(d.get("end"), "end"),
+                       _number(d.get("radius"), "radius"))
+        raise ReplyError(f"held object kind must be sphere or capsule, got {kind!r}")
+
+
+@dataclass(frozen=True)
+class ToolShapeInfo:
+    """The tool's body: a capsule from ``start`` to ``end`` (mm, flange frame), ``radius`` mm."""
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    radius: float
+
+
+@dataclass(frozen=True)
+class ZonesInfo:
+    """The controller's collision world (GET_ZONES, docs/protocol.md): the ``zones`` (base
+    frame), the ``tool`` (its name) and its ``tool_shape`` (None: no body), the ``held``
+    objects (flange frame), ``self_margin`` mm; ``seq`` changes whenever the world does (the
+    status's ``collision.seq``), ``ready``: its collision check is ready."""
+
+    seq: int
+    ready: bool
+    zones: tuple[ZoneInfo, ...]
+    tool: str
+    tool_shape: ToolShapeInfo | None
+    held: tuple[HeldInfo, ...]
+    self_margin: float = 0.0
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, object]) -> ZonesInfo:
+        tool = _object(d.get("tool"), "tool")
+        shape = tool.get("shape")
+        ts = None
+        if shape is not None:
+            sd = _object(shape, "tool shape")
+            ts = ToolShapeInfo(_point(sd.get("start"), "start"), _point(sd.get("end"), "end"),
+                               _number(sd.get("radius"), "radius"))
+        try:
+            zones = tuple(ZoneInfo.from_dict(_object(z, "zone")) for z in _list(d.get("zones") or (), "zones"))
+            held = tuple(HeldInfo.from_dict(_object(h, "held")) for h in _list(d.get("held") or (), "held"))
+            return cls(seq=_i(d, "seq"), ready=bool(d.get("ready", False)), zones=zones,
+                       tool=str(tool.get("name", "")), tool_shape=ts, held=held, self_margin=_f(d, "self_margin"))
+        except ReplyError as exc:
+            raise ReplyError(f"ZONES: {exc}") from None
+
+
 # =============================================================================================
 # queries: request, reply tag and the parser of the reply's payload
 # =============================================================================================
@@ -605,6 +719,10 @@ def _parse_tool(payload: str) -> ToolInfo:
     return ToolInfo(name=name, pose=_numbers(pose, 6, "TOOL") if pose else (0.0,) * 6)
 
 
+def _parse_zones(payload: str) -> ZonesInfo:
+    return ZonesInfo.from_dict(_object(_json(payload, "ZONES"), "ZONES"))
+
+
 def _parse_pong(payload: str) -> bool:
     return True
 
@@ -639,6 +757,7 @@ class Queries:
     queue: Final = QuerySpec("GET_QUEUE", "QUEUE", _parse_queue)
     control: Final = QuerySpec("GET_CONTROL", "CONTROL", _parse_control)
     tool: Final = QuerySpec("GET_TOOL", "TOOL", _parse_tool)
+    zones: Final = QuerySpec("GET_ZONES", "ZONES", _parse_zones)
     # PING is answered with the bare word PONG (as the original controller did)
     ping: Final = QuerySpec("PING", "PONG", _parse_pong)
     link: Final = QuerySpec("GET_STATUS", "STATUS", _parse_link)
@@ -769,6 +888,40 @@ def _check(build: Callable[..., str], *args: object) -> str:
         raise
     except ValueError as exc:
         raise ParolkitValueError(str(exc)) from None
+
+
+#: a held object's name: as the controller's (1..64 characters: letters, digits, spaces, _ - .,
+#: starting with a letter or digit)
+_HELD_NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9 _.\-]{0,63}")
+
+
+def _held_name(name: object) -> str:
+    if not isinstance(name, str) or not _HELD_NAME_RE.fullmatch(name):
+        raise ParolkitValueError(f"name must be 1..64 characters: letters, digits, spaces, '_', '-' or '.', "
+                                 f"starting with a letter or digit, got {name!r}")
+    return name
+
+
+def _flange_point(value: object, name: str) -> str:
+    """``x,y,z`` (mm, flange frame) for the wire; each within +-1000 mm."""
+    try:
+        v = wire._numbers(value, 3, name, " (x, y, z in mm, flange frame)")
+    except ValueError as exc:
+        raise ParolkitValueError(str(exc)) from None
+    for axis, c in zip("xyz", v):
+        if abs(c) > 1000.0:
+            raise ParolkitValueError(f"{name}: {axis} = {c:g} mm is out of range [-1000, 1000] mm")
+    return ",".join(wire.format_value(float(c)) for c in v)
+
+
+def _held_radius(radius: object) -> str:
+    try:
+        r = wire._number(radius, "radius")
+    except ValueError as exc:
+        raise ParolkitValueError(str(exc)) from None
+    if not 0.0 < r <= 500.0:
+        raise ParolkitValueError(f"radius = {r:g} mm is out of range (0, 500] mm")
+    return wire.format_value(float(r))
 
 
 def _opt_timeout(timeout: float | None) -> float | None:
@@ -1333,6 +1486,61 @@ class RobotCommands(Generic[_Result, _Handle]):
         body = _check(wire.build_checkpoint, label)
         return self._command(body, wait, timeout)
 
+    # ---- the collision world: what the arm holds ----
+    @overload
+    def attach_sphere(self, name: str, center: Sequence[float], radius: float, wait: Literal[True] = True,
+                      timeout: float | None = None) -> _Result: ...
+    @overload
+    def attach_sphere(self, name: str, center: Sequence[float], radius: float, wait: Literal[False],
+                      timeout: float | None = None) -> _Handle: ...
+    @overload
+    def attach_sphere(self, name: str, center: Sequence[float], radius: float, wait: bool = True,
+                      timeout: float | None = None) -> _Result | _Handle: ...
+
+    def attach_sphere(self, name: str, center: Sequence[float], radius: float, wait: bool = True,
+                      timeout: float | None = None) -> _Result | _Handle:
+        """The arm holds a ball of ``radius`` mm centred at ``center`` [x, y, z] mm of the flange
+        frame (``ATTACH|name|SPHERE|...``): from when the queue reaches it, every motion is
+        checked for collisions with it (against the zones and the arm).  One of the same
+        ``name`` is replaced.  Queued in order with the moves; see docs/collision.md."""
+        body = f"ATTACH|{_held_name(name)}|SPHERE|{_flange_point(center, 'center')}|{_held_radius(radius)}"
+        return self._command(body, wait, timeout)
+
+    @overload
+    def attach_capsule(self, name: str, start: Sequence[float], end: Sequence[float], radius: float,
+                       wait: Literal[True] = True, timeout: float | None = None) -> _Result: ...
+    @overload
+    def attach_capsule(self, name: str, start: Sequence[float], end: Sequence[float], radius: float,
+                       wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def attach_capsule(self, name: str, start: Sequence[float], end: Sequence[float], radius: float,
+                       wait: bool = True, timeout: float | None = None) -> _Result | _Handle: ...
+
+    def attach_capsule(self, name: str, start: Sequence[float], end: Sequence[float], radius: float,
+                       wait: bool = True, timeout: float | None = None) -> _Result | _Handle:
+        """The arm holds a capsule of ``radius`` mm around the segment ``start`` -> ``end``
+        ([x, y, z] mm of the flange frame; ``ATTACH|name|CAPSULE|...``), as
+        :meth:`attach_sphere`.  A box-shaped part: the capsule that encloses it."""
+        body = (f"ATTACH|{_held_name(name)}|CAPSULE|{_flange_point(start, 'start')}|{_flange_point(end, 'end')}|"
+                f"{_held_radius(radius)}")
+        return self._command(body, wait, timeout)
+
+    @overload
+    def detach(self, name: str | None = None, wait: Literal[True] = True,
+               timeout: float | None = None) -> _Result: ...
+    @overload
+    def detach(self, name: str | None, wait: Literal[False], timeout: float | None = None) -> _Handle: ...
+    @overload
+    def detach(self, name: str | None = None, wait: bool = True,
+               timeout: float | None = None) -> _Result | _Handle: ...
+
+    def detach(self, name: str | None = None, wait: bool = True,
+               timeout: float | None = None) -> _Result | _Handle:
+        """The arm lets go of the held object ``name`` (None: of every one; ``DETACH``), in order
+        with the moves; CommandFailed when nothing of that name is held then."""
+        body = "DETACH" if name is None else f"DETACH|{_held_name(name)}"
+        return self._command(body, wait, timeout)
+
     # ---- servo streams: fire and forget ----
     def _send(self, text: str) -> None:  # pragma: no cover
         raise NotImplementedError
@@ -1527,6 +1735,16 @@ class RobotCommands(Generic[_Result, _Handle]):
     def tool(self) -> ToolInfo | AsyncResult[ToolInfo]:
         """:class:`ToolInfo`: the selected tool."""
         return self._query(Queries.tool)
+
+    @overload
+    def zones(self: _Sync) -> ZonesInfo: ...
+    @overload
+    def zones(self: _Async) -> AsyncResult[ZonesInfo]: ...
+
+    def zones(self) -> ZonesInfo | AsyncResult[ZonesInfo]:
+        """:class:`ZonesInfo`: the collision world the controller checks motion in (its
+        keep-out zones, the tool's shape, the objects held: GET_ZONES)."""
+        return self._query(Queries.zones)
 
     @overload
     def ping(self: _Sync) -> bool: ...
