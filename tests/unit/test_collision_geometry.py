@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from parolkit.collision import _reference as ref
-from parolkit.collision._geometry import PairSpec, Segment, Static, frame_with_z, pack
+from parolkit.collision._geometry import LinkCapsule, PairSpec, Static, frame_with_z, pack
 from parolkit.collision._kernel import ccollide
 from parolkit.robot import PAROL6
 
@@ -70,12 +70,12 @@ def _case(rng: np.random.Generator, kind: int):
     c = rng.uniform(-0.05, 0.05, 3)
     if kind == ref.PLANE:
         n = rot[:, 2]
-        return Segment(0, tuple(a), tuple(b), r), Static(ref.PLANE, tuple(c), tuple(np.eye(3).ravel()), tuple(n))
+        return LinkCapsule(0, tuple(a), tuple(b), r), Static(ref.PLANE, tuple(c), tuple(np.eye(3).ravel()), tuple(n))
     if kind == ref.BOX:
         e = rng.uniform(0.005, 0.1, 3)
-        return Segment(0, tuple(a), tuple(b), r), Static(ref.BOX, tuple(c), tuple(rot.ravel()), tuple(e))
+        return LinkCapsule(0, tuple(a), tuple(b), r), Static(ref.BOX, tuple(c), tuple(rot.ravel()), tuple(e))
     e = (rng.uniform(0.005, 0.1), rng.uniform(0.005, 0.1), 0.0)
-    return Segment(0, tuple(a), tuple(b), r), Static(ref.CYLINDER, tuple(c), tuple(rot.ravel()), e)
+    return LinkCapsule(0, tuple(a), tuple(b), r), Static(ref.CYLINDER, tuple(c), tuple(rot.ravel()), e)
 
 
 @pytest.mark.parametrize("kernel", KERNELS)
@@ -136,7 +136,7 @@ def test_capsule_to_capsule_clearance_is_the_brute_force_minimum(kernel):
             d2 = _random_rot(rng)[:, 0] * rng.uniform(0, 0.2)
         b0 = rng.uniform(-0.1, 0.1, 3)
         ra, rb = rng.uniform(0.001, 0.03, 2)
-        segs += [Segment(0, tuple(a0), tuple(a0 + d1), ra), Segment(0, tuple(b0), tuple(b0 + d2), rb)]
+        segs += [LinkCapsule(0, tuple(a0), tuple(a0 + d1), ra), LinkCapsule(0, tuple(b0), tuple(b0 + d2), rb)]
         pairs.append(PairSpec(ref.CAP_CAP, 2 * k, 2 * k + 1, ref.SELF, 0.0, ZERO6))
         cases.append((a0, a0 + d1, b0, b0 + d2, ra + rb))
     d, pa, pb = _distances(kernel, pack(PAROL6, segs, [], pairs, 1e-5, 10))
@@ -155,7 +155,7 @@ def test_capsule_to_capsule_clearance_is_the_brute_force_minimum(kernel):
 
 @pytest.mark.parametrize("kernel", KERNELS)
 def test_a_capsule_axis_inside_a_box_or_cylinder_is_contact_at_minus_its_radius(kernel):
-    seg = Segment(0, (-0.01, 0.0, 0.0), (0.01, 0.0, 0.0), 0.02)
+    seg = LinkCapsule(0, (-0.01, 0.0, 0.0), (0.01, 0.0, 0.0), 0.02)
     box = Static(ref.BOX, (0.0, 0.0, 0.0), tuple(np.eye(3).ravel()), (0.05, 0.05, 0.05))
     cyl = Static(ref.CYLINDER, (0.0, 0.0, 0.0), tuple(frame_with_z((1, 1, 0)).ravel()), (0.05, 0.05, 0.0))
     plane = Static(ref.PLANE, (0.0, 0.0, 0.03), tuple(np.eye(3).ravel()), (0.0, 0.0, 1.0))

@@ -20,7 +20,7 @@ from parolkit.robot import PAROL6, RobotModel
 if TYPE_CHECKING:  # pragma: no cover
     from numpy.typing import NDArray
 
-__all__ = ["rot_rpy_deg", "rot_abc_deg", "frame_with_z", "dh_rows", "Segment", "Static", "PairSpec",
+__all__ = ["rot_rpy_deg", "rot_abc_deg", "frame_with_z", "dh_rows", "LinkCapsule", "Static", "PairSpec",
            "pair_lipschitz", "pack"]
 
 Vec3 = tuple[float, float, float]
@@ -69,7 +69,7 @@ def dh_rows(robot: RobotModel = PAROL6) -> NDArray[np.float64]:
 
 
 @dataclass(frozen=True)
-class Segment:
+class LinkCapsule:
     """A capsule for the kernel: axis from ``start`` to ``end`` (m, in frame ``frame``), ``radius`` m."""
 
     frame: int
@@ -104,12 +104,12 @@ class PairSpec:
     lipschitz: tuple[float, ...]
 
 
-def _reach(seg: Segment) -> float:
+def _reach(seg: LinkCapsule) -> float:
     """How far (m) any point of the capsule lies from its frame's origin at most."""
     return max(math.hypot(*seg.start), math.hypot(*seg.end)) + seg.radius
 
 
-def pair_lipschitz(dh: NDArray[np.float64], seg: Segment, other: Segment | None) -> tuple[float, ...]:
+def pair_lipschitz(dh: NDArray[np.float64], seg: LinkCapsule, other: LinkCapsule | None) -> tuple[float, ...]:
     """For each joint j, how far (m) a joint step of 1 rad can move ``seg``'s points relative to
     ``other`` (None: relative to the base frame) at most, in ANY configuration.
 
@@ -129,7 +129,7 @@ def pair_lipschitz(dh: NDArray[np.float64], seg: Segment, other: Segment | None)
     return tuple(out)
 
 
-def pack(robot: RobotModel, segments: Sequence[Segment], statics: Sequence[Static],
+def pack(robot: RobotModel, segments: Sequence[LinkCapsule], statics: Sequence[Static],
          pairs: Sequence[PairSpec], tau: float, max_evals: int) -> NDArray[np.float64]:
     """The kernel's float64 array (layout: :mod:`parolkit.collision._reference`), read-only."""
     parts: list[float] = [ref.MAGIC, float(len(segments)), float(len(statics)), float(len(pairs)), float(tau),

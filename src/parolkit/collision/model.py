@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from parolkit.collision import _reference as ref
-from parolkit.collision._geometry import PairSpec, Segment, Static, pack, rot_abc_deg
+from parolkit.collision._geometry import LinkCapsule, PairSpec, Static, pack, rot_abc_deg
 from parolkit.collision.shapes import Capsule, HeldShape, Sphere, ToolShape
 from parolkit.errors import ParolkitValueError
 from parolkit.robot import PAROL6, RobotModel
@@ -125,10 +125,10 @@ class Body:
     def is_box(self) -> bool:
         return self.size is not None
 
-    def segment(self) -> Segment:
+    def segment(self) -> LinkCapsule:
         """The kernel's capsule (metres)."""
         mm = 1e-3
-        return Segment(self.frame, (self.start[0] * mm, self.start[1] * mm, self.start[2] * mm),
+        return LinkCapsule(self.frame, (self.start[0] * mm, self.start[1] * mm, self.start[2] * mm),
                        (self.end[0] * mm, self.end[1] * mm, self.end[2] * mm), self.radius * mm)
 
 
