@@ -97,10 +97,11 @@ class Bench:
 
     The board is ``parolkit board-sim`` (:attr:`board`, homing 100 times faster than the real
     one) unless ``link`` names the pty of a board the caller runs (then :attr:`board` is None).
+    ``config_text``: more of the controller's TOML config (e.g. ``[[zones]]`` tables).
     """
 
     def __init__(self, tmp_path: Path, *, start_homed: bool = True, link_timeout_ticks: int = 150,
-                 extra: list[str] | None = None, link: Path | None = None) -> None:
+                 extra: list[str] | None = None, link: Path | None = None, config_text: str = "") -> None:
         self.board: BoardSim | None = None
         if link is None:
             self.board = BoardSim(tmp_path, start_homed=start_homed, speedup=100)
@@ -111,7 +112,7 @@ class Bench:
         # the kernel's pty worker held replies back 500 ms (50 ticks, the default) and the link
         # was lost mid-test; the silence test below uses 3
         cfg = tmp_path / "controller.toml"
-        cfg.write_text(f"[controller]\nlink_timeout_ticks = {link_timeout_ticks}\n")
+        cfg.write_text(f"[controller]\nlink_timeout_ticks = {link_timeout_ticks}\n" + config_text)
         self.ctl = start_controller(["--port", str(link), "--config", str(cfg), *(extra or [])],
                                     log_dir=tmp_path, wait_homed=False)
         self.acks = AckListener(self.ctl.ack_port)
