@@ -56,6 +56,7 @@ from parolkit.collision import (
 )
 from parolkit.collision import _reference as ref
 from parolkit.collision._geometry import frame_with_z
+from parolkit.errors import ParolkitValueError
 from parolkit.kinematics import fk_frames
 from parolkit.robot import PAROL6
 
@@ -186,11 +187,16 @@ def _golden_minimum(radius: float, a: np.ndarray, b: np.ndarray, other, steps: i
 
 def test_ten_thousand_poses_among_random_zones_agree_with_fcl():
     rng = np.random.default_rng(2025)
-    stats = {"contacts": 0, "pairs": 0, "gjk_max_mm": 0.0, "exact_max_mm": 0.0, "certified": 0}
+    stats = {"contacts": 0, "pairs": 0, "gjk_max_mm": 0.0, "exact_max_mm": 0.0, "certified": 0, "gjk_replaced": 0}
     disagreements: list[str] = []
     for k in range(ZONE_SETS):
         tool, held = TOOLS[k % len(TOOLS)]
-        scene = Scene(CollisionModel(), _zones(rng, k), tool, held)
+        while True:  # (a zone the arm's column stands in at every pose is refused: test_collision_queries)
+            try:
+                scene = Scene(CollisionModel(), _zones(rng, k), tool, held)
+                break
+            except ParolkitValueError:
+                continue
         f = _FclScene(scene)
         u = f.u
         qs = rng.uniform(LIM[:, 0], LIM[:, 1], size=(PER_SET, 6))
@@ -224,6 +230,13 @@ def test_ten_thousand_poses_among_random_zones_agree_with_fcl():
                     theirs = float(fcl.distance(o1, o2d, fcl.DistanceRequest(), fcl.DistanceResult()))
                 err = abs(theirs - ours)
                 key = "gjk_max_mm" if static_kind in (ref.BOX, ref.CYLINDER) else "exact_max_mm"
+                if key == "gjk_max_mm" and err > 0.01:
+                    # FCL's capsule-box/cylinder distance is GJK, an approximation (0.02 mm off
+                    # once in 10,000 poses): then FCL's exact sphere query, minimised along the
+                    # capsule's axis, is the reference (the clearance is convex along it)
+                    theirs = _golden_minimum(f.radius[i], a_w[n, i], b_w[n, i], o2d)
+                    err = abs(theirs - ours)
+                    stats["gjk_replaced"] += 1
                 stats[key] = max(stats[key], err)
                 assert err <= 0.01, (k, n, str(scene.pairs[p]), theirs, ours)
                 fcl_min[kinds[p]] = min(fcl_min[kinds[p]], theirs)

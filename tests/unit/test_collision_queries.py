@@ -4,6 +4,7 @@ means every pose in between is clear), and the first violation along a trajector
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -304,3 +305,21 @@ def test_with_margins_lowers_only_the_pairs_named_and_reports_true_clearances():
     w = relaxed.check_swept(q, q2)
     assert not w.clear and w.pair.pair == sc.pairs[k] and w.pair.distance_mm <= v.worst.distance_mm - 1.0 + 0.01
     assert sc.with_margins({k: 1.0}) is sc.with_margins({k: 1.0})  # kept: asked for tick after tick
+
+
+def test_a_zone_pair_no_joint_can_change_is_not_checked_and_a_zone_the_column_stands_in_is_refused():
+    """The J1 link turns about its own axis: its clearance to the table plane (or to any zone:
+    the capsule lies on the axis) is the same at every pose.  Within the zone's margin it would
+    refuse every pose, so such a pair is left out and kept, with its clearance, in
+    ``Scene.fixed_pairs``; a zone it touches is an error naming the zone and the link."""
+    table = dataclasses.replace(TABLE_ZONE, margin=10.0)  # the column's foot is 5 mm above it
+    sc = Scene(zones=(table,))
+    (fixed,) = sc.fixed_pairs
+    assert str(fixed.pair) == "J1 link vs zone 'table'" and fixed.distance_mm == pytest.approx(5.0)
+    assert fixed.pair not in sc.pairs
+    assert sc.check(np.radians([90.0, -90.0, 180.0, 0.0, 0.0, 180.0])).clear
+    # the other links are still checked against the table, with its margin
+    low = sc.check(np.radians([90.0, -40.0, 120.0, 0.0, 90.0, 180.0]))
+    assert any(p.b == "zone 'table'" and p.a != "J1 link" for p in sc.pairs) and low.zone_closest is not None
+    with pytest.raises(ParolkitValueError, match=r"zone 'post' overlaps the J1 link \(.* mm deep\) at every pose"):
+        Scene(zones=(BoxZone("post", center=(0, 0, 100), size=(20, 20, 20)),))

@@ -274,6 +274,8 @@ class Scene:
                                       pair_lipschitz(dh, segs[j], segs[i]) if segs[j].frame >= segs[i].frame
                                       else pair_lipschitz(dh, segs[i], segs[j])))
             pairs.append(Pair(a, b, PairKind.SELF, model.self_margin))
+        n_self = len(pairs)
+        zone_of: list[Zone] = []
         for zi, z in enumerate(zones_t):
             for k, body in enumerate(caps):
                 cat = ref.ARM_ZONE if body.role is BodyRole.LINK else ref.ATTACHED_ZONE
@@ -281,6 +283,22 @@ class Scene:
                                       pair_lipschitz(dh, segs[k], None)))
                 pairs.append(Pair(body.name, f"zone '{z.name}'",
                                   PairKind.ARM_ZONE if cat == ref.ARM_ZONE else PairKind.ATTACHED_ZONE, z.margin))
+                zone_of.append(z)
+        #: link vs zone pairs whose clearance no joint can change (mm, from the scene's build):
+        #: not checked (the J1 link turns about its own axis: its clearance to the table plane
+        #: is the same at every pose; a margin it is within would refuse every pose, a zone it
+        #: touches makes the scene an error)
+        self.fixed_pairs: tuple[PairDistance, ...] = ()
+        fixed = _fixed_zone_pairs(model, segs, statics, specs, pairs, n_self, caps)
+        if fixed:
+            for k, dist in fixed.items():
+                if dist <= 0.0:
+                    raise ParolkitValueError(
+                        f"zone '{zone_of[k - n_self].name}' overlaps the {pairs[k].a} ({-dist:.1f} mm deep) at every "
+                        "pose: the arm stands in it; move the zone")
+            self.fixed_pairs = tuple(PairDistance(pairs[k], d) for k, d in fixed.items())
+            specs = [sp for k, sp in enumerate(specs) if k not in fixed]
+            pairs = [p for k, p in enumerate(pairs) if k not in fixed]
         self.pairs: tuple[Pair, ...] = tuple(pairs)
         #: the margin (mm) each pair is checked against: its own (:meth:`with_margins` copies differ)
         self.kernel_margins_mm: tuple[float, ...] = tuple(p.margin_mm for p in pairs)
@@ -415,6 +433,23 @@ class Scene:
             memo.pop(next(iter(memo)))
         memo[key] = out
         return out
+
+
+def _fixed_zone_pairs(model: CollisionModel, segs: Sequence[Any], statics: Sequence[Static],
+                      specs: Sequence[PairSpec], pairs: Sequence[Pair], first: int,
+                      caps: Sequence[Body]) -> dict[int, float]:
+    """The zone pairs (index from ``first`` on) of a body moved by J1 alone whose clearance
+    is the same at every J1 angle (found by turning J1: no other joint moves it), and that
+    clearance, mm."""
+    movable = {b.name for b in caps if b.frame <= 1}
+    candidates = [k for k in range(first, len(pairs)) if pairs[k].a in movable]
+    if not candidates:
+        return {}
+    u = ref.unpack(pack(model.robot, segs, statics, specs, TAU_MM * 1e-3, MAX_EVALUATIONS))
+    qs = np.zeros((5, 6))
+    qs[:, 0] = (0.0, 1.1, -2.3, 2.9, -0.6)
+    d, _, _ = ref.pair_distances(u, qs, np.asarray(candidates, dtype=np.intp))
+    return {k: float(d[0, i] * 1e3) for i, k in enumerate(candidates) if float(np.ptp(d[:, i])) < 1e-9}
 
 
 def _dh(model: CollisionModel) -> NDArray[np.float64]:
