@@ -132,6 +132,45 @@ def test_a_joint_target_that_folds_the_arm_into_itself_is_refused():
         rig.close()
 
 
+def test_a_joint_path_into_a_box_is_refused_as_a_ros2_trajectory_arrives():
+    """A ROS 2 JointTrajectory reaches the controller as one MOVEJOINTPATH: checked whole."""
+    rig = Rig(zones=(TABLE_ZONE, BOX))
+    try:
+        mark = len(rig.frames)
+        text = "MOVEJOINTPATH|2|2|45|-90|180|0|0|180|4|0|-90|180|0|0|180"
+        status, details = _run(rig, "aaaa0001", text)
+        assert status is AckStatus.FAILED and details.startswith("would collide: J6 link vs zone 'box' at "), details
+        assert not _gotos_after(rig, mark)
+    finally:
+        rig.close()
+
+
+def test_a_blended_chain_is_checked_as_the_one_trajectory_it_plays():
+    """Three MoveJoints blended into one trajectory (r=): the chain is refused as a whole when
+    its path enters the box, though its first move alone would be clear, and nothing of it
+    reaches the board."""
+    rig = Rig(zones=(TABLE_ZONE, BOX))
+    try:
+        assert _run(rig, "aaaa0000", _move((60, -90, 180, 0, 0, 180), 2))[0] is AckStatus.COMPLETED
+        mark = len(rig.frames)
+        rig.send("aaaa0001|MOVEJOINT|50|-90|180|0|0|180|None|30|r=5")
+        rig.send("aaaa0002|MOVEJOINT|35|-90|180|0|0|180|None|30|r=5")
+        rig.send("aaaa0003|MOVEJOINT|20|-90|180|0|0|180|None|30")
+        rig.run_until(lambda: all(rig.terminal(c) is not None for c in ("aaaa0001", "aaaa0002", "aaaa0003")))
+        ends = {c: d for c, s, d in rig.acks if s.terminal}
+        assert rig.terminal("aaaa0001") is AckStatus.FAILED, ends
+        assert ends["aaaa0001"].startswith("would collide: ") and "vs zone 'box'" in ends["aaaa0001"]
+        # what is left of the chain is planned on its own from where the arm is: each of the
+        # other two moves into the box is refused by itself
+        assert all(rig.terminal(c) is AckStatus.FAILED and ends[c].startswith("would collide: ")
+                   for c in ("aaaa0002", "aaaa0003")), ends
+        assert not _gotos_after(rig, mark)
+        # the head alone is clear: it runs
+        assert _run(rig, "aaaa0004", _move((50, -90, 180, 0, 0, 180), 2))[0] is AckStatus.COMPLETED
+    finally:
+        rig.close()
+
+
 def test_attach_and_detach_change_the_verdict_of_the_moves_queued_after_them_in_order():
     """ATTACH, a move, DETACH, the same move: queued together, each takes effect where it
     stands in the queue (the first move is checked with the rod, the second without)."""
