@@ -397,13 +397,17 @@ class Driver:
         """Write ``frame`` (to the stop supervisor too); the next tick tells the core.  Returns
         the write time (``perf_counter``), None when the write failed."""
         data = frame.encode()
+        # the clock before the write: the board cannot take the frame in earlier, and a tick
+        # thread held up inside or after the write must not make the frame look written late
+        # (the integrity check would read a stall of the board's timer into that time)
+        wall = time.monotonic()
         t_write = time.perf_counter()
         try:
             self.transport.write(data)
         except (LinkLostError, TransportError) as exc:
             self._link_failed(str(exc) or "write failed")
             return None
-        self._written = Written(frame, t, time.monotonic())
+        self._written = Written(frame, t, wall)
         self.stats.frames_sent += 1
         if self.supervisor is not None:
             self.supervisor.sent(data)

@@ -249,7 +249,9 @@ class LinkHistory:
         for j in range(6):
             p = float(status.positions[j])
             g_lo, g_hi = lows[j], highs[j]
-            lo, hi = min(p, g_lo), max(p, g_hi)
+            # a joint holding a goal between two whole steps steps back and forth across it
+            # (it settles on the fraction only on average): it may stand on either step
+            lo, hi = min(p, math.floor(g_lo)), max(p, math.ceil(g_hi))
             if rise > 0.0:
                 # every goal ahead and the reply shows the joint running that way (the board
                 # follows: a disabled one ignores GO TO and reports no speed): it moved towards
