@@ -79,7 +79,7 @@ screenshot: $(STAMP_DEV) browser-deps
 
 ## make bench: run every benchmark script and print its figures
 bench: $(STAMP_DEV)
-	for b in bench/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+	for b in bench/[!_]*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 clean:
 	rm -rf $(VENV) $(VENV_ROS) build *.egg-info src/*.egg-info .pytest_cache

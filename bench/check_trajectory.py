@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import os
 import statistics
 import time
 from collections.abc import Callable
@@ -35,27 +34,20 @@ from pathlib import Path
 
 import numpy as np
 
+from _measure import machine_line, per_call_s
+
 REPO = Path(__file__).resolve().parents[1]
 
 
 def _per_call_ms(fn: Callable[[], object], min_s: float = 0.002) -> float:
-    clock = time.process_time
-    n = 0
-    t0 = clock()
-    while True:
-        fn()
-        n += 1
-        t = clock() - t0
-        if t >= min_s:
-            return t / n * 1e3
+    return per_call_s(fn, min_s) * 1e3
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=15)
     args = ap.parse_args()
-    load = os.getloadavg()
-    print(f"machine: {os.cpu_count()} CPUs, load average {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}")
+    print(machine_line())
 
     from parolkit.collision import (
         TABLE_ZONE,
