@@ -60,6 +60,7 @@ if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ l
         PairInfo,
         PairTable,
         default_model,
+        held_object,
     )
     from parolkit.collision.scene import (
         Pair,
@@ -78,7 +79,7 @@ if TYPE_CHECKING:  # the real names for type checkers; at run time __getattr__ l
 
 __all__ = [
     "CollisionModel", "ArmEnvelope", "Body", "BodyRole", "HeldObject", "PairInfo", "PairTable", "default_model",
-    "PAIR_SAMPLES", "PAIR_SAMPLE_SEED",
+    "held_object", "PAIR_SAMPLES", "PAIR_SAMPLE_SEED",
     "Scene", "Verdict", "PathVerdict", "PathStatus", "Pair", "PairDistance", "PairKind",
     "check", "check_swept", "check_path", "kernel_name",
     "check_trajectory", "collision_message", "TrajectoryVerdict",
@@ -89,7 +90,7 @@ __all__ = [
 #: all the config needs, and they cost no numpy)
 _LAZY = {name: "parolkit.collision.model" for name in (
     "PAIR_SAMPLE_SEED", "PAIR_SAMPLES", "ArmEnvelope", "Body", "BodyRole", "CollisionModel", "HeldObject",
-    "PairInfo", "PairTable", "default_model")}
+    "PairInfo", "PairTable", "default_model", "held_object")}
 _LAZY.update({name: "parolkit.collision.scene" for name in (
     "Pair", "PairDistance", "PairKind", "PathStatus", "PathVerdict", "Scene", "Verdict", "check", "check_path",
     "check_swept", "kernel_name")})

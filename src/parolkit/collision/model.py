@@ -55,7 +55,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from parolkit.config import ToolSettings
 
 __all__ = ["ArmEnvelope", "BodyRole", "Body", "HeldObject", "PairInfo", "PairTable", "CollisionModel",
-           "PAIR_SAMPLES", "PAIR_SAMPLE_SEED", "default_model"]
+           "PAIR_SAMPLES", "PAIR_SAMPLE_SEED", "default_model", "held_object"]
 
 #: Random configurations sampled to find the pairs that always touch (plus the 64 corners).
 PAIR_SAMPLES = 20_000
@@ -222,6 +222,36 @@ def _arm_bodies(robot: RobotModel, env: ArmEnvelope) -> tuple[Body, ...]:
         capsule("J5 link", 5, origin[5] - w5 * zaxis[4], origin[5] + w5 * zaxis[4], env.j5_radius),
         capsule("J6 link", 6, origin[6], origin[6] + env.j6_length * 1e-3 * zaxis[6], env.j6_radius),
     )
+
+
+def held_object(name: str, start: Sequence[float], end: Sequence[float], radius: float,
+                kind: str = "capsule") -> HeldObject:
+    """A held object given as ``ATTACH`` and ``GET_ZONES`` give it (docs/protocol.md): a
+    ``kind`` "capsule" whose axis runs from ``start`` to ``end``, or a "sphere" centred on
+    ``start`` (``end`` ignored); points in mm in the flange frame, ``radius`` mm.
+
+    The capsule is centred between its points with its own z axis along them: pose angles
+    ``A = 0, B = asin(dz_x), C = atan2(-dz_y, dz_z)`` of ``R = Rx(C) Ry(B) Rz(A)`` (the unit
+    direction ``dz``), so :func:`held_body` gives back the same two points.  Points that
+    coincide make a capsule of length 0 (a sphere).  Pure: no model is changed."""
+    p = tuple(float(v) for v in start)
+    if kind == "sphere":
+        return HeldObject(name, Sphere(radius), (p[0], p[1], p[2], 0.0, 0.0, 0.0))
+    if kind != "capsule":
+        raise ParolkitValueError(f"held object {name!r}: kind must be \"capsule\" or \"sphere\", got {kind!r}")
+    q = tuple(float(v) for v in end)
+    if len(p) != 3 or len(q) != 3:
+        raise ParolkitValueError(f"held object {name!r}: start and end must be 3 numbers (mm), got {start!r}, {end!r}")
+    d = [b - a for a, b in zip(p, q)]
+    length = math.sqrt(sum(v * v for v in d))
+    mid = [(a + b) / 2.0 for a, b in zip(p, q)]
+    b_deg = c_deg = 0.0
+    if length > 0.0:
+        ux, uy, uz = (v / length for v in d)
+        b_deg = math.degrees(math.asin(max(-1.0, min(1.0, ux))))
+        if abs(ux) < 1.0 - 1e-12:
+            c_deg = math.degrees(math.atan2(-uy, uz))
+    return HeldObject(name, Capsule(radius, length), (mid[0], mid[1], mid[2], 0.0, b_deg, c_deg))
 
 
 def tool_body(tool: ToolShape | ToolSettings | None) -> Body | None:

@@ -11,8 +11,10 @@
         print(result.state, result.elapsed_s)
 
 Before the first command the program is checked (a dry run planned from the robot's current
-joints with the controller's tool).  With any error nothing is sent to the controller and the
-run ends FAILED with every error in ``result.errors``.
+joints with the controller's tool), every move also for collisions in the controller's own
+collision world (``GET_ZONES``: its keep-out zones and the tool's shape; an older controller
+that does not answer it: the default table only, with a warning).  With any error nothing is
+sent to the controller and the run ends FAILED with every error in ``result.errors``.
 
 Programs run on ticks: while a line runs, the next ones (up to :data:`LINES_AHEAD`) are
 already queued at the controller, so each starts in the tick the one before it ends: an
@@ -46,7 +48,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from parolkit.moves import MAX_BLEND_CHAIN
@@ -73,12 +75,14 @@ from parolkit.script.program import (
 )
 
 if TYPE_CHECKING:
+    from parolkit.client.core import ZonesInfo
     from parolkit.client.robot import Robot
+    from parolkit.collision import HeldObject, ToolShape, Zone
     from parolkit.kinematics.tools import Tool
     from parolkit.robot import RobotModel
     from parolkit.script.dryrun import DryRunReport
 
-__all__ = ["InterpreterState", "Progress", "RunResult", "Interpreter"]
+__all__ = ["InterpreterState", "Progress", "RunResult", "Interpreter", "CollisionSetup", "collision_setup"]
 
 _log = logging.getLogger(__name__)
 
@@ -158,6 +162,42 @@ class RunResult:
         if self.errors:
             head += f": {self.errors[0].headline()}"
         return head
+
+
+@dataclass(frozen=True)
+class CollisionSetup:
+    """The collision world a program is checked in, as the collision check takes it: the
+    keep-out ``zones`` (base frame), the ``tool_shape`` (None: the tool has no body) and the
+    ``held`` objects (flange frame).  ``source``: "controller" (its ``GET_ZONES``) or
+    "default" (the default table: the controller did not say)."""
+
+    zones: tuple[Zone, ...]
+    tool_shape: ToolShape | None
+    held: tuple[HeldObject, ...] = ()
+    source: str = "controller"
+
+
+def collision_setup(info: ZonesInfo) -> CollisionSetup:
+    """The collision check's objects for the world a controller reports (the client's
+    :class:`~parolkit.client.ZonesInfo`, ``Robot.zones()``): each zone validated as the config
+    validates ``[[zones]]``, the tool's capsule named after the tool, the held objects placed
+    by :func:`parolkit.collision.held_object`.  Raises ParolkitValueError for a zone or shape
+    out of range (naming it)."""
+    from parolkit.collision import ToolShape, held_object
+    from parolkit.collision.shapes import zone_from_mapping
+
+    zones = []
+    for z in info.zones:
+        spec: dict[str, object] = {"name": z.name, "kind": z.kind, "margin": z.margin}
+        for key in ("center", "size", "rpy", "point", "normal", "axis", "radius", "height"):
+            value = getattr(z, key)
+            if value is not None:
+                spec[key] = value
+        zones.append(zone_from_mapping(spec, f"GET_ZONES zone {z.name!r}"))
+    shape = info.tool_shape
+    tool = None if shape is None else ToolShape(info.tool or "tool", shape.radius, shape.start, shape.end)
+    held = tuple(held_object(h.name, h.start, h.end, h.radius, h.kind) for h in info.held)
+    return CollisionSetup(tuple(zones), tool, held)
 
 
 class _Stopped(Exception):
@@ -252,6 +292,9 @@ class Interpreter:
         self._result: RunResult | None = None
         self._t0 = 0.0
         self.report: DryRunReport | None = None
+        #: the collision world the last check used (None: the default table, the controller
+        #: did not say)
+        self.collision: CollisionSetup | None = None
 
     # ---- observation --------------------------------------------------------------------
 
@@ -424,15 +467,44 @@ class Interpreter:
 
         return Tool.from_pose(info.name, info.pose)
 
+    def _collision_world(self) -> tuple[CollisionSetup | None, str | None]:
+        """The controller's collision world (``GET_ZONES``) for the check, or (None, why) when
+        it does not answer it (an older controller) or answers something the check cannot
+        take: the check then uses the default table."""
+        try:
+            info = self.robot.zones()
+        except Exception as exc:  # a RobotError (no answer, an unknown command) or no zones() at all
+            return None, f"the controller did not answer GET_ZONES ({exc})"
+        try:
+            return collision_setup(info), None
+        except Exception as exc:
+            return None, f"the controller's collision world could not be read ({exc})"
+
     def check(self) -> DryRunReport:
-        """Dry-run the program from the robot's current joints (and tool); the report."""
+        """Dry-run the program from the robot's current joints (and tool), every move checked
+        for collisions with the controller's zones and tool shape (``robot.zones()``); the
+        report.  A controller that does not answer ``GET_ZONES`` (an older one): the default
+        table only, and the report carries a warning saying so.  (Held objects are checked by
+        the controller when it admits each move; the dry run knows only zones and the tool.)"""
         from parolkit.script.dryrun import dry_run
 
         start = tuple(float(v) for v in self.robot.angles())
-        return dry_run(
+        setup, why = self._collision_world()
+        self.collision = setup
+        report = dry_run(
             self.program, start, loops=self.loops if self.loops is not None else None,
             model=self.model, tool=self._robot_tool(), rate_hz=self.rate_hz,
+            zones=None if setup is None else setup.zones, tool_shape=None if setup is None else setup.tool_shape,
         )
+        if why is not None:
+            text = (f"{why}: the program was checked for collisions against the default table only, not the "
+                    "controller's zones and tool shape (the controller still checks every move it admits)")
+            _log.warning("%s", text)
+            first = self.program.commands[0] if self.program.commands else None
+            warning = ScriptError(first.line if first else 1, first.col if first else 1, text,
+                                  first.text if first else "", Severity.WARNING, self.program.source_name)
+            report = replace(report, warnings=(*report.warnings, warning))
+        return report
 
     # ---- running ------------------------------------------------------------------------
 
