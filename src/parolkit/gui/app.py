@@ -79,7 +79,7 @@ class CommanderPage:
         self.header = Header(commander, on_help=self.help.open)
         with ui.element("main").classes("pk-main"):
             with ui.element("div").classes("pk-col"):
-                self.view = ArmView(self.link)
+                self.view = ArmView(self.link, commander.collision)
                 self.readouts = Readouts(commander.log)
             with ui.element("div").classes("pk-col"):
                 # above the tabs: beside the jog speed and the program's Run / Pause, whichever
@@ -198,6 +198,7 @@ def build_app(commander: Commander) -> Callable[[], None]:
         await asyncio.to_thread(commander.recording.close)  # the file gets its summary
         await asyncio.to_thread(commander.teach_process.close)
         await commander.control.stop()
+        await commander.collision.close()
         await commander.link.close()  # gives the control lease back (CONTROL|RELEASE)
 
     app.on_startup(startup)

@@ -1,5 +1,6 @@
 """Process-wide commander state (no page widgets): the controller link, the event log, the
-jog hold, the RBTscript program runner and the recording of the status stream.
+jog hold, the RBTscript program runner, the recording of the status stream and the
+controller's collision world with the bodies within a margin.
 
 One :class:`Commander` per ``parolkit gui`` process; every browser tab's page
 (:mod:`parolkit.gui.app`) reads from it.  All robot access goes through
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from parolkit.client.core import CommandResult, RobotState
 from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError
+from parolkit.gui.collision import CollisionWatch
 from parolkit.gui.eventlog import EventLog, Level
 from parolkit.gui.jog import JOG_REPEAT_S
 from parolkit.gui.lease_watch import ControlWatch, local_host_for
@@ -84,6 +86,8 @@ class Commander:
                                     runner_port=self.program.port, secret=secret)
         # the controller's pause (ours or another client's) becomes the program's state
         link.add_listener(self.program.follow)
+        #: the controller's collision world (GET_ZONES) and the live arm's bodies within a margin
+        self.collision = CollisionWatch(link)
         #: connected pages (browser tabs); when the last one goes the lease is given back
         self.pages = 0
 

@@ -31,6 +31,7 @@ __all__ = [
     "dh_frames",
     "arm_solids",
     "frame_pose_for_scene",
+    "rotation_y_to",
 ]
 
 #: scene units per metre (1 unit = 1 dm)
@@ -87,6 +88,8 @@ class Solid:
     ``shape``: 'cylinder' (``radius``, ``length``; axis along the segment ``start`` -> ``end``),
     'sphere' (``radius`` at ``start``) or 'box' (``size`` centred at ``start``).  Points in
     metres, in the frame's coordinates.  ``role``: 'joint', 'link', 'tool' or 'base' (colour).
+    ``body``: the collision model's body this solid stands for ("base", "J1 link" .. "J6 link",
+    "tool": :mod:`parolkit.collision`), so the view colours it when that body is within a margin.
     """
 
     frame: int
@@ -96,6 +99,7 @@ class Solid:
     radius: float = 0.0
     size: tuple[float, float, float] = (0.0, 0.0, 0.0)
     role: str = "link"
+    body: str = ""
 
     @property
     def length(self) -> float:
@@ -108,24 +112,30 @@ class Solid:
 
     def rotation_y_to_axis(self) -> list[list[float]]:
         """Rotation taking the +Y axis (three.js cylinder axis) onto start->end."""
-        d = [e - s for s, e in zip(self.start, self.end)]
-        n = math.sqrt(sum(v * v for v in d))
-        if n == 0:
-            return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
-        u = [v / n for v in d]
-        # Rodrigues rotation from y = (0,1,0) to u
-        y = (0.0, 1.0, 0.0)
-        c = u[1]
-        axis = (y[1] * u[2] - y[2] * u[1], y[2] * u[0] - y[0] * u[2], y[0] * u[1] - y[1] * u[0])
-        s = math.sqrt(sum(a * a for a in axis))
-        if s < 1e-12:
-            return ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] if c > 0
-                    else [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
-        k = [a / s for a in axis]
-        kx = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]]
-        kk = [[sum(kx[i][m] * kx[m][j] for m in range(3)) for j in range(3)] for i in range(3)]
-        return [[(1.0 if i == j else 0.0) + s * kx[i][j] + (1 - c) * kk[i][j] for j in range(3)]
-                for i in range(3)]
+        return rotation_y_to([e - s for s, e in zip(self.start, self.end)])
+
+
+def rotation_y_to(direction: Sequence[float]) -> list[list[float]]:
+    """Rotation (rows) taking the +Y axis (three.js's cylinder axis) onto ``direction`` (any
+    length; the identity for a zero vector)."""
+    d = [float(v) for v in direction]
+    n = math.sqrt(sum(v * v for v in d))
+    if n == 0:
+        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    u = [v / n for v in d]
+    # Rodrigues rotation from y = (0,1,0) to u
+    y = (0.0, 1.0, 0.0)
+    c = u[1]
+    axis = (y[1] * u[2] - y[2] * u[1], y[2] * u[0] - y[0] * u[2], y[0] * u[1] - y[1] * u[0])
+    s = math.sqrt(sum(a * a for a in axis))
+    if s < 1e-12:
+        return ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] if c > 0
+                else [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+    k = [a / s for a in axis]
+    kx = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]]
+    kk = [[sum(kx[i][m] * kx[m][j] for m in range(3)) for j in range(3)] for i in range(3)]
+    return [[(1.0 if i == j else 0.0) + s * kx[i][j] + (1 - c) * kk[i][j] for j in range(3)]
+            for i in range(3)]
 
 
 #: joint housing radius and height (m) per joint axis 1..6
@@ -136,32 +146,40 @@ _LINK_R = (0.032, 0.026, 0.024, 0.022, 0.018, 0.016)
 
 
 def arm_solids(model: RobotModel = PAROL6, *, min_length: float = 1e-6) -> list[Solid]:
-    """Every solid of the arm, generated from ``model.dh`` (see the module docstring)."""
+    """Every solid of the arm, generated from ``model.dh`` (see the module docstring).
+
+    Each names the collision body it stands for (:attr:`Solid.body`), as
+    :mod:`parolkit.collision` divides the arm: DH row *i*'s link (its ``d`` and ``a`` parts) and
+    the housing of joint *i* belong to "J<i> link" (the J1 link is the column, the J5 link the
+    wrist housing across the J5 axis, the J6 link the flange); the drawn tool to "tool"."""
     solids: list[Solid] = [
-        Solid(0, "cylinder", (0.0, 0.0, 0.0), (0.0, 0.0, 0.025), radius=0.075, role="base"),
+        Solid(0, "cylinder", (0.0, 0.0, 0.0), (0.0, 0.0, 0.025), radius=0.075, role="base", body="base"),
     ]
     for i, row in enumerate(model.dh):
         if i == 5:
             break  # the sixth row is the flange + tool, drawn below
+        body = f"J{i + 1} link"
         h = _JOINT_H[i] / 2
-        solids.append(Solid(i, "cylinder", (0.0, 0.0, -h), (0.0, 0.0, h), radius=_JOINT_R[i], role="joint"))
+        solids.append(Solid(i, "cylinder", (0.0, 0.0, -h), (0.0, 0.0, h), radius=_JOINT_R[i], role="joint", body=body))
         if abs(row.d) > min_length:
-            solids.append(Solid(i, "cylinder", (0.0, 0.0, 0.0), (0.0, 0.0, row.d), radius=_LINK_R[i]))
+            solids.append(Solid(i, "cylinder", (0.0, 0.0, 0.0), (0.0, 0.0, row.d), radius=_LINK_R[i], body=body))
         if abs(row.a) > min_length:
-            solids.append(Solid(i + 1, "cylinder", (-row.a, 0.0, 0.0), (0.0, 0.0, 0.0), radius=_LINK_R[i]))
+            solids.append(Solid(i + 1, "cylinder", (-row.a, 0.0, 0.0), (0.0, 0.0, 0.0), radius=_LINK_R[i], body=body))
     # joint 6 housing on axis z5, the flange disc and the tool (row 6's d and a) in the flange frame
     solids.append(Solid(5, "cylinder", (0.0, 0.0, -_JOINT_H[5] / 2), (0.0, 0.0, _JOINT_H[5] / 2),
-                        radius=_JOINT_R[5], role="joint"))
-    solids.append(Solid(6, "cylinder", (0.0, 0.0, 0.0), (0.0, 0.0, 0.006), radius=0.022, role="joint"))
+                        radius=_JOINT_R[5], role="joint", body="J6 link"))
+    solids.append(Solid(6, "cylinder", (0.0, 0.0, 0.0), (0.0, 0.0, 0.006), radius=0.022, role="joint", body="J6 link"))
     row6 = model.dh[5]
     # TCP frame = flange * Tz(d) * Tx(a) (the rotations are shared): in flange coordinates the
     # tool goes from the origin along z by d, then along the flange x (rotated by alpha only
     # about x, which keeps x) by a.
     if abs(row6.d) > min_length:
-        solids.append(Solid(6, "cylinder", (0.0, 0.0, 0.0), (0.0, 0.0, -row6.d), radius=0.010, role="tool"))
+        solids.append(Solid(6, "cylinder", (0.0, 0.0, 0.0), (0.0, 0.0, -row6.d), radius=0.010, role="tool",
+                            body="tool"))
     if abs(row6.a) > min_length:
-        solids.append(Solid(7, "cylinder", (-row6.a, 0.0, 0.0), (0.0, 0.0, 0.0), radius=0.008, role="tool"))
-    solids.append(Solid(7, "sphere", (0.0, 0.0, 0.0), radius=0.009, role="tool"))
+        solids.append(Solid(7, "cylinder", (-row6.a, 0.0, 0.0), (0.0, 0.0, 0.0), radius=0.008, role="tool",
+                            body="tool"))
+    solids.append(Solid(7, "sphere", (0.0, 0.0, 0.0), radius=0.009, role="tool", body="tool"))
     return solids
 
 

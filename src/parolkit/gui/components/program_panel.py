@@ -1,7 +1,8 @@
 """The Program tab (NiceGUI): the RBTscript editor with syntax colouring, Run / Pause / Step /
-Stop with the executing line highlighted, Check (parse + dry run: errors at their line and
-the planned joint positions and speeds), Insert (templates with the current joints / pose),
-Examples (the seed programs) and the programs folder's file row.
+Stop with the executing line highlighted, Check (parse + dry run in the controller's collision
+world: errors at their line, a collision with the pair and the time, the planned joint
+positions and speeds, and the TCP path in the 3D view, red where it collides), Insert
+(templates with the current joints / pose), Examples (the seed programs) and the programs folder's file row.
 
 Pause is the controller's PAUSE: the running move slows down on its own path and holds there,
 and no new line starts; Run resumes it (RESUME) on the same path to the same target; Step
@@ -15,17 +16,22 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nicegui import ui
 
 from parolkit.errors import ParolkitError
+from parolkit.gui.collision import PathPreview, path_preview
 from parolkit.gui.commander import ACTIVE_STATES, Commander
 from parolkit.gui.components.telemetry import plan_options
+from parolkit.gui.eventlog import Level
 from parolkit.gui.highlight import line_decorations, mark_decorations
 from parolkit.gui.programs_panel import ProgramsPanel
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.robot import PAROL6
+
+if TYPE_CHECKING:
+    from parolkit.script.interpreter import CollisionSetup
 
 __all__ = ["ProgramPanel", "DIAG_DELAY_S", "PAUSE_LABEL", "program_status"]
 
@@ -72,11 +78,13 @@ class ProgramPanel:
         self._online: bool | None = None
         self._diag_at: float | None = None
         self._plan_shown = False
-        #: draws the checked program's TCP path in the 3D view (joint samples, deg; tool)
-        self.on_preview: Callable[[list[list[float]], str], None] | None = None
+        #: draws the checked program's TCP path in the 3D view (None clears it; the tool)
+        self.on_preview: Callable[[PathPreview | None, str], None] | None = None
         self._shown_errors: list[str] | None = None
         self._reveal_at: float | None = None
         self._errors: dict[int, str] = {}
+        #: the text the last Check checked (its errors and preview stand until it changes)
+        self._checked_text: str | None = None
         with ui.row().classes("w-full items-center gap-2"):
             self._run_btn = _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
                                   lambda: self.run_program(step=False))
@@ -160,9 +168,17 @@ class ProgramPanel:
     def on_edit(self, *_: Any) -> None:
         """Keep the edit in the shared document (autosaved) and re-colour the text; old error
         marks go (their lines may have moved): Check again."""
+        text = self.editor.value or ""
         if not self._program_active():
-            if self.c.doc.edit(self.editor.value or ""):
+            if self.c.doc.edit(text):
                 self._doc_version = self.c.doc.version
+        if text == self._checked_text:
+            # the text Check just checked, arriving from the page after it (the server's copy
+            # lags behind the page): Check's errors, marks and preview stand; the parser's
+            # diagnostics as you type would wipe a collision it found
+            self._diag_at = None
+            return
+        self._checked_text = None
         self._diag_at = time.monotonic() + DIAG_DELAY_S  # the parser's diagnostics once typing pauses
         self._clear_plan()
         self._refresh_decorations()
@@ -173,7 +189,7 @@ class ProgramPanel:
             return
         self._plan_shown = False
         if self.on_preview is not None:
-            self.on_preview([], "default")
+            self.on_preview(None, "default")
         for chart in (self.plan_chart, self.plan_speed_chart):
             for series in chart.options["series"]:
                 series["data"] = []
@@ -233,22 +249,34 @@ class ProgramPanel:
         text = await self.page_text()
         result = parse(text, "editor")
         errors = list(result.errors)
+        note = ""
         if not errors:
-            errors = self._dry_run(result.program)
+            # the controller's zones and tool shape, asked now (an older controller: the table)
+            setup, why = await self.c.collision.for_check()
+            errors = self._dry_run(result.program, setup)
+            if why is not None:
+                note = " (collisions checked against the default table only: the controller does not say its zones)"
+                self.c.log.add(f"check: {why}: collisions checked against the default table only", Level.WARNING)
         self._show_errors(errors)
+        self._checked_text = text
+        self._diag_at = None  # the parser's diagnostics of this text are in the list already
         ok = not errors
-        self.prog_status.set_text("✓ program OK" if ok else f"✗ {len(errors)} error(s)")
+        self.prog_status.set_text(("✓ program OK" if ok else f"✗ {len(errors)} error(s)") + note)
         self.prog_status.classes(replace="text-sm pk-mono " + ("text-green-400" if ok else "text-red-300"))
         return ok
 
-    def _dry_run(self, program: Any) -> list[Any]:
-        """Plan the program without the robot (from the current joints); returns its errors
-        and fills the planned position/speed charts."""
+    def _dry_run(self, program: Any, setup: CollisionSetup | None = None) -> list[Any]:
+        """Plan the program without the robot (from the current joints), every move checked for
+        collisions in ``setup`` (the controller's zones and tool shape; None: the default
+        table); returns its errors, fills the planned position/speed charts and draws the TCP
+        path, red where a move collides."""
         from parolkit.script import dry_run
 
         st = self.link.status
+        zones = None if setup is None else setup.zones
+        tool_shape = None if setup is None else setup.tool_shape
         try:
-            report = dry_run(program, st.angles if st else None)
+            report = dry_run(program, st.angles if st else None, zones=zones, tool_shape=tool_shape)
         except (ParolkitError, ValueError) as exc:
             self.c.log.error(f"dry run: {exc}")
             return []
@@ -257,7 +285,7 @@ class ProgramPanel:
             self._plot_plan(t, q, v)
             self._plan_shown = True
             if self.on_preview is not None:
-                self.on_preview([list(row) for row in q], st.tool if st else "default")
+                self.on_preview(path_preview(report, zones, tool_shape), st.tool if st else "default")
         return list(report.errors)
 
     def _plot_plan(self, t: Any, q: Any, v: Any) -> None:

@@ -1,12 +1,23 @@
 """The 3D view (NiceGUI scene): the arm drawn from the DH table, world and tool frames, and
-during a move a translucent ghost at the target with the planned TCP path.
+during a move a translucent ghost at the target with the planned TCP path; the controller's
+collision world (its keep-out zones, the tool's shape, the objects held at the flange:
+:mod:`parolkit.gui.zone_shapes`), every part of the arm within a margin drawn red
+(:class:`parolkit.gui.collision.CollisionWatch`), and the checked program's TCP path with the
+part that collides in red.
 
 Scene units: :data:`parolkit.gui.geometry.SCENE_SCALE` per metre.  The view fills its card's
 width (the stylesheet sizes ``.pk-scene``; the scene resizes its renderer with the window).
+
+For the browser tests the scene element names its objects: ``data-body-ids`` (the arm's
+solids by the collision body they stand for), ``data-world-ids`` (the zones', the tool's
+shape's and the held objects' primitives by owner and part), ``data-preview-id`` and
+``data-preview-lines`` (the preview's point ranges by program line) and ``data-tcp-axes-id``.
 """
 
 from __future__ import annotations
 
+import json
+import math
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -16,12 +27,15 @@ from parolkit.client.core import RobotState, RobotStatus
 from parolkit.errors import ParolkitError
 from parolkit.gui import geometry
 from parolkit.gui.link import ControllerLink
+from parolkit.gui.zone_shapes import COLLISION_RED, Shape, held_shapes, tool_shapes, zone_shapes
 from parolkit.robot import PAROL6
 
 if TYPE_CHECKING:
     from nicegui.elements.scene.scene_object3d import Object3D
 
-__all__ = ["ArmView", "arm_frames", "SCENE_FPS", "IDLE_FPS", "IDLE_AFTER_S"]
+    from parolkit.gui.collision import CollisionWatch, PathPreview
+
+__all__ = ["ArmView", "arm_frames", "SCENE_FPS", "IDLE_FPS", "IDLE_AFTER_S", "PREVIEW_RGB", "COLLIDES_RGB"]
 
 #: frame rate of the view's updates, and of its drawing while something in it changes, Hz
 SCENE_FPS = 30.0
@@ -31,6 +45,9 @@ SCENE_FPS = 30.0
 IDLE_FPS = 2.0
 #: seconds without a change before the drawing slows to :data:`IDLE_FPS`
 IDLE_AFTER_S = 1.0
+#: the path preview's points: the planned path, and where it collides (red)
+PREVIEW_RGB = (0.980, 0.800, 0.082)  # #facc15
+COLLIDES_RGB = (0.937, 0.267, 0.267)  # #ef4444
 
 
 def arm_frames(angles_deg: Any, tool: str = "default") -> Any:
@@ -47,12 +64,19 @@ def arm_frames(angles_deg: Any, tool: str = "default") -> Any:
 class ArmView:
     """The 3D view card; :meth:`update` moves the arm to the newest status."""
 
-    def __init__(self, link: ControllerLink) -> None:
+    def __init__(self, link: ControllerLink, collision: CollisionWatch | None = None) -> None:
         self.link = link
+        self.collision = collision
         self._last_seq = -1
         self._last_pose: tuple[tuple[float, ...], str] | None = None
         self._last_plan_key: tuple[object, ...] | None = None
         self._last_plan_seq: tuple[int | None, bool] | None = None  # (plan seq, shown)
+        #: the arm's solids by the collision body they stand for, with their own colour and opacity
+        self._bodies: dict[str, list[tuple[Object3D, str, float]]] = {}
+        #: the collision world's primitives by owner ("zone 'monitor'", "tool 'pen'", "held 'ball'")
+        self._world: dict[str, list[tuple[Object3D, Shape]]] = {}
+        self._world_version = -1
+        self._red: frozenset[str] = frozenset()
         with ui.card().classes("pk-card w-full p-2 gap-1").props('role=region aria-label="3D view"'):
             with ui.row().classes("w-full items-center"):
                 ui.label("3D view").classes("pk-title")
@@ -67,11 +91,20 @@ class ArmView:
                 for g in self.ghost:
                     g.visible(False)
                 self.path = self.scene.point_cloud([], point_size=0.14).material("#22d3ee")
-                # the checked program's TCP path (the dry run), shown before it runs
-                self.preview = self.scene.point_cloud([], point_size=0.1).material("#facc15")
+                # the checked program's TCP path (the dry run), shown before it runs; where it
+                # collides in red (per-point colours)
+                self.preview = self.scene.point_cloud([], [], point_size=0.1)
+                # the keep-out zones (base frame) and what the flange carries (flange frame)
+                self.zone_group = self.scene.group()
+                with self.groups[6]:
+                    self.attached_group = self.scene.group()
             # the page's scene objects by id, for the browser tests: the path preview and the
             # TCP axes gizmo (the tool frame's axes, moved with the TCP frame)
             self.scene.props(f"data-preview-id={self.preview.id} data-tcp-axes-id={self.tcp_axes.id}")
+            self.scene.props["data-body-ids"] = json.dumps(
+                {body: [o.id for o, _, _ in objs] for body, objs in self._bodies.items()})
+            self.scene.props["data-world-ids"] = "{}"
+            self.scene.props["data-preview-lines"] = "[]"
             self.scene.move_camera(x=4.6, y=-4.2, z=3.9, look_at_x=0, look_at_y=0.8, look_at_z=1.7, duration=0)
             for g, t in zip(self.groups, geometry.dh_frames(PAROL6.standby_deg)):
                 pos, rot = geometry.frame_pose_for_scene(t)
@@ -85,13 +118,22 @@ class ArmView:
         self._changed_t = self._frames_t
         self._woken_t = self._frames_t
 
-    def show_preview(self, joint_samples_deg: Any, tool: str = "default") -> None:
-        """Draw the TCP path of planned joint samples (deg, one row per sample; at most 300
-        drawn); an empty list clears it."""
-        rows = list(joint_samples_deg)
-        step = max(1, len(rows) // 300)
-        pts = [geometry.frame_pose_for_scene(arm_frames(q, tool)[-1])[0] for q in rows[::step]]
-        self.preview.set_points(pts)
+    def show_preview(self, preview: PathPreview | None, tool: str = "default") -> None:
+        """Draw the checked program's TCP path (:func:`parolkit.gui.collision.path_preview`):
+        yellow points, red where a move collides; None clears it.  The scene's
+        ``data-preview-lines`` lists ``[line, first point, points, red points]`` per move."""
+        pts: list[list[float]] = []
+        colours: list[list[float]] = []
+        lines: list[list[int | None]] = []
+        for seg in preview.segments if preview is not None else ():
+            first = len(pts)
+            for q, red in zip(seg.rows_deg, seg.red):
+                pts.append(geometry.frame_pose_for_scene(arm_frames(q, tool)[-1])[0])
+                colours.append(list(COLLIDES_RGB if red else PREVIEW_RGB))
+            lines.append([seg.line, first, len(pts) - first, sum(seg.red)])
+        with self.scene._batch_calls():
+            self.preview.set_points(pts, colours)
+        self.scene.props["data-preview-lines"] = json.dumps(lines)
         self._changed()
 
     def _changed(self) -> None:
@@ -129,15 +171,107 @@ class ArmView:
                     width, height, depth = (v * s for v in solid.size)
                     obj = self.scene.box(width, height, depth).move(*(v * s for v in solid.start))
                 obj.material(colours[solid.role], opacity=opacity)
+                if not ghost and solid.body:
+                    self._bodies.setdefault(solid.body, []).append((obj, colours[solid.role], opacity))
         if not ghost:
             with groups[7]:
                 self.tcp_axes = self.scene.axes_helper(length=0.6)  # tool frame
         return groups
 
+    # ---- the collision world ----
+
+    def _make(self, sh: Shape) -> Object3D:
+        """One primitive of :mod:`parolkit.gui.zone_shapes` in the scene (inside the group
+        entered by the caller)."""
+        obj: Object3D
+        if sh.kind == "box":
+            w, h, d = (float(v) for v in sh.args)  # type: ignore[arg-type]
+            obj = self.scene.box(w, h, d, wireframe=sh.wireframe)
+        elif sh.kind == "cylinder":
+            r, length = (float(v) for v in sh.args)  # type: ignore[arg-type]
+            if sh.wireframe:  # an outline: 12 sides around the cylinder (a round one is all edge lines)
+                r /= math.cos(math.pi / 12)
+            obj = self.scene.cylinder(r, r, length, 12 if sh.wireframe else 32, wireframe=sh.wireframe)
+        elif sh.kind == "sphere":
+            obj = self.scene.sphere(float(sh.args[0]), 20, 12)  # type: ignore[arg-type]
+        elif sh.kind == "line":
+            a, b = sh.args
+            obj = self.scene.line(list(a), list(b))  # type: ignore[arg-type]
+        else:
+            text, style = sh.args
+            obj = self.scene.text(str(text), str(style))
+        obj.move(*sh.position)
+        if sh.rotation != ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
+            obj.rotate_R([list(r) for r in sh.rotation])
+        if sh.kind != "text":
+            obj.material(sh.color, opacity=sh.opacity)
+        return obj
+
+    def _draw_world(self) -> bool:
+        """Redraw the zones, the tool's shape and the held objects when the controller's world
+        changed (an ATTACH, a DETACH, a tool change); False if it did not."""
+        watch = self.collision
+        if watch is None or watch.version == self._world_version:
+            return False
+        self._world_version = watch.version
+        info = watch.info
+        for group in (self.zone_group, self.attached_group):
+            for child in list(group.children):
+                child.delete()
+        self._world = {}
+        if info is not None:
+            with self.zone_group:
+                for zone in info.zones:
+                    for sh in zone_shapes(zone):
+                        self._world.setdefault(sh.owner, []).append((self._make(sh), sh))
+            with self.attached_group:
+                for sh in tool_shapes(info.tool, info.tool_shape) + held_shapes(info.held):
+                    self._world.setdefault(sh.owner, []).append((self._make(sh), sh))
+        ids: dict[str, dict[str, list[str]]] = {}
+        for owner, objs in self._world.items():
+            for obj, sh in objs:
+                ids.setdefault(owner, {}).setdefault(sh.part, []).append(obj.id)
+        self.scene.props["data-world-ids"] = json.dumps(ids)
+        self._paint(self._red, force=True)
+        return True
+
+    def _paint(self, red: frozenset[str], *, force: bool = False) -> bool:
+        """Draw the bodies in ``red`` (names of the collision check: "J5 link", "tool 'pen'",
+        "held 'ball'", "zone 'post'") red and the others in their own colours; a zone in
+        ``red`` gets its margin outline (or, without a margin, its body) red.  False if nothing
+        changed."""
+        if red == self._red and not force:
+            return False
+        old, self._red = self._red, red
+        tool_red = any(n.startswith("tool ") for n in red)
+        for body, objs in self._bodies.items():
+            now = tool_red if body == "tool" else body in red
+            was = any(n.startswith("tool ") for n in old) if body == "tool" else body in old
+            if now != was or force:
+                for obj, colour, opacity in objs:
+                    obj.material(COLLISION_RED if now else colour, opacity=opacity)
+        for owner, prims in self._world.items():
+            now = owner in red
+            if now == (owner in old) and not force:
+                continue
+            parts = {sh.part for _, sh in prims}
+            mark = "margin" if owner.startswith("zone ") and "margin" in parts else "body"
+            for obj, sh in prims:
+                if sh.part == mark and sh.kind != "text":
+                    obj.material(COLLISION_RED if now else sh.color,
+                                 opacity=max(sh.opacity, 0.8) if now else sh.opacity)
+        return True
+
     def update(self) -> None:
         """Move the arm (and the ghost / path) to the newest status; nothing when it is old.
+        Redraw the collision world when it changed and colour what is within a margin.
         The drawing slows to :data:`IDLE_FPS` once nothing has changed for :data:`IDLE_AFTER_S`."""
-        if self._move_arm():
+        changed = self._move_arm()
+        if self.collision is not None:
+            with self.scene._batch_calls():
+                changed = self._draw_world() | changed
+                changed = self._paint(self.collision.within) | changed
+        if changed:
             self._changed()
         elif self.draw_fps != IDLE_FPS and time.monotonic() - self._changed_t >= IDLE_AFTER_S:
             self._set_draw_fps(IDLE_FPS)

@@ -18,7 +18,8 @@
 //  * The 3D view draws 30 frames/s while something in it changes and 2 once nothing has for a
 //    second (parolkit.gui.components.view3d: the server sets the scene's fps).  What the page
 //    changes itself is drawn at once: the camera turned or zoomed (drag, wheel, touch), the
-//    window resized; and pkSceneDraw(id) draws a change the server has just sent.
+//    window resized; and pkSceneDraw(id) draws a change the server has just sent.  The
+//    collision world's translucent meshes write no depth (what is inside a zone shows).
 (() => {
   "use strict";
   const island = document.getElementById("pk-keymap");
@@ -422,6 +423,37 @@
     });
   };
   window.pkSceneDraw = draw;
+
+  // The zones, the tool's shape and the held objects are see-through: their translucent
+  // meshes write no depth, so what is inside or behind them (the path preview's points, red
+  // where they pass through a zone) is drawn whatever order three.js sorts them in.  The
+  // scene element names them (data-world-ids); checked before each draw, done once per world.
+  const seeThrough = (host, s) => {
+    const ids = host.dataset.worldIds || "{}";
+    if (s.pkWorldIds === ids) return;
+    let done = true;
+    const walk = (v) => {
+      if (Array.isArray(v)) {
+        for (const id of v) {
+          const o = s.objects.get(id);
+          if (!o || !o.mesh) { done = false; continue; } // still being created: next draw
+          const m = o.mesh.material;
+          if (m && m.transparent) m.depthWrite = false;
+        }
+      } else if (v && typeof v === "object") Object.values(v).forEach(walk);
+    };
+    try { walk(JSON.parse(ids)); } catch { return; }
+    if (done) s.pkWorldIds = ids;
+  };
+  setInterval(() => {
+    if (typeof window.getElement !== "function") return;
+    document.querySelectorAll("[data-testid=scene]").forEach((host) => {
+      const s = window.getElement(host.id.slice(1));
+      if (!s || !s.scene || s.scene.pkSeeThrough) return;
+      s.scene.pkSeeThrough = true; // (a scene made anew, after a lost WebGL context, is hooked again)
+      s.scene.onBeforeRender = () => seeThrough(host, s);
+    });
+  }, 500);
   const sceneOf = (t) => (t instanceof Element ? t.closest("[data-testid=scene]") : null);
   const drawScene = (el) => { if (el && el.id) draw(Number(el.id.slice(1))); };
   // the orbit controls move the camera in their own pointer and wheel handlers
