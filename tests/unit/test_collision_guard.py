@@ -472,8 +472,9 @@ def test_the_tick_check_costs_a_few_kernel_calls():
 
 
 def test_a_program_whose_third_line_collides_fails_at_that_line_naming_the_pair():
-    """The controller refuses the move (its config's box: the interpreter's own check knows
-    only the table) and the interpreter's error names the program's line 3 and the pair."""
+    """The controller refuses the move (its config's box; the interpreter's own check before
+    the run is off here, so the controller's refusal is what is judged) and the interpreter's
+    error names the program's line 3 and the pair."""
     from parolkit.client.robot import Robot
     from parolkit.config import load_config
     from parolkit.controller.fastforward import InProcessController
@@ -490,8 +491,8 @@ def test_a_program_whose_third_line_collides_fails_at_that_line_naming_the_pair(
                 "MoveJoint(0, -90, 180, 0, 0, 180, t=4)\n"
                 "MoveJoint(90, -90, 180, 0, 0, 180, t=4)\n"
                 "End()\n")
-        result = Interpreter(parse(text).program, robot).run()
-        assert not result.ok
+        result = Interpreter(parse(text).program, robot, check=False).run()
+        assert not result.ok and result.commands_executed == 2, result
         err = result.errors[0]
         assert err.line == 3, err
         assert "would collide: J6 link vs zone 'box' at " in err.message, err.message
