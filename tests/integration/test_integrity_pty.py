@@ -183,11 +183,6 @@ def ctl(board, tmp_path):
     c.close()
 
 
-def _first_disable_after(rec: Record, start: int) -> int | None:
-    cmds = rec.sent_commands()
-    return next((i for i in range(start + 1, len(cmds)) if cmds[i] == BoardCommand.DISABLE), None)
-
-
 # ------------------------------------------------------------------------------ the bit flip
 
 def test_enable_turned_into_home_on_the_wire_disables_within_three_frames_naming_the_homing(board, ctl):
@@ -201,14 +196,20 @@ def test_enable_turned_into_home_on_the_wire_disables_within_three_frames_naming
     assert "UNCOMMANDED=1" in ctl.query("GET_STATUS")
     rec = board.record()
     k = next(i for i, e in enumerate(rec.exs) if e[1].command == BoardCommand.HOME)
-    align = rec.align()
-    assert rec.ins[align[k]][1][40] == BoardCommand.ENABLE  # sent as ENABLE, executed as HOME
+    # sent as ENABLE, executed as HOME: the PC sent no HOME, and an ENABLE it sent differs from
+    # the frame executed in the command byte alone (found by the bytes, not by when the
+    # board-sim logged them: one held up on a busy machine executes a backlog late, after later
+    # frames arrived)
+    ex_raw = rec.exs[k][2]
+    assert not any(raw[40] == BoardCommand.HOME for _, raw in rec.ins)
+    assert any(raw[40] == BoardCommand.ENABLE and [i for i, (a, b) in enumerate(zip(raw, ex_raw)) if a != b] == [40]
+               for _, raw in rec.ins)
     assert rec.exs[k + 1][3].homed != 0xFF  # the first reply that shows the homing
     # within 3 frames written after the controller read it (counted as the controller wrote
     # them: tests.integration.spylog), and the board got it
     after = ctl.written_after(lambda st: st.homed != 0xFF)
     assert BoardCommand.DISABLE in after[:3], after[:10]
-    assert _first_disable_after(rec, align[k + 1]) is not None
+    assert any(e[1].command == BoardCommand.DISABLE for e in rec.exs[k + 1:])  # the board got one
     assert not board.state()["enabled"] and board.state()["homing"] is None
     # ENABLE, and HOME homes for real (the uncommanded one left the joints unhomed)
     assert ctl.run("ENABLE")[0] == "COMPLETED"
