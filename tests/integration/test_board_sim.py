@@ -49,7 +49,9 @@ class Link:
         self.ser = serial.Serial(str(path), 3_000_000, timeout=0)
         self.parser = StatusParser()
 
-    def exchange(self, timeout: float = 1.0, **kw: object) -> StatusFrame:
+    def exchange(self, timeout: float = 10.0, **kw: object) -> StatusFrame:
+        """Write a frame and return the board's reply to it (``timeout``: s; board-sim beside two
+        CPU hogs once took over 1 s to answer: how late is not what these tests judge)."""
         self.ser.write(CommandFrame(**kw).encode())  # type: ignore[arg-type]
         frames = _replies(lambda: self.ser.read(4096), self.ser.fileno(), self.parser, timeout)
         assert len(frames) == 1

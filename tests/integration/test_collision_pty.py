@@ -126,11 +126,20 @@ def test_a_cartesian_jog_toward_a_plane_stops_at_least_the_margin_short(tmp_path
         final = _board_deg(bench)
         assert check(np.radians(final), (TABLE_ZONE, WALL)).clear
         assert _wall_clearance(final) >= 10.0
-        # further in: refused before it moves; out: it runs
+        # further in: refused before it moves, or (when the first stop came to rest a little
+        # further out than its bound, as replies late on a busy machine make it: 10.2 mm
+        # once) stopped again before the margin; either way the margin is kept.  Out: it runs
         mark = bench.exchange.idle_mark()
         status, details = bench.run("CARTJOG|WRF|Y+|20|1", 30)
-        assert status == "FAILED" and details.startswith("jog refused: "), details
-        assert all(f.speeds == (0,) * 6 for _, f in bench.exchange.gotos(after=mark))
+        assert status == "FAILED", details
+        if details.startswith("jog refused: "):
+            assert all(f.speeds == (0,) * 6 for _, f in bench.exchange.gotos(after=mark))
+        else:
+            assert details.startswith("jog stopped: J6 link ") and "from zone 'wall' (margin 10 mm)" in details
+            again = _board_deg(bench)
+            assert check(np.radians(again), (TABLE_ZONE, WALL)).clear and _wall_clearance(again) >= 10.0
+            print(f"\nthe jog further in ran {_wall_clearance(final) - _wall_clearance(again):.2f} mm before it "
+                  f"stopped (clearance {_wall_clearance(again):.2f} mm)")
         assert bench.run("CARTJOG|WRF|Y-|50|0.5", 30)[0] == "COMPLETED"
     finally:
         bench.close()
