@@ -26,34 +26,25 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
-import os
 import statistics
-import time
 from collections.abc import Callable
 
 import numpy as np
+
+from _measure import machine_line, per_call_s
 
 STATUS_RATE_HZ = 100.0 / 3
 
 
 def _per_call_us(fn: Callable[[], object], min_s: float = 0.005) -> float:
-    clock = time.process_time
-    n = 0
-    t0 = clock()
-    while True:
-        fn()
-        n += 1
-        t = clock() - t0
-        if t >= min_s:
-            return t / n * 1e6
+    return per_call_s(fn, min_s) * 1e6
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=15)
     args = ap.parse_args()
-    load = os.getloadavg()
-    print(f"machine: {os.cpu_count()} CPUs, load average {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}")
+    print(machine_line())
 
     from parolkit.client.core import Queries, RobotStatus, parse_query_reply
     from parolkit.collision import kernel_name
