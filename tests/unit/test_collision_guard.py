@@ -22,14 +22,13 @@ import math
 import numpy as np
 from tests.unit.test_controller_core import Rig
 
-from parolkit.collision import TABLE_ZONE, BoxZone, PlaneZone, Scene, ToolShape
+from parolkit.collision import TABLE_ZONE, BoxZone, PlaneZone, Scene, ToolShape, held_object
 from parolkit.config import Config, ToolSettings
 from parolkit.controller.activities import speed_samples
 from parolkit.controller.messages import Submission
 from parolkit.controller.world import (
     INSIDE_SLACK_MM,
     CollisionWorld,
-    _held_object,
     joint_stop,
     path_stop,
     scene_for,
@@ -72,7 +71,7 @@ def _pair_clearance(zones, angles_deg, pair: str, tool=None, held=()) -> float:
 
 
 def _held(world: CollisionWorld) -> tuple:
-    return tuple(_held_object(h) for h in world.held)
+    return tuple(held_object(h.name, h.start, h.end, h.radius, h.kind) for h in world.held)
 
 
 def _gotos_after(rig: Rig, mark: int) -> list:

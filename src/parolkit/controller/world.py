@@ -45,7 +45,7 @@ from parolkit._frozen import quick_init
 from parolkit.collision.shapes import ToolShape, Zone
 
 if TYPE_CHECKING:  # pragma: no cover
-    from parolkit.collision import HeldObject, Scene
+    from parolkit.collision import Scene
 
 __all__ = ["HeldItem", "CollisionWorld", "SceneRequest", "SceneResult", "MAX_HELD", "build_scene", "scene_for",
            "check_plan", "StopPlan", "StopVerdict", "stop_check", "path_stop", "joint_stop", "held_item",
@@ -191,35 +191,15 @@ class SceneResult:
     seconds: float = 0.0
 
 
-def _held_object(item: HeldItem) -> HeldObject:
-    """A :class:`HeldItem` as the collision model's :class:`~parolkit.collision.HeldObject`: a
-    sphere at its centre; a capsule centred between its points, its own z axis along them
-    (pose angles A, B, C of ``R = Rx(C) Ry(B) Rz(A)``: A = 0, B = asin(dx), C = atan2(-dy, dz))."""
-    from parolkit.collision import Capsule, HeldObject, Sphere
-
-    p, q = item.start, item.end
-    if item.kind == "sphere":
-        return HeldObject(item.name, Sphere(item.radius), (p[0], p[1], p[2], 0.0, 0.0, 0.0))
-    d = [b - a for a, b in zip(p, q)]
-    length = math.sqrt(sum(v * v for v in d))
-    mid = [(a + b) / 2.0 for a, b in zip(p, q)]
-    if length > 0.0:
-        ux, uy, uz = (v / length for v in d)
-        b_deg = math.degrees(math.asin(max(-1.0, min(1.0, ux))))
-        c_deg = math.degrees(math.atan2(-uy, uz)) if abs(ux) < 1.0 - 1e-12 else 0.0
-    else:
-        b_deg = c_deg = 0.0
-    return HeldObject(item.name, Capsule(item.radius, length), (mid[0], mid[1], mid[2], 0.0, b_deg, c_deg))
-
-
 @functools.lru_cache(maxsize=16)
 def scene_for(world: CollisionWorld) -> Scene:
     """The compiled scene of ``world`` (the stock arm's model, the world's zones, tool and held
     objects), cached: equal worlds share one.  ~80 ms the first time a tool or held shape is
     seen (its pairs with the arm sampled), ~1 ms after that."""
-    from parolkit.collision import Scene
+    from parolkit.collision import Scene, held_object
 
-    return Scene(zones=world.zones, tool=world.tool, held=tuple(_held_object(h) for h in world.held))
+    held = tuple(held_object(h.name, h.start, h.end, h.radius, h.kind) for h in world.held)
+    return Scene(zones=world.zones, tool=world.tool, held=held)
 
 
 def build_scene(req: SceneRequest) -> SceneResult:
