@@ -45,6 +45,8 @@ import time
 
 import numpy as np
 
+from parolkit.collision._geometry import frame_with_z
+
 
 def _per_call_us(fn, items, min_s: float = 0.002) -> float:
     """CPU time per call (us) of ``fn(item)`` over ``items``, repeated until >= ``min_s``."""
@@ -67,18 +69,6 @@ def _rounds(fns: dict, items: dict, rounds: int) -> dict:
         for name, fn in fns.items():
             out[name].append(_per_call_us(fn, items[name]))
     return {k: statistics.median(v) for k, v in out.items()}
-
-
-def _z_frame(x: float, y: float, z: float) -> np.ndarray:
-    n = math.sqrt(x * x + y * y + z * z)
-    x, y, z = x / n, y / n, z / n
-    hx, hy, hz = (1.0, 0.0, 0.0) if abs(x) < 0.9 else (0.0, 1.0, 0.0)
-    d = hx * x + hy * y + hz * z
-    ux, uy, uz = hx - d * x, hy - d * y, hz - d * z
-    m = math.sqrt(ux * ux + uy * uy + uz * uz)
-    ux, uy, uz = ux / m, uy / m, uz / m
-    vx, vy, vz = y * uz - z * uy, z * ux - x * uz, x * uy - y * ux
-    return np.array([[ux, vx, x], [uy, vy, y], [uz, vz, z]])
 
 
 class FclScene:
@@ -104,7 +94,7 @@ class FclScene:
                 self.col.append(fcl.CollisionObject(fcl.Halfspace(e, float(e @ c)), fcl.Transform(eye, np.zeros(3))))
                 foot = e * float(e @ c)
                 big = fcl.Box(4.0, 4.0, 4.0)  # its top face on the plane
-                self.dist.append(fcl.CollisionObject(big, fcl.Transform(_z_frame(*e), foot - e * 2.0)))
+                self.dist.append(fcl.CollisionObject(big, fcl.Transform(frame_with_z(e), foot - e * 2.0)))
             elif kind == ref.BOX:
                 o = fcl.CollisionObject(fcl.Box(*(2 * e)), fcl.Transform(np.ascontiguousarray(rot), c.copy()))
                 self.col.append(o)
@@ -133,7 +123,7 @@ class FclScene:
             a = f[:3, :3] @ self.local[k, 0] + f[:3, 3]
             b = f[:3, :3] @ self.local[k, 1] + f[:3, 3]
             if self.length[k] > 1e-12:
-                out.append(fcl.Transform(_z_frame(*(b - a).tolist()), 0.5 * (a + b)))
+                out.append(fcl.Transform(frame_with_z(b - a), 0.5 * (a + b)))
             else:
                 out.append(fcl.Transform(np.eye(3), a))
         return out

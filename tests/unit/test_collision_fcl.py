@@ -37,8 +37,6 @@ of each category (self, link vs zone, tool/held vs zone) where it is positive.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -134,22 +132,9 @@ class _FclScene:
         """Move every capsule to its world axis a -> b (mm)."""
         for k, obj in enumerate(self.caps):
             if self.length[k] > 1e-9:
-                obj.setTransform(fcl.Transform(_z_frame(*(b[k] - a[k]).tolist()), 0.5 * (a[k] + b[k])))
+                obj.setTransform(fcl.Transform(frame_with_z(b[k] - a[k]), 0.5 * (a[k] + b[k])))
             else:
                 obj.setTransform(fcl.Transform(_EYE, a[k]))
-
-
-def _z_frame(x: float, y: float, z: float) -> np.ndarray:
-    """A rotation whose z axis is along (x, y, z) (a capsule is symmetric about it)."""
-    n = math.sqrt(x * x + y * y + z * z)
-    x, y, z = x / n, y / n, z / n
-    hx, hy, hz = (1.0, 0.0, 0.0) if abs(x) < 0.9 else (0.0, 1.0, 0.0)
-    d = hx * x + hy * y + hz * z
-    ux, uy, uz = hx - d * x, hy - d * y, hz - d * z
-    m = math.sqrt(ux * ux + uy * uy + uz * uz)
-    ux, uy, uz = ux / m, uy / m, uz / m
-    vx, vy, vz = y * uz - z * uy, z * ux - x * uz, x * uy - y * ux
-    return np.array([[ux, vx, x], [uy, vy, y], [uz, vz, z]])
 
 
 _SPHERES: dict[float, object] = {}

@@ -46,14 +46,18 @@ def rot_abc_deg(abc: Sequence[float]) -> NDArray[np.float64]:
 
 def frame_with_z(axis: Sequence[float]) -> NDArray[np.float64]:
     """A rotation whose third column is the unit vector along ``axis`` (the first two: a
-    deterministic completion to a right-handed frame)."""
-    z = np.asarray(axis, dtype=np.float64)
-    z = z / np.linalg.norm(z)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = helper - z * float(helper @ z)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    return np.stack([x, y, z], axis=1)
+    deterministic completion to a right-handed frame).  In plain floats: the FCL cross-check
+    and its benchmark place a capsule with it per pose."""
+    x, y, z = (float(v) for v in axis)
+    n = math.sqrt(x * x + y * y + z * z)
+    x, y, z = x / n, y / n, z / n
+    hx, hy, hz = (1.0, 0.0, 0.0) if abs(x) < 0.9 else (0.0, 1.0, 0.0)
+    d = hx * x + hy * y + hz * z
+    ux, uy, uz = hx - d * x, hy - d * y, hz - d * z
+    m = math.sqrt(ux * ux + uy * uy + uz * uz)
+    ux, uy, uz = ux / m, uy / m, uz / m
+    vx, vy, vz = y * uz - z * uy, z * ux - x * uz, x * uy - y * ux
+    return np.array([[ux, vx, x], [uy, vy, y], [uz, vz, z]])
 
 
 def dh_rows(robot: RobotModel = PAROL6) -> NDArray[np.float64]:
