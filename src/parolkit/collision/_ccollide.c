@@ -466,6 +466,27 @@ cc_check(PyObject *self, PyObject *args)
 
 /* ---- distances ---- */
 
+/* The packed scene and an (N, 6) float64 array of joint vectors ``qso``: both buffers held
+   (the caller releases them) and *n set; 0 with an exception set and nothing held. */
+static int
+scene_and_qs(PyObject *packed, PyObject *qso, Py_buffer *view, Scene *sc, Py_buffer *vq, Py_ssize_t *n)
+{
+    if (!scene_from(packed, view, sc))
+        return 0;
+    if (!get_f64(qso, vq, 0, -1, "qs")) {
+        PyBuffer_Release(view);
+        return 0;
+    }
+    *n = vq->len / 48;
+    if (vq->len != *n * 48) {
+        PyErr_SetString(PyExc_TypeError, "qs must be an (N, 6) float64 array");
+        PyBuffer_Release(vq);
+        PyBuffer_Release(view);
+        return 0;
+    }
+    return 1;
+}
+
 static PyObject *
 cc_distances(PyObject *self, PyObject *args)
 {
@@ -474,17 +495,9 @@ cc_distances(PyObject *self, PyObject *args)
         return NULL;
     Py_buffer view, vq, vd, va, vb;
     Scene sc;
-    if (!scene_from(packed, &view, &sc))
+    Py_ssize_t n;
+    if (!scene_and_qs(packed, qso, &view, &sc, &vq, &n))
         return NULL;
-    if (!get_f64(qso, &vq, 0, -1, "qs")) {
-        PyBuffer_Release(&view);
-        return NULL;
-    }
-    Py_ssize_t n = vq.len / 48;
-    if (vq.len != n * 48) {
-        PyErr_SetString(PyExc_TypeError, "qs must be an (N, 6) float64 array");
-        goto fail_q;
-    }
     if (!get_f64(do_, &vd, 1, n * sc.p, "d"))
         goto fail_q;
     if (!get_f64(pao, &va, 1, n * sc.p * 3, "pa"))
@@ -535,19 +548,9 @@ cc_path(PyObject *self, PyObject *args)
         return NULL;
     Py_buffer view, vq;
     Scene sc;
-    if (!scene_from(packed, &view, &sc))
+    Py_ssize_t n;
+    if (!scene_and_qs(packed, qso, &view, &sc, &vq, &n))
         return NULL;
-    if (!get_f64(qso, &vq, 0, -1, "qs")) {
-        PyBuffer_Release(&view);
-        return NULL;
-    }
-    Py_ssize_t n = vq.len / 48;
-    if (vq.len != n * 48) {
-        PyErr_SetString(PyExc_TypeError, "qs must be an (N, 6) float64 array");
-        PyBuffer_Release(&vq);
-        PyBuffer_Release(&view);
-        return NULL;
-    }
     const double *qs = (const double *)vq.buf;
     Py_ssize_t np_ = sc.p;
     double A[MAX_BODIES][3], B[MAX_BODIES][3], pa[3], pb[3];
