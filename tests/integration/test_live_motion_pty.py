@@ -803,9 +803,13 @@ def _controller_late(taken: list, sent: list, seq0: int) -> set[int]:
         if i and k < sent_sorted[i - 1]:
             behind.append(r)
     late: set[int] = set()
-    for run in np.split(np.array(sorted(set(behind)), dtype=int),
-                        np.nonzero(np.diff(sorted(set(behind))) != 1)[0] + 1) if behind else ():
-        start, end = int(run[0]), int(run[-1])
+    runs: list[list[int]] = []  # the stretches of consecutive late ticks
+    for r in sorted(set(behind)):
+        if runs and r == runs[-1][1] + 1:
+            runs[-1][1] = r
+        else:
+            runs.append([r, r])
+    for start, end in runs:
         late.update(range(start, end + (end - start + 1) + 11))
     return late
 
