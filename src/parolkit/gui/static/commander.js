@@ -264,8 +264,8 @@
     if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) rememberText();
   }, true);
 
-  // ---- completion in the program editor: the commands of RBTscript's table with their
-  // arguments at the start of a line, keyword arguments and words inside a call (items from
+  // ---- completion in the program editor: the commands of RBTscript's table with valid
+  // arguments (never a placeholder left as an error) at the start of a line, keyword arguments and words inside a call (items from
   // the #pk-completions data island, parolkit.gui.completion).  Up/Down choose, Enter or Tab
   // insert, Esc closes the list (it is an overlay: Esc is not E-STOP then).
   const compIsland = document.getElementById("pk-completions");
@@ -291,13 +291,23 @@
     if (popup !== null) popup.el.remove();
     popup = null;
   };
+  // a move to a target is inserted with the robot's current joints or TCP pose (the Program
+  // tab's live values, data-joints / data-pose), as the Insert menu does; the item's own
+  // insert (the standby pose) when the page has none
+  const itemText = (item) => {
+    if (!item.live || !item.pattern) return item.insert;
+    const el = document.querySelector("[data-testid=pk-live-values]");
+    const values = el === null ? null : el.getAttribute(`data-${item.live}`);
+    return values ? item.pattern.replace(`{${item.live}}`, values) : item.insert;
+  };
   const acceptItem = (i) => {
     const p = popup;
     const item = p.items[i];
+    const text = itemText(item);
     rememberText();
     p.view.dispatch({
-      changes: { from: p.from, to: p.to, insert: item.insert },
-      selection: { anchor: p.from + item.insert.length },
+      changes: { from: p.from, to: p.to, insert: text },
+      selection: { anchor: p.from + text.length },
     });
     rememberText();
     closePopup();
