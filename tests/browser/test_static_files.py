@@ -43,7 +43,8 @@ def test_css_and_js_are_served_as_static_files_and_applied(page):
     hrefs = page.evaluate("""() => [...document.querySelectorAll('link[rel=stylesheet], script[src]')]
         .map(e => e.getAttribute('href') || e.getAttribute('src'))""")
     ours = [h for h in hrefs if h.startswith(STATIC_URL + "/")]
-    assert {re.sub(r"\?.*", "", h).rsplit("/", 1)[1] for h in ours} == {"commander.css", "commander.js"}, hrefs
+    assert {re.sub(r"\?.*", "", h).rsplit("/", 1)[1] for h in ours} == {"commander.css", "commander.js",
+                                                                       "gamepad.js"}, hrefs
     inline = page.evaluate("() => [...document.querySelectorAll('style')].map(s => s.textContent).join('\\n')")
     assert ".pk-card" not in inline, "the commander's CSS is still inline"
     base = page.url.rstrip("/")

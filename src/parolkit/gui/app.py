@@ -65,6 +65,7 @@ class CommanderPage:
         items = json.dumps(completion_table()).replace("<", "\\u003c")
         ui.add_body_html(f'<script type="application/json" id="pk-completions">{items}</script>')
         ui.add_body_html(f'<script src="{static_url("commander.js")}"></script>')
+        ui.add_body_html(f'<script src="{static_url("gamepad.js")}"></script>')  # the gamepad (gui/gamepad.py)
         ui.dark_mode(True)
         # brand colours dark enough for white text at >= 4.5:1 (Quasar's own are 2.9..4.4:1)
         ui.colors(primary="#1d4ed8", positive="#15803d", warning="#a16207", negative="#b91c1c", info="#0369a1")

@@ -20,6 +20,7 @@ from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError
 from parolkit.gui.collision import CollisionWatch
 from parolkit.gui.eventlog import EventLog, Level
+from parolkit.gui.gamepad import GamepadDrive
 from parolkit.gui.jog import JOG_REPEAT_S
 from parolkit.gui.lease_watch import ControlWatch, local_host_for
 from parolkit.gui.link import ControllerLink
@@ -88,6 +89,8 @@ class Commander:
         link.add_listener(self.program.follow)
         #: the controller's collision world (GET_ZONES) and the live arm's bodies within a margin
         self.collision = CollisionWatch(link)
+        #: the gamepad's servo stream (one page drives at a time; gui/gamepad.py)
+        self.gamepad = GamepadDrive(link, self.log, self.control.ensure)
         #: connected pages (browser tabs); when the last one goes the lease is given back
         self.pages = 0
 
@@ -96,6 +99,7 @@ class Commander:
     def jog_press(self, make_command: Callable[[], str], period_s: float | None = None) -> None:
         """Start streaming a jog (``make_command`` builds each datagram, sent every
         ``period_s``, default :attr:`jog_repeat_s`) until :meth:`jog_release`."""
+        self.gamepad.halt("a jog button took over")
         self.jog_release(send_stop=False)
         self._hold = asyncio.ensure_future(self._hold_loop(make_command, period_s or self.jog_repeat_s))
 
@@ -134,7 +138,7 @@ class Commander:
         """Something moves or is about to: a held jog, a program starting, running or paused, or the
         controller busy (a command running or queued, state MOVING or HOMING; the same test
         as the client's wait for idle).  Space is STOP in a text field then (commander.js)."""
-        if self.jogging or self.program.active or self.program.starting:
+        if self.jogging or self.gamepad.streaming or self.program.active or self.program.starting:
             return True
         st = self.link.status
         if st is None or not self.link.link_up:
@@ -146,6 +150,7 @@ class Commander:
     def stop(self) -> None:
         """The header's Stop and Space: end the program run as "stopped", end a held jog and
         send STOP (cancels the move in progress and the queue)."""
+        self.gamepad.halt("Stop pressed", send_stop=False)
         self.jog_release(send_stop=False)
         self.program.stop()
         self.command("STOP", "Stop")
@@ -221,6 +226,7 @@ class Commander:
         self.log.add("controller restarted", Level.SUCCESS)
 
     def estop(self) -> None:
+        self.gamepad.halt("E-STOP pressed", send_stop=False)
         self.jog_release(send_stop=False)
         self.program.stop(reason="E-STOP")
         try:

@@ -20,6 +20,7 @@ from nicegui import ui
 from parolkit.client.core import RobotStatus
 from parolkit.errors import ParolkitError, ParolkitValueError
 from parolkit.gui.commander import Commander
+from parolkit.gui.components.gamepad_indicator import GamepadIndicator
 from parolkit.gui.eventlog import Level
 from parolkit.gui.jog import (
     JOG_DURATION_S,
@@ -108,6 +109,8 @@ class JogPanel:
                             self.cart_buttons[axis] = b
         ui.label("Hold a button (or its key, see ?) to jog; release stops. Step mode moves one increment per click.") \
             .classes("text-xs pk-muted")
+        # the gamepad's indicator; its jog speed is this panel's slider
+        self.gamepad = GamepadIndicator(self.c, lambda: float(self.speed))
 
     def _hold_button(self, button: ui.button, press: Callable[[], None]) -> None:
         def down(e: Any) -> None:
