@@ -319,6 +319,12 @@ class Ros2Settings:
     joint_states_every_n: int = 1
     #: publish parolkit/status every n-th published joint state
     status_every_n: int = 10
+    #: a trajectory's first point at time_from_start 0 (the start, as MoveIt sends it) may be this
+    #: far from the current position on every joint, rad (MoveIt's own start tolerance: 0.01)
+    start_tolerance_rad: float = 0.01
+    #: joint angles on the ROS side: "parolkit" (parolkit's own) or "community" (the community
+    #: PAROL6 URDF's zeros and signs, parolkit.ros2.convention)
+    joint_convention: str = "parolkit"
 
     def __post_init__(self) -> None:
         _int_range(self.domain, "ros2.domain", 0, 232)
@@ -328,6 +334,12 @@ class Ros2Settings:
                 f"each part starting with a letter), got {self.namespace!r}")
         _int_range(self.joint_states_every_n, "ros2.joint_states_every_n", 1, 1000)
         _int_range(self.status_every_n, "ros2.status_every_n", 1, 100000)
+        _positive(self.start_tolerance_rad, "ros2.start_tolerance_rad", hi=0.1)
+        from parolkit.ros2.convention import CONVENTIONS
+
+        if self.joint_convention not in CONVENTIONS:
+            raise ParolkitValueError(f"ros2.joint_convention must be one of {sorted(CONVENTIONS)}, "
+                                     f"got {self.joint_convention!r}")
 
 
 @dataclass(frozen=True)

@@ -111,7 +111,12 @@ def test_urdf_joint_names_limits_and_velocities_come_from_the_robot_model(chain:
     revolute = [j for j in chain.root.findall("joint") if j.get("type") == "revolute"]
     assert [j.get("name") for j in revolute] == ["L1", "L2", "L3", "L4", "L5", "L6"]
     lim = np.radians(PAROL6.safe_limits_deg)
-    vel = np.radians(PAROL6.max_speed_deg_s)
+    # velocity: what the controller's planner accepts for every sample of a joint path at 100 Hz
+    # (the position-tracking maximum, 75-76 % of the maximum speed), not the maximum speed itself
+    from parolkit.motion.validate import speed_limits
+
+    vel = speed_limits(PAROL6, 100.0, position_tracked=True).array / PAROL6.steps_per_rad
+    assert np.all(vel < 0.77 * np.radians(PAROL6.max_speed_deg_s))
     for i, j in enumerate(revolute):
         limit = j.find("limit")
         assert limit is not None
@@ -121,6 +126,23 @@ def test_urdf_joint_names_limits_and_velocities_come_from_the_robot_model(chain:
     # every link that is not a frame marker has geometry to draw
     drawn = {link.get("name") for link in chain.root.findall("link") if link.find("visual") is not None}
     assert {"base_link", "L1", "L2", "L3", "L4"} <= drawn
+
+
+def test_urdf_velocity_limits_are_for_the_control_rate_of_the_config_or_the_argument(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from parolkit.config import load_config
+    from parolkit.motion.validate import speed_limits
+
+    def velocities(text: str) -> np.ndarray:
+        return np.array([float(j.find("limit").get("velocity")) for j in ET.fromstring(text).findall("joint")  # type: ignore[union-attr,arg-type]
+                         if j.get("type") == "revolute"])
+
+    cfg_file = tmp_path / "parolkit.toml"
+    cfg_file.write_text("[controller]\nrate_hz = 250\n")
+    cfg = load_config(cfg_file)
+    at_250 = speed_limits(PAROL6, 250.0, position_tracked=True).array / PAROL6.steps_per_rad
+    np.testing.assert_array_equal(velocities(make_urdf(cfg.robot, config=cfg)), at_250)
+    np.testing.assert_array_equal(velocities(make_urdf(rate_hz=250.0)), at_250)
+    assert not np.allclose(velocities(make_urdf()), at_250)  # 100 Hz: another position-tracking maximum
 
 
 def test_rot_to_rpy_round_trips_including_gimbal_lock() -> None:

@@ -23,6 +23,11 @@ command is refused (busy).
 
 QoS as ROS 2's defaults: reliable, keep last 10, volatile; the description transient local,
 keep last 1 (as robot_state_publisher).  ROS_DOMAIN_ID = ``[ros2] domain``.
+
+Joint values on the ROS side are in ``[ros2] joint_convention`` (:mod:`parolkit.ros2.convention`):
+parolkit's own angles, or the community PAROL6 URDF's zeros and signs; /joint_states,
+/robot_description and the trajectories taken all use it.  A trajectory's start point may be
+``[ros2] start_tolerance_rad`` from the current position.
 """
 
 from __future__ import annotations
@@ -49,6 +54,7 @@ from parolkit.client.robot import CommandHandle, Robot
 from parolkit.config import Config
 from parolkit.kinematics.pose import pose_to_matrix
 from parolkit.ros2 import msgs
+from parolkit.ros2.convention import get_convention
 from parolkit.ros2.trajectory import TrajectoryPoint, TrajectoryRefused, plan_joint_trajectory
 from parolkit.ros2.urdf import BASE_LINK, ROS_JOINT_NAMES, make_urdf
 
@@ -121,6 +127,10 @@ class Ros2Bridge:
             self.dp, Topic(self.dp, msgs.topic_name(self.namespace, "joint_trajectory"), msgs.JointTrajectory), qos)
         self.tcp_frame = f"{self.namespace}/parolkit_tcp" if self.namespace else "parolkit_tcp"
         self._names = list(ROS_JOINT_NAMES)
+        #: joint values on the ROS side ([ros2] joint_convention): q_ros = sign * q + offset
+        self.convention = get_convention(r.joint_convention)
+        self._signs = [float(v) for v in self.convention.signs]
+        self._offsets_rad = [math.radians(v) for v in self.convention.offsets_deg]
         self._latest: RobotStatus | None = None
         self._latest_lock = threading.Lock()
         self._latest_at = time.monotonic()
@@ -139,7 +149,8 @@ class Ros2Bridge:
         """Publish the description, subscribe to the status and start reading trajectories."""
         with self._latest_lock:
             self._latest_at = time.monotonic()
-        self.description.write(msgs.String(data=make_urdf(self.cfg.robot, config=self.cfg)))
+        rate = self.robot.status().loop.rate_hz or self.cfg.controller.rate_hz  # the URDF's velocity limits' rate
+        self.description.write(msgs.String(data=make_urdf(self.cfg.robot, config=self.cfg, rate_hz=rate)))
         self._sub = self.robot.subscribe(self.cfg.ros2.joint_states_every_n, callback=self.on_status)
         self._thread = threading.Thread(target=self._trajectory_loop, daemon=True, name="parolkit-ros2-trajectories")
         self._thread.start()
@@ -159,10 +170,11 @@ class Ros2Bridge:
         header = msgs.MsgHeader(stamp=stamp, frame_id="")
         a = st.angles
         v = st.speeds_deg_s
+        sg, off = self._signs, self._offsets_rad
         self.joint_states.write(msgs.JointState(
             header=header, name=self._names,
-            position=[a[0] * _DEG, a[1] * _DEG, a[2] * _DEG, a[3] * _DEG, a[4] * _DEG, a[5] * _DEG],
-            velocity=[v[0] * _DEG, v[1] * _DEG, v[2] * _DEG, v[3] * _DEG, v[4] * _DEG, v[5] * _DEG],
+            position=[sg[j] * a[j] * _DEG + off[j] for j in range(6)],
+            velocity=[sg[j] * v[j] * _DEG for j in range(6)],
             effort=[]))
         self.published += 1
         with self._latest_lock:
@@ -237,7 +249,9 @@ class Ros2Bridge:
                   for p in traj.points]
         rate = st.loop.rate_hz or self.cfg.controller.rate_hz
         try:
-            path = plan_joint_trajectory(list(traj.joint_names), points, st.angles, self.cfg.robot, rate)
+            path = plan_joint_trajectory(list(traj.joint_names), points, st.angles, self.cfg.robot, rate,
+                                         start_tolerance_rad=self.cfg.ros2.start_tolerance_rad,
+                                         convention=self.convention)
         except TrajectoryRefused as exc:
             self.event(f"refused: {exc}", logging.WARNING)
             return False
@@ -249,7 +263,8 @@ class Ros2Bridge:
             return False
         self._active = handle
         shape = "the message's velocities" if move.velocities_deg_s is not None else "spline velocities"
-        self.event(f"accepted: {path.points} points, {path.ticks} ticks ({path.ticks / rate:.3f} s), {shape}")
+        notes = "".join(f"; {n}" for n in path.notes)
+        self.event(f"accepted: {path.points} points, {path.ticks} ticks ({path.ticks / rate:.3f} s), {shape}{notes}")
         threading.Thread(target=self._watch, args=(handle, path.points), daemon=True,
                          name="parolkit-ros2-watch").start()
         return True

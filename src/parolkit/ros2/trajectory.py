@@ -15,6 +15,25 @@ Timing: point ``k`` is commanded on tick ``round(time_from_start_k * rate)`` aft
 at its start and its end.  The points' velocities are followed when every point has them
 (they shape the cubic between the points); otherwise the controller uses a C2 spline.
 Accelerations of the message are not used.
+
+What MoveIt sends is taken as it is:
+
+* a first point at ``time_from_start`` 0 is the start: it must be within
+  ``start_tolerance_rad`` (config ``[ros2] start_tolerance_rad``, default 0.01 rad as MoveIt's)
+  of the current position on every joint, and is not a point of the path;
+* a LAST point on the same control tick as the point before it (MoveIt's time
+  parameterisation ends a trajectory wherever it ends, often a few ms after its last resampled
+  point) is merged with that point: the point before it is dropped and the last point kept on
+  its own tick, when the two are no further apart than one tick of motion at the URDF's
+  velocity limit (what any trajectory within the limits can move in less than a tick);
+  otherwise the trajectory is refused;
+* the path must run on time: one the planner would stretch (a speed over the URDF's velocity
+  limit, :func:`parolkit.ros2.urdf.trajectory_velocity_limits_rad_s`, but within the joint's
+  maximum) is refused with the factor to slow it down by, as one over the maximum is.
+
+Joint values are in a :class:`~parolkit.ros2.convention.JointConvention` (``convention``):
+converted to parolkit's before anything else, so every check and message below is in
+parolkit's joint angles.
 """
 
 from __future__ import annotations
@@ -29,18 +48,16 @@ import numpy as np
 from parolkit.errors import ParolkitError
 from parolkit.moves import MAX_PATH_POINTS, JointPathMove
 from parolkit.robot import NUM_JOINTS, RobotModel
-from parolkit.ros2.urdf import ROS_JOINT_NAMES
+from parolkit.ros2.convention import PAROLKIT, JointConvention
+from parolkit.ros2.urdf import ROS_JOINT_NAMES, trajectory_velocity_limits_rad_s
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     _Row = tuple[NDArray[np.float64], float, NDArray[np.float64] | None]
 
-__all__ = ["TrajectoryRefused", "TrajectoryPoint", "TrajectoryPath", "plan_joint_trajectory", "START_TOLERANCE_RAD"]
+__all__ = ["TrajectoryRefused", "TrajectoryPoint", "TrajectoryPath", "plan_joint_trajectory"]
 
-#: A first point at time_from_start 0 must be this close to the current position (rad); it is
-#: then only the start and not a point of the path (0.001 rad = 0.057 deg, a few microsteps).
-START_TOLERANCE_RAD = 1e-3
 #: At most this many points: the points of one MOVEJOINTPATH, plus a start point at time 0.
 MAX_POINTS = MAX_PATH_POINTS + 1
 
@@ -61,13 +78,22 @@ class TrajectoryPoint:
 
 @dataclass(frozen=True)
 class TrajectoryPath:
-    """The MoveJointPath of a trajectory: ``move`` (deg, s), the tick of its last point, and
-    the message's index of the path's first point (1 when the message's point 0 at
-    time_from_start 0 was only the start)."""
+    """The MoveJointPath of a trajectory: ``move`` (deg, s), the tick of its last point, the
+    message's index of the path's first point (1 when the message's point 0 at
+    time_from_start 0 was only the start), and the message's index of a point merged into the
+    last one (None: none was)."""
 
     move: JointPathMove
     ticks: int
     first_index: int
+    merged: int | None = None
+
+    @property
+    def notes(self) -> tuple[str, ...]:
+        """What was done to the message's points, in words (for the ``accepted`` event)."""
+        if self.merged is None:
+            return ()
+        return (f"point {self.merged} merged into the last point (on the same control tick)",)
 
     @property
     def points(self) -> int:
@@ -94,13 +120,19 @@ def _order(joint_names: Sequence[str]) -> list[int]:
 
 def plan_joint_trajectory(
     joint_names: Sequence[str], points: Sequence[TrajectoryPoint], start_deg: Sequence[float],
-    model: RobotModel, rate_hz: float,
+    model: RobotModel, rate_hz: float, *, start_tolerance_rad: float | None = None,
+    convention: JointConvention = PAROLKIT,
 ) -> TrajectoryPath:
-    """The MoveJointPath of a trajectory starting at ``start_deg`` (deg), planned with the
-    controller's planner at ``rate_hz``; raises :class:`TrajectoryRefused` with the reason."""
+    """The MoveJointPath of a trajectory starting at ``start_deg`` (deg, parolkit's), planned
+    with the controller's planner at ``rate_hz``; raises :class:`TrajectoryRefused` with the
+    reason.  ``start_tolerance_rad``: how far a first point at time_from_start 0 may be from
+    ``start_deg`` (None: the config's default, ``Ros2Settings().start_tolerance_rad``);
+    ``convention``: the joint convention of the message's values (module docstring)."""
+    from parolkit.config import Ros2Settings
     from parolkit.motion import plan
     from parolkit.motion.errors import PlanningError
 
+    tolerance = Ros2Settings().start_tolerance_rad if start_tolerance_rad is None else start_tolerance_rad
     if not points:
         raise TrajectoryRefused("the trajectory has no points")
     if len(points) > MAX_POINTS:
@@ -109,24 +141,34 @@ def plan_joint_trajectory(
     start_rad = np.radians(np.array(start_deg, dtype=float))
     first = 0
     prev_tick = 0
+    merged: int | None = None
     rows: list[_Row] = []  # (deg, s, deg/s or None) per point of the path
+    index: list[int] = []  # the message's index of each point of the path
     for k, p in enumerate(points):
-        rad, vel = _point(k, p, order)
+        rad, vel = _point(k, p, order, convention)
         if k == 0 and p.time_s == 0.0:
             off = np.abs(start_rad - rad)
-            if float(off.max()) > START_TOLERANCE_RAD:
+            if float(off.max()) > tolerance:
                 j = int(off.argmax())
                 raise TrajectoryRefused(
                     f"point 0 is at time_from_start 0 but {ROS_JOINT_NAMES[j]} is {off[j]:.4f} rad away from the "
-                    f"current position (tolerance {START_TOLERANCE_RAD} rad); give the first point a time > 0")
+                    f"current position (tolerance {tolerance:g} rad, [ros2] start_tolerance_rad); give the first "
+                    f"point a time > 0")
             first = 1
             continue
         tick = round(p.time_s * rate_hz)
+        row = (np.degrees(rad), p.time_s, None if vel is None else np.degrees(vel))
         if tick <= prev_tick:
-            raise TrajectoryRefused(
-                f"point {k}: time_from_start {p.time_s:.4f} s is not at least one control tick "
-                f"({1 / rate_hz:.4f} s) after the previous point")
-        rows.append((np.degrees(rad), p.time_s, None if vel is None else np.degrees(vel)))
+            if k != len(points) - 1 or not rows:
+                raise TrajectoryRefused(
+                    f"point {k}: time_from_start {p.time_s:.4f} s is not at least one control tick "
+                    f"({1 / rate_hz:.4f} s) after the previous point")
+            _check_merge(k, rows[-1][0], row[0], model, rate_hz)
+            rows[-1], index[-1] = row, k  # the last point, on the tick of the point before it
+            merged = k - 1
+            continue
+        rows.append(row)
+        index.append(k)
         prev_tick = tick
     if not rows:
         raise TrajectoryRefused("the trajectory has no point after time_from_start 0: nothing to do")
@@ -137,21 +179,52 @@ def plan_joint_trajectory(
     try:
         move = JointPathMove(tuple(tuple(float(v) for v in r[0]) for r in rows), tuple(r[1] for r in rows),
                              velocities)
-        plan(move, start_deg, model=model, rate_hz=rate_hz)
+        traj = plan(move, start_deg, model=model, rate_hz=rate_hz)
     except PlanningError as exc:
         if exc.point is None:
             raise TrajectoryRefused(str(exc)) from None
-        k = exc.point + first
-        renumbered = " (the planner counts the path's points from the message's point 1 as 0)" if first else ""
+        k = index[exc.point]
+        renumbered = (f" (the planner counts the path's points from the message's point {index[0]} as 0"
+                      + (f", without the message's point {merged}, merged into the last" if merged is not None else "")
+                      + ")") if k != exc.point else ""
         raise TrajectoryRefused(f"point {k} (t = {points[k].time_s:.3f} s): {exc}{renumbered}") from None
     except ParolkitError as exc:
         raise TrajectoryRefused(str(exc)) from None
-    return TrajectoryPath(move, prev_tick, first)
+    if len(traj.t) != prev_tick:
+        raise TrajectoryRefused(_late(traj.notes, len(points) - 1, points[-1].time_s, len(traj.t) / rate_hz))
+    return TrajectoryPath(move, prev_tick, first, merged)
 
 
-def _point(k: int, p: TrajectoryPoint, order: list[int]) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+def _check_merge(k: int, before_deg: NDArray[np.float64], last_deg: NDArray[np.float64], model: RobotModel,
+                 rate_hz: float) -> None:
+    """The last point ``k`` (deg) may replace the point before it (deg), on that point's tick,
+    when no joint is further from it than one tick of motion at the URDF's velocity limit."""
+    reach = np.degrees(trajectory_velocity_limits_rad_s(model, rate_hz)) / rate_hz
+    gap = np.abs(last_deg - before_deg)
+    over = np.nonzero(gap > reach * (1.0 + 1e-9))[0]
+    if len(over):
+        j = int(over[0])
+        raise TrajectoryRefused(
+            f"point {k}: on the same control tick as point {k - 1} (a tick is {1 / rate_hz:.4f} s) but "
+            f"{ROS_JOINT_NAMES[j]} is {math.radians(gap[j]):.4g} rad away from it, more than one tick of motion at "
+            f"its velocity limit ({math.radians(reach[j]):.4g} rad): give the last point a later time_from_start")
+
+
+def _late(notes: Sequence[str], k: int, asked_s: float, runs_s: float) -> str:
+    """The refusal of a path the planner would stretch (its speeds over the URDF's velocity
+    limits): the planner's warning names the joint, the speed and the limit."""
+    from parolkit.motion.validate import WARNING_PREFIX
+
+    why = next((n.removeprefix(WARNING_PREFIX) for n in notes if n.startswith(WARNING_PREFIX)), "")
+    return (f"point {k} (t = {asked_s:.3f} s): the path cannot run on time (it would end at {runs_s:.3f} s): "
+            f"{why}; multiply the times (and divide the velocities) by at least {runs_s / asked_s:.3f}, or plan "
+            f"within the URDF's velocity limits")
+
+
+def _point(k: int, p: TrajectoryPoint, order: list[int],
+           convention: JointConvention) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     """Point ``k``'s positions (rad) and velocities (rad/s, None when not given) in L1..L6
-    order, or TrajectoryRefused naming what is wrong."""
+    order and parolkit's joint convention, or TrajectoryRefused naming what is wrong."""
     pos = list(p.positions_rad)
     if len(pos) != NUM_JOINTS:
         raise TrajectoryRefused(f"point {k}: {len(pos)} positions for {NUM_JOINTS} joints")
@@ -162,7 +235,8 @@ def _point(k: int, p: TrajectoryPoint, order: list[int]) -> tuple[NDArray[np.flo
         raise TrajectoryRefused(f"point {k}: {len(vel)} velocities for {NUM_JOINTS} joints (give 6 or none)")
     if not all(math.isfinite(v) for v in vel):
         raise TrajectoryRefused(f"point {k}: velocities must be finite")
-    return np.array([pos[i] for i in order]), (np.array([vel[i] for i in order]) if vel else None)
+    rad = convention.from_ros_rad([pos[i] for i in order])
+    return rad, (convention.rate_from_ros([vel[i] for i in order]) if vel else None)
 
 
 def _velocities(

@@ -13,9 +13,18 @@ flange with the tool applied (:data:`parolkit.kinematics.TOOLS` ``['default']`` 
 tool is given).
 
 Limits: ``lower``/``upper`` are :attr:`RobotModel.safe_limits_deg` in radians (the range the
-planner and the wire guard both accept), ``velocity`` is :attr:`RobotModel.max_speed_deg_s`
-in rad/s.  ``effort`` is not known for the PAROL6 steppers; the URDF format requires it, and
-it is written as 0 with a comment saying so.
+planner and the wire guard both accept), ``velocity`` is what the controller accepts for a
+trajectory (:func:`trajectory_velocity_limits_rad_s`: the position-tracking maximum of
+:meth:`RobotModel.max_tracked_speed_steps_s` at the control rate, 76 % of the maximum speed at
+100 Hz), in rad/s, so a plan within the URDF's limits runs on time.  ``effort`` is not known
+for the PAROL6 steppers; the URDF format requires it, and it is written as 0 with a comment
+saying so.
+
+Joint convention (:mod:`parolkit.ros2.convention`): with ``community`` each joint's zero and
+direction are those of the community PAROL6 URDF: joint ``Li``'s origin gets the fixed turn
+``Rz(-sign * offset)`` appended and its axis is ``0 0 sign``, so the links (and every shape on
+them) are where they are in parolkit's convention and only the joint values differ
+(``q_comm = sign * q + offset``); the limits are mapped the same way.
 
 Visual geometry is simple (cylinders along each link's DH offsets) and has no mass data: the
 model is for display (RViz) and planning (MoveIt), not for dynamics simulation.
@@ -39,12 +48,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from parolkit.collision.model import Body, CollisionModel, tool_body
-from parolkit.config import Config, ToolSettings
+from parolkit.config import Config, ControllerSettings, ToolSettings
 from parolkit.kinematics.tools import Tool, get_tool
 from parolkit.robot import NUM_JOINTS, PAROL6, DHRow, RobotModel
+from parolkit.ros2.convention import PAROLKIT, JointConvention, get_convention
 
 __all__ = ["ROS_JOINT_NAMES", "BASE_LINK", "FLANGE_LINK", "TCP_LINK", "make_urdf", "rot_to_rpy",
-           "collision_link", "dh_frame_in_link"]
+           "collision_link", "dh_frame_in_link", "trajectory_velocity_limits_rad_s", "urdf_rate_hz",
+           "urdf_convention", "tool_settings"]
 
 #: Joint names as the community PAROL6 MoveIt configuration spells them.
 ROS_JOINT_NAMES = tuple(f"L{i + 1}" for i in range(NUM_JOINTS))
@@ -53,6 +64,41 @@ FLANGE_LINK = "flange"
 TCP_LINK = "tcp"
 #: Radius of the display cylinders, metres.
 _RADIUS_M = 0.02
+
+
+def trajectory_velocity_limits_rad_s(model: RobotModel, rate_hz: float) -> NDArray[np.float64]:
+    """The joint speeds (rad/s, J1..J6) a trajectory may ask for at control rate ``rate_hz``:
+    the position-tracking maximum the controller's planner checks every sample of a joint path
+    against (:meth:`RobotModel.max_tracked_speed_steps_s`), the URDF's ``velocity`` limits."""
+    out: NDArray[np.float64] = model.max_tracked_speed_steps_s(rate_hz) / model.steps_per_rad
+    return out
+
+
+def urdf_rate_hz(config: Config | None, rate_hz: float | None = None) -> float:
+    """The control rate (Hz) the velocity limits are for: ``rate_hz``, else the config's
+    ``[controller] rate_hz``, else the default controller's."""
+    if rate_hz is not None:
+        return float(rate_hz)
+    return float((config.controller if config is not None else ControllerSettings()).rate_hz)
+
+
+def urdf_convention(config: Config | None, convention: str | JointConvention | None = None) -> JointConvention:
+    """The joint convention: ``convention``, else the config's ``[ros2] joint_convention``,
+    else parolkit's own."""
+    if convention is not None:
+        return get_convention(convention)
+    return get_convention(config.ros2.joint_convention) if config is not None else PAROLKIT
+
+
+def _joint_rpy(alpha: float, turn: float) -> tuple[float, float, float]:
+    """rpy of ``Rx(alpha) Rz(turn)`` (a joint origin's DH twist, then a convention's fixed turn)."""
+    if turn == 0.0:
+        return (alpha, 0.0, 0.0)
+    ca, sa, ct, st = math.cos(alpha), math.sin(alpha), math.cos(turn), math.sin(turn)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]])
+    rz = np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
+    roll, pitch, yaw = (v if abs(v) > 1e-15 else 0.0 for v in rot_to_rpy(rx @ rz))  # sin(pi) dust as 0
+    return (roll, pitch, yaw)
 
 
 def rot_to_rpy(r: NDArray[np.float64]) -> tuple[float, float, float]:
@@ -151,7 +197,7 @@ def _body_collisions(model: RobotModel, body: Body) -> list[str]:
     ]
 
 
-def _tool_settings(tool: str | Tool | None, config: Config | None) -> ToolSettings | None:
+def tool_settings(tool: str | Tool | None, config: Config | None) -> ToolSettings | None:
     """The config entry of ``tool`` (by name), whose shape is the tool's body; None if none."""
     name = tool if isinstance(tool, str) else (tool.name if isinstance(tool, Tool) else None)
     if name is None or config is None:
@@ -174,40 +220,47 @@ def _cylinder(length: float, along: str, z_offset: float = 0.0) -> str | None:
 
 
 def make_urdf(model: RobotModel = PAROL6, tool: str | Tool | None = None, name: str = "parol6",
-              config: Config | None = None, collision_model: CollisionModel | None = None) -> str:
+              config: Config | None = None, collision_model: CollisionModel | None = None, *,
+              rate_hz: float | None = None, convention: str | JointConvention | None = None) -> str:
     """The URDF document (XML text) of ``model`` with ``tool`` at link ``tcp`` (a name is
     looked up in ``config.tools``, then the built-in tools), and the collision shapes of
     ``collision_model`` (default: the stock envelope on ``model``) plus the tool's body when
-    its config entry has a ``shape`` (module docstring)."""
+    its config entry has a ``shape`` (module docstring).  ``rate_hz``: the control rate the
+    velocity limits are for (:func:`urdf_rate_hz`); ``convention``: the joint convention
+    (:func:`urdf_convention`)."""
     dh = model.dh
     cm = collision_model if collision_model is not None else CollisionModel(model)
-    settings = _tool_settings(tool, config)
+    settings = tool_settings(tool, config)
     tb = tool_body(settings)
     collisions: dict[str, list[str]] = {}
     for body in (*cm.bodies, *((tb,) if tb is not None else ())):
         collisions.setdefault(collision_link(body.frame), []).extend(_body_collisions(model, body))
-    limits_rad = np.radians(model.safe_limits_deg)
-    vel_rad_s = np.radians(model.max_speed_deg_s)
+    conv = urdf_convention(config, convention)
+    limits_rad = np.radians(conv.limits_deg(model.safe_limits_deg))
+    vel_rad_s = trajectory_velocity_limits_rad_s(model, urdf_rate_hz(config, rate_hz))
     out = [
         '<?xml version="1.0"?>',
         "<!-- Generated by `parolkit urdf` from parolkit.robot (DH table, limits, speeds). Do not edit. -->",
+        *((f"<!-- Joint convention: {conv.name} (parolkit.ros2.convention) -->",) if not conv.is_identity else ()),
         f"<robot name={quoteattr(name)}>",
         '  <material name="parol_grey"><color rgba="0.75 0.75 0.78 1"/></material>',
         _link(BASE_LINK, [v for v in (_cylinder(dh[0].d, "z"),) if v], collisions.get(BASE_LINK)),
     ]
     parent = BASE_LINK
     for i, jname in enumerate(ROS_JOINT_NAMES):
+        sign = conv.signs[i]
+        turn = -sign * math.radians(conv.offsets_deg[i])  # q = sign * q_ros + turn
         if i == 0:
-            xyz, rpy = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+            xyz, rpy = (0.0, 0.0, 0.0), _joint_rpy(0.0, turn)
         else:
             prev = dh[i - 1]
-            xyz, rpy = (prev.a, 0.0, prev.d), (prev.alpha, 0.0, 0.0)
+            xyz, rpy = (prev.a, 0.0, prev.d), _joint_rpy(prev.alpha, turn)
         lo, hi = (float(v) for v in limits_rad[i])
         out.append(
             f'  <joint name={quoteattr(jname)} type="revolute">\n'
             f"    <parent link={quoteattr(parent)}/>\n    <child link={quoteattr(jname)}/>\n"
             f"    {_origin(xyz, rpy)}\n"
-            '    <axis xyz="0 0 1"/>\n'
+            f'    <axis xyz="0 0 {1 if sign > 0 else -1}"/>\n'
             "    <!-- effort: not known for the PAROL6 steppers (URDF requires the attribute) -->\n"
             f'    <limit lower="{_num(lo)}" upper="{_num(hi)}" velocity="{_num(float(vel_rad_s[i]))}" effort="0"/>\n'
             "  </joint>")
