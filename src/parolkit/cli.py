@@ -39,6 +39,8 @@ SUBCOMMANDS.update({
     "urdf": ("parolkit.ros2.cli", "write the PAROL6 URDF generated from the robot model"),
     "ros2": ("parolkit.ros2.cli", "bridge a controller to ROS 2: joint states out, trajectories in"),
 })
+# MoveIt (issue 27): a MoveIt 2 configuration generated from the robot and collision models
+SUBCOMMANDS["moveit-config"] = ("parolkit.ros2.moveit_config", "write a MoveIt 2 configuration for the PAROL6")
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
