@@ -50,12 +50,13 @@ browser-deps:
 ## make test: set everything up, lint and type-check, and run every test (unit, integration, browser).
 ## The set-up jobs run side by side (the dev virtualenv then lint; the ROS 2 virtualenv; Chromium
 ## and axe-core). Then TEST_WORKERS processes in parallel (pytest-xdist, each test module in one
-## process), then the tests marked alone on their own (only the 20,000 datagrams/s flood of
-## test_flood_estop, which takes the whole machine)
+## process, the longest modules first: tests/module_seconds.json, written by scripts/test-durations),
+## then the tests marked alone on their own (only the 20,000 datagrams/s flood of test_flood_estop,
+## which takes the whole machine)
 TEST_WORKERS ?= 2
 test:
 	$(MAKE) -j3 --no-print-directory lint ros-venv browser-deps
-	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not soak and not alone"
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder -m "not soak and not alone"
 	$(PY) -m pytest -q -m alone
 
 ## make lint: ruff (style, imports, bugs) and mypy --strict (types, the whole package);

@@ -265,3 +265,42 @@ def controller_factory(tmp_path):
 def controller(controller_factory) -> ControllerProcess:
     """A controller on a pre-homed simulated board, on free ports."""
     return controller_factory()
+
+
+# --- the order of the test modules: the longest first. make test runs the modules in parallel
+# processes, each module whole in one (--dist loadfile --no-loadscope-reorder: xdist hands them
+# out in collection order); a module started last that takes a minute leaves the other process
+# idle for that minute. tests/module_seconds.json holds each module's measured time (written by
+# scripts/test-durations from a timeline below); a module not in it counts as its folder's
+# typical time until the file is next written
+MODULE_SECONDS = Path(__file__).with_name("module_seconds.json")
+_FOLDER_SECONDS = {"browser": 30.0, "integration": 15.0, "unit": 2.0}
+
+
+def _module_seconds(nodeid: str, measured: dict[str, float]) -> float:
+    module = nodeid.split("::", 1)[0]
+    if module in measured:
+        return measured[module]
+    parts = module.split("/")
+    return _FOLDER_SECONDS.get(parts[1] if len(parts) > 2 else "", 2.0)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    measured = json.loads(MODULE_SECONDS.read_text()) if MODULE_SECONDS.exists() else {}
+    items.sort(key=lambda item: -_module_seconds(item.nodeid, measured))  # stable: a module's own order kept
+
+
+# --- the run's timeline: PAROLKIT_TEST_TIMELINE=FILE appends one line per test
+# ("worker start_s end_s nodeid", wall-clock seconds, setup to teardown) for
+# scripts/test-durations and to see when a run's processes were idle; off by default
+_TIMELINE = os.environ.get("PAROLKIT_TEST_TIMELINE")
+
+
+if _TIMELINE:
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(item, nextitem):
+        start = time.time()
+        yield
+        worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+        with open(_TIMELINE, "a") as f:
+            f.write(f"{worker} {start:.3f} {time.time():.3f} {item.nodeid}\n")
