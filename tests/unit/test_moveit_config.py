@@ -332,8 +332,14 @@ def test_joint_limits_are_the_urdfs_velocities_and_the_models_accelerations(gene
     vel = np.array([jl["joint_limits"][n]["max_velocity"] for n in ROS_JOINT_NAMES])
     acc = np.array([jl["joint_limits"][n]["max_acceleration"] for n in ROS_JOINT_NAMES])
     for n in ROS_JOINT_NAMES:
+        assert list(jl["joint_limits"][n]) == ["has_position_limits", "min_position", "max_position",
+                                               "has_velocity_limits", "max_velocity",
+                                               "has_acceleration_limits", "max_acceleration"]
+        assert jl["joint_limits"][n]["has_position_limits"] is True
         assert jl["joint_limits"][n]["has_velocity_limits"] is True
         assert jl["joint_limits"][n]["has_acceleration_limits"] is True
+    pos = np.array([[jl["joint_limits"][n][k] for k in ("min_position", "max_position")] for n in ROS_JOINT_NAMES])
+    np.testing.assert_array_equal(pos, generated.limits())  # the URDF's
     # the same numbers: the YAML, the URDF and what the controller accepts for a trajectory
     np.testing.assert_array_equal(vel, generated.velocities())
     np.testing.assert_array_equal(vel, trajectory_velocity_limits_rad_s(PAROL6, 100.0))
@@ -429,6 +435,10 @@ def test_the_community_convention_by_flag_or_config(tmp_path: Path) -> None:
         q = np.array(list(values.values()))
         assert np.all((lim[:, 0] <= q) & (q <= lim[:, 1]))
     assert _srdf_disabled(gen.srdf) == _expected_disabled(gen.urdf)  # the links are the same
+    jl = gen.yaml["joint_limits.yaml"]["joint_limits"]
+    pos = np.array([[jl[n]["min_position"], jl[n]["max_position"]] for n in ROS_JOINT_NAMES])
+    np.testing.assert_array_equal(pos, lim)  # the community convention's limits, the URDF's
+    np.testing.assert_allclose(pos, np.radians(COMMUNITY.limits_deg(PAROL6.safe_limits_deg)), rtol=0, atol=1e-15)
     assert 'joint_convention = "community"' in gen.readme
     assert "/parol6/parol6_arm_controller/follow_joint_trajectory" in gen.readme
     assert 'PushRosNamespace("parol6")' in gen.readme

@@ -13,8 +13,9 @@ Writes into ``DIR`` (created if missing):
   firmware writes when homing ends, in degrees), and a ``<disable_collisions>`` for every pair of
   links whose shapes always touch or never touch in parolkit's collision model
   (:func:`disabled_pairs`);
-* ``joint_limits.yaml``: per joint ``max_velocity`` (rad/s, the URDF's: the position-tracking
-  maximum, :func:`parolkit.ros2.urdf.trajectory_velocity_limits_rad_s`) and
+* ``joint_limits.yaml``: per joint the URDF's position limits (rad), ``max_velocity`` (rad/s,
+  the URDF's: the position-tracking maximum,
+  :func:`parolkit.ros2.urdf.trajectory_velocity_limits_rad_s`) and
   ``max_acceleration`` (rad/s^2, :attr:`RobotModel.max_accel_deg_s2`), and default scaling
   factors that keep MoveIt's plans within what the controller accepts between the waypoints
   (:data:`DEFAULT_VELOCITY_SCALING`, :data:`DEFAULT_ACCELERATION_SCALING`);
@@ -203,15 +204,20 @@ def acceleration_limits_rad_s2(model: RobotModel) -> NDArray[np.float64]:
     return np.radians(model.max_accel_deg_s2)
 
 
-def joint_limits(model: RobotModel, rate_hz: float) -> dict[str, object]:
-    """joint_limits.yaml: the velocity limits the controller accepts (the URDF's) and the
-    acceleration limits, per joint, and the default scaling factors."""
+def joint_limits(model: RobotModel, rate_hz: float, convention: JointConvention) -> dict[str, object]:
+    """joint_limits.yaml: per joint the position limits (rad, the URDF's, in ``convention``:
+    copied over another configuration's, they keep its plans inside parolkit's ranges), the
+    velocity limits the controller accepts (the URDF's) and the acceleration limits; the
+    default scaling factors."""
+    pos = np.radians(convention.limits_deg(model.safe_limits_deg))
     vel = trajectory_velocity_limits_rad_s(model, rate_hz)
     acc = acceleration_limits_rad_s2(model)
     return {
         "default_velocity_scaling_factor": DEFAULT_VELOCITY_SCALING,
         "default_acceleration_scaling_factor": DEFAULT_ACCELERATION_SCALING,
-        "joint_limits": {name: {"has_velocity_limits": True, "max_velocity": float(vel[i]),
+        "joint_limits": {name: {"has_position_limits": True, "min_position": float(pos[i, 0]),
+                                "max_position": float(pos[i, 1]),
+                                "has_velocity_limits": True, "max_velocity": float(vel[i]),
                                 "has_acceleration_limits": True, "max_acceleration": float(acc[i])}
                          for i, name in enumerate(ROS_JOINT_NAMES)},
     }
@@ -302,7 +308,8 @@ Files
                            named states 'standby' and 'home', <disable_collisions> for the link
                            pairs that always touch at a joint or never touch (parolkit's collision
                            model's pair table; parolkit's controller still checks the latter)
-  joint_limits.yaml        max_velocity (rad/s) and max_acceleration (rad/s^2) per joint;
+  joint_limits.yaml        position limits (rad, the URDF's), max_velocity (rad/s) and
+                           max_acceleration (rad/s^2) per joint;
                            default scaling {DEFAULT_VELOCITY_SCALING:g} / {DEFAULT_ACCELERATION_SCALING:g}: \
 higher may be refused
   kinematics.yaml          KDL for '{ARM_GROUP}'
@@ -370,7 +377,7 @@ def write_moveit_config(out_dir: Path, cfg: Config, *, tool: str | None = None,
     texts = {
         "parol6.urdf": make_urdf(model, tool, ROBOT_NAME, cfg, cm, rate_hz=rate, convention=conv),
         "parol6.srdf": make_srdf(model, conv, disabled_pairs(cm, tool_settings(tool, cfg))),
-        "joint_limits.yaml": _yaml_file("joint_limits.yaml", joint_limits(model, rate)),
+        "joint_limits.yaml": _yaml_file("joint_limits.yaml", joint_limits(model, rate, conv)),
         "kinematics.yaml": _yaml_file("kinematics.yaml", kinematics()),
         "moveit_controllers.yaml": _yaml_file("moveit_controllers.yaml",
                                               moveit_controllers(cfg.ros2.start_tolerance_rad)),
