@@ -153,11 +153,14 @@ def _servol_lines(bench: MotionBench, targets: list) -> tuple[list[str], list[st
 def test_a_servol_stream_into_a_zone_stops_at_least_the_margin_short(tmp_path):
     bench = _bench(tmp_path, WALL)
     try:
-        # the TCP 120 mm along +y from the standby pose over 150 targets, then held for 60:
-        # through the wall's margin (the J6 link reaches it first)
+        # the TCP 100 mm along +y from the standby pose over 150 targets, then held for 60:
+        # through the wall's margin at 68 mm (the J6 link reaches it first) to 22 mm into the
+        # wall, every target within reach (from 110 mm on the IK refuses them: with 120 mm, a
+        # controller whose follower was held back by late replies took such a target in before
+        # the margin, and the stream ended "out of reach" instead)
         mark = bench.exchange.idle_mark()
         p0 = np.asarray(fk(list(STANDBY)), dtype=float)
-        targets = [p0 + np.array([0, 120.0 * min(1.0, k / 150), 0, 0, 0, 0]) for k in range(210)]
+        targets = [p0 + np.array([0, 100.0 * min(1.0, k / 150), 0, 0, 0, 0]) for k in range(210)]
         ids, lines = _servol_lines(bench, targets)
         out = subprocess.run([sys.executable, "-c", _SENDER, bench.ctl.host, str(bench.ctl.port)],
                              input="\n".join(lines), capture_output=True, text=True, timeout=60, cwd=REPO_ROOT)

@@ -119,20 +119,35 @@ def _stream_to(port: int, send, start, end, steps: int, hold_until) -> None:
             sub.close()
 
 
+def _at_rest_on(read, goal: float, tol: float):
+    """``hold_until`` for :func:`_stream_to`: the value ``read()`` is within ``tol`` of ``goal``
+    and has not changed since the last call (one tick), i.e. the arm has arrived, not passing
+    through on its way (a stream that then ends stops from the speed it has: a follower still
+    catching up after late ticks ended 0.018 deg past its target once)."""
+    last: list[float] = []
+
+    def settled() -> bool:
+        v = read()
+        still = bool(last) and abs(v - last[-1]) < 1e-3
+        last[:] = [v]
+        return still and abs(v - goal) < tol
+    return settled
+
+
 def test_servo_streams_from_robot_and_robot_api_reach_their_last_target_and_stop(served):
     from parolkit.client import robot_api
 
     with Robot(port=served.port, ack_port=0, timeout=2.0) as r:
         a0 = list(r.angles())
         end = a0[:5] + [a0[5] + 10.0]
-        _stream_to(served.port, r.servo_j, a0, end, 100, lambda: abs(r.angles()[5] - end[5]) < 0.01)
+        _stream_to(served.port, r.servo_j, a0, end, 100, _at_rest_on(lambda: r.angles()[5], end[5], 0.01))
         wait_until(lambda: r.status().command is None, 10, what="the stream's end (0.05 s of silence)")
         assert r.angles() == pytest.approx(end, abs=0.01)
         with pytest.raises(ParolkitValueError, match="angles"):
             r.servo_j([1, 2, 3])
         p0 = list(r.pose())
         goal = [p0[0], p0[1], p0[2] - 8.0, *p0[3:]]
-        _stream_to(served.port, r.servo_l, p0, goal, 50, lambda: abs(r.pose()[2] - goal[2]) < 0.02)
+        _stream_to(served.port, r.servo_l, p0, goal, 50, _at_rest_on(lambda: r.pose()[2], goal[2], 0.02))
         wait_until(lambda: r.status().command is None, 10, what="the stream's end")
         assert list(r.pose())[:3] == pytest.approx(goal[:3], abs=0.05)
 
@@ -142,7 +157,7 @@ def test_servo_streams_from_robot_and_robot_api_reach_their_last_target_and_stop
         a1 = robot_api.get_robot_joint_angles()
         back = a1[:5] + [a1[5] - 10.0]
         _stream_to(served.port, robot_api.servo_joints, a1, back, 100,
-                   lambda: abs(robot_api.get_robot_joint_angles()[5] - back[5]) < 0.01)
+                   _at_rest_on(lambda: robot_api.get_robot_joint_angles()[5], back[5], 0.01))
         wait_until(lambda: robot_api.get_robot_status()["command"] is None, 10, what="the stream's end")
         with pytest.raises(ValueError, match="frame"):
             robot_api.servo_pose([0, 262, 250, -90, 0, -90], frame="XYZ")

@@ -113,7 +113,9 @@ class LoopMetrics:
     """Mutable statistics owned by the loop thread; :meth:`view` may be called from any thread.
 
     ``period``: time between successive tick starts; ``lateness``: how long after its deadline
-    a tick started; ``rtt``: write of a command frame to the arrival of its status frame;
+    a tick started; ``rtt``: write of a command frame to the arrival of its status frame, for
+    the replies that came within the reply wait (a later one is read by the next tick and
+    counted by the core as a frame left unanswered: ``unanswered_max``);
     ``work``: time the tick spent before sleeping.
     An overrun is a tick that started more than one period late (its deadline was skipped).
     """
