@@ -254,6 +254,14 @@ class GuiSettings:
     #: login password (8..256 printable characters); required when ``host`` is beyond loopback,
     #: and when set every page asks for it
     password: str | None = None
+    #: a class (docs/gui.md "A class: teacher, students and turns"): the teacher's password
+    #: (8..256 printable characters, not the same as ``password``); when set, the login asks a
+    #: student's name or this password, and only the teacher or the student the teacher handed
+    #: the robot to may move it.  None: no roles (everyone who logs in may press everything)
+    teacher_password: str | None = None
+    #: a student's turn ends after this many minutes (TURN_MINUTES_RANGE) and the robot is
+    #: stopped; 0: no limit (the teacher can set one on the page)
+    turn_minutes: float = 0.0
 
     def __post_init__(self) -> None:
         _port(self.http_port, "gui.http_port")
@@ -275,11 +283,33 @@ class GuiSettings:
         if pw is not None and (not isinstance(pw, str) or not 8 <= len(pw) <= 256 or not pw.isprintable()):
             raise ParolkitValueError("gui.password must be 8..256 printable characters"
                                      + ("" if isinstance(pw, str) else f", got a {type(pw).__name__}"))
+        _password(self.teacher_password, "gui.teacher_password")
+        if self.teacher_password is not None and self.teacher_password == pw:
+            raise ParolkitValueError("gui.teacher_password must differ from gui.password (students may know "
+                                     "the class password; the teacher's must be the teacher's alone)")
+        turn = self.turn_minutes
+        lo, hi = TURN_MINUTES_RANGE
+        if isinstance(turn, bool) or not isinstance(turn, (int, float)) or not math.isfinite(turn) \
+                or not (turn == 0 or lo <= turn <= hi):
+            raise ParolkitValueError(f"gui.turn_minutes must be 0 (no limit) or a number of minutes in "
+                                     f"[{lo:g}, {hi:g}], got {turn!r}")
 
     def __repr__(self) -> str:  # never show the password (config objects end up in logs)
-        fields = ", ".join(f"{f.name}={'***' if f.name == 'password' and self.password else getattr(self, f.name)!r}"
-                           for f in dataclasses.fields(self))
+        secret = ("password", "teacher_password")
+        fields = ", ".join(f"{f.name}={'***' if f.name in secret and getattr(self, f.name) else value!r}"
+                           for f in dataclasses.fields(self) for value in (getattr(self, f.name),))
         return f"GuiSettings({fields})"
+
+
+#: a student's turn (gui.turn_minutes, and the limit the teacher sets on the page), minutes
+TURN_MINUTES_RANGE = (0.1, 240.0)
+
+
+def _password(pw: object, name: str) -> None:
+    """A login password (gui.teacher_password): None or 8..256 printable characters."""
+    if pw is not None and (not isinstance(pw, str) or not 8 <= len(pw) <= 256 or not pw.isprintable()):
+        raise ParolkitValueError(f"{name} must be 8..256 printable characters"
+                                 + ("" if isinstance(pw, str) else f", got a {type(pw).__name__}"))
 
 
 def _folder(v: object, name: str, example: str) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import hashlib
 import json
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ from nicegui import app, ui
 from parolkit.client.errors import RobotError
 from parolkit.gui.commander import Commander
 from parolkit.gui.completion import completion_table
+from parolkit.gui.components.class_panel import ClassPanel, install_gate
 from parolkit.gui.components.header import Header
 from parolkit.gui.components.help_dialog import HelpDialog
 from parolkit.gui.components.io_panel import IoGripperPanel
@@ -34,6 +36,7 @@ from parolkit.gui.components.telemetry import LiveCharts, Readouts
 from parolkit.gui.components.view3d import SCENE_FPS, ArmView
 from parolkit.gui.jog import KEYMAP, key_action
 from parolkit.gui.recordings import RECORDINGS_URL, RecordingNameError, RecordingNotListed
+from parolkit.gui.security import SESSION_COOKIE, session_key
 
 __all__ = ["Commander", "CommanderPage", "build_app", "STATIC_DIR", "STATIC_URL", "static_url"]
 
@@ -83,6 +86,8 @@ class CommanderPage:
                 self.view = ArmView(self.link, commander.collision)
                 self.readouts = Readouts(commander.log)
             with ui.element("div").classes("pk-col"):
+                # a class: the queue, at the top of the column (gui/components/class_panel.py)
+                class_box = ui.element("div").classes("w-full") if commander.classroom is not None else None
                 # above the tabs: beside the jog speed and the program's Run / Pause, whichever
                 # tab is open
                 self.override = SpeedOverride(commander)
@@ -91,7 +96,31 @@ class CommanderPage:
         self.program.on_preview = self.view.show_preview
         ui.timer(1.0 / SCENE_FPS, self.view.update)
         ui.timer(READOUT_PERIOD_S, self.update_readouts)
+        self.member_key: str | None = None
+        self.class_panel: ClassPanel | None = None
+        if class_box is not None:
+            self._join_class(class_box)
         ui.timer(PLOT_PERIOD_S, self.charts.update)
+
+    def _join_class(self, card_box: ui.element) -> None:
+        """A class: this page's member (from its session cookie), the Class card and the header's
+        part, the greyed controls of a page that watches, and the server's gate on its events."""
+        service = self.c.classroom
+        assert service is not None
+        client = ui.context.client
+        token = client.request.cookies.get(SESSION_COOKIE)
+        self.member_key = key = session_key(token) if token else ""
+        header = self.header
+        lockable = [*header.controls, header.resume_btn, header.control_badge.take_button, header.restart_btn,
+                    self.override.slider, self.panels]
+        self.class_panel = ClassPanel(service, key, header_box=header.status_box, card_box=card_box,
+                                      lockable=lockable)
+        install_gate(client, service, key, self.class_panel.open_ids, self.class_panel.refused)
+
+    def may_drive(self) -> bool:
+        """This page may move the robot (always without a class)."""
+        service = self.c.classroom
+        return service is None or service.may_drive(self.member_key)
 
     def _build_tabs(self) -> None:
         with ui.card().classes("pk-card w-full p-0 gap-0"):
@@ -100,7 +129,7 @@ class CommanderPage:
                 t_grip = ui.tab("IO · Gripper", icon="back_hand").props("data-testid=tab-gripper")
                 t_prog = ui.tab("Program", icon="code").props("data-testid=tab-program")
                 t_rec = ui.tab("Record", icon="fiber_manual_record").props("data-testid=tab-record")
-            with ui.tab_panels(tabs, value=t_jog).classes("w-full bg-transparent"):
+            with ui.tab_panels(tabs, value=t_jog).classes("w-full bg-transparent") as self.panels:
                 with ui.tab_panel(t_jog):
                     self.jog = JogPanel(self.c)
                 with ui.tab_panel(t_grip):
@@ -134,6 +163,8 @@ class CommanderPage:
         self._was_up = up
         self.program.update()
         self.recordings.update()
+        if self.class_panel is not None:
+            self.class_panel.update()
         moving = self.c.moving
         if moving != self._moving:
             self._moving = moving
@@ -145,11 +176,17 @@ class CommanderPage:
         is STOP all the same if something moves by now (it may have started just before)."""
         args = e.args if isinstance(e.args, dict) else {}
         key, down = args.get("key", ""), bool(args.get("down"))
+        driver = self.may_drive()  # a class: a watching page's keys are Stop and E-STOP only
         if key == "blur" or not down:
-            self.jog.release()
+            if driver:  # (a watching page's blur must not end the driver's jog)
+                self.jog.release()
             return
         b = key_action(key)
         if b is None:
+            return
+        if not driver and b.action not in ("estop", "stop"):
+            if self.class_panel is not None:
+                self.class_panel.refused(f"key {key}")
             return
         if b.action == "estop":
             self.c.estop()
@@ -192,6 +229,8 @@ def build_app(commander: Commander) -> Callable[[], None]:
     async def startup() -> None:
         await commander.link.start()
         commander.control.start()
+        if commander.classroom is not None:
+            commander.classroom.start()
 
     async def shutdown() -> None:
         commander.jog_release()
@@ -199,20 +238,28 @@ def build_app(commander: Commander) -> Callable[[], None]:
         await asyncio.to_thread(commander.recording.close)  # the file gets its summary
         await asyncio.to_thread(commander.teach_process.close)
         await commander.control.stop()
+        if commander.classroom is not None:
+            await commander.classroom.stop()
         await commander.collision.close()
         await commander.link.close()  # gives the control lease back (CONTROL|RELEASE)
 
     app.on_startup(startup)
     app.on_shutdown(shutdown)
 
-    def opened() -> None:
+    def opened(page: CommanderPage) -> None:
         commander.pages += 1
+        if commander.classroom is not None and page.member_key:
+            commander.classroom.room.page_opened(page.member_key, time.monotonic())
 
-    def closed() -> None:
-        """A page's connection went away: end its jog; when no page is connected any more the
+    def closed(page: CommanderPage) -> None:
+        """A page's connection went away: end its jog (a class: only the driver's page holds
+        one); when no page is connected any more the
         commander gives the control lease back (unless a program runs: the runner holds the
         lease then and gives it back itself when the program ends)."""
-        commander.jog_release()
+        if commander.classroom is not None and page.member_key:
+            commander.classroom.room.page_closed(page.member_key, time.monotonic())
+        if page.may_drive():
+            commander.jog_release()
         commander.pages = max(0, commander.pages - 1)
         if commander.pages == 0 and not commander.program.running:
             try:
@@ -223,9 +270,8 @@ def build_app(commander: Commander) -> Callable[[], None]:
     def root() -> None:
         page = CommanderPage(commander)
         # once per socket connection (a reconnecting page connects again)
-        ui.context.client.on_connect(opened)
-        ui.context.client.on_disconnect(closed)
+        ui.context.client.on_connect(lambda: opened(page))
+        ui.context.client.on_disconnect(lambda: closed(page))
         ui.page_title("parolkit commander")
-        del page  # the page's timers and handlers keep it alive with the client
 
     return root

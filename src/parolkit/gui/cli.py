@@ -157,10 +157,12 @@ def main(args: argparse.Namespace) -> int:
     http_port = args.http_port or cfg.gui.http_port
     host = args.host or cfg.gui.host
     password = cfg.gui.password
+    teacher_password = cfg.gui.teacher_password  # a class: only the teacher's grant moves the robot
     if not is_loopback_bind(host):
-        if password is None:
+        if password is None and teacher_password is None:
             print(f"parolkit gui: refusing to bind {host}: beyond loopback anyone who can reach this address "
-                  "could move the robot; set a login password (gui.password, 8..256 characters) in the config "
+                  "could move the robot; set a login password (gui.password, 8..256 characters; or "
+                  "gui.teacher_password for a class, where only the teacher's grant moves it) in the config "
                   f"({cfg.source or 'parolkit.toml'}), or bind 127.0.0.1 and use an SSH tunnel",
                   file=sys.stderr)
             return 2
@@ -201,10 +203,15 @@ def main(args: argparse.Namespace) -> int:
     from nicegui import app, core, ui
 
     from parolkit.gui.app import build_app
+    from parolkit.gui.class_service import ClassService
+    from parolkit.gui.classroom import Classroom, turn_limit_s
     from parolkit.gui.commander import Commander
     from parolkit.gui.link import ControllerLink
     from parolkit.gui.security import SecurityMiddleware
 
+    classroom = Classroom(turn_limit_s(cfg.gui.turn_minutes)) if teacher_password is not None else None
+    login_gate = (LoginGate(password, teacher_password=teacher_password, classroom=classroom)
+                  if password is not None or teacher_password is not None else None)
     link = ControllerLink(ctl_host, ctl_port, ack_port, every_n_ticks=2)  # 50 Hz status for a 30 fps view
     # our own controller has a 150 ms stream watchdog: 20 Hz jog updates are plenty; a
     # controller we connect to has its own (20 ms by default): send every control tick
@@ -212,12 +219,13 @@ def main(args: argparse.Namespace) -> int:
     commander = Commander(link, mode_label=mode, programs=programs, recordings=recordings,
                           jog_repeat_s=0.05 if own else 0.01, cart_jog_repeat_s=0.1 if own else 0.01,
                           secret=cfg.controller.secret,
-                          login=password is not None, own_controller=own_ctl)
+                          login=login_gate is not None, own_controller=own_ctl)
+    if classroom is not None:
+        commander.classroom = ClassService(classroom, commander)
     root = build_app(commander)
     # every request and websocket: Host, Origin, login (gui/security.py); socket.io checks the
     # Origin of its handshakes against the same list (it would otherwise accept any)
-    app.add_middleware(SecurityMiddleware, policy=policy,
-                       login=LoginGate(password) if password is not None else None)
+    app.add_middleware(SecurityMiddleware, policy=policy, login=login_gate)
     core.sio.eio.cors_allowed_origins = policy.origin_allowed
     if hasattr(signal, "SIGUSR1"):  # `kill -USR1 PID` prints every thread's stack to stderr
         faulthandler.register(signal.SIGUSR1, all_threads=True)
@@ -228,7 +236,8 @@ def main(args: argparse.Namespace) -> int:
         app.on_shutdown(own_ctl.stop)
     print(f"parolkit commander on http://{host}:{http_port}/ (programs folder {programs.root}; recordings folder "
           f"{recordings.root}; answers the "
-          f"names {', '.join(sorted(policy.allowed))}{'; login required' if password else ''})",
+          f"names {', '.join(sorted(policy.allowed))}{'; login required' if login_gate else ''}"
+          f"{'; a class: teacher and students' if classroom else ''})",
           file=sys.stderr, flush=True)
     try:
         ui.run(root, host=host, port=http_port, title="parolkit commander", reload=False,

@@ -32,6 +32,7 @@ from parolkit.gui.templates import SEED_EXAMPLES
 if TYPE_CHECKING:
     from parolkit.client.core import RobotStatus
     from parolkit.client.robot import Robot
+    from parolkit.gui.class_service import ClassService
     from parolkit.gui.own_controller import OwnController
     from parolkit.script.interpreter import Interpreter, InterpreterState
 
@@ -93,12 +94,20 @@ class Commander:
         self.gamepad = GamepadDrive(link, self.log, self.control.ensure)
         #: connected pages (browser tabs); when the last one goes the lease is given back
         self.pages = 0
+        #: a class (gui.teacher_password): who may move the robot; None: no roles
+        self.classroom: ClassService | None = None
+
+    def _refused(self, what: str) -> bool:
+        """In a class: the page this runs for may not move or change the robot now (logged)."""
+        return self.classroom is not None and self.classroom.refuse(what)
 
     # ---- jogging ----
 
     def jog_press(self, make_command: Callable[[], str], period_s: float | None = None) -> None:
         """Start streaming a jog (``make_command`` builds each datagram, sent every
         ``period_s``, default :attr:`jog_repeat_s`) until :meth:`jog_release`."""
+        if self._refused("jog"):
+            return
         self.gamepad.halt("a jog button took over")
         self.jog_release(send_stop=False)
         self._hold = asyncio.ensure_future(self._hold_loop(make_command, period_s or self.jog_repeat_s))
@@ -162,6 +171,8 @@ class Commander:
         does).  Waits for the controller's answer; True when it took the new override.  A
         refusal (another client controls the robot) is logged with the controller's reason."""
         pct = float(percent)
+        if self._refused("speed override"):
+            return False
         if not 1.0 <= pct <= 100.0:
             self.log.error(f"speed override {pct:g} % not sent: it must be 1..100 %")
             return False
@@ -190,6 +201,8 @@ class Commander:
         """The header's Resume (shown while the controller is paused): the program's Run when
         a program of ours runs, else ``RESUME`` through the link (only the lease holder may
         send it: another client's control is refused with the controller's reason)."""
+        if self._refused("Resume"):
+            return
         if self.program.active:
             await self.program.resume()
         else:
@@ -198,6 +211,8 @@ class Commander:
     def command(self, text: str, label: str | None = None) -> None:
         """Send ``text``; logs "sent" only when there is a link to the controller (STOP and
         E-STOP are sent anyway: a controller that only lost its status stream still acts)."""
+        if text not in ("STOP", "ESTOP") and self._refused(label or text):
+            return
         if not self.link.link_up and text not in ("STOP", "ESTOP"):
             self.log.error(f"{label or text} not sent: no link to the controller")
             return
@@ -212,6 +227,8 @@ class Commander:
     async def restart_controller(self) -> None:
         """Restart the controller process this GUI started (the page's banner offers it)."""
         own = self.own_controller
+        if self._refused("restart controller"):
+            return
         if own is None:
             self.log.error("this commander did not start the controller: restart it where it runs")
             return
@@ -351,6 +368,8 @@ class ProgramRunner:
         """Parse ``text`` (the program ``name``) and run it; returns the parse errors (nothing
         runs when there are any, nor when :meth:`stop` cancelled the start)."""
         try:
+            if self.commander._refused("Step" if step else "Run"):
+                return []
             return await self._start(text, step=step, name=name)
         finally:
             self.starting = False

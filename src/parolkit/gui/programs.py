@@ -21,7 +21,8 @@ from parolkit.errors import ParolkitValueError
 
 __all__ = ["AUTOSAVE_DIR", "EXTENSION", "MAX_NAME_LEN", "MAX_PROGRAM_BYTES", "FolderNameError", "NamedFolder",
            "ProgramNameError",
-           "ProgramsFolder", "default_programs_dir", "file_inside", "folder_file_name", "name_rule", "program_name"]
+           "ProgramsFolder", "STUDENTS_DIR", "default_programs_dir", "file_inside", "folder_file_name", "name_rule",
+           "program_name", "student_folder", "student_names"]
 
 #: file extension of RBTscript programs
 EXTENSION = ".rbt"
@@ -38,8 +39,8 @@ _NAME = re.compile(r"[A-Za-z0-9 _.\-]+")
 def name_rule(kind: str, extension: str) -> str:
     """The naming rule of the files of one commander folder, stated in every refusal."""
     return (f"a {kind} is named by letters, digits, spaces, '-', '_' and '.' only (no folders, "
-            f"no '..', no absolute path), at most {MAX_NAME_LEN} characters; '{extension}' is added "
-            "when missing")
+            f"no '..', no absolute path), at most {MAX_NAME_LEN} characters"
+            + (f"; '{extension}' is added when missing" if extension else ""))
 
 
 RULE = name_rule("program", EXTENSION)
@@ -250,3 +251,44 @@ class ProgramsFolder(NamedFolder):
                 if best is None or mtime > best[0]:
                     best = (mtime, entry.name)
         return None if best is None else best[1]
+
+
+# ---- a class (gui/classroom.py): each student's programs in a folder of their own ----
+
+#: the folder, inside the programs folder, that holds one folder per student
+STUDENTS_DIR = "students"
+
+
+def student_folder(root: Path, name: str) -> Path:
+    """``root/students/<name>``: the programs folder of the student ``name`` (the programs
+    folder's name rules, without an extension); a folder that exists must resolve directly
+    inside ``root/students`` (not a link elsewhere).  Raises ProgramNameError naming the rule."""
+    folder = folder_file_name(name, kind="student", extension="", error=ProgramNameError)
+    box = Path(root).expanduser().absolute() / STUDENTS_DIR
+    path = box / folder
+    if path.exists() or path.is_symlink():
+        resolved = path.resolve()
+        if resolved.parent != box.resolve():
+            raise ProgramNameError(f"the folder of {folder} resolves to {resolved}, outside {box}: refused "
+                                   "(a student's programs stay inside the programs folder)")
+        if not resolved.is_dir():
+            raise ProgramNameError(f"{path} is not a folder")
+    return path
+
+
+def student_names(root: Path) -> list[str]:
+    """The students who have a programs folder in ``root/students`` (names the rules accept,
+    folders that resolve inside it), sorted case-insensitively; [] if there is none."""
+    box = Path(root).expanduser().absolute() / STUDENTS_DIR
+    if not box.is_dir():
+        return []
+    out = []
+    for entry in box.iterdir():
+        try:
+            if folder_file_name(entry.name, kind="student", extension="", error=ProgramNameError) != entry.name:
+                continue
+            if student_folder(root, entry.name).is_dir():
+                out.append(entry.name)
+        except ProgramNameError:
+            continue
+    return sorted(out, key=str.lower)

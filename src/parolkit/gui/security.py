@@ -16,6 +16,10 @@ HTTP request and websocket of the commander, the socket.io connection included:
   path needs that cookie (pages are redirected to the login form, the rest gets ``401``).
   Failed logins are slowed down and limited per client address.  The password is never
   logged or echoed.
+* **A class** (``gui.teacher_password``, :mod:`parolkit.gui.classroom`): the login form asks a
+  student's name (and the class password, ``gui.password``, if one is set) or the teacher's
+  password; each session is a member of the class (the teacher or the student of that name), and
+  a session whose member left (logged out, replaced) is no longer valid.
 """
 
 from __future__ import annotations
@@ -34,10 +38,14 @@ from collections.abc import Awaitable, Callable, Iterable, MutableMapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from parolkit.gui.classroom import Classroom, ClassroomError, Member
+
 __all__ = [
     "AccessPolicy",
     "LoginGate",
     "SecurityMiddleware",
+    "WrongPassword",
+    "session_key",
     "host_name",
     "is_loopback_bind",
     "machine_names",
@@ -174,25 +182,84 @@ class AccessPolicy:
         return name is not None and name in self.allowed
 
 
+def session_key(token: str) -> str:
+    """What the server keeps of a session token (its SHA-256): the key of the session and of
+    its member of a class."""
+    return hashlib.sha256(token.encode("utf-8", "replace")).hexdigest()
+
+
+def _same(given: str, password: str) -> bool:
+    """Constant-time comparison of a typed password with a configured one."""
+    return hmac.compare_digest(given.encode("utf-8", "replace"), password.encode("utf-8"))
+
+
+class WrongPassword(Exception):
+    """A login with a password that is not the (teacher's or class) password."""
+
+
 @dataclass
 class LoginGate:
-    """The password and the sessions it opened (in memory: a restart logs everyone out)."""
+    """The password and the sessions it opened (in memory: a restart logs everyone out).
+    With ``classroom`` (a class, gui.teacher_password) ``password`` is the class password
+    students give with their name (None: a name is enough)."""
 
-    password: str
+    password: str | None
     lifetime_s: float = SESSION_LIFETIME_S
+    teacher_password: str | None = None
+    classroom: Classroom | None = None
     _sessions: dict[str, float] = field(default_factory=dict, repr=False)
     _failures: dict[str, deque[float]] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        if (self.classroom is None) != (self.teacher_password is None):
+            raise ValueError("LoginGate: a class needs both the classroom and the teacher's password")
+        if self.classroom is None and self.password is None:
+            raise ValueError("LoginGate: a login without a class needs the password")
 
     def __repr__(self) -> str:  # never show the password
         return f"LoginGate(sessions={len(self._sessions)})"
 
     @staticmethod
     def _key(token: str) -> str:
-        return hashlib.sha256(token.encode("utf-8", "replace")).hexdigest()
+        return session_key(token)
 
     def check_password(self, given: str) -> bool:
-        """Constant-time comparison with the configured password."""
-        return hmac.compare_digest(given.encode("utf-8", "replace"), self.password.encode("utf-8"))
+        """Constant-time comparison with the configured password (False when there is none)."""
+        return self.password is not None and _same(given, self.password)
+
+    def log_in(self, given: str, name: str = "", now: float | None = None) -> str:
+        """A new session for a login form's password ``given`` (and, in a class, ``name``);
+        raises WrongPassword (counted as a failure by the caller) or, in a class, ClassroomError
+        for a name refused (the message says why)."""
+        room = self.classroom
+        if room is None:
+            if not self.check_password(given):
+                raise WrongPassword()
+            return self.open_session(now)
+        now = time.monotonic() if now is None else now
+        if self.teacher_password is not None and _same(given, self.teacher_password):
+            token = self.open_session(now)
+            room.join_teacher(self._key(token), now)
+            return token
+        class_password_wrong = not self.check_password(given) if self.password is not None else bool(given)
+        if class_password_wrong:  # (no class password: a student gives none; a wrong teacher's one)
+            raise WrongPassword()
+        if not name.strip():
+            raise ClassroomError("type your name (students), or the teacher's password (the teacher)")
+        token = self.open_session(now)
+        try:
+            room.join_student(self._key(token), name, now)
+        except ClassroomError:
+            self._sessions.pop(self._key(token), None)
+            raise
+        return token
+
+    def member(self, token: str | None) -> Member | None:
+        """The class member of a valid session (None: no class, or no such session)."""
+        if self.classroom is None or not self.valid(token):
+            return None
+        assert token is not None
+        return self.classroom.member(self._key(token))
 
     def open_session(self, now: float | None = None) -> str:
         """A new random session token (256 bits), valid for ``lifetime_s``."""
@@ -205,12 +272,18 @@ class LoginGate:
     def valid(self, token: str | None, now: float | None = None) -> bool:
         if not token:
             return False
-        expiry = self._sessions.get(self._key(token))
-        return expiry is not None and expiry > (time.monotonic() if now is None else now)
+        key = self._key(token)
+        expiry = self._sessions.get(key)
+        if expiry is None or expiry <= (time.monotonic() if now is None else now):
+            return False
+        return self.classroom is None or self.classroom.member(key) is not None
 
-    def close_session(self, token: str | None) -> None:
+    def close_session(self, token: str | None, now: float | None = None) -> None:
         if token:
-            self._sessions.pop(self._key(token), None)
+            key = self._key(token)
+            self._sessions.pop(key, None)
+            if self.classroom is not None:
+                self.classroom.leave(key, time.monotonic() if now is None else now)
 
     def blocked_for(self, client: str, now: float | None = None) -> float:
         """Seconds until ``client`` may try again (0: now)."""
@@ -244,13 +317,27 @@ button {{ background: #2563eb; color: white; border: 0; border-radius: 6px; padd
 <body><form method="post" action="/login">
 <h1>parolkit commander</h1>
 {message}
-<label for="password">Password</label>
-<input id="password" name="password" type="password" autocomplete="current-password" autofocus
-       data-testid="login-password">
+{fields}
 <input type="hidden" name="next" value="{next}">
 <button type="submit" data-testid="login-submit">Log in</button>
 </form></body></html>
 """
+
+
+PASSWORD_FIELD = """<label for="password">{label}</label>
+<input id="password" name="password" type="password" autocomplete="current-password"{focus}
+       data-testid="login-password">"""
+#: a class: a student's name first
+NAME_FIELD = """<label for="name">Your name (students)</label>
+<input id="name" name="name" autocomplete="username" autofocus maxlength="100" data-testid="login-name">"""
+
+
+def _form_fields(gate: LoginGate) -> str:
+    if gate.classroom is None:
+        return PASSWORD_FIELD.format(label="Password", focus=" autofocus")
+    label = ("Password: the teacher's, or the class password (students)" if gate.password is not None
+             else "Teacher's password (students leave it empty)")
+    return NAME_FIELD + "\n" + PASSWORD_FIELD.format(label=label, focus="")
 
 
 def _headers(scope: Scope) -> dict[str, list[str]]:
@@ -332,7 +419,7 @@ class SecurityMiddleware:
         assert self.login is not None
         query = urllib.parse.parse_qs(scope.get("query_string", b"").decode("latin-1"))
         if method in ("GET", "HEAD"):
-            await _login_page(send, 200, "", _safe_next(query.get("next", ["/"])[0]))
+            await _login_page(send, 200, "", _safe_next(query.get("next", ["/"])[0]), self.login)
             return
         if method != "POST":
             await _respond(send, 405, b"use GET or POST", [(b"allow", b"GET, POST")])
@@ -340,7 +427,7 @@ class SecurityMiddleware:
         client = str((scope.get("client") or ("unknown", 0))[0])
         wait = self.login.blocked_for(client)
         if wait > 0:
-            await _login_page(send, 429, f"Too many failed logins: try again in {wait:.0f} s.", "/")
+            await _login_page(send, 429, f"Too many failed logins: try again in {wait:.0f} s.", "/", self.login)
             return
         body = await _read_body(receive, MAX_FORM_BYTES)
         if body is None:
@@ -349,12 +436,16 @@ class SecurityMiddleware:
         form = urllib.parse.parse_qs(body.decode("utf-8", "replace"), keep_blank_values=True)
         given = form.get("password", [""])[0]
         target = _safe_next(form.get("next", ["/"])[0])
-        if not self.login.check_password(given):
+        try:
+            token = self.login.log_in(given, form.get("name", [""])[0])
+        except WrongPassword:
             self.login.record_failure(client)
             await asyncio.sleep(FAILURE_DELAY_S)
-            await _login_page(send, 401, "Wrong password.", target)
+            await _login_page(send, 401, "Wrong password.", target, self.login)
             return
-        token = self.login.open_session()
+        except ClassroomError as exc:  # a student's name refused (the message names the rule)
+            await _login_page(send, 400, str(exc), target, self.login)
+            return
         cookie = (f"{SESSION_COOKIE}={token}; Path=/; HttpOnly; SameSite=Strict; "
                   f"Max-Age={int(self.login.lifetime_s)}")
         await _respond(send, 303, b"", [(b"location", target.encode("latin-1")),
@@ -382,9 +473,9 @@ async def _read_body(receive: Receive, limit: int) -> bytes | None:
             return b"".join(chunks)
 
 
-async def _login_page(send: Send, status: int, message: str, target: str) -> None:
+async def _login_page(send: Send, status: int, message: str, target: str, gate: LoginGate) -> None:
     msg = f'<div class="err" data-testid="login-error">{html.escape(message)}</div>' if message else ""
-    page = LOGIN_PAGE.format(message=msg, next=html.escape(target, quote=True))
+    page = LOGIN_PAGE.format(message=msg, fields=_form_fields(gate), next=html.escape(target, quote=True))
     await _respond(send, status, page.encode("utf-8"), [(b"content-type", b"text/html; charset=utf-8"),
                                                         (b"cache-control", b"no-store")])
 

@@ -46,7 +46,8 @@ class Header:
                         ui.label("parolkit commander").classes("pk-brand-title")
                         ui.label("PAROL6 · jog · IO · RBTscript").classes("pk-brand-sub")
                 with ui.element("div").classes("pk-mid"):
-                    with ui.element("div").classes("pk-status").props('role=status aria-label="robot status"'):
+                    with ui.element("div").classes("pk-status").props('role=status aria-label="robot status"') \
+                            as self.status_box:
                         self.link_chip = ui.chip("NO LINK", icon="link_off", color="grey-8") \
                             .props("data-testid=link-chip")
                         self.mode_chip = ui.chip(c.mode_label, icon="memory", color="indigo") \
