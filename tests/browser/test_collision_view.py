@@ -270,7 +270,8 @@ def test_a_program_whose_third_line_collides_shows_it_red_in_the_preview(page, w
     page.get_by_test_id("prog-check").click()
     diag = page.get_by_test_id("diagnostic").first
     expect(diag).to_have_text(re.compile(
-        r"^line 3, col 1: MoveJoint would collide: J\d link vs zone 'monitor' at \d+\.\d\d s into the move \("),
+        r"^\S+\.rbt: The [\w ]+ \(J\d\) would hit the zone 'monitor' \d+(\.\d+)? s into the move at line 3: go around "
+        r"it"),
         timeout=15000)
     err = page.locator(".cm-line.rbt-error")
     expect(err).to_have_count(1, timeout=10000)

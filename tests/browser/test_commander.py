@@ -227,7 +227,7 @@ def test_broken_program_shows_error_at_its_line(page):
     # diagnostics also come as you type: one made for a text still being typed may show first
     # (a stale "line 4"); the program's own diagnostic replaces it
     diag = page.get_by_test_id("diagnostic").first
-    expect(diag).to_have_text(re.compile(r"^line 3"), timeout=10000)
+    expect(diag).to_have_text(re.compile(r"^\S+\.rbt: Line 3 is missing its closing '\)'"), timeout=10000)
     err = page.locator(".cm-line.rbt-error")
     expect(err).to_have_count(1, timeout=10000)
     assert err.first.inner_text().startswith("MoveJoint")

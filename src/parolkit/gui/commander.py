@@ -34,7 +34,8 @@ if TYPE_CHECKING:
     from parolkit.client.robot import Robot
     from parolkit.gui.class_service import ClassService
     from parolkit.gui.own_controller import OwnController
-    from parolkit.script.interpreter import Interpreter, InterpreterState
+    from parolkit.script.interpreter import Interpreter, InterpreterState, RunResult
+    from parolkit.script.program import Program
 
 __all__ = ["ACTIVE_STATES", "Commander", "ProgramRunner"]
 
@@ -289,6 +290,12 @@ class ProgramRunner:
         self.starting = False
         self._start_cancelled = False
         self.version = 0
+        #: the line our E-STOP interrupted the program at (None: it was not interrupted so)
+        self.estop_line: int | None = None
+        #: set before :meth:`start`: the run resumes at this line (:mod:`parolkit.gui.resume`)
+        self.resume_line: int | None = None
+        #: a resumed Loop() program: the whole program, run (looping) after the rest of its pass
+        self._then_loop: Program | None = None
 
     def port(self) -> int | None:
         """Local UDP port of the runner's client while a program runs (the controller names
@@ -401,6 +408,7 @@ class ProgramRunner:
         program = result.program
         if program is None:
             raise RuntimeError("the parser found no error but returned no program")
+        program = self._resume_point(program)
         try:
             from parolkit.client import Robot
             from parolkit.script import Interpreter
@@ -457,14 +465,14 @@ class ProgramRunner:
             finally:
                 self.commander.control.refresh_soon()
             interpreter.start()
-            result = interpreter.wait()
+            result = self._wait_run(interpreter)
             if self._stopping:
                 self.state = "stopped"  # stop() said so (its STOP may have failed the move)
             elif result is not None and not result.ok and result.state.value != "stopped":
                 self.state = "error"
                 self.message = result.message
                 self.errors = list(result.errors)
-                self.commander.log.error(f"program {result.message}")
+                self.commander.log.error(self._failure_words(result))
             elif result is not None and result.state.value == "stopped":
                 self.state = "stopped"
                 self.message = self.message or "stopped"
@@ -486,6 +494,52 @@ class ProgramRunner:
             if robot is not None:
                 robot.close()
             self.version += 1
+
+    def _failure_words(self, result: RunResult) -> str:
+        """The log's line for a failed run: the student's sentence of its first error
+        (:mod:`parolkit.gui.student_errors`), then the technical message."""
+        from parolkit.gui.student_errors import explain
+
+        if not result.errors:
+            return f"program {result.message}"
+        first = result.errors[0]
+        return f"program failed: {explain(first, self.name).text()} (details: {first.message})"
+
+    def _resume_point(self, program: Program) -> Program:
+        """A new run: the program from :attr:`resume_line` when it is set (Resume after an
+        E-stop: that line's move is planned again from where the arm is; a Loop() program runs
+        the rest of its pass, then loops from its first line), else the whole program."""
+        from parolkit.gui.resume import resume_plan
+
+        line, self.resume_line = self.resume_line, None
+        self.estop_line, self._then_loop = None, None
+        if line is None:
+            return program
+        plan = resume_plan(program, line)
+        if isinstance(plan, str):
+            self.commander.log.error(f"resume: {plan}: the program runs from its first line")
+            return program
+        self._then_loop = program if plan.then_loop else None
+        self.commander.log.info(f"resume from line {line}: its move is planned again from where the arm is")
+        return plan.program
+
+    def _wait_run(self, interpreter: Interpreter) -> RunResult | None:
+        """(the runner's thread) Wait for the run; a resumed Loop() program then runs whole,
+        looping, unless it was stopped or failed."""
+        from parolkit.script import Interpreter
+
+        result = interpreter.wait()
+        program, self._then_loop = self._then_loop, None
+        robot = self.robot
+        if program is None or robot is None or result is None or not result.ok:
+            return result
+        after = Interpreter(program, robot, on_line=self._on_line, on_state=self._on_state)
+        with self._lock:
+            if self._stopping:
+                return result
+            self.interpreter = after  # (stop() stops this one from now on)
+        after.start()
+        return after.wait()
 
     @property
     def running(self) -> bool:
@@ -602,6 +656,7 @@ class ProgramRunner:
             self.commander.log.add(f"program {reason} before it started", Level.WARNING)
             self.version += 1
         if self.active and self.interpreter is not None:
+            self.estop_line = self.current_line if reason == "E-STOP" else None
             with self._lock:
                 self._stopping = True
                 self.state = "stopped"

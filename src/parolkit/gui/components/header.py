@@ -72,7 +72,7 @@ class Header:
                         _action("Disable", "power_off", "btn-disable", "unelevated dense color=warning",
                                 lambda: c.command("DISABLE", "Disable"), "disable the motors"),
                         _action("Clear error", "healing", "btn-clear", "outline dense color=grey-4",
-                                lambda: c.command("CLEAR_ERROR", "Clear error"), "clear the board's error")]
+                                self.clear_error, "clear the board's error and the gripper's")]
                         # while the controller is paused (our program's Pause or another
                         # client's PAUSE): RESUME, which only the holder of the control lease may send
                         self.resume_btn = _action("Resume", "play_arrow", "btn-resume",
@@ -114,6 +114,15 @@ class Header:
             self.estop_btn.tooltip("software emergency stop (Esc); latched until Enable")
         ui.on("pk_estop", lambda _: c.estop())
         self._banner_key: tuple[bool, str] | None = None
+
+    def clear_error(self) -> None:
+        """Clear error: the board's error (CLEAR_ERROR) and, when the gripper reports one, the
+        gripper's (its error flag, set by an E-stop, stays until the gripper is told to clear it,
+        as the IO · Gripper tab's Clear error does): once the cause is gone no error stays shown."""
+        self.c.command("CLEAR_ERROR", "Clear error")
+        st = self.c.link.status
+        if st is not None and st.gripper.error:
+            self.c.command("ELECTRICGRIPPER|clear_error", "Gripper clear error")
 
     def _update_banner(self, link_up: bool) -> None:
         own = self.c.own_controller

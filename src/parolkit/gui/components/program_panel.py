@@ -4,6 +4,13 @@ world: errors at their line, a collision with the pair and the time, the planned
 positions and speeds, and the TCP path in the 3D view, red where it collides), Insert
 (templates with the current joints / pose), Examples (the seed programs) and the programs folder's file row.
 
+Errors (the parser's as you type, Check's, a run's) read as the program's name and line, one
+plain sentence and the fix (:mod:`parolkit.gui.student_errors`); they clear when their cause is
+gone (an edit, a new run).  The offer line under the status line says what to do next: "E-STOP
+latched" (Run and Step greyed until Enable), "Resume from line N" / "Restart" after the E-stop
+interrupted a run (:mod:`parolkit.gui.resume`), "Move to start" when the program is valid from
+the home pose but not from where the arm is.
+
 Pause is the controller's PAUSE: the running move slows down on its own path and holds there,
 and no new line starts; Run resumes it (RESUME) on the same path to the same target; Step
 while paused lets the arm finish the line it paused in and run the next one, then pauses
@@ -27,10 +34,13 @@ from parolkit.gui.components.telemetry import plan_options
 from parolkit.gui.eventlog import Level
 from parolkit.gui.highlight import line_decorations, mark_decorations
 from parolkit.gui.programs_panel import ProgramsPanel
+from parolkit.gui.resume import ResumePlan, resume_plan
+from parolkit.gui.student_errors import explain, explain_all
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.robot import PAROL6
 
 if TYPE_CHECKING:
+    import parolkit.gui.simulate as gui_simulate
     from parolkit.script.interpreter import CollisionSetup
 
 __all__ = ["ProgramPanel", "DIAG_DELAY_S", "PAUSE_LABEL", "program_status"]
@@ -85,6 +95,20 @@ class ProgramPanel:
         self._errors: dict[int, str] = {}
         #: the text the last Check checked (its errors and preview stand until it changes)
         self._checked_text: str | None = None
+        #: where the errors shown come from: "parse" (as you type), "check" (Check) or "run" (the
+        #: last run: its check or the line that failed); "" when none is shown
+        self._error_source = ""
+        #: the run whose start cleared the last run's and Check's errors (a new interpreter: a new run)
+        self._run_seen: object = None
+        #: "Move to start": the program's start, when it is valid from the home pose and not from
+        #: where the arm is (Check, or a run's check, found that)
+        self._move_start: gui_simulate.StartPose | None = None
+        #: the E-stop interrupted the run of this text, at (line, how to resume or why not)
+        self._interrupt: tuple[int, str, ResumePlan | str] | None = None
+        self._interrupt_key: tuple[int, str] | None = None
+        self._offer_shown: tuple[object, ...] | None = None
+        #: the live values completion fills in (joints, pose), as the page has them
+        self._live_shown: tuple[str, str] | None = None
         with ui.row().classes("w-full items-center gap-2"):
             self._run_btn = _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
                                   lambda: self.run_program(step=False))
@@ -118,6 +142,7 @@ class ProgramPanel:
         self.editor = ui.codemirror(self._shown_text(), on_change=self.on_edit, theme="githubLight") \
             .classes("w-full pk-editor").props("data-testid=editor")  # commander.js names its text box
         self.prog_status = ui.label("").classes("text-sm pk-mono").props("data-testid=prog-status role=status")
+        self._build_offers()
         self.diag_box = ui.column().classes("gap-0 w-full").props("data-testid=diagnostics")
         with ui.element("div").classes("pk-two"):
             self.plan_chart = ui.echart(plan_options("deg", "planned positions")).style("height: 200px") \
@@ -125,6 +150,23 @@ class ProgramPanel:
             self.plan_speed_chart = ui.echart(plan_options("deg/s", "planned speeds")).style("height: 200px") \
                 .props('data-testid=plan-speed-chart role=img aria-label="planned joint speeds"')
         self.on_edit()
+
+    def _build_offers(self) -> None:
+        """The offer line (hidden while it has nothing to say) and the live values completion
+        fills in (hidden; commander.js reads its data-joints / data-pose)."""
+        with ui.element("div").classes("pk-wrap items-center") as self.offer_row:
+            self.offer_note = ui.label("").classes("text-sm").props("data-testid=offer-note role=status")
+            self._move_start_btn = ui.button("Move to start", icon="near_me", on_click=self.move_to_start) \
+                .props('unelevated no-caps color=primary data-testid=prog-move-start '
+                       'aria-label="Move to start: the arm goes to the program\'s first pose"')
+            self._resume_btn = ui.button("Resume", icon="play_circle", on_click=self.resume_program) \
+                .props("unelevated no-caps color=positive data-testid=prog-resume")
+            self._restart_btn = ui.button("Restart", icon="replay", on_click=lambda: self.run_program(step=False)) \
+                .props('outline no-caps color=grey-4 data-testid=prog-restart '
+                       'aria-label="Restart: run the program from its first line"')
+        self.offer_row.set_visibility(False)
+        self._live = ui.element("div").props("data-testid=pk-live-values aria-hidden=true")
+        self._live.set_visibility(False)
 
     # ---- editing ----
 
@@ -179,6 +221,9 @@ class ProgramPanel:
             self._diag_at = None
             return
         self._checked_text = None
+        if self._error_source in ("check", "run") or self.prog_status.text.startswith("✗"):
+            self.prog_status.set_text("")  # it spoke of the text before this edit
+        self._move_start = None
         self._diag_at = time.monotonic() + DIAG_DELAY_S  # the parser's diagnostics once typing pauses
         self._clear_plan()
         self._refresh_decorations()
@@ -201,7 +246,7 @@ class ProgramPanel:
         from parolkit.script import parse
 
         result = parse(self.editor.value or "", "editor")
-        self._show_errors(list(result.errors))
+        self._show_errors(list(result.errors), "parse")
 
     def _refresh_decorations(self) -> None:
         text = self.editor.value or ""
@@ -211,19 +256,32 @@ class ProgramPanel:
         self.editor.decorations = decos
         self.editor.line_tooltips = dict(self._errors)
 
-    def _show_errors(self, errors: list[Any]) -> None:
-        shown = [f"line {err.line}, col {err.col}: {err.message}" for err in errors]
+    def _show_errors(self, errors: list[Any], source: str = "parse", name: str | None = None) -> None:
+        """List ``errors`` under the editor and mark their lines, each as a student reads it: the
+        program's name (``name``, default the shared program's) and line, one sentence and the
+        fix (:func:`~parolkit.gui.student_errors.explain`; the line's tooltip: the sentence and
+        the fix).  ``source``: "parse", "check" or "run", what clears them."""
+        said = explain_all(errors, name or self.c.doc.name)
+        self._error_source = source if said else ""
+        shown = [e.text() for e in said]
         if shown == self._shown_errors:
             return  # the same list: nothing to send
         self._shown_errors = shown
         self._errors = {}
         self.diag_box.clear()
         with self.diag_box:
-            for err in errors:
-                self._errors.setdefault(int(err.line), f"{err.line}:{err.col} {err.message}")
-                ui.label(f"line {err.line}, col {err.col}: {err.message}") \
-                    .classes("text-sm text-red-300 pk-mono").props("data-testid=diagnostic")
+            for e in said:
+                self._errors.setdefault(e.line, f"{e.sentence}: {e.fix}")
+                ui.label(e.text()).classes("text-sm text-red-300").props("data-testid=diagnostic")
         self._refresh_decorations()
+
+    def _first_error(self) -> str:
+        """The status line's words for the errors shown: the first one, and how many more."""
+        shown = self._shown_errors or []
+        if not shown:
+            return "error"
+        more = f" (and {len(shown) - 1} more below)" if len(shown) > 1 else ""
+        return shown[0] + more
 
     # ---- check, run, stop ----
 
@@ -250,18 +308,20 @@ class ProgramPanel:
         result = parse(text, "editor")
         errors = list(result.errors)
         note = ""
+        self._move_start = None
         if not errors:
             # the controller's zones and tool shape, asked now (an older controller: the table)
             setup, why = await self.c.collision.for_check()
             errors = self._dry_run(result.program, setup)
+            self._move_start = self._start_offer(result.program, setup, errors)
             if why is not None:
                 note = " (collisions checked against the default table only: the controller does not say its zones)"
                 self.c.log.add(f"check: {why}: collisions checked against the default table only", Level.WARNING)
-        self._show_errors(errors)
+        self._show_errors(errors, "check")
         self._checked_text = text
         self._diag_at = None  # the parser's diagnostics of this text are in the list already
         ok = not errors
-        self.prog_status.set_text(("✓ program OK" if ok else f"✗ {len(errors)} error(s)") + note)
+        self.prog_status.set_text(("✓ program OK" if ok else f"✗ {self._first_error()}") + note)
         self.prog_status.classes(replace="text-sm pk-mono " + ("text-green-400" if ok else "text-red-300"))
         return ok
 
@@ -288,6 +348,32 @@ class ProgramPanel:
                 self.on_preview(path_preview(report, zones, tool_shape), st.tool if st else "default")
         return list(report.errors)
 
+    def _start_offer(self, program: Any, setup: CollisionSetup | None,
+                     errors: list[Any]) -> gui_simulate.StartPose | None:
+        """The program's start when its ``errors`` (from where the arm is) are all moves that
+        cannot be done and the program is valid from the home pose (the standby joints, where
+        Home() ends): then "Move to start" is offered.  None otherwise."""
+        from parolkit.gui.simulate import StartPose, start_pose
+        from parolkit.script import dry_run
+
+        moves = ("joint_limit", "reach", "too_fast", "singularity", "collision", "blend")
+        if program is None or not errors or any(e.kind not in moves for e in explain_all(errors, "")):
+            return None
+        try:
+            home = dry_run(program, None, zones=None if setup is None else setup.zones,
+                           tool_shape=None if setup is None else setup.tool_shape)
+        except (ParolkitError, ValueError):
+            return None
+        start = start_pose(program)
+        return start if home.ok and isinstance(start, StartPose) else None
+
+    @staticmethod
+    def _parsed(text: str) -> Any:
+        """The program of ``text`` (None when it has errors)."""
+        from parolkit.script import parse
+
+        return parse(text, "program").program
+
     def _plot_plan(self, t: Any, q: Any, v: Any) -> None:
         step = max(1, len(t) // 400)
         idx = range(0, len(t), step)
@@ -311,9 +397,30 @@ class ProgramPanel:
                 runner.starting = False
                 raise
         errors = await runner.start(text, step=step, name=self.c.doc.name)
-        self._show_errors(errors)
+        self._show_errors(errors, "run")
         if errors:
-            self.prog_status.set_text(f"✗ {len(errors)} error(s): nothing was run")
+            self.prog_status.set_text(f"✗ {self._first_error()} · nothing was run")
+
+    async def resume_program(self) -> None:
+        """Resume from the line the E-stop interrupted: that line's move planned again from
+        where the arm is to its own target, then the rest (:mod:`parolkit.gui.resume`)."""
+        info = self._interrupt
+        if info is None or not isinstance(info[2], ResumePlan) or self._program_active():
+            return
+        runner = self.c.program
+        runner.resume_line = info[0]
+        try:
+            await self.run_program(step=False)
+        finally:
+            runner.resume_line = None  # (taken by the start; a start that did not happen leaves none)
+
+    def move_to_start(self) -> None:
+        """Move to start: the planned move to the program's first pose (MOVEJOINT to its joints,
+        MOVEPOSE to its pose), once; Stop stops it."""
+        start = self._move_start
+        if start is None or self._program_active():
+            return
+        self.c.command(start.command(), f"move to start ({start.describe()})")
 
     def stop_program(self) -> None:
         """Stop the program run and send STOP (cancels the move in progress and the queue)."""
@@ -339,11 +446,101 @@ class ProgramPanel:
         self.files.update()
 
     def set_online(self, online: bool) -> None:
-        """Run and Step only with a link to the controller."""
-        if online != self._online:
-            self._online = online
-            self._run_btn.set_enabled(online)
-            self._step_btn.set_enabled(online)
+        """Run and Step only with a link to the controller and no E-stop latched or pressed
+        (the offer line says so)."""
+        st = self.link.status
+        can = online and not (st is not None and (st.estop_latched or st.estop_pressed))
+        if can != self._online:
+            self._online = can
+            self._run_btn.set_enabled(can)
+            self._step_btn.set_enabled(can)
+
+    def _interrupted(self) -> tuple[int, str, ResumePlan | str] | None:
+        """The E-stop interrupted the last run of the shared program's text: (line, the
+        program's name, how to resume there or why not); None otherwise (or once edited)."""
+        from parolkit.script import parse
+
+        runner = self.c.program
+        if runner.state not in ("stopped", "error") or self._program_active() or runner.text != self.c.doc.text:
+            self._interrupt_key = None
+            return None
+        line = runner.estop_line if runner.state == "stopped" else None
+        if runner.state == "error" and runner.errors:
+            first = explain(runner.errors[0], runner.name)
+            line = first.line if first.kind == "estop" else None
+        if line is None:
+            self._interrupt_key = None
+            return None
+        key = (runner.version, runner.text)
+        if key != self._interrupt_key or self._interrupt is None:
+            self._interrupt_key = key
+            result = parse(runner.text, runner.name or "program")
+            how: ResumePlan | str = ("the program has errors" if result.program is None
+                                     else resume_plan(result.program, line))
+            self._interrupt = (line, runner.name or self.c.doc.name, how)
+        return self._interrupt
+
+    def _update_offers(self) -> None:
+        """The offer line: "E-STOP latched" (Run greyed until Enable); after the E-stop
+        interrupted a run, "Resume from line N" (where safe) and "Restart"; "Move to start" when
+        the program is valid from the home pose and not from where the arm is."""
+        st = self.link.status
+        up = st is not None and self.link.link_up
+        latched = st is not None and up and (st.estop_latched or st.estop_pressed)
+        can_move = st is not None and up and st.can_move and not self.c.program.starting
+        info = self._interrupted()
+        self._interrupt = info
+        note, resume, restart, move = "", "", False, False
+        if info is not None:
+            line, name, how = info
+            if latched:
+                note = (f"E-STOP: {name} stopped at line {line}. Release the E-stop with Enable, then resume "
+                        "or restart.")
+            elif isinstance(how, ResumePlan):
+                note = (f"The E-stop stopped {name} at line {line}. Resume plans line {line}'s move again from "
+                        "where the arm is; Restart runs it from its first line.")
+                resume = f"Resume from line {line}"
+            else:
+                note = f"The E-stop stopped {name} at line {line}. It cannot resume there: {how}. Restart runs it."
+            restart = True
+        elif latched:
+            note = "E-STOP latched: Run and Step are greyed until you release it with Enable."
+        elif self._move_start is not None and not self._program_active():
+            start = self._move_start
+            if st is not None and start.reached(st.angles, st.pose):
+                note = f"The arm is at {self.c.doc.name}'s start ({start.describe()}): Check or Run again."
+            else:
+                note = (f"{self.c.doc.name} works from the home pose but not from where the arm is now. Move to "
+                        f"start takes the arm to {start.describe()}.")
+                move = True
+        if (restart or resume or move) and not can_move and not latched:
+            note += " (The robot cannot move now: press Enable, then Home if it asks.)"
+        key = (note, resume, restart, move, can_move)
+        if key == self._offer_shown:
+            return
+        self._offer_shown = key
+        self.offer_row.set_visibility(bool(note))
+        self.offer_note.set_text(note)
+        self._resume_btn.set_visibility(bool(resume))
+        if resume:
+            self._resume_btn.set_text(resume)
+            self._resume_btn.props(f'aria-label="{resume}: its move planned again from where the arm is"')
+        self._restart_btn.set_visibility(restart)
+        self._move_start_btn.set_visibility(move)
+        for b in (self._resume_btn, self._restart_btn, self._move_start_btn):
+            b.set_enabled(can_move)
+
+    def _update_live_values(self) -> None:
+        """The joints and TCP pose completion fills in, sent when the arm is at rest somewhere new."""
+        from parolkit.gui.completion import values_text
+
+        st = self.link.status
+        if st is None or not self.link.link_up or max((abs(v) for v in st.speeds_deg_s), default=0.0) > 0.2:
+            return
+        shown = (values_text(st.angles), values_text(st.pose))
+        if shown != self._live_shown:
+            self._live_shown = shown
+            self._live.props(f'data-joints="{shown[0]}" data-pose="{shown[1]}"')
 
     def shown(self) -> None:
         """The Program tab was opened (its editor is created then): scroll the executing line
@@ -362,6 +559,8 @@ class ProgramPanel:
         """Follow the shared document and the program runner: text, status line, error
         marks, the executing line (scrolled into view)."""
         self._follow_text()
+        self._update_offers()
+        self._update_live_values()
         if self._diag_at is not None and time.monotonic() >= self._diag_at:
             self._diag_at = None
             self._diagnose()
@@ -375,6 +574,12 @@ class ProgramPanel:
         if key == self._prog_version:
             return
         self._prog_version = key
+        if runner.interpreter is not None and runner.interpreter is not self._run_seen:
+            # a new run: what the last run and the last Check marked is gone with its cause
+            self._run_seen = runner.interpreter
+            if self._error_source in ("check", "run"):
+                self._show_errors([], "run")
+            self._move_start = None
         if runner.state in ACTIVE_STATES:
             where = f" · {runner.name}" if runner.name else ""
             self.prog_status.set_text(program_status(runner.state, runner.current_line, held,
@@ -382,8 +587,9 @@ class ProgramPanel:
             self.prog_status.classes(replace="text-sm pk-mono text-amber-300")
         elif runner.state == "error":
             if runner.errors:
-                self._show_errors(runner.errors)
-            self.prog_status.set_text(f"✗ {runner.message}")
+                self._show_errors(runner.errors, "run", runner.name)
+                self._move_start = self._start_offer(self._parsed(runner.text), self.c.collision.setup, runner.errors)
+            self.prog_status.set_text(f"✗ {self._first_error() if self._error_source == 'run' else runner.message}")
             self.prog_status.classes(replace="text-sm pk-mono text-red-300")
         elif runner.state == "finished":
             self.prog_status.set_text("✓ finished")
