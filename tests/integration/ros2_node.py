@@ -6,6 +6,9 @@ Driven by tests/integration/test_ros2.py through stdin/stdout, one JSON object p
     {"cmd": "joint_states", "n": 20}             -> {"msgs": [{"name", "position", "velocity", "stamp"}...]}
     {"cmd": "publish", "names": [...], "points": [[t, [q...]] or [t, [q...], [v...]], ...]}   -> {"ok": true}
     {"cmd": "event", "timeout": 10}              -> {"event": "refused: ..."} (next parolkit/events)
+    {"cmd": "graph", "node": "parolkit_bridge", "publishers": [topics], "subscriptions": [topics]}
+        -> {"nodes": [[name, namespace]...], "publishers": {topic: [endpoint...]}, "subscriptions": {...}}
+           (once the node is listed and every topic has an endpoint of it, or after "wait" s, default 20)
     {"cmd": "quit"}
 
 It imports only rclpy and ROS message packages: the parolkit side is reached over DDS alone.
@@ -23,6 +26,35 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+
+def _endpoint(info) -> dict:  # type: ignore[no-untyped-def]
+    return {"node_name": info.node_name, "node_namespace": info.node_namespace, "topic_type": info.topic_type,
+            "topic_type_hash": str(info.topic_type_hash), "endpoint_gid": list(info.endpoint_gid),
+            "durability": info.qos_profile.durability.name, "reliability": info.qos_profile.reliability.name}
+
+
+def graph(node, req: dict) -> dict:  # type: ignore[no-untyped-def]
+    """What rclpy's graph API says about ``req["node"]`` and the topics named: node names and
+    namespaces, and each topic's publishers / subscriptions as rmw reports them."""
+    def snapshot() -> dict:
+        return {"nodes": [list(n) for n in node.get_node_names_and_namespaces()],
+                "publishers": {t: [_endpoint(i) for i in node.get_publishers_info_by_topic(t)]
+                               for t in req.get("publishers", [])},
+                "subscriptions": {t: [_endpoint(i) for i in node.get_subscriptions_info_by_topic(t)]
+                                  for t in req.get("subscriptions", [])}}
+
+    def complete(snap: dict) -> bool:
+        return (any(n[0] == req["node"] for n in snap["nodes"])
+                and all(any(e["node_name"] == req["node"] for e in ends)
+                        for kind in ("publishers", "subscriptions") for ends in snap[kind].values()))
+
+    end = time.monotonic() + req.get("wait", 20)
+    snap = snapshot()
+    while not complete(snap) and time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.1)
+        snap = snapshot()
+    return snap
 
 
 def main() -> None:
@@ -96,6 +128,8 @@ def main() -> None:
             events.clear()
             pub.publish(msg)
             reply({"ok": True, "matched": pub.get_subscription_count(), "sent": time.time()})
+        elif cmd == "graph":
+            reply(graph(node, req))
         elif cmd == "event":
             ok = spin_until(lambda: bool(events), req.get("timeout", 20))
             reply({"event": events.pop(0) if ok else None})

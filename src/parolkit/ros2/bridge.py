@@ -7,8 +7,12 @@ Publishes (ROS names under the namespace ``ns`` of config ``[ros2]`` / ``--names
   ``joint_states_every_n``-th control tick (1: the controller's status rate);
 * ``/<ns>/robot_description`` (std_msgs/msg/String, transient local): the URDF of
   :mod:`parolkit.ros2.urdf`, so a late subscriber (RViz, robot_state_publisher) still gets it;
-* ``/tf`` (tf2_msgs/msg/TFMessage): ``base_link`` -> ``<ns>/parolkit_tcp``, the controller's
-  TCP (its active tool) as it reports it, with every joint state;
+* ``/tf`` (tf2_msgs/msg/TFMessage), with every joint state: every moving link of the URDF
+  (``base_link`` -> ``L1`` ... ``L5`` -> ``L6``, :mod:`parolkit.ros2.tf`) and ``base_link`` ->
+  ``parolkit_tcp``, the controller's TCP (its active tool) as it reports it;
+* ``/tf_static`` (tf2_msgs/msg/TFMessage, transient local): ``world`` -> ``base_link`` and the
+  URDF's fixed joints (``L6`` -> ``flange`` -> ``tcp``); every robot frame carries the frame
+  prefix (``--frame-prefix``, default none: the URDF's link names);
 * ``/<ns>/parolkit/status`` (std_msgs/msg/String): a JSON summary of the controller's status
   every ``status_every_n``-th tick;
 * ``/<ns>/parolkit/events`` (std_msgs/msg/String): one line per trajectory: ``accepted ...``,
@@ -21,8 +25,11 @@ controller plans the path again and guards every frame), so the points are passe
 stopping and the last one is reached on its tick.  A trajectory arriving while the robot runs a
 command is refused (busy).
 
-QoS as ROS 2's defaults: reliable, keep last 10, volatile; the description transient local,
-keep last 1 (as robot_state_publisher).  ROS_DOMAIN_ID = ``[ros2] domain``.
+QoS as ROS 2's defaults: reliable, keep last 10, volatile; the description and /tf_static
+transient local, keep last 1 (as robot_state_publisher).  The bridge is the ROS 2 node
+``/<ns>/parolkit_bridge`` (:mod:`parolkit.ros2.graph`: announced on ``ros_discovery_info``,
+every topic with its type hash); its DDS domain is ``--domain``, else ``[ros2] domain`` from
+the config file, else ``ROS_DOMAIN_ID``, else 0 (logged with its source).
 
 Joint values on the ROS side are in ``[ros2] joint_convention`` (:mod:`parolkit.ros2.convention`):
 parolkit's own angles, or the community PAROL6 URDF's zeros and signs; /joint_states,
@@ -36,25 +43,26 @@ import json
 import logging
 import math
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable
 from typing import Any
 
 from cyclonedds.core import InstanceState, Policy, Qos, ReadCondition, SampleState, ViewState, WaitSet
-from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
-from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from parolkit.client.core import RobotStatus
 from parolkit.client.errors import RobotError
 from parolkit.client.robot import CommandHandle, Robot
 from parolkit.config import Config
+from parolkit.errors import ParolkitError
 from parolkit.kinematics.pose import pose_to_matrix
 from parolkit.ros2 import msgs
 from parolkit.ros2.convention import get_convention
+from parolkit.ros2.graph import NODE_NAME, RosGraph, make_participant, resolve_domain
+from parolkit.ros2.tf import FrameTransform, TfTree, check_frame_prefix
 from parolkit.ros2.trajectory import TrajectoryPoint, TrajectoryRefused, plan_joint_trajectory
 from parolkit.ros2.urdf import BASE_LINK, ROS_JOINT_NAMES, make_urdf
 
@@ -106,26 +114,33 @@ class Ros2Bridge:
     and starts the trajectory thread; :meth:`close` stops both.
     """
 
-    def __init__(self, cfg: Config, robot: Robot, clock_ns: Callable[[], int] = time.time_ns) -> None:
+    def __init__(self, cfg: Config, robot: Robot, clock_ns: Callable[[], int] = time.time_ns, *,
+                 domain: int | None = None, frame_prefix: str = "") -> None:
         self.cfg = cfg
         self.robot = robot
         self._clock_ns = clock_ns
         r = cfg.ros2
         self.namespace = r.namespace.strip("/")
-        self.dp = DomainParticipant(r.domain)
+        #: the frame prefix of every robot frame on /tf and /tf_static (parolkit.ros2.tf)
+        self.frame_prefix = check_frame_prefix(frame_prefix)
+        self.dp = make_participant(r.domain if domain is None else domain)
+        #: the ROS 2 node: every reader and writer below is announced as its own
+        self.graph = RosGraph(self.dp, NODE_NAME, self.namespace)
         qos = ros_qos()
 
         def writer(name: str, typ: type, q: Qos = qos) -> DataWriter[Any]:
-            return DataWriter(self.dp, Topic(self.dp, msgs.topic_name(self.namespace, name), typ), q)
+            return self.graph.writer(msgs.topic_name(self.namespace, name), typ, q)
 
         self.joint_states = writer("joint_states", msgs.JointState)
         self.description = writer("robot_description", msgs.String, description_qos())
-        self.tf = DataWriter(self.dp, Topic(self.dp, "rt/tf", msgs.TFMessage), qos)
+        self.tf = self.graph.writer("rt/tf", msgs.TFMessage, qos)
+        self.tf_static = self.graph.writer("rt/tf_static", msgs.TFMessage, description_qos())
         self.status_out = writer("parolkit/status", msgs.String)
         self.events = writer("parolkit/events", msgs.String)
-        self.trajectories = DataReader(
-            self.dp, Topic(self.dp, msgs.topic_name(self.namespace, "joint_trajectory"), msgs.JointTrajectory), qos)
-        self.tcp_frame = f"{self.namespace}/parolkit_tcp" if self.namespace else "parolkit_tcp"
+        self.trajectories = self.graph.reader(msgs.topic_name(self.namespace, "joint_trajectory"),
+                                              msgs.JointTrajectory, qos)
+        self.tcp_frame = f"{self.frame_prefix}parolkit_tcp"
+        self.tf_tree: TfTree | None = None  # from the URDF, in start()
         self._names = list(ROS_JOINT_NAMES)
         #: joint values on the ROS side ([ros2] joint_convention): q_ros = sign * q + offset
         self.convention = get_convention(r.joint_convention)
@@ -150,7 +165,11 @@ class Ros2Bridge:
         with self._latest_lock:
             self._latest_at = time.monotonic()
         rate = self.robot.status().loop.rate_hz or self.cfg.controller.rate_hz  # the URDF's velocity limits' rate
-        self.description.write(msgs.String(data=make_urdf(self.cfg.robot, config=self.cfg, rate_hz=rate)))
+        urdf = make_urdf(self.cfg.robot, config=self.cfg, rate_hz=rate)
+        self.description.write(msgs.String(data=urdf))
+        self.tf_tree = TfTree(urdf, self.frame_prefix)
+        stamp = msgs.time_from_ns(self._clock_ns())
+        self.tf_static.write(msgs.TFMessage(transforms=[_stamped(t, stamp) for t in self.tf_tree.static_transforms()]))
         self._sub = self.robot.subscribe(self.cfg.ros2.joint_states_every_n, callback=self.on_status)
         self._thread = threading.Thread(target=self._trajectory_loop, daemon=True, name="parolkit-ros2-trajectories")
         self._thread.start()
@@ -171,9 +190,9 @@ class Ros2Bridge:
         a = st.angles
         v = st.speeds_deg_s
         sg, off = self._signs, self._offsets_rad
+        position = [sg[j] * a[j] * _DEG + off[j] for j in range(6)]
         self.joint_states.write(msgs.JointState(
-            header=header, name=self._names,
-            position=[sg[j] * a[j] * _DEG + off[j] for j in range(6)],
+            header=header, name=self._names, position=position,
             velocity=[sg[j] * v[j] * _DEG for j in range(6)],
             effort=[]))
         self.published += 1
@@ -181,8 +200,9 @@ class Ros2Bridge:
             self._latest = st
             self._latest_at = time.monotonic()
         m = pose_to_matrix(tuple(st.pose))
-        self.tf.write(msgs.TFMessage(transforms=[msgs.TransformStamped(
-            header=msgs.MsgHeader(stamp=stamp, frame_id=BASE_LINK), child_frame_id=self.tcp_frame,
+        links = [_stamped(t, stamp) for t in self.tf_tree.transforms(position)] if self.tf_tree is not None else []
+        self.tf.write(msgs.TFMessage(transforms=[*links, msgs.TransformStamped(
+            header=msgs.MsgHeader(stamp=stamp, frame_id=self.frame_prefix + BASE_LINK), child_frame_id=self.tcp_frame,
             transform=msgs.Transform(
                 translation=msgs.Vector3(float(m[0, 3]), float(m[1, 3]), float(m[2, 3])),
                 rotation=quaternion_from_matrix(m)))]))
@@ -283,18 +303,34 @@ class Ros2Bridge:
             self._sub.close()
         if self._thread is not None:
             self._thread.join(2.0)
+        self.graph.close()
 
 
-def run_bridge(cfg: Config, host: str, port: int) -> int:
-    """``parolkit ros2``: run until SIGINT/SIGTERM; 1 if the controller cannot be reached."""
+def _stamped(t: FrameTransform, stamp: msgs.Time) -> msgs.TransformStamped:
+    """A :class:`parolkit.ros2.tf.FrameTransform` as a geometry_msgs/TransformStamped."""
+    return msgs.TransformStamped(
+        header=msgs.MsgHeader(stamp=stamp, frame_id=t.parent), child_frame_id=t.child,
+        transform=msgs.Transform(translation=msgs.Vector3(*t.translation), rotation=msgs.Quaternion(*t.rotation)))
+
+
+def run_bridge(cfg: Config, host: str, port: int, *, domain_flag: int | None = None, frame_prefix: str = "") -> int:
+    """``parolkit ros2``: run until SIGINT/SIGTERM; 1 if the controller cannot be reached, 2 for
+    a bad domain or frame prefix.  ``domain_flag``: ``--domain`` (None: not given, see
+    :func:`parolkit.ros2.graph.resolve_domain`)."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    try:
+        choice = resolve_domain(domain_flag, cfg)
+        check_frame_prefix(frame_prefix)
+    except ParolkitError as exc:
+        print(f"parolkit ros2: {exc}", file=sys.stderr)
+        return 2
     try:
         robot = Robot(host, port)
         first = robot.status()
     except RobotError as exc:
         log.error("cannot reach the controller at %s:%d: %s", host, port, exc)
         return 1
-    bridge = Ros2Bridge(cfg, robot)
+    bridge = Ros2Bridge(cfg, robot, domain=choice.domain, frame_prefix=frame_prefix)
     stop = threading.Event()
 
     def _on_signal(signum: int, frame: object) -> None:
@@ -304,9 +340,10 @@ def run_bridge(cfg: Config, host: str, port: int) -> int:
     signal.signal(signal.SIGINT, _on_signal)
     bridge.start()
     ns = bridge.namespace or "(none)"
-    log.info("ROS 2 bridge up: domain %d, namespace %s, controller %s:%d (state %s, %g Hz)",
-             cfg.ros2.domain, ns, host, port, first.state, first.loop.rate_hz)
-    print(f"parolkit ros2: ready (domain {cfg.ros2.domain}, namespace {ns})", flush=True)
+    log.info("ROS 2 bridge up: node %s, domain %d (from %s), namespace %s, controller %s:%d (state %s, %g Hz)",
+             bridge.graph.namespace.rstrip("/") + "/" + bridge.graph.name, choice.domain, choice.source, ns,
+             host, port, first.state, first.loop.rate_hz)
+    print(f"parolkit ros2: ready (domain {choice.domain} from {choice.source}, namespace {ns})", flush=True)
     try:
         while not stop.wait(0.5):
             if bridge.status_age_s() > STATUS_SILENCE_S:

@@ -1,7 +1,7 @@
 """``parolkit urdf`` and ``parolkit ros2``.
 
     parolkit urdf [-o parol6.urdf] [--tool NAME] [--config FILE]
-    parolkit ros2 [--connect HOST:PORT] [--domain N] [--namespace NS] [--config FILE]
+    parolkit ros2 [--connect HOST:PORT] [--domain N] [--namespace NS] [--frame-prefix P] [--config FILE]
 
 ``urdf`` needs only numpy; ``ros2`` needs the optional ``cyclonedds`` package
 (``pip install 'parolkit[ros2]'``) and is imported only when run.
@@ -36,7 +36,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser], na
         "messages from /<ns>/joint_trajectory through the controller. Needs `pip install 'parolkit[ros2]'`.")
     p.add_argument("--connect", metavar="HOST:PORT", type=parse_host_port, default=("127.0.0.1", 5001),
                    help="the controller (default 127.0.0.1:5001)")
-    p.add_argument("--domain", type=int, default=None, help="ROS_DOMAIN_ID (default from config [ros2]: 0)")
+    p.add_argument("--domain", type=int, default=None,
+                   help="DDS domain (default: [ros2] domain in the config file, else $ROS_DOMAIN_ID, else 0)")
+    p.add_argument("--frame-prefix", default="", metavar="PREFIX",
+                   help="prefix of every robot frame on /tf and /tf_static, e.g. parol6/ (default: none, the "
+                   "URDF's link names)")
     p.add_argument("--namespace", default=None, help="ROS namespace of the topics (default from config: none)")
     p.add_argument("--config", type=Path, default=None, help="parolkit.toml to use")
     p.set_defaults(func=_run_ros2)
@@ -86,4 +90,4 @@ def _run_ros2(args: argparse.Namespace) -> int:
             return 2
         raise
     host, port = args.connect
-    return run_bridge(cfg, host, port)
+    return run_bridge(cfg, host, port, domain_flag=args.domain, frame_prefix=args.frame_prefix)
