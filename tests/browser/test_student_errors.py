@@ -23,12 +23,12 @@ import subprocess
 import sys
 import time
 import urllib.request
-from pathlib import Path
 
 import pytest
 from playwright.sync_api import expect
-from tests.browser.conftest import REPO_ROOT, _free_tcp_port
+from tests.browser.conftest import ARTIFACTS, REPO_ROOT, _free_tcp_port
 from tests.browser.helpers import (
+    image_path,
     log_mark,
     log_since,
     recover,
@@ -49,7 +49,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 JARGON = re.compile(r"editor:\d|\w+:\d+:\d+|steps/s|steps\b|GO TO|TOPP|col \d|\bdeg\)")
 
 
-def _start_gui(args: list[str], root: Path) -> tuple[subprocess.Popen, str]:
+def _start_gui(args: list[str]) -> tuple[subprocess.Popen, str]:
     """``parolkit gui ARGS --no-browser`` on a free port, ready once it serves a static file:
     asking for a page (conftest's ``/login``) builds the whole commander page, which takes over
     the 1 s it waits on a loaded machine, and every build it gave up on still runs, so the next
@@ -57,7 +57,8 @@ def _start_gui(args: list[str], root: Path) -> tuple[subprocess.Popen, str]:
     port = _free_tcp_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO_ROOT / "src"))
     env.pop("PYTEST_CURRENT_TEST", None)  # NiceGUI would switch to its own screen-test mode
-    with open(root / f"gui-{port}.log", "wb") as log:
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    with open(ARTIFACTS / f"gui-{port}.log", "wb") as log:
         proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", *args, "--http-port", str(port),
                                  "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
                                 preexec_fn=die_with_parent)
@@ -70,7 +71,7 @@ def _start_gui(args: list[str], root: Path) -> tuple[subprocess.Popen, str]:
         except OSError:
             time.sleep(0.3)
     stop_process(proc, 15)
-    pytest.fail(f"parolkit gui did not serve {url} within 90 s:\n{(root / f'gui-{port}.log').read_text()}")
+    pytest.fail(f"parolkit gui did not serve {url} within 90 s:\n{(ARTIFACTS / f'gui-{port}.log').read_text()}")
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +84,7 @@ def controller_gui(tmp_path_factory):
     controller = start_controller(["--stream-watchdog", "0.15"], log_dir=root)
     try:
         proc, url = _start_gui(["--connect", f"127.0.0.1:{controller.port}", "--programs-dir",
-                                str(root / "programs")], root)
+                                str(root / "programs")])
         try:
             yield {"url": url, "controller": controller}
         finally:
@@ -165,6 +166,8 @@ def test_a_limit_error_at_line_4_says_which_joint_and_the_fix(page):
     assert "J2 would pass its limit at line 4: try a higher Z" in _status(page)
     wait_until(lambda: _error_lines(page) == [4], 10, what="line 4 marked", page=page)
     _no_jargon(*_diagnostics(page), _status(page))
+    page.get_by_test_id("diagnostics").scroll_into_view_if_needed()
+    page.screenshot(path=str(image_path("student-errors-limit.png")))
 
 
 def test_valid_from_home_but_not_from_here_offers_move_to_start(page, controller_gui):
@@ -266,7 +269,7 @@ def test_run_is_greyed_while_the_estop_is_latched(page):
 
 def test_resume_after_release_runs_on_from_the_interrupted_line(page, controller_gui):
     recover(page)
-    _type_program(page, "Begin()\nMoveJoint(40, -90, 180, 0, 0, 180, t=6)\nMoveJoint(90, -90, 180, 0, 0, 180, t=3)\n"
+    _type_program(page, "Begin()\nMoveJoint(40, -90, 180, 0, 0, 180, t=12)\nMoveJoint(90, -90, 180, 0, 0, 180, t=3)\n"
                         "Output(2,HIGH)\nEnd()\n")
     with _robot(controller_gui) as robot:
         robot.take_control(force=True)
@@ -275,7 +278,8 @@ def test_resume_after_release_runs_on_from_the_interrupted_line(page, controller
         finally:
             robot.release_control()
         page.get_by_test_id("prog-run").click()
-        wait_until(lambda: "line 2" in _status(page) and robot.angles()[0] < 80, 30,
+        # line 2 takes 12 s: the E-stop reaches the arm on its way, even from a page slow to click
+        wait_until(lambda: "line 2" in _status(page) and robot.angles()[0] < 85, 30,
                    what="line 2's move under way", page=page)
         page.get_by_test_id("btn-estop").click()
         wait_until(lambda: state(page) == "E-STOP", 15, what="E-STOP latched", page=page)
@@ -283,7 +287,8 @@ def test_resume_after_release_runs_on_from_the_interrupted_line(page, controller
         assert 40.5 < stopped_j1 < 85, stopped_j1  # stopped on the way
         note = page.get_by_test_id("offer-note")
         wait_until(lambda: re.search(r"E-STOP: \S+\.rbt stopped at line 2\. Release the E-stop with Enable",
-                                     note.inner_text()), 15, what="the offer while latched", page=page)
+                                     note.inner_text()), 15,
+                   what=f"the offer while latched (status {_status(page)!r}, note {note.inner_text()!r})", page=page)
         expect(page.get_by_test_id("prog-resume")).to_be_hidden()
         expect(page.get_by_test_id("prog-run")).to_be_disabled()
         page.get_by_test_id("btn-enable").click()
@@ -293,6 +298,8 @@ def test_resume_after_release_runs_on_from_the_interrupted_line(page, controller
         expect(resume).to_have_text(re.compile("Resume from line 2"), timeout=5000)
         expect(resume).to_be_enabled(timeout=15000)
         expect(page.get_by_test_id("prog-restart")).to_be_enabled()
+        page.get_by_test_id("offer-note").scroll_into_view_if_needed()
+        page.screenshot(path=str(image_path("student-errors-resume.png")))
         mark = log_mark(page)
         lowest = [robot.angles()[0]]
         resume.click()
