@@ -12,6 +12,7 @@ from parolkit.collision import TABLE_ZONE, BoxZone
 from parolkit.errors import ParolkitValueError
 from parolkit.gui.simulate import (
     AT_START_DEG,
+    MAX_FRAME_STEP_S,
     RUN_SPEED_MIN_PCT,
     SIM_SPEEDS,
     SimTimeline,
@@ -179,27 +180,54 @@ def test_a_program_without_moves_has_a_timeline_of_its_delays_only():
 # ---- playback --------------------------------------------------------------------------------
 
 
+def _play(sim: Simulation, start: float, end: float, frame_s: float = 0.02) -> float:
+    """Frames every ``frame_s`` from ``start`` to ``end`` (s of the clock); the time shown then."""
+    n = round((end - start) / frame_s)
+    for k in range(1, n + 1):
+        sim.frame(start + k * frame_s)
+    return sim.advance(end)
+
+
 def test_playback_runs_the_timeline_on_the_clock_it_is_given_at_its_speed():
     tl, _ = _timeline("MoveJoint(90, -90, 180, 0, 0, 180, t=2)\nDelay(2)\nEnd()\n")
     assert tl.duration_s == pytest.approx(4.0)
     sim = Simulation(tl, speed=1)
-    assert not sim.playing(100.0) and sim.time(100.0) == 0.0
+    assert not sim.playing(100.0) and sim.advance(100.0) == 0.0
     sim.start(100.0)
-    assert sim.playing(100.0) and sim.time(101.0) == pytest.approx(1.0)
-    assert sim.frame(101.0) == tl.at(1.0)
+    assert sim.playing(100.0)
+    assert _play(sim, 100.0, 101.0) == pytest.approx(1.0)  # real time
+    assert sim.frame(101.0) == tl.at(sim.advance(101.0))
     sim.set_speed(5, now=101.0)  # from here five times as fast
-    assert sim.time(101.2) == pytest.approx(2.0)
-    assert sim.time(101.7) == 4.0 and not sim.playing(101.7)  # clamped at the end
+    assert _play(sim, 101.0, 101.2) == pytest.approx(2.0)
+    assert _play(sim, 101.2, 101.7) == 4.0 and not sim.playing(101.7)  # held at the end
     assert sim.frame(200.0).done
     fast = Simulation(tl, speed=2)
     fast.start(0.0)
-    assert fast.time(1.0) == pytest.approx(2.0) and fast.playing(1.0)
+    assert _play(fast, 0.0, 1.0) == pytest.approx(2.0) and fast.playing(1.0)
     fast.stop()
-    assert not fast.playing(1.0)
+    assert not fast.playing(5.0) and fast.advance(5.0) == pytest.approx(2.0)  # stopped: the time stands
     with pytest.raises(ParolkitValueError, match="simulation speed"):
         Simulation(tl, speed=3)
     with pytest.raises(ParolkitValueError, match="simulation speed"):
         fast.set_speed(4, now=1.0)
+
+
+def test_a_held_up_server_slows_the_playback_down_and_skips_no_line():
+    """One frame advances the simulation by at most MAX_FRAME_STEP_S of wall time (x its speed):
+    frames 2 s apart (a loaded machine) show every line, at 0.1 s of the program a frame."""
+    tl, _ = _timeline("Begin()\nMoveJoint(84, -90, 180, 0, 0, 180, t=0.4)\nDelay(0.15)\n"
+                      "MoveJoint(80, -90, 180, 0, 0, 180, t=0.4)\nEnd()\n")
+    sim = Simulation(tl, speed=1)
+    sim.start(0.0)
+    seen = [sim.frame(2.0 * k) for k in range(1, 12)]
+    assert [f.time_s for f in seen] == pytest.approx([min(tl.duration_s, k * MAX_FRAME_STEP_S) for k in range(1, 12)])
+    assert [f.line for f in seen] == [tl.at(k * MAX_FRAME_STEP_S).line for k in range(1, 12)]
+    assert {f.line for f in seen} == {2, 3, 4} and tl.duration_s < 1.0 and seen[-1].done
+    fast = Simulation(tl, speed=5)
+    fast.start(0.0)
+    assert fast.advance(10.0) == pytest.approx(5 * MAX_FRAME_STEP_S)
+    # a clock that goes back (a second caller's older 'now') advances nothing
+    assert fast.advance(9.0) == pytest.approx(5 * MAX_FRAME_STEP_S)
 
 
 # ---- the start pose ----------------------------------------------------------------------------

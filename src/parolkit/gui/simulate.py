@@ -8,7 +8,9 @@
   the standby pose (its time depends on the robot), a line that cannot be planned is skipped;
   a ``Loop()`` program plays the passes the dry run checks (two).
 * :class:`Simulation`: plays a timeline on the server's clock at 1x, 2x or 5x
-  (:data:`SIM_SPEEDS`); pure arithmetic on the ``now`` it is given.
+  (:data:`SIM_SPEEDS`); pure arithmetic on the ``now`` it is given.  One frame advances it by
+  at most :data:`MAX_FRAME_STEP_S` of wall time: a server held up (a loaded machine) slows the
+  playback down instead of skipping lines.
 * The run speed (:data:`RUN_SPEED_MIN_PCT`..100 %): a real run at N % sets the controller's
   speed override to N % and each ``Speed(p)`` line to p x N / 100 % (:class:`RunSpeedRobot`,
   :func:`scaled_override`); every move takes 100 / N times its planned time.
@@ -38,13 +40,15 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SIM_SPEEDS", "RUN_SPEED_MIN_PCT", "RUN_SPEED_MAX_PCT", "START_POSE_SPEED_PCT", "START_POSE_ACCEL_PCT",
-    "AT_START_DEG", "AT_START_MM", "sim_speed", "run_speed_pct", "scaled_override", "run_speed_errors",
-    "duration_factor", "SimStep", "SimFrame", "SimTimeline", "Simulation", "StartPose", "start_pose",
-    "RunSpeedRobot",
+    "AT_START_DEG", "AT_START_MM", "MAX_FRAME_STEP_S", "sim_speed", "run_speed_pct", "scaled_override",
+    "run_speed_errors", "duration_factor", "SimStep", "SimFrame", "SimTimeline", "Simulation", "StartPose",
+    "start_pose", "RunSpeedRobot",
 ]
 
 #: the simulation's playback speeds: real time, twice and five times as fast
 SIM_SPEEDS = (1.0, 2.0, 5.0)
+#: the most wall time one frame of the simulation advances it by, s (x its speed)
+MAX_FRAME_STEP_S = 0.1
 #: the run speed's range, % of the planned speed
 RUN_SPEED_MIN_PCT = 10.0
 RUN_SPEED_MAX_PCT = 100.0
@@ -257,41 +261,46 @@ def _repeat_passes(report: DryRunReport, steps: list[SimStep]) -> tuple[list[Sim
 
 class Simulation:
     """A timeline played on a clock: :meth:`start` at ``now`` (s, any monotonic clock), then
-    :meth:`frame` ``(now)``; :meth:`set_speed` changes the speed from ``now`` on."""
+    :meth:`frame` ``(now)`` for each frame shown.  Each call advances the program's time by
+    the wall time since the last one, at most :data:`MAX_FRAME_STEP_S`, times the speed: at
+    real speed (or 2x, 5x) while frames come often, slower when they do not (a line is never
+    skipped because the server was held up).  :meth:`set_speed` changes the speed from ``now`` on."""
 
     def __init__(self, timeline: SimTimeline, speed: float = 1.0) -> None:
         self.timeline = timeline
         self.speed = sim_speed(speed)
-        self._anchor_now: float | None = None
-        self._anchor_t = 0.0
+        self._last: float | None = None
+        self._t = 0.0
         self.stopped = False
 
     @property
     def started(self) -> bool:
-        return self._anchor_now is not None
+        return self._last is not None
 
     def start(self, now: float) -> None:
-        self._anchor_now, self._anchor_t = float(now), 0.0
+        self._last, self._t = float(now), 0.0
         self.stopped = False
 
-    def time(self, now: float) -> float:
-        """The program's time (s) the simulation shows at ``now``."""
-        if self._anchor_now is None:
-            return 0.0
-        t = self._anchor_t + max(0.0, float(now) - self._anchor_now) * self.speed
-        return min(t, self.timeline.duration_s)
+    def advance(self, now: float) -> float:
+        """The program's time (s) the simulation shows at ``now``, advanced to it."""
+        if self._last is None or self.stopped:
+            return self._t
+        dt = float(now) - self._last
+        if dt > 0:
+            self._t = min(self.timeline.duration_s, self._t + min(dt, MAX_FRAME_STEP_S) * self.speed)
+            self._last = float(now)
+        return self._t
 
     def set_speed(self, speed: float, now: float) -> None:
         speed = sim_speed(speed)
-        if self._anchor_now is not None:
-            self._anchor_t, self._anchor_now = self.time(now), float(now)
+        self.advance(now)
         self.speed = speed
 
     def frame(self, now: float) -> SimFrame:
-        return self.timeline.at(self.time(now))
+        return self.timeline.at(self.advance(now))
 
     def playing(self, now: float) -> bool:
-        return self.started and not self.stopped and self.time(now) < self.timeline.duration_s
+        return self.started and not self.stopped and self.advance(now) < self.timeline.duration_s
 
     def stop(self) -> None:
         self.stopped = True
