@@ -271,6 +271,20 @@ def test_the_page_settings_come_from_the_constants():
     assert 0 < s["poll_ms"] < s["heartbeat_ms"] < 1000 * 0.5
 
 
+def test_a_page_that_may_not_move_the_robot_does_not_start_the_drive():
+    """A class: a watching page's press is refused by the commander's check (may_start)."""
+    from parolkit.gui.eventlog import EventLog
+    from parolkit.gui.link import ControllerLink
+
+    link = ControllerLink("127.0.0.1", 9, 9)  # never started: nothing may be sent
+    asked: list[bool] = []
+    drive = GamepadDrive(link, EventLog(), lambda: None, may_start=lambda: asked.append(True) or False)
+    controls = PadControls()
+    for p in (pad(), pad({Axis.LX: 1.0}, HELD)):
+        drive.feed("p", p, start=controls.feed(p), mode=Mode.JOINT, frame=Frame.WRF, speed_pct=50.0)
+    assert asked == [True] and drive.owner is None and not drive.streaming
+
+
 # ---- the drive, against a real controller process ----
 
 

@@ -92,7 +92,8 @@ class Commander:
         #: the controller's collision world (GET_ZONES) and the live arm's bodies within a margin
         self.collision = CollisionWatch(link)
         #: the gamepad's servo stream (one page drives at a time; gui/gamepad.py)
-        self.gamepad = GamepadDrive(link, self.log, self.control.ensure)
+        self.gamepad = GamepadDrive(link, self.log, self.control.ensure,
+                                    may_start=lambda: not self._refused("gamepad"))
         #: connected pages (browser tabs); when the last one goes the lease is given back
         self.pages = 0
         #: a class (gui.teacher_password): who may move the robot; None: no roles

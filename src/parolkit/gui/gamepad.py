@@ -42,6 +42,7 @@ from parolkit.client.errors import CommandNotCompleted, RobotError
 from parolkit.errors import ParolkitValueError
 from parolkit.gui.eventlog import EventLog, Level
 from parolkit.gui.jog import matrix_to_rpy, rpy_to_matrix
+from parolkit.gui.link import LINK_TIMEOUT_S
 from parolkit.moves import Frame
 from parolkit.robot import JOINT_NAMES, PAROL6, RobotModel
 
@@ -112,8 +113,10 @@ HEARTBEAT_S = 0.1
 STALE_S = 1.0
 #: no word from the driving page for this long stops the arm (a stalled page; counted in the
 #: server's own stream periods, each at most :data:`SILENCE_STEP_S`, so the server's own
-#: stall, after which the page's waiting messages are read, is not taken for the page's), s
-INPUT_TIMEOUT_S = 1.0
+#: stall, after which the page's waiting messages are read, is not taken for the page's; the
+#: controller's status stream is judged the same way, silent for the link's
+#: ``LINK_TIMEOUT_S``), s
+INPUT_TIMEOUT_S = 1.5
 #: the most one period of the stream counts toward the page's silence, s
 SILENCE_STEP_S = 0.1
 #: servo targets are sent this often (the controller's servo.timeout_s is 0.05 s), s
@@ -480,11 +483,15 @@ class GamepadDrive:
     tick when it answered a query sent right after the STOP."""
 
     def __init__(self, link: ControllerLink, log: EventLog, ensure_control: Callable[[], None], *,
-                 model: RobotModel = PAROL6, period_s: float = SERVO_PERIOD_S,
-                 input_timeout_s: float = INPUT_TIMEOUT_S, idle_hold_s: float = IDLE_HOLD_S) -> None:
+                 may_start: Callable[[], bool] = lambda: True, model: RobotModel = PAROL6,
+                 period_s: float = SERVO_PERIOD_S, input_timeout_s: float = INPUT_TIMEOUT_S,
+                 idle_hold_s: float = IDLE_HOLD_S) -> None:
         self.link = link
         self.log = log
         self._ensure_control = ensure_control
+        #: asked (in the page's event) before a press starts driving: False refuses it (a class:
+        #: a page that watches; the refusal is the caller's to say)
+        self._may_start = may_start
         self.model = model
         self.period_s = period_s
         self.input_timeout_s = input_timeout_s
@@ -495,8 +502,11 @@ class GamepadDrive:
         self.frame = Frame.WRF
         self._pad = PadInput()
         self._speed_pct = 40.0
-        #: how long the driving page has been silent (see :data:`INPUT_TIMEOUT_S`), s
+        #: how long the driving page, and the controller's status stream, have been silent
+        #: (counted as :data:`INPUT_TIMEOUT_S` says), s
         self._silence = 0.0
+        self._status_silence = 0.0
+        self._status_count = 0
         self._task: asyncio.Task[None] | None = None
         #: targets are being sent (a servo stream runs at the controller)
         self.streaming = False
@@ -527,10 +537,11 @@ class GamepadDrive:
             else:
                 self._pad, self._speed_pct, self._silence = pad, _pct(speed_pct), 0.0
             return
-        if not start or pad.problem is not None or not pad.deadman:
+        if not start or pad.problem is not None or not pad.deadman or not self._may_start():
             return
         self.owner = page
         self._pad, self._speed_pct, self._silence = pad, _pct(speed_pct), 0.0
+        self._status_silence, self._status_count = 0.0, self.link.status_count
         self.mode, self.frame = mode, frame
         self.streaming = False
         self._joints = self._pose = None
@@ -597,7 +608,7 @@ class GamepadDrive:
             self._ensure_control()
             while self.owner is not None:
                 now = time.monotonic()
-                self._silence += min(now - last, SILENCE_STEP_S)
+                self._count_silence(min(now - last, SILENCE_STEP_S))
                 why = self._why_stop()
                 if why is not None:
                     self.halt(why)
@@ -612,9 +623,16 @@ class GamepadDrive:
         except (RobotError, OSError) as exc:
             self.halt(f"targets not sent: {exc}", level=Level.ERROR)
 
+    def _count_silence(self, step: float) -> None:
+        self._silence += step
+        if self.link.status_count != self._status_count:
+            self._status_count, self._status_silence = self.link.status_count, 0.0
+        else:
+            self._status_silence += step
+
     def _why_stop(self) -> str | None:
-        if not self.link.link_up:
-            return "no link to the controller"
+        if self._status_silence > LINK_TIMEOUT_S:
+            return f"no status from the controller for {LINK_TIMEOUT_S:g} s"
         if self._silence > self.input_timeout_s:
             return f"no word from the page for {self.input_timeout_s:g} s"
         return None
