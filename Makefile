@@ -32,8 +32,9 @@ run: $(STAMP_RUN)
 # the ROS 2 Jazzy wheels on PyPI are built for CPython 3.11 (cp311, manylinux_2_28 x86_64)
 ROS_PYTHON ?= python3.11
 VENV_ROS  := .venv-ros
-STAMP_ROS := $(VENV_ROS)/.stamp-ros
-ROS_PKGS  := ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-sensor-msgs ros-jazzy-trajectory-msgs
+# (the stamp is renamed whenever ROS_PKGS grows, so an existing .venv-ros gets the new packages)
+STAMP_ROS := $(VENV_ROS)/.stamp-ros-2
+ROS_PKGS  := ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-sensor-msgs ros-jazzy-trajectory-msgs ros-jazzy-test-msgs
 
 $(STAMP_ROS):
 	$(ROS_PYTHON) -m venv $(VENV_ROS)

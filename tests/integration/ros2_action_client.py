@@ -15,6 +15,7 @@ import threading
 import time
 from typing import Any
 
+from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -59,7 +60,9 @@ class ActionClient:
         self._replies: dict[tuple[str, int], Any] = {}
         self.feedback: list[tuple[bytes, Any]] = []
         self.statuses: list[dict[bytes, int]] = []
-        self._fb = DataReader(dp, Topic(dp, t["feedback"], types.feedback_message), feedback_qos(ud))
+        # a deep history: the test's thread may be slower than the status rate for a while
+        self._fb = DataReader(dp, Topic(dp, t["feedback"], types.feedback_message),
+                              feedback_qos(ud) + Qos(Policy.History.KeepLast(2000)))
         self._st = DataReader(dp, Topic(dp, t["status"], GoalStatusArray), status_qos(ud))
         self._lock = threading.Lock()
         self._stop = threading.Event()

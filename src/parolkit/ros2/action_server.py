@@ -55,7 +55,7 @@ from parolkit.ros2.action_msgs import (
     unwrap,
     wrap,
 )
-from parolkit.ros2.type_hash import type_hash
+from parolkit.ros2.struct_hash import struct_hash as type_hash
 
 __all__ = ["ActionServer", "GoalHandle", "GoalResponse", "action_topics", "service_qos", "status_qos",
            "TERMINAL", "status_name"]
@@ -363,6 +363,10 @@ class ActionServer:
             for h in self._goals.values()]))
 
     # ---- queries ----
+    def endpoints(self) -> tuple[list[DataReader[Any]], list[DataWriter[Any]]]:
+        """The server's readers and writers (for a ROS node's graph to announce as its own)."""
+        return list(self._readers.values()), [*self._writers.values(), self._feedback_writer, self._status_writer]
+
     def goals(self) -> list[GoalHandle]:
         with self._lock:
             return list(self._goals.values())

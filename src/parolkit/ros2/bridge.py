@@ -23,7 +23,12 @@ trajectory through the controller as ONE ``MOVEJOINTPATH`` (see
 :mod:`parolkit.ros2.trajectory`: all-or-nothing pre-check with the controller's planner; the
 controller plans the path again and guards every frame), so the points are passed without
 stopping and the last one is reached on its tick.  A trajectory arriving while the robot runs a
-command is refused (busy).
+command is refused (busy); an empty one stops the arm (a controlled stop, as a cancel).
+
+Actions (:mod:`parolkit.ros2.follow_joint_trajectory`, :mod:`parolkit.ros2.gripper_action`):
+``/<ns>/parol6_arm_controller/follow_joint_trajectory`` (control_msgs/FollowJointTrajectory, what
+MoveIt's controller manager executes through) and ``/<ns>/parol6_gripper_controller/gripper_cmd``
+(control_msgs/GripperCommand, the SSG-48).
 
 QoS as ROS 2's defaults: reliable, keep last 10, volatile; the description and /tf_static
 transient local, keep last 1 (as robot_state_publisher).  The bridge is the ROS 2 node
@@ -47,7 +52,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cyclonedds.core import InstanceState, Policy, Qos, ReadCondition, SampleState, ViewState, WaitSet
 from cyclonedds.pub import DataWriter
@@ -65,6 +70,10 @@ from parolkit.ros2.graph import NODE_NAME, RosGraph, make_participant, resolve_d
 from parolkit.ros2.tf import FrameTransform, TfTree, check_frame_prefix
 from parolkit.ros2.trajectory import TrajectoryPoint, TrajectoryRefused, plan_joint_trajectory
 from parolkit.ros2.urdf import BASE_LINK, ROS_JOINT_NAMES, make_urdf
+
+if TYPE_CHECKING:
+    from parolkit.ros2.follow_joint_trajectory import ArmTrajectoryAction
+    from parolkit.ros2.gripper_action import GripperAction
 
 __all__ = ["Ros2Bridge", "run_bridge", "ros_qos", "description_qos", "quaternion_from_matrix"]
 
@@ -158,6 +167,8 @@ class Ros2Bridge:
         self.published = 0
         #: publishers of joint_trajectory this node has matched (in parolkit/status)
         self.trajectory_publishers = 0
+        #: the FollowJointTrajectory and GripperCommand action servers
+        self.arm_action, self.gripper_action = self._make_actions()
 
     # ---- status -> topics ----
     def start(self) -> None:
@@ -209,6 +220,8 @@ class Ros2Bridge:
         self._tick += 1
         if self._tick % self.cfg.ros2.status_every_n == 0:
             self.status_out.write(msgs.String(data=json.dumps(self.status_summary(st), separators=(",", ":"))))
+        self.arm_action.on_status(st)
+        self.gripper_action.on_status(st)
 
     def status_summary(self, st: RobotStatus) -> dict[str, Any]:
         """The JSON object of ``parolkit/status``."""
@@ -250,6 +263,8 @@ class Ros2Bridge:
         """Why a new trajectory cannot start now, or None."""
         if self._active is not None and not self._active.done():
             return "busy: a trajectory is running"
+        if self.arm_action.running:
+            return "busy: a FollowJointTrajectory goal is running"
         st = self.robot.status()
         if not st.can_move:
             return (f"the robot cannot move (state {st.state}, enabled={st.enabled}, homed={st.all_homed}, "
@@ -259,7 +274,12 @@ class Ros2Bridge:
         return None
 
     def execute(self, traj: msgs.JointTrajectory) -> bool:
-        """Check ``traj`` and send it as one MOVEJOINTPATH; False (with an event) when refused."""
+        """Check ``traj`` and send it as one MOVEJOINTPATH; False (with an event) when refused.
+        An empty trajectory (no points) is ROS's stop: it stops what moves (True)."""
+        if not traj.points:
+            ticks = self.arm_action.stop_all("an empty JointTrajectory")
+            self.event("stopped: an empty JointTrajectory; " + (ticks.words() if ticks else "nothing was moving"))
+            return True
         why = self.busy()
         if why is not None:
             self.event(f"refused: {why}", logging.WARNING)
@@ -297,7 +317,21 @@ class Ros2Bridge:
             return
         self.event(f"done: {points} points")
 
+    def _make_actions(self) -> tuple[ArmTrajectoryAction, GripperAction]:
+        """The action servers, their endpoints announced as the node's (imported here: they
+        import this module)."""
+        from parolkit.ros2.follow_joint_trajectory import ArmTrajectoryAction
+        from parolkit.ros2.gripper_action import GripperAction
+
+        arm, gripper = ArmTrajectoryAction(self), GripperAction(self)
+        for server in (arm.server, gripper.server):
+            readers, writers = server.endpoints()
+            self.graph.add(readers=list(readers), writers=list(writers))
+        return arm, gripper
+
     def close(self) -> None:
+        self.arm_action.close()
+        self.gripper_action.close()
         self._stop.set()
         if self._sub is not None:
             self._sub.close()

@@ -1,4 +1,4 @@
-"""parolkit.ros2.type_hash (RIHS01 type descriptions) and the wire form of parolkit.ros2.action_msgs.
+"""parolkit.ros2.struct_hash (RIHS01 type descriptions) and the wire form of parolkit.ros2.action_msgs.
 
 The hashes themselves are checked against ROS 2's own (the hashes the Jazzy packages ship and
 those rosidl's generator computes from control_msgs' definitions) in
@@ -18,7 +18,21 @@ from cyclonedds.idl import IdlStruct
 
 from parolkit.ros2 import action_msgs as am
 from parolkit.ros2 import msgs
-from parolkit.ros2.type_hash import action_description, ros_type_name, service_description, type_description, type_hash
+from parolkit.ros2.struct_hash import (
+    action_description,
+    description_dict,
+    ros_type_name,
+    service_description,
+    struct_description,
+    struct_hash,
+)
+
+
+def type_description(cls: type) -> dict[str, Any]:
+    return description_dict(struct_description(cls))
+
+
+type_hash = struct_hash
 
 
 def _field(desc: dict[str, Any], name: str) -> dict[str, Any]:
@@ -52,10 +66,10 @@ def test_referenced_types_are_every_nested_type_once_sorted_by_name() -> None:
 
 
 def test_a_service_and_an_action_are_structs_of_their_parts() -> None:
-    srv = service_description(am.CANCEL_GOAL)["type_description"]
+    srv = description_dict(service_description(am.CANCEL_GOAL))["type_description"]
     assert srv["type_name"] == "action_msgs/srv/CancelGoal"
     assert [f["name"] for f in srv["fields"]] == ["request_message", "response_message", "event_message"]
-    act = action_description(am.FOLLOW_JOINT_TRAJECTORY)
+    act = description_dict(action_description(am.FOLLOW_JOINT_TRAJECTORY))
     assert [f["name"] for f in act["type_description"]["fields"]] == [
         "goal", "result", "feedback", "send_goal_service", "get_result_service", "feedback_message"]
     refs = {d["type_name"]: d for d in act["referenced_type_descriptions"]}
