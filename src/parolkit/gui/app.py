@@ -35,6 +35,8 @@ from parolkit.gui.components.speed_override import SpeedOverride
 from parolkit.gui.components.telemetry import LiveCharts, Readouts
 from parolkit.gui.components.view3d import SCENE_FPS, ArmView
 from parolkit.gui.jog import KEYMAP, key_action
+from parolkit.gui.programs import ProgramNameError
+from parolkit.gui.programs_panel import PROGRAMS_URL
 from parolkit.gui.recordings import RECORDINGS_URL, RecordingNameError, RecordingNotListed
 from parolkit.gui.security import SESSION_COOKIE, session_key
 
@@ -217,6 +219,22 @@ def download_recording(commander: Commander, name: str) -> Response:
                         headers={"cache-control": "no-store"})
 
 
+def download_program(commander: Commander, name: str) -> Response:
+    """``GET /parolkit-programs/<name>``: the saved program ``name`` as a file download (an
+    attachment).  The name follows the programs folder's rules (else 400) and must be one the
+    folder lists (else 404): nothing outside the programs folder is ever served."""
+    folder = commander.programs
+    try:
+        file_name = folder.file_name(name)
+        path = folder.path(file_name)
+    except ProgramNameError as exc:
+        return PlainTextResponse(f"{exc}\n", status_code=400)
+    if file_name not in folder.names():
+        return PlainTextResponse(f"there is no program {file_name!r} in {folder.root}\n", status_code=404)
+    return FileResponse(path, filename=file_name, media_type="text/plain; charset=utf-8",
+                        content_disposition_type="attachment", headers={"cache-control": "no-store"})
+
+
 def build_app(commander: Commander) -> Callable[[], None]:
     """The root page function for ``ui.run``; serves the static files and the recordings'
     downloads and starts/stops the link with the app."""
@@ -224,6 +242,8 @@ def build_app(commander: Commander) -> Callable[[], None]:
     # ``:path``: a name with a separator ('../x', '..%2Fx') reaches the name check and is refused
     # with 400, instead of falling through to the page (NiceGUI's root page answers every path)
     app.add_api_route(f"{RECORDINGS_URL}/{{name:path}}", lambda name: download_recording(commander, name),
+                      methods=["GET"], include_in_schema=False)
+    app.add_api_route(f"{PROGRAMS_URL}/{{name:path}}", lambda name: download_program(commander, name),
                       methods=["GET"], include_in_schema=False)
 
     async def startup() -> None:

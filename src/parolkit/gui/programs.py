@@ -252,6 +252,54 @@ class ProgramsFolder(NamedFolder):
                     best = (mtime, entry.name)
         return None if best is None else best[1]
 
+    # ---- the program shown last (a restarted commander reopens it): <folder>/.autosave/last ----
+
+    def _last_path(self) -> Path:
+        """``<folder>/.autosave/last`` (the autosave folder checked as for every autosave)."""
+        return self.autosave_path(LAST_FILE).parent / LAST_FILE
+
+    def remember_last(self, text: str) -> None:
+        """Remember the program named ``text`` as the one shown last."""
+        name = program_name(text)
+        path = self._last_path()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.is_symlink() or (path.exists() and not path.is_file()):
+            raise ProgramNameError(f"{path} is not a regular file: refused")
+        tmp = path.with_name(LAST_FILE + ".tmp")
+        tmp.write_text(name + "\n", encoding="utf-8")
+        os.replace(tmp, path)
+
+    def last_program(self) -> str | None:
+        """The name remembered by :meth:`remember_last` (checked by the name rules), None when
+        there is none."""
+        path = self._last_path()
+        if path.is_symlink() or not path.is_file() or path.stat().st_size > MAX_NAME_LEN + 2:
+            return None
+        return program_name(path.read_text(encoding="utf-8").strip())
+
+
+#: the file in the autosave folder naming the program shown last
+LAST_FILE = "last"
+__all__ += ["LAST_FILE", "uploaded_program"]
+
+
+def uploaded_program(data: bytes) -> str:
+    """The text of an uploaded program file: at most :data:`MAX_PROGRAM_BYTES`, UTF-8 text (a
+    byte-order mark dropped) without NUL or other control characters but tab and line ends;
+    raises ProgramNameError saying which rule it breaks."""
+    if len(data) > MAX_PROGRAM_BYTES:
+        raise ProgramNameError(f"the file is {len(data)} bytes: programs are at most {MAX_PROGRAM_BYTES} bytes")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ProgramNameError(f"the file is not UTF-8 text (byte {exc.start}): an RBTscript program is "
+                               "plain text") from None
+    bad = sorted({c for c in text if (ord(c) < 32 and c not in "\t\r\n") or ord(c) == 127})
+    if bad:
+        raise ProgramNameError(f"the file holds control characters ({', '.join(f'{ord(c):#04x}' for c in bad[:5])}): "
+                               "an RBTscript program is plain text")
+    return text
+
 
 # ---- a class (gui/classroom.py): each student's programs in a folder of their own ----
 

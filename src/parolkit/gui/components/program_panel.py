@@ -31,6 +31,7 @@ from parolkit.errors import ParolkitError
 from parolkit.gui.collision import PathPreview, path_preview
 from parolkit.gui.commander import ACTIVE_STATES, Commander
 from parolkit.gui.components.telemetry import plan_options
+from parolkit.gui.editor_sync import EditorSync
 from parolkit.gui.eventlog import Level
 from parolkit.gui.highlight import line_decorations, mark_decorations
 from parolkit.gui.programs_panel import ProgramsPanel
@@ -47,8 +48,6 @@ __all__ = ["ProgramPanel", "DIAG_DELAY_S", "PAUSE_LABEL", "program_status"]
 
 #: the parser's diagnostics are shown this long after the last keystroke, s
 DIAG_DELAY_S = 0.4
-#: how long Check and Run wait for the page's editor text before using the server's copy, s
-PAGE_TEXT_TIMEOUT_S = 3.0
 #: the Pause button's name (aria-label and tooltip): what it does
 PAUSE_LABEL = "Pause: the arm slows down on its path and holds"
 
@@ -82,7 +81,6 @@ class ProgramPanel:
         self.c = commander
         self.link = commander.link
         self._prog_version: tuple[int, bool] | None = None
-        self._doc_version = -1
         self._revealed: int | None = None
         self._locked = False
         self._online: bool | None = None
@@ -137,9 +135,10 @@ class ProgramPanel:
                 with ui.menu():
                     for name, text in SEED_EXAMPLES.items():
                         ui.menu_item(name, on_click=lambda text=text: self.set_program(text))
-        self.files = ProgramsPanel(self.c.programs, self.c.log, lambda: self.editor.value or "", self.set_program,
-                                   self.c.doc)
-        self.editor = ui.codemirror(self._shown_text(), on_change=self.on_edit, theme="githubLight") \
+        #: the page's editor and the shared document (every tab's edits merge: nothing typed is lost)
+        self.sync = EditorSync(self.c.doc, self.c.log)
+        self.files = ProgramsPanel(self.c.programs, self.c.log, self.c.doc, self.page_text, self._replace_refused)
+        self.editor = ui.codemirror(self.c.doc.text, on_change=self.on_edit, theme="githubLight") \
             .classes("w-full pk-editor").props("data-testid=editor")  # commander.js names its text box
         self.prog_status = ui.label("").classes("text-sm pk-mono").props("data-testid=prog-status role=status")
         self._build_offers()
@@ -171,15 +170,23 @@ class ProgramPanel:
     # ---- editing ----
 
     def set_program(self, text: str) -> None:
-        self.editor.value = text
-        self.on_edit()
+        """An example or a template replaces the shared program's text (one update, in every tab)."""
+        refused = self._replace_refused()
+        if refused is not None:
+            self.c.log.error(refused)
+            return
+        self.c.doc.edit(text)
+
+    def _replace_refused(self) -> str | None:
+        """Why the program's text cannot be replaced now (None: it can)."""
+        return "the editor is read-only while a program runs: stop it first" if self._program_active() else None
 
     def insert_template(self, name: str) -> None:
         st = self.link.status
         joints = st.angles if st else PAROL6.standby_deg
         pose = st.pose if st else (0.0,) * 6
         line = render_template(name, joints, pose)
-        text = self.editor.value or ""
+        text = self.c.doc.text
         if text and not text.endswith("\n"):
             text += "\n"
         self.set_program(text + line + "\n")
@@ -198,22 +205,13 @@ class ProgramPanel:
         ui.run_javascript(f"window.pkInsertLine && window.pkInsertLine({json.dumps(line)})")
         self.c.log.info(f"recorded {line}")
 
-    def _shown_text(self) -> str:
-        """What the editor shows: the running program's text while it runs, else the shared
-        document (every tab and every reload shows the same)."""
-        runner = self.c.program
-        return runner.text if self._program_active() else self.c.doc.text
-
     def _program_active(self) -> bool:
         return self.c.program.active
 
     def on_edit(self, *_: Any) -> None:
-        """Keep the edit in the shared document (autosaved) and re-colour the text; old error
-        marks go (their lines may have moved): Check again."""
+        """Re-colour the text the page's editor shows (its edits reach the shared document
+        through :class:`EditorSync`); old error marks go (their lines may have moved): Check again."""
         text = self.editor.value or ""
-        if not self._program_active():
-            if self.c.doc.edit(text):
-                self._doc_version = self.c.doc.version
         if text == self._checked_text:
             # the text Check just checked, arriving from the page after it (the server's copy
             # lags behind the page): Check's errors, marks and preview stand; the parser's
@@ -286,20 +284,11 @@ class ProgramPanel:
     # ---- check, run, stop ----
 
     async def page_text(self) -> str:
-        """The text the page's editor shows (commander.js ``pkEditorText``), kept as the
-        editor's value; the server's copy if the page does not answer.  Check and Run use it:
-        the server's copy can lag behind the page (edits on their way, an echo the page
-        ignored), and a Check right after typing must check what the page shows."""
-        try:
-            shown = await ui.run_javascript("window.pkEditorText ? window.pkEditorText() : null",
-                                            timeout=PAGE_TEXT_TIMEOUT_S)
-        except TimeoutError:
-            shown = None
-        if not isinstance(shown, str):
-            return self.editor.value or ""
-        if shown != (self.editor.value or "") and not self._program_active():
-            self.editor.value = shown  # on_edit keeps it in the shared document
-        return shown
+        """The shared program once the changes typed in this page have reached it
+        (:meth:`EditorSync.flush`).  Check, Run and Save use it: a Check right after typing
+        checks what was typed."""
+        await self.sync.flush()
+        return self.c.doc.text
 
     async def check_program(self) -> bool:
         from parolkit.script import parse
@@ -392,7 +381,6 @@ class ProgramPanel:
             runner.announce_start()
             try:
                 text = await self.page_text()
-                self.c.doc.edit(text)
             except BaseException:
                 runner.starting = False
                 raise
@@ -427,22 +415,15 @@ class ProgramPanel:
         self.c.stop()
 
     def _follow_text(self) -> None:
-        """Show the running program while it runs (read-only), else the shared document as
-        another tab or a file operation left it."""
+        """The editor is read-only while a program runs (it shows the program that runs: Run
+        runs the shared document); its text follows the document through :class:`EditorSync`."""
         active = self._program_active()
-        changed = active != self._locked
-        if changed:
+        if active != self._locked:
             self._locked = active
             if active:
                 self.editor.disable()
             else:
                 self.editor.enable()
-        doc = self.c.doc
-        if changed or doc.version != self._doc_version:  # another tab, a file, a run began or ended
-            self._doc_version = doc.version
-            want = self._shown_text()
-            if (self.editor.value or "") != want:
-                self.editor.value = want  # on_edit follows: nothing new to keep
         self.files.update()
 
     def set_online(self, online: bool) -> None:

@@ -125,6 +125,7 @@
   };
   let naming = false;
   new MutationObserver(() => {
+    guardEditor(); // at once: the editor's text is followed from its first keystroke
     if (naming) return;
     naming = true;
     requestAnimationFrame(() => { naming = false; nameUnnamed(); });
@@ -186,83 +187,166 @@
     }
   };
 
-  // ---- the editor and the server's echo: every server update of the editor element carries
-  // the server's copy of the text, which lags behind what was typed since; NiceGUI's editor
-  // then replaces the newer text with it (typed characters vanish, the cursor jumps).  The
-  // texts this editor itself had while typing are remembered: one of them coming back is a
-  // late echo and is ignored; any other text (another tab, a file, a run) is shown.  The
-  // server's updates come in order, so once it sends the editor's current text it has caught
-  // up at least to the first time the editor had that text: the texts before are forgotten
-  // (a file opened later with an earlier text is shown; the texts after stay, since the
-  // current one may be an undo).  Otherwise a text counts for ECHO_MS (a loaded server may
-  // echo seconds late).  The text before a change is remembered too (keydown, input).
-  const ECHO_MS = 10000;
-  const typedTexts = [];
-  const rememberText = () => {
-    const view = editorView();
-    if (view === null) return;
-    const text = view.state.doc.toString();
-    const now = performance.now();
-    while (typedTexts.length && (now - typedTexts[0].t > ECHO_MS || typedTexts.length > 200)) typedTexts.shift();
-    const last = typedTexts[typedTexts.length - 1];
-    if (last !== undefined && last.text === text) last.t = now; // the same text again: one entry
-    else typedTexts.push({ text: text, t: now });
+  // ---- the editor and the one program document (parolkit.gui.program_doc, editor_sync.py):
+  // every tab edits the same program and nothing typed in any of them is lost.  The editor's
+  // own changes (typing, paste, completion, Record point, undo) are kept as pending CodeMirror
+  // change sets on `base` (the server's text as this page last had it) and pushed with the
+  // revision of that text; the server applies them only while that is still its revision.
+  // Otherwise the page first receives the updates it lacked (other tabs', the server's), moves
+  // its pending changes over them (ChangeSet.map: the server's order first) and pushes them
+  // again.  Others' updates are applied to the editor moved over the pending changes, so the
+  // cursor and what is being typed stay where they are.  The editor takes typing from the
+  // start: the text the server sends first ("hello", or again after missed messages) is
+  // merged like an update (the difference from `base`).  NiceGUI's copy of the editor's value
+  // (sent with every update of the element) never sets the text: it lags behind.
+  const docSync = { CM: null, view: null, remote: null, base: null, revision: null, pending: [],
+    pushing: false, waiters: [], refused: 0, merged: 0 };
+  import("nicegui-codemirror").then((CM) => { docSync.CM = CM; guardEditor(); });
+  const sendDoc = (msg) => {
+    if (typeof window.emitEvent === "function") window.emitEvent("pk_doc", msg);
   };
-  const caughtUp = (current) => {
-    const first = typedTexts.findIndex((e) => e.text === current);
-    typedTexts.splice(0, first < 0 ? typedTexts.length : first);
+  // a change set on the wire: the length of the text it applies to and its [from, to, insert]
+  const wire = (changes) => {
+    const c = [];
+    changes.iterChanges((fromA, toA, _fromB, _toB, inserted) => c.push([fromA, toA, inserted.toString()]));
+    return { n: changes.length, c: c };
   };
-  const lateEcho = (value) => {
-    const now = performance.now();
-    return typedTexts.some((e) => e.text === value && now - e.t <= ECHO_MS);
+  const unwire = (w) => docSync.CM.ChangeSet.of(w.c.map(([from, to, insert]) => ({ from, to, insert })), w.n);
+  // the change from text `a` to text `b`: the one range that differs
+  const difference = (a, b) => {
+    let start = 0;
+    while (start < a.length && start < b.length && a[start] === b[start]) start++;
+    let end = 0;
+    while (end < a.length - start && end < b.length - start && a[a.length - 1 - end] === b[b.length - 1 - end]) end++;
+    return docSync.CM.ChangeSet.of({ from: start, to: a.length - end, insert: b.slice(start, b.length - end) }, a.length);
   };
-  // every text the editor's own changes produce is remembered where CodeMirror applies them
-  // (its view's dispatch: typing, keys, paste, completion alike), not the server's updates
-  let applyingServer = false;
+  const settle = () => {
+    const d = docSync;
+    if (d.revision === null || d.pushing || d.pending.length) return;
+    for (const resolve of d.waiters.splice(0)) resolve(true);
+  };
+  const push = () => {
+    const d = docSync;
+    if (d.pushing || d.revision === null || !d.pending.length) { settle(); return; }
+    d.pushing = true;
+    sendDoc({ op: "push", base: d.revision, changes: d.pending.map(wire) });
+  };
+  const showChanges = (changes) => {
+    const d = docSync;
+    if (changes.empty) return;
+    d.view.dispatch({ changes: changes, annotations: [d.remote.of(true), d.CM.Transaction.addToHistory.of(false)] });
+  };
+  // others' changes (composed, made on `base`) moved over ours and shown
+  const applyRemote = (changes) => {
+    const d = docSync;
+    if (changes.empty) return;
+    if (d.pending.length) d.merged++;
+    d.base = changes.apply(d.base);
+    let c = changes;
+    d.pending = d.pending.map((mine) => {
+      const moved = mine.map(c); // theirs came first on the server
+      c = c.map(mine, true);
+      return moved;
+    });
+    showChanges(c);
+  };
+  const receiveDoc = (msg) => {
+    const d = docSync;
+    if (msg.reset !== undefined) {
+      if (msg.refused) { // the server refused our changes (malformed, too long): its text stands
+        console.error(`program editor: the server refused ${d.pending.length} change(s): ${msg.refused}`);
+        d.pending = [];
+        showChanges(difference(d.view.state.doc.toString(), msg.reset));
+        d.base = d.view.state.doc;
+      } else {
+        applyRemote(difference(d.base.toString(), msg.reset));
+      }
+      d.revision = msg.revision;
+      d.pushing = false;
+      push();
+      return;
+    }
+    if (d.revision === null) return; // the whole text is on its way
+    if (msg.from > d.revision) { // messages missed (a reconnect): ask again from ours
+      if (msg.ack !== undefined) d.pushing = false; // (a push at an old revision is only refused)
+      sendDoc({ op: "since", revision: d.revision });
+      return;
+    }
+    let theirs = null;
+    for (const [mine, w] of msg.updates.slice(d.revision - msg.from)) {
+      if (mine) { // our oldest pending change, applied
+        if (theirs !== null) { applyRemote(theirs); theirs = null; }
+        if (!d.pending.length) throw new Error("the server confirmed a change this page does not have");
+        d.base = d.pending.shift().apply(d.base);
+      } else {
+        const c = unwire(w);
+        theirs = theirs === null ? c : theirs.compose(c);
+      }
+      d.revision++;
+    }
+    if (theirs !== null) applyRemote(theirs);
+    if (msg.ack !== undefined) d.pushing = false;
+    if (msg.ack === false) d.refused++;
+    push();
+  };
+  window.pkDoc = {
+    receive(msg) {
+      const d = docSync;
+      if (d.view === null) return;
+      try {
+        receiveDoc(msg);
+        // the editor is the server's text with this page's pending changes, nothing else
+        if (!d.pending.reduce((text, mine) => mine.apply(text), d.base).eq(d.view.state.doc)) {
+          throw new Error("the editor's text is not the server's with this page's changes");
+        }
+      } catch (err) { // out of step: the server's text again (what was typed here merged into it)
+        console.error("program editor out of step with the server, asking for its text again:", err);
+        d.pending = [difference(d.base.toString(), d.view.state.doc.toString())].filter((c) => !c.empty);
+        d.revision = null;
+        d.pushing = false;
+        sendDoc({ op: "hello" });
+      }
+    },
+    // resolves once every change typed here has reached the server (Check, Run and Save wait)
+    flush() {
+      if (docSync.view === null) return Promise.resolve(true); // no editor: nothing typed here
+      return new Promise((resolve) => { docSync.waiters.push(resolve); settle(); });
+    },
+    // for tests and the curious: where this page's editor stands, how many of its pushes the
+    // server refused (others' came first) and how often others' changes were merged into its own
+    state() {
+      const d = docSync;
+      return { revision: d.revision, pending: d.pending.length, pushing: d.pushing, refused: d.refused,
+        merged: d.merged };
+    },
+  };
+  // from the moment the editor is on the page (a mutation observer's callback runs before any
+  // key can reach it): every change of its text is either ours (pending) or the server's
+  const attachDoc = (view) => {
+    const d = docSync;
+    const CM = d.CM;
+    view.pkDoc = true;
+    Object.assign(d, { view: view, base: view.state.doc, revision: null, pending: [], pushing: false });
+    d.remote = d.remote || CM.Annotation.define();
+    view.dispatch({ effects: CM.StateEffect.appendConfig.of(CM.EditorView.updateListener.of((u) => {
+      for (const tr of u.transactions) {
+        if (tr.docChanged && !tr.annotation(d.remote)) d.pending.push(tr.changes);
+      }
+      if (d.pending.length) push();
+    })) });
+    sendDoc({ op: "hello" });
+  };
   function guardEditor() {
     const host = document.querySelector("[data-testid=editor]");
     if (!host || typeof getElement !== "function") return;
     const comp = getElement(host.id.replace(/^c/, ""));
     if (!comp || typeof comp.setEditorValue !== "function") return;
     if (!comp.pkGuarded) {
-      const original = comp.setEditorValue;
-      comp.setEditorValue = function (value) {
-        const current = this.editor ? this.editor.state.doc.toString() : null;
-        if (current !== null && value === current) caughtUp(current);
-        if (current !== null && value !== current && lateEcho(value)) return; // a late echo
-        applyingServer = true;
-        try {
-          return original.call(this, value);
-        } finally {
-          applyingServer = false;
-        }
-      };
+      comp.setEditorValue = function () {}; // the text comes from the document alone (above)
       comp.pkGuarded = true;
     }
-    const view = comp.editor;
-    if (view && !view.pkRemembers) {
-      const dispatch = view.dispatch;
-      let last = view.state.doc;
-      view.dispatch = function (...args) {
-        const result = dispatch.apply(this, args);
-        if (view.state.doc !== last) {
-          last = view.state.doc;
-          if (!applyingServer) rememberText();
-        }
-        return result;
-      };
-      view.pkRemembers = true;
-    }
+    if (comp.editor && !comp.editor.pkDoc && docSync.CM !== null) attachDoc(comp.editor);
   }
-  document.addEventListener("input", (e) => {
-    if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) {
-      rememberText();
-      requestAnimationFrame(rememberText);
-    }
-  }, true);
-  document.addEventListener("keydown", (e) => {
-    if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) rememberText();
-  }, true);
 
   // ---- completion in the program editor: the commands of RBTscript's table with valid
   // arguments (never a placeholder left as an error) at the start of a line, keyword arguments and words inside a call (items from
@@ -304,12 +388,10 @@
     const p = popup;
     const item = p.items[i];
     const text = itemText(item);
-    rememberText();
     p.view.dispatch({
       changes: { from: p.from, to: p.to, insert: text },
       selection: { anchor: p.from + text.length },
     });
-    rememberText();
     closePopup();
     p.view.focus();
   };
@@ -389,7 +471,6 @@
   document.addEventListener("keyup", (e) => {
     if (["ArrowDown", "ArrowUp", "Enter", "Tab", "Escape", "Shift", "Control", "Alt", "Meta"].includes(e.key)) return;
     if (e.target instanceof Element && e.target.closest("[data-testid=editor]")) {
-      rememberText();
       cancelAnimationFrame(pendingSuggest);
       pendingSuggest = requestAnimationFrame(suggest);
     }
@@ -402,20 +483,20 @@
   }, true);
 
   // "Record point": the server sends the line; it goes in after the cursor's line (the end
-  // of the program if the editor never had the cursor), and the cursor moves to its end
+  // of the program if the editor never had the cursor), and the cursor moves to its end (not
+  // before the editor has the program's text: it would be replaced)
   window.pkInsertLine = (text) => {
     const view = editorView();
-    if (view === null) return;
+    if (view === null || docSync.revision === null) return false;
     const doc = view.state.doc;
     const line = doc.lineAt(view.state.selection.main.head);
     const atEnd = line.number === doc.lines;
-    rememberText(); // the text before the insertion: its echo is late
     const insert = line.text.trim() === "" ? text : (atEnd ? "\n" : "") + text + (atEnd ? "" : "\n");
     const from = line.text.trim() === "" ? line.from : (atEnd ? line.to : line.to + 1);
     view.dispatch({ changes: { from: from, to: line.text.trim() === "" ? line.to : from, insert: insert },
       selection: { anchor: from + insert.length - (atEnd || line.text.trim() === "" ? 0 : 1) } });
-    rememberText();
     view.focus();
+    return true;
   };
 
   // ---- the 3D view: a draw at the next animation frame, one per frame whatever asks ----
