@@ -25,7 +25,6 @@ from tests.browser.helpers import axe_report, axe_violations, text, wait_linked,
 
 from parolkit.client import Robot
 from parolkit.record.reader import load_recording
-from parolkit.record.schemas import TOPIC_STATUS
 from parolkit.record.writer import RecordingWriter
 from parolkit.robot import PAROL6
 
@@ -265,7 +264,7 @@ def _demonstration(path, seconds: float, rate_hz: int = 100) -> None:
         status = {"seq": k, "time": t, "steps": [int(round(a * spd[i])) for i, a in enumerate(q)], "angles": q,
                   "speeds_deg_s": [0.0] * 6, "pose": [0.0] * 6, "loop": {"rate_hz": rate_hz}, "io": {},
                   "gripper": {}}
-        writer.write_json(TOPIC_STATUS, status, int(t * 1e9), k)
+        writer.write_status(status, int(t * 1e9), k)
     writer.close({"duration_s": seconds, "statuses": n})
 
 

@@ -17,7 +17,7 @@ from parolkit.client.robot import Robot
 from parolkit.motion import plan
 from parolkit.moves import JointMove
 from parolkit.record import messages
-from parolkit.record.schemas import JOINT_STATE, TOPIC_JOINT_STATES, TOPIC_STATUS
+from parolkit.record.schemas import JOINT_STATE, TOPIC_JOINT_STATES
 from parolkit.record.segments import steps_to_deg
 from parolkit.record.writer import RecordingWriter
 from parolkit.robot import PAROL6
@@ -43,7 +43,7 @@ def _recording(path) -> None:
               "speeds_deg_s": [0.0] * 6, "pose": [0, 262.57, 288.75, -90, 0, -90], "command": cmd,
               "loop": {"rate_hz": 100.0}}
         w.write_ros(TOPIC_JOINT_STATES, JOINT_STATE, messages.joint_state(st, seq), seq, seq)
-        w.write_json(TOPIC_STATUS, st, seq, seq)
+        w.write_status(st, seq, seq)
     w.close()
 
 

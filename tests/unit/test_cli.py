@@ -97,7 +97,7 @@ def bad_files(tmp_path_factory):
     from parolkit.record.writer import RecordingWriter
 
     w = RecordingWriter(files["mcap-without-status"])
-    w.write_json("/other/topic", {"x": 1}, 1, 1)
+    w.write_ros("/other/topic", "std_msgs/msg/String", {"data": "x"}, 1, 1)
     w.close()
     return files
 

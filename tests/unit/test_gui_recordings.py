@@ -22,13 +22,15 @@ from parolkit.gui.recordings import (
     size_text,
     teach_recording,
 )
+from parolkit.record import messages
 from parolkit.record.writer import RecordingWriter
 
 
 def _mcap(path, summary=None) -> None:
     """A small valid MCAP file (closed with ``summary`` as its parolkit.recording metadata)."""
     w = RecordingWriter(path)
-    w.write_json("/parolkit/commands", {"source": "test"}, 1, 1)
+    w.write_ros("/parolkit/commands", "parolkit_msgs/msg/CommandEvent",
+                messages.command_event({"source": "test", "tick": None}, 1), 1, 1)
     w.close(summary)
 
 

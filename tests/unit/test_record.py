@@ -22,7 +22,7 @@ from parolkit.record.compare import compare_recordings, first_motion_tick
 from parolkit.record.export import CSV_HEADER, write_csv
 from parolkit.record.plot import plot_recording
 from parolkit.record.reader import load_recording
-from parolkit.record.schemas import JOINT_NAMES, JOINT_STATE, POSE_STAMPED, TOPIC_JOINT_STATES, TOPIC_STATUS
+from parolkit.record.schemas import JOINT_NAMES, JOINT_STATE, POSE_STAMPED, TOPIC_JOINT_STATES
 from parolkit.record.segments import command_segments, fit_joint_move, rest_segments, steps_to_deg
 from parolkit.record.teach import teach
 from parolkit.record.writer import RecordingWriter
@@ -61,7 +61,7 @@ def _write(path, statuses, *, close=True, flush_every=None):
         t = 1_700_000_000_000_000_000 + s["seq"] * 10_000_000
         w.write_ros(TOPIC_JOINT_STATES, JOINT_STATE, messages.joint_state(s, t), t, s["seq"])
         w.write_ros("/tcp_pose", POSE_STAMPED, messages.pose_stamped(s, t), t, s["seq"])
-        w.write_json(TOPIC_STATUS, s, t, s["seq"])
+        w.write_status(s, t, s["seq"])
         if flush_every and (i + 1) % flush_every == 0:
             w.flush()
     if close:

@@ -2,7 +2,9 @@
 
 The file is read as a stream (record by record), so a recording whose writer was killed
 mid-way is read up to its last complete chunk (:attr:`Recording.complete` is then False);
-ROS 2 messages are decoded with mcap-ros2-support, JSON channels with :mod:`json`.
+ROS 2 messages are decoded with mcap-ros2-support.  Recordings made before every channel was
+CDR (the status, commands, acks and plans as JSON channels) are read too: JSON channels are
+decoded with :mod:`json`, and :func:`load_recording` gives the same dicts either way.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from numpy.typing import NDArray
 from zstandard import ZstdError
 
 from parolkit.errors import ParolkitValueError
+from parolkit.record import messages
 from parolkit.record.schemas import (
     RECORDING_METADATA,
     TOPIC_ACKS,
@@ -202,16 +205,18 @@ def load_recording(path: str | Path) -> Recording:
     acks: list[dict[str, Any]] = []
     plans: list[dict[str, Any]] = []
     for m in scan.messages():
+        v = m.value
+        legacy = isinstance(v, dict)  # a JSON channel of a recording made before parolkit_msgs
         if m.topic == TOPIC_STATUS:
-            statuses.append(m.value)
+            statuses.append(v if legacy else messages.status_from_message(v))
         elif m.topic == TOPIC_JOINT_STATES:
-            joints.append(list(m.value.position))
+            joints.append(list(v.position))
         elif m.topic == TOPIC_COMMANDS:
-            commands.append(m.value)
+            commands.append(v if legacy else messages.command_event_dict(v))
         elif m.topic == TOPIC_ACKS:
-            acks.append(m.value)
+            acks.append(v if legacy else messages.ack_dict(v))
         elif m.topic == TOPIC_PLANS:
-            plans.append(m.value)
+            plans.append(v if legacy else messages.plan_dict(v))
     if not statuses:
         if scan.size == 0:
             raise ParolkitValueError(f"{p}: the file is empty, not a recording")

@@ -2,6 +2,10 @@
 per ``flush_interval_s`` so that a recorder killed mid-way (even with SIGKILL) leaves a file
 readable up to its last complete chunk.  :meth:`RecordingWriter.close` writes the summary
 section (indexes, statistics) and a ``parolkit.recording`` metadata record.
+
+Every channel is CDR with its ROS 2 message type's ``ros2msg`` schema and rosbag2's channel
+metadata (:mod:`parolkit.record.schemas`), as ``ros2 bag record`` writes MCAP; messages are
+encoded by :mod:`parolkit.ros2.cdr`.
 """
 
 from __future__ import annotations
@@ -14,16 +18,17 @@ from typing import Any
 
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
-from mcap_ros2._dynamic import serialize_dynamic
 
 from parolkit import __version__
-from parolkit.record.schemas import JSON_SCHEMA, PROFILE, RECORDING_METADATA, ROS2_DEFINITIONS
+from parolkit.record import messages
+from parolkit.record.schemas import PROFILE, RECORDING_METADATA, STATUS, TOPIC_STATUS, channel_metadata, schema_text
+from parolkit.ros2.cdr import encoder
 
 __all__ = ["RecordingWriter"]
 
 
 class RecordingWriter:
-    """Writes ROS 2 (CDR) and JSON messages to one MCAP file.
+    """Writes ROS 2 messages (CDR) to one MCAP file.
 
     ``chunk_size`` (bytes, uncompressed) closes a chunk when it is full; ``flush_interval_s``
     closes it after that long anyway (so at most that much is lost to a SIGKILL).
@@ -41,7 +46,7 @@ class RecordingWriter:
         self._channels: dict[str, int] = {}
         self._encoders: dict[int, Callable[[Any], bytes]] = {}
         self._schema_ids: dict[str, int] = {}
-        self._json_schema = self._mcap.register_schema("parolkit/json", SchemaEncoding.JSONSchema, JSON_SCHEMA)
+        self._channel_types: dict[str, str] = {}
         self.flush_interval_s = flush_interval_s
         self._last_flush = time.monotonic()
         self.messages = 0
@@ -52,36 +57,40 @@ class RecordingWriter:
         if cid is None:
             sid = self._schema_ids.get(datatype)
             if sid is None:
-                text = ROS2_DEFINITIONS[datatype]
+                text = schema_text(datatype)
                 sid = self._mcap.register_schema(datatype, SchemaEncoding.ROS2, text.encode())
-                self._encoders[sid] = serialize_dynamic(datatype, text)[datatype]
+                self._encoders[sid] = encoder(datatype)
                 self._schema_ids[datatype] = sid
-            cid = self._mcap.register_channel(topic, MessageEncoding.CDR, sid)
+            cid = self._mcap.register_channel(topic, MessageEncoding.CDR, sid, channel_metadata(topic, datatype))
             self._channels[topic] = cid
+            self._channel_types[topic] = datatype
+        elif self._channel_types[topic] != datatype:
+            raise ValueError(f"{self.path}: topic {topic} carries {self._channel_types[topic]}, not {datatype}")
         return cid
 
-    def _json_channel(self, topic: str) -> int:
-        cid = self._channels.get(topic)
-        if cid is None:
-            cid = self._mcap.register_channel(topic, MessageEncoding.JSON, self._json_schema)
-            self._channels[topic] = cid
-        return cid
-
-    def write_ros(self, topic: str, datatype: str, message: dict[str, Any], time_ns: int, sequence: int) -> None:
-        """One ROS 2 message (a dict in the layout of ``datatype``) at UNIX time ``time_ns``."""
+    def write_ros(self, topic: str, datatype: str, message: dict[str, Any], time_ns: int, sequence: int,
+                  publish_time_ns: int | None = None) -> None:
+        """One ROS 2 message (a dict in the layout of ``datatype``) received at UNIX time
+        ``time_ns`` (the log time) and published at ``publish_time_ns`` (default: the same)."""
         cid = self._ros_channel(topic, datatype)
         sid = self._schema_ids[datatype]
-        self._add(cid, self._encoders[sid](message), time_ns, sequence)
+        self._add(cid, self._encoders[sid](message), time_ns, sequence,
+                  time_ns if publish_time_ns is None else publish_time_ns)
 
-    def write_json(self, topic: str, payload: bytes | dict[str, Any], time_ns: int, sequence: int) -> None:
-        """One JSON message (already encoded bytes, or a dict)."""
-        data = payload if isinstance(payload, bytes) else json.dumps(payload, separators=(",", ":")).encode()
-        self._add(self._json_channel(topic), data, time_ns, sequence)
+    def write_status(self, status: dict[str, Any], time_ns: int, sequence: int, *, json_text: str | None = None,
+                     publish_time_ns: int | None = None) -> None:
+        """One status object on ``/parolkit/status`` (parolkit_msgs/msg/Status, stamped
+        ``publish_time_ns``, default ``time_ns``); ``json_text``: the object as the controller
+        sent it (default: ``status`` encoded here)."""
+        text = json.dumps(status, separators=(",", ":")) if json_text is None else json_text
+        stamp_ns = time_ns if publish_time_ns is None else publish_time_ns
+        self.write_ros(TOPIC_STATUS, STATUS, messages.status_message(status, text, stamp_ns), time_ns, sequence,
+                       stamp_ns)
 
-    def _add(self, cid: int, data: bytes, time_ns: int, sequence: int) -> None:
+    def _add(self, cid: int, data: bytes, time_ns: int, sequence: int, publish_time_ns: int) -> None:
         if self.closed:
             raise ValueError(f"{self.path}: the recording is closed")
-        self._mcap.add_message(channel_id=cid, log_time=time_ns, publish_time=time_ns,
+        self._mcap.add_message(channel_id=cid, log_time=time_ns, publish_time=publish_time_ns,
                                sequence=sequence & 0xFFFFFFFF, data=data)
         self.messages += 1
 
