@@ -10,6 +10,7 @@ One :class:`Commander` per ``parolkit gui`` process; every browser tab's page
 from __future__ import annotations
 
 import asyncio
+import logging
 import threading
 import time
 from collections.abc import Callable
@@ -497,14 +498,16 @@ class ProgramRunner:
             self.version += 1
 
     def _failure_words(self, result: RunResult) -> str:
-        """The log's line for a failed run: the student's sentence of its first error
-        (:mod:`parolkit.gui.student_errors`), then the technical message."""
+        """The page log's line for a failed run: the student's sentence of its first error
+        (:mod:`parolkit.gui.student_errors`); the technical message goes to the server's log
+        (``parolkit gui``'s output), for the teacher."""
         from parolkit.gui.student_errors import explain
 
         if not result.errors:
             return f"program {result.message}"
         first = result.errors[0]
-        return f"program failed: {explain(first, self.name).text()} (details: {first.message})"
+        logging.getLogger(__name__).warning("program %s failed at line %d: %s", self.name, first.line, first.message)
+        return f"program failed: {explain(first, self.name).text()}"
 
     def _resume_point(self, program: Program) -> Program:
         """A new run: the program from :attr:`resume_line` when it is set (Resume after an
