@@ -29,7 +29,6 @@ import pytest
 from playwright.sync_api import expect
 from tests.browser.conftest import ARTIFACTS, REPO_ROOT, _free_tcp_port
 from tests.browser.helpers import (
-    image_path,
     log_mark,
     log_since,
     recover,
@@ -168,7 +167,7 @@ def test_a_limit_error_at_line_4_says_which_joint_and_the_fix(page):
     wait_until(lambda: _error_lines(page) == [4], 10, what="line 4 marked", page=page)
     _no_jargon(*_diagnostics(page), _status(page))
     page.get_by_test_id("diagnostics").scroll_into_view_if_needed()
-    page.screenshot(path=str(image_path("student-errors-limit.png")))
+    page.screenshot(path=str(ARTIFACTS / "student-errors-limit.png"))
 
 
 def test_valid_from_home_but_not_from_here_offers_move_to_start(page, controller_gui):
@@ -309,7 +308,7 @@ def test_resume_after_release_runs_on_from_the_interrupted_line(page, controller
         expect(resume).to_be_enabled(timeout=15000)
         expect(page.get_by_test_id("prog-restart")).to_be_enabled()
         page.get_by_test_id("offer-note").scroll_into_view_if_needed()
-        page.screenshot(path=str(image_path("student-errors-resume.png")))
+        page.screenshot(path=str(ARTIFACTS / "student-errors-resume.png"))
         mark = log_mark(page)
         lowest = [robot.angles()[0]]
         resume.click()
