@@ -127,7 +127,7 @@ class Ros2Bridge:
                  domain: int | None = None, frame_prefix: str = "") -> None:
         self.cfg = cfg
         self.robot = robot
-        self._clock_ns = clock_ns
+        self.clock_ns = clock_ns
         r = cfg.ros2
         self.namespace = r.namespace.strip("/")
         #: the frame prefix of every robot frame on /tf and /tf_static (parolkit.ros2.tf)
@@ -179,7 +179,7 @@ class Ros2Bridge:
         urdf = make_urdf(self.cfg.robot, config=self.cfg, rate_hz=rate)
         self.description.write(msgs.String(data=urdf))
         self.tf_tree = TfTree(urdf, self.frame_prefix)
-        stamp = msgs.time_from_ns(self._clock_ns())
+        stamp = msgs.time_from_ns(self.clock_ns())
         self.tf_static.write(msgs.TFMessage(transforms=[_stamped(t, stamp) for t in self.tf_tree.static_transforms()]))
         self._sub = self.robot.subscribe(self.cfg.ros2.joint_states_every_n, callback=self.on_status)
         self._thread = threading.Thread(target=self._trajectory_loop, daemon=True, name="parolkit-ros2-trajectories")
@@ -189,6 +189,10 @@ class Ros2Bridge:
         with self._latest_lock:
             return self._latest
 
+    def topic_trajectory(self) -> CommandHandle | None:
+        """The trajectory from the ``joint_trajectory`` topic that was sent last (None: none)."""
+        return self._active
+
     def status_age_s(self) -> float:
         """Seconds since the last status arrived (since :meth:`start` before the first)."""
         with self._latest_lock:
@@ -196,7 +200,7 @@ class Ros2Bridge:
 
     def on_status(self, st: RobotStatus) -> None:
         """Publish one status: joint_states and tf at once (the latency-critical part)."""
-        stamp = msgs.time_from_ns(self._clock_ns())
+        stamp = msgs.time_from_ns(self.clock_ns())
         header = msgs.MsgHeader(stamp=stamp, frame_id="")
         a = st.angles
         v = st.speeds_deg_s

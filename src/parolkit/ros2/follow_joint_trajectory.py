@@ -58,7 +58,7 @@ if TYPE_CHECKING:
     from parolkit.client.core import RobotStatus
     from parolkit.client.robot import CommandHandle
     from parolkit.motion.trajectory import Trajectory
-    from parolkit.ros2.bridge import Ros2Bridge
+    from parolkit.ros2.action_host import ActionHost
 
 __all__ = ["ArmTrajectoryAction", "ACTION_NAME", "GoalRefused", "Tolerances", "StopTicks"]
 
@@ -157,7 +157,7 @@ class _Run:
 class ArmTrajectoryAction:
     """The FollowJointTrajectory action server of a :class:`~parolkit.ros2.bridge.Ros2Bridge`."""
 
-    def __init__(self, bridge: Ros2Bridge) -> None:
+    def __init__(self, bridge: ActionHost) -> None:
         self.bridge = bridge
         self._lock = threading.RLock()
         self._run: _Run | None = None
@@ -165,7 +165,7 @@ class ArmTrajectoryAction:
         self._wake = threading.Condition()
         self.server = ActionServer(bridge.dp, bridge.namespace, ACTION_NAME, FOLLOW_JOINT_TRAJECTORY,
                                    on_goal=self._on_goal, on_accepted=self._on_accepted, on_cancel=self._on_cancel,
-                                   clock_ns=bridge._clock_ns)
+                                   clock_ns=bridge.clock_ns)
 
     # ---- the bridge's hooks ----
     @property
@@ -320,7 +320,7 @@ class ArmTrajectoryAction:
         stamp_ns = traj.header.stamp.sec * 1_000_000_000 + traj.header.stamp.nanosec
         if stamp_ns == 0:
             return
-        now = self.bridge._clock_ns()
+        now = self.bridge.clock_ns()
         end_s = (stamp_ns - now) / 1e9 + msgs.duration_to_s(traj.points[-1].time_from_start)
         if stamp_ns < now:
             raise GoalRefused(R.OLD_HEADER_TIMESTAMP, (
@@ -373,7 +373,7 @@ class ArmTrajectoryAction:
         if not st.can_move:
             return (f"the robot cannot move (state {st.state}, enabled={st.enabled}, homed={st.all_homed}, "
                     f"E-stop={'yes' if st.estop_pressed or st.estop_latched else 'no'})")
-        topic = self.bridge._active
+        topic = self.bridge.topic_trajectory()
         if topic is not None and not topic.done():
             return "busy: a trajectory from joint_trajectory is running (cancel it with an empty JointTrajectory)"
         if st.command is not None or st.queue:
@@ -457,7 +457,7 @@ class ArmTrajectoryAction:
         have = conv.to_ros_rad(np.asarray(st.angles))
         have_v = conv.rate_to_ros(np.radians(np.asarray(st.speeds_deg_s)))
         err, err_v = want - have, want_v - have_v
-        header = msgs.MsgHeader(stamp=msgs.time_from_ns(self.bridge._clock_ns()), frame_id="")
+        header = msgs.MsgHeader(stamp=msgs.time_from_ns(self.bridge.clock_ns()), frame_id="")
         dur = msgs.Duration(sec=int((k + 1) / run.plan.rate_hz),
                             nanosec=int(round(((k + 1) / run.plan.rate_hz % 1) * 1e9)) % 1_000_000_000)
         run.goal.publish_feedback(FollowJointTrajectory_Feedback(

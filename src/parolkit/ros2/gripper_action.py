@@ -30,7 +30,7 @@ from parolkit.ros2.action_server import ActionServer, GoalHandle, GoalResponse
 
 if TYPE_CHECKING:
     from parolkit.client.core import GripperState, RobotStatus
-    from parolkit.ros2.bridge import Ros2Bridge
+    from parolkit.ros2.action_host import ActionHost
 
 __all__ = ["GripperAction", "GRIPPER_ACTION_NAME", "STROKE_M", "gap_to_position", "position_to_gap",
            "effort_to_current_ma"]
@@ -72,14 +72,14 @@ def effort_to_current_ma(max_effort: float) -> int:
 class GripperAction:
     """The GripperCommand action server of a :class:`~parolkit.ros2.bridge.Ros2Bridge`."""
 
-    def __init__(self, bridge: Ros2Bridge) -> None:
+    def __init__(self, bridge: ActionHost) -> None:
         self.bridge = bridge
         self._lock = threading.Lock()
         self._current: GoalHandle | None = None
         self._wake = threading.Condition()
         self.server = ActionServer(bridge.dp, bridge.namespace, GRIPPER_ACTION_NAME, GRIPPER_COMMAND,
                                    on_goal=lambda h: GoalResponse(True), on_accepted=self._on_accepted,
-                                   on_cancel=lambda h: True, clock_ns=bridge._clock_ns)
+                                   on_cancel=lambda h: True, clock_ns=bridge.clock_ns)
 
     def on_status(self, st: RobotStatus) -> None:
         if self._current is not None:
