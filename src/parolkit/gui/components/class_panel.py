@@ -13,7 +13,8 @@ page that watches, and the server's gate in front of every event of the page.
   against the class as it is when the event arrives, never against what the page shows: a page
   that may not move the robot gets only the events of Stop, E-STOP, the keys' Stop / E-STOP
   (:meth:`~parolkit.gui.app.CommanderPage.on_key` judges those), the view (tabs, dialogs, menus,
-  tooltips) and its class controls (whose handlers check the role) through; every other event
+  tooltips, the 3D view asking for its objects, the editor following the program) and its class
+  controls (whose handlers check the role) through; every other event
   is refused, logged and said on the page.  Each event runs with
   :data:`~parolkit.gui.class_service.ACTING` set to the page's member, so what the commander
   sends later for it is checked again (:meth:`ClassService.refuse`).
@@ -34,7 +35,7 @@ from parolkit.config import TURN_MINUTES_RANGE
 from parolkit.gui.class_service import ACTING, ClassService
 from parolkit.gui.classroom import TEACHER, ClassroomError, ClassView, Role
 
-__all__ = ["ClassPanel", "OPEN_EVENTS", "OPEN_TESTIDS", "VIEW_ONLY", "install_gate"]
+__all__ = ["ClassPanel", "OPEN_EVENTS", "OPEN_TESTIDS", "VIEW_EVENTS", "VIEW_ONLY", "install_gate"]
 
 #: the controls every page may press, watching or not (Stop, E-STOP, help, log out)
 OPEN_TESTIDS = frozenset({"btn-stop", "btn-estop", "help-button", "btn-logout"})
@@ -42,6 +43,10 @@ OPEN_TESTIDS = frozenset({"btn-stop", "btn-estop", "help-button", "btn-logout"})
 #: or menu opened or closed, a tooltip)
 VIEW_ONLY: tuple[type[Element], ...] = (ui.tabs, ui.tab, ui.tab_panels, ui.dialog, ui.menu, ui.tooltip,
                                         ui.expansion)
+#: the events of elements that draw what the page shows, which a watching page needs too: the 3D
+#: view's scene asks for its objects (``init``), the editor reports where its lines are
+VIEW_EVENTS: tuple[tuple[type[Element], frozenset[str]], ...] = (
+    (ui.scene, frozenset({"init"})), (ui.codemirror, frozenset({"anchor-positions"})))
 #: the page's own events (commander.js) a watching page may send: E-STOP, and the keys (on_key
 #: lets only Stop and E-STOP through for a page that watches)
 OPEN_EVENTS = frozenset({"pk_estop", "pk_key"})
@@ -77,6 +82,8 @@ def install_gate(client: Client, service: ClassService, key: str, open_ids: set[
 
     def allowed(sender: Element, kind: str, msg: dict[str, Any]) -> bool:
         if service.may_drive(key) or sender.id in open_ids or isinstance(sender, VIEW_ONLY):
+            return True
+        if any(isinstance(sender, t) and kind in kinds for t, kinds in VIEW_EVENTS):
             return True
         if sender.id == layout_id:
             if kind == DOC_EVENT:
