@@ -51,7 +51,9 @@ def start_gui(args: list[str]) -> tuple[subprocess.Popen, str, Path]:
         if proc.poll() is not None:
             pytest.fail(f"parolkit gui exited with {proc.returncode}:\n{log_path.read_text(errors='replace')}")
         try:
-            with urllib.request.urlopen(url + "login", timeout=1):
+            # a request builds a whole page: on a busy machine that takes over 1 s (each timed-out
+            # try left the server one more page to build, and it never caught up within 40 s)
+            with urllib.request.urlopen(url + "login", timeout=10):
                 break
         except urllib.error.HTTPError:
             break  # it answers

@@ -119,7 +119,7 @@ def test_cartesian_jog_in_wrf_and_trf_rotation(page):
 
 def test_home_returns_to_standby(page):
     page.get_by_test_id("btn-home").click()
-    wait_until(lambda: abs(number(page, "angle-1") - 90.0) < 0.1 and state(page) == "READY", 40, what="homed standby")
+    wait_until(lambda: state(page) == "READY" and abs(number(page, "angle-1") - 90.0) < 0.1, 40, what="homed standby")
 
 
 def test_estop_latches_until_enable(page):

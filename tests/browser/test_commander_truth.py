@@ -416,5 +416,5 @@ def test_each_rotation_jog_turns_the_readout_of_its_name(controller_page):
                 f"jog {axis.upper()}+ changed {most.upper()} most: {change}\n{log_text(page)}"
     finally:
         page.get_by_test_id("btn-home").click()
-        wait_until(lambda: abs(number(page, "angle-1") - 90.0) < 0.1 and state(page) == "READY", 60,
+        wait_until(lambda: state(page) == "READY" and abs(number(page, "angle-1") - 90.0) < 0.1, 60,
                    what="homed standby", page=page)

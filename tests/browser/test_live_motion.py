@@ -199,7 +199,7 @@ def test_another_clients_pause_shows_paused_and_the_headers_resume_finishes_the_
         page.get_by_test_id("jog-mode").get_by_text("Continuous").click()
         recover(page)
         page.get_by_test_id("btn-home").click()
-        wait_until(lambda: abs(number(page, "angle-1") - 90.0) < 0.1 and state(page) == "READY", 60,
+        wait_until(lambda: state(page) == "READY" and abs(number(page, "angle-1") - 90.0) < 0.1, 60,
                    what="homed standby", page=page)
 
 

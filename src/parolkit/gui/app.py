@@ -32,6 +32,7 @@ from parolkit.gui.components.jog_panel import JogPanel
 from parolkit.gui.components.program_panel import ProgramPanel
 from parolkit.gui.components.recordings_panel import RecordingsPanel
 from parolkit.gui.components.speed_override import SpeedOverride
+from parolkit.gui.components.tabs import icon_tab
 from parolkit.gui.components.telemetry import LiveCharts, Readouts
 from parolkit.gui.components.view3d import SCENE_FPS, ArmView
 from parolkit.gui.jog import KEYMAP, key_action
@@ -86,7 +87,7 @@ class CommanderPage:
         with ui.element("main").classes("pk-main"):
             with ui.element("div").classes("pk-col"):
                 self.view = ArmView(self.link, commander.collision)
-                self.readouts = Readouts(commander.log)
+                self.readouts = Readouts(commander.log, self.link)  # (the link: the age of stale values)
             with ui.element("div").classes("pk-col"):
                 # a class: the queue, at the top of the column (gui/components/class_panel.py)
                 class_box = ui.element("div").classes("w-full") if commander.classroom is not None else None
@@ -127,11 +128,13 @@ class CommanderPage:
     def _build_tabs(self) -> None:
         with ui.card().classes("pk-card w-full p-0 gap-0"):
             with ui.tabs().classes("w-full").props("align=left dense no-caps outside-arrows mobile-arrows") as tabs:
-                t_jog = ui.tab("Jog", icon="open_with").props("data-testid=tab-jog")
-                t_grip = ui.tab("IO · Gripper", icon="back_hand").props("data-testid=tab-gripper")
-                t_prog = ui.tab("Program", icon="code").props("data-testid=tab-program")
-                t_rec = ui.tab("Record", icon="fiber_manual_record").props("data-testid=tab-record")
-            with ui.tab_panels(tabs, value=t_jog).classes("w-full bg-transparent") as self.panels:
+                t_jog = icon_tab("Jog", "open_with", "tab-jog")
+                t_grip = icon_tab("IO · Gripper", "back_hand", "tab-gripper")
+                t_prog = icon_tab("Program", "code", "tab-program")
+                t_rec = icon_tab("Record", "fiber_manual_record", "tab-record")
+            # not animated: a panel sliding out stayed in the page for 1-3 s on a loaded machine
+            # (axe-core found the leaving editor's scroller without its focusable content)
+            with ui.tab_panels(tabs, value=t_jog, animated=False).classes("w-full bg-transparent") as self.panels:
                 with ui.tab_panel(t_jog):
                     self.jog = JogPanel(self.c)
                 with ui.tab_panel(t_grip):

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 from parolkit.client.core import ZoneInfo, ZonesInfo
 from parolkit.client.errors import RobotError
 from parolkit.errors import ParolkitError
+from parolkit.gui.link import joints_known
 
 if TYPE_CHECKING:
     from parolkit.client.core import RobotStatus
@@ -125,7 +126,7 @@ class CollisionWatch:
         self._want = (self._epoch, seq if isinstance(seq, int) else None, st.tool)
         if self._want != self._have and (self._task is None or self._task.done()):
             self._task = asyncio.ensure_future(self._follow())
-        if st.angles != self._q:
+        if st.angles != self._q and joints_known(st):  # (homing: counts from the limit switches)
             self._q = st.angles
             self._check()
 

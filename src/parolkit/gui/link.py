@@ -23,7 +23,7 @@ from parolkit.client.core import AckRecord, AckStatus, PlanInfo, RobotState, Rob
 from parolkit.client.errors import ControllerUnreachable, ReplyError, RobotError
 from parolkit.gui.eventlog import EventLog, Level, level_of_ack
 
-__all__ = ["Sample", "ControllerLink"]
+__all__ = ["Sample", "ControllerLink", "joints_known"]
 
 log = logging.getLogger(__name__)
 
@@ -37,13 +37,25 @@ RETRY_S = 0.25
 _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?")
 
 
+def joints_known(status: RobotStatus) -> bool:
+    """Whether ``status``'s joint angles (and the TCP pose from them) are where the arm is.
+    Not while the board homes: the firmware zeroes each joint's counter at its limit switch
+    and moves from there (/work/shared/spec/board-firmware.md, "Homing"), so until the counters
+    are overwritten with the standby counts at the end they count from the switches: at the
+    standby pose J2 reads +55.1° (19588 steps) and J4 -143.4° (-10200).  The board emulator
+    does the same; the commander shows no angles then (docs/gui.md)."""
+    return status.state is not RobotState.HOMING
+
+
 @dataclass(frozen=True)
 class Sample:
-    """One plot sample: monotonic time (s), joint angles (deg), joint speeds (deg/s)."""
+    """One plot sample: monotonic time (s), joint angles (deg), joint speeds (deg/s);
+    ``homing``: the angles count from the limit switches (:func:`joints_known`)."""
 
     t: float
     angles: tuple[float, ...]
     speeds: tuple[float, ...]
+    homing: bool = False
 
 
 class ControllerLink:
@@ -139,7 +151,8 @@ class ControllerLink:
         self.status = status
         self.status_monotonic = time.monotonic()
         self.status_count += 1
-        self.history.append(Sample(self.status_monotonic, status.angles, status.speeds_deg_s))
+        self.history.append(Sample(self.status_monotonic, status.angles, status.speeds_deg_s,
+                                   homing=not joints_known(status)))
         cutoff = self.status_monotonic - self.history_s
         while self.history and self.history[0].t < cutoff:
             self.history.popleft()
@@ -154,6 +167,7 @@ class ControllerLink:
     def _log_transitions(self, prev: RobotStatus | None, new: RobotStatus) -> None:
         if prev is None:
             self.log.info(f"state {new.state}, {'simulated board' if new.board.simulated else new.board.port}")
+            self._integrity_baseline(new)
             return
         if new.estop_latched and not prev.estop_latched:
             self.log.error("E-STOP latched: press Enable after releasing it")
@@ -175,6 +189,20 @@ class ControllerLink:
     #: implausible status frames are reported at most this often (s): under heavy corruption
     #: they come every few ticks
     IMPLAUSIBLE_LOG_S = 5.0
+
+    def _integrity_baseline(self, first: RobotStatus) -> None:
+        """The first status of the link: the implausible frames the controller counted before
+        we connected are its history, not news: only those after are logged (a GUI started
+        beside a controller that had counted some logged them all at every connection)."""
+        now_i = first.raw.get("integrity")
+        try:
+            bad = int(now_i.get("implausible", 0)) if isinstance(now_i, dict) else 0
+        except (TypeError, ValueError):
+            bad = 0
+        self._implausible_logged = (bad, -1e9)
+        if bad:
+            self.log.info(f"board link: the controller has ignored {bad} implausible status frame(s) since it "
+                          "started (before this commander connected)")
 
     def _log_integrity(self, prev: RobotStatus, new: RobotStatus) -> None:
         """Board link integrity (the status object's ``integrity``, see docs/protocol.md):

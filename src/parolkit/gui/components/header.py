@@ -83,13 +83,16 @@ class Header:
                         self._resume_shown = False
                         _action("Stop", "stop", "btn-stop", "outline dense color=orange",
                                 c.stop, "stop motion and cancel the queue (Space)")
-                        ui.button(icon="help_outline", on_click=on_help) \
-                            .props('flat round color=grey-4 aria-label="Keyboard shortcuts" data-testid=help-button') \
-                            .tooltip("keyboard shortcuts")
+                        # icon buttons: a short label under the icon on a phone (.pk-short: no hover there)
+                        with ui.button(icon="help_outline", on_click=on_help) \
+                                .props('flat round color=grey-4 aria-label="Help: keyboard shortcuts" '
+                                       'data-testid=help-button').tooltip("keyboard shortcuts"):
+                            ui.label("Help").classes("pk-short")
                         if c.login:
-                            ui.button(icon="logout", on_click=lambda: ui.navigate.to("/logout")) \
-                                .props('flat round color=grey-4 aria-label="Log out" data-testid=btn-logout') \
-                                .tooltip("log out")
+                            with ui.button(icon="logout", on_click=lambda: ui.navigate.to("/logout")) \
+                                    .props('flat round color=grey-4 aria-label="Log out" data-testid=btn-logout') \
+                                    .tooltip("log out"):
+                                ui.label("Log out").classes("pk-short")
                 # E-STOP's place in the row; the button itself is in a layer of its own (below)
                 ui.element("div").classes("pk-estop-slot").props("aria-hidden=true")
             # shown while there is no link to the controller: says so and offers a restart of

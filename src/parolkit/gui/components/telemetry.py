@@ -5,26 +5,49 @@ charts of joint positions and speeds.
 Units: deg, deg/s, mm, ms.  Every readout value has a fixed width in characters
 (``commander.css``): a longer text, such as the E-stop line when E-STOP latches, never moves
 or overlaps its neighbours.
+
+With no link to the controller the values are the last ones received: the card says so
+("stale", with the age of the last status, ``data-testid=stale``) and the page's main element
+gets ``pk-stale`` (the stylesheet dims every value then).  While the board homes the joint
+angles and the TCP pose are not shown: the board's counters count from its limit switches until
+homing ends (:func:`parolkit.gui.link.joints_known`); the charts leave that stretch out.
 """
 
 from __future__ import annotations
 
 import json
+import time
 from typing import Any
 
 from nicegui import ui
 
 from parolkit.client.core import RobotStatus
 from parolkit.gui.eventlog import EventLog
-from parolkit.gui.link import ControllerLink
+from parolkit.gui.link import ControllerLink, joints_known
 from parolkit.gui.status import POSE_READOUTS, format_angles, format_loop, format_pose, format_speeds
 from parolkit.robot import JOINT_NAMES
 
-__all__ = ["Readouts", "LiveCharts", "live_options", "plan_options", "PLOT_WINDOW_S", "JOINT_COLOURS"]
+__all__ = ["Readouts", "LiveCharts", "live_options", "plan_options", "stale_text", "PLOT_WINDOW_S",
+           "JOINT_COLOURS", "HOMING_TEXT"]
 
 #: the live charts show the last this many seconds
 PLOT_WINDOW_S = 20.0
 JOINT_COLOURS = ("#60a5fa", "#f472b6", "#34d399", "#fbbf24", "#a78bfa", "#f87171")
+
+
+#: what a joint angle reads while the board homes (its counter counts from the limit switch)
+HOMING_TEXT = "homing…"
+
+
+def stale_text(age_s: float | None) -> str:
+    """The stale marker: how old the values shown are (``age_s``: since the last status; None:
+    no status received yet)."""
+    if age_s is None:
+        return "stale · no status received yet"
+    if age_s < 60:
+        return f"stale · last status {age_s:.0f} s ago"
+    minutes = int(age_s // 60)
+    return f"stale · last status {minutes} min {int(age_s % 60):02d} s ago"
 
 
 def _fmt_ms(v: float | None) -> str:
@@ -42,11 +65,18 @@ def _led(cls: str = "") -> str:
 class Readouts:
     """The readout card and the log; :meth:`update` every 0.1 s."""
 
-    def __init__(self, log: EventLog) -> None:
+    def __init__(self, log: EventLog, link: ControllerLink | None = None) -> None:
         self.log = log
+        self.link = link
         self._log_version = -1
         self._offline_shown = False
+        self._stale_shown: str | None = None
+        self._homing_shown = False
         with ui.card().classes("pk-card w-full p-3 gap-2").props('role=region aria-label="Readouts"'):
+            # with no link: the values are the last received, this long ago
+            self.stale_label = ui.label("").classes("pk-stale-badge") \
+                .props('data-testid=stale role=status aria-live=polite')
+            self.stale_label.set_visibility(False)
             with ui.element("div").classes("pk-readouts"):
                 with ui.column().classes("gap-1"):
                     ui.label("Joints").classes("pk-title")
@@ -100,7 +130,8 @@ class Readouts:
 
     def update(self, st: RobotStatus | None, link_up: bool = True) -> None:
         """Show ``st`` (readouts only change on the page when their text changed); with no
-        link every LED goes dark and the IO reads "—": nothing shown is live."""
+        link every LED goes dark, the IO reads "—" and the values left are marked stale."""
+        self._show_stale(st is not None and link_up)
         if st is not None and link_up:
             self._offline_shown = False
             self._update_status(st)
@@ -116,15 +147,47 @@ class Readouts:
                            for e in reversed(self.log.tail(80)))
             self.log_box.set_content(rows)
 
+    def _age_s(self) -> float | None:
+        """Seconds since the last status (None: none yet, or no link given)."""
+        link = self.link
+        if link is None or link.status is None:
+            return None
+        return max(0.0, time.monotonic() - link.status_monotonic)
+
+    def _show_stale(self, live: bool) -> None:
+        """The stale marker while not ``live``: the badge with the age of the last status, and
+        ``pk-stale`` on the page's main element (the stylesheet dims the values)."""
+        text = "" if live else stale_text(self._age_s())
+        if text == self._stale_shown:
+            return
+        was_stale = bool(self._stale_shown)
+        self._stale_shown = text
+        self.stale_label.set_text(text)
+        if bool(text) != was_stale:
+            self.stale_label.set_visibility(bool(text))
+            main = ui.query(".pk-main")
+            if text:
+                main.classes(add="pk-stale")
+            else:
+                main.classes(remove="pk-stale")
+
     def _update_status(self, st: RobotStatus) -> None:
-        for lbl, v in zip(self.joint_labels, format_angles(st.angles)):
-            lbl.set_text(v)
+        known = joints_known(st)
+        if known:
+            for lbl, v in zip(self.joint_labels, format_angles(st.angles)):
+                lbl.set_text(v)
+            for lbl, v in zip(self.pose_labels, format_pose(st.pose)):
+                lbl.set_text(v)
+        elif not self._homing_shown:  # the counters count from the limit switches: no angle
+            for lbl in self.joint_labels:
+                lbl.set_text(HOMING_TEXT)
+            for lbl in self.pose_labels:
+                lbl.set_text("—")
+        self._homing_shown = not known
         for lbl, v in zip(self.speed_labels, format_speeds(st.speeds_deg_s)):
             lbl.set_text(v)
         for led, h in zip(self.homed_leds, st.homed):
             led.set_content(_led(" on" if h else ""))
-        for lbl, v in zip(self.pose_labels, format_pose(st.pose)):
-            lbl.set_text(v)
         io = st.io
         for key in ("in1", "in2", "out1", "out2"):
             v = getattr(io, key)
@@ -174,11 +237,15 @@ class LiveCharts:
         hist = self.link.history
         if not hist:
             return
-        rows: list[list[float]] = []
+        rows: list[list[float | None]] = []
         last = self._sent_t
         for s in hist:
             if s.t > last + SAMPLE_SPACING_S - 1e-9:
-                rows.append([round(s.t, 3), *(round(v, 2) for v in s.angles), *(round(v, 2) for v in s.speeds)])
+                if s.homing:  # the counters count from the limit switches: a gap in the lines
+                    rows.append([round(s.t, 3), *([None] * 12)])
+                else:
+                    rows.append([round(s.t, 3), *(round(v, 2) for v in s.angles),
+                                 *(round(v, 2) for v in s.speeds)])
                 last = s.t
         if not rows:
             return

@@ -26,7 +26,7 @@ from nicegui import ui
 from parolkit.client.core import RobotState, RobotStatus
 from parolkit.errors import ParolkitError
 from parolkit.gui import geometry
-from parolkit.gui.link import ControllerLink
+from parolkit.gui.link import ControllerLink, joints_known
 from parolkit.gui.zone_shapes import COLLISION_RED, Shape, held_shapes, tool_shapes, zone_shapes
 from parolkit.robot import PAROL6
 
@@ -283,6 +283,9 @@ class ArmView:
         if st is None or st.seq == self._last_seq:
             return False
         self._last_seq = st.seq
+        if not joints_known(st):  # homing: the board's counters count from its limit switches
+            self.fps_label.set_text("homing · the arm is drawn as it was before")
+            return False
         pose_key = (tuple(round(a, 3) for a in st.angles), st.tool)
         plan_key = (self.link.plan.seq if self.link.plan else None, st.state, st.plan_seq)
         if pose_key == self._last_pose and plan_key == self._last_plan_key:

@@ -97,9 +97,53 @@
   window.addEventListener("pointerdown", (e) => { if (onEstop(e)) estop(); }, true);
   window.addEventListener("click", (e) => { if (onEstop(e) && e.detail === 0) estop(); }, true);
 
+  // a jog button in continuous mode: the page times the press (parolkit.gui.components.jog_panel).
+  // Held for the panel's data-tap-ms it jogs ("hold") until released; released sooner, by the
+  // input's own times (the events' timeStamp), it is a tap ("tap": one step), also when a busy
+  // page ran the hold timer before it saw the release (the server then stops that jog and steps
+  // from where the press began).  The server moves nothing before one of the two.
+  const JOG_BUTTON = ".pk-jog .q-btn[data-testid^=jog-]";
+  let jogPress = null; // {id, el, held, t0, tapMs, timer}
+  const jogEvent = (action, id) => {
+    if (typeof window.emitEvent === "function") window.emitEvent("pk_jog", { action: action, id: id });
+  };
+  const endJogPress = () => {
+    if (jogPress !== null) clearTimeout(jogPress.timer);
+    jogPress = null;
+  };
+  window.addEventListener("pointerdown", (e) => {
+    const b = e.target instanceof Element ? e.target.closest(JOG_BUTTON) : null;
+    if (b === null || e.button !== 0 || b.disabled || b.classList.contains("disabled")) return;
+    endJogPress();
+    const panel = b.closest(".pk-jog");
+    const given = Number(panel === null ? NaN : panel.dataset.tapMs);
+    const tapMs = Number.isFinite(given) ? given : 250;
+    const press = { id: b.dataset.testid, el: b, held: false, t0: e.timeStamp, tapMs: tapMs, timer: 0 };
+    press.timer = setTimeout(() => {
+      if (jogPress !== press) return;
+      press.held = true;
+      jogEvent("hold", press.id);
+    }, tapMs);
+    jogPress = press;
+  }, true);
+  // the pointer left the button before the press was judged: neither a tap nor a hold
+  document.addEventListener("pointerleave", (e) => {
+    if (jogPress !== null && e.target === jogPress.el) endJogPress();
+  }, true);
+  window.addEventListener("blur", endJogPress);
+
   // a held jog button may be greyed out under the pointer (limit reached): a disabled button
-  // sends no pointerup, so any pointer release on the page also ends a held jog
-  const release = () => send("release", false);
+  // sends no pointerup, so any pointer release on the page also ends a held jog.  A jog
+  // button's press released within its tap time is a tap: said first, then the release
+  const release = (e) => {
+    const press = jogPress;
+    endJogPress();
+    if (press !== null && e.type === "pointerup" && press.el.contains(e.target) &&
+        e.timeStamp - press.t0 < press.tapMs) {
+      jogEvent("tap", press.id);
+    }
+    send("release", false);
+  };
   document.addEventListener("pointerup", release, true);
   document.addEventListener("pointercancel", release, true);
 
@@ -558,6 +602,22 @@
     // after the scene's own resize handler has sized its renderer (which clears the canvas)
     setTimeout(() => document.querySelectorAll("[data-testid=scene]").forEach(drawScene), 0);
   });
+
+  // a tap must not leave a tooltip open.  A browser that reports no touch platform (a desktop
+  // browser on a touch screen, a tablet asking for the desktop site) makes Quasar show tooltips
+  // on mouseenter and hide them on mouseleave, and a tap sends the emulated mouseenter but no
+  // mouseleave: the tooltip stuck until the next tap elsewhere.  The mouse events a touch
+  // emulates do not reach the tooltips (a real mouse's still do; a phone's own long press
+  // shows them as Quasar does on touch platforms)
+  let touchedAt = -Infinity;
+  window.addEventListener("pointerdown", (e) => { if (e.pointerType === "touch") touchedAt = e.timeStamp; }, true);
+  window.addEventListener("pointerup", (e) => { if (e.pointerType === "touch") touchedAt = e.timeStamp; }, true);
+  const fromTouch = (e) => {
+    const caps = e.sourceCapabilities;
+    if (caps && typeof caps.firesTouchEvents === "boolean") return caps.firesTouchEvents;
+    return e.timeStamp - touchedAt < 1000;
+  };
+  window.addEventListener("mouseenter", (e) => { if (fromTouch(e)) e.stopPropagation(); }, true);
 
   // a long press on a jog button must not open the context menu (touch screens)
   document.addEventListener("contextmenu", (e) => {
