@@ -4,6 +4,7 @@ never from fixed sleeps alone: the machine is shared and slow at times."""
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import time
@@ -64,9 +65,18 @@ def text(page, testid: str) -> str:
     return page.get_by_test_id(testid).inner_text()
 
 
+#: what a joint readout shows while the board homes (parolkit.gui.components.telemetry.HOMING_TEXT)
+HOMING_TEXT = "homing…"
+
+
 def number(page, testid: str) -> float:
-    m = re.search(r"[-+]?\d+(?:\.\d+)?", text(page, testid))
-    assert m, f"{testid} shows no number: {text(page, testid)!r}"
+    """The number a readout shows; NaN while the board homes (a joint readout says "homing…"
+    then: the board's counters are not angles), so a wait for a value goes on waiting."""
+    shown = text(page, testid)
+    if shown.strip() in (HOMING_TEXT, "—") and testid.startswith(("angle-", "pose-", "jog-angle-", "jog-pose-")):
+        return math.nan
+    m = re.search(r"[-+]?\d+(?:\.\d+)?", shown)
+    assert m, f"{testid} shows no number: {shown!r}"
     return float(m.group())
 
 
