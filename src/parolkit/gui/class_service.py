@@ -22,7 +22,7 @@ import time
 from collections.abc import Callable
 from contextvars import ContextVar
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from parolkit.gui.classroom import TEACHER, ClassroomError, ClassView, Member, Role, Turn
 from parolkit.gui.eventlog import Level
@@ -30,7 +30,8 @@ from parolkit.gui.programs import ProgramNameError, ProgramsFolder, student_fold
 
 if TYPE_CHECKING:
     from parolkit.gui.classroom import Classroom
-    from parolkit.gui.commander import Commander
+    from parolkit.gui.eventlog import EventLog
+    from parolkit.gui.program_doc import ProgramDoc
 
 __all__ = ["ACTING", "TICK_S", "ClassService"]
 
@@ -47,10 +48,33 @@ def _turn_key(turn: Turn | None) -> tuple[str, float] | None:
     return None if turn is None else (turn.name, turn.started)
 
 
+class _Runner(Protocol):
+    def stop(self, reason: str = "stopped") -> None: ...
+
+
+class ClassHost(Protocol):
+    """What the class needs of the commander (:class:`parolkit.gui.commander.Commander`, which
+    holds the class: typed as this, the commander module is not imported here)."""
+
+    @property
+    def doc(self) -> ProgramDoc: ...
+
+    @property
+    def log(self) -> EventLog: ...
+
+    @property
+    def programs(self) -> ProgramsFolder: ...
+
+    @property
+    def program(self) -> _Runner: ...
+
+    def stop(self) -> None: ...
+
+
 class ClassService:
     """The classroom of one commander process; every page action goes through it."""
 
-    def __init__(self, room: Classroom, commander: Commander, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, room: Classroom, commander: ClassHost, clock: Callable[[], float] = time.monotonic) -> None:
         self.room = room
         self.c = commander
         self.clock = clock
