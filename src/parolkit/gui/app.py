@@ -97,6 +97,7 @@ class CommanderPage:
                 self._build_tabs()
                 self.charts = LiveCharts(self.link)
         self.program.on_preview = self.view.show_preview
+        self.view.sim_source = self.program.sim_frame  # Simulate's ghost arm
         ui.timer(1.0 / SCENE_FPS, self.view.update)
         ui.timer(READOUT_PERIOD_S, self.update_readouts)
         self.member_key: str | None = None

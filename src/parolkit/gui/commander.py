@@ -32,9 +32,9 @@ from parolkit.gui.templates import SEED_EXAMPLES
 
 if TYPE_CHECKING:
     from parolkit.client.core import RobotStatus
-    from parolkit.client.robot import Robot
     from parolkit.gui.class_service import ClassService
     from parolkit.gui.own_controller import OwnController
+    from parolkit.gui.simulate import RunSpeedRobot
     from parolkit.script.interpreter import Interpreter, InterpreterState, RunResult
     from parolkit.script.program import Program
 
@@ -128,6 +128,28 @@ class Commander:
         except RobotError as exc:
             self.log.error(f"jog stopped: {exc}")
 
+    def hold_move(self, command: str, label: str) -> None:
+        """Hold-to-move ("go to start pose"): send the planned move ``command`` once and hold it
+        like a jog until :meth:`jog_release` (the button let go, a release anywhere on the page,
+        the window's blur, the page closed), which sends STOP: the arm stops on its path."""
+        if self._refused(label):
+            return
+        self.gamepad.halt("go to start pose took over")
+        self.jog_release(send_stop=False)
+        self._hold = asyncio.ensure_future(self._hold_move(command, label))
+
+    async def _hold_move(self, command: str, label: str) -> None:
+        if not self.link.link_up:
+            self.log.error(f"{label} not sent: no link to the controller")
+            return
+        try:
+            self.control.ensure()
+            self.link.send(command, label=label)
+            self.log.info(f"sent {label} (hold to move: letting go stops it)")
+            await asyncio.Event().wait()  # held until jog_release cancels it
+        except (RobotError, OSError) as exc:
+            self.log.error(f"{label}: {exc}")
+
     def jog_release(self, *, send_stop: bool = True) -> None:
         """Stop a held jog: stop sending, then STOP and STREAM|OFF for certainty."""
         if self._hold is None:
@@ -184,8 +206,8 @@ class Commander:
             return False
         runner = self.program.robot
         if runner is not None and self.program.running:
-            try:
-                result = await asyncio.to_thread(runner.set_speed, pct, 2.0)
+            try:  # as given: the program's run speed scales only its own Speed() lines
+                result = await asyncio.to_thread(runner.set_override, pct, 2.0)
             except ParolkitError as exc:
                 self.log.error(f"speed override {pct:g} % (through the program's client): {exc}")
                 return False
@@ -262,7 +284,11 @@ class ProgramRunner:
     def __init__(self, commander: Commander) -> None:
         self.commander = commander
         self.interpreter: Interpreter | None = None
-        self.robot: Robot | None = None
+        self.robot: RunSpeedRobot | None = None
+        #: the run speed of the program running (or run last), % of its planned speed, and the
+        #: controller's speed override before Run (given back when the program ends)
+        self.run_speed = 100.0
+        self._override_before: float | None = None
         #: errors of the last run (check or the failing line), shown inline by the page
         self.errors: list[Any] = []
         self.thread: threading.Thread | None = None
@@ -373,18 +399,21 @@ class ProgramRunner:
                 self.state = new
                 self.version += 1
 
-    async def start(self, text: str, *, step: bool = False, name: str = "") -> list[Any]:
-        """Parse ``text`` (the program ``name``) and run it; returns the parse errors (nothing
-        runs when there are any, nor when :meth:`stop` cancelled the start)."""
+    async def start(self, text: str, *, step: bool = False, name: str = "", run_speed: float = 100.0) -> list[Any]:
+        """Parse ``text`` (the program ``name``) and run it at ``run_speed`` % of its planned
+        speed (:mod:`parolkit.gui.simulate`: the speed override set at the start, Speed() lines
+        scaled by it, the override before given back at the end); returns the parse errors
+        (nothing runs when there are any, nor when :meth:`stop` cancelled the start)."""
         try:
             if self.commander._refused("Step" if step else "Run"):
                 return []
-            return await self._start(text, step=step, name=name)
+            return await self._start(text, step=step, name=name, run_speed=run_speed)
         finally:
             self.starting = False
             self._start_cancelled = False
 
-    async def _start(self, text: str, *, step: bool, name: str) -> list[Any]:
+    async def _start(self, text: str, *, step: bool, name: str, run_speed: float) -> list[Any]:
+        from parolkit.gui.simulate import RunSpeedRobot, run_speed_errors, run_speed_pct
         from parolkit.script import parse
 
         if self.active:
@@ -412,8 +441,21 @@ class ProgramRunner:
             raise RuntimeError("the parser found no error but returned no program")
         program = self._resume_point(program)
         try:
-            from parolkit.client import Robot
+            run_pct = run_speed_pct(run_speed)
+        except ParolkitError as exc:
+            self.state, self.message = "error", f"program not started: {exc}"
+            self.commander.log.error(self.message)
+            self.version += 1
+            return []
+        speed_errors = run_speed_errors(program, run_pct)
+        if speed_errors:
+            self.state = "error"
+            self.message = f"{len(speed_errors)} error(s) at the {run_pct:g} % run speed: nothing was run"
+            self.version += 1
+            return speed_errors
+        try:
             from parolkit.script import Interpreter
+
         except ImportError as exc:
             self.state = "error"
             self.message = f"the program runner is not available in this build: {exc}"
@@ -428,7 +470,7 @@ class ProgramRunner:
             return []
         try:
             # its own ephemeral socket: the controller acks it there (ACK_HERE)
-            robot = Robot(host=link.host, port=link.port, ack_port=0)
+            robot = RunSpeedRobot(link.host, link.port, run_pct=run_pct, ack_port=0)
         except (OSError, ParolkitError) as exc:
             self.state = "error"
             self.message = f"cannot start the program client: {exc}"
@@ -436,6 +478,7 @@ class ProgramRunner:
             self.version += 1
             return []
         self.robot = robot
+        self.run_speed, self._override_before = run_pct, None
         self.interpreter = Interpreter(program, robot, on_line=self._on_line, on_state=self._on_state, step=step)
         self.errors = []
         self.state = "running"
@@ -466,6 +509,7 @@ class ProgramRunner:
                 return
             finally:
                 self.commander.control.refresh_soon()
+            self._set_run_speed()
             interpreter.start()
             result = self._wait_run(interpreter)
             if self._stopping:
@@ -494,8 +538,37 @@ class ProgramRunner:
         finally:
             robot, self.robot = self.robot, None
             if robot is not None:
+                self._give_back_override(robot)
                 robot.close()
             self.version += 1
+
+    def _set_run_speed(self) -> None:
+        """(the runner's thread, holding the lease) The program's run speed as the controller's
+        speed override before its first line.  A refusal is logged; the program runs at the
+        override the controller has."""
+        robot, st = self.robot, self.commander.link.status
+        if robot is None:
+            return
+        try:
+            robot.set_override(self.run_speed, 2.0)
+        except ParolkitError as exc:
+            self.commander.log.error(f"run speed {self.run_speed:g} % not set: {exc}")
+            return
+        self._override_before = st.speed_pct if st is not None else None
+        self.commander.log.info(f"the program runs at {self.run_speed:g} % of its planned speed "
+                                "(the speed override, given back when it ends)")
+
+    def _give_back_override(self, robot: RunSpeedRobot) -> None:
+        """(the runner's thread) The program ended: the speed override it found at Run again
+        (the run speed and the program's Speed() lines were for this run)."""
+        before, self._override_before = self._override_before, None
+        if before is None:
+            return
+        try:
+            robot.set_override(before, 2.0)
+        except ParolkitError as exc:
+            self.commander.log.error(f"the speed override was not set back to {before:g} %: {exc}")
+
 
     def _failure_words(self, result: RunResult) -> str:
         """The page log's line for a failed run: the student's sentence of its first error

@@ -11,6 +11,11 @@ latched" (Run and Step greyed until Enable), "Resume from line N" / "Restart" af
 interrupted a run (:mod:`parolkit.gui.resume`), "Move to start" when the program is valid from
 the home pose but not from where the arm is.
 
+Simulate plays the checked program on a ghost arm in the 3D view (:mod:`parolkit.gui.simulate`)
+at 1x, 2x or 5x without sending anything to the controller: the line it plays highlighted, its
+errors and collisions marked as Check marks them.  Run speed (10..100 %) is the speed a Run
+runs the program at; "Go to start pose" moves the arm to the program's first pose while held.
+
 Pause is the controller's PAUSE: the running move slows down on its own path and holds there,
 and no new line starts; Run resumes it (RESUME) on the same path to the same target; Step
 while paused lets the arm finish the line it paused in and run the next one, then pauses
@@ -36,12 +41,23 @@ from parolkit.gui.eventlog import Level
 from parolkit.gui.highlight import line_decorations, mark_decorations
 from parolkit.gui.programs_panel import ProgramsPanel
 from parolkit.gui.resume import ResumePlan, resume_plan
+from parolkit.gui.simulate import (
+    RUN_SPEED_MAX_PCT,
+    RUN_SPEED_MIN_PCT,
+    SIM_SPEEDS,
+    SimFrame,
+    SimTimeline,
+    Simulation,
+    StartPose,
+    start_pose,
+)
 from parolkit.gui.student_errors import explain, explain_all
 from parolkit.gui.templates import SEED_EXAMPLES, TEMPLATES, render_template
 from parolkit.robot import PAROL6
 
 if TYPE_CHECKING:
     import parolkit.gui.simulate as gui_simulate
+    from parolkit.script.dryrun import DryRunReport
     from parolkit.script.interpreter import CollisionSetup
 
 __all__ = ["ProgramPanel", "DIAG_DELAY_S", "PAUSE_LABEL", "program_status"]
@@ -50,6 +66,11 @@ __all__ = ["ProgramPanel", "DIAG_DELAY_S", "PAUSE_LABEL", "program_status"]
 DIAG_DELAY_S = 0.4
 #: the Pause button's name (aria-label and tooltip): what it does
 PAUSE_LABEL = "Pause: the arm slows down on its path and holds"
+#: what the run speed does, said under it
+RUN_SPEED_NOTE = ("Run speed: Run sets the speed override to this for the program (its Speed() lines are "
+                  "scaled by it) and sets the override back when the program ends.")
+#: the hold-to-move button's name
+START_POSE_LABEL = "Go to start pose: hold to move the arm to the program's first pose, release stops it"
 
 
 def program_status(state: str, line: int | None, held: bool, by_us: bool) -> str:
@@ -107,6 +128,21 @@ class ProgramPanel:
         self._offer_shown: tuple[object, ...] | None = None
         #: the live values completion fills in (joints, pose), as the page has them
         self._live_shown: tuple[str, str] | None = None
+        #: Simulate: the last dry run, the simulation shown (None: none) and its playback speed
+        self._report: DryRunReport | None = None
+        self.simulation: Simulation | None = None
+        self.sim_speed = SIM_SPEEDS[0]
+        self._sim_shown: tuple[int | None, str] | None = None
+        self._sim_enabled: bool | None = None
+        #: the run speed of the next Run, % of the planned speed
+        self.run_speed = RUN_SPEED_MAX_PCT
+        #: "go to start pose": the program's start pose (or why it has none), for which text,
+        #: when to work it out again, whether it is held, what the button and its note show
+        self._start: StartPose | str = "the program has no move"
+        self._start_text: str | None = None
+        self._start_due: float | None = None
+        self._start_held = False
+        self._start_shown: tuple[bool, str] | None = None
         with ui.row().classes("w-full items-center gap-2"):
             self._run_btn = _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
                                   lambda: self.run_program(step=False))
@@ -137,6 +173,7 @@ class ProgramPanel:
                         ui.menu_item(name, on_click=lambda text=text: self.set_program(text))
         #: the page's editor and the shared document (every tab's edits merge: nothing typed is lost)
         self.sync = EditorSync(self.c.doc, self.c.log)
+        self._build_simulate_row()
         self.files = ProgramsPanel(self.c.programs, self.c.log, self.c.doc, self.page_text, self._replace_refused)
         self.editor = ui.codemirror(self.c.doc.text, on_change=self.on_edit, theme="githubLight") \
             .classes("w-full pk-editor").props("data-testid=editor")  # commander.js names its text box
@@ -166,6 +203,37 @@ class ProgramPanel:
         self.offer_row.set_visibility(False)
         self._live = ui.element("div").props("data-testid=pk-live-values aria-hidden=true")
         self._live.set_visibility(False)
+
+    def _build_simulate_row(self) -> None:
+        """Simulate (with its speed and Stop), the run speed and "go to start pose"."""
+        with ui.element("div").classes("pk-wrap items-center pk-sim-row"):
+            self._sim_btn = ui.button("Simulate", icon="visibility", on_click=self.simulate) \
+                .props('outline no-caps color=purple-3 data-testid=prog-simulate '
+                       'aria-label="Simulate: play the program on a ghost arm; the robot does not move"')
+            self._sim_btn.tooltip("Play the checked program on a ghost arm in the 3D view; the robot does not move")
+            ui.toggle({s: f"{s:g}x" for s in SIM_SPEEDS}, value=self.sim_speed, on_change=self._on_sim_speed) \
+                .props('dense no-caps data-testid=sim-speed aria-label="simulation speed"')
+            self._sim_stop = ui.button("Stop simulation", icon="stop_circle", on_click=self.stop_simulation) \
+                .props("outline no-caps color=grey-4 data-testid=sim-stop")
+            self._sim_stop.set_enabled(False)
+            self.sim_status = ui.label("").classes("text-xs pk-mono pk-sim-status") \
+                .props("data-testid=sim-status role=status")
+        with ui.element("div").classes("pk-wrap items-center"):
+            with ui.column().classes("gap-0 pk-grow pk-run-speed"):
+                ui.label().bind_text_from(self, "run_speed", lambda v: f"Run speed {v:.0f} %") \
+                    .classes("text-xs pk-muted").props("data-testid=run-speed-value")
+                ui.slider(min=RUN_SPEED_MIN_PCT, max=RUN_SPEED_MAX_PCT, step=5).bind_value(self, "run_speed") \
+                    .props('data-testid=run-speed aria-label="run speed, percent of the planned speed"')
+            self._start_btn = ui.button("Go to start pose", icon="pin_drop").classes("pk-start-pose") \
+                .props("unelevated no-caps color=blue-grey-8 data-testid=prog-start-pose "
+                       f'aria-label="{START_POSE_LABEL}"')
+            self._start_btn.tooltip(START_POSE_LABEL)
+            self._start_btn.set_enabled(False)
+            self._start_btn.on("pointerdown", self._start_press, ["button"])
+            for ev in ("pointerup", "pointerleave", "pointercancel"):
+                self._start_btn.on(ev, lambda _: self._start_release(), [])
+            self.start_note = ui.label("").classes("text-xs pk-muted").props("data-testid=start-pose-note")
+        ui.label(RUN_SPEED_NOTE).classes("text-xs pk-muted").props("data-testid=run-speed-note")
 
     # ---- editing ----
 
@@ -222,6 +290,7 @@ class ProgramPanel:
         if self._error_source in ("check", "run") or self.prog_status.text.startswith("✗"):
             self.prog_status.set_text("")  # it spoke of the text before this edit
         self._move_start = None
+        self.stop_simulation()  # its lines are not this text's
         self._diag_at = time.monotonic() + DIAG_DELAY_S  # the parser's diagnostics once typing pauses
         self._clear_plan()
         self._refresh_decorations()
@@ -251,6 +320,9 @@ class ProgramPanel:
         runner = self.c.program
         cur = runner.current_line if self._program_active() else None
         decos = mark_decorations(text) + line_decorations(text, current_line=cur, error_lines=self._errors)
+        sim_line = self._sim_shown[0] if self._sim_shown is not None and cur is None else None
+        if sim_line is not None and 1 <= sim_line <= text.count("\n") + 1:
+            decos.append({"kind": "line", "line": sim_line, "class": "rbt-sim"})  # the simulated line
         self.editor.decorations = decos
         self.editor.line_tooltips = dict(self._errors)
 
@@ -329,6 +401,7 @@ class ProgramPanel:
         except (ParolkitError, ValueError) as exc:
             self.c.log.error(f"dry run: {exc}")
             return []
+        self._report = report  # Simulate plays it
         if report.segments:
             t, q, v = report.series()
             self._plot_plan(t, q, v)
@@ -378,13 +451,14 @@ class ProgramPanel:
         runner = self.c.program
         text = self.editor.value or ""
         if not self._program_active():
+            self.stop_simulation()
             runner.announce_start()
             try:
                 text = await self.page_text()
             except BaseException:
                 runner.starting = False
                 raise
-        errors = await runner.start(text, step=step, name=self.c.doc.name)
+        errors = await runner.start(text, step=step, name=self.c.doc.name, run_speed=float(self.run_speed))
         self._show_errors(errors, "run")
         if errors:
             self.prog_status.set_text(f"✗ {self._first_error()} · nothing was run")
@@ -409,6 +483,137 @@ class ProgramPanel:
         if start is None or self._program_active():
             return
         self.c.command(start.command(), f"move to start ({start.describe()})")
+
+    # ---- simulate ----
+
+    async def simulate(self) -> None:
+        """Check the program (the dry run from the current joints, in the controller's
+        collision world: its errors and collisions marked at their lines) and play the planned
+        run on the simulation's ghost arm; nothing is sent to the controller."""
+        if self._program_active():
+            self.c.log.info("simulate: a program runs; simulate it once it has ended")
+            return
+        self.stop_simulation()
+        self._report = None
+        await self.check_program()
+        report = self._report
+        if report is None:
+            self.sim_status.set_text("nothing to simulate: fix the errors first")
+            return
+        try:
+            timeline = SimTimeline.from_report(report)
+        except ValueError as exc:
+            self.c.log.error(f"simulate: {exc}")
+            return
+        if not timeline.steps:
+            self.sim_status.set_text("nothing to simulate: the program has no move and no Delay")
+            return
+        self.simulation = Simulation(timeline, self.sim_speed)
+        self.simulation.start(time.monotonic())
+        self._sim_stop.set_enabled(True)
+        self.c.log.info(f"simulating the program ({timeline.duration_s:.1f} s at {self.sim_speed:g}x): "
+                        "the robot does not move")
+
+    def stop_simulation(self) -> None:
+        """End the simulation and hide its ghost."""
+        if self.simulation is None:
+            return
+        self.simulation.stop()
+        self.simulation = None
+        self._sim_stop.set_enabled(False)
+        self._update_simulation()
+
+    def _on_sim_speed(self, e: Any) -> None:
+        try:
+            speed = float(e.value)
+            if self.simulation is not None:
+                self.simulation.set_speed(speed, time.monotonic())
+            self.sim_speed = speed
+        except (ParolkitError, TypeError, ValueError) as exc:
+            self.c.log.error(f"simulate: {exc}")
+
+    def sim_frame(self) -> SimFrame | None:
+        """The simulation's frame now (the 3D view's ghost), None when none is shown."""
+        sim = self.simulation
+        return None if sim is None else sim.frame(time.monotonic())
+
+    def _update_simulation(self) -> None:
+        """The simulated line highlighted and the simulation's status line."""
+        sim = self.simulation
+        shown: tuple[int | None, str] | None = None
+        if sim is not None:
+            f = sim.frame(time.monotonic())
+            total = sim.timeline.duration_s
+            if f.done:
+                text = f"◇ simulation finished: {total:.1f} s at 1x · the robot did not move"
+            else:
+                at = f"line {f.line}" if f.line is not None else "line —"
+                text = (f"◇ simulating {at}{' (collides)' if f.collides else ''} · {f.time_s:.1f} / {total:.1f} s "
+                        f"at {sim.speed:g}x · the robot does not move")
+            shown = (f.line, text)
+        if shown == self._sim_shown:
+            return
+        line_changed = (shown[0] if shown else None) != (self._sim_shown[0] if self._sim_shown else None)
+        self._sim_shown = shown
+        if shown is not None or self.sim_status.text.startswith("◇"):
+            self.sim_status.set_text(shown[1] if shown is not None else "")
+        if line_changed:
+            self._refresh_decorations()
+
+    # ---- go to start pose (hold to move) ----
+
+    def _start_press(self, e: Any) -> None:
+        args = e.args if isinstance(e.args, dict) else {}
+        if args.get("button", 0) != 0:  # a right or middle mouse button does not move
+            return
+        start = self._start
+        if not isinstance(start, StartPose) or self._program_active():
+            return
+        self._start_held = True
+        self._start_btn.classes(add="pk-held")
+        self.c.hold_move(start.command(), f"go to start pose ({start.describe()})")
+
+    def _start_release(self) -> None:
+        if not self._start_held:
+            return
+        self._start_held = False
+        self._start_btn.classes(remove="pk-held")
+        self.c.jog_release()  # STOP
+
+    def _update_start_pose(self) -> None:
+        """Work out the start pose once typing pauses; grey the button when the arm is there
+        or cannot move (or the program has none) and say why."""
+        from parolkit.script import parse
+
+        now = time.monotonic()
+        text = self.c.doc.text  # the shared program (a running one's start needs no button)
+        if text != self._start_text:
+            self._start_text, self._start_due = text, now + DIAG_DELAY_S
+        if self._start_due is not None and now >= self._start_due:
+            self._start_due = None
+            result = parse(text, "editor")
+            self._start = (start_pose(result.program) if result.ok and result.program is not None
+                           else "the program has errors: Check shows them")
+        if self._start_held and not self.c.jogging:  # released elsewhere (the page, a key, blur)
+            self._start_held = False
+            self._start_btn.classes(remove="pk-held")
+        st, start = self.link.status, self._start
+        if not isinstance(start, StartPose):
+            shown = (False, f"no start pose: {start}")
+        elif self._program_active():
+            shown = (False, f"start pose: {start.describe()} · a program runs")
+        elif st is None or not self.link.link_up or not st.can_move:
+            shown = (False, f"start pose: {start.describe()} · the robot cannot move now")
+        elif start.reached(st.angles, st.pose):
+            shown = (False, f"at the start pose ({start.describe()})")
+        elif self._start_held:
+            shown = (True, f"moving to the start pose ({start.describe()}) while held")
+        else:
+            shown = (True, f"start pose: {start.describe()} · hold the button to move there, release stops")
+        if shown != self._start_shown:
+            self._start_shown = shown
+            self._start_btn.set_enabled(shown[0])
+            self.start_note.set_text(shown[1])
 
     def stop_program(self) -> None:
         """Stop the program run and send STOP (cancels the move in progress and the queue)."""
@@ -540,6 +745,12 @@ class ProgramPanel:
         """Follow the shared document and the program runner: text, status line, error
         marks, the executing line (scrolled into view)."""
         self._follow_text()
+        self._update_simulation()
+        self._update_start_pose()
+        sim_ok = not self._program_active()
+        if sim_ok != self._sim_enabled:
+            self._sim_enabled = sim_ok
+            self._sim_btn.set_enabled(sim_ok)
         self._update_offers()
         self._update_live_values()
         if self._diag_at is not None and time.monotonic() >= self._diag_at:

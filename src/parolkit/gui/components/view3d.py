@@ -11,7 +11,11 @@ width (the stylesheet sizes ``.pk-scene``; the scene resizes its renderer with t
 For the browser tests the scene element names its objects: ``data-body-ids`` (the arm's
 solids by the collision body they stand for), ``data-world-ids`` (the zones', the tool's
 shape's and the held objects' primitives by owner and part), ``data-preview-id`` and
-``data-preview-lines`` (the preview's point ranges by program line) and ``data-tcp-axes-id``.
+``data-preview-lines`` (the preview's point ranges by program line), ``data-tcp-axes-id`` and
+``data-sim-ids`` (the simulation's ghost arm: its frame groups and its solids).
+
+Simulate (the Program tab) plays the program's planned run on a ghost arm of its own, violet,
+red while the line it plays collides (:attr:`ArmView.sim_source`, asked at every update).
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from nicegui import ui
@@ -34,8 +39,10 @@ if TYPE_CHECKING:
     from nicegui.elements.scene.scene_object3d import Object3D
 
     from parolkit.gui.collision import CollisionWatch, PathPreview
+    from parolkit.gui.simulate import SimFrame
 
-__all__ = ["ArmView", "arm_frames", "SCENE_FPS", "IDLE_FPS", "IDLE_AFTER_S", "PREVIEW_RGB", "COLLIDES_RGB"]
+__all__ = ["ArmView", "arm_frames", "SCENE_FPS", "IDLE_FPS", "IDLE_AFTER_S", "PREVIEW_RGB", "COLLIDES_RGB",
+           "SIM_GHOST_COLOUR"]
 
 #: frame rate of the view's updates, and of its drawing while something in it changes, Hz
 SCENE_FPS = 30.0
@@ -48,7 +55,9 @@ IDLE_AFTER_S = 1.0
 #: the path preview's points: the planned path, and where it collides (red)
 PREVIEW_RGB = (0.980, 0.800, 0.082)  # #facc15
 COLLIDES_RGB = (0.937, 0.267, 0.267)  # #ef4444
-
+#: the simulation's ghost arm (Simulate in the Program tab) and its opacity
+SIM_GHOST_COLOUR = "#c4b5fd"
+SIM_GHOST_OPACITY = 0.4
 
 def arm_frames(angles_deg: Any, tool: str = "default") -> Any:
     """The 8 drawing frames (base, 1..5, flange, TCP) from ``parolkit.kinematics.fk_frames``
@@ -77,6 +86,10 @@ class ArmView:
         self._world: dict[str, list[tuple[Object3D, Shape]]] = {}
         self._world_version = -1
         self._red: frozenset[str] = frozenset()
+        #: the simulation's frame to show (None: no simulation shown), asked at every update
+        self.sim_source: Callable[[], SimFrame | None] | None = None
+        self._sim_key: tuple[tuple[float, ...], bool, str] | None = None
+        self._sim_solids: list[Object3D] = []
         with ui.card().classes("pk-card w-full p-2 gap-1").props('role=region aria-label="3D view"'):
             with ui.row().classes("w-full items-center"):
                 ui.label("3D view").classes("pk-title")
@@ -89,6 +102,11 @@ class ArmView:
                 self.groups = self._arm(opacity=1.0)
                 self.ghost = self._arm(opacity=0.22, ghost=True)
                 for g in self.ghost:
+                    g.visible(False)
+                # the simulation's ghost (Simulate): hidden until a simulation plays
+                self.sim_ghost = self._arm(opacity=SIM_GHOST_OPACITY, ghost=True, colour=SIM_GHOST_COLOUR,
+                                           solids=self._sim_solids)
+                for g in self.sim_ghost:
                     g.visible(False)
                 self.path = self.scene.point_cloud([], point_size=0.14).material("#22d3ee")
                 # the checked program's TCP path (the dry run), shown before it runs; where it
@@ -105,6 +123,8 @@ class ArmView:
                 {body: [o.id for o, _, _ in objs] for body, objs in self._bodies.items()})
             self.scene.props["data-world-ids"] = "{}"
             self.scene.props["data-preview-lines"] = "[]"
+            self.scene.props["data-sim-ids"] = json.dumps(
+                {"groups": [g.id for g in self.sim_ghost], "solids": [o.id for o in self._sim_solids]})
             self.scene.move_camera(x=4.6, y=-4.2, z=3.9, look_at_x=0, look_at_y=0.8, look_at_z=1.7, duration=0)
             for g, t in zip(self.groups, geometry.dh_frames(PAROL6.standby_deg)):
                 pos, rot = geometry.frame_pose_for_scene(t)
@@ -153,10 +173,13 @@ class ArmView:
         self.draw_fps = fps
         self.scene.props["fps"] = fps  # the scene's own loop reads it at each frame
 
-    def _arm(self, *, opacity: float, ghost: bool = False) -> list[Any]:
+    def _arm(self, *, opacity: float, ghost: bool = False, colour: str = "#a5f3fc",
+             solids: list[Object3D] | None = None) -> list[Any]:
+        """The arm's solids in one group per drawing frame; a ``ghost`` all in ``colour``
+        (its solids appended to ``solids``)."""
         colours = {"base": "#475569", "joint": "#f97316", "link": "#cbd5e1", "tool": "#38bdf8"}
         if ghost:
-            colours = {k: "#a5f3fc" for k in colours}
+            colours = {k: colour for k in colours}
         groups = [self.scene.group() for _ in range(geometry.N_FRAMES)]
         s = geometry.SCENE_SCALE
         for solid in geometry.arm_solids(PAROL6):
@@ -171,6 +194,8 @@ class ArmView:
                     width, height, depth = (v * s for v in solid.size)
                     obj = self.scene.box(width, height, depth).move(*(v * s for v in solid.start))
                 obj.material(colours[solid.role], opacity=opacity)
+                if solids is not None:
+                    solids.append(obj)
                 if not ghost and solid.body:
                     self._bodies.setdefault(solid.body, []).append((obj, colours[solid.role], opacity))
         if not ghost:
@@ -267,6 +292,7 @@ class ArmView:
         Redraw the collision world when it changed and colour what is within a margin.
         The drawing slows to :data:`IDLE_FPS` once nothing has changed for :data:`IDLE_AFTER_S`."""
         changed = self._move_arm()
+        changed = self._move_sim() | changed
         if self.collision is not None:
             with self.scene._batch_calls():
                 changed = self._draw_world() | changed
@@ -276,6 +302,31 @@ class ArmView:
         elif self.draw_fps != IDLE_FPS and time.monotonic() - self._changed_t >= IDLE_AFTER_S:
             self._set_draw_fps(IDLE_FPS)
             self.fps_label.set_text(f"idle · drawn {IDLE_FPS:g} fps")
+
+    def _move_sim(self) -> bool:
+        """Put the simulation's ghost where :attr:`sim_source` says (red while its line
+        collides), or hide it; False if nothing changed."""
+        frame = self.sim_source() if self.sim_source is not None else None
+        st = self.link.status
+        tool = st.tool if st is not None else "default"
+        key = None if frame is None else (tuple(round(a, 2) for a in frame.joints_deg), frame.collides, tool)
+        if key == self._sim_key:
+            return False
+        old, self._sim_key = self._sim_key, key
+        with self.scene._batch_calls():
+            if frame is None:
+                for g in self.sim_ghost:
+                    g.visible(False)
+                return True
+            for g, t in zip(self.sim_ghost, arm_frames(frame.joints_deg, tool)):
+                pos, rot = geometry.frame_pose_for_scene(t)
+                g.move(*pos).rotate_R(rot)
+                if old is None:
+                    g.visible(True)
+            if old is None or old[1] != frame.collides:
+                for obj in self._sim_solids:
+                    obj.material(COLLISION_RED if frame.collides else SIM_GHOST_COLOUR, opacity=SIM_GHOST_OPACITY)
+        return True
 
     def _move_arm(self) -> bool:
         """Send the newest status's arm (ghost, path) to the page; False if nothing changed."""
