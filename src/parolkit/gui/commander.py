@@ -455,7 +455,6 @@ class ProgramRunner:
             return speed_errors
         try:
             from parolkit.script import Interpreter
-
         except ImportError as exc:
             self.state = "error"
             self.message = f"the program runner is not available in this build: {exc}"
@@ -568,7 +567,6 @@ class ProgramRunner:
             robot.set_override(before, 2.0)
         except ParolkitError as exc:
             self.commander.log.error(f"the speed override was not set back to {before:g} %: {exc}")
-
 
     def _failure_words(self, result: RunResult) -> str:
         """The page log's line for a failed run: the student's sentence of its first error

@@ -59,6 +59,7 @@ COLLIDES_RGB = (0.937, 0.267, 0.267)  # #ef4444
 SIM_GHOST_COLOUR = "#c4b5fd"
 SIM_GHOST_OPACITY = 0.4
 
+
 def arm_frames(angles_deg: Any, tool: str = "default") -> Any:
     """The 8 drawing frames (base, 1..5, flange, TCP) from ``parolkit.kinematics.fk_frames``
     with the controller's current tool (the default TCP if the name is unknown here)."""
