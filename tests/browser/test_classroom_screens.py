@@ -263,7 +263,8 @@ def test_stale_values_are_dimmed_and_marked_with_their_age_while_the_controller_
             wait_until(lambda: stale.is_visible(), 20, what="the stale marker", page=page)
             first = int(re.search(r"(\d+) s ago", stale.inner_text()).group(1))  # type: ignore[union-attr]
             assert "stale" in stale.inner_text() and first >= 1
-            assert page.evaluate("() => document.querySelector('.pk-main').classList.contains('pk-stale')")
+            wait_until(lambda: page.evaluate("() => document.querySelector('.pk-main').classList.contains('pk-stale')"),
+                       10, what="the page marked stale", page=page)
             look = value.evaluate("(e) => { const s = getComputedStyle(e); return [s.opacity, s.textDecorationLine]; }")
             assert float(look[0]) <= 0.6 and "line-through" in look[1], look
             assert text(page, "angle-1") == shown  # the last value, marked, not blanked
@@ -275,8 +276,9 @@ def test_stale_values_are_dimmed_and_marked_with_their_age_while_the_controller_
         finally:
             os.kill(controller.proc.pid, signal.SIGCONT)
         wait_until(lambda: not stale.is_visible(), 30, what="the stale marker gone with the link back", page=page)
-        assert not page.evaluate("() => document.querySelector('.pk-main').classList.contains('pk-stale')")
-        assert float(value.evaluate("(e) => getComputedStyle(e).opacity")) == 1.0
+        wait_until(lambda: not page.evaluate("() => document.querySelector('.pk-main').classList.contains('pk-stale')")
+                   and float(value.evaluate("(e) => getComputedStyle(e).opacity")) == 1.0, 15,
+                   what="the values no longer dimmed", page=page)
         # the readouts are live again
         show_tab(page, "tab-jog")
     finally:
