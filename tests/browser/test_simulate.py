@@ -325,8 +325,9 @@ def test_go_to_start_pose_moves_while_held_and_stops_when_let_go(page, world, ro
     _move_to(robot, STANDBY)
     _type_program(page, START_PROGRAM)
     button = page.get_by_test_id("prog-start-pose")
+    wait_until(lambda: "line 2's MoveJoint target (120, -100, 190, 0, -20, 180)" in text(page, "start-pose-note"), 20,
+               what="the start pose of the program typed", page=page)
     expect(button).to_be_enabled(timeout=10000)
-    assert "line 2's MoveJoint target" in text(page, "start-pose-note")
     # slow (5 % override), so the arm is still on its way when it is let go, however slow the machine
     robot.take_control(force=True)
     robot.set_speed(5, timeout=5)

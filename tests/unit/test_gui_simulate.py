@@ -239,6 +239,7 @@ def test_the_start_pose_is_the_target_of_the_first_absolute_move():
     assert p == StartPose(4, "MoveJoint", joints_deg=(80.0, -90.0, 180.0, 0.0, 0.0, 180.0))
     assert p.command() == "MOVEJOINT|80.0000|-90.0000|180.0000|0.0000|0.0000|180.0000|None|25|25"
     assert p.describe() == "line 4's MoveJoint target"
+    assert p.target_text() == "(80, -90, 180, 0, 0, 180)"
     cart = start_pose(_program("Begin()\nMoveCart(0, 263.23, 161.241, -90, 0, -89.5)\nEnd()\n"))
     assert isinstance(cart, StartPose) and cart.pose == (0.0, 263.23, 161.241, -90.0, 0.0, -89.5)
     assert cart.command(speed_pct=10, accel_pct=20) == \

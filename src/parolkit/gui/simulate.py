@@ -347,6 +347,11 @@ class StartPose:
     def describe(self) -> str:
         return f"line {self.line}'s {self.keyword} target"
 
+    def target_text(self) -> str:
+        """The target's numbers as the program writes them: ``(120, -100, 190, 0, -20, 180)``."""
+        values = self.joints_deg if self.joints_deg is not None else self.pose
+        return "(" + ", ".join(f"{v:g}" for v in values or ()) + ")"
+
 
 def start_pose(program: Program) -> StartPose | str:
     """The program's start pose: the target of its first MoveJoint, MovePose or MoveCart; or,

@@ -142,6 +142,8 @@ class ProgramPanel:
         self._start_text: str | None = None
         self._start_due: float | None = None
         self._start_held = False
+        #: the hold's move was sent (and not yet released)
+        self._start_moving = False
         self._start_shown: tuple[bool, str] | None = None
         with ui.row().classes("w-full items-center gap-2"):
             self._run_btn = _tool("play_arrow", "Run or resume the program", "prog-run", "unelevated color=positive",
@@ -562,21 +564,34 @@ class ProgramPanel:
 
     # ---- go to start pose (hold to move) ----
 
-    def _start_press(self, e: Any) -> None:
+    async def _start_press(self, e: Any) -> None:
+        """Held: the start pose of the program this page shows now (not the one worked out a
+        moment ago: it may be the text before the last keys), then the move while it is held."""
+        from parolkit.script import parse
+
         args = e.args if isinstance(e.args, dict) else {}
-        if args.get("button", 0) != 0:  # a right or middle mouse button does not move
-            return
-        start = self._start
-        if not isinstance(start, StartPose) or self._program_active():
+        if args.get("button", 0) != 0 or self._program_active():  # a right or middle button does not move
             return
         self._start_held = True
         self._start_btn.classes(add="pk-held")
-        self.c.hold_move(start.command(), f"go to start pose ({start.describe()})")
+        text = await self.page_text()
+        result = parse(text, "editor")
+        start = (start_pose(result.program) if result.ok and result.program is not None
+                 else "the program has errors: Check shows them")
+        self._start, self._start_text, self._start_due = start, text, None
+        if not self._start_held:  # let go while the page's text was on its way
+            return
+        if not isinstance(start, StartPose):
+            self.c.log.error(f"go to start pose: {start}")
+            self._start_release()
+            return
+        self.c.hold_move(start.command(), f"go to start pose ({start.describe()} {start.target_text()})")
+        self._start_moving = self.c.jogging
 
     def _start_release(self) -> None:
         if not self._start_held:
             return
-        self._start_held = False
+        self._start_held = self._start_moving = False
         self._start_btn.classes(remove="pk-held")
         self.c.jog_release()  # STOP
 
@@ -594,8 +609,8 @@ class ProgramPanel:
             result = parse(text, "editor")
             self._start = (start_pose(result.program) if result.ok and result.program is not None
                            else "the program has errors: Check shows them")
-        if self._start_held and not self.c.jogging:  # released elsewhere (the page, a key, blur)
-            self._start_held = False
+        if self._start_moving and not self.c.jogging:  # released elsewhere (the page, a key, blur)
+            self._start_held = self._start_moving = False
             self._start_btn.classes(remove="pk-held")
         st, start = self.link.status, self._start
         if not isinstance(start, StartPose):
@@ -609,7 +624,8 @@ class ProgramPanel:
         elif self._start_held:
             shown = (True, f"moving to the start pose ({start.describe()}) while held")
         else:
-            shown = (True, f"start pose: {start.describe()} · hold the button to move there, release stops")
+            shown = (True, f"start pose: {start.describe()} {start.target_text()} · hold the button to move there, "
+                           "release stops")
         if shown != self._start_shown:
             self._start_shown = shown
             self._start_btn.set_enabled(shown[0])
