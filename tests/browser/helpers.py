@@ -193,7 +193,15 @@ def inside_viewport(page, b: dict) -> bool:
 
 def recover(page) -> None:
     """Leave the robot enabled, homed and idle for the next test: Enable (ends an E-STOP
-    latch), then Home unless READY."""
+    latch), then Home unless READY; and the gripper's error an E-stop leaves (it stays until the
+    gripper is told to clear it, as on the board) cleared with Clear error."""
+    grip = page.get_by_test_id("grip-compact")
+    if grip.count() and "error" in grip.inner_text():
+        if state(page) == "E-STOP":
+            page.get_by_test_id("btn-enable").click()
+            wait_until(lambda: state(page) != "E-STOP", 20, what="the E-stop latch ended", page=page)
+        page.get_by_test_id("btn-clear").click()
+        wait_until(lambda: "error" not in grip.inner_text(), 20, what="the gripper's error cleared", page=page)
     if state(page) == "READY":
         return
     page.get_by_test_id("btn-enable").click()
