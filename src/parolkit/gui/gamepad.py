@@ -589,12 +589,12 @@ class GamepadDrive:
 
     async def _log_stop(self, reason: str, level: Level) -> None:
         """The stop's log line, with the controller's tick from a query sent right after the STOP."""
-        try:
-            stats = await self.link.robot.loop_stats()
+        try:  # the status's seq is the tick of the controller's newest snapshot
+            status = await self.link.robot.status()
         except RobotError:
             self.log.add(f"gamepad: {reason}: STOP sent", level)
             return
-        self.log.add(f"gamepad: {reason}: STOP sent (controller tick {stats.ticks})", level)
+        self.log.add(f"gamepad: {reason}: STOP sent (controller tick {status.seq})", level)
 
     def _servo_running(self) -> bool:
         st = self.link.status
