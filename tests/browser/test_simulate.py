@@ -374,3 +374,18 @@ def test_go_to_start_pose_moves_while_held_and_stops_when_let_go(page, world, ro
     wait_ready(page, 30)
     _move_to(robot, STANDBY)
     assert page.console_errors == []
+
+
+def test_the_simulate_row_fits_a_phone(page):
+    """At 390 px (a phone) the Program tab's Simulate row, the run speed and the start pose
+    button are on the screen and nothing scrolls sideways."""
+    page.set_viewport_size({"width": 390, "height": 844})
+    try:
+        show_tab(page, "tab-program")
+        wait_until(lambda: page.evaluate("() => document.documentElement.scrollWidth - window.innerWidth") <= 0, 10,
+                   what="nothing wider than the screen", page=page)
+        for testid in ("prog-simulate", "sim-speed", "sim-stop", "run-speed", "prog-start-pose", "start-pose-note"):
+            b = page.get_by_test_id(testid).bounding_box()
+            assert b is not None and b["x"] >= 0 and b["x"] + b["width"] <= 390.5, (testid, b)
+    finally:
+        page.set_viewport_size({"width": 1500, "height": 1100})
