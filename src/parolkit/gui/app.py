@@ -12,16 +12,12 @@ from __future__ import annotations
 import asyncio
 import hashlib
 import json
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from fastapi import Response
-from fastapi.responses import FileResponse, PlainTextResponse
 from nicegui import app, ui
 
-from parolkit.client.errors import RobotError
 from parolkit.gui.commander import Commander
 from parolkit.gui.completion import completion_table
 from parolkit.gui.components.class_panel import ClassPanel, install_gate
@@ -35,10 +31,8 @@ from parolkit.gui.components.speed_override import SpeedOverride
 from parolkit.gui.components.tabs import icon_tab
 from parolkit.gui.components.telemetry import LiveCharts, Readouts
 from parolkit.gui.components.view3d import SCENE_FPS, ArmView
+from parolkit.gui.downloads import install_downloads
 from parolkit.gui.jog import KEYMAP, key_action
-from parolkit.gui.programs import ProgramNameError
-from parolkit.gui.programs_panel import PROGRAMS_URL
-from parolkit.gui.recordings import RECORDINGS_URL, RecordingNameError, RecordingNotListed
 from parolkit.gui.security import SESSION_COOKIE, session_key
 
 __all__ = ["Commander", "CommanderPage", "build_app", "STATIC_DIR", "STATIC_URL", "static_url"]
@@ -205,50 +199,11 @@ class CommanderPage:
             self.jog.cart_press(b.axis)
 
 
-def download_recording(commander: Commander, name: str) -> Response:
-    """``GET /parolkit-recordings/<name>``: the listed recording ``name`` as a file download.
-    The name follows the folder's rules (else 400) and must be one the folder lists (else 404):
-    nothing outside the recordings folder is ever served; the file still being recorded is
-    not served either (409)."""
-    try:
-        path = commander.recordings.listed(name)
-    except RecordingNotListed as exc:
-        return PlainTextResponse(f"{exc}\n", status_code=404)
-    except RecordingNameError as exc:
-        return PlainTextResponse(f"{exc}\n", status_code=400)
-    if path.name == commander.recording.active_name:
-        return PlainTextResponse(f"{path.name} is still being recorded: stop the recording first\n",
-                                 status_code=409)
-    return FileResponse(path, filename=path.name, media_type="application/octet-stream",
-                        headers={"cache-control": "no-store"})
-
-
-def download_program(commander: Commander, name: str) -> Response:
-    """``GET /parolkit-programs/<name>``: the saved program ``name`` as a file download (an
-    attachment).  The name follows the programs folder's rules (else 400) and must be one the
-    folder lists (else 404): nothing outside the programs folder is ever served."""
-    folder = commander.programs
-    try:
-        file_name = folder.file_name(name)
-        path = folder.path(file_name)
-    except ProgramNameError as exc:
-        return PlainTextResponse(f"{exc}\n", status_code=400)
-    if file_name not in folder.names():
-        return PlainTextResponse(f"there is no program {file_name!r} in {folder.root}\n", status_code=404)
-    return FileResponse(path, filename=file_name, media_type="text/plain; charset=utf-8",
-                        content_disposition_type="attachment", headers={"cache-control": "no-store"})
-
-
 def build_app(commander: Commander) -> Callable[[], None]:
     """The root page function for ``ui.run``; serves the static files and the recordings'
     downloads and starts/stops the link with the app."""
     app.add_static_files(STATIC_URL, STATIC_DIR)
-    # ``:path``: a name with a separator ('../x', '..%2Fx') reaches the name check and is refused
-    # with 400, instead of falling through to the page (NiceGUI's root page answers every path)
-    app.add_api_route(f"{RECORDINGS_URL}/{{name:path}}", lambda name: download_recording(commander, name),
-                      methods=["GET"], include_in_schema=False)
-    app.add_api_route(f"{PROGRAMS_URL}/{{name:path}}", lambda name: download_program(commander, name),
-                      methods=["GET"], include_in_schema=False)
+    install_downloads(commander)  # the recordings' and the programs' file downloads
 
     async def startup() -> None:
         await commander.link.start()
@@ -270,32 +225,11 @@ def build_app(commander: Commander) -> Callable[[], None]:
     app.on_startup(startup)
     app.on_shutdown(shutdown)
 
-    def opened(page: CommanderPage) -> None:
-        commander.pages += 1
-        if commander.classroom is not None and page.member_key:
-            commander.classroom.room.page_opened(page.member_key, time.monotonic())
-
-    def closed(page: CommanderPage) -> None:
-        """A page's connection went away: end its jog (a class: only the driver's page holds
-        one); when no page is connected any more the
-        commander gives the control lease back (unless a program runs: the runner holds the
-        lease then and gives it back itself when the program ends)."""
-        if commander.classroom is not None and page.member_key:
-            commander.classroom.room.page_closed(page.member_key, time.monotonic())
-        if page.may_drive():
-            commander.jog_release()
-        commander.pages = max(0, commander.pages - 1)
-        if commander.pages == 0 and not commander.program.running:
-            try:
-                commander.control.release()
-            except RobotError as exc:
-                commander.log.error(f"release control: {exc}")
-
     def root() -> None:
         page = CommanderPage(commander)
         # once per socket connection (a reconnecting page connects again)
-        ui.context.client.on_connect(lambda: opened(page))
-        ui.context.client.on_disconnect(lambda: closed(page))
+        ui.context.client.on_connect(lambda: commander.page_opened(page.member_key))
+        ui.context.client.on_disconnect(lambda: commander.page_closed(page.member_key, page.may_drive()))
         ui.page_title("parolkit commander")
 
     return root

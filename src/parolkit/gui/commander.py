@@ -100,6 +100,29 @@ class Commander:
         #: a class (gui.teacher_password): who may move the robot; None: no roles
         self.classroom: ClassService | None = None
 
+    def page_opened(self, member_key: str | None) -> None:
+        """A page (browser tab) connected (again, after a reconnect); ``member_key``: its
+        member of a class (None: no class)."""
+        self.pages += 1
+        if self.classroom is not None and member_key:
+            self.classroom.room.page_opened(member_key, time.monotonic())
+
+    def page_closed(self, member_key: str | None, drove: bool) -> None:
+        """A page's connection went away: end its jog when it was one that may move the robot
+        (``drove``; in a class only the driver's page holds one); when no page is connected any
+        more the commander gives the control lease back (unless a program runs: the runner
+        holds the lease then and gives it back itself when the program ends)."""
+        if self.classroom is not None and member_key:
+            self.classroom.room.page_closed(member_key, time.monotonic())
+        if drove:
+            self.jog_release()
+        self.pages = max(0, self.pages - 1)
+        if self.pages == 0 and not self.program.running:
+            try:
+                self.control.release()
+            except RobotError as exc:
+                self.log.error(f"release control: {exc}")
+
     def _refused(self, what: str) -> bool:
         """In a class: the page this runs for may not move or change the robot now (logged)."""
         return self.classroom is not None and self.classroom.refuse(what)
