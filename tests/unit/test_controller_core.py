@@ -853,6 +853,29 @@ def test_a_command_received_before_a_stop_that_overtook_it_is_cancelled_by_it(ri
     assert rig.statuses("aaaa0003") == [AckStatus.QUEUED]
 
 
+def test_a_servo_target_received_before_a_stop_that_overtook_it_starts_no_stream(rig):
+    """A teleop client's last targets and its STOP: the STOP comes through the safety lane
+    ahead of the targets sent before it.  Those targets are cancelled by it, not taken as the
+    start of a new stream after the stop (the arm moved again after a gamepad's deadman was
+    released, at load 30-40)."""
+    q = [90.0, -88.0, 180.0, 0.0, 0.0, 180.0]
+    rig.send("sv000001|SERVOJ|" + "|".join(f"{v:.4f}" for v in q), seq=20)
+    rig.run_until(lambda: AckStatus.EXECUTING in rig.statuses("sv000001"))
+    rig.send("cccc0001|STOP", seq=30)
+    for _ in range(6):  # the stop runs; the target sent before it is still on its way
+        rig.tick()
+    late = [v + 0.5 for v in q]
+    rig.send("sv000002|SERVOJ|" + "|".join(f"{v:.4f}" for v in late), seq=29)  # sent first, arrives later
+    rig.tick()
+    assert rig.statuses("cccc0001") == [AckStatus.COMPLETED]
+    assert rig.terminal("sv000002") is AckStatus.CANCELLED
+    assert "STOP received after it" in [a for a in rig.acks if a[0] == "sv000002"][-1][2]
+    for _ in range(40):
+        rig.tick()
+    assert rig.core.jobs.active is None  # no stream started after the stop
+    assert not any(AckStatus.EXECUTING in rig.statuses(c) for c in ("sv000002",))
+
+
 def test_command_inbox_takes_sources_in_turn_and_refuses_a_full_lane():
     from parolkit.controller.inbox import CommandInbox
 

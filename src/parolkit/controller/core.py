@@ -705,10 +705,12 @@ class ControllerCore:
             if sub.seq > self._safety_seq:
                 self._safety_seq, self._safety_name = sub.seq, cmd.name
         elif sub.seq and sub.seq < self._safety_seq and (
-            cmd.KIND is not C.CommandKind.IMMEDIATE or isinstance(cmd, (C.Enable, C.ClearError))
+            cmd.KIND is not C.CommandKind.IMMEDIATE or isinstance(cmd, (C.Enable, C.ClearError, C.ServoJ, C.ServoL))
         ):
             # received before a STOP / ESTOP / DISABLE that overtook it in the safety lane:
-            # that command cancels it, as if it had been applied in arrival order
+            # that command cancels it, as if it had been applied in arrival order (a servo
+            # target too: taken after the stop, it would start a new stream that moves the arm
+            # again: a gamepad's deadman release did that at load 30-40)
             self.jobs.ack(job, AckStatus.CANCELLED, f"{self._safety_name} received after it")
             return
         if isinstance(cmd, (C.ServoJ, C.ServoL)):
