@@ -49,7 +49,10 @@ VIEW_EVENTS: tuple[tuple[type[Element], frozenset[str]], ...] = (
     (ui.scene, frozenset({"init"})), (ui.codemirror, frozenset({"anchor-positions"})))
 #: the page's own events (commander.js) a watching page may send: E-STOP, and the keys (on_key
 #: lets only Stop and E-STOP through for a page that watches)
-OPEN_EVENTS = frozenset({"pk_estop", "pk_key"})
+OPEN_EVENTS = frozenset({"pk_estop", "pk_key",
+                         # the gamepad's state: its indicator follows it on every page; the drive
+                         # itself starts only for a page that may move the robot (may_start)
+                         "pk_gamepad"})
 #: the editor's messages (gui/editor_sync.py) a watching page may send: it follows the program
 #: live; a change it pushes is refused and answered as a hello (the page gets the text back)
 DOC_EVENT, DOC_FOLLOW = "pk_doc", frozenset({"hello", "since"})
