@@ -101,6 +101,42 @@ def test_something_moves_is_a_jog_a_program_or_a_busy_controller(tmp_path):
         c.program.thread.join()
 
 
+def test_a_status_still_showing_the_programs_last_command_after_its_end_keeps_program_running(tmp_path):
+    """The header's state right after a program ended: the last line's ack came, but the
+    newest status left the controller before it and still shows that line's command.  It
+    says PROGRAM RUNNING for it (a run beside two CPU hogs showed PROGRAM RUNNING, MOVING,
+    READY); a later command of anyone else's is MOVING again."""
+    import threading
+
+    from parolkit.gui.commander import Commander
+    from parolkit.gui.link import ControllerLink
+    from parolkit.gui.programs import ProgramsFolder
+    from parolkit.gui.status import state_badge
+
+    c = Commander(ControllerLink("127.0.0.1", 9, 9), mode_label="test", programs=ProgramsFolder(tmp_path))
+    runner = c.program
+    last = dict(STATUS, state="MOVING", command={"id": "prog0042", "name": "MOVEJOINT", "progress": 0.97})
+    gate = threading.Event()
+    runner.thread = threading.Thread(target=gate.wait)
+    runner.thread.start()
+    try:
+        runner.state = "running"
+        runner.follow(RobotStatus.from_json(last))  # the statuses during the run
+    finally:
+        gate.set()
+        runner.thread.join()
+    runner.state = "finished"
+
+    def badge(status: dict) -> str:
+        st = RobotStatus.from_json(status)
+        return state_badge(st, True, "running" if runner.finishing(st) else None)[0]
+
+    assert badge(last) == "PROGRAM RUNNING"  # stale: the program's own command
+    other = dict(last, command={"id": "other001", "name": "MOVEJOINT", "progress": 0.1})
+    assert badge(other) == "MOVING"
+    assert badge(dict(STATUS, state="IDLE", command=None, queue=0)) == "READY"
+
+
 def test_a_program_stopped_between_run_and_its_start_does_not_run(tmp_path):
     """Run pressed, the page's text still on its way: the program counts as moving (Space is
     STOP) and stop() cancels it; start() then runs nothing."""

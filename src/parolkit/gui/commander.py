@@ -326,6 +326,10 @@ class ProgramRunner:
         #: the interpreter is paused by us (Pause, Step or a Step-mode start): no new line starts
         #: until Run
         self._user_paused = False
+        #: the IDs of the controller commands the statuses showed while the program ran: a
+        #: status that still shows one after the run ended (it left the controller before the
+        #: last line's ack) is the program's, not another move (:meth:`finishing`)
+        self._run_ids: set[str] = set()
         #: PAUSE sent since the last RESUME (Run and Step send RESUME then)
         self._pause_sent = False
         #: our RESUME is on its way (True), or was acknowledged at this monotonic time: a
@@ -400,6 +404,8 @@ class ProgramRunner:
         ended)."""
         if not self.active:
             return
+        if st.command is not None and st.command.id is not None:
+            self._run_ids.add(st.command.id)
         at_rest = max((abs(v) for v in st.speeds_deg_s), default=0.0) < AT_REST_DEG_S
         with self._lock:
             if self._stopping or self.state not in ACTIVE_STATES:
@@ -421,6 +427,14 @@ class ProgramRunner:
             if new != self.state:
                 self.state = new
                 self.version += 1
+
+    def finishing(self, st: RobotStatus | None) -> bool:
+        """The program has ended here but ``st`` (the newest status) still shows one of its
+        commands running: a status that left the controller before the last line's ack (the
+        header says PROGRAM RUNNING for it, not MOVING: a run beside two CPU hogs showed
+        PROGRAM RUNNING, MOVING, READY)."""
+        return (not self.active and st is not None and st.command is not None
+                and st.command.id is not None and st.command.id in self._run_ids)
 
     async def start(self, text: str, *, step: bool = False, name: str = "", run_speed: float = 100.0) -> list[Any]:
         """Parse ``text`` (the program ``name``) and run it at ``run_speed`` % of its planned
@@ -504,6 +518,7 @@ class ProgramRunner:
         self.interpreter = Interpreter(program, robot, on_line=self._on_line, on_state=self._on_state, step=step)
         self.errors = []
         self.state = "running"
+        self._run_ids = set()
         self._user_paused, self._pause_sent, self._resuming = step, False, False
         self.message = ""
         self.text, self.name = text, name

@@ -172,7 +172,8 @@ class Header:
             self._resume_shown = paused
             self.resume_btn.set_visibility(paused)
         runner = self.c.program
-        text, colour = state_badge(st, link_up, runner.state if runner.active else None)
+        program = runner.state if runner.active else ("running" if runner.finishing(st) else None)
+        text, colour = state_badge(st, link_up, program)
         latched = st is not None and (st.estop_latched or st.estop_pressed)
         key = (link_up, text, colour, latched)
         if key != self._shown:
