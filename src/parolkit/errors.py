@@ -17,6 +17,10 @@ package is drawn here, under its real base class, and that no two share a name):
     |   |   +-- FrameError                parolkit.protocol.frames: bytes that are not a board frame
     |   |   +-- DatagramError             parolkit.protocol.commands: a UDP datagram that is not a
     |   |                                 valid command (the controller answers INVALID / ERROR)
+    |   |   +-- ClassroomError            parolkit.gui.classroom: a class action refused (why, and
+    |   |   |                             what to do instead)
+    |   |   +-- GamepadInputError         parolkit.gui.gamepad: a gamepad message the commander cannot take
+    |   |   +-- EditRefused               parolkit.gui.program_doc: a page's edit that cannot be applied
     |   |   +-- FolderNameError           parolkit.gui.programs: a file name the commander refuses
     |   |       |                         in one of its folders (names the rule)
     |   |       +-- ProgramNameError      parolkit.gui.programs: a program name or file (outside
@@ -36,6 +40,9 @@ package is drawn here, under its real base class, and that no two share a name):
     |   +-- BoardTestError                parolkit.boardtest: a board test action could not complete
     |   +-- TrajectoryRefused             parolkit.ros2.trajectory: a ROS JointTrajectory refused
     |   |                                 before anything was sent (names the point and reason)
+    |   +-- GoalRefused                   parolkit.ros2.follow_joint_trajectory: an action goal that
+    |   |                                 cannot run (control_msgs' error code and the reason)
+    |   +-- WrongPassword                 parolkit.gui.security: a login with a wrong password
     |   +-- RobotError                    parolkit.client.errors: base of the object API's errors
     |       +-- CommandNotCompleted       a command ended without COMPLETED (command_id, command,
     |       |   |                         status, reason: the controller's words)

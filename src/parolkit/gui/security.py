@@ -38,6 +38,7 @@ from collections.abc import Awaitable, Callable, Iterable, MutableMapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from parolkit.errors import ParolkitError
 from parolkit.gui.classroom import Classroom, ClassroomError, Member
 
 __all__ = [
@@ -193,7 +194,7 @@ def _same(given: str, password: str) -> bool:
     return hmac.compare_digest(given.encode("utf-8", "replace"), password.encode("utf-8"))
 
 
-class WrongPassword(Exception):
+class WrongPassword(ParolkitError):
     """A login with a password that is not the (teacher's or class) password."""
 
 

@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from parolkit.client.errors import RobotError
+from parolkit.errors import ParolkitError
 from parolkit.ros2 import msgs
 from parolkit.ros2.action_msgs import (
     FOLLOW_JOINT_TRAJECTORY,
@@ -73,7 +74,7 @@ REST_WAIT_S = 10.0
 MAX_FUTURE_START_S = 10.0
 
 
-class GoalRefused(Exception):
+class GoalRefused(ParolkitError):
     """A goal that cannot run: control_msgs' ``code`` and the reason."""
 
     def __init__(self, code: int, reason: str) -> None:
