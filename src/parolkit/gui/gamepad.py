@@ -54,7 +54,7 @@ if TYPE_CHECKING:
 __all__ = [
     "Axis", "Button", "DEADMAN", "MODE_BUTTON", "FRAME_BUTTON", "DEAD_ZONE", "PRESS_THRESHOLD",
     "POLL_S", "HEARTBEAT_S", "STALE_S", "INPUT_TIMEOUT_S", "SILENCE_STEP_S", "SERVO_PERIOD_S", "IDLE_HOLD_S", "LEAD_S",
-    "GamepadInputError", "PadInput", "Mode", "Control", "JOINT_CONTROLS", "CART_CONTROLS", "PadControls",
+    "GamepadInputError", "PadInput", "Mode", "PadControl", "JOINT_CONTROLS", "CART_CONTROLS", "PadControls",
     "apply_dead_zone", "joint_speeds", "cart_speeds", "pad_speeds", "step_joints", "step_pose",
     "page_settings", "GamepadView", "indicator", "GamepadDrive",
 ]
@@ -230,7 +230,7 @@ def apply_dead_zone(value: float, dead_zone: float = DEAD_ZONE) -> float:
 
 
 @dataclass(frozen=True)
-class Control:
+class PadControl:
     """Where one speed comes from: a stick ``axis`` (``sign`` -1 where the speed's + is the
     axis's -: stick up), or two buttons, ``plus`` minus ``minus`` (the triggers' analog
     values, the d-pad's 0 / 1).  ``label`` names it for people (the indicator, docs/gui.md)."""
@@ -257,17 +257,17 @@ class Mode(str, Enum):
     CART = "cart"
 
 
-_LEFT_X = Control("left stick right / left", axis=Axis.LX)
-_LEFT_Y = Control("left stick up / down", axis=Axis.LY, sign=-1)
-_RIGHT_X = Control("right stick right / left", axis=Axis.RX)
-_RIGHT_Y = Control("right stick up / down", axis=Axis.RY, sign=-1)
-_TRIGGERS = Control("right trigger / left trigger", plus=Button.RT, minus=Button.LT)
-_DPAD = Control("d-pad right / left", plus=Button.RIGHT, minus=Button.LEFT)
+_LEFT_X = PadControl("left stick right / left", axis=Axis.LX)
+_LEFT_Y = PadControl("left stick up / down", axis=Axis.LY, sign=-1)
+_RIGHT_X = PadControl("right stick right / left", axis=Axis.RX)
+_RIGHT_Y = PadControl("right stick up / down", axis=Axis.RY, sign=-1)
+_TRIGGERS = PadControl("right trigger / left trigger", plus=Button.RT, minus=Button.LT)
+_DPAD = PadControl("d-pad right / left", plus=Button.RIGHT, minus=Button.LEFT)
 
 #: J1..J6 in joint mode (+ / - of each joint)
-JOINT_CONTROLS: tuple[Control, ...] = (_LEFT_X, _LEFT_Y, _RIGHT_Y, _RIGHT_X, _TRIGGERS, _DPAD)
+JOINT_CONTROLS: tuple[PadControl, ...] = (_LEFT_X, _LEFT_Y, _RIGHT_Y, _RIGHT_X, _TRIGGERS, _DPAD)
 #: X Y Z (mm/s) and RX RY RZ (deg/s, about the axes) in Cartesian mode, in WRF or TRF
-CART_CONTROLS: tuple[Control, ...] = (_LEFT_X, _LEFT_Y, _TRIGGERS, _RIGHT_Y, _RIGHT_X, _DPAD)
+CART_CONTROLS: tuple[PadControl, ...] = (_LEFT_X, _LEFT_Y, _TRIGGERS, _RIGHT_Y, _RIGHT_X, _DPAD)
 CART_AXES = ("X", "Y", "Z", "RX", "RY", "RZ")
 
 

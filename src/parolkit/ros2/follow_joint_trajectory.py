@@ -61,7 +61,7 @@ if TYPE_CHECKING:
     from parolkit.motion.trajectory import Trajectory
     from parolkit.ros2.action_host import ActionHost
 
-__all__ = ["ArmTrajectoryAction", "ACTION_NAME", "GoalRefused", "Tolerances", "StopTicks"]
+__all__ = ["ArmTrajectoryAction", "ACTION_NAME", "GoalRefused", "JointTolerances", "StopTicks"]
 
 log = logging.getLogger("parolkit.ros2.action")
 
@@ -83,14 +83,14 @@ class GoalRefused(ParolkitError):
 
 
 @dataclass(frozen=True)
-class Tolerances:
+class JointTolerances:
     """Per joint (L1..L6 order) position and velocity tolerances, rad and rad/s; 0 = not checked."""
 
     position: tuple[float, ...] = (0.0,) * 6
     velocity: tuple[float, ...] = (0.0,) * 6
 
     @classmethod
-    def from_msg(cls, items: list[Any], what: str) -> Tolerances:
+    def from_msg(cls, items: list[Any], what: str) -> JointTolerances:
         """From JointTolerance messages; GoalRefused for an unknown joint or an acceleration tolerance."""
         pos, vel = [0.0] * 6, [0.0] * 6
         for t in items:
@@ -143,8 +143,8 @@ class _Run:
     path: TrajectoryPath | None = None
     plan: Trajectory | None = None
     command: CommandHandle | None = None
-    path_tol: Tolerances = field(default_factory=Tolerances)
-    goal_tol: Tolerances = field(default_factory=Tolerances)
+    path_tol: JointTolerances = field(default_factory=JointTolerances)
+    goal_tol: JointTolerances = field(default_factory=JointTolerances)
     goal_time_s: float = 0.0
     #: why it was stopped: (CANCELED or ABORTED, error code, text), set by whoever stopped it
     stopped: tuple[str, int, str] | None = None
@@ -310,8 +310,8 @@ class ArmTrajectoryAction:
         if not traj.points:
             raise GoalRefused(R.INVALID_GOAL, "the trajectory has no points (to stop the arm, cancel the goal or "
                               "publish an empty JointTrajectory)")
-        run.path_tol = Tolerances.from_msg(list(goal.path_tolerance), "path_tolerance")
-        run.goal_tol = Tolerances.from_msg(list(goal.goal_tolerance), "goal_tolerance")
+        run.path_tol = JointTolerances.from_msg(list(goal.path_tolerance), "path_tolerance")
+        run.goal_tol = JointTolerances.from_msg(list(goal.goal_tolerance), "goal_tolerance")
         run.goal_time_s = msgs.duration_to_s(goal.goal_time_tolerance)
         if run.goal_time_s < 0:
             raise GoalRefused(R.INVALID_GOAL, f"goal_time_tolerance must be >= 0, got {run.goal_time_s} s")
