@@ -176,9 +176,13 @@ def test_the_teacher_hands_the_robot_over_from_the_queue(pages, klass):
     bob.get_by_test_id("class-action").click()
     wait_until(lambda: _queue(teacher) == ["Alice", "Bob"], WAIT_S, what="Bob after Alice", page=teacher)
     wait_until(lambda: _queue(bob) == ["Alice", "Bob"], WAIT_S, what="the queue on Bob's page", page=bob)
-    # the teacher orders the queue: Bob first
+    # the teacher orders the queue: Bob first; his row is the same row, moved (its buttons keep
+    # their ids: a press on one while the queue changes is never lost to a row made anew)
+    bob_hand_over = teacher.locator("[data-testid=class-queue-item][data-name=Bob] [data-testid=class-hand-over]")
+    bob_id = bob_hand_over.get_attribute("id")
     teacher.locator("[data-testid=class-queue-item][data-name=Bob] [data-testid=class-up]").click()
     wait_until(lambda: _queue(teacher) == ["Bob", "Alice"], WAIT_S, what="Bob moved up", page=teacher)
+    assert bob_hand_over.get_attribute("id") == bob_id
     wait_until(lambda: "Hand over to Bob" in text(teacher, "class-action"), WAIT_S, what="the teacher's next",
                page=teacher)
     # ... and hands the robot to Alice, second in the queue

@@ -146,8 +146,8 @@ class ClassPanel:
         self.key = key
         self.lockable = list(lockable)
         self.open_ids: set[int] = set()
-        #: the open ids of the queue's rows (rebuilt when the queue changes)
-        self._row_ids: set[int] = set()
+        #: the queue's rows by student name
+        self._rows: dict[str, _QueueRow] = {}
         self._shown: tuple[object, ...] | None = None
         self._locked: bool | None = None
         self._last_notice = (0.0, "")
@@ -163,6 +163,8 @@ class ClassPanel:
                 ui.label("Class").classes("pk-title")
                 self.state = ui.label("").classes("text-sm").props("data-testid=class-state")
             self.notice = ui.label("").classes("text-xs pk-muted").props("data-testid=class-notice")
+            self.empty = ui.label("Nobody is waiting: a student presses Ask for a turn.") \
+                .classes("text-sm pk-muted").props("data-testid=class-queue-empty")
             self.queue_box = ui.column().classes("gap-1 w-full").props('data-testid=class-queue role=list '
                                                                        'aria-label="Queue"')
             view = self.s.view(key)
@@ -292,7 +294,7 @@ class ClassPanel:
         if view is None:
             self.state.set_text("this page is logged out: log in again")
             self.notice.set_text("")
-            self._clear_queue()
+            self._sync_queue(None)
             return
         holder = view.holder or TEACHER
         left = f", {_clock(view.left_s)} left" if view.left_s is not None else ""
@@ -302,38 +304,73 @@ class ClassPanel:
             "" if view.may_drive else
             "You are watching: the controls that move or change the robot are greyed. Stop and E-STOP work "
             "from every page.")
-        self._clear_queue()
-        with self.queue_box:
-            if not view.queue:
-                ui.label("Nobody is waiting: a student presses Ask for a turn.").classes("text-sm pk-muted")
-            for i, name in enumerate(view.queue):
-                self._queue_row(view, i, name)
+        self._sync_queue(view)
 
-    def _clear_queue(self) -> None:
-        self.queue_box.clear()
-        self.open_ids -= self._row_ids
-        self._row_ids.clear()
+    def _sync_queue(self, view: ClassView | None) -> None:
+        """The queue's rows, one per waiting student, kept by name: a row is made when its
+        student joins and deleted when they leave, and only moved and renumbered otherwise, so a
+        button pressed while the queue changes (another student asking) still reaches its row
+        (a row made anew would have a new id, and the press on the old one would be lost)."""
+        names = list(view.queue) if view is not None else []
+        for name in [n for n in self._rows if n not in names]:
+            gone = self._rows.pop(name)
+            self.open_ids -= gone.ids
+            gone.element.delete()
+        self.empty.set_visibility(view is not None and not names)
+        for i, name in enumerate(names):
+            assert view is not None
+            row = self._rows.get(name) or self._queue_row(view.role, name)
+            self._rows[name] = row
+            if self.queue_box.default_slot.children.index(row.element) != i:
+                row.element.move(target_index=i)
+            row.show(i, len(names), bold=view is not None and name == view.name)
 
-    def _row_control(self, element: Any) -> Any:
-        self._row_ids.add(element.id)
-        return self._open(element)
-
-    def _queue_row(self, view: ClassView, i: int, name: str) -> None:
-        with ui.row().classes("items-center gap-1 w-full pk-class-row").props(
-                f'role=listitem data-testid=class-queue-item data-name="{name}"'):
-            ui.label(f"{i + 1}. {name}").classes("text-sm grow" + (" font-bold" if name == view.name else ""))
-            if view.role is not Role.TEACHER:
-                return
+    def _queue_row(self, role: Role, name: str) -> _QueueRow:
+        with self.queue_box, ui.row().classes("items-center gap-1 w-full pk-class-row").props(
+                f'role=listitem data-testid=class-queue-item data-name="{name}"') as element:
+            row = _QueueRow(element, ui.label(name).classes("text-sm grow"), name)
+            if role is not Role.TEACHER:
+                return row
             k = self.key
 
             def button(icon: str, label: str, testid: str, action: Callable[[], object], text: str = "") -> Any:
                 look = "flat dense no-caps color=teal-4" if text else "flat dense round color=grey-4"
-                return self._row_control(ui.button(text, icon=icon, on_click=lambda: self._do(action))
-                                         .props(f'{look} aria-label="{label}" data-testid={testid}'))
+                b = self._open(ui.button(text, icon=icon, on_click=lambda: self._do(action))
+                               .props(f'{look} aria-label="{label}" data-testid={testid}'))
+                row.ids.add(b.id)
+                return b
 
             button("front_hand", f"Hand the robot to {name}", "class-hand-over", lambda: self.s.hand_over(k, name),
                    "Hand over")
-            button("arrow_upward", f"Move {name} up", "class-up", lambda: self.s.move(k, name, -1)).set_enabled(i > 0)
-            button("arrow_downward", f"Move {name} down", "class-down",
-                   lambda: self.s.move(k, name, 1)).set_enabled(i < len(view.queue) - 1)
+            row.up = button("arrow_upward", f"Move {name} up", "class-up", lambda: self.s.move(k, name, -1))
+            row.down = button("arrow_downward", f"Move {name} down", "class-down", lambda: self.s.move(k, name, 1))
             button("close", f"Remove {name} from the queue", "class-remove", lambda: self.s.dequeue(k, name))
+        return row
+
+
+class _QueueRow:
+    """One waiting student's row of the Class card (the teacher's has its buttons)."""
+
+    def __init__(self, element: Element, label: ui.label, name: str) -> None:
+        self.element = element
+        self.label = label
+        self.name = name
+        self.up: ui.button | None = None
+        self.down: ui.button | None = None
+        #: the ids of its buttons (open to the gate while the row exists)
+        self.ids: set[int] = set()
+        self._shown: tuple[int, int, bool] | None = None
+
+    def show(self, i: int, count: int, *, bold: bool) -> None:
+        """Its place ``i`` (from 0) of ``count``; the page's own name in bold."""
+        if (i, count, bold) == self._shown:
+            return
+        self._shown = (i, count, bold)
+        self.label.set_text(f"{i + 1}. {self.name}")
+        if bold:
+            self.label.classes(add="font-bold")
+        else:
+            self.label.classes(remove="font-bold")
+        if self.up is not None and self.down is not None:
+            self.up.set_enabled(i > 0)
+            self.down.set_enabled(i < count - 1)
