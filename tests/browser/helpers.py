@@ -93,14 +93,6 @@ def log_lines(page) -> list[str]:
     return [line for line in reversed(log_text(page).splitlines()) if line.strip()]
 
 
-def count_log(page, needle: str) -> int:
-    """How many of the lines the page shows now contain ``needle``.  Only the newest 80 entries
-    are shown: once the log is full, each new entry pushes the oldest off, so two counts are
-    not comparable (the count can stay the same when the entry looked for was added): count
-    what came after a point in time with :func:`log_mark` and :func:`count_since`."""
-    return sum(needle in line for line in log_lines(page))
-
-
 def log_mark(page) -> list[str]:
     """The event log as the page shows it now: the point :func:`log_since` counts from."""
     return log_lines(page)

@@ -23,7 +23,8 @@ import time
 import pytest
 from tests.browser.helpers import (
     box,
-    count_log,
+    count_since,
+    log_mark,
     number,
     recover,
     show_tab,
@@ -139,10 +140,10 @@ def test_a_tap_leaves_no_tooltip_open(ready, browser, context):
     ctx, page = _open(browser, ready["url"], **context)
     try:
         for testid in ("btn-stop", "grip-compact"):
-            stops = count_log(page, "sent Stop")
+            mark = log_mark(page)
             page.get_by_test_id(testid).tap()
             if testid == "btn-stop":  # the tap reached the server
-                wait_until(lambda n=stops: count_log(page, "sent Stop") > n, 15, what="the tap's Stop", page=page)
+                wait_until(lambda m=mark: count_since(page, m, "sent Stop") > 0, 15, what="the tap's Stop", page=page)
             page.wait_for_timeout(1000)  # a tooltip shown by the tap is open by now (no show delay)
             assert page.evaluate(_TOOLTIPS) == 0, f"a tooltip stays open after a tap on {testid}"
     finally:

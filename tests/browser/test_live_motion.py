@@ -27,7 +27,8 @@ from __future__ import annotations
 
 import pytest
 from tests.browser.helpers import (
-    count_log,
+    count_since,
+    log_mark,
     log_text,
     number,
     recover,
@@ -82,7 +83,7 @@ def test_the_slider_sends_the_override_once_when_let_go_never_while_dragged(cont
     page, controller = controller_page, controller_gui["controller"]
     wait_ready(page)
     assert _speed(controller) == "100" and _shown(page) == 100
-    sent = count_log(page, "SPEED completed")
+    mark = log_mark(page)
     thumb = page.locator("[data-testid=override-slider] .q-slider__thumb").bounding_box()
     track = page.locator("[data-testid=override-slider] .q-slider__track").bounding_box()
     assert thumb and track
@@ -102,9 +103,9 @@ def test_the_slider_sends_the_override_once_when_let_go_never_while_dragged(cont
     finally:
         page.mouse.up()
     _wait_speed(page, controller, dragged, "let go")
-    wait_until(lambda: count_log(page, "SPEED completed") == sent + 1, 10, what="the SPEED ack logged", page=page)
+    wait_until(lambda: count_since(page, mark, "SPEED completed") == 1, 10, what="the SPEED ack logged", page=page)
     frames_pass(controller.loop_stats, 30)
-    assert count_log(page, "SPEED completed") == sent + 1, f"more than one SPEED for one drag:\n{log_text(page)}"
+    assert count_since(page, mark, "SPEED completed") == 1, f"more than one SPEED for one drag:\n{log_text(page)}"
     assert _shown(page) == dragged and text(page, "override-value") == f"{dragged} %"
 
 
@@ -115,14 +116,14 @@ def test_the_arrow_keys_on_the_slider_change_the_override_and_do_not_jog(control
     wait_ready(page)
     before = int(_speed(controller) or 0)
     angles = _status(controller)["ANGLES"]
-    jogs = count_log(page, "jog ")
+    mark = log_mark(page)
     _keys_on_slider(page, "ArrowLeft")
     _wait_speed(page, controller, before - 1, "ArrowLeft")
     _keys_on_slider(page, "ArrowUp")  # up is more, as Quasar's sliders have it
     _wait_speed(page, controller, before, "ArrowUp")
     frames_pass(controller.loop_stats, 30)
     assert _status(controller)["ANGLES"] == angles, "an arrow key on the slider moved the arm"
-    assert count_log(page, "jog ") == jogs, f"an arrow key on the slider jogged:\n{log_text(page)}"
+    assert count_since(page, mark, "jog ") == 0, f"an arrow key on the slider jogged:\n{log_text(page)}"
     # back to 100 % with PageUp (10 % a press) for the next tests
     while int(_speed(controller) or 0) < 100:
         now = int(_speed(controller) or 0)
@@ -143,9 +144,9 @@ def test_another_clients_override_shows_and_a_change_is_refused_while_it_control
         who = f"127.0.0.1:{other.ack_port}"
         wait_until(lambda: who in text(page, "override-note") and "refused" in text(page, "override-note"), 10,
                    what="the note naming the client in control", page=page)
-        refused = count_log(page, f"the robot is controlled by {who}")
+        mark = log_mark(page)
         _keys_on_slider(page, "ArrowRight")
-        wait_until(lambda: count_log(page, f"the robot is controlled by {who}") > refused, 10,
+        wait_until(lambda: count_since(page, mark, f"the robot is controlled by {who}") > 0, 10,
                    what="the change refused with the controller's reason", page=page)
         wait_until(lambda: _shown(page) == 55, 10, what="the slider back at the controller's 55 %", page=page)
         assert _speed(controller) == "55"
@@ -212,9 +213,9 @@ STEP_PROGRAM = ("Begin()\nMoveJoint(40,-90,180,0,0,180,t=12)\nMoveJoint(50,-90,1
 PAUSED_AT = "pause: the arm slows down on its path and holds at line"
 
 
-def _pauses(page) -> int:
-    """How many Pause clicks the GUI logged (in a line, or after the program)."""
-    return count_log(page, PAUSED_AT) + count_log(page, "pause: no program is running")
+def _pauses(page, mark: list[str]) -> int:
+    """How many Pause clicks the GUI logged after ``mark`` (in a line, or after the program)."""
+    return count_since(page, mark, PAUSED_AT) + count_since(page, mark, "pause: no program is running")
 
 
 def _type_program(page, program: str) -> None:
@@ -241,14 +242,14 @@ def test_step_while_paused_on_the_path_finishes_the_line_runs_the_next_and_pause
         for _attempt in range(3):
             # the GUI logs where the click found the program: at line 2 (what this test is
             # about), or later (a loaded machine: the click came after line 2): then again
-            at_line_2, anywhere = count_log(page, f"{PAUSED_AT} 2"), _pauses(page)
+            mark = log_mark(page)
             _type_program(page, STEP_PROGRAM)
             page.get_by_test_id("prog-run").click()
             wait_until(lambda: "line 2" in text(page, "prog-status") and abs(number(page, "speed-1")) > 1.0, 20,
                        what="line 2's move under way", page=page)
             page.get_by_test_id("prog-pause").click()
-            wait_until(lambda n=anywhere: _pauses(page) > n, 30, what="the pause logged", page=page)
-            if count_log(page, f"{PAUSED_AT} 2") > at_line_2:
+            wait_until(lambda m=mark: _pauses(page, m) > 0, 30, what="the pause logged", page=page)
+            if count_since(page, mark, f"{PAUSED_AT} 2") > 0:
                 break
             _stop_program(page)
         else:
@@ -259,16 +260,15 @@ def test_step_while_paused_on_the_path_finishes_the_line_runs_the_next_and_pause
         assert 40.5 < paused_at < 89.5, f"not paused on line 2's way: J1 {paused_at}"
         # while the program runs its client holds the control lease: the slider's SPEED goes
         # through it (through the commander's link it would be refused)
-        through = count_log(page, "SPEED completed (through the program's client)")
-        failed = count_log(page, "SPEED failed")
+        mark = log_mark(page)
         _keys_on_slider(page, "ArrowLeft")
         _wait_speed(page, controller, 99, "set while the program runs")
         _keys_on_slider(page, "ArrowRight")
         _wait_speed(page, controller, 100, "set back while the program runs")
         page.evaluate("() => document.activeElement && document.activeElement.blur()")
-        wait_until(lambda: count_log(page, "SPEED completed (through the program's client)") == through + 2, 10,
+        wait_until(lambda: count_since(page, mark, "SPEED completed (through the program's client)") == 2, 10,
                    what="both SPEEDs logged as sent through the program's client", page=page)
-        assert count_log(page, "SPEED failed") == failed, log_text(page)
+        assert count_since(page, mark, "SPEED failed") == 0, log_text(page)
         page.get_by_test_id("prog-step").click()
         # line 2 finishes (J1 40), line 3 runs (J1 50), and the program pauses before line 4
         wait_until(lambda: "paused before line 4" in text(page, "prog-status"), 40,
