@@ -118,8 +118,12 @@ def main() -> None:
                    "services": [[n, list(t)] for n, t in node.get_service_names_and_types()],
                    "topics": [[n, list(t)] for n, t in node.get_topic_names_and_types()]})
         elif cmd == "watch":  # once every subscription is matched with the server's writer
+            # (our reader's count says the reader matched the writer; the status array the
+            # server's transient-local writer sent on matching says the writer matched it)
             subs = watch(req["action"], req.get("fibonacci", False))
-            ok = spin_until(lambda subs=subs: all(s.get_publisher_count() > 0 for s in subs), req.get("wait", 30))
+            action = req["action"]
+            ok = spin_until(lambda subs=subs, a=action: all(s.get_publisher_count() > 0 for s in subs)
+                            and bool(statuses[a]), req.get("wait", 30))
             reply({"ok": ok})
         elif cmd == "seen":
             action, goal, until = req["action"], req["goal"], req["until"]

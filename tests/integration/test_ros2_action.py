@@ -231,6 +231,9 @@ def test_fibonacci_goal_feedback_result_and_cancel_through_the_generic_server(ar
         name = f"/{ns}/fibonacci"
         assert node.ask(cmd="actions", names=[name])["actions"]
         assert node.ask(cmd="watch", action=name, fibonacci=True) == {"ok": True}
+        # the feedback is volatile: our writer must have matched the node's reader (not only
+        # the reader ours) before the first goal, or a loaded machine loses its first messages
+        wait_until(lambda: server.watchers() >= 2, timeout=30, what="the node's and the client's feedback readers")
         gid, sent = client.send_goal(Fibonacci_Goal(order=10))
         assert sent.accepted
         res = client.get_result(gid)

@@ -367,6 +367,12 @@ class ActionServer:
         """The server's readers and writers (for a ROS node's graph to announce as its own)."""
         return list(self._readers.values()), [*self._writers.values(), self._feedback_writer, self._status_writer]
 
+    def watchers(self) -> int:
+        """How many readers receive both the feedback and the status of the goals (a client's,
+        and any node watching): the fewer of the two writers' matched readers."""
+        return min(len(self._feedback_writer.get_matched_subscriptions()),
+                   len(self._status_writer.get_matched_subscriptions()))
+
     def goals(self) -> list[GoalHandle]:
         with self._lock:
             return list(self._goals.values())
