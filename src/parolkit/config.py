@@ -80,6 +80,9 @@ __all__ = [
     "find_config_file",
 ]
 
+#: the 3D view's frame rate while something in it changes (gui.view_fps), Hz
+DEFAULT_VIEW_FPS = 30.0
+
 #: ``controller.supervisor_stall_s`` (when not 0) is at least this many loop periods: a
 #: shorter limit would stop a live controller at its first late frames
 SUPERVISOR_STALL_MIN_PERIODS = 10
@@ -262,9 +265,14 @@ class GuiSettings:
     #: a student's turn ends after this many minutes (TURN_MINUTES_RANGE) and the robot is
     #: stopped; 0: no limit (the teacher can set one on the page)
     turn_minutes: float = 0.0
+    #: the 3D view's frame rate while the arm or the view changes (VIEW_FPS_RANGE), Hz: its
+    #: updates and its drawing.  A browser without a GPU draws in software (SwiftShader: one
+    #: core of a school PC at 30 fps); 10 keeps 20 such pages of a class smooth enough
+    view_fps: float = DEFAULT_VIEW_FPS
 
     def __post_init__(self) -> None:
         _port(self.http_port, "gui.http_port")
+        check_view_fps(self.view_fps, "gui.view_fps")
         if not isinstance(self.host, str) or not self.host.strip():
             raise ParolkitValueError(f"gui.host must be a host name or address, got {self.host!r}")
         if not isinstance(self.open_browser, bool):
@@ -303,6 +311,18 @@ class GuiSettings:
 
 #: a student's turn (gui.turn_minutes, and the limit the teacher sets on the page), minutes
 TURN_MINUTES_RANGE = (0.1, 240.0)
+#: the 3D view's frame rate (gui.view_fps, ``parolkit gui --view-fps``), Hz
+VIEW_FPS_RANGE = (1.0, 60.0)
+
+
+def check_view_fps(value: object, where: str) -> float:
+    """``value`` as the 3D view's frame rate, or ParolkitValueError naming ``where`` and the range."""
+    lo, hi = VIEW_FPS_RANGE
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or not lo <= value <= hi:
+        raise ParolkitValueError(f"{where} must be a frame rate in [{lo:g}, {hi:g}] (frames per second), "
+                                 f"got {value!r}")
+    return float(value)
 
 
 def _password(pw: object, name: str) -> None:

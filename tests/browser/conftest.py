@@ -26,6 +26,13 @@ CHROMIUM_ARGS = [
 ]
 
 
+#: the 3D view's frame rate of the commanders the browser tests start (``--view-fps``), unless
+#: a test gives its own: Chromium draws WebGL on the CPU here (SwiftShader), and at the
+#: default 30 fps a page with the arm moving cost about one core of the two (5 fps: 0.3);
+#: test_view3d checks the default rate
+TEST_VIEW_FPS = 5
+
+
 def _free_tcp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind(("127.0.0.1", 0))
@@ -34,7 +41,10 @@ def _free_tcp_port() -> int:
 
 def start_gui(args: list[str]) -> tuple[subprocess.Popen, str, Path]:
     """Start ``parolkit gui ARGS --no-browser`` on a free HTTP port of 127.0.0.1 and wait until
-    it answers HTTP (any status: a login page redirects); returns (process, URL, log path)."""
+    it answers HTTP (any status: a login page redirects); returns (process, URL, log path).
+    The view's frame rate is :data:`TEST_VIEW_FPS` unless ARGS has ``--view-fps``."""
+    if "--view-fps" not in args:
+        args = [*args, "--view-fps", str(TEST_VIEW_FPS)]
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     port = _free_tcp_port()
     log_path = ARTIFACTS / f"gui-{port}.log"
@@ -46,14 +56,15 @@ def start_gui(args: list[str]) -> tuple[subprocess.Popen, str, Path]:
                                  "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
                                 preexec_fn=die_with_parent)
     url = f"http://127.0.0.1:{port}/"
-    deadline = time.monotonic() + 40
+    deadline = time.monotonic() + 90
     while True:
         if proc.poll() is not None:
             pytest.fail(f"parolkit gui exited with {proc.returncode}:\n{log_path.read_text(errors='replace')}")
         try:
-            # a request builds a whole page: on a busy machine that takes over 1 s (each timed-out
-            # try left the server one more page to build, and it never caught up within 40 s)
-            with urllib.request.urlopen(url + "login", timeout=10):
+            # a static file, not a page: a page request builds the whole commander page, over 1 s
+            # on a busy machine, and each timed-out try left the server one more page to build
+            # (it never caught up within 40 s at a load of 17-27)
+            with urllib.request.urlopen(url + "parolkit-static/commander.css", timeout=10):
                 break
         except urllib.error.HTTPError:
             break  # it answers
@@ -61,7 +72,7 @@ def start_gui(args: list[str]) -> tuple[subprocess.Popen, str, Path]:
             pass
         if time.monotonic() > deadline:
             _stop(proc)
-            pytest.fail(f"parolkit gui did not serve {url} within 40 s:\n{log_path.read_text(errors='replace')}")
+            pytest.fail(f"parolkit gui did not serve {url} within 90 s:\n{log_path.read_text(errors='replace')}")
         time.sleep(0.2)
     return proc, url, log_path
 

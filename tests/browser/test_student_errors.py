@@ -18,16 +18,11 @@ a real headless Chromium against a real controller process (``parolkit serve --s
 
 from __future__ import annotations
 
-import os
 import re
-import subprocess
-import sys
-import time
-import urllib.request
 
 import pytest
 from playwright.sync_api import expect
-from tests.browser.conftest import ARTIFACTS, REPO_ROOT, _free_tcp_port
+from tests.browser.conftest import ARTIFACTS
 from tests.browser.helpers import (
     log_mark,
     log_since,
@@ -41,56 +36,11 @@ from tests.browser.helpers import (
 )
 
 from parolkit.client import Robot
-from parolkit.client.launch import die_with_parent, stop_process
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 #: what a student never reads in the Program tab
 JARGON = re.compile(r"editor:\d|\w+:\d+:\d+|steps/s|steps\b|GO TO|TOPP|col \d|\bdeg\)")
-
-
-def _start_gui(args: list[str]) -> tuple[subprocess.Popen, str]:
-    """``parolkit gui ARGS --no-browser`` on a free port, ready once it serves a static file:
-    asking for a page (conftest's ``/login``) builds the whole commander page, which takes over
-    the 1 s it waits on a loaded machine, and every build it gave up on still runs, so the next
-    answer comes later still (seen at a load average of 17-27 on 2 cores)."""
-    port = _free_tcp_port()
-    env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO_ROOT / "src"))
-    env.pop("PYTEST_CURRENT_TEST", None)  # NiceGUI would switch to its own screen-test mode
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    with open(ARTIFACTS / f"gui-{port}.log", "wb") as log:
-        proc = subprocess.Popen([sys.executable, "-m", "parolkit", "gui", *args, "--http-port", str(port),
-                                 "--no-browser"], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=REPO_ROOT,
-                                preexec_fn=die_with_parent)
-    url = f"http://127.0.0.1:{port}/"
-    deadline = time.monotonic() + 90
-    while proc.poll() is None and time.monotonic() < deadline:
-        try:
-            with urllib.request.urlopen(url + "parolkit-static/commander.css", timeout=10):
-                return proc, url
-        except OSError:
-            time.sleep(0.3)
-    stop_process(proc, 15)
-    pytest.fail(f"parolkit gui did not serve {url} within 90 s:\n{(ARTIFACTS / f'gui-{port}.log').read_text()}")
-
-
-@pytest.fixture(scope="module")
-def controller_gui(tmp_path_factory):
-    """A controller process (``parolkit serve --sim``, the stream watchdog of one the GUI starts
-    itself) and ``parolkit gui --connect`` to it, its programs folder a temporary one."""
-    from tests.conftest import start_controller
-
-    root = tmp_path_factory.mktemp("student-errors")
-    controller = start_controller(["--stream-watchdog", "0.15"], log_dir=root)
-    try:
-        proc, url = _start_gui(["--connect", f"127.0.0.1:{controller.port}", "--programs-dir",
-                                str(root / "programs")])
-        try:
-            yield {"url": url, "controller": controller}
-        finally:
-            stop_process(proc, 15)
-    finally:
-        controller.stop()
 
 
 @pytest.fixture(scope="module")

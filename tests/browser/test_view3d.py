@@ -11,12 +11,25 @@ three.js scene (NiceGUI's scene objects by id; the view names the gizmo's id in 
 from __future__ import annotations
 
 import pytest
+from tests.browser.conftest import TEST_VIEW_FPS, gui_on_controller
 from tests.browser.helpers import settled, state, wait_ready, wait_until
 
 from parolkit.client import Robot
+from parolkit.gui.components.view3d import SCENE_FPS
 from parolkit.gui.geometry import SCENE_SCALE
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+
+@pytest.fixture(scope="module")
+def controller_gui(tmp_path_factory):
+    """conftest's, with the commander's default frame rate (the other browser tests run it at
+    conftest's TEST_VIEW_FPS)."""
+    root = tmp_path_factory.mktemp("view3d")
+    with gui_on_controller(root, ["--stream-watchdog", "0.15"],
+                           ["--programs-dir", str(root / "programs"), "--view-fps", str(int(SCENE_FPS))]) as (
+            controller, url, _):
+        yield {"url": url, "controller": controller}
 
 #: how far the gizmo may be from the controller's TCP: mm, and per rotation-matrix entry
 #: (0.005 is about 0.3 deg)
@@ -187,3 +200,39 @@ def test_the_view_draws_30_fps_while_the_arm_moves_2_when_idle_and_a_camera_drag
     after = scene()["camera"]
     assert after is not None and before != after, (before, after)
     page.evaluate("id => { mounted_app.elements[id].props.fps = 2; }", scene()["id"])
+
+
+def test_a_commander_started_with_a_lower_view_fps_draws_the_moving_arm_at_that_rate(browser, tmp_path):
+    """``parolkit gui --view-fps`` (``gui.view_fps``): the view updates and draws at that rate
+    while the arm moves (no faster: software WebGL costs a core at 30), and at 2 when idle."""
+    fps = TEST_VIEW_FPS
+    with gui_on_controller(tmp_path, ["--stream-watchdog", "0.15"],
+                           ["--programs-dir", str(tmp_path / "programs"), "--view-fps", str(fps)]) as (
+            controller, url, _):
+        page = browser.new_page(viewport={"width": 1500, "height": 1000})
+        try:
+            page.goto(url)
+            wait_ready(page, 60)
+            scene = lambda: page.evaluate(SCENE)  # noqa: E731
+            wait_until(lambda: scene()["fps"] == 2, 10, what="the idle view drawn at 2 fps", page=page)
+            with Robot("127.0.0.1", controller.port, ack_port=0, timeout=5.0) as robot:
+                robot.take_control(force=True)
+                try:
+                    handle = robot.move_joints([10, -80, 170, 0, 20, 150], duration=4.0, wait=False)
+                    wait_until(lambda: scene()["fps"] == fps, 10, what=f"the moving arm drawn at {fps} fps", page=page)
+                    page.evaluate(COUNT_DRAWS)
+                    wait_until(lambda: scene()["draws"] >= 8, 20, what="8 draws of the moving arm", page=page)
+                    moving = scene()["fps"] == fps
+                    times = scene()["times"]
+                    assert handle.result(timeout=30).ok
+                finally:
+                    robot.release_control()
+            # at that rate, not faster: a frame's period (less a timer's slack) between two draws
+            # as a rule, and no more draws than periods in the span but for the changes drawn at
+            # once in the half second after the view woke from its idle rate
+            gaps = sorted(b - a for a, b in zip(times, times[1:]))
+            assert moving and gaps[len(gaps) // 2] >= 1000 / fps - 50, gaps
+            assert len(gaps) <= (times[-1] - times[0]) * fps / 1000 + 3, gaps
+            wait_until(lambda: scene()["fps"] == 2, 10, what="the view idle again after the move", page=page)
+        finally:
+            page.close()

@@ -30,7 +30,7 @@ from parolkit.gui.components.recordings_panel import RecordingsPanel
 from parolkit.gui.components.speed_override import SpeedOverride
 from parolkit.gui.components.tabs import icon_tab
 from parolkit.gui.components.telemetry import LiveCharts, Readouts
-from parolkit.gui.components.view3d import SCENE_FPS, ArmView
+from parolkit.gui.components.view3d import ArmView
 from parolkit.gui.downloads import install_downloads
 from parolkit.gui.jog import KEYMAP, key_action
 from parolkit.gui.security import SESSION_COOKIE, session_key
@@ -80,7 +80,7 @@ class CommanderPage:
         self.header = Header(commander, on_help=self.help.open)
         with ui.element("main").classes("pk-main"):
             with ui.element("div").classes("pk-col"):
-                self.view = ArmView(self.link, commander.collision)
+                self.view = ArmView(self.link, commander.collision, fps=commander.view_fps)
                 self.readouts = Readouts(commander.log, self.link)  # (the link: the age of stale values)
             with ui.element("div").classes("pk-col"):
                 # a class: the queue, at the top of the column (gui/components/class_panel.py)
@@ -92,7 +92,7 @@ class CommanderPage:
                 self.charts = LiveCharts(self.link)
         self.program.on_preview = self.view.show_preview
         self.view.sim_source = self.program.sim_frame  # Simulate's ghost arm
-        ui.timer(1.0 / SCENE_FPS, self.view.update)
+        ui.timer(1.0 / commander.view_fps, self.view.update)
         ui.timer(READOUT_PERIOD_S, self.update_readouts)
         self.member_key: str | None = None
         self.class_panel: ClassPanel | None = None

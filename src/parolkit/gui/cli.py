@@ -58,6 +58,20 @@ def _port(text: str) -> int:
     return p
 
 
+def _view_fps(text: str) -> float:
+    from parolkit.config import check_view_fps
+    from parolkit.errors import ParolkitValueError
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--view-fps must be a number of frames per second, got {text!r}") from None
+    try:
+        return check_view_fps(value, "--view-fps")
+    except ParolkitValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
              name: str = "gui") -> argparse.ArgumentParser:
     p = subparsers.add_parser(name, help="start the browser commander",
@@ -82,6 +96,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
     p.add_argument("--recordings-dir", type=Path, default=None, metavar="DIR",
                    help="the only folder Record writes and the recordings list reads (default "
                         "gui.recordings_dir, else ~/.local/share/parolkit/recordings); created by the first recording")
+    p.add_argument("--view-fps", type=_view_fps, default=None, metavar="HZ",
+                   help="the 3D view's frame rate while the arm moves, 1..60 (default gui.view_fps, else 30); "
+                        "lower it for browsers that draw without a GPU")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
     p.add_argument("--config", type=Path, default=None, help="parolkit.toml to use")
     p.set_defaults(func=main)
@@ -219,7 +236,8 @@ def main(args: argparse.Namespace) -> int:
     commander = Commander(link, mode_label=mode, programs=programs, recordings=recordings,
                           jog_repeat_s=0.05 if own else 0.01, cart_jog_repeat_s=0.1 if own else 0.01,
                           secret=cfg.controller.secret,
-                          login=login_gate is not None, own_controller=own_ctl)
+                          login=login_gate is not None, own_controller=own_ctl,
+                          view_fps=args.view_fps or cfg.gui.view_fps)
     if classroom is not None:
         commander.classroom = ClassService(classroom, commander)
     root = build_app(commander)

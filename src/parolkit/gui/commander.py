@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from parolkit.client.core import CommandResult, RobotState
 from parolkit.client.errors import RobotError
+from parolkit.config import DEFAULT_VIEW_FPS
 from parolkit.errors import ParolkitError
 from parolkit.gui.collision import CollisionWatch
 from parolkit.gui.eventlog import EventLog, Level
@@ -58,7 +59,7 @@ class Commander:
                  recordings: RecordingsFolder | None = None,
                  jog_repeat_s: float = JOG_REPEAT_S, cart_jog_repeat_s: float | None = None,
                  secret: str | None = None, login: bool = False,
-                 own_controller: OwnController | None = None) -> None:
+                 own_controller: OwnController | None = None, view_fps: float = DEFAULT_VIEW_FPS) -> None:
         """``jog_repeat_s`` / ``cart_jog_repeat_s``: period of the streamed joint / Cartesian
         jog updates, s; both must stay below the controller's stream watchdog (20 ms by
         default, 150 ms for a controller the GUI starts).  Every CARTJOG update is planned
@@ -99,6 +100,8 @@ class Commander:
         self.pages = 0
         #: a class (gui.teacher_password): who may move the robot; None: no roles
         self.classroom: ClassService | None = None
+        #: every page's 3D view: its updates and its drawing while something changes, Hz (gui.view_fps)
+        self.view_fps = view_fps
 
     def page_opened(self, member_key: str | None) -> None:
         """A page (browser tab) connected (again, after a reconnect); ``member_key``: its

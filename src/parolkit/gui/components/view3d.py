@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 from nicegui import ui
 
 from parolkit.client.core import RobotState, RobotStatus
+from parolkit.config import DEFAULT_VIEW_FPS
 from parolkit.errors import ParolkitError
 from parolkit.gui import geometry
 from parolkit.gui.link import ControllerLink, joints_known
@@ -45,7 +46,8 @@ __all__ = ["ArmView", "arm_frames", "SCENE_FPS", "IDLE_FPS", "IDLE_AFTER_S", "PR
            "SIM_GHOST_COLOUR"]
 
 #: frame rate of the view's updates, and of its drawing while something in it changes, Hz
-SCENE_FPS = 30.0
+#: (the default: ``gui.view_fps`` sets a commander's, :class:`ArmView`'s ``fps``)
+SCENE_FPS = DEFAULT_VIEW_FPS
 #: the drawing's frame rate once nothing in the view has changed for :data:`IDLE_AFTER_S`, Hz:
 #: an idle page drawn at 30 frames/s cost 1.3 cores of Chromium under software WebGL
 #: (SwiftShader: no GPU, as on many school PCs), at 2 frames/s next to nothing
@@ -74,7 +76,12 @@ def arm_frames(angles_deg: Any, tool: str = "default") -> Any:
 class ArmView:
     """The 3D view card; :meth:`update` moves the arm to the newest status."""
 
-    def __init__(self, link: ControllerLink, collision: CollisionWatch | None = None) -> None:
+    def __init__(self, link: ControllerLink, collision: CollisionWatch | None = None, *,
+                 fps: float = SCENE_FPS) -> None:
+        #: updates and drawing while something changes, Hz; the idle drawing is the lower of
+        #: this and :data:`IDLE_FPS`
+        self.fps = fps
+        self.idle_fps = min(IDLE_FPS, fps)
         self.link = link
         self.collision = collision
         self._last_seq = -1
@@ -96,8 +103,9 @@ class ArmView:
                 ui.label("3D view").classes("pk-title")
                 ui.space()
                 self.fps_label = ui.label("").classes("text-xs pk-muted pk-mono")
-            self.scene = ui.scene(width=684, height=430, grid=(20, 20), background_color="#0d1526", fps=30) \
+            self.scene = ui.scene(width=684, height=430, grid=(20, 20), background_color="#0d1526") \
                 .classes("pk-scene").props('data-testid=scene role=img aria-label="3D view of the arm"')
+            self.scene.props["fps"] = fps  # (the scene's own argument is a whole number)
             with self.scene:
                 self.scene.axes_helper(length=1.2)  # world frame
                 self.groups = self._arm(opacity=1.0)
@@ -132,10 +140,10 @@ class ArmView:
                 g.move(*pos).rotate_R(rot)
         self._frames_t = time.monotonic()
         self._frames_n = 0
-        # the drawing's rate (the scene's fps prop): SCENE_FPS from a change until IDLE_AFTER_S
-        # after the last one, then IDLE_FPS.  The scene's own loop only takes a new rate at its
-        # next frame (up to 1 / IDLE_FPS s on), so until then every change is drawn at once.
-        self.draw_fps = SCENE_FPS
+        # the drawing's rate (the scene's fps prop): fps from a change until IDLE_AFTER_S
+        # after the last one, then idle_fps.  The scene's own loop only takes a new rate at its
+        # next frame (up to 1 / idle_fps s on), so until then every change is drawn at once.
+        self.draw_fps = fps
         self._changed_t = self._frames_t
         self._woken_t = self._frames_t
 
@@ -159,14 +167,14 @@ class ArmView:
 
     def _changed(self) -> None:
         """Something in the view changed (sent to the page just before): draw at
-        :data:`SCENE_FPS`, and draw this change now if the scene's loop may still be waiting out
+        :attr:`fps`, and draw this change now if the scene's loop may still be waiting out
         an idle frame."""
         now = time.monotonic()
         self._changed_t = now
-        if self.draw_fps != SCENE_FPS:
-            self._set_draw_fps(SCENE_FPS)
+        if self.draw_fps != self.fps:
+            self._set_draw_fps(self.fps)
             self._woken_t = now
-        if now - self._woken_t < 1.0 / IDLE_FPS:
+        if now - self._woken_t < 1.0 / self.idle_fps:
             # commander.js: one draw at the next animation frame (after the calls just sent)
             self.scene.client.run_javascript(f"window.pkSceneDraw && window.pkSceneDraw({self.scene.id})")
 
@@ -300,9 +308,9 @@ class ArmView:
                 changed = self._paint(self.collision.within) | changed
         if changed:
             self._changed()
-        elif self.draw_fps != IDLE_FPS and time.monotonic() - self._changed_t >= IDLE_AFTER_S:
-            self._set_draw_fps(IDLE_FPS)
-            self.fps_label.set_text(f"idle · drawn {IDLE_FPS:g} fps")
+        elif self.draw_fps != self.idle_fps and time.monotonic() - self._changed_t >= IDLE_AFTER_S:
+            self._set_draw_fps(self.idle_fps)
+            self.fps_label.set_text(f"idle · drawn {self.idle_fps:g} fps")
 
     def _move_sim(self) -> bool:
         """Put the simulation's ghost where :attr:`sim_source` says (red while its line
