@@ -25,6 +25,15 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 DATA_DIR = REPO_ROOT / "tests" / "data"
 ARTIFACTS_DIR = REPO_ROOT / "test-artifacts"
 
+# every process a test starts keeps its default programs and recordings folders
+# ($XDG_DATA_HOME/parolkit/...) out of the user's home: a commander started without
+# --programs-dir (test_supervisor_state) wrote into ~/.local/share/parolkit
+if "PAROLKIT_TEST_DATA_HOME" not in os.environ:
+    import tempfile
+
+    os.environ["PAROLKIT_TEST_DATA_HOME"] = tempfile.mkdtemp(prefix="parolkit-test-data-")
+os.environ["XDG_DATA_HOME"] = os.environ["PAROLKIT_TEST_DATA_HOME"]
+
 
 def wait_until(predicate, timeout: float = 10.0, interval: float = 0.02, what: str = "condition"):
     """Poll ``predicate`` until it returns something true (returned), else fail after ``timeout``
