@@ -51,7 +51,8 @@ browser-deps:
 ## make test: set everything up, lint and type-check, and run every test (unit, integration, browser).
 ## The set-up jobs run side by side (the dev virtualenv then lint; the ROS 2 virtualenv; Chromium
 ## and axe-core). Then TEST_WORKERS processes in parallel (pytest-xdist, each test module in one
-## process, the longest modules first: tests/module_seconds.json, written by scripts/test-durations),
+## process, the longest modules first, a browser module beside a module of another kind whenever one is
+## left: tests/conftest.py module_order, the times in tests/module_seconds.json written by scripts/test-durations),
 ## then the tests marked alone on their own (only the 20,000 datagrams/s flood of test_flood_estop,
 ## which takes the whole machine)
 TEST_WORKERS ?= 2

@@ -294,9 +294,41 @@ def _module_seconds(nodeid: str, measured: dict[str, float]) -> float:
     return _FOLDER_SECONDS.get(parts[1] if len(parts) > 2 else "", 2.0)
 
 
+def _heavy(module: str) -> bool:
+    """A browser module: Chromium, a commander and a controller at once, over a core of the
+    two while the arm moves; two of them side by side each took about twice as long."""
+    return module.startswith("tests/browser/")
+
+
+def module_order(seconds: dict[str, float], workers: int) -> list[str]:
+    """The modules in the order pytest-xdist (``--dist loadfile --no-loadscope-reorder``) is to
+    hand them out: as a greedy run of ``workers`` processes would start them, each process when
+    free taking the longest module left (longest first: no long module left for the end),
+    a browser module only while no other process runs one (if modules of the other kind are
+    left)."""
+    left = {kind: sorted((m for m in seconds if _heavy(m) == kind), key=lambda m: -seconds[m])
+            for kind in (True, False)}
+    running: list[tuple[float, bool]] = [(0.0, False)] * max(1, workers)  # (free at, runs a browser module)
+    order: list[str] = []
+    while left[True] or left[False]:
+        i = min(range(len(running)), key=lambda k: running[k][0])
+        now = running[i][0]
+        busy_heavy = any(heavy and free > now for k, (free, heavy) in enumerate(running) if k != i)
+        kind = (not busy_heavy) if left[not busy_heavy] else busy_heavy
+        module = left[kind].pop(0)
+        order.append(module)
+        running[i] = (now + seconds[module], kind)
+    return order
+
+
 def pytest_collection_modifyitems(session, config, items):
     measured = json.loads(MODULE_SECONDS.read_text()) if MODULE_SECONDS.exists() else {}
-    items.sort(key=lambda item: -_module_seconds(item.nodeid, measured))  # stable: a module's own order kept
+    modules = {item.nodeid.split("::", 1)[0] for item in items}
+    # (the order that counts is the workers' collection: pytest-xdist tells them how many they are)
+    workers = os.environ.get("PYTEST_XDIST_WORKER_COUNT") or getattr(config.option, "numprocesses", None) or 1
+    rank = {m: k for k, m in enumerate(module_order({m: _module_seconds(m, measured) for m in modules},
+                                                    int(workers)))}
+    items.sort(key=lambda item: rank[item.nodeid.split("::", 1)[0]])  # stable: a module's own order kept
 
 
 # --- the run's timeline: PAROLKIT_TEST_TIMELINE=FILE appends one line per test
