@@ -41,4 +41,5 @@ def test_with_only_browser_modules_left_they_run_side_by_side():
 
 def test_one_worker_takes_the_longest_first():
     seconds = {"tests/unit/test_a.py": 1.0, "tests/browser/test_b.py": 5.0, "tests/integration/test_c.py": 3.0}
-    assert module_order(seconds, 1) == ["tests/browser/test_b.py", "tests/integration/test_c.py", "tests/unit/test_a.py"]
+    assert module_order(seconds, 1) == ["tests/browser/test_b.py", "tests/integration/test_c.py",
+                                        "tests/unit/test_a.py"]
