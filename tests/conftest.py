@@ -306,7 +306,7 @@ def module_order(seconds: dict[str, float], workers: int) -> list[str]:
     free taking the longest module left (longest first: no long module left for the end),
     a browser module only while no other process runs one (if modules of the other kind are
     left)."""
-    left = {kind: sorted((m for m in seconds if _heavy(m) == kind), key=lambda m: -seconds[m])
+    left = {kind: sorted((m for m in seconds if _heavy(m) == kind), key=lambda m: (-seconds[m], m))
             for kind in (True, False)}
     running: list[tuple[float, bool]] = [(0.0, False)] * max(1, workers)  # (free at, runs a browser module)
     order: list[str] = []

@@ -43,3 +43,13 @@ def test_one_worker_takes_the_longest_first():
     seconds = {"tests/unit/test_a.py": 1.0, "tests/browser/test_b.py": 5.0, "tests/integration/test_c.py": 3.0}
     assert module_order(seconds, 1) == ["tests/browser/test_b.py", "tests/integration/test_c.py",
                                         "tests/unit/test_a.py"]
+
+
+def test_the_order_does_not_depend_on_the_order_the_modules_come_in():
+    """Every pytest-xdist worker computes it from its own collection and they must agree (a set
+    iterated in another order in each process, with ties of equal times, had the workers
+    collect differently and the run end at once)."""
+    seconds = {f"tests/unit/test_u{k}.py": 2.0 for k in range(30)} | {f"tests/browser/test_b{k}.py": 30.0
+                                                                      for k in range(5)}
+    backwards = dict(reversed(list(seconds.items())))
+    assert module_order(seconds, 2) == module_order(backwards, 2)
