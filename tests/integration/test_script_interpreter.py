@@ -85,13 +85,24 @@ def test_speedjoint_moves_the_joint_by_speed_times_duration(robot):
 
 
 def test_input_timeout_fails_at_its_line_and_stops_the_program(robot):
+    """The line after the Input never starts, not even for the round trip the STOP that
+    cancels it takes: it is sent only after the Input's outcome.  Failed before on a busy
+    machine (a fresh clone, 2026-11-30): queued behind the Input, the MoveJoint started when
+    the input timed out and ran 2.6 deg before the STOP came."""
     robot.move_joints(STANDBY, duration=1.0)
-    prog = program("Begin()\nInput(2, HIGH, 0.3)\nMoveJoint(80, -95, 175, 5, 5, 170, t=1)\nEnd()")
-    result = Interpreter(prog, robot).run()
-    assert result.state is InterpreterState.FAILED
-    (err,) = result.errors
-    assert (err.line, err.col) == (2, 1)
-    assert err.message.startswith("Input failed")
+    log = StatusLog(robot)
+    try:
+        prog = program("Begin()\nInput(2, HIGH, 0.3)\nMoveJoint(80, -95, 175, 5, 5, 170, t=1)\nEnd()")
+        result = Interpreter(prog, robot).run()
+        assert result.state is InterpreterState.FAILED
+        (err,) = result.errors
+        assert (err.line, err.col) == (2, 1)
+        assert err.message.startswith("Input failed")
+        frames_pass(_ticks(robot), 20)  # a MoveJoint sent ahead would have shown by now
+        ran = sorted({s.command.name for s in log.snapshot() if s.command is not None})
+    finally:
+        log.close()
+    assert "MOVEJOINT" not in ran, ran
     np.testing.assert_allclose(robot.angles(), STANDBY, atol=0.05)  # line 3 never ran
 
 

@@ -23,7 +23,9 @@ trip (nor for this process, on a busy machine: a line of one tick has the ticks 
 queued before it to be sent in; the first lines of a burst go out while the controller holds
 its queue).  ``current_line`` is the line the robot is executing (announced when it starts); a
 line that fails ends the run FAILED, and the lines queued behind it are cancelled (STOP).
-``Speed()`` acts at once, so it waits for the running line to end.  ``Gripper()`` and
+``Speed()`` acts at once, so it waits for the running line to end; ``Input()`` waits for it too,
+and the lines after an ``Input()`` wait for its outcome (a timeout ends the run FAILED with
+nothing after it started).  ``Gripper()`` and
 ``Gripper_cal()`` do not wait for the jaws (as in the original: follow them with a Delay).
 Control from any thread:
 
@@ -570,10 +572,14 @@ class Interpreter:
 
     def _ahead(self, cmd: Command) -> bool:
         """``cmd`` may be queued behind the line that runs: not when single-stepping (each
-        step is one line, run to its end), not ``Speed()`` (it acts at once, on what runs)."""
+        step is one line, run to its end), not ``Speed()`` (it acts at once, on what runs), not
+        ``Input()``: its timeout is an outcome, not an error, and it ends the run: the lines
+        after it wait for it (queued behind it, the controller started the next move when the
+        input timed out, and the STOP that cancels it came a round trip later: 2.6 deg of a
+        MoveJoint on a busy machine)."""
         with self._cond:
             stepping = self._paused
-        return not stepping and not isinstance(cmd, Speed)
+        return not stepping and not isinstance(cmd, (Speed, Input))
 
     def _announce(self, cmd: Command, index: int, executed: int, planned_total: float | None,
                   planned_pass: float, iteration: int | None = None) -> None:
