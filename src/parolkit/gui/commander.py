@@ -13,6 +13,7 @@ import asyncio
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -47,6 +48,9 @@ __all__ = ["ACTIVE_STATES", "Commander", "ProgramRunner"]
 ACTIVE_STATES = ("running", "pausing", "paused")
 #: the arm counts as at rest (a pause has taken hold) below this joint speed, deg/s
 AT_REST_DEG_S = 0.2
+#: how many of a run's latest command IDs the runner keeps for :meth:`ProgramRunner.finishing`
+#: (a status after the run shows one of its last lines: the interpreter queues a few ahead)
+RUN_IDS_KEPT = 64
 #: after the controller acknowledged our RESUME, a status still saying "paused" is taken for
 #: one sent before it for this long, s
 RESUME_GRACE_S = 0.5
@@ -329,10 +333,11 @@ class ProgramRunner:
         #: the interpreter is paused by us (Pause, Step or a Step-mode start): no new line starts
         #: until Run
         self._user_paused = False
-        #: the IDs of the controller commands the statuses showed while the program ran: a
-        #: status that still shows one after the run ended (it left the controller before the
-        #: last line's ack) is the program's, not another move (:meth:`finishing`)
-        self._run_ids: set[str] = set()
+        #: the IDs of the latest controller commands the statuses showed while the program ran
+        #: (RUN_IDS_KEPT of them: an endless Loop() must not grow it): a status that still shows
+        #: one after the run ended (it left the controller before the last line's ack) is the
+        #: program's, not another move (:meth:`finishing`)
+        self._run_ids: deque[str] = deque(maxlen=RUN_IDS_KEPT)
         #: PAUSE sent since the last RESUME (Run and Step send RESUME then)
         self._pause_sent = False
         #: our RESUME is on its way (True), or was acknowledged at this monotonic time: a
@@ -407,8 +412,8 @@ class ProgramRunner:
         ended)."""
         if not self.active:
             return
-        if st.command is not None and st.command.id is not None:
-            self._run_ids.add(st.command.id)
+        if st.command is not None and st.command.id is not None and st.command.id not in self._run_ids:
+            self._run_ids.append(st.command.id)
         at_rest = max((abs(v) for v in st.speeds_deg_s), default=0.0) < AT_REST_DEG_S
         with self._lock:
             if self._stopping or self.state not in ACTIVE_STATES:
@@ -521,7 +526,7 @@ class ProgramRunner:
         self.interpreter = Interpreter(program, robot, on_line=self._on_line, on_state=self._on_state, step=step)
         self.errors = []
         self.state = "running"
-        self._run_ids = set()
+        self._run_ids.clear()
         self._user_paused, self._pause_sent, self._resuming = step, False, False
         self.message = ""
         self.text, self.name = text, name
