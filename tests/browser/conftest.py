@@ -95,6 +95,13 @@ def gui_on_controller(root: Path, controller_args: list[str], gui_args: list[str
         controller.stop()
 
 
+def commander_on_controller(root: Path, *gui_args: str):
+    """:func:`gui_on_controller` as :func:`controller_gui` has it: the controller with the stream
+    watchdog of one the GUI starts itself, the GUI's programs folder ``root/programs``, and
+    ``GUI_ARGS`` besides."""
+    return gui_on_controller(root, ["--stream-watchdog", "0.15"], ["--programs-dir", str(root / "programs"), *gui_args])
+
+
 @pytest.fixture(scope="module")
 def controller_gui(tmp_path_factory):
     """A controller process (``parolkit serve --sim`` with the stream watchdog of a controller
@@ -103,8 +110,7 @@ def controller_gui(tmp_path_factory):
     controller itself (``controller.query("GET_STATUS")``, a client of its own)."""
     pytest.importorskip("parolkit.controller.cli", reason="the controller (parolkit serve) is not in this build")
     root = tmp_path_factory.mktemp("controller-gui")
-    with gui_on_controller(root, ["--stream-watchdog", "0.15"], ["--programs-dir", str(root / "programs")]) as (
-            controller, url, _):
+    with commander_on_controller(root) as (controller, url, _):
         yield {"url": url, "controller": controller}
 
 

@@ -11,7 +11,7 @@ three.js scene (NiceGUI's scene objects by id; the view names the gizmo's id in 
 from __future__ import annotations
 
 import pytest
-from tests.browser.conftest import TEST_VIEW_FPS, gui_on_controller
+from tests.browser.conftest import TEST_VIEW_FPS, commander_on_controller
 from tests.browser.helpers import settled, state, wait_ready, wait_until
 
 from parolkit.client import Robot
@@ -26,9 +26,7 @@ def controller_gui(tmp_path_factory):
     """conftest's, with the commander's default frame rate (the other browser tests run it at
     conftest's TEST_VIEW_FPS)."""
     root = tmp_path_factory.mktemp("view3d")
-    with gui_on_controller(root, ["--stream-watchdog", "0.15"],
-                           ["--programs-dir", str(root / "programs"), "--view-fps", str(int(SCENE_FPS))]) as (
-            controller, url, _):
+    with commander_on_controller(root, "--view-fps", str(int(SCENE_FPS))) as (controller, url, _):
         yield {"url": url, "controller": controller}
 
 #: how far the gizmo may be from the controller's TCP: mm, and per rotation-matrix entry
@@ -206,9 +204,7 @@ def test_a_commander_started_with_a_lower_view_fps_draws_the_moving_arm_at_that_
     """``parolkit gui --view-fps`` (``gui.view_fps``): the view updates and draws at that rate
     while the arm moves (no faster: software WebGL costs a core at 30), and at 2 when idle."""
     fps = TEST_VIEW_FPS
-    with gui_on_controller(tmp_path, ["--stream-watchdog", "0.15"],
-                           ["--programs-dir", str(tmp_path / "programs"), "--view-fps", str(fps)]) as (
-            controller, url, _):
+    with commander_on_controller(tmp_path, "--view-fps", str(fps)) as (controller, url, _):
         page = browser.new_page(viewport={"width": 1500, "height": 1000})
         try:
             page.goto(url)
