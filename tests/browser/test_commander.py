@@ -216,7 +216,9 @@ def test_seed_program_runs_with_lines_highlighted(page):
         raise AssertionError(f"{exc}; status {text(page, 'prog-status')!r}; log:\n{text(page, 'log')}") from None
     wait_until(lambda: "HIGH" in text(page, "io-out1"), 10, what="program sets OUT1")
     wait_until(lambda: "LOW" in text(page, "io-out1"), 10, what="program clears OUT1")
-    assert seen_lines <= {2, 3, 4, 5, 6}, seen_lines  # only lines of commands that run
+    # only lines that run: Begin() is announced as each pass starts (a busy page can catch it),
+    # Loop() is not (the interpreter goes back to Begin()), nor is the empty last line
+    assert seen_lines <= {1, 2, 3, 4, 5}, seen_lines
     page.get_by_test_id("prog-stop").click()
     wait_until(lambda: page.locator(".cm-line.rbt-current").count() == 0, 10, what="highlight cleared on stop")
 

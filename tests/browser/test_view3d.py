@@ -14,7 +14,7 @@ import pytest
 from tests.browser.conftest import TEST_VIEW_FPS, commander_on_controller
 from tests.browser.helpers import settled, state, wait_ready, wait_until
 
-from parolkit.client import Robot
+from parolkit.client import CommandCancelled, Robot
 from parolkit.gui.components.view3d import SCENE_FPS
 from parolkit.gui.geometry import SCENE_SCALE
 
@@ -214,13 +214,17 @@ def test_a_commander_started_with_a_lower_view_fps_draws_the_moving_arm_at_that_
             with Robot("127.0.0.1", controller.port, ack_port=0, timeout=5.0) as robot:
                 robot.take_control(force=True)
                 try:
-                    handle = robot.move_joints([10, -80, 170, 0, 20, 150], duration=4.0, wait=False)
+                    # a move long enough to outlast 8 draws in a browser a busy machine holds up
+                    # (once 0.5 to 2 s apart: a 4 s move ended before the 8th), stopped after them
+                    handle = robot.move_joints([10, -80, 170, 0, 20, 150], duration=40.0, wait=False)
                     wait_until(lambda: scene()["fps"] == fps, 10, what=f"the moving arm drawn at {fps} fps", page=page)
                     page.evaluate(COUNT_DRAWS)
-                    wait_until(lambda: scene()["draws"] >= 8, 20, what="8 draws of the moving arm", page=page)
+                    wait_until(lambda: scene()["draws"] >= 8, 30, what="8 draws of the moving arm", page=page)
                     moving = scene()["fps"] == fps
                     times = scene()["times"]
-                    assert handle.result(timeout=30).ok
+                    assert robot.stop().ok
+                    with pytest.raises(CommandCancelled):
+                        handle.result(timeout=30)
                 finally:
                     robot.release_control()
             # at that rate, not faster: a frame's period (less a timer's slack) between two draws

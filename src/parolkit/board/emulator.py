@@ -271,6 +271,7 @@ class BoardEmulator:
         self._t = 0.0  # simulated seconds since power-up
         self._last_frame_t = 0.0
         self._wall0 = time.monotonic()
+        self._telling = False  # exchange listeners run (time_s does not catch up meanwhile)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
 
@@ -279,9 +280,11 @@ class BoardEmulator:
     # =======================================================================================
     @property
     def time_s(self) -> float:
-        """Simulated seconds since power-up."""
+        """Simulated seconds since power-up.  In an exchange listener: the time of that
+        exchange (the board does not run on while it tells its listeners)."""
         with self._lock:
-            self._catch_up()
+            if not self._telling:
+                self._catch_up()
             return self._t
 
     def advance(self, seconds: float) -> None:
@@ -533,8 +536,12 @@ class BoardEmulator:
         for frame in self._parser.iter_feed(data):
             reply = self._accept(frame)
             self._replies += 1
-            for cb in self._exchange_listeners:
-                cb(frame, reply)  # before the link's faults touch the reply
+            self._telling = True
+            try:
+                for cb in self._exchange_listeners:
+                    cb(frame, reply)  # before the link's faults touch the reply
+            finally:
+                self._telling = False
             self._outbound.push(reply.encode(), self._t)
 
     # ---- link faults -------------------------------------------------------------------------
