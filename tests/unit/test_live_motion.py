@@ -825,18 +825,16 @@ def test_servol_from_the_standby_pose_passes_the_wrist_singularity_with_the_tcp_
     assert bench.terminal(first)[0] == "COMPLETED"
 
 
-@pytest.mark.xfail(strict=True, reason="open defect (issue 23 note, 2026-11-30): a servo stream's last target "
-                                       "taken in late turns the arm back; not fixed yet")
 @pytest.mark.parametrize("late_ticks", [3, 6, 10])
 def test_the_last_servo_target_taken_in_late_never_turns_the_arm_back(late_ticks):
     """J1 streamed at 400 steps/s, one SERVOJ target a tick, then the stream ends; its last
     target reaches the core ``late_ticks`` late (the controller's server held up on a busy
     machine: test_gamepad's stalled commander, the speed 402 ... 162, 4, then 153 ... 394 back).
     The frames' speed on J1 must never change sign: the arm slows down and comes to rest, it
-    does not run back.  Fails today: the follower's speed estimate takes the late target's tick
+    does not run back.  (It did: the follower's speed estimate takes the late target's tick
     as its time (a quarter of the stream's speed at 3 ticks), so the target it extrapolates lies
     behind the arm, which turns back at up to 965 steps/s; after the servo timeout (5 ticks) the
-    late target restarts the stream toward a point behind the arm."""
+    late target restarts the stream toward a point behind the arm.)"""
     from tests.unit.test_controller_core import Rig
 
     rig = Rig(link_timeout_ticks=50, link_hold_frames=2)

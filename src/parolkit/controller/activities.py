@@ -631,6 +631,9 @@ class ServoActivity(Activity):
         self.target_tick = tick
         self.target_v = [0.0] * 6
         self.target_a = [0.0] * 6
+        #: per joint, the way the stream's last two targets went (+1, -1; 0: the same, a held
+        #: target): the generator never moves a joint against it (:meth:`_never_back`)
+        self.heading = [0] * 6
         #: the latest targets and their ticks (the speed estimate's window)
         self._history: deque[tuple[int, list[float]]] = deque([(tick, self.target)], maxlen=16)
         self.targets = 1
@@ -690,6 +693,7 @@ class ServoActivity(Activity):
             w = _accel_weights(ts)
             self.target_a = [0.0 if h else max(-am, min(am, sum(wi * x[j] for wi, (_, x) in zip(w, pts))))
                              for j, (h, am) in enumerate(zip(still, self.amax))]
+        self.heading = [(t > o) - (t < o) for t, o in zip(target, hist[-1][1])]
         hist.append((tick, target))
         for j, (lo, hi) in enumerate(self.limits):
             if target[j] <= lo or target[j] >= hi:
@@ -832,6 +836,23 @@ class ServoActivity(Activity):
             speeds.append(self._closing(x - self._p[j], self.amax[j]))
         return self._generate(frame, vmax, modes, speeds)
 
+    def _never_back(self, p: list[float], v: list[float], a: list[float]) -> None:
+        """No joint runs against the way the stream's last two targets went: a joint the
+        generator would turn back (or start back from rest) stops there instead (within this
+        period: its speed was within a period's acceleration of 0), and waits for the targets
+        to pass it.  A target
+        taken in late (a busy machine held the datagram up) lies behind where the follower's
+        estimate of the stream's speed carried the arm meanwhile, and the target's speed,
+        fitted by the tick it was taken in, is too low: the curve then lay behind the arm,
+        which ran back at up to 965 steps/s.  A target the client sends again (held still)
+        is reached, back if need be: that is where the client wants the arm."""
+        assert self._p is not None
+        for j, d in enumerate(self.heading):
+            # (one still moving the other way, the stream having turned, brakes as before)
+            if d and v[j] * d < 0.0 <= self._v[j] * d:
+                p[j] = self._p[j] + 0.5 * self._v[j] * self.period
+                v[j] = a[j] = 0.0
+
     def _held_back(self, p: Sequence[float], v: Sequence[float], a: Sequence[float], box: Sequence[tuple[float, float]]
                    ) -> tuple[list[float], list[float], list[float], tuple[int, ...], tuple[int, ...]] | None:
         """The generator's state ``p``, ``v``, ``a`` held back into the guard's box (late
@@ -906,7 +927,11 @@ class ServoActivity(Activity):
         scale = ctx.speed_scale
         stopping = self.ending is not None or scale <= 0.0
         vmax = [max(v * scale, 1.0) for v in self.vmax]
-        p, v, a = self._slow_down(vmax) if stopping else self._follow(ctx.tick, vmax)
+        if stopping:
+            p, v, a = self._slow_down(vmax)
+        else:
+            p, v, a = self._follow(ctx.tick, vmax)
+            self._never_back(p, v, a)
         pos = tuple(int(round(x)) for x in p)
         ff = tuple(int(round(x)) for x in v)
         if box is not None and not _in_box(pos, ff, box):
