@@ -412,8 +412,8 @@ def test_cartesian_mode_moves_the_tcp_along_the_world_axis_and_trf_along_the_too
     toggle(page, Y_BUTTON, "data-mode", "cart")
     assert indicator(page)["data-frame"] == "WRF" and "Cartesian WRF" in indicator(page)["text"]
     before = ticks.latest()
-    _, mark = start_driving(page, ticks, {LX: 1.0}, moved=lambda a, b: b[3][0] > a[3][0] + 10.0,
-                            what="the TCP 10 mm along +X")
+    _, mark = start_driving(page, ticks, {LX: 1.0}, moved=lambda a, b: b[3][0] > a[3][0] + 15.0,
+                            what="the TCP 15 mm along +X")
     moving = ticks.since(before[0])
     rest = release(page, ticks, mark)
     assert any(r[4] == "SERVOL" for r in moving), "not a SERVOL stream"
@@ -422,7 +422,10 @@ def test_cartesian_mode_moves_the_tcp_along_the_world_axis_and_trf_along_the_too
     # area near J5 = 0); its stop is each joint's own too, off the line (not judged)
     for r in moving:
         assert abs(r[3][1] - before[3][1]) < 3.0 and abs(r[3][2] - before[3][2]) < 3.0, r
-    assert rest[3][0] > before[3][0] + 10.0
+    # at rest 10 mm along +X at least: driven 15, and each joint's own stop (J4 and J6 turning
+    # fast in the wrist's singular area) may leave the TCP a few mm short of the farthest point
+    # it reached (3.8 mm once on a loaded machine, from +10 mm)
+    assert rest[3][0] > before[3][0] + 10.0, (rest[3][:3], before[3][:3])
     # TRF: the right trigger moves along the tool's own z (the start pose's): off that line by
     # less than 3 mm while it moves
     toggle(page, X_BUTTON, "data-frame", "TRF")

@@ -168,11 +168,15 @@ def _tcp(frames: list[tuple[int, CommandFrame]]) -> np.ndarray:
     return np.asarray(fk_batch(q), dtype=float)[:, :3]
 
 
-def _contiguous(frames: list[tuple[int, CommandFrame]]) -> None:
-    """Frames that follow each other on the wire (no other frame between: one per tick)."""
+def _contiguous(frames: list[tuple[int, CommandFrame]], runs: int = 1) -> list[list[tuple[int, CommandFrame]]]:
+    """Frames that follow each other on the wire (no other frame between: one per tick), in
+    at most ``runs`` runs (motions one after another: several servo streams, :func:`_one_stream`);
+    the runs."""
     ns = [n for n, _ in frames]
-    gaps = [(a, b) for a, b in zip(ns, ns[1:]) if b != a + 1]
-    assert not gaps, f"other frames between the GO TO frames of one motion: {gaps[:5]}"
+    cuts = [i + 1 for i, (a, b) in enumerate(zip(ns, ns[1:])) if b != a + 1]
+    gaps = [(ns[i - 1], ns[i]) for i in cuts]
+    assert len(cuts) < runs, f"other frames between the GO TO frames of one motion: {gaps[:5]}"
+    return [frames[a:b] for a, b in zip([0, *cuts], [*cuts, len(frames)])]
 
 
 def _assert_speed_steps_within_accel(frames: list[tuple[int, CommandFrame]], slack: float = 1.1) -> None:
@@ -220,6 +224,12 @@ def _motion(bench: MotionBench, after: int) -> list[tuple[int, CommandFrame]]:
     frames = _arrived(bench, after)
     _contiguous(frames)
     return frames
+
+
+def _streamed(bench: MotionBench, after: int, streams: int) -> list[list[tuple[int, CommandFrame]]]:
+    """:func:`_motion` of ``streams`` servo streams one after another (a sender held up past a
+    stream's stop: :func:`_one_stream`): the GO TO frames of each, one a tick."""
+    return _contiguous(_arrived(bench, after), streams)
 
 
 def _pose_text(pose) -> str:
@@ -480,11 +490,12 @@ def _stream(bench: MotionBench, targets: list[np.ndarray]) -> tuple[list[str], s
     return ids, out.stdout.strip()
 
 
-def _one_stream(bench: MotionBench, ids: list[str]) -> tuple[str, str]:
+def _one_stream(bench: MotionBench, ids: list[str]) -> tuple[tuple[str, str], int]:
     """Every SERVOJ was taken: the first started the stream, the others updated it, or started
     a new one after the stream before had come to rest in a silence (the sender held up longer
     than the slow-down takes, beside CPU hogs: the stream ends then, as it must, and the next
-    target starts another); none was refused.  Returns the last stream's terminal ack."""
+    target starts another); none was refused.  Returns the last stream's terminal ack and
+    the number of streams."""
     started = "servo stream started (a controlled stop after 0.05 s without a target)"
     for c in ids:
         bench.acks.terminal(c, 20)
@@ -497,7 +508,7 @@ def _one_stream(bench: MotionBench, ids: list[str]) -> tuple[str, str]:
         assert acks[c][-1] == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control"), acks[c]
     if len(heads) > 1:
         print(f"\nservo: the sender was held up past the stream's stop {len(heads) - 1} time(s): {len(heads)} streams")
-    return bench.acks.terminal(heads[-1], 20)
+    return bench.acks.terminal(heads[-1], 20), len(heads)
 
 
 def _min_jerk(x: float) -> float:
@@ -527,10 +538,11 @@ def test_a_servoj_stream_over_a_pty_is_followed_to_its_last_target_and_ends_with
     targets = [a0 + np.asarray([0, 0, 0, 0, 0, 10.0 * _min_jerk(k / 100)]) for k in range(121)]
     n0 = bench.exchange.idle_mark()
     ids, sched = _stream(bench, targets)
-    ended = _one_stream(bench, ids)
+    ended, streams = _one_stream(bench, ids)
     assert ended == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control")
 
-    frames = _motion(bench, n0)
+    runs = _streamed(bench, n0, streams)
+    frames = [f for run in runs for f in run]
     pos = np.array([f.positions for _, f in frames], dtype=float)
     ff = np.array([f.speeds for _, f in frames], dtype=float)
     start_steps, last_steps = a0 * SPD, targets[-1] * SPD
@@ -550,7 +562,8 @@ def test_a_servoj_stream_over_a_pty_is_followed_to_its_last_target_and_ends_with
     assert abs(pos[-1, 5] - last_steps[5]) <= 1.0, (pos[-1, 5], last_steps[5])
     assert not any(frames[-1][1].speeds)
     # the feed-forward: within the acceleration limit from frame to frame, down to 0
-    _assert_speed_steps_within_accel(frames)
+    for run in runs:
+        _assert_speed_steps_within_accel(run)
     # the board followed: it reports the last target
     assert abs(bench.sim.status()["positions"][5] - pos[-1, 5]) <= 1.0
     print(f"\nservo: {len(ids)} targets, {len(frames)} GO TO frames; J6 {pos[0, 5]:.0f} -> {pos[-1, 5]:.0f} steps "
@@ -565,10 +578,12 @@ def test_a_servoj_stream_over_a_pty_is_followed_to_its_last_target_and_ends_with
     travel = np.cumsum([20.0 * _min_jerk(k / 30) * PERIOD for k in range(80)])
     ramp = [a1 - np.asarray([0, 0, 0, 0, 0, d]) for d in travel]
     n1 = bench.exchange.idle_mark()
-    ended = _one_stream(bench, _stream(bench, ramp)[0])
+    ended, streams = _one_stream(bench, _stream(bench, ramp)[0])
     assert ended == ("COMPLETED", "servo stream ended: no target for 0.05 s, stopped under control")
-    frames = _motion(bench, n1)
-    _assert_speed_steps_within_accel(frames)
+    runs = _streamed(bench, n1, streams)
+    frames = [f for run in runs for f in run]
+    for run in runs:
+        _assert_speed_steps_within_accel(run)
     v6 = -np.array([f.speeds[5] for _, f in frames], dtype=float)  # J6 runs backwards
     assert not any(frames[-1][1].speeds), "the last frame holds"
     # it went on past the last target (it keeps the target's speed through the silent ticks,
