@@ -9,6 +9,8 @@ every student asks for a turn.  Then:
   controller child not counted) and the bytes of every websocket frame each page receives
   (Chrome DevTools Protocol ``Network.webSocketFrameReceived``): CPU per idle page and bytes per
   idle page per second;
+* **E-STOP from a student page** (before the rounds: a hand-over that never shows ends a run),
+  see below;
 * **the queue handed round** ``--rounds`` times: the teacher presses "Hand over to <first>"
   (the first row's Hand over: the turn in progress ends, the robot is stopped), the new holder's
   page shows "your turn",
@@ -263,11 +265,30 @@ def run(students: int, rounds: int, seconds: float, estops: int) -> None:
                     "(n) => document.querySelectorAll('[data-testid=class-queue-item]').length === n",
                     arg=students, timeout=PAGE_WAIT_MS)
                 _idle(gui, members, seconds, cpu_none)
-                _hand_round(gui, teacher, pupils, rounds)
-                _estops(gui, teacher, pupils, estops)
+                try:
+                    # (the E-STOPs first: a hand-over that never shows ends the run)
+                    _estops(gui, teacher, pupils, estops)
+                    _hand_round(gui, teacher, pupils, rounds)
+                except BaseException:
+                    _keep_log(gui, teacher)
+                    raise
                 browser.close()
         finally:
             gui.stop()
+
+
+def _keep_log(gui: Gui, teacher: Member) -> None:
+    """The run failed: what the teacher's page shows, and the GUI server's log kept (the
+    temporary folder goes)."""
+    kept = Path(tempfile.gettempdir()) / f"classroom-gui-{datetime.datetime.now():%Y%m%d-%H%M%S}.log"
+    try:
+        queue = teacher.page.eval_on_selector_all("[data-testid=class-queue-item]",
+                                                  "els => els.map(e => e.dataset.name)")
+        print(f"the teacher's page: {teacher.chip()!r}, the queue {queue}", flush=True)
+    except Exception as exc:  # (the page may be what failed)
+        print(f"the teacher's page could not be read: {exc}", flush=True)
+    kept.write_bytes(gui.log_path.read_bytes())
+    print(f"the GUI server's log: {kept}", flush=True)
 
 
 def _idle(gui: Gui, members: list[Member], seconds: float, cpu_none: float) -> None:

@@ -137,12 +137,20 @@ def test_valid_from_home_but_not_from_here_offers_move_to_start(page, controller
     expect(button).to_be_visible(timeout=15000)
     expect(button).to_be_enabled(timeout=15000)
     assert "works from the home pose but not from where the arm is now" in text(page, "offer-note")
-    button.click()
+    # held, as Go to start pose (let go, it stops: test_simulate judges that of the same move)
     with _robot(controller_gui) as robot:
         def at_start() -> bool:
             pose = robot.pose()
             return abs(pose[0]) < 1.0 and abs(pose[1] - 263) < 1.0 and abs(pose[2] - 200) < 1.0
-        wait_until(at_start, 60, what="the arm at line 2's target", page=page)
+
+        button.scroll_into_view_if_needed()
+        box = button.bounding_box()
+        page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        page.mouse.down()
+        try:
+            wait_until(at_start, 60, what="the arm at line 2's target while Move to start is held", page=page)
+        finally:
+            page.mouse.up()
     wait_ready(page, 30)
     wait_until(lambda: "at " in text(page, "offer-note") and not button.is_visible(), 15,
                what="the offer says the arm is at the start", page=page)

@@ -9,7 +9,7 @@ plain sentence and the fix (:mod:`parolkit.gui.student_errors`); they clear when
 gone (an edit, a new run).  The offer line under the status line says what to do next: "E-STOP
 latched" (Run and Step greyed until Enable), "Resume from line N" / "Restart" after the E-stop
 interrupted a run (:mod:`parolkit.gui.resume`), "Move to start" when the program is valid from
-the home pose but not from where the arm is.
+the home pose but not from where the arm is (held, as "Go to start pose": the same move).
 
 Simulate plays the checked program on a ghost arm in the 3D view (:mod:`parolkit.gui.simulate`)
 at 1x, 2x or 5x without sending anything to the controller: the line it plays highlighted, its
@@ -71,6 +71,7 @@ RUN_SPEED_NOTE = ("Run speed: Run sets the speed override to this for the progra
                   "scaled by it) and sets the override back when the program ends.")
 #: the hold-to-move button's name
 START_POSE_LABEL = "Go to start pose: hold to move the arm to the program's first pose, release stops it"
+MOVE_START_LABEL = "Move to start: hold to move the arm to the program's first pose, release stops it"
 
 
 def program_status(state: str, line: int | None, held: bool, by_us: bool) -> str:
@@ -194,9 +195,13 @@ class ProgramPanel:
         fills in (hidden; commander.js reads its data-joints / data-pose)."""
         with ui.element("div").classes("pk-wrap items-center") as self.offer_row:
             self.offer_note = ui.label("").classes("text-sm").props("data-testid=offer-note role=status")
-            self._move_start_btn = ui.button("Move to start", icon="near_me", on_click=self.move_to_start) \
+            # held, as "Go to start pose" (the same move, the same press and release): one way
+            # to move the arm to the start, never a click that leaves it moving
+            self._move_start_btn = ui.button("Move to start", icon="near_me").classes("pk-start-pose") \
                 .props('unelevated no-caps color=primary data-testid=prog-move-start '
-                       'aria-label="Move to start: the arm goes to the program\'s first pose"')
+                       f'aria-label="{MOVE_START_LABEL}"')
+            self._move_start_btn.tooltip(MOVE_START_LABEL)
+            self._hold_to_start(self._move_start_btn)
             self._resume_btn = ui.button("Resume", icon="play_circle", on_click=self.resume_program) \
                 .props("unelevated no-caps color=positive data-testid=prog-resume")
             self._restart_btn = ui.button("Restart", icon="replay", on_click=lambda: self.run_program(step=False)) \
@@ -231,9 +236,7 @@ class ProgramPanel:
                        f'aria-label="{START_POSE_LABEL}"')
             self._start_btn.tooltip(START_POSE_LABEL)
             self._start_btn.set_enabled(False)
-            self._start_btn.on("pointerdown", self._start_press, ["button"])
-            for ev in ("pointerup", "pointerleave", "pointercancel"):
-                self._start_btn.on(ev, lambda _: self._start_release(), [])
+            self._hold_to_start(self._start_btn)
             self.start_note = ui.label("").classes("text-xs pk-muted").props("data-testid=start-pose-note")
         ui.label(RUN_SPEED_NOTE).classes("text-xs pk-muted").props("data-testid=run-speed-note")
 
@@ -478,14 +481,6 @@ class ProgramPanel:
         finally:
             runner.resume_line = None  # (taken by the start; a start that did not happen leaves none)
 
-    def move_to_start(self) -> None:
-        """Move to start: the planned move to the program's first pose (MOVEJOINT to its joints,
-        MOVEPOSE to its pose), once; Stop stops it."""
-        start = self._move_start
-        if start is None or self._program_active():
-            return
-        self.c.command(start.command(), f"move to start ({start.describe()})")
-
     # ---- simulate ----
 
     async def simulate(self) -> None:
@@ -564,6 +559,17 @@ class ProgramPanel:
 
     # ---- go to start pose (hold to move) ----
 
+    def _hold_to_start(self, button: Any) -> None:
+        """``button`` moves the arm to the start pose while held ("Go to start pose", and "Move
+        to start" of the offer line): pressed, :meth:`_start_press`; let go, :meth:`_start_release`."""
+        button.on("pointerdown", self._start_press, ["button"])
+        for ev in ("pointerup", "pointerleave", "pointercancel"):
+            button.on(ev, lambda _: self._start_release(), [])
+
+    def _mark_held(self, held: bool) -> None:
+        for b in (self._start_btn, self._move_start_btn):
+            b.classes(add="pk-held") if held else b.classes(remove="pk-held")
+
     async def _start_press(self, e: Any) -> None:
         """Held: the start pose of the program this page shows now (not the one worked out a
         moment ago: it may be the text before the last keys), then the move while it is held."""
@@ -573,7 +579,7 @@ class ProgramPanel:
         if args.get("button", 0) != 0 or self._program_active():  # a right or middle button does not move
             return
         self._start_held = True
-        self._start_btn.classes(add="pk-held")
+        self._mark_held(True)
         text = await self.page_text()
         result = parse(text, "editor")
         start = (start_pose(result.program) if result.ok and result.program is not None
@@ -592,7 +598,7 @@ class ProgramPanel:
         if not self._start_held:
             return
         self._start_held = self._start_moving = False
-        self._start_btn.classes(remove="pk-held")
+        self._mark_held(False)
         self.c.jog_release()  # STOP
 
     def _update_start_pose(self) -> None:
@@ -611,7 +617,7 @@ class ProgramPanel:
                            else "the program has errors: Check shows them")
         if self._start_moving and not self.c.jogging:  # released elsewhere (the page, a key, blur)
             self._start_held = self._start_moving = False
-            self._start_btn.classes(remove="pk-held")
+            self._mark_held(False)
         st, start = self.link.status, self._start
         if not isinstance(start, StartPose):
             shown = (False, f"no start pose: {start}")
@@ -712,8 +718,8 @@ class ProgramPanel:
             if st is not None and start.reached(st.angles, st.pose):
                 note = f"The arm is at {self.c.doc.name}'s start ({start.describe()}): Check or Run again."
             else:
-                note = (f"{self.c.doc.name} works from the home pose but not from where the arm is now. Move to "
-                        f"start takes the arm to {start.describe()}.")
+                note = (f"{self.c.doc.name} works from the home pose but not from where the arm is now. Hold "
+                        f"Move to start to take the arm to {start.describe()}.")
                 move = True
         if (restart or resume or move) and not can_move and not latched:
             note += " (The robot cannot move now: press Enable, then Home if it asks.)"
