@@ -186,27 +186,39 @@ class Member:
 
 
 class StatusTape:
-    """Every status of the controller (every tick) with the wall time it arrived."""
+    """Every status of the controller (every tick) with the wall time it arrived and the
+    controller's own time of its tick (the status's ``time``, s since the controller started).
+
+    A status is judged by when its tick ran, not by when it arrived: on a machine that also
+    runs 20 pages this process hears the statuses tens of ms late, and by arrival the last
+    status before a moment is a few ticks older than the tick that ran then (the first run
+    counted 4 frames from the GUI's send to the latch, every time).  The controller's clock
+    is put on the wall clock by the status that arrived soonest after its tick (the smallest
+    arrival - ``time``): a bound from below on the lag that all the other statuses share."""
 
     def __init__(self, port: int) -> None:
         from parolkit.client import Robot
 
         self.robot = Robot("127.0.0.1", port, ack_port=0, timeout=2.0)
         self.lock = threading.Lock()
-        self.tape: list[tuple[float, int, bool]] = []
+        self.tape: list[tuple[float, int, bool, float]] = []
         self.sub = self.robot.subscribe(1, callback=self._on)
 
     def _on(self, st: Any) -> None:
         with self.lock:
-            self.tape.append((time.time(), st.seq, st.estop_latched))  # seq: the tick's number
+            self.tape.append((time.time(), st.seq, st.estop_latched, st.time))  # seq: the tick's number
 
     def frames(self, since_wall: float) -> int | None:
-        """Control frames from the last status before ``since_wall`` to the first one latched
-        after it (None: not latched yet)."""
+        """Control frames from the last tick that ran before ``since_wall`` to the first one
+        whose status shows the E-stop latched (None: not latched yet)."""
         with self.lock:
             tape = list(self.tape)
-        before = [t for t in tape if t[0] <= since_wall]
-        after = [t for t in tape if t[0] > since_wall and t[2]]
+        if not tape:
+            return None
+        offset = min(arrived - t for arrived, _, _, t in tape)  # the controller's clock on the wall clock
+        ran = [(t + offset, seq, latched) for _, seq, latched, t in tape]
+        before = [r for r in ran if r[0] <= since_wall]
+        after = [r for r in ran if r[0] > since_wall and r[2]]
         if not before or not after:
             return None
         return after[0][1] - before[-1][1]
