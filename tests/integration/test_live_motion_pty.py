@@ -221,9 +221,7 @@ def _arrived(bench: MotionBench, after: int) -> list[tuple[int, CommandFrame]]:
 def _motion(bench: MotionBench, after: int) -> list[tuple[int, CommandFrame]]:
     """The GO TO frames the board received after frame number ``after`` (all of them:
     :func:`_arrived`): one motion's, one a tick (no other frame between them)."""
-    frames = _arrived(bench, after)
-    _contiguous(frames)
-    return frames
+    return _streamed(bench, after, 1)[0]
 
 
 def _streamed(bench: MotionBench, after: int, streams: int) -> list[list[tuple[int, CommandFrame]]]:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import random
-import time
+import types
 
 import pytest
 
 from parolkit.board import SWITCH_POSITIONS_STEPS, BoardEmulator, HomingPhase, LinkFaults
+from parolkit.board import emulator as emulator_module
 from parolkit.errors import ParolkitValueError
 from parolkit.protocol import BoardCommand, CommandFrame, GripperStatus, StatusFrame, StatusParser
 from parolkit.protocol.frames import TIMER_HZ
@@ -658,17 +659,20 @@ def test_every_valid_frame_between_garbage_gets_exactly_one_reply_echoing_it(ite
     assert [r.io & 0x30 for r in replies] == [f.io & 0x30 for _, f in items]
 
 
-def test_an_exchange_listener_reads_the_time_of_its_exchange_however_long_it_takes():
+def test_an_exchange_listener_reads_the_time_of_its_exchange_however_long_it_takes(monkeypatch):
     """On the real-time clock ``time_s`` catches up with the wall clock, but not inside an
     exchange listener: the board does not run on while it tells its listeners.  (It did: a
     listener held up half a millisecond read the time of the next loop pass, and
-    test_board_sim's timing check saw the field 351 ticks off on a busy machine.)"""
+    test_board_sim's timing check saw the field 351 ticks off on a busy machine.)  The wall
+    clock is the emulator's ``time.monotonic``, moved on by the test: no wall-clock wait."""
+    wall = [1000.0]
+    monkeypatch.setattr(emulator_module, "time", types.SimpleNamespace(monotonic=lambda: wall[0]))
     emu = BoardEmulator(clock="realtime")
     seen: list[tuple[float, float]] = []
 
     def listener(frame: CommandFrame, reply: StatusFrame) -> None:
         first = emu.time_s
-        time.sleep(0.02)  # 20 board loop passes at its 1 kHz
+        wall[0] += 0.02  # the listener held up 20 ms: 20 board loop passes at its 1 kHz
         seen.append((first, emu.time_s))
 
     emu.add_exchange_listener(listener)
@@ -678,6 +682,6 @@ def test_an_exchange_listener_reads_the_time_of_its_exchange_however_long_it_tak
     assert len(seen) == 2 and all(a == b for a, b in seen), seen
     # the second frame's timing field is the time between the two exchanges the listener saw
     reply = pc.send(command=BoardCommand.IDLE)
-    assert emu.time_s >= seen[1][0] + 0.02  # (outside a listener it catches up again)
+    assert emu.time_s >= seen[1][0] + 0.02 - 1e-9  # (outside a listener it catches up again)
     assert len(seen) == 3
     assert abs(reply.timing - round((seen[2][0] - seen[1][0]) * TIMER_HZ)) <= 1, reply.timing

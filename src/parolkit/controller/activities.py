@@ -840,11 +840,10 @@ class ServoActivity(Activity):
         """No joint runs against the way the stream's last two targets went: a joint the
         generator would turn back (or start back from rest) stops there instead (within this
         period: its speed was within a period's acceleration of 0), and waits for the targets
-        to pass it.  A target
-        taken in late (a busy machine held the datagram up) lies behind where the follower's
-        estimate of the stream's speed carried the arm meanwhile, and the target's speed,
-        fitted by the tick it was taken in, is too low: the curve then lay behind the arm,
-        which ran back at up to 965 steps/s.  A target the client sends again (held still)
+        to pass it.  A target taken in late (a busy machine held the datagram up) lies behind
+        where the follower's estimate of the stream's speed carried the arm meanwhile, and the
+        target's speed, fitted by the tick it was taken in, is too low: the curve then lay
+        behind the arm, which ran back at up to 965 steps/s.  A target the client sends again (held still)
         is reached, back if need be: that is where the client wants the arm."""
         assert self._p is not None
         for j, d in enumerate(self.heading):

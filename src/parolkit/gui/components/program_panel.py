@@ -568,7 +568,10 @@ class ProgramPanel:
 
     def _mark_held(self, held: bool) -> None:
         for b in (self._start_btn, self._move_start_btn):
-            b.classes(add="pk-held") if held else b.classes(remove="pk-held")
+            if held:
+                b.classes(add="pk-held")
+            else:
+                b.classes(remove="pk-held")
 
     async def _start_press(self, e: Any) -> None:
         """Held: the start pose of the program this page shows now (not the one worked out a
